@@ -1,0 +1,119 @@
+//! Forward kinematics of the MDH chain in f64 (METHOD.md §1, paper eq. 2).
+//!
+//! [`position`] applies the joint transforms to the tool point from the flange back to the base,
+//! `p ← Rz(θ_i+q_i)·(Rx(α_i)·Ry(β_i)·p + (a_i, 0, d_i))` for i = 6…1, which is the same product as
+//! `T_1 ⋯ T_6 · p_tool` without forming 4×4 matrices. [`transform`] forms the full homogeneous
+//! transforms for callers that need frames (identification, tests).
+
+use super::model::{JOINTS, N_PARAMS};
+
+/// Row-major homogeneous 4×4 transform.
+pub type Mat4 = [[f64; 4]; 4];
+
+/// The homogeneous transform of joint `i` for parameters `(θ, d, a, α, β)` (radians, mm) at
+/// joint angle `q` (radians): `Rz(θ+q)·Tz(d)·Tx(a)·Rx(α)·Ry(β)`.
+pub fn joint_transform(theta: f64, d: f64, a: f64, alpha: f64, beta: f64, q: f64) -> Mat4 {
+    let (sz, cz) = (theta + q).sin_cos();
+    let (sa, ca) = alpha.sin_cos();
+    let (sb, cb) = beta.sin_cos();
+    // Rx(α)·Ry(β)
+    let rxy = [
+        [cb, 0.0, sb],
+        [sa * sb, ca, -sa * cb],
+        [-ca * sb, sa, ca * cb],
+    ];
+    let mut m = [[0.0; 4]; 4];
+    for c in 0..3 {
+        m[0][c] = cz * rxy[0][c] - sz * rxy[1][c];
+        m[1][c] = sz * rxy[0][c] + cz * rxy[1][c];
+        m[2][c] = rxy[2][c];
+    }
+    m[0][3] = cz * a;
+    m[1][3] = sz * a;
+    m[2][3] = d;
+    m[3][3] = 1.0;
+    m
+}
+
+fn mul(a: &Mat4, b: &Mat4) -> Mat4 {
+    let mut r = [[0.0; 4]; 4];
+    for (i, row) in r.iter_mut().enumerate() {
+        for (j, v) in row.iter_mut().enumerate() {
+            *v = (0..4).map(|k| a[i][k] * b[k][j]).sum();
+        }
+    }
+    r
+}
+
+/// Flange transform `T_1(q_1)⋯T_6(q_6)` for the 30 parameters (radians, mm) and joint angles
+/// (radians). The tool point is not applied.
+pub fn transform(params: &[f64; N_PARAMS], q: &[f64; JOINTS]) -> Mat4 {
+    let mut t = [[0.0; 4]; 4];
+    for (i, row) in t.iter_mut().enumerate() {
+        row[i] = 1.0;
+    }
+    for (i, qi) in q.iter().enumerate() {
+        let p = &params[5 * i..5 * i + 5];
+        t = mul(&t, &joint_transform(p[0], p[1], p[2], p[3], p[4], *qi));
+    }
+    t
+}
+
+/// End position `P(q) = T(q)·p_tool` in mm, for parameters in radians/mm and `q` in radians.
+#[inline]
+pub fn position(params: &[f64; N_PARAMS], tool: &[f64; 3], q: &[f64; JOINTS]) -> [f64; 3] {
+    let [mut x, mut y, mut z] = *tool;
+    for i in (0..JOINTS).rev() {
+        let p = &params[5 * i..5 * i + 5];
+        let (sb, cb) = p[4].sin_cos();
+        let (sa, ca) = p[3].sin_cos();
+        let (sz, cz) = (p[0] + q[i]).sin_cos();
+        // Ry(β)
+        let x1 = cb * x + sb * z;
+        let z1 = -sb * x + cb * z;
+        // Rx(α), then Tx(a)·Tz(d)
+        let y2 = ca * y - sa * z1;
+        let z2 = sa * y + ca * z1 + p[1];
+        let x2 = x1 + p[2];
+        // Rz(θ+q)
+        x = cz * x2 - sz * y2;
+        y = sz * x2 + cz * y2;
+        z = z2;
+    }
+    [x, y, z]
+}
+
+/// [`position`] with joint angles in degrees.
+pub fn position_deg(params: &[f64; N_PARAMS], tool: &[f64; 3], q_deg: &[f64; JOINTS]) -> [f64; 3] {
+    position(params, tool, &q_deg.map(f64::to_radians))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::tx60;
+
+    #[test]
+    fn tx60_flange_at_zero() {
+        let m = tx60();
+        let p = position(&m.params, &[0.0; 3], &[0.0; 6]);
+        for (got, want) in p.iter().zip([0.0, 20.0, 1045.0]) {
+            assert!((got - want).abs() < 1e-9, "{p:?}");
+        }
+    }
+
+    #[test]
+    fn point_form_matches_matrix_form() {
+        let mut m = tx60();
+        m.params[4 + 5] = 0.001; // β2
+        m.params[3] += 0.002;
+        let tool = [12.0, -7.0, 55.0];
+        let q = [0.3, -0.7, 1.1, 2.0, -0.4, 0.9];
+        let t = transform(&m.params, &q);
+        let p = position(&m.params, &tool, &q);
+        for r in 0..3 {
+            let v = t[r][0] * tool[0] + t[r][1] * tool[1] + t[r][2] * tool[2] + t[r][3];
+            assert!((v - p[r]).abs() < 1e-9);
+        }
+    }
+}

@@ -1,0 +1,23 @@
+//! Robot kinematics: the Hayati-extended (modified) DH chain of METHOD.md §1.
+//!
+//! Each joint contributes five geometric parameters,
+//! `T_i(q_i) = Rz(θ_i + q_i) · Tz(d_i) · Tx(a_i) · Rx(α_i) · Ry(β_i)`,
+//! and the tracker target (tool point) `p_tool` sits in the flange frame, so the end position is
+//! `P(q) = T_1(q_1) · … · T_6(q_6) · p_tool` (paper eqs. 1–2, Hayati's extension for parallel axes).
+//! For a pair of parallel (or nearly parallel) consecutive axes `d_i` is fixed and `β_i` is free;
+//! otherwise `β_i` is fixed at 0.
+//!
+//! Units: every value a person reads or writes is in millimetres and degrees; inside the crate
+//! angles are radians. The 30 parameters are stored joint-major, `[θ, d, a, α, β]` per joint
+//! ([`param_index`]).
+
+mod fk;
+mod model;
+mod preset;
+
+pub use fk::{joint_transform, position, position_deg, transform, Mat4};
+pub use model::{
+    param_index, FixedParam, ModelError, ParamKind, RobotModel, Uncertainty, JOINTS, N_PARAMS,
+    PARAMS_PER_JOINT,
+};
+pub use preset::{preset, tx60, PRESETS};
