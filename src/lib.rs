@@ -1,2 +1,5 @@
 //! gpu-amcs: positioning-accuracy reliability of calibrated robots by adaptive Monte Carlo.
+pub mod engine;
 pub mod kinematics;
+pub mod points;
+pub mod sampling;

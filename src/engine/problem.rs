@@ -1,0 +1,108 @@
+//! The problem every backend evaluates: model, test points, reference positions and seed.
+//!
+//! The reference position of test point j is `P_ref,j` of paper eq. 12: by default the position
+//! the calibrated model predicts (FK with its own parameter values), optionally that of a nominal
+//! (design) model, which adds the systematic error of an uncalibrated robot (METHOD.md §3).
+
+use crate::kinematics::{position, RobotModel, JOINTS};
+use crate::sampling::{ParamSampler, SamplerError};
+
+/// What the errors are measured against.
+#[derive(Clone, Debug)]
+pub enum Reference {
+    /// The model's own parameter values (the calibrated model).
+    Calibrated,
+    /// Another (nominal) model's prediction.
+    Nominal(Box<RobotModel>),
+}
+
+/// Errors setting up a problem.
+#[derive(Debug, thiserror::Error)]
+pub enum ProblemError {
+    /// No test points.
+    #[error("no test points: at least one is needed")]
+    NoPoints,
+    /// A test point is outside the joint limits or not finite.
+    #[error("test point {index}: {message}")]
+    BadPoint {
+        /// 1-based row.
+        index: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// The parameter distribution is unusable.
+    #[error(transparent)]
+    Sampler(#[from] SamplerError),
+}
+
+/// Model + test points + reference + seed.
+#[derive(Clone, Debug)]
+pub struct Problem {
+    /// The model whose parameter spread is analysed.
+    pub model: RobotModel,
+    /// Joint configurations of the test points, radians.
+    pub points: Vec<[f64; JOINTS]>,
+    /// Reference position of each test point, mm.
+    pub reference: Vec<[f64; 3]>,
+    /// Parameter sampler (mean = model values, seed).
+    pub sampler: ParamSampler,
+    /// The seed of the run.
+    pub seed: u64,
+}
+
+impl Problem {
+    /// Builds a problem from test points in degrees (checked against the model's limits).
+    pub fn new(
+        model: RobotModel,
+        points_deg: &[[f64; JOINTS]],
+        reference: &Reference,
+        seed: u64,
+    ) -> Result<Self, ProblemError> {
+        if points_deg.is_empty() {
+            return Err(ProblemError::NoPoints);
+        }
+        for (i, q) in points_deg.iter().enumerate() {
+            model
+                .check_limits(q)
+                .map_err(|message| ProblemError::BadPoint {
+                    index: i + 1,
+                    message,
+                })?;
+        }
+        let points: Vec<[f64; JOINTS]> =
+            points_deg.iter().map(|q| q.map(f64::to_radians)).collect();
+        let reference = points
+            .iter()
+            .map(|q| match reference {
+                Reference::Calibrated => position(&model.params, &model.tool, q),
+                Reference::Nominal(n) => position(&n.params, &n.tool, q),
+            })
+            .collect();
+        let sampler = ParamSampler::new(&model, seed)?;
+        Ok(Problem {
+            model,
+            points,
+            reference,
+            sampler,
+            seed,
+        })
+    }
+
+    /// Number of test points m.
+    pub fn n_points(&self) -> usize {
+        self.points.len()
+    }
+
+    /// Per-point errors `e_j` of one parameter vector, straight from [`position`] (slow; for
+    /// tests and spot checks).
+    pub fn point_errors(&self, params: &[f64; crate::kinematics::N_PARAMS]) -> Vec<f64> {
+        self.points
+            .iter()
+            .zip(&self.reference)
+            .map(|(q, r)| {
+                let p = position(params, &self.model.tool, q);
+                ((p[0] - r[0]).powi(2) + (p[1] - r[1]).powi(2) + (p[2] - r[2]).powi(2)).sqrt()
+            })
+            .collect()
+    }
+}

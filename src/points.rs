@@ -1,0 +1,204 @@
+//! Test points: joint configurations at which the positioning error is evaluated.
+//!
+//! Generated sets are seeded: configurations uniform within the joint limits, kept when the tool
+//! point lies in the workspace box (the paper's 900 × 1200 × 800 mm box centred at
+//! (250, 0, 200) mm in the base frame by default, METHOD.md §5). Sets can also be read from and
+//! written to CSV (`q1..q6` in degrees, one configuration per row).
+
+use crate::kinematics::{position_deg, RobotModel, JOINTS};
+use rand::{Rng, SeedableRng};
+
+/// An axis-aligned box in the base frame, mm.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct WorkspaceBox {
+    /// Centre (x, y, z).
+    pub center: [f64; 3],
+    /// Edge lengths (x, y, z).
+    pub size: [f64; 3],
+}
+
+impl Default for WorkspaceBox {
+    fn default() -> Self {
+        WorkspaceBox {
+            center: [250.0, 0.0, 200.0],
+            size: [900.0, 1200.0, 800.0],
+        }
+    }
+}
+
+impl WorkspaceBox {
+    /// Whether `p` lies inside.
+    pub fn contains(&self, p: &[f64; 3]) -> bool {
+        (0..3).all(|k| (p[k] - self.center[k]).abs() <= 0.5 * self.size[k])
+    }
+}
+
+/// Errors about test points.
+#[derive(Debug, thiserror::Error)]
+pub enum PointsError {
+    /// Zero points asked for.
+    #[error("the number of test points must be at least 1")]
+    Zero,
+    /// The box is empty or not finite.
+    #[error("workspace box: {0}")]
+    BadBox(String),
+    /// The box is (almost) out of reach.
+    #[error("found only {found} of {wanted} configurations with the tool point in the workspace box after {tries} tries: is the box within reach?")]
+    Unreachable {
+        /// Found so far.
+        found: usize,
+        /// Asked for.
+        wanted: usize,
+        /// Tries made.
+        tries: u64,
+    },
+    /// A CSV file could not be read or written.
+    #[error("{path}: {message}")]
+    Csv {
+        /// File.
+        path: String,
+        /// What went wrong, with the line.
+        message: String,
+    },
+}
+
+/// `n` seeded configurations (degrees) uniform within the model's joint limits whose tool point
+/// lies in `bx`.
+pub fn generate(
+    model: &RobotModel,
+    n: usize,
+    bx: &WorkspaceBox,
+    seed: u64,
+) -> Result<Vec<[f64; JOINTS]>, PointsError> {
+    if n == 0 {
+        return Err(PointsError::Zero);
+    }
+    if !(bx.size.iter().all(|s| s.is_finite() && *s > 0.0)
+        && bx.center.iter().all(|c| c.is_finite()))
+    {
+        return Err(PointsError::BadBox(format!(
+            "size {:?} must be positive and centre {:?} finite",
+            bx.size, bx.center
+        )));
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let max_tries = 2_000_000u64.max(20_000 * n as u64);
+    let mut out = Vec::with_capacity(n);
+    let mut tries = 0;
+    while out.len() < n {
+        if tries == max_tries {
+            return Err(PointsError::Unreachable {
+                found: out.len(),
+                wanted: n,
+                tries,
+            });
+        }
+        tries += 1;
+        let q: [f64; JOINTS] = std::array::from_fn(|j| {
+            let (lo, hi) = model.limits_deg[j];
+            rng.random_range(lo..=hi)
+        });
+        if bx.contains(&position_deg(&model.params, &model.tool, &q)) {
+            out.push(q);
+        }
+    }
+    Ok(out)
+}
+
+/// Reads configurations from a CSV with header `q1..q6` (degrees). Errors name the line.
+pub fn read_csv(path: &std::path::Path) -> Result<Vec<[f64; JOINTS]>, PointsError> {
+    let p = path.display().to_string();
+    let err = |message: String| PointsError::Csv {
+        path: p.clone(),
+        message,
+    };
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_path(path)
+        .map_err(|e| err(e.to_string()))?;
+    let headers = rdr.headers().map_err(|e| err(e.to_string()))?.clone();
+    let cols: Vec<usize> = (1..=JOINTS)
+        .map(|j| {
+            let name = format!("q{j}");
+            headers
+                .iter()
+                .position(|h| h.eq_ignore_ascii_case(&name))
+                .ok_or_else(|| {
+                    err(format!(
+                        "header has no column '{name}' (expected q1,q2,q3,q4,q5,q6)"
+                    ))
+                })
+        })
+        .collect::<Result<_, _>>()?;
+    let mut out = Vec::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| {
+            err(format!(
+                "line {}: {e}",
+                e.position().map_or(0, |p| p.line())
+            ))
+        })?;
+        let line = rec.position().map_or(0, |p| p.line());
+        let mut q = [0.0; JOINTS];
+        for (j, &c) in cols.iter().enumerate() {
+            let s = rec.get(c).unwrap_or("");
+            q[j] = s
+                .parse::<f64>()
+                .ok()
+                .filter(|v| v.is_finite())
+                .ok_or_else(|| {
+                    err(format!(
+                        "line {line}: q{} = '{s}' is not a finite number",
+                        j + 1
+                    ))
+                })?;
+        }
+        out.push(q);
+    }
+    if out.is_empty() {
+        return Err(err("no configurations (rows) in the file".into()));
+    }
+    Ok(out)
+}
+
+/// Writes configurations as CSV with header `q1..q6`.
+pub fn to_csv(points: &[[f64; JOINTS]]) -> String {
+    let mut s = String::from("q1,q2,q3,q4,q5,q6\n");
+    for q in points {
+        let row: Vec<String> = q.iter().map(|v| format!("{v:.6}")).collect();
+        s.push_str(&row.join(","));
+        s.push('\n');
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::tx60;
+
+    #[test]
+    fn generated_points_are_in_box_and_limits_and_seeded() {
+        let m = tx60();
+        let bx = WorkspaceBox::default();
+        let a = generate(&m, 50, &bx, 1).unwrap();
+        assert_eq!(a, generate(&m, 50, &bx, 1).unwrap());
+        assert_ne!(a, generate(&m, 50, &bx, 2).unwrap());
+        for q in &a {
+            assert!(m.check_limits(q).is_ok());
+            assert!(bx.contains(&position_deg(&m.params, &m.tool, q)));
+        }
+    }
+
+    #[test]
+    fn unreachable_box_is_an_error() {
+        let bx = WorkspaceBox {
+            center: [5000.0, 0.0, 0.0],
+            size: [10.0, 10.0, 10.0],
+        };
+        assert!(matches!(
+            generate(&tx60(), 3, &bx, 1),
+            Err(PointsError::Unreachable { .. })
+        ));
+    }
+}

@@ -1,0 +1,15 @@
+//! Reproducible random draws of the robot parameters.
+//!
+//! Draw `k` of a run is a pure function of `(seed, k)`: a counter-based generator
+//! (Philox4x32-10, Salmon et al., SC'11, "Parallel random numbers: as easy as 1, 2, 3") keyed by
+//! the seed with the draw index as counter, so the same draw comes out whichever thread, batch or
+//! backend (CPU or GPU shader) computes it. Normal variates come from the Box–Muller transform;
+//! correlated draws from the Cholesky factor of the covariance (GUM S1 §6.4.8.3).
+
+mod distribution;
+mod normal;
+mod philox;
+
+pub use distribution::{ParamSampler, SamplerError, MAX_NORMALS};
+pub use normal::{box_muller, normals_block, uniform_open};
+pub use philox::{philox4x32_10, Philox};
