@@ -3,4 +3,5 @@ pub mod engine;
 pub mod kinematics;
 pub mod mc;
 pub mod points;
+pub mod report;
 pub mod sampling;

@@ -6,6 +6,7 @@
 //! [`gpu`] runs the same draws through a WGSL compute shader; [`FnEvaluator`] wraps any scalar
 //! function of a Philox stream, for testing the drivers on models with known answers.
 
+pub mod backend;
 pub mod cpu;
 mod problem;
 

@@ -1,0 +1,253 @@
+//! Command-line definitions (clap). Parsing only: the work is done in `commands.rs` through the
+//! library. `gpu-amcs` with no subcommand runs AMCS on the built-in TX60.
+
+use clap::{Args, Parser, Subcommand, ValueEnum};
+use std::path::PathBuf;
+
+/// Positioning-accuracy reliability of a calibrated robot by adaptive Monte Carlo (GUM S1 §7.9).
+#[derive(Parser, Debug)]
+#[command(name = "gpu-amcs", version, about, long_about = None, args_conflicts_with_subcommands = true)]
+pub struct Cli {
+    /// What to do (default: AMCS on the chosen model).
+    #[command(subcommand)]
+    pub command: Option<Command>,
+    /// AMCS options when no subcommand is given.
+    #[command(flatten)]
+    pub amcs: AmcsArgs,
+}
+
+/// Subcommands.
+#[derive(Subcommand, Debug)]
+pub enum Command {
+    /// Adaptive Monte Carlo (the default when no subcommand is given).
+    Amcs(AmcsArgs),
+    /// Classic Monte Carlo with a fixed number of draws.
+    Mcs(McsArgs),
+    /// MCS against AMCS at two tolerances: the paper's Table 2 for one model.
+    Compare(CompareArgs),
+    /// Print a built-in model as a model file (TOML) to start from.
+    Model(ModelArgs),
+    /// Generate test points and write them as CSV (q1..q6 in degrees).
+    Points(PointsArgs),
+    /// Forward kinematics: tool positions (mm) of the configurations in a CSV.
+    Fk(FkArgs),
+}
+
+/// Where the errors are measured from.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReferenceArg {
+    /// The position the calibrated model itself predicts (what the calibration's spread leaves).
+    Calibrated,
+    /// The nominal (design) model's position (adds the uncalibrated systematic error).
+    Nominal,
+}
+
+/// Evaluation backend.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BackendArg {
+    /// A real GPU when one is present, otherwise the CPU.
+    Auto,
+    /// Any wgpu adapter (Vulkan/Metal/DX12), software ones such as lavapipe included.
+    Gpu,
+    /// The rayon CPU reference path.
+    Cpu,
+}
+
+/// Coverage interval choice.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IntervalArg {
+    /// Shortest interval (GUM S1 §7.7.2).
+    Shortest,
+    /// Probabilistically symmetric interval (GUM S1 §7.7.1).
+    Symmetric,
+}
+
+/// Model, test points, reference, seed and backend.
+#[derive(Args, Debug, Clone)]
+pub struct ProblemArgs {
+    /// Model file (TOML, mm and degrees); default: the built-in preset.
+    #[arg(long, value_name = "FILE")]
+    pub model: Option<PathBuf>,
+    /// Built-in model used when --model is not given.
+    #[arg(long, default_value = "tx60", value_name = "NAME")]
+    pub preset: String,
+    /// Number of generated test points (ignored with --points-file).
+    #[arg(long, default_value_t = 50, value_name = "N")]
+    pub points: usize,
+    /// Test points from a CSV (header q1..q6, degrees).
+    #[arg(long, value_name = "CSV")]
+    pub points_file: Option<PathBuf>,
+    /// Seed of the generated test points.
+    #[arg(long, default_value_t = 1, value_name = "SEED")]
+    pub points_seed: u64,
+    /// Workspace box centre for generated points, mm: x,y,z.
+    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [250.0, 0.0, 200.0], value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub box_center: Vec<f64>,
+    /// Workspace box edge lengths for generated points, mm: x,y,z.
+    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [900.0, 1200.0, 800.0], value_name = "X,Y,Z")]
+    pub box_size: Vec<f64>,
+    /// Seed of the parameter draws.
+    #[arg(long, default_value_t = 2025, value_name = "SEED")]
+    pub seed: u64,
+    /// Reference positions the errors are measured from.
+    #[arg(long, value_enum, default_value_t = ReferenceArg::Calibrated)]
+    pub reference: ReferenceArg,
+    /// Nominal model for --reference nominal (default: the preset).
+    #[arg(long, value_name = "FILE")]
+    pub nominal: Option<PathBuf>,
+    /// Evaluation backend.
+    #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
+    pub backend: BackendArg,
+    /// GPU adapter to use (case-insensitive part of its name).
+    #[arg(long, value_name = "NAME")]
+    pub adapter: Option<String>,
+    /// CPU threads (default: all cores). Results do not depend on it.
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+}
+
+/// Reporting options.
+#[derive(Args, Debug, Clone)]
+pub struct OutputArgs {
+    /// Thresholds l_c (mm) for the reliability R(l_c).
+    #[arg(long, value_delimiter = ',', default_values_t = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8], value_name = "MM,...")]
+    pub thresholds: Vec<f64>,
+    /// Coverage probability p.
+    #[arg(long, default_value_t = 0.95, value_name = "P")]
+    pub coverage: f64,
+    /// Coverage interval: shortest or probabilistically symmetric.
+    #[arg(long, value_enum, default_value_t = IntervalArg::Shortest)]
+    pub interval: IntervalArg,
+    /// Also report the single-point reliabilities R_j (paper eq. 14).
+    #[arg(long)]
+    pub per_point: bool,
+    /// Write the report as JSON to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write CSV files (CDF, PDF, reliability, convergence trace) into DIR.
+    #[arg(long, value_name = "DIR")]
+    pub csv: Option<PathBuf>,
+    /// Write SVG plots (PDF, reliability curve, convergence) into DIR.
+    #[arg(long, value_name = "DIR")]
+    pub svg: Option<PathBuf>,
+    /// No progress bar and no table on stdout.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// AMCS options.
+#[derive(Args, Debug, Clone)]
+pub struct AmcsArgs {
+    #[command(flatten)]
+    pub problem: ProblemArgs,
+    #[command(flatten)]
+    pub output: OutputArgs,
+    /// Numerical tolerance δ in mm (GUM S1 §7.9.4).
+    #[arg(
+        long,
+        default_value_t = 0.01,
+        value_name = "MM",
+        conflicts_with = "ndig"
+    )]
+    pub delta: f64,
+    /// Derive δ from u(w) and this many significant digits (GUM S1 §7.9.2) instead of --delta.
+    #[arg(long, value_name = "N")]
+    pub ndig: Option<u32>,
+    /// Batch size H.
+    #[arg(long, default_value_t = 10_000, value_name = "H")]
+    pub batch: u64,
+    /// Cap on the total number of draws; reaching it ends the run as not converged.
+    #[arg(long, default_value_t = 10_000_000, value_name = "N")]
+    pub max_draws: u64,
+}
+
+/// MCS options.
+#[derive(Args, Debug, Clone)]
+pub struct McsArgs {
+    #[command(flatten)]
+    pub problem: ProblemArgs,
+    #[command(flatten)]
+    pub output: OutputArgs,
+    /// Number of draws.
+    #[arg(long, default_value_t = 1_000_000, value_name = "N")]
+    pub draws: u64,
+}
+
+/// Comparison options.
+#[derive(Args, Debug, Clone)]
+pub struct CompareArgs {
+    #[command(flatten)]
+    pub problem: ProblemArgs,
+    /// Number of MCS draws.
+    #[arg(long, default_value_t = 1_000_000, value_name = "N")]
+    pub draws: u64,
+    /// AMCS tolerances δ (mm).
+    #[arg(long, value_delimiter = ',', default_values_t = [0.01, 0.02], value_name = "MM,...")]
+    pub deltas: Vec<f64>,
+    /// AMCS batch size H.
+    #[arg(long, default_value_t = 10_000, value_name = "H")]
+    pub batch: u64,
+    /// Coverage probability p.
+    #[arg(long, default_value_t = 0.95, value_name = "P")]
+    pub coverage: f64,
+    /// Write the comparison as JSON to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write the comparison as a Markdown table to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub markdown: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// `model` options.
+#[derive(Args, Debug, Clone)]
+pub struct ModelArgs {
+    /// Built-in model to print.
+    #[arg(long, default_value = "tx60", value_name = "NAME")]
+    pub preset: String,
+    /// Write to FILE instead of stdout.
+    #[arg(long, short, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+}
+
+/// `points` options.
+#[derive(Args, Debug, Clone)]
+pub struct PointsArgs {
+    /// Number of test points.
+    #[arg(value_name = "N")]
+    pub n: usize,
+    /// Model file (default: the preset).
+    #[arg(long, value_name = "FILE")]
+    pub model: Option<PathBuf>,
+    /// Built-in model used when --model is not given.
+    #[arg(long, default_value = "tx60", value_name = "NAME")]
+    pub preset: String,
+    /// Seed.
+    #[arg(long, default_value_t = 1, value_name = "SEED")]
+    pub points_seed: u64,
+    /// Workspace box centre, mm: x,y,z.
+    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [250.0, 0.0, 200.0], value_name = "X,Y,Z", allow_hyphen_values = true)]
+    pub box_center: Vec<f64>,
+    /// Workspace box edge lengths, mm: x,y,z.
+    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [900.0, 1200.0, 800.0], value_name = "X,Y,Z")]
+    pub box_size: Vec<f64>,
+    /// Write to FILE instead of stdout.
+    #[arg(long, short, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+}
+
+/// `fk` options.
+#[derive(Args, Debug, Clone)]
+pub struct FkArgs {
+    /// Configurations (header q1..q6, degrees).
+    #[arg(long, value_name = "CSV")]
+    pub points_file: PathBuf,
+    /// Model file (default: the preset).
+    #[arg(long, value_name = "FILE")]
+    pub model: Option<PathBuf>,
+    /// Built-in model used when --model is not given.
+    #[arg(long, default_value = "tx60", value_name = "NAME")]
+    pub preset: String,
+}

@@ -1,0 +1,364 @@
+//! The glue between the command line and the library: builds the problem from the arguments,
+//! runs the chosen driver, prints and writes the reports. Errors are `anyhow` here only.
+
+use crate::cli::*;
+use anyhow::{bail, Context, Result};
+use gpu_amcs::engine::backend::{make_evaluator, BackendChoice};
+use gpu_amcs::engine::{Evaluator, Problem, Reference};
+use gpu_amcs::kinematics::{position_deg, preset, RobotModel};
+use gpu_amcs::mc::{self, AmcsOptions, IntervalKind, McsOptions, RunSettings, Tolerance};
+use gpu_amcs::points::{self, WorkspaceBox};
+use gpu_amcs::report::{self, Comparison, RunReport};
+use indicatif::{ProgressBar, ProgressStyle};
+use std::path::{Path, PathBuf};
+
+/// Dispatches a parsed command line.
+pub fn run(cli: Cli) -> Result<()> {
+    match cli.command {
+        None => run_amcs(cli.amcs),
+        Some(Command::Amcs(a)) => run_amcs(a),
+        Some(Command::Mcs(a)) => run_mcs(a),
+        Some(Command::Compare(a)) => run_compare(a),
+        Some(Command::Model(a)) => run_model(a),
+        Some(Command::Points(a)) => run_points(a),
+        Some(Command::Fk(a)) => run_fk(a),
+    }
+}
+
+fn load_model(file: &Option<PathBuf>, preset_name: &str) -> Result<RobotModel> {
+    Ok(match file {
+        Some(p) => RobotModel::from_file(p)?,
+        None => preset(preset_name)?,
+    })
+}
+
+/// Refuses to write an output over an input the user gave.
+fn guard_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
+    for o in outputs {
+        let oc = std::fs::canonicalize(o).ok();
+        for i in inputs {
+            if oc.is_some() && oc == std::fs::canonicalize(i).ok() {
+                bail!(
+                    "output {} is also an input: refusing to overwrite it",
+                    o.display()
+                );
+            }
+        }
+    }
+    Ok(())
+}
+
+fn box_of(center: &[f64], size: &[f64]) -> WorkspaceBox {
+    WorkspaceBox {
+        center: [center[0], center[1], center[2]],
+        size: [size[0], size[1], size[2]],
+    }
+}
+
+struct Built {
+    problem: Problem,
+    reference: String,
+}
+
+fn build_problem(a: &ProblemArgs) -> Result<Built> {
+    if let Some(t) = a.threads {
+        if t == 0 {
+            bail!("--threads must be at least 1");
+        }
+        // Only the first call configures the pool; later calls in one process are harmless.
+        let _ = rayon::ThreadPoolBuilder::new()
+            .num_threads(t)
+            .build_global();
+    }
+    let model = load_model(&a.model, &a.preset)?;
+    let pts = match &a.points_file {
+        Some(f) => points::read_csv(f)?,
+        None => points::generate(
+            &model,
+            a.points,
+            &box_of(&a.box_center, &a.box_size),
+            a.points_seed,
+        )
+        .context("--points")?,
+    };
+    let (reference, label) = match a.reference {
+        ReferenceArg::Calibrated => (Reference::Calibrated, "calibrated model".to_string()),
+        ReferenceArg::Nominal => {
+            let n = load_model(&a.nominal, &a.preset).context("--nominal")?;
+            let label = format!("nominal model ({})", n.name);
+            (Reference::Nominal(Box::new(n)), label)
+        }
+    };
+    let problem = Problem::new(model, &pts, &reference, a.seed).context(match &a.points_file {
+        Some(f) => format!("--points-file {}", f.display()),
+        None => "test points".into(),
+    })?;
+    Ok(Built {
+        problem,
+        reference: label,
+    })
+}
+
+fn evaluator(a: &ProblemArgs, problem: Problem) -> Result<(Box<dyn Evaluator>, Vec<String>)> {
+    let choice = match a.backend {
+        BackendArg::Auto => BackendChoice::Auto,
+        BackendArg::Gpu => BackendChoice::Gpu,
+        BackendArg::Cpu => BackendChoice::Cpu,
+    };
+    let (ev, note) = make_evaluator(problem, choice, a.adapter.as_deref()).context("--backend")?;
+    Ok((ev, note.into_iter().collect()))
+}
+
+fn settings(o: &OutputArgs) -> RunSettings {
+    RunSettings {
+        coverage_probability: o.coverage,
+        interval: match o.interval {
+            IntervalArg::Shortest => IntervalKind::Shortest,
+            IntervalArg::Symmetric => IntervalKind::Symmetric,
+        },
+        thresholds: o.thresholds.clone(),
+        per_point: o.per_point,
+    }
+}
+
+fn progress_bar(quiet: bool, label: &str) -> ProgressBar {
+    if quiet {
+        return ProgressBar::hidden();
+    }
+    let pb = ProgressBar::new(0);
+    pb.set_style(
+        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} draws ({elapsed}, {per_sec})")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    pb.set_message(label.to_string());
+    pb
+}
+
+fn inputs_of(a: &ProblemArgs) -> Vec<&Path> {
+    [
+        a.model.as_deref(),
+        a.points_file.as_deref(),
+        a.nominal.as_deref(),
+    ]
+    .into_iter()
+    .flatten()
+    .collect()
+}
+
+fn emit(rep: &RunReport, o: &OutputArgs) -> Result<()> {
+    if let Some(f) = &o.json {
+        report::write_atomic(f, &report::json::render_run(rep))?;
+    }
+    if let Some(d) = &o.csv {
+        report::write_files(d, &report::csv::files(rep))?;
+    }
+    if let Some(d) = &o.svg {
+        report::write_files(d, &report::svg::run_plots(rep))?;
+    }
+    if !o.quiet {
+        print!("{}", report::text::render(rep));
+    }
+    Ok(())
+}
+
+fn check_outputs(a: &ProblemArgs, o: &OutputArgs) -> Result<()> {
+    let outs: Vec<&Path> = [o.json.as_deref(), o.csv.as_deref(), o.svg.as_deref()]
+        .into_iter()
+        .flatten()
+        .collect();
+    guard_outputs(&inputs_of(a), &outs)
+}
+
+fn run_amcs(a: AmcsArgs) -> Result<()> {
+    check_outputs(&a.problem, &a.output)?;
+    let opts = AmcsOptions {
+        tolerance: match a.ndig {
+            Some(n) => Tolerance::Ndig(n),
+            None => Tolerance::Delta(a.delta),
+        },
+        batch_size: a.batch,
+        max_draws: a.max_draws,
+        settings: settings(&a.output),
+    };
+    opts.check()?;
+    let built = build_problem(&a.problem)?;
+    let (model, m, seed) = (
+        built.problem.model.name.clone(),
+        built.problem.n_points(),
+        built.problem.seed,
+    );
+    let (mut ev, notes) = evaluator(&a.problem, built.problem)?;
+    let pb = progress_bar(a.output.quiet, "AMCS");
+    let cb = |done: u64, cap: u64| {
+        pb.set_length(cap);
+        pb.set_position(done);
+    };
+    let result = mc::run_amcs(ev.as_mut(), &opts, Some(&cb))?;
+    pb.finish_and_clear();
+    let rep = RunReport {
+        model,
+        points: m,
+        reference: built.reference,
+        seed,
+        notes,
+        result,
+    };
+    emit(&rep, &a.output)?;
+    if !rep.result.converged {
+        eprintln!(
+            "warning: AMCS did not converge within --max-draws {}; the results use all draws made",
+            a.max_draws
+        );
+    }
+    Ok(())
+}
+
+fn run_mcs(a: McsArgs) -> Result<()> {
+    check_outputs(&a.problem, &a.output)?;
+    let opts = McsOptions {
+        draws: a.draws,
+        chunk: 100_000.min(a.draws.max(1)),
+        settings: settings(&a.output),
+    };
+    let built = build_problem(&a.problem)?;
+    let (model, m, seed) = (
+        built.problem.model.name.clone(),
+        built.problem.n_points(),
+        built.problem.seed,
+    );
+    let (mut ev, notes) = evaluator(&a.problem, built.problem)?;
+    let pb = progress_bar(a.output.quiet, "MCS");
+    let cb = |done: u64, total: u64| {
+        pb.set_length(total);
+        pb.set_position(done);
+    };
+    let result = mc::run_mcs(ev.as_mut(), &opts, Some(&cb))?;
+    pb.finish_and_clear();
+    emit(
+        &RunReport {
+            model,
+            points: m,
+            reference: built.reference,
+            seed,
+            notes,
+            result,
+        },
+        &a.output,
+    )
+}
+
+fn run_compare(a: CompareArgs) -> Result<()> {
+    let outs: Vec<&Path> = [a.json.as_deref(), a.markdown.as_deref()]
+        .into_iter()
+        .flatten()
+        .collect();
+    guard_outputs(&inputs_of(&a.problem), &outs)?;
+    let base = RunSettings {
+        coverage_probability: a.coverage,
+        ..RunSettings::default()
+    };
+    let amcs_opts: Vec<AmcsOptions> = a
+        .deltas
+        .iter()
+        .map(|&d| AmcsOptions {
+            tolerance: Tolerance::Delta(d),
+            batch_size: a.batch,
+            max_draws: 100_000_000,
+            settings: base.clone(),
+        })
+        .collect();
+    for o in &amcs_opts {
+        o.check()?;
+    }
+    let built = build_problem(&a.problem)?;
+    let (model, m, seed) = (
+        built.problem.model.name.clone(),
+        built.problem.n_points(),
+        built.problem.seed,
+    );
+    let (mut ev, _notes) = evaluator(&a.problem, built.problem)?;
+    let pb = progress_bar(a.quiet, "MCS");
+    let cb = |done: u64, total: u64| {
+        pb.set_length(total);
+        pb.set_position(done);
+    };
+    let mcs = mc::run_mcs(
+        ev.as_mut(),
+        &McsOptions {
+            draws: a.draws,
+            chunk: 100_000.min(a.draws.max(1)),
+            settings: base.clone(),
+        },
+        Some(&cb),
+    )?;
+    let mut amcs = Vec::new();
+    for (d, o) in a.deltas.iter().zip(&amcs_opts) {
+        pb.set_message(format!("AMCS δ={d}"));
+        let r = mc::run_amcs(ev.as_mut(), o, Some(&cb))?;
+        let mre = report::max_relative_error(&r, &mcs);
+        amcs.push((*d, r, mre));
+    }
+    pb.finish_and_clear();
+    let c = Comparison {
+        model,
+        points: m,
+        seed,
+        mcs,
+        amcs,
+    };
+    print!("{}", report::text::render_comparison(&c));
+    if let Some(f) = &a.json {
+        report::write_atomic(f, &report::json::render_comparison(&c))?;
+    }
+    if let Some(f) = &a.markdown {
+        report::write_atomic(f, &report::markdown::render_comparison(&c))?;
+    }
+    Ok(())
+}
+
+fn write_or_print(out: &Option<PathBuf>, text: &str, inputs: &[&Path]) -> Result<()> {
+    match out {
+        Some(f) => {
+            guard_outputs(inputs, &[f])?;
+            report::write_atomic(f, text)?;
+        }
+        None => print!("{text}"),
+    }
+    Ok(())
+}
+
+fn run_model(a: ModelArgs) -> Result<()> {
+    write_or_print(&a.out, &preset(&a.preset)?.to_toml(), &[])
+}
+
+fn run_points(a: PointsArgs) -> Result<()> {
+    let model = load_model(&a.model, &a.preset)?;
+    let pts = points::generate(
+        &model,
+        a.n,
+        &box_of(&a.box_center, &a.box_size),
+        a.points_seed,
+    )?;
+    let inputs: Vec<&Path> = a.model.as_deref().into_iter().collect();
+    write_or_print(&a.out, &points::to_csv(&pts), &inputs)
+}
+
+fn run_fk(a: FkArgs) -> Result<()> {
+    let model = load_model(&a.model, &a.preset)?;
+    let pts = points::read_csv(&a.points_file)?;
+    let mut s = String::from("q1,q2,q3,q4,q5,q6,x,y,z\n");
+    for q in &pts {
+        let p = position_deg(&model.params, &model.tool, q);
+        let qs: Vec<String> = q.iter().map(|v| format!("{v}")).collect();
+        s.push_str(&format!(
+            "{},{:.6},{:.6},{:.6}\n",
+            qs.join(","),
+            p[0],
+            p[1],
+            p[2]
+        ));
+    }
+    print!("{s}");
+    Ok(())
+}

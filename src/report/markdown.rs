@@ -1,0 +1,64 @@
+//! Markdown tables (for the comparison and the factor study).
+
+use super::{max_relative_error, Comparison};
+use std::fmt::Write as _;
+
+/// A Markdown table from a header and rows of cells.
+pub fn table(header: &[&str], rows: &[Vec<String>]) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "| {} |", header.join(" | "));
+    let _ = writeln!(
+        s,
+        "|{}|",
+        header.iter().map(|_| "---").collect::<Vec<_>>().join("|")
+    );
+    for r in rows {
+        let _ = writeln!(s, "| {} |", r.join(" | "));
+    }
+    s
+}
+
+/// The comparison as the paper's Table 2 row block.
+pub fn render_comparison(c: &Comparison) -> String {
+    let mut rows = vec![row("MCS", &c.mcs, None)];
+    for (d, r, _) in &c.amcs {
+        rows.push(row(
+            &format!("AMCS δ = {d}"),
+            r,
+            Some(max_relative_error(r, &c.mcs)),
+        ));
+    }
+    format!(
+        "### {} — {} test points (seed {})\n\n{}",
+        c.model,
+        c.points,
+        c.seed,
+        table(
+            &[
+                "method",
+                "M1 (mm)",
+                "M2 (mm²)",
+                "M3",
+                "M4",
+                "MRE (%)",
+                "draws",
+                "time (s)"
+            ],
+            &rows
+        )
+    )
+}
+
+fn row(name: &str, r: &crate::mc::McResult, mre: Option<f64>) -> Vec<String> {
+    let m = &r.moments;
+    vec![
+        name.to_string(),
+        format!("{:.4}", m.mean),
+        format!("{:.5}", m.variance),
+        format!("{:.4}", m.skewness),
+        format!("{:.4}", m.kurtosis),
+        mre.map_or("—".into(), |v| format!("{v:.2}")),
+        r.draws.to_string(),
+        format!("{:.3}", r.seconds),
+    ]
+}

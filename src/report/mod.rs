@@ -1,0 +1,105 @@
+//! Reports of a run: a readable table for the terminal, JSON with stable field names, CSV files
+//! of the curves, Markdown tables and SVG plots of the curves the paper draws (PDF of w, the
+//! reliability curve, the convergence of the four fluctuation indices).
+//!
+//! One file per format; every writer goes through [`write_atomic`], so an interrupted or failed
+//! run never leaves a half-written file behind.
+
+pub mod csv;
+pub mod json;
+pub mod markdown;
+pub mod svg;
+pub mod text;
+
+use crate::mc::McResult;
+use serde::Serialize;
+use std::path::Path;
+
+/// What was analysed, next to the result.
+#[derive(Clone, Debug, Serialize)]
+pub struct RunReport {
+    /// Model name.
+    pub model: String,
+    /// Number of test points m.
+    pub points: usize,
+    /// `"calibrated"` or `"nominal: NAME"`.
+    pub reference: String,
+    /// Seed of the parameter draws.
+    pub seed: u64,
+    /// Notes for the reader (e.g. the CPU fallback).
+    pub notes: Vec<String>,
+    /// The Monte Carlo result.
+    pub result: McResult,
+}
+
+/// The paper's Table 2 for one model: MCS against two AMCS tolerances.
+#[derive(Clone, Debug, Serialize)]
+pub struct Comparison {
+    /// Model name.
+    pub model: String,
+    /// Number of test points.
+    pub points: usize,
+    /// Seed.
+    pub seed: u64,
+    /// The MCS baseline.
+    pub mcs: McResult,
+    /// `(δ, AMCS result, maximum relative error of M1–M4 against MCS in %)`.
+    pub amcs: Vec<(f64, McResult, f64)>,
+}
+
+/// Maximum relative error of M1–M4 of `r` against `base`, in percent (the paper's MRE).
+pub fn max_relative_error(r: &McResult, base: &McResult) -> f64 {
+    r.moments
+        .as_array()
+        .iter()
+        .zip(base.moments.as_array())
+        .map(|(a, b)| ((a - b) / b).abs() * 100.0)
+        .fold(0.0, f64::max)
+}
+
+/// Errors writing reports.
+#[derive(Debug, thiserror::Error)]
+pub enum ReportError {
+    /// A file could not be written.
+    #[error("cannot write {path}: {source}")]
+    Io {
+        /// The file.
+        path: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+}
+
+/// Writes `contents` to `path` through a temporary file in the same directory and a rename.
+pub fn write_atomic(path: &Path, contents: &str) -> Result<(), ReportError> {
+    let err = |source| ReportError::Io {
+        path: path.display().to_string(),
+        source,
+    };
+    let dir = path
+        .parent()
+        .filter(|d| !d.as_os_str().is_empty())
+        .unwrap_or(Path::new("."));
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
+    std::fs::write(&tmp, contents).map_err(err)?;
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        err(e)
+    })
+}
+
+/// Creates `dir` (and parents) and writes each `(file name, contents)` into it atomically.
+pub fn write_files(dir: &Path, files: &[(String, String)]) -> Result<(), ReportError> {
+    std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
+        path: dir.display().to_string(),
+        source,
+    })?;
+    for (name, contents) in files {
+        write_atomic(&dir.join(name), contents)?;
+    }
+    Ok(())
+}
