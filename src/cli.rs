@@ -6,7 +6,7 @@ use std::path::PathBuf;
 
 /// Positioning-accuracy reliability of a calibrated robot by adaptive Monte Carlo (GUM S1 §7.9).
 #[derive(Parser, Debug)]
-#[command(name = "gpu-amcs", version, about, long_about = None, args_conflicts_with_subcommands = true)]
+#[command(name = "gpu-amcs", version, about, long_about = None, args_conflicts_with_subcommands = true, allow_negative_numbers = true)]
 pub struct Cli {
     /// What to do (default: AMCS on the chosen model).
     #[command(subcommand)]
@@ -20,14 +20,18 @@ pub struct Cli {
 #[derive(Subcommand, Debug)]
 pub enum Command {
     /// Adaptive Monte Carlo (the default when no subcommand is given).
+    #[command(allow_negative_numbers = true)]
     Amcs(AmcsArgs),
     /// Classic Monte Carlo with a fixed number of draws.
+    #[command(allow_negative_numbers = true)]
     Mcs(McsArgs),
     /// MCS against AMCS at two tolerances: the paper's Table 2 for one model.
+    #[command(allow_negative_numbers = true)]
     Compare(CompareArgs),
     /// Print a built-in model as a model file (TOML) to start from.
     Model(ModelArgs),
     /// Generate test points and write them as CSV (q1..q6 in degrees).
+    #[command(allow_negative_numbers = true)]
     Points(PointsArgs),
     /// Forward kinematics: tool positions (mm) of the configurations in a CSV.
     Fk(FkArgs),
@@ -110,10 +114,15 @@ pub struct ProblemArgs {
 #[derive(Args, Debug, Clone)]
 pub struct OutputArgs {
     /// Thresholds l_c (mm) for the reliability R(l_c).
-    #[arg(long, value_delimiter = ',', default_values_t = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8], value_name = "MM,...")]
+    #[arg(long, value_delimiter = ',', default_values_t = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8], value_name = "MM,...", allow_hyphen_values = true)]
     pub thresholds: Vec<f64>,
     /// Coverage probability p.
-    #[arg(long, default_value_t = 0.95, value_name = "P")]
+    #[arg(
+        long,
+        default_value_t = 0.95,
+        value_name = "P",
+        allow_hyphen_values = true
+    )]
     pub coverage: f64,
     /// Coverage interval: shortest or probabilistically symmetric.
     #[arg(long, value_enum, default_value_t = IntervalArg::Shortest)]
@@ -182,13 +191,18 @@ pub struct CompareArgs {
     #[arg(long, default_value_t = 1_000_000, value_name = "N")]
     pub draws: u64,
     /// AMCS tolerances δ (mm).
-    #[arg(long, value_delimiter = ',', default_values_t = [0.01, 0.02], value_name = "MM,...")]
+    #[arg(long, value_delimiter = ',', default_values_t = [0.01, 0.02], value_name = "MM,...", allow_hyphen_values = true)]
     pub deltas: Vec<f64>,
     /// AMCS batch size H.
     #[arg(long, default_value_t = 10_000, value_name = "H")]
     pub batch: u64,
     /// Coverage probability p.
-    #[arg(long, default_value_t = 0.95, value_name = "P")]
+    #[arg(
+        long,
+        default_value_t = 0.95,
+        value_name = "P",
+        allow_hyphen_values = true
+    )]
     pub coverage: f64,
     /// Write the comparison as JSON to FILE.
     #[arg(long, value_name = "FILE")]

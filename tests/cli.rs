@@ -1,0 +1,291 @@
+//! The binary as a user runs it: the main job, outputs, reproducibility and bad input.
+
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_gpu-amcs"))
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("gpu-amcs-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn run(args: &[&str]) -> Output {
+    bin().args(args).output().unwrap()
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// A failing run: exit ≠ 0, a one-line error naming `what`, no panic.
+fn fails_naming(args: &[&str], what: &str) {
+    let o = run(args);
+    let e = stderr(&o);
+    assert!(!o.status.success(), "{args:?} succeeded");
+    assert!(
+        e.contains(what),
+        "{args:?}: error does not name '{what}': {e}"
+    );
+    assert!(!e.contains("panicked"), "{args:?} panicked: {e}");
+    assert_eq!(
+        e.trim().lines().count(),
+        1,
+        "{args:?}: not a one-line error: {e}"
+    );
+}
+
+#[test]
+fn main_job_runs_and_writes_outputs() {
+    let d = tmpdir("main");
+    let json = d.join("r.json");
+    let o = run(&[
+        "--points",
+        "50",
+        "--delta",
+        "0.01",
+        "--backend",
+        "cpu",
+        "--json",
+        json.to_str().unwrap(),
+        "--csv",
+        d.join("csv").to_str().unwrap(),
+        "--svg",
+        d.join("svg").to_str().unwrap(),
+        "--per-point",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        out.contains("converged") && out.contains("M4 kurtosis"),
+        "{out}"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(v["schema_version"], 1);
+    assert_eq!(v["result"]["method"], "amcs");
+    assert!(v["result"]["converged"].as_bool().unwrap());
+    assert_eq!(v["result"]["reliability"].as_array().unwrap().len(), 8);
+    assert_eq!(
+        v["result"]["per_point_reliability"]
+            .as_array()
+            .unwrap()
+            .len(),
+        50
+    );
+    assert_eq!(v["result"]["backend"]["backend"], "cpu");
+    for f in [
+        "cdf.csv",
+        "pdf.csv",
+        "reliability.csv",
+        "trace.csv",
+        "per_point.csv",
+    ] {
+        assert!(d.join("csv").join(f).is_file(), "{f}");
+    }
+    for f in ["pdf.svg", "reliability.svg", "convergence.svg"] {
+        let s = std::fs::read_to_string(d.join("svg").join(f)).unwrap();
+        assert!(
+            s.starts_with("<?xml") && s.trim_end().ends_with("</svg>"),
+            "{f}"
+        );
+    }
+}
+
+fn json_result(args: &[&str], file: &PathBuf) -> serde_json::Value {
+    let mut a: Vec<&str> = args.to_vec();
+    a.extend(["--quiet", "--json", file.to_str().unwrap()]);
+    let o = run(&a);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let mut v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(file).unwrap()).unwrap();
+    let r = v["result"].as_object_mut().unwrap();
+    r.remove("seconds");
+    r.remove("backend");
+    v["result"].clone()
+}
+
+#[test]
+fn same_seed_same_report_any_thread_count() {
+    let d = tmpdir("seed");
+    let base = [
+        "mcs",
+        "--draws",
+        "20000",
+        "--points",
+        "10",
+        "--backend",
+        "cpu",
+        "--seed",
+        "9",
+    ];
+    let a = json_result(
+        &[&base[..], &["--threads", "1"]].concat(),
+        &d.join("a.json"),
+    );
+    let b = json_result(
+        &[&base[..], &["--threads", "2"]].concat(),
+        &d.join("b.json"),
+    );
+    assert_eq!(a, b);
+    let c = json_result(
+        &[
+            "mcs",
+            "--draws",
+            "20000",
+            "--points",
+            "10",
+            "--backend",
+            "cpu",
+            "--seed",
+            "10",
+        ],
+        &d.join("c.json"),
+    );
+    assert_ne!(a, c);
+}
+
+#[test]
+fn model_preset_round_trips_through_a_file() {
+    let d = tmpdir("model");
+    let f = d.join("m.toml");
+    let o = run(&["model", "--preset", "tx60", "--out", f.to_str().unwrap()]);
+    assert!(o.status.success());
+    let o = run(&[
+        "mcs",
+        "--draws",
+        "2000",
+        "--points",
+        "5",
+        "--backend",
+        "cpu",
+        "--model",
+        f.to_str().unwrap(),
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+#[test]
+fn points_and_fk_commands() {
+    let d = tmpdir("pts");
+    let f = d.join("p.csv");
+    assert!(run(&["points", "7", "--out", f.to_str().unwrap()])
+        .status
+        .success());
+    let text = std::fs::read_to_string(&f).unwrap();
+    assert_eq!(text.lines().count(), 8);
+    let o = run(&["fk", "--points-file", f.to_str().unwrap()]);
+    assert!(o.status.success());
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.starts_with("q1,q2,q3,q4,q5,q6,x,y,z"));
+    assert_eq!(out.lines().count(), 8);
+}
+
+#[test]
+fn bad_settings_are_named() {
+    fails_naming(&["--delta", "0", "--backend", "cpu"], "--delta");
+    fails_naming(&["--delta", "-1", "--backend", "cpu"], "--delta");
+    fails_naming(&["--coverage", "1.5", "--backend", "cpu"], "--coverage");
+    fails_naming(&["--coverage", "0", "--backend", "cpu"], "--coverage");
+    fails_naming(&["--batch", "1000", "--backend", "cpu"], "--batch");
+    fails_naming(&["--points", "0", "--backend", "cpu"], "test points");
+    fails_naming(
+        &["--thresholds", "0.1,-2", "--backend", "cpu"],
+        "--thresholds",
+    );
+    fails_naming(&["--max-draws", "15000", "--backend", "cpu"], "--max-draws");
+    fails_naming(&["mcs", "--draws", "10", "--backend", "cpu"], "--draws");
+}
+
+#[test]
+fn bad_files_are_named_and_nothing_is_half_written() {
+    let d = tmpdir("bad");
+    let good = String::from_utf8(run(&["model"]).stdout).unwrap();
+    let cases = [
+        (
+            good.replacen("d = 0.02,", "d = -0.02,", 1),
+            "joint[1].sigma.d",
+        ),
+        (
+            good.replacen("d = 0.02,", "d = nan,", 1),
+            "joint[1].sigma.d",
+        ),
+        (
+            good.replacen(
+                "sigma = { theta = 0.005, d = 0.02,",
+                "sigma = { d = 0.02,",
+                1,
+            ),
+            "theta",
+        ),
+        (
+            good.replacen("fixed = \"beta\"", "fixed = \"beta\"\ncolour = 3", 1),
+            "colour",
+        ),
+    ];
+    for (i, (text, what)) in cases.iter().enumerate() {
+        assert_ne!(text, &good);
+        let f = d.join(format!("m{i}.toml"));
+        std::fs::write(&f, text).unwrap();
+        let out = d.join(format!("out{i}.json"));
+        fails_naming(
+            &[
+                "--model",
+                f.to_str().unwrap(),
+                "--json",
+                out.to_str().unwrap(),
+                "--backend",
+                "cpu",
+            ],
+            what,
+        );
+        assert!(!out.exists(), "an output file was written after an error");
+    }
+    let csv = d.join("p.csv");
+    std::fs::write(&csv, "q1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n0,0,x,0,0,0\n").unwrap();
+    fails_naming(
+        &["--points-file", csv.to_str().unwrap(), "--backend", "cpu"],
+        "line 3",
+    );
+    std::fs::write(&csv, "q1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n0,170,0,0,0,0\n").unwrap();
+    fails_naming(
+        &["--points-file", csv.to_str().unwrap(), "--backend", "cpu"],
+        "test point 2: q2",
+    );
+    std::fs::write(&csv, "q1,q2,q3,q4,q5\n0,0,0,0,0\n").unwrap();
+    fails_naming(
+        &["--points-file", csv.to_str().unwrap(), "--backend", "cpu"],
+        "q6",
+    );
+    std::fs::write(&csv, "q1,q2,q3,q4,q5,q6\n").unwrap();
+    fails_naming(
+        &["--points-file", csv.to_str().unwrap(), "--backend", "cpu"],
+        "no configurations",
+    );
+    // An output that is an input is refused, and the input survives.
+    std::fs::write(&csv, "q1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n").unwrap();
+    fails_naming(
+        &[
+            "--points-file",
+            csv.to_str().unwrap(),
+            "--json",
+            csv.to_str().unwrap(),
+            "--backend",
+            "cpu",
+        ],
+        "also an input",
+    );
+    assert_eq!(
+        std::fs::read_to_string(&csv).unwrap(),
+        "q1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n"
+    );
+    fails_naming(
+        &["--model", d.join("missing.toml").to_str().unwrap()],
+        "missing.toml",
+    );
+}
