@@ -37,9 +37,16 @@ fn problem(seed: u64) -> Problem {
 }
 
 fn main() {
-    let reps: usize = std::env::var("BENCH_REPS").ok().and_then(|s| s.parse().ok()).unwrap_or(7);
+    let reps: usize = std::env::var("BENCH_REPS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(7);
     let mut ev = CpuEvaluator::new(problem(1));
-    println!("machine: {} threads; backend {:?}", rayon::current_num_threads(), ev.info());
+    println!(
+        "machine: {} threads; backend {:?}",
+        rayon::current_num_threads(),
+        ev.info()
+    );
     println!("TX60, 50 test points; medians of {reps} runs (min–max)\n");
 
     let mut w = vec![0.0; 1_000_000];
@@ -59,30 +66,72 @@ fn main() {
 
     let exe = env!("CARGO_BIN_EXE_gpu-amcs");
     let (m, lo, hi) = time(reps, || {
-        let o = std::process::Command::new(exe).args(["--points", "50", "--delta", "0.01", "--backend", "cpu", "--quiet"]).output().unwrap();
+        let o = std::process::Command::new(exe)
+            .args([
+                "--points",
+                "50",
+                "--delta",
+                "0.01",
+                "--backend",
+                "cpu",
+                "--quiet",
+            ])
+            .output()
+            .unwrap();
         assert!(o.status.success());
     });
     println!("`gpu-amcs --points 50 --delta 0.01` (process, cpu)  {m:.3} s  ({lo:.3}–{hi:.3})");
     let (m, lo, hi) = time(reps.min(3), || {
-        let o = std::process::Command::new(exe).args(["mcs", "--draws", "1000000", "--points", "50", "--backend", "cpu", "--quiet"]).output().unwrap();
+        let o = std::process::Command::new(exe)
+            .args([
+                "mcs",
+                "--draws",
+                "1000000",
+                "--points",
+                "50",
+                "--backend",
+                "cpu",
+                "--quiet",
+            ])
+            .output()
+            .unwrap();
         assert!(o.status.success());
     });
     println!("`gpu-amcs mcs --draws 1000000` (process, cpu)       {m:.3} s  ({lo:.3}–{hi:.3})");
 
     println!("\nWhat δ buys (AMCS against MCS 10^6, seeds 1..=5 for AMCS, seed 100 for MCS):");
-    let mcs = run_mcs(&mut CpuEvaluator::new(problem(100)), &McsOptions::default(), None).unwrap();
-    println!("MCS: M1 {:.5} M2 {:.4e} M3 {:.4} M4 {:.4}", mcs.moments.mean, mcs.moments.variance, mcs.moments.skewness, mcs.moments.kurtosis);
-    println!("{:>7} {:>14} {:>14} {:>12}", "δ (mm)", "draws (median)", "MRE % (median)", "MRE % (max)");
+    let mcs = run_mcs(
+        &mut CpuEvaluator::new(problem(100)),
+        &McsOptions::default(),
+        None,
+    )
+    .unwrap();
+    println!(
+        "MCS: M1 {:.5} M2 {:.4e} M3 {:.4} M4 {:.4}",
+        mcs.moments.mean, mcs.moments.variance, mcs.moments.skewness, mcs.moments.kurtosis
+    );
+    println!(
+        "{:>7} {:>14} {:>14} {:>12}",
+        "δ (mm)", "draws (median)", "MRE % (median)", "MRE % (max)"
+    );
     for delta in [0.005, 0.01, 0.02, 0.002, 0.001] {
         let mut draws = Vec::new();
         let mut mres = Vec::new();
         for seed in 1..=5 {
-            let o = AmcsOptions { tolerance: Tolerance::Delta(delta), ..AmcsOptions::default() };
+            let o = AmcsOptions {
+                tolerance: Tolerance::Delta(delta),
+                ..AmcsOptions::default()
+            };
             let r = run_amcs(&mut CpuEvaluator::new(problem(seed)), &o, None).unwrap();
             draws.push(r.draws as f64);
             mres.push(max_relative_error(&r, &mcs));
         }
         let mx = mres.iter().cloned().fold(0.0, f64::max);
-        println!("{delta:>7} {:>14} {:>14.3} {:>12.3}", median(draws), median(mres), mx);
+        println!(
+            "{delta:>7} {:>14} {:>14.3} {:>12.3}",
+            median(draws),
+            median(mres),
+            mx
+        );
     }
 }

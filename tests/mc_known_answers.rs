@@ -76,9 +76,9 @@ fn irwin_hall4_quantile(p: f64) -> f64 {
     let cdf = |x: f64| {
         let binom = [1.0, 4.0, 6.0, 4.0, 1.0];
         let mut s = 0.0;
-        for k in 0..=4usize {
+        for (k, b) in binom.iter().enumerate() {
             if x > k as f64 {
-                s += if k % 2 == 0 { 1.0 } else { -1.0 } * binom[k] * (x - k as f64).powi(4);
+                s += if k % 2 == 0 { 1.0 } else { -1.0 } * b * (x - k as f64).powi(4);
             }
         }
         s / 24.0

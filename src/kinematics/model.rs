@@ -80,6 +80,7 @@ pub enum FixedParam {
 
 /// Spread of the parameters about their values (internal units: mm, rad).
 #[derive(Clone, Debug, PartialEq)]
+#[allow(clippy::large_enum_variant)] // one per model; boxing buys nothing
 pub enum Uncertainty {
     /// Independent normals with these standard deviations (0 = exactly known).
     Independent([f64; N_PARAMS]),

@@ -91,7 +91,7 @@ impl AmcsOptions {
 
 /// δ from u and ndig (GUM S1 §7.9.2).
 pub fn delta_from_ndig(u: f64, ndig: u32) -> f64 {
-    if !(u > 0.0) {
+    if u.is_nan() || u <= 0.0 {
         return f64::INFINITY;
     }
     let l = u.log10().floor() - f64::from(ndig) + 1.0;

@@ -37,7 +37,7 @@ pub fn coverage_interval(sorted: &[f64], p: f64, kind: IntervalKind) -> Coverage
         };
     }
     let r = match kind {
-        IntervalKind::Symmetric => ((m - q + 1) / 2).max(1),
+        IntervalKind::Symmetric => (m - q).div_ceil(2).max(1),
         IntervalKind::Shortest => {
             let mut best = 1;
             let mut width = f64::INFINITY;

@@ -169,8 +169,8 @@ mod tests {
         for i in 0..N_PARAMS {
             c[i * N_PARAMS + i] = s[i] * s[i];
         }
-        c[1 * N_PARAMS + 2] = 0.8 * s[1] * s[2];
-        c[2 * N_PARAMS + 1] = c[1 * N_PARAMS + 2];
+        c[N_PARAMS + 2] = 0.8 * s[1] * s[2];
+        c[2 * N_PARAMS + 1] = c[N_PARAMS + 2];
         m.uncertainty = Uncertainty::Covariance(c);
         let g = ParamSampler::new(&m, 3).unwrap();
         let n = 200_000;
