@@ -37,23 +37,29 @@ pub struct CpuEvaluator {
     avx2: bool,
 }
 
-/// `(sin δ, cos δ)`, by series for small δ.
+/// Offsets at or above this (radians) use `sin_cos` instead of the series.
+const SERIES_LIMIT: f64 = 0.01;
+
+/// `(sin δ, cos δ)` by Taylor series to δ⁷ and δ⁸: exact to f64 rounding for |δ| < 0.01 rad,
+/// the size of calibration spreads. Branch-free so it vectorises; see [`shifted_exact`].
 #[inline(always)]
 fn small_sin_cos(d: f64) -> (f64, f64) {
-    if d.abs() < 0.01 {
-        let d2 = d * d;
-        let s = d * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0)));
-        let c = 1.0 - d2 / 2.0 * (1.0 - d2 / 12.0 * (1.0 - d2 / 30.0 * (1.0 - d2 / 56.0)));
-        (s, c)
-    } else {
-        d.sin_cos()
-    }
+    let d2 = d * d;
+    let s = d * (1.0 - d2 / 6.0 * (1.0 - d2 / 20.0 * (1.0 - d2 / 42.0)));
+    let c = 1.0 - d2 / 2.0 * (1.0 - d2 / 12.0 * (1.0 - d2 / 30.0 * (1.0 - d2 / 56.0)));
+    (s, c)
 }
 
-/// `(sin(x0+δ), cos(x0+δ))` from `(sin x0, cos x0)`.
+/// `(sin(x0+δ), cos(x0+δ))` from `(sin x0, cos x0)`, for |δ| < [`SERIES_LIMIT`].
 #[inline(always)]
 fn shifted((s0, c0): (f64, f64), d: f64) -> (f64, f64) {
     let (sd, cd) = small_sin_cos(d);
+    (s0 * cd + c0 * sd, c0 * cd - s0 * sd)
+}
+
+/// The same for any δ (large offsets: `sin_cos`).
+fn shifted_exact((s0, c0): (f64, f64), d: f64) -> (f64, f64) {
+    let (sd, cd) = d.sin_cos();
     (s0 * cd + c0 * sd, c0 * cd - s0 * sd)
 }
 
@@ -95,42 +101,65 @@ impl CpuEvaluator {
         &self.problem
     }
 
-    fn fill_lanes(&self, first: u64, count: usize, jl: &mut JointLanes) {
+    #[inline(always)]
+    fn fill_lanes(&self, first: u64, jl: &mut JointLanes) {
         let mean = &self.problem.sampler.mean;
-        let mut d = [0.0; N_PARAMS];
-        for l in 0..LANES {
-            // Lanes past `count` repeat the last draw; their results are discarded.
-            let k = first + l.min(count - 1) as u64;
-            self.problem.sampler.deltas(k, &mut d);
-            for (j, lanes) in jl.iter_mut().enumerate() {
-                let t = &self.mean_trig[j];
-                let (st, ct) = shifted(t[0], d[5 * j]);
-                let (sa, ca) = shifted(t[1], d[5 * j + 3]);
-                let (sb, cb) = shifted(t[2], d[5 * j + 4]);
-                let vals = [
-                    ct,
-                    st,
-                    ca,
-                    sa,
-                    cb,
-                    sb,
-                    mean[5 * j + 2] + d[5 * j + 2],
-                    mean[5 * j + 1] + d[5 * j + 1],
-                ];
-                for (q, v) in vals.iter().enumerate() {
-                    lanes[q][l] = *v;
+        let mut d = [[0.0; LANES]; N_PARAMS];
+        // Lanes past the end of the request compute draws that are then discarded.
+        self.problem.sampler.deltas_lanes::<LANES>(first, &mut d);
+        for (j, lanes) in jl.iter_mut().enumerate() {
+            let t = &self.mean_trig[j];
+            for (slot, (idx, base)) in [
+                (0, (5 * j, t[0])),
+                (2, (5 * j + 3, t[1])),
+                (4, (5 * j + 4, t[2])),
+            ] {
+                for l in 0..LANES {
+                    let (s, c) = shifted(base, d[idx][l]);
+                    lanes[slot][l] = c;
+                    lanes[slot + 1][l] = s;
                 }
+                for l in 0..LANES {
+                    if d[idx][l].abs() >= SERIES_LIMIT {
+                        let (s, c) = shifted_exact(base, d[idx][l]);
+                        lanes[slot][l] = c;
+                        lanes[slot + 1][l] = s;
+                    }
+                }
+            }
+            for l in 0..LANES {
+                lanes[6][l] = mean[5 * j + 2] + d[5 * j + 2][l];
+                lanes[7][l] = mean[5 * j + 1] + d[5 * j + 1][l];
             }
         }
     }
 
-    fn eval_chunk(&self, first: u64, w: &mut [f64], mut e: Option<&mut [f64]>) {
+    fn eval_chunk(&self, first: u64, w: &mut [f64], e: Option<&mut [f64]>) {
+        #[cfg(target_arch = "x86_64")]
+        if self.avx2 {
+            // SAFETY: the processor supports AVX2 (checked at construction).
+            unsafe { self.eval_chunk_avx2(first, w, e) };
+            return;
+        }
+        self.eval_chunk_impl(first, w, e);
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn eval_chunk_avx2(&self, first: u64, w: &mut [f64], e: Option<&mut [f64]>) {
+        self.eval_chunk_impl(first, w, e);
+    }
+
+    /// Draw generation and kinematics of one rayon task, inlined into the AVX2 or the portable
+    /// entry so that both the per-draw work and the point loop vectorise.
+    #[inline(always)]
+    fn eval_chunk_impl(&self, first: u64, w: &mut [f64], mut e: Option<&mut [f64]>) {
         let m = self.points.len();
         let mut jl: JointLanes = [[[0.0; LANES]; 8]; JOINTS];
         let mut e_lanes = vec![0.0; if e.is_some() { LANES * m } else { 0 }];
         for (b, wb) in w.chunks_mut(LANES).enumerate() {
             let k0 = first + (b * LANES) as u64;
-            self.fill_lanes(k0, wb.len(), &mut jl);
+            self.fill_lanes(k0, &mut jl);
             let mut w2 = [0.0f64; LANES];
             let el = if e.is_some() {
                 Some(e_lanes.as_mut_slice())
@@ -148,28 +177,10 @@ impl CpuEvaluator {
         }
     }
 
-    #[inline]
+    #[inline(always)]
     fn run_block(&self, jl: &JointLanes, w2: &mut [f64; LANES], e: Option<&mut [f64]>) {
-        #[cfg(target_arch = "x86_64")]
-        if self.avx2 {
-            // SAFETY: the processor supports AVX2 (checked at construction).
-            unsafe { block_avx2(jl, &self.problem.model.tool, &self.points, w2, e) };
-            return;
-        }
         block_kernel(jl, &self.problem.model.tool, &self.points, w2, e);
     }
-}
-
-#[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2")]
-unsafe fn block_avx2(
-    jl: &JointLanes,
-    tool: &[f64; 3],
-    pts: &[PointPre],
-    w2: &mut [f64; LANES],
-    e: Option<&mut [f64]>,
-) {
-    block_kernel(jl, tool, pts, w2, e)
 }
 
 /// Squared maximum point error of `LANES` draws (and per-point errors, lane-major).

@@ -5,8 +5,8 @@
 //! Parameter `i` always uses standard normal number `i` of its draw, so a diagonal covariance and
 //! the equivalent σ list give bit-identical draws.
 
-use super::normal::normals_block;
-use super::philox::Philox;
+use super::normal::box_muller;
+use super::philox::{philox4x32_10_lanes, Philox};
 use crate::kinematics::{RobotModel, Uncertainty, N_PARAMS};
 
 /// Normals available per draw (8 Philox blocks of 4).
@@ -93,32 +93,61 @@ impl ParamSampler {
         }
     }
 
-    /// Standard normals of draw `k` (only the blocks some free parameter uses are filled).
-    #[inline]
-    pub fn normals(&self, k: u64, z: &mut [f64; MAX_NORMALS]) {
-        for &b in &self.blocks {
-            let v = normals_block(&self.gen, k, b, PARAM_STREAM);
-            z[4 * b as usize..4 * b as usize + 4].copy_from_slice(&v);
-        }
+    /// Philox blocks (of 4 normals) that some free parameter uses.
+    pub fn blocks(&self) -> &[u32] {
+        &self.blocks
     }
 
     /// Offsets `δ = μ_k − μ` of draw `k` from the mean (mm, radians).
     #[inline]
     pub fn deltas(&self, k: u64, out: &mut [f64; N_PARAMS]) {
-        let mut z = [0.0; MAX_NORMALS];
-        self.normals(k, &mut z);
+        let mut lanes = [[0.0; 1]; N_PARAMS];
+        self.deltas_lanes::<1>(k, &mut lanes);
+        for (o, l) in out.iter_mut().zip(&lanes) {
+            *o = l[0];
+        }
+    }
+
+    /// Offsets of draws `first … first + L − 1` at once, `out[i][l]` = parameter i of draw
+    /// `first + l` (the lane layout vectorises; [`Self::deltas`] is the one-lane case, so both
+    /// give the same bits).
+    #[inline(always)]
+    pub fn deltas_lanes<const L: usize>(&self, first: u64, out: &mut [[f64; L]; N_PARAMS]) {
+        let mut z = [[0.0; L]; MAX_NORMALS];
+        let lo: [u32; L] = std::array::from_fn(|l| (first + l as u64) as u32);
+        let hi: [u32; L] = std::array::from_fn(|l| ((first + l as u64) >> 32) as u32);
+        for &b in &self.blocks {
+            let w = philox4x32_10_lanes([lo, hi, [b; L], [PARAM_STREAM; L]], self.gen.key);
+            let base = 4 * b as usize;
+            for l in 0..L {
+                let (a, bb) = box_muller(w[0][l], w[1][l]);
+                let (c, d) = box_muller(w[2][l], w[3][l]);
+                z[base][l] = a;
+                z[base + 1][l] = bb;
+                z[base + 2][l] = c;
+                z[base + 3][l] = d;
+            }
+        }
         match &self.form {
             Form::Independent(s) => {
                 for i in 0..N_PARAMS {
-                    out[i] = s[i] * z[i];
+                    for l in 0..L {
+                        out[i][l] = s[i] * z[i][l];
+                    }
                 }
             }
             Form::Correlated { free, chol } => {
-                *out = [0.0; N_PARAMS];
+                *out = [[0.0; L]; N_PARAMS];
                 let n = free.len();
                 for a in 0..n {
-                    let row = &chol[a * n..a * n + a + 1];
-                    out[free[a]] = row.iter().zip(free).map(|(l, &fb)| l * z[fb]).sum();
+                    let mut acc = [0.0; L];
+                    for (b, &fb) in free.iter().enumerate().take(a + 1) {
+                        let lab = chol[a * n + b];
+                        for l in 0..L {
+                            acc[l] += lab * z[fb][l];
+                        }
+                    }
+                    out[free[a]] = acc;
                 }
             }
         }
