@@ -23,8 +23,8 @@ pub fn uniform_open(x: u32) -> f64 {
 /// (truncation < 1e-18 for |s| ≤ 0.1716), `ln 2` split in a high and a low part.
 #[inline(always)]
 pub fn ln_open_unit(x: u32) -> f64 {
-    const LN2_HI: f64 = 6.931_471_803_691_238_164_90e-1;
-    const LN2_LO: f64 = 1.908_214_929_270_587_700_02e-10;
+    const LN2_HI: f64 = 0.693_147_180_369_123_8;
+    const LN2_LO: f64 = 1.908_214_929_270_587_7e-10;
     let v = f64::from(x) + 0.5;
     let bits = v.to_bits();
     let mut e = ((bits >> 52) & 0x7ff) as i32 - 1023;
