@@ -85,10 +85,10 @@ pub struct ProblemArgs {
     #[arg(long, default_value_t = 1, value_name = "SEED")]
     pub points_seed: u64,
     /// Workspace box centre for generated points, mm: x,y,z.
-    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [250.0, 0.0, 200.0], value_name = "X,Y,Z", allow_hyphen_values = true)]
+    #[arg(long, value_delimiter = ',', default_values_t = [250.0, 0.0, 200.0], value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub box_center: Vec<f64>,
     /// Workspace box edge lengths for generated points, mm: x,y,z.
-    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [900.0, 1200.0, 800.0], value_name = "X,Y,Z")]
+    #[arg(long, value_delimiter = ',', default_values_t = [900.0, 1200.0, 800.0], value_name = "X,Y,Z")]
     pub box_size: Vec<f64>,
     /// Seed of the parameter draws.
     #[arg(long, default_value_t = 2025, value_name = "SEED")]
@@ -242,10 +242,10 @@ pub struct PointsArgs {
     #[arg(long, default_value_t = 1, value_name = "SEED")]
     pub points_seed: u64,
     /// Workspace box centre, mm: x,y,z.
-    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [250.0, 0.0, 200.0], value_name = "X,Y,Z", allow_hyphen_values = true)]
+    #[arg(long, value_delimiter = ',', default_values_t = [250.0, 0.0, 200.0], value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub box_center: Vec<f64>,
     /// Workspace box edge lengths, mm: x,y,z.
-    #[arg(long, value_delimiter = ',', num_args = 3, default_values_t = [900.0, 1200.0, 800.0], value_name = "X,Y,Z")]
+    #[arg(long, value_delimiter = ',', default_values_t = [900.0, 1200.0, 800.0], value_name = "X,Y,Z")]
     pub box_size: Vec<f64>,
     /// Write to FILE instead of stdout.
     #[arg(long, short, value_name = "FILE")]

@@ -48,11 +48,17 @@ fn guard_outputs(inputs: &[&Path], outputs: &[&Path]) -> Result<()> {
     Ok(())
 }
 
-fn box_of(center: &[f64], size: &[f64]) -> WorkspaceBox {
-    WorkspaceBox {
-        center: [center[0], center[1], center[2]],
-        size: [size[0], size[1], size[2]],
-    }
+fn box_of(center: &[f64], size: &[f64]) -> Result<WorkspaceBox> {
+    let three = |v: &[f64], flag: &str| -> Result<[f64; 3]> {
+        match v {
+            [x, y, z] => Ok([*x, *y, *z]),
+            _ => bail!("{flag} needs three numbers x,y,z (mm), got {}", v.len()),
+        }
+    };
+    Ok(WorkspaceBox {
+        center: three(center, "--box-center")?,
+        size: three(size, "--box-size")?,
+    })
 }
 
 struct Built {
@@ -76,7 +82,7 @@ fn build_problem(a: &ProblemArgs) -> Result<Built> {
         None => points::generate(
             &model,
             a.points,
-            &box_of(&a.box_center, &a.box_size),
+            &box_of(&a.box_center, &a.box_size)?,
             a.points_seed,
         )
         .context("--points")?,
@@ -337,7 +343,7 @@ fn run_points(a: PointsArgs) -> Result<()> {
     let pts = points::generate(
         &model,
         a.n,
-        &box_of(&a.box_center, &a.box_size),
+        &box_of(&a.box_center, &a.box_size)?,
         a.points_seed,
     )?;
     let inputs: Vec<&Path> = a.model.as_deref().into_iter().collect();

@@ -200,6 +200,7 @@ fn bad_settings_are_named() {
     );
     fails_naming(&["--max-draws", "15000", "--backend", "cpu"], "--max-draws");
     fails_naming(&["mcs", "--draws", "10", "--backend", "cpu"], "--draws");
+    fails_naming(&["--box-center", "1,2", "--backend", "cpu"], "--box-center");
 }
 
 #[test]
