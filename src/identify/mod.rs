@@ -30,7 +30,7 @@ pub mod mdh;
 pub mod sweeps;
 pub mod validate;
 
-pub use circle::{fit_circle, CircleFit, CircleFitError, CircleFitMethod, MIN_ARC_DEG};
+pub use circle::{fit_circle, AxisPrior, CircleFit, CircleFitError, CircleFitMethod, MIN_ARC_DEG};
 pub use lines::{common_normal, CommonNormal, Line, LineRelation};
 pub use mdh::PARALLEL_THRESHOLD_DEG;
 pub use sweeps::{parse_sweeps, read_sweeps, write_sweeps, Sweep, SweepData, SweepPoint, SweepRun};
@@ -135,11 +135,29 @@ pub enum IdentifyError {
     NoData(String),
 }
 
+/// Default σ of the nominal-axis-direction prior, degrees (see [`circle::AxisPrior`]): a
+/// generous bound on how far a real axis is from its design direction (the simulated robots'
+/// axes are within ~0.06°).
+pub const NOMINAL_AXIS_SIGMA_DEG: f64 = 0.1;
+
 /// Options of [`identify`].
-#[derive(Clone, Copy, Debug, Default, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IdentifyOptions {
     /// Circle model (default: [`CircleFitMethod::CommandedAngles`]).
     pub method: CircleFitMethod,
+    /// σ (degrees) of the prior that pulls each fitted axis direction towards the nominal model's
+    /// axis at the sweep's home pose ([`circle::AxisPrior`]); `None` fits the data alone.
+    /// Default: `Some(NOMINAL_AXIS_SIGMA_DEG)`.
+    pub nominal_axis_sigma_deg: Option<f64>,
+}
+
+impl Default for IdentifyOptions {
+    fn default() -> Self {
+        IdentifyOptions {
+            method: CircleFitMethod::CommandedAngles,
+            nominal_axis_sigma_deg: Some(NOMINAL_AXIS_SIGMA_DEG),
+        }
+    }
 }
 
 /// What identification found for one joint.
@@ -277,10 +295,19 @@ pub fn identify_run(
             .iter()
             .map(|p| p.q_deg[j - 1].to_radians())
             .collect();
-        let fit = fit_circle(&pts, &qs, options.method).map_err(|source| IdentifyError::Fit {
-            joint: j,
-            run: label.clone(),
-            source,
+        let prior = options.nominal_axis_sigma_deg.map(|sigma| {
+            let (r, _) = mdh::frame(&nominal.params, j - 1, &home.map(f64::to_radians));
+            circle::AxisPrior {
+                direction: r * Vector3::z(),
+                sigma_rad: sigma.to_radians(),
+            }
+        });
+        let fit = fit_circle(&pts, &qs, options.method, prior.as_ref()).map_err(|source| {
+            IdentifyError::Fit {
+                joint: j,
+                run: label.clone(),
+                source,
+            }
         })?;
         axes.push(mdh::MeasuredAxis {
             line: Line {
