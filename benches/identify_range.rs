@@ -6,11 +6,12 @@
 //! (30, −20, 80) mm) are identified and each identified model is evaluated at 100 random held-out
 //! configurations within the joint limits against the true robot. Printed: mean and worst (over
 //! robots) of the held-out RMS error, and the nominal model's RMS for reference. Also the time per
-//! identification. Run with `cargo bench --bench identify_range`.
+//! identification. Rows: the plain circle-point fits (point cloud, commanded angles), each with
+//! the nominal-geometry prior (`NominalPrior::default()`: 0.1°, 1 mm), and the commanded-angle fit
+//! followed by the whole-chain refinement without and with the prior (the last row is
+//! `IdentifyOptions::default()`). Run with `cargo bench --bench identify_range`.
 
-use gpu_amcs::identify::{
-    accuracy, identify, CircleFitMethod, IdentifyOptions, NOMINAL_AXIS_SIGMA_DEG,
-};
+use gpu_amcs::identify::{accuracy, identify, CircleFitMethod, IdentifyOptions, NominalPrior};
 use gpu_amcs::kinematics::tx60;
 use gpu_amcs::simulate::{
     measure_positions, perturbed_model, random_configurations, simulate_sweeps, ParameterErrors,
@@ -32,17 +33,28 @@ fn main() {
         SIGMA_MM * 1e3
     );
     println!(
-        "{:>7} {:>18} {:>7} {:>10} {:>10} {:>10} {:>12}",
-        "range", "fit", "prior", "mean RMS", "worst RMS", "mean max", "ms / ident"
+        "{:>7} {:>18} {:>6} {:>7} {:>10} {:>10} {:>10} {:>12}",
+        "range", "fit", "prior", "refine", "mean RMS", "worst RMS", "mean max", "ms / ident"
     );
     for fraction in [0.10, 0.25, 0.50, 0.75, 1.00] {
-        for (method, prior) in [
-            (CircleFitMethod::PointCloud, None),
-            (CircleFitMethod::CommandedAngles, None),
-            (CircleFitMethod::PointCloud, Some(NOMINAL_AXIS_SIGMA_DEG)),
+        for (method, prior, refine) in [
+            (CircleFitMethod::PointCloud, None, false),
+            (CircleFitMethod::CommandedAngles, None, false),
+            (
+                CircleFitMethod::PointCloud,
+                Some(NominalPrior::default()),
+                false,
+            ),
             (
                 CircleFitMethod::CommandedAngles,
-                Some(NOMINAL_AXIS_SIGMA_DEG),
+                Some(NominalPrior::default()),
+                false,
+            ),
+            (CircleFitMethod::CommandedAngles, None, true),
+            (
+                CircleFitMethod::CommandedAngles,
+                Some(NominalPrior::default()),
+                true,
             ),
         ] {
             let plan = SweepPlan {
@@ -72,7 +84,8 @@ fn main() {
                     &nominal,
                     &IdentifyOptions {
                         method,
-                        nominal_axis_sigma_deg: prior,
+                        nominal_prior: prior,
+                        refine,
                     },
                 );
                 secs += t.elapsed().as_secs_f64();
@@ -91,12 +104,11 @@ fn main() {
             }
             let n = ROBOTS as f64;
             println!(
-                "{:>6.0}% {:>18} {:>7} {:>10.4} {:>10.4} {:>10.4} {:>12.2}",
+                "{:>6.0}% {:>18} {:>6} {:>7} {:>10.4} {:>10.4} {:>10.4} {:>12.2}",
                 fraction * 100.0,
                 method.name(),
-                prior
-                    .map(|p| format!("{p}°"))
-                    .unwrap_or_else(|| "none".into()),
+                if prior.is_some() { "yes" } else { "no" },
+                if refine { "yes" } else { "no" },
                 sum / n,
                 worst,
                 sum_max / n,

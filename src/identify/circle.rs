@@ -460,7 +460,7 @@ fn commanded(
 }
 
 /// Levenberg–Marquardt with a central-difference Jacobian over a local update `apply(state, δ)`.
-fn levenberg_marquardt<S: Clone>(
+pub(crate) fn levenberg_marquardt<S: Clone>(
     seed: S,
     steps: &[f64],
     apply: impl Fn(&S, &[f64]) -> S,

@@ -27,6 +27,7 @@
 pub mod circle;
 pub mod lines;
 pub mod mdh;
+pub mod refine;
 pub mod sweeps;
 pub mod validate;
 
@@ -135,27 +136,55 @@ pub enum IdentifyError {
     NoData(String),
 }
 
-/// Default σ of the nominal-axis-direction prior, degrees (see [`circle::AxisPrior`]): a
-/// generous bound on how far a real axis is from its design direction (the simulated robots'
-/// axes are within ~0.06°).
-pub const NOMINAL_AXIS_SIGMA_DEG: f64 = 0.1;
+/// Default σ of the nominal-geometry prior on angles (axis directions, θ, α, β), degrees: a
+/// generous bound on how far a real robot is from its design (the simulated robots' parameters
+/// are within 0.03°, their axes within ~0.06°).
+pub const NOMINAL_ANGLE_SIGMA_DEG: f64 = 0.1;
+/// Default σ of the nominal-geometry prior on lengths (d, a), mm.
+pub const NOMINAL_LENGTH_SIGMA_MM: f64 = 1.0;
+
+/// Prior knowledge that the robot is close to its nominal geometry, used where the data leave a
+/// quantity almost free (short arcs): see [`circle::AxisPrior`] and [`refine::refine_chain`].
+/// The data are weighted by the tracker noise estimated from the fit itself, so with long arcs or
+/// noise-free data the prior has no effect.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NominalPrior {
+    /// σ of angles (axis tilt, θ, α, β), degrees.
+    pub angle_sigma_deg: f64,
+    /// σ of lengths (d, a), mm.
+    pub length_sigma_mm: f64,
+}
+
+impl Default for NominalPrior {
+    fn default() -> Self {
+        NominalPrior {
+            angle_sigma_deg: NOMINAL_ANGLE_SIGMA_DEG,
+            length_sigma_mm: NOMINAL_LENGTH_SIGMA_MM,
+        }
+    }
+}
 
 /// Options of [`identify`].
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IdentifyOptions {
     /// Circle model (default: [`CircleFitMethod::CommandedAngles`]).
     pub method: CircleFitMethod,
-    /// σ (degrees) of the prior that pulls each fitted axis direction towards the nominal model's
-    /// axis at the sweep's home pose ([`circle::AxisPrior`]); `None` fits the data alone.
-    /// Default: `Some(NOMINAL_AXIS_SIGMA_DEG)`.
-    pub nominal_axis_sigma_deg: Option<f64>,
+    /// Prior towards the nominal geometry: each fitted axis direction towards the nominal
+    /// model's axis at the sweep's home pose ([`circle::AxisPrior`]) and, in the refinement, each
+    /// parameter towards its nominal value. `None` uses the data alone. Default:
+    /// `Some(NominalPrior::default())`.
+    pub nominal_prior: Option<NominalPrior>,
+    /// Refine the circle-point result by least squares over all sweep points ([`refine`]).
+    /// Default: `true`.
+    pub refine: bool,
 }
 
 impl Default for IdentifyOptions {
     fn default() -> Self {
         IdentifyOptions {
             method: CircleFitMethod::CommandedAngles,
-            nominal_axis_sigma_deg: Some(NOMINAL_AXIS_SIGMA_DEG),
+            nominal_prior: Some(NominalPrior::default()),
+            refine: true,
         }
     }
 }
@@ -295,11 +324,11 @@ pub fn identify_run(
             .iter()
             .map(|p| p.q_deg[j - 1].to_radians())
             .collect();
-        let prior = options.nominal_axis_sigma_deg.map(|sigma| {
+        let prior = options.nominal_prior.map(|pr| {
             let (r, _) = mdh::frame(&nominal.params, j - 1, &home.map(f64::to_radians));
             circle::AxisPrior {
                 direction: r * Vector3::z(),
-                sigma_rad: sigma.to_radians(),
+                sigma_rad: pr.angle_sigma_deg.to_radians(),
             }
         });
         let fit = fit_circle(&pts, &qs, options.method, prior.as_ref()).map_err(|source| {
@@ -328,7 +357,20 @@ pub fn identify_run(
                 .collect()
         })
         .unwrap_or_default();
-    let chain = mdh::axes_to_chain(nominal, &axes, &tool_points)?;
+    let mut chain = mdh::axes_to_chain(nominal, &axes, &tool_points)?;
+    if options.refine {
+        let prior = options.nominal_prior.map(|p| {
+            (
+                &nominal.params,
+                p.length_sigma_mm,
+                p.angle_sigma_deg.to_radians(),
+            )
+        });
+        let (params, tool, _) =
+            refine::refine_chain(run, &chain.params, &chain.fixed, &chain.tool, prior);
+        chain.params = params;
+        chain.tool = tool;
+    }
 
     let base_z = Line {
         point: Vector3::zeros(),
