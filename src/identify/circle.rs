@@ -86,7 +86,10 @@ impl AxisPrior {
         fitted: &Vector3<f64>,
         noise_mm: f64,
     ) -> Option<(f64, Vector3<f64>, Vector3<f64>)> {
-        if !(self.sigma_rad > 0.0) || fitted.dot(&self.direction) <= 0.0 || !noise_mm.is_finite() {
+        if self.sigma_rad.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+            || fitted.dot(&self.direction) <= 0.0
+            || !noise_mm.is_finite()
+        {
             return None;
         }
         let d = self.direction.normalize();

@@ -29,7 +29,7 @@ impl Line {
     /// finite.
     pub fn new(point: Vector3<f64>, dir: Vector3<f64>) -> Option<Self> {
         let n = dir.norm();
-        if !(n.is_finite() && n > 0.0) || !point.iter().all(|v| v.is_finite()) {
+        if !(n.is_finite() && n > 0.0 && point.iter().all(|v| v.is_finite())) {
             return None;
         }
         Some(Line {

@@ -245,7 +245,7 @@ mod tests {
         for (p, fx) in [
             ([0.3, 12.0, 4.0, -1.2, 0.0], FixedParam::Beta),
             ([-1.6, 0.0, 290.0, 0.002, 0.001], FixedParam::D),
-            ([1.57, 20.0, -0.2, 1.5708, 0.0], FixedParam::Beta),
+            ([1.57, 20.0, -0.2, 1.5, 0.0], FixedParam::Beta),
         ] {
             let q = 0.4;
             let m = joint_transform(p[0], p[1], p[2], p[3], p[4], q);
@@ -297,8 +297,8 @@ mod tests {
         for k in 0..N_PARAMS {
             assert!((c.params[k] - m.params[k]).abs() < 1e-9, "param {k}");
         }
-        for k in 0..3 {
-            assert!((c.tool[k] - tool[k]).abs() < 1e-9);
+        for (a, b) in c.tool.iter().zip(&tool) {
+            assert!((a - b).abs() < 1e-9);
         }
     }
 }

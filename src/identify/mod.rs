@@ -5,8 +5,29 @@
 //! it). Per run and joint: the sweep is checked ([`check_sweep`]), a circle is fitted
 //! ([`circle::fit_circle`], by [`CircleFitMethod`]) giving the joint's axis line in the base frame;
 //! consecutive axes give the MDH parameters ([`mdh`]) and the J6 sweep the tool point. The
-//! conventions for what point measurements cannot separate are documented in [`mdh`].
-//! [`validate`] compares a model's predictions with measured positions.
+//! conventions for what point measurements cannot separate are documented in [`mdh`]. By default
+//! ([`IdentifyOptions::default`]) two further steps use the commanded angles and the design:
+//! a prior that keeps poorly determined quantities near the nominal geometry ([`NominalPrior`],
+//! [`circle::AxisPrior`]) and a whole-chain least-squares refinement over all sweep points
+//! ([`refine`]); both can be switched off to get the plain circle-point result.
+//! [`validate()`] compares a model's predictions with measured positions.
+//!
+//! Held-out RMS error on simulated TX60s (perturbed by 0.3 mm / 0.03°, tool (30, −20, 80) mm,
+//! σ = 10 µm, 2° steps; `cargo bench --bench identify_range`, 20 robots; nominal model 0.87 mm):
+//!
+//! | range | point cloud | commanded angles | default (commanded + prior + refinement) |
+//! |-------|-------------|------------------|------------------------------------------|
+//! | 10 %  | 5.18 mm     | 2.81 mm          | 0.45 mm                                  |
+//! | 25 %  | 0.50 mm     | 0.29 mm          | 0.19 mm                                  |
+//! | 50 %  | 0.096 mm    | 0.066 mm         | 0.044 mm                                 |
+//! | 75 %  | 0.040 mm    | 0.027 mm         | 0.020 mm                                 |
+//! | 100 % | 0.018 mm    | 0.015 mm         | 0.012 mm                                 |
+//!
+//! Why short arcs are hard whatever the circle model: a rigid tilt of the circle about the arc's
+//! tangent moves the points only by the sagitta, so the axis tilt is fixed by `σ/(r(1−cos Δ/2))`
+//! and the resulting position error `~ 8σ/(Δ²√N)` does not depend on the radius. The
+//! commanded angles pin the radius and the centre along the chord (so they beat the point cloud
+//! at every range), but not that tilt; the nominal prior bounds it.
 //!
 //! The identified model copies the nominal model's name (suffixed), joint limits and structure
 //! (`fixed`, except where [`mdh::PARALLEL_THRESHOLD_DEG`] switches a pair to the `β` form). Its
@@ -22,6 +43,7 @@
 //! let data = simulate_sweeps(&truth, &SweepPlan::default(), 0.0, 1, 1);
 //! let ids = identify(&data, &tx60(), &IdentifyOptions::default()).unwrap();
 //! assert!((ids[0].model.tool[0] - 30.0).abs() < 1e-6);
+//! println!("{}", gpu_amcs::identify::render_identify_report(&ids[0].report));
 //! ```
 
 pub mod circle;
@@ -267,15 +289,15 @@ pub fn check_sweep(sweep: &Sweep, run: Option<&str>) -> Result<[f64; JOINTS], Id
     }
     let home = first.q_deg;
     for p in &sweep.points {
-        for k in 0..JOINTS {
-            if k + 1 != sweep.joint && (p.q_deg[k] - home[k]).abs() > HOME_TOLERANCE_DEG {
+        for (k, (&q, &h)) in p.q_deg.iter().zip(&home).enumerate() {
+            if k + 1 != sweep.joint && (q - h).abs() > HOME_TOLERANCE_DEG {
                 return Err(IdentifyError::OtherJointMoved {
                     joint: sweep.joint,
                     run: label,
                     line: p.line,
                     other: k + 1,
-                    value: p.q_deg[k],
-                    home: home[k],
+                    value: q,
+                    home: h,
                 });
             }
         }

@@ -55,7 +55,11 @@ impl SweepPlan {
     /// The commanded angles of joint `joint` (1-based) in its sweep, degrees, ascending. Empty for
     /// a joint outside 1–6 or a non-positive step or fraction.
     pub fn sweep_angles(&self, joint: usize) -> Vec<f64> {
-        if !(1..=JOINTS).contains(&joint) || !(self.step_deg > 0.0) || !(self.range_fraction > 0.0)
+        if !(1..=JOINTS).contains(&joint)
+            || self.step_deg.is_nan()
+            || self.step_deg <= 0.0
+            || self.range_fraction.is_nan()
+            || self.range_fraction <= 0.0
         {
             return Vec::new();
         }
