@@ -76,7 +76,7 @@ pub const HOME_TOLERANCE_DEG: f64 = 1e-6;
 #[derive(Debug, thiserror::Error)]
 pub enum IdentifyError {
     /// A file could not be read or written.
-    #[error("cannot read {path}: {source}")]
+    #[error("{path}: {source}")]
     Io {
         /// The path given.
         path: String,
