@@ -36,8 +36,10 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod engine;
+pub mod identify;
 pub mod kinematics;
 pub mod mc;
 pub mod points;
 pub mod report;
 pub mod sampling;
+pub mod simulate;

@@ -1,0 +1,255 @@
+//! Positioning accuracy of a model against measured positions (the paper's accuracy check,
+//! METHOD.md §5: mean absolute positioning error before and after calibration).
+//!
+//! Input CSV header `q1,q2,q3,q4,q5,q6,x,y,z`: commanded joint angles (deg) and the measured
+//! target position (mm, base frame). The error at a point is `‖P(model, q) − p_measured‖`;
+//! [`validate`] reports its mean, RMS and maximum for a model and optionally for a nominal model,
+//! with the improvement in percent ([`Validation::improvement_percent`]).
+
+use super::sweeps::{column_indices, csv_error, csv_reader, parse_number};
+use super::IdentifyError;
+use crate::kinematics::{position, RobotModel, JOINTS};
+use std::fmt::Write as _;
+use std::io::{Read, Write};
+use std::path::Path;
+
+/// The columns of a measurement file.
+pub const MEASUREMENT_COLUMNS: [&str; 9] = ["q1", "q2", "q3", "q4", "q5", "q6", "x", "y", "z"];
+
+/// A measured position at commanded joint angles.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Measurement {
+    /// Commanded joint angles, degrees.
+    pub q_deg: [f64; JOINTS],
+    /// Measured target position, mm, base frame.
+    pub position_mm: [f64; 3],
+    /// Line in the CSV file (for generated data: the line it has when written).
+    pub line: u64,
+}
+
+/// Reads a measurement CSV file.
+pub fn read_measurements(path: &Path) -> Result<Vec<Measurement>, IdentifyError> {
+    let origin = path.display().to_string();
+    let file = std::fs::File::open(path).map_err(|source| IdentifyError::Io {
+        path: origin.clone(),
+        source,
+    })?;
+    parse_measurements(file, &origin)
+}
+
+/// Parses measurement CSV text; `origin` names the source in errors.
+pub fn parse_measurements<R: Read>(
+    reader: R,
+    origin: &str,
+) -> Result<Vec<Measurement>, IdentifyError> {
+    let mut rdr = csv_reader(reader);
+    let header = rdr.headers().map_err(|e| csv_error(e, origin))?.clone();
+    let cols = column_indices(&header, &MEASUREMENT_COLUMNS, origin)?;
+    let mut out = Vec::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| csv_error(e, origin))?;
+        let line = rec.position().map(|p| p.line()).unwrap_or(0);
+        let mut v = [0.0; 9];
+        for (k, x) in v.iter_mut().enumerate() {
+            *x = parse_number(&rec, cols[k], MEASUREMENT_COLUMNS[k], line, origin, "")?;
+        }
+        out.push(Measurement {
+            q_deg: [v[0], v[1], v[2], v[3], v[4], v[5]],
+            position_mm: [v[6], v[7], v[8]],
+            line,
+        });
+    }
+    if out.is_empty() {
+        return Err(IdentifyError::Empty {
+            origin: origin.to_string(),
+        });
+    }
+    Ok(out)
+}
+
+/// Writes measurements in the format [`parse_measurements`] reads.
+pub fn write_measurements<W: Write>(m: &[Measurement], writer: W) -> Result<(), IdentifyError> {
+    let io = |e: csv::Error| IdentifyError::Io {
+        path: "<measurement output>".into(),
+        source: std::io::Error::other(e.to_string()),
+    };
+    let mut w = csv::Writer::from_writer(writer);
+    w.write_record(MEASUREMENT_COLUMNS).map_err(io)?;
+    for p in m {
+        let row: Vec<String> = p
+            .q_deg
+            .iter()
+            .chain(&p.position_mm)
+            .map(|v| format!("{v:?}"))
+            .collect();
+        w.write_record(&row).map_err(io)?;
+    }
+    w.flush().map_err(|source| IdentifyError::Io {
+        path: "<measurement output>".into(),
+        source,
+    })
+}
+
+/// Positioning error statistics, mm.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AccuracyStats {
+    /// Number of points.
+    pub points: usize,
+    /// Mean error.
+    pub mean_mm: f64,
+    /// Root mean square error.
+    pub rms_mm: f64,
+    /// Largest error.
+    pub max_mm: f64,
+}
+
+/// Positioning error of `model` at every measurement, mm.
+pub fn point_errors(model: &RobotModel, m: &[Measurement]) -> Vec<f64> {
+    m.iter()
+        .map(|p| {
+            let q = p.q_deg.map(f64::to_radians);
+            let x = position(&model.params, &model.tool, &q);
+            (0..3)
+                .map(|k| (x[k] - p.position_mm[k]).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        })
+        .collect()
+}
+
+/// Mean, RMS and maximum positioning error of `model` over `m` (all zero for no points).
+pub fn accuracy(model: &RobotModel, m: &[Measurement]) -> AccuracyStats {
+    stats(&point_errors(model, m))
+}
+
+/// Mean, RMS and maximum of a list of errors (all zero for an empty list).
+pub fn stats(e: &[f64]) -> AccuracyStats {
+    let n = e.len().max(1) as f64;
+    AccuracyStats {
+        points: e.len(),
+        mean_mm: e.iter().sum::<f64>() / n,
+        rms_mm: (e.iter().map(|v| v * v).sum::<f64>() / n).sqrt(),
+        max_mm: e.iter().fold(0.0, |a: f64, &b| a.max(b)),
+    }
+}
+
+/// A model's accuracy, optionally beside a nominal model's.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Validation {
+    /// Name of the validated model.
+    pub model_name: String,
+    /// Its errors.
+    pub model: AccuracyStats,
+    /// The nominal model's name and errors, if one was given.
+    pub nominal: Option<(String, AccuracyStats)>,
+}
+
+impl Validation {
+    /// Improvement of the model over the nominal in percent, `100 (nominal − model) / nominal`,
+    /// for mean, RMS and max; `None` without a nominal model.
+    pub fn improvement_percent(&self) -> Option<[f64; 3]> {
+        let (_, n) = self.nominal.as_ref()?;
+        let pct = |a: f64, b: f64| if a > 0.0 { 100.0 * (a - b) / a } else { 0.0 };
+        Some([
+            pct(n.mean_mm, self.model.mean_mm),
+            pct(n.rms_mm, self.model.rms_mm),
+            pct(n.max_mm, self.model.max_mm),
+        ])
+    }
+}
+
+/// Validates `model` (and optionally `nominal`) against measurements. Errors if there are none.
+pub fn validate(
+    model: &RobotModel,
+    measurements: &[Measurement],
+    nominal: Option<&RobotModel>,
+) -> Result<Validation, IdentifyError> {
+    if measurements.is_empty() {
+        return Err(IdentifyError::NoData(
+            "no measurements to validate against".into(),
+        ));
+    }
+    Ok(Validation {
+        model_name: model.name.clone(),
+        model: accuracy(model, measurements),
+        nominal: nominal.map(|n| (n.name.clone(), accuracy(n, measurements))),
+    })
+}
+
+/// Formats a validation for the terminal.
+pub fn render_validation(v: &Validation) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "Positioning error over {} points (mm)", v.model.points);
+    let _ = writeln!(
+        s,
+        "{:<40} {:>10} {:>10} {:>10}",
+        "model", "mean", "rms", "max"
+    );
+    let row = |s: &mut String, name: &str, a: &AccuracyStats| {
+        let _ = writeln!(
+            s,
+            "{:<40} {:>10.4} {:>10.4} {:>10.4}",
+            name, a.mean_mm, a.rms_mm, a.max_mm
+        );
+    };
+    if let Some((name, n)) = &v.nominal {
+        row(&mut s, name, n);
+    }
+    row(&mut s, &v.model_name, &v.model);
+    if let Some([m, r, x]) = v.improvement_percent() {
+        let _ = writeln!(
+            s,
+            "{:<40} {:>9.1}% {:>9.1}% {:>9.1}%",
+            "improvement", m, r, x
+        );
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::tx60;
+
+    #[test]
+    fn round_trip_and_stats() {
+        let m = tx60();
+        let q = [10.0, 20.0, 30.0, 40.0, 50.0, 60.0];
+        let p = position(&m.params, &m.tool, &q.map(f64::to_radians));
+        let meas = vec![
+            Measurement {
+                q_deg: q,
+                position_mm: p,
+                line: 2,
+            },
+            Measurement {
+                q_deg: q,
+                position_mm: [p[0] + 3.0, p[1] + 4.0, p[2]],
+                line: 3,
+            },
+        ];
+        let mut buf = Vec::new();
+        write_measurements(&meas, &mut buf).unwrap();
+        let back = parse_measurements(buf.as_slice(), "m").unwrap();
+        assert_eq!(back.len(), 2);
+        let v = validate(&m, &back, Some(&m)).unwrap();
+        assert!((v.model.mean_mm - 2.5).abs() < 1e-9);
+        assert!((v.model.max_mm - 5.0).abs() < 1e-9);
+        assert!((v.model.rms_mm - 12.5f64.sqrt()).abs() < 1e-9);
+        assert_eq!(v.improvement_percent(), Some([0.0, 0.0, 0.0]));
+        assert!(render_validation(&v).contains("improvement"));
+    }
+
+    #[test]
+    fn bad_row_names_line() {
+        let e = parse_measurements(
+            "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1,2,3\n0,0,0,0,0,NaN,1,2,3\n".as_bytes(),
+            "m",
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string().contains("line 3") && e.to_string().contains("q6"),
+            "{e}"
+        );
+    }
+}

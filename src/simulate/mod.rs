@@ -1,0 +1,35 @@
+//! Simulation of a robot with true geometric errors measured by a laser tracker.
+//!
+//! [`robot`] makes a "true" robot (the nominal model with perturbed parameters, in the same MDH
+//! parameterisation) and measures it at given configurations; [`sweep`] generates the
+//! circle-point sweeps of the identification ([`SweepPlan`]) with Gaussian tracker noise. All
+//! randomness comes from a seeded `ChaCha8Rng`, so every simulation is reproducible. The output is
+//! the same [`crate::identify::SweepData`] the CSV reader returns, and it is written by the same
+//! writer ([`write_sweeps`]), so real and simulated data go through one code path.
+
+pub mod robot;
+pub mod sweep;
+
+pub use crate::identify::{write_measurements, write_sweeps};
+pub use robot::{measure_positions, perturbed_model, random_configurations, ParameterErrors};
+pub use sweep::{
+    simulate_sweeps, simulate_sweeps_with, SweepPlan, TX60_HOME_DEG, TX60_MEASURING_RANGES_DEG,
+};
+
+use rand::Rng;
+
+/// One standard normal draw (Box–Muller).
+pub fn standard_normal(rng: &mut impl Rng) -> f64 {
+    let u1: f64 = 1.0 - rng.random::<f64>(); // (0, 1]
+    let u2: f64 = rng.random();
+    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
+}
+
+/// A measured position: the true one plus independent Gaussian noise of `sigma_mm` per
+/// coordinate (an isotropic tracker noise model).
+pub fn add_tracker_noise(p: [f64; 3], sigma_mm: f64, rng: &mut impl Rng) -> [f64; 3] {
+    if sigma_mm == 0.0 {
+        return p;
+    }
+    p.map(|v| v + sigma_mm * standard_normal(rng))
+}
