@@ -35,6 +35,63 @@ pub enum Command {
     Points(PointsArgs),
     /// Forward kinematics: tool positions (mm) of the configurations in a CSV.
     Fk(FkArgs),
+    /// Identify the MDH parameters from laser-tracker sweeps (circle point method).
+    Identify(IdentifyArgs),
+    /// Positioning accuracy of a model against measured positions.
+    Validate(ValidateArgs),
+}
+
+/// Circle model of the identification.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FitArg {
+    /// Circle through the points with each point's angle known from the commanded joint angle.
+    Commanded,
+    /// Plain point-cloud circle fit (plane, algebraic circle, geometric refinement).
+    PointCloud,
+}
+
+/// `identify` options.
+#[derive(Args, Debug, Clone)]
+pub struct IdentifyArgs {
+    /// Sweeps CSV: joint,q1..q6,x,y,z (optionally a run column); degrees and mm.
+    #[arg(value_name = "SWEEPS.csv")]
+    pub sweeps: PathBuf,
+    /// Write the identified model (TOML) to FILE.
+    #[arg(long, short, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// Nominal model giving the structure and conventions (default: the preset).
+    #[arg(long, value_name = "FILE")]
+    pub nominal: Option<PathBuf>,
+    /// Built-in nominal model used when --nominal is not given.
+    #[arg(long, default_value = "tx60", value_name = "NAME")]
+    pub preset: String,
+    /// Circle model.
+    #[arg(long, value_enum, default_value_t = FitArg::Commanded)]
+    pub fit: FitArg,
+    /// Use the data alone: no prior towards the nominal geometry.
+    #[arg(long)]
+    pub no_prior: bool,
+    /// Skip the least-squares refinement over all sweep points.
+    #[arg(long)]
+    pub no_refine: bool,
+}
+
+/// `validate` options.
+#[derive(Args, Debug, Clone)]
+pub struct ValidateArgs {
+    /// Measured positions: q1..q6,x,y,z (degrees, mm).
+    #[arg(value_name = "MEASURED.csv")]
+    pub measured: PathBuf,
+    /// Model to check (TOML).
+    #[arg(long, value_name = "FILE")]
+    pub model: PathBuf,
+    /// Also check a nominal model (FILE, or the preset when no file is given) and report the
+    /// improvement.
+    #[arg(long, value_name = "FILE", num_args = 0..=1)]
+    pub nominal: Option<Option<PathBuf>>,
+    /// Built-in nominal model for a bare --nominal.
+    #[arg(long, default_value = "tx60", value_name = "NAME")]
+    pub preset: String,
 }
 
 /// Where the errors are measured from.

@@ -22,6 +22,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Model(a)) => run_model(a),
         Some(Command::Points(a)) => run_points(a),
         Some(Command::Fk(a)) => run_fk(a),
+        Some(Command::Identify(a)) => run_identify(a),
+        Some(Command::Validate(a)) => run_validate(a),
     }
 }
 
@@ -366,5 +368,64 @@ fn run_fk(a: FkArgs) -> Result<()> {
         ));
     }
     print!("{s}");
+    Ok(())
+}
+
+fn run_identify(a: IdentifyArgs) -> Result<()> {
+    use gpu_amcs::identify::{self, CircleFitMethod, IdentifyOptions, NominalPrior};
+    let mut inputs: Vec<&Path> = vec![a.sweeps.as_path()];
+    inputs.extend(a.nominal.as_deref());
+    if let Some(o) = &a.out {
+        guard_outputs(&inputs, &[o])?;
+    }
+    let nominal = load_model(&a.nominal, &a.preset).context("--nominal")?;
+    let data = identify::read_sweeps(&a.sweeps)?;
+    let opts = IdentifyOptions {
+        method: match a.fit {
+            FitArg::Commanded => CircleFitMethod::CommandedAngles,
+            FitArg::PointCloud => CircleFitMethod::PointCloud,
+        },
+        nominal_prior: (!a.no_prior).then(NominalPrior::default),
+        refine: !a.no_refine,
+    };
+    let ids = identify::identify(&data, &nominal, &opts)?;
+    for id in &ids {
+        print!("{}", identify::render_identify_report(&id.report));
+        println!();
+    }
+    let mut model = if ids.len() == 1 {
+        let mut m = ids[0].model.clone();
+        m.uncertainty = nominal.uncertainty.clone();
+        println!(
+            "note: one run says nothing about the spread: the model file keeps the nominal model's \
+             uncertainty; give several runs (a `run` column) to estimate it"
+        );
+        m
+    } else {
+        let models: Vec<RobotModel> = ids.iter().map(|i| i.model.clone()).collect();
+        println!(
+            "{} runs: the model file holds the mean parameters and their run-to-run σ",
+            ids.len()
+        );
+        identify::parameter_statistics(&models).context("parameter statistics of the runs")?
+    };
+    model.name = format!("{} (identified from {})", nominal.name, a.sweeps.display());
+    if let Some(o) = &a.out {
+        report::write_atomic(o, &model.to_toml())?;
+        println!("wrote {}", o.display());
+    }
+    Ok(())
+}
+
+fn run_validate(a: ValidateArgs) -> Result<()> {
+    use gpu_amcs::identify;
+    let model = RobotModel::from_file(&a.model)?;
+    let nominal = match &a.nominal {
+        None => None,
+        Some(f) => Some(load_model(f, &a.preset).context("--nominal")?),
+    };
+    let m = identify::read_measurements(&a.measured)?;
+    let v = identify::validate(&model, &m, nominal.as_ref())?;
+    print!("{}", identify::render_validation(&v));
     Ok(())
 }

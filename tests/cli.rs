@@ -290,3 +290,73 @@ fn bad_files_are_named_and_nothing_is_half_written() {
         "missing.toml",
     );
 }
+
+#[test]
+fn identify_then_analyse_then_validate() {
+    use gpu_amcs::simulate::{
+        measure_positions, perturbed_model, random_configurations, simulate_sweeps,
+        write_measurements, write_sweeps, ParameterErrors, SweepPlan,
+    };
+    use rand::SeedableRng;
+    let d = tmpdir("ident");
+    let nominal = gpu_amcs::kinematics::tx60();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(4);
+    let truth = perturbed_model(
+        &nominal,
+        &ParameterErrors::default(),
+        [30.0, -20.0, 80.0],
+        &mut rng,
+    );
+    let sweeps = simulate_sweeps(&truth, &SweepPlan::default(), 0.0, 3, 5);
+    let sweeps_csv = d.join("sweeps.csv");
+    write_sweeps(&sweeps, std::fs::File::create(&sweeps_csv).unwrap()).unwrap();
+    let model = d.join("model.toml");
+    let o = run(&[
+        "identify",
+        sweeps_csv.to_str().unwrap(),
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("3 runs"), "{out}");
+    // The identified model is usable by the Monte Carlo commands.
+    let o = run(&[
+        "mcs",
+        "--draws",
+        "2000",
+        "--points",
+        "5",
+        "--backend",
+        "cpu",
+        "--quiet",
+        "--model",
+        model.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    // Validation against noise-free measurements of the true robot: ~0 error, better than nominal.
+    let q = random_configurations(&nominal.limits_deg, 20, &mut rng);
+    let meas = measure_positions(&truth, &q, 0.0, &mut rng);
+    let meas_csv = d.join("measured.csv");
+    write_measurements(&meas, std::fs::File::create(&meas_csv).unwrap()).unwrap();
+    let o = run(&[
+        "validate",
+        "--model",
+        model.to_str().unwrap(),
+        meas_csv.to_str().unwrap(),
+        "--nominal",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("improvement"), "{out}");
+    // Writing the model over the sweeps is refused.
+    fails_naming(
+        &[
+            "identify",
+            sweeps_csv.to_str().unwrap(),
+            "--out",
+            sweeps_csv.to_str().unwrap(),
+        ],
+        "also an input",
+    );
+}
