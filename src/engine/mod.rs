@@ -6,10 +6,14 @@
 //! [`gpu`] runs the same draws through a WGSL compute shader; [`FnEvaluator`] wraps any scalar
 //! function of a Philox stream, for testing the drivers on models with known answers.
 
+pub mod backend;
 pub mod cpu;
+pub mod gpu;
 mod problem;
 
+pub use backend::{list_adapters, make_evaluator, BackendChoice};
 pub use cpu::CpuEvaluator;
+pub use gpu::{GpuEvaluator, GpuOptions, GpuTimings};
 pub use problem::{Problem, ProblemError, Reference};
 
 use crate::sampling::Philox;
