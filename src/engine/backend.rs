@@ -79,10 +79,21 @@ pub fn make_evaluator(
                 None => gpu::hardware_adapter_present(),
             };
             if !wanted {
-                return Ok((
-                    Box::new(CpuEvaluator::new(problem)),
-                    Some("no GPU adapter found; using the CPU (rayon) path".into()),
-                ));
+                let soft: Vec<String> = gpu::adapters()
+                    .into_iter()
+                    .filter(|a| a.is_cpu)
+                    .map(|a| a.name)
+                    .collect();
+                let note = if soft.is_empty() {
+                    "no GPU adapter found; using the CPU (rayon) path".to_string()
+                } else {
+                    format!(
+                        "no hardware GPU adapter found (software adapter {} present: \
+                         --backend gpu uses it); using the CPU (rayon) path",
+                        soft.join(", ")
+                    )
+                };
+                return Ok((Box::new(CpuEvaluator::new(problem)), Some(note)));
             }
             let opts = GpuOptions {
                 adapter: adapter.map(str::to_owned),
