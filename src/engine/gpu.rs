@@ -228,6 +228,7 @@ struct InFlight {
     index: device::SubmissionIndex,
     pending_w: device::PendingMap,
     pending_e: Option<device::PendingMap>,
+    pending_t: Option<device::PendingMap>,
 }
 
 /// The wgpu evaluator (see the module docs).
@@ -470,8 +471,8 @@ impl GpuEvaluator {
                 *o = f64::from(*v);
             }
         }
-        if let Some(t) = &slot.timer {
-            let d = self.gpu.read_timer(t).map_err(gpu_err)?;
+        if let (Some(t), Some(pt)) = (&slot.timer, f.pending_t) {
+            let d = self.gpu.read_timer(t, pt).map_err(gpu_err)?;
             *self.timings.device_s.get_or_insert(0.0) += d;
         }
         self.timings.submit_wait_s += (t1 - t0).as_secs_f64();
@@ -527,6 +528,7 @@ impl GpuEvaluator {
             );
             let pending_w = self.gpu.map_read(&slot.w_stage, w_bytes);
             let pending_e = want_e.then(|| self.gpu.map_read(&slot.e_stage, e_bytes));
+            let pending_t = slot.timer.as_ref().map(|t| self.gpu.map_timer(t));
             inflight.push_back(InFlight {
                 slot: slot_i,
                 start,
@@ -534,6 +536,7 @@ impl GpuEvaluator {
                 index,
                 pending_w,
                 pending_e,
+                pending_t,
             });
             self.timings.submit_wait_s += t0.elapsed().as_secs_f64();
             self.timings.chunks += 1;

@@ -392,10 +392,14 @@ impl Gpu {
         })
     }
 
+    /// Requests the mapping of `timer`'s results (call right after the timed submission).
+    pub fn map_timer(&self, timer: &Timer) -> PendingMap {
+        self.map_read(&timer.staging, 16)
+    }
+
     /// Reads the two timestamps of `timer` (the work must have been waited for): the pass's
     /// device time in seconds.
-    pub fn read_timer(&self, timer: &Timer) -> Result<f64, String> {
-        let pending = self.map_read(&timer.staging, 16);
+    pub fn read_timer(&self, timer: &Timer, pending: PendingMap) -> Result<f64, String> {
         let m = self.mapped(&timer.staging, 16, pending)?;
         let b = m.bytes();
         let t0 = u64::from_le_bytes(b[0..8].try_into().map_err(|_| "timestamp bytes")?);
