@@ -45,7 +45,10 @@ fn evaluate(ev: &mut dyn Evaluator, first: u64, n: usize) -> (Vec<f64>, Vec<f64>
 
 fn max_diff(a: &[f64], b: &[f64]) -> f64 {
     assert_eq!(a.len(), b.len());
-    a.iter().zip(b).map(|(x, y)| (x - y).abs()).fold(0.0, f64::max)
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
 }
 
 /// Mean, variance, skewness, kurtosis.
@@ -79,7 +82,10 @@ fn compare(problem: Problem, first: u64, n: usize, label: &str) -> (f64, f64) {
     eprintln!(
         "{label}: {n} draws, max |Δw| = {dw:.3e} mm, max |Δe_j| = {de:.3e} mm, \
          moments cpu {mc:.6?} gpu {mg:.6?}, relative differences {}",
-        rel.iter().map(|r| format!("{r:.2e}")).collect::<Vec<_>>().join(" ")
+        rel.iter()
+            .map(|r| format!("{r:.2e}"))
+            .collect::<Vec<_>>()
+            .join(" ")
     );
     assert!(dw <= SAMPLE_TOL_MM, "{label}: max |Δw| {dw} mm");
     assert!(de <= SAMPLE_TOL_MM, "{label}: max |Δe| {de} mm");
@@ -138,10 +144,7 @@ fn shader_philox_matches_known_answers_and_cpu_normals() {
     let g = Philox::new(0x0123_4567_89ab_cdef);
     for k in 0..2000u64 {
         let draw = k.wrapping_mul(0x9E37_79B9_7F4A_7C15);
-        cases.push((
-            [draw as u32, (draw >> 32) as u32, (k % 8) as u32, 0],
-            g.key,
-        ));
+        cases.push(([draw as u32, (draw >> 32) as u32, (k % 8) as u32, 0], g.key));
     }
     let out = philox_on_gpu(None, &cases).expect("philox kernel");
     let kat = [
@@ -218,8 +221,8 @@ fn moved_parameter_mean_moves_gpu_like_cpu() {
     let pts = points(&base, 20);
     let n = 20_000;
     let run = |model: RobotModel| {
-        let pb = Problem::new(model, &pts, &Reference::Nominal(Box::new(tx60())), 5)
-            .expect("problem");
+        let pb =
+            Problem::new(model, &pts, &Reference::Nominal(Box::new(tx60())), 5).expect("problem");
         let (wc, _) = evaluate(&mut CpuEvaluator::new(pb.clone()), 0, n);
         let mut g = GpuEvaluator::new(pb, &GpuOptions::default()).expect("GPU evaluator");
         let (wg, _) = evaluate(&mut g, 0, n);
@@ -231,7 +234,9 @@ fn moved_parameter_mean_moves_gpu_like_cpu() {
     let shift_gpu = g1.iter().zip(&g0).map(|(a, b)| a - b).collect::<Vec<_>>();
     let mean_shift = shift_cpu.iter().sum::<f64>() / n as f64;
     let d = max_diff(&shift_cpu, &shift_gpu);
-    eprintln!("moved mean: mean shift of w {mean_shift:.4} mm, max |shift_gpu − shift_cpu| = {d:.3e} mm");
+    eprintln!(
+        "moved mean: mean shift of w {mean_shift:.4} mm, max |shift_gpu − shift_cpu| = {d:.3e} mm"
+    );
     assert!(mean_shift.abs() > 0.05, "the perturbation should move w");
     assert!(d <= 2.0 * SAMPLE_TOL_MM);
 }
@@ -254,14 +259,55 @@ fn split_batches_equal_one_batch() {
     assert_eq!(split.chunk_sizes().0, 999);
     let (w1, e1) = evaluate(&mut whole, 77, n);
     let (w2, e2) = evaluate(&mut split, 77, n);
+    // Per-point requests are not followed by a speculative chunk.
     assert_eq!(split.last_timings().chunks, n.div_ceil(999));
     assert_eq!(w1, w2);
     assert_eq!(e1, e2);
     // Without per-point output, and as two requests.
     let mut w3 = vec![0.0; n];
     split.evaluate(77, &mut w3[..4321], None).expect("evaluate");
-    split.evaluate(77 + 4321, &mut w3[4321..], None).expect("evaluate");
+    split
+        .evaluate(77 + 4321, &mut w3[4321..], None)
+        .expect("evaluate");
     assert_eq!(w1, w3);
+    // The second request started from the speculative chunk of the first.
+    assert_eq!(split.last_timings().prefetch_hits, 1);
+    // A request elsewhere discards the speculative chunk and is still right.
+    let mut w4 = vec![0.0; 500];
+    split.evaluate(77 + 100, &mut w4, None).expect("evaluate");
+    assert_eq!(split.last_timings().prefetch_hits, 0);
+    assert_eq!(&w1[100..600], &w4[..]);
+}
+
+#[test]
+fn consecutive_batches_with_prefetch_equal_one_batch() {
+    if !have_adapter("consecutive_batches_with_prefetch_equal_one_batch") {
+        return;
+    }
+    let m = tx60();
+    let pts = points(&m, 10);
+    let pb = Problem::new(m, &pts, &Reference::Calibrated, 8).expect("problem");
+    let (batch, batches) = (1_000, 20);
+    let mut plain = GpuEvaluator::new(
+        pb.clone(),
+        &GpuOptions {
+            prefetch: false,
+            ..GpuOptions::default()
+        },
+    )
+    .expect("GPU");
+    let mut all = vec![0.0; batch * batches];
+    plain.evaluate(1 << 40, &mut all, None).expect("evaluate");
+    let mut ev = GpuEvaluator::new(pb, &GpuOptions::default()).expect("GPU");
+    let mut hits = 0;
+    for b in 0..batches {
+        let mut w = vec![0.0; batch];
+        ev.evaluate((1 << 40) + (b * batch) as u64, &mut w, None)
+            .expect("evaluate");
+        hits += ev.last_timings().prefetch_hits;
+        assert_eq!(&all[b * batch..(b + 1) * batch], &w[..], "batch {b}");
+    }
+    assert_eq!(hits, batches - 1);
 }
 
 #[test]

@@ -55,7 +55,8 @@ pub fn make_evaluator(
 ) -> Result<(Box<dyn Evaluator>, Option<String>), EngineError> {
     match choice {
         BackendChoice::Cpu => {
-            let note = adapter.map(|a| format!("--adapter '{a}' ignored: the CPU backend is in use"));
+            let note =
+                adapter.map(|a| format!("--adapter '{a}' ignored: the CPU backend is in use"));
             Ok((Box::new(CpuEvaluator::new(problem)), note))
         }
         BackendChoice::Gpu => {
@@ -65,9 +66,7 @@ pub fn make_evaluator(
             };
             let ev = GpuEvaluator::new(problem, &opts)?;
             let note = ev.info().adapter;
-            let is_cpu = gpu::adapters()
-                .iter()
-                .any(|a| a.is_cpu && a.name == note);
+            let is_cpu = gpu::adapters().iter().any(|a| a.is_cpu && a.name == note);
             let note = is_cpu.then(|| {
                 format!("GPU backend on a software adapter ({note}): expect CPU-like speed")
             });

@@ -48,8 +48,12 @@
 //! Device, pipeline and every buffer are created once. A request is cut into chunks of at most
 //! [`GpuOptions::chunk`] draws (also bounded by the device's workgroup-count, binding-size and
 //! buffer-size limits); two chunk slots alternate so the readback and f32→f64 conversion of
-//! chunk h overlaps the computation of chunk h+1. Memory is per chunk, never per request: an
-//! MCS of 10^8 draws needs the caller's output slice and two chunks of GPU buffers.
+//! chunk h overlaps the computation of chunk h+1. After a request for draws `[k, k+n)` (without
+//! per-point output) the evaluator speculatively submits `[k+n, k+n+min(n, chunk))`: draws are a
+//! pure function of their index, and the Monte Carlo drivers ask for consecutive batches, so
+//! the next batch is already computing while the caller sorts this one
+//! ([`GpuOptions::prefetch`]). Memory is per chunk, never per request: an MCS of 10^8 draws
+//! needs the caller's output slice and two chunks of GPU buffers.
 
 mod device;
 
@@ -120,9 +124,11 @@ pub fn adapters() -> Vec<AdapterDescription> {
 fn pick_adapter(filter: Option<&str>, hardware_only: bool) -> Result<device::AdapterEntry, String> {
     let mut list = device::adapters();
     if list.is_empty() {
-        return Err("no Vulkan, Metal or DX12 adapter found (install a GPU driver, or Mesa's \
+        return Err(
+            "no Vulkan, Metal or DX12 adapter found (install a GPU driver, or Mesa's \
                     lavapipe for a software Vulkan device)"
-            .into());
+                .into(),
+        );
     }
     if let Some(f) = filter {
         let names: Vec<String> = list.iter().map(|a| a.name.clone()).collect();
@@ -165,6 +171,9 @@ pub struct GpuOptions {
     pub chunk: usize,
     /// Time each dispatch with timestamp queries when the adapter supports them.
     pub timestamps: bool,
+    /// After each request without per-point output, start computing the next range of the
+    /// same length (at most one chunk), so a following consecutive request finds it ready.
+    pub prefetch: bool,
 }
 
 impl Default for GpuOptions {
@@ -174,6 +183,7 @@ impl Default for GpuOptions {
             hardware_only: false,
             chunk: DEFAULT_CHUNK,
             timestamps: false,
+            prefetch: true,
         }
     }
 }
@@ -188,8 +198,10 @@ pub struct GpuTimings {
     pub submit_wait_s: f64,
     /// Host time spent mapping the results and converting them to f64, s.
     pub readback_s: f64,
-    /// Dispatches.
+    /// Dispatches (including a speculative one for the next range).
     pub chunks: usize,
+    /// Whether the start of this request had been computed speculatively by the previous one.
+    pub prefetch_hits: usize,
 }
 
 #[repr(C)]
@@ -244,6 +256,8 @@ pub struct GpuEvaluator {
     e_ready: bool,
     timings: GpuTimings,
     broken: Option<String>,
+    prefetch_enabled: bool,
+    prefetch: Option<(u64, InFlight)>,
 }
 
 /// Per-point constants of the mean-parameter chain (f64, then f32): see the module docs.
@@ -388,6 +402,8 @@ impl GpuEvaluator {
             e_ready: false,
             timings: GpuTimings::default(),
             broken: None,
+            prefetch_enabled: opts.prefetch,
+            prefetch: None,
         })
     }
 
@@ -480,6 +496,72 @@ impl GpuEvaluator {
         Ok(())
     }
 
+    /// Records and submits draws `[k0, k0 + count)` in slot `slot_i`; results go to offset
+    /// `start` of the caller's output.
+    fn submit(
+        &mut self,
+        slot_i: usize,
+        k0: u64,
+        start: usize,
+        count: usize,
+        want_e: bool,
+    ) -> InFlight {
+        let t0 = Instant::now();
+        let cu = ChunkU {
+            first: [k0 as u32, (k0 >> 32) as u32],
+            count: count as u32,
+            want_e: u32::from(want_e),
+        };
+        let slot = &self.slots[slot_i];
+        self.gpu.write(&slot.chunk, bytemuck::bytes_of(&cu));
+        let w_bytes = 4 * count as u64;
+        let e_bytes = if want_e {
+            4 * (count * self.m) as u64
+        } else {
+            0
+        };
+        let groups = count.div_ceil(WORKGROUP) as u32;
+        let index = self.gpu.dispatch(
+            &self.pipeline,
+            &slot.bind,
+            groups,
+            &[
+                (&slot.w, &slot.w_stage, w_bytes),
+                (&slot.e, &slot.e_stage, e_bytes),
+            ],
+            slot.timer.as_ref(),
+        );
+        let pending_w = self.gpu.map_read(&slot.w_stage, w_bytes);
+        let pending_e = want_e.then(|| self.gpu.map_read(&slot.e_stage, e_bytes));
+        let pending_t = slot.timer.as_ref().map(|t| self.gpu.map_timer(t));
+        self.timings.submit_wait_s += t0.elapsed().as_secs_f64();
+        self.timings.chunks += 1;
+        InFlight {
+            slot: slot_i,
+            start,
+            count,
+            index,
+            pending_w,
+            pending_e,
+            pending_t,
+        }
+    }
+
+    /// Waits for a speculative chunk nobody asked for and releases its mappings.
+    fn discard(&mut self, f: InFlight) -> Result<(), EngineError> {
+        self.gpu.wait(f.index).map_err(gpu_err)?;
+        let slot = &self.slots[f.slot];
+        drop(
+            self.gpu
+                .mapped(&slot.w_stage, 4 * f.count as u64, f.pending_w)
+                .map_err(gpu_err)?,
+        );
+        if let (Some(t), Some(pt)) = (&slot.timer, f.pending_t) {
+            self.gpu.read_timer(t, pt).map_err(gpu_err)?;
+        }
+        Ok(())
+    }
+
     fn run(
         &mut self,
         first: u64,
@@ -492,59 +574,44 @@ impl GpuEvaluator {
         }
         let c = if want_e { self.chunk_e } else { self.chunk };
         let n = w.len();
-        let mut inflight: VecDeque<InFlight> = VecDeque::with_capacity(2);
+        let nslots = self.slots.len();
+        let mut inflight: VecDeque<InFlight> = VecDeque::with_capacity(nslots);
         let mut start = 0usize;
         let mut h = 0usize;
+        // A speculative chunk from the previous call: used if it is the start of this request.
+        if let Some((k, f)) = self.prefetch.take() {
+            if k == first && !want_e && f.count <= n {
+                start = f.count;
+                h = f.slot + 1;
+                self.timings.prefetch_hits += 1;
+                inflight.push_back(f);
+            } else {
+                self.discard(f)?;
+            }
+        }
         while start < n {
-            if inflight.len() == self.slots.len() {
+            if inflight.len() == nslots {
                 if let Some(f) = inflight.pop_front() {
                     self.finish(f, w, &mut e)?;
                 }
             }
-            let t0 = Instant::now();
             let count = c.min(n - start);
-            let slot_i = h % self.slots.len();
             let k0 = first.wrapping_add(start as u64);
-            let cu = ChunkU {
-                first: [k0 as u32, (k0 >> 32) as u32],
-                count: count as u32,
-                want_e: u32::from(want_e),
-            };
-            let slot = &self.slots[slot_i];
-            self.gpu.write(&slot.chunk, bytemuck::bytes_of(&cu));
-            let w_bytes = 4 * count as u64;
-            let e_bytes = if want_e {
-                4 * (count * self.m) as u64
-            } else {
-                0
-            };
-            let groups = count.div_ceil(WORKGROUP) as u32;
-            let index = self.gpu.dispatch(
-                &self.pipeline,
-                &slot.bind,
-                groups,
-                &[(&slot.w, &slot.w_stage, w_bytes), (&slot.e, &slot.e_stage, e_bytes)],
-                slot.timer.as_ref(),
-            );
-            let pending_w = self.gpu.map_read(&slot.w_stage, w_bytes);
-            let pending_e = want_e.then(|| self.gpu.map_read(&slot.e_stage, e_bytes));
-            let pending_t = slot.timer.as_ref().map(|t| self.gpu.map_timer(t));
-            inflight.push_back(InFlight {
-                slot: slot_i,
-                start,
-                count,
-                index,
-                pending_w,
-                pending_e,
-                pending_t,
-            });
-            self.timings.submit_wait_s += t0.elapsed().as_secs_f64();
-            self.timings.chunks += 1;
+            let f = self.submit(h % nslots, k0, start, count, want_e);
+            inflight.push_back(f);
             start += count;
             h += 1;
         }
         while let Some(f) = inflight.pop_front() {
             self.finish(f, w, &mut e)?;
+        }
+        // Draws are a pure function of their index: compute the likely next range (the Monte
+        // Carlo drivers ask for consecutive batches) while the caller works on this one.
+        if self.prefetch_enabled && !want_e && n > 0 {
+            let next = first.wrapping_add(n as u64);
+            let count = n.min(self.chunk);
+            let f = self.submit(h % nslots, next, 0, count, false);
+            self.prefetch = Some((next, f));
         }
         Ok(())
     }
@@ -584,13 +651,16 @@ impl Evaluator for GpuEvaluator {
     }
 }
 
+/// The 4 Philox words of one block and its 4 normals, as the shader computes them.
+pub type PhiloxBlock = ([u32; 4], [f32; 4]);
+
 /// Runs the Philox test kernel on the adapter chosen by `adapter` (substring, or the most
 /// capable): for each `(counter, key)` the 4 Philox words and the 4 normals of that block.
 /// For tests of the shader against the Rust generator.
 pub fn philox_on_gpu(
     adapter: Option<&str>,
     cases: &[([u32; 4], [u32; 2])],
-) -> Result<Vec<([u32; 4], [f32; 4])>, EngineError> {
+) -> Result<Vec<PhiloxBlock>, EngineError> {
     let entry = pick_adapter(adapter, false).map_err(gpu_err)?;
     let gpu = Gpu::open(entry, false).map_err(gpu_err)?;
     let (pipeline, layout) = gpu

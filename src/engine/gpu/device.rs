@@ -164,7 +164,7 @@ impl Gpu {
             driver: entry.driver,
             timestamps,
             max_workgroups: limits.max_compute_workgroups_per_dimension,
-            max_binding: u64::from(limits.max_storage_buffer_binding_size),
+            max_binding: limits.max_storage_buffer_binding_size,
             max_buffer: limits.max_buffer_size,
             errors,
         })
