@@ -33,6 +33,7 @@ fn main() {
     let model = tx60();
     let pts = gpu_amcs::points::generate(&model, POINTS, &Default::default(), 1).expect("points");
     let problem = Problem::new(model, &pts, &Reference::Calibrated, 1).expect("problem");
+    let problem_for_batches = problem.clone();
     let mut sizes = vec![10_000usize, 1_000_000];
     if !quick {
         sizes.push(10_000_000);
@@ -48,6 +49,8 @@ fn main() {
         let opts = GpuOptions {
             adapter,
             timestamps: true,
+            // Throughput rows repeat the same range; speculation would add unasked-for work.
+            prefetch: false,
             ..GpuOptions::default()
         };
         match GpuEvaluator::new(problem, &opts) {
@@ -69,6 +72,7 @@ fn main() {
         }
     };
     let mut gpu_ev = gpu_ev;
+    let spec_problem = problem_for_batches.clone();
     println!(
         "{POINTS} test points, median of {reps} repetitions{}",
         if quick { " (quick: 10^7 skipped)" } else { "" }
@@ -122,6 +126,37 @@ fn main() {
                     .unwrap_or_else(|| "n/a".into()),
                 tm.submit_wait_s,
                 tm.readback_s
+            );
+        }
+    }
+    // AMCS-like use: 100 consecutive batches of 10^4, with and without speculative prefetch.
+    if gpu_ev.is_some() {
+        for prefetch in [false, true] {
+            let opts = GpuOptions {
+                adapter: std::env::var("GPU_BENCH_ADAPTER").ok(),
+                prefetch,
+                ..GpuOptions::default()
+            };
+            let Ok(mut g) = GpuEvaluator::new(spec_problem.clone(), &opts) else {
+                continue;
+            };
+            let mut w = vec![0.0; 10_000];
+            g.evaluate(0, &mut w, None).expect("gpu");
+            let t: Vec<f64> = (0..reps)
+                .map(|_| {
+                    let t0 = Instant::now();
+                    for b in 0..100u64 {
+                        g.evaluate(b * 10_000, &mut w, None).expect("gpu");
+                    }
+                    t0.elapsed().as_secs_f64()
+                })
+                .collect();
+            let tb = median(t);
+            println!(
+                "gpu 100 consecutive batches of 10^4, prefetch {:<5}: {:.4} s ({:.3e} draw·pts/s)",
+                prefetch,
+                tb,
+                (1_000_000 * POINTS) as f64 / tb
             );
         }
     }
