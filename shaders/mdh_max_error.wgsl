@@ -42,6 +42,67 @@ struct Chunk {
 
 const WORDS_PER_POINT: u32 = 13u;
 
+// Offsets of one joint's rotations for a draw: α' and β' as (cos', sin', cos' − cos,
+// sin' − sin), θ as (sin h, cos h, δa, δd) with h = δθ/2.
+struct JointOffsets {
+    ra: vec4<f32>,
+    rb: vec4<f32>,
+    rt: vec4<f32>,
+}
+
+fn joint_offsets(j: u32, dth: f32, dd: f32, da: f32, dal: f32, dbe: f32) -> JointOffsets {
+    let tr = joint_trig[j];
+    // cos(x+δ) − cos x = −2 sin(δ/2) sin(x+δ/2); sin(x+δ) − sin x = 2 sin(δ/2) cos(x+δ/2)
+    let ha = sincos_small(0.5 * dal);
+    let sma = tr.y * ha.y + tr.x * ha.x;
+    let cma = tr.x * ha.y - tr.y * ha.x;
+    let dca = -2.0 * ha.x * sma;
+    let dsa = 2.0 * ha.x * cma;
+    let hb = sincos_small(0.5 * dbe);
+    let smb = tr.w * hb.y + tr.z * hb.x;
+    let cmb = tr.z * hb.y - tr.w * hb.x;
+    let dcb = -2.0 * hb.x * smb;
+    let dsb = 2.0 * hb.x * cmb;
+    let ht = sincos_small(0.5 * dth);
+    return JointOffsets(
+        vec4<f32>(tr.x + dca, tr.y + dsa, dca, dsa),
+        vec4<f32>(tr.z + dcb, tr.w + dsb, dcb, dsb),
+        vec4<f32>(ht.x, ht.y, da, dd),
+    );
+}
+
+// Deviation after joint i: A = (u0_i, cos φ), B = (p0_{i+1}, sin φ), tr = mean (cα, sα, cβ, sβ).
+fn joint_step(dv: vec3<f32>, A: vec4<f32>, B: vec4<f32>, tr: vec4<f32>, o: JointOffsets) -> vec3<f32> {
+    let p0 = B.xyz;
+    let a = o.ra;
+    let bt = o.rb;
+    let t = o.rt;
+    // v = Ry(β')Δ + (Ry(β') − Ry(β)) p0
+    let vx = bt.x * dv.x + bt.y * dv.z + bt.z * p0.x + bt.w * p0.z;
+    let vy = dv.y;
+    let vz = -bt.y * dv.x + bt.x * dv.z - bt.w * p0.x + bt.z * p0.z;
+    // r = Ry(β) p0 (mean); Δu = Rx(α') v + (Rx(α') − Rx(α)) r + (δa, 0, δd)
+    let ry = p0.y;
+    let rz = -tr.w * p0.x + tr.z * p0.z;
+    let ux = vx + t.z;
+    let uy = a.x * vy - a.y * vz + a.z * ry - a.w * rz;
+    let uz = a.y * vy + a.x * vz + a.w * ry + a.z * rz + t.w;
+    // Δ = Rz(φ') Δu + (Rz(φ') − Rz(φ)) u0, φ' = φ + 2h
+    let cphi = A.w;
+    let sphi = B.w;
+    let sm = sphi * t.y + cphi * t.x;
+    let cm = cphi * t.y - sphi * t.x;
+    let dcz = -2.0 * t.x * sm;
+    let dsz = 2.0 * t.x * cm;
+    let cz = cphi + dcz;
+    let sz = sphi + dsz;
+    return vec3<f32>(
+        cz * ux - sz * uy + dcz * A.x - dsz * A.y,
+        sz * ux + cz * uy + dsz * A.x + dcz * A.y,
+        uz,
+    );
+}
+
 @compute @workgroup_size(64)
 fn max_point_error(@builtin(global_invocation_id) gid: vec3<u32>) {
     let i = gid.x;
@@ -89,70 +150,34 @@ fn max_point_error(@builtin(global_invocation_id) gid: vec3<u32>) {
     }
 
     // Per joint: α' and β' as (cos', sin', cos' − cos, sin' − sin); θ as (sin h, cos h) with
-    // h = δθ/2; and (δa, δd).
-    var ra: array<vec4<f32>, 6>;
-    var rb: array<vec4<f32>, 6>;
-    var rt: array<vec4<f32>, 6>;
-    for (var j = 0u; j < 6u; j++) {
-        let tr = joint_trig[j];
-        // cos(x+δ) − cos x = −2 sin(δ/2) sin(x+δ/2); sin(x+δ) − sin x = 2 sin(δ/2) cos(x+δ/2)
-        let ha = sincos_small(0.5 * d[5u * j + 3u]);
-        let sma = tr.y * ha.y + tr.x * ha.x;
-        let cma = tr.x * ha.y - tr.y * ha.x;
-        let dca = -2.0 * ha.x * sma;
-        let dsa = 2.0 * ha.x * cma;
-        ra[j] = vec4<f32>(tr.x + dca, tr.y + dsa, dca, dsa);
-        let hb = sincos_small(0.5 * d[5u * j + 4u]);
-        let smb = tr.w * hb.y + tr.z * hb.x;
-        let cmb = tr.z * hb.y - tr.w * hb.x;
-        let dcb = -2.0 * hb.x * smb;
-        let dsb = 2.0 * hb.x * cmb;
-        rb[j] = vec4<f32>(tr.z + dcb, tr.w + dsb, dcb, dsb);
-        let ht = sincos_small(0.5 * d[5u * j]);
-        rt[j] = vec4<f32>(ht.x, ht.y, d[5u * j + 2u], d[5u * j + 1u]);
-    }
+    // h = δθ/2; and (δa, δd). Constant indices throughout, so these stay in registers.
+    let j0 = joint_offsets(0u, d[0], d[1], d[2], d[3], d[4]);
+    let j1 = joint_offsets(1u, d[5], d[6], d[7], d[8], d[9]);
+    let j2 = joint_offsets(2u, d[10], d[11], d[12], d[13], d[14]);
+    let j3 = joint_offsets(3u, d[15], d[16], d[17], d[18], d[19]);
+    let j4 = joint_offsets(4u, d[20], d[21], d[22], d[23], d[24]);
+    let j5 = joint_offsets(5u, d[25], d[26], d[27], d[28], d[29]);
+    let t0 = joint_trig[0];
+    let t1 = joint_trig[1];
+    let t2 = joint_trig[2];
+    let t3 = joint_trig[3];
+    let t4 = joint_trig[4];
+    let t5 = joint_trig[5];
 
     let m = cfg.m;
     var w = 0.0;
     for (var pj = 0u; pj < m; pj++) {
         let base = pj * WORDS_PER_POINT;
-        var dx = 0.0;
-        var dy = 0.0;
-        var dz = 0.0;
-        for (var jj = 0u; jj < 6u; jj++) {
-            let j = 5u - jj;
-            let A = pts[base + 2u * j];
-            let B = pts[base + 2u * j + 1u];
-            let p0 = B.xyz;
-            let tr = joint_trig[j];
-            let a = ra[j];
-            let bt = rb[j];
-            let t = rt[j];
-            // v = Ry(β')Δ + (Ry(β') − Ry(β)) p0
-            let vx = bt.x * dx + bt.y * dz + bt.z * p0.x + bt.w * p0.z;
-            let vy = dy;
-            let vz = -bt.y * dx + bt.x * dz - bt.w * p0.x + bt.z * p0.z;
-            // r = Ry(β) p0 (mean); Δu = Rx(α') v + (Rx(α') − Rx(α)) r + (δa, 0, δd)
-            let ry = p0.y;
-            let rz = -tr.w * p0.x + tr.z * p0.z;
-            let ux = vx + t.z;
-            let uy = a.x * vy - a.y * vz + a.z * ry - a.w * rz;
-            let uz = a.y * vy + a.x * vz + a.w * ry + a.z * rz + t.w;
-            // Δ = Rz(φ') Δu + (Rz(φ') − Rz(φ)) u0, φ' = φ + 2h
-            let cphi = A.w;
-            let sphi = B.w;
-            let sm = sphi * t.y + cphi * t.x;
-            let cm = cphi * t.y - sphi * t.x;
-            let dcz = -2.0 * t.x * sm;
-            let dsz = 2.0 * t.x * cm;
-            let cz = cphi + dcz;
-            let sz = sphi + dsz;
-            let nx = cz * ux - sz * uy + dcz * A.x - dsz * A.y;
-            let ny = sz * ux + cz * uy + dsz * A.x + dcz * A.y;
-            dx = nx;
-            dy = ny;
-            dz = uz;
-        }
+        var dv = vec3<f32>(0.0, 0.0, 0.0);
+        dv = joint_step(dv, pts[base + 10u], pts[base + 11u], t5, j5);
+        dv = joint_step(dv, pts[base + 8u], pts[base + 9u], t4, j4);
+        dv = joint_step(dv, pts[base + 6u], pts[base + 7u], t3, j3);
+        dv = joint_step(dv, pts[base + 4u], pts[base + 5u], t2, j2);
+        dv = joint_step(dv, pts[base + 2u], pts[base + 3u], t1, j1);
+        dv = joint_step(dv, pts[base], pts[base + 1u], t0, j0);
+        let dx = dv.x;
+        let dy = dv.y;
+        let dz = dv.z;
         let o = pts[base + 12u];
         let ex = dx + o.x;
         let ey = dy + o.y;
