@@ -8,9 +8,12 @@
 
 pub mod backend;
 pub mod cpu;
+pub mod gpu;
 mod problem;
 
+pub use backend::{list_adapters, make_evaluator, BackendChoice};
 pub use cpu::CpuEvaluator;
+pub use gpu::{GpuEvaluator, GpuOptions, GpuTimings};
 pub use problem::{Problem, ProblemError, Reference};
 
 use crate::sampling::Philox;

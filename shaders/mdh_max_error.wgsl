@@ -1,0 +1,192 @@
+// Maximum point error of MDH parameter draws (METHOD.md §3, paper eqs. 12 and 17).
+// Composed after philox.wgsl. One invocation per draw:
+//   1. normals of the draw (Philox blocks the free parameters use, Box–Muller),
+//   2. parameter offsets δ: independent δ_i = σ_i z_i, or correlated δ_free[a] = Σ_{b<=a} L[a][b] z[free[b]],
+//   3. at every test point, the deviation Δ of the end position from the mean-parameter chain,
+//      propagated from the tool to the base (see src/engine/gpu.rs for the formulation and its
+//      error budget), e_j = |Δ_1 + o_j|, w = max_j e_j.
+// Only small quantities (offsets, rotation differences, deviations) are formed in f32; the
+// ~1000 mm nominal positions enter only multiplied by small rotation differences.
+
+struct Config {
+    key: vec2<u32>,
+    m: u32,
+    // 0: independent (spread = σ[30]); 1: correlated (spread = L, nfree × nfree row-major)
+    mode: u32,
+    nfree: u32,
+    // bit b set: Philox block b feeds some free parameter
+    block_mask: u32,
+    _pad0: u32,
+    _pad1: u32,
+}
+
+struct Chunk {
+    // first draw of the chunk, (lo, hi) words
+    first: vec2<u32>,
+    count: u32,
+    // 1: write per-point errors
+    want_e: u32,
+}
+
+@group(0) @binding(0) var<uniform> cfg: Config;
+@group(0) @binding(1) var<uniform> chunk: Chunk;
+// per joint: (cos α, sin α, cos β, sin β) of the mean parameters
+@group(0) @binding(2) var<storage, read> joint_trig: array<vec4<f32>, 6>;
+@group(0) @binding(3) var<storage, read> spread: array<f32>;
+@group(0) @binding(4) var<storage, read> free_idx: array<u32>;
+// per point 13 vec4: joint i (0-based) at 2i: (u0_i, cos φ_i), 2i+1: (p0_{i+1}, sin φ_i);
+// 12: (o_j, 0) with o_j = P(mean, q_j) − P_ref,j
+@group(0) @binding(5) var<storage, read> pts: array<vec4<f32>>;
+@group(0) @binding(6) var<storage, read_write> w_out: array<f32>;
+@group(0) @binding(7) var<storage, read_write> e_out: array<f32>;
+
+const WORDS_PER_POINT: u32 = 13u;
+
+// Offsets of one joint's rotations for a draw: α' and β' as (cos', sin', cos' − cos,
+// sin' − sin), θ as (sin h, cos h, δa, δd) with h = δθ/2.
+struct JointOffsets {
+    ra: vec4<f32>,
+    rb: vec4<f32>,
+    rt: vec4<f32>,
+}
+
+fn joint_offsets(j: u32, dth: f32, dd: f32, da: f32, dal: f32, dbe: f32) -> JointOffsets {
+    let tr = joint_trig[j];
+    // cos(x+δ) − cos x = −2 sin(δ/2) sin(x+δ/2); sin(x+δ) − sin x = 2 sin(δ/2) cos(x+δ/2)
+    let ha = sincos_small(0.5 * dal);
+    let sma = tr.y * ha.y + tr.x * ha.x;
+    let cma = tr.x * ha.y - tr.y * ha.x;
+    let dca = -2.0 * ha.x * sma;
+    let dsa = 2.0 * ha.x * cma;
+    let hb = sincos_small(0.5 * dbe);
+    let smb = tr.w * hb.y + tr.z * hb.x;
+    let cmb = tr.z * hb.y - tr.w * hb.x;
+    let dcb = -2.0 * hb.x * smb;
+    let dsb = 2.0 * hb.x * cmb;
+    let ht = sincos_small(0.5 * dth);
+    return JointOffsets(
+        vec4<f32>(tr.x + dca, tr.y + dsa, dca, dsa),
+        vec4<f32>(tr.z + dcb, tr.w + dsb, dcb, dsb),
+        vec4<f32>(ht.x, ht.y, da, dd),
+    );
+}
+
+// Deviation after joint i: A = (u0_i, cos φ), B = (p0_{i+1}, sin φ), tr = mean (cα, sα, cβ, sβ).
+fn joint_step(dv: vec3<f32>, A: vec4<f32>, B: vec4<f32>, tr: vec4<f32>, o: JointOffsets) -> vec3<f32> {
+    let p0 = B.xyz;
+    let a = o.ra;
+    let bt = o.rb;
+    let t = o.rt;
+    // v = Ry(β')Δ + (Ry(β') − Ry(β)) p0
+    let vx = bt.x * dv.x + bt.y * dv.z + bt.z * p0.x + bt.w * p0.z;
+    let vy = dv.y;
+    let vz = -bt.y * dv.x + bt.x * dv.z - bt.w * p0.x + bt.z * p0.z;
+    // r = Ry(β) p0 (mean); Δu = Rx(α') v + (Rx(α') − Rx(α)) r + (δa, 0, δd)
+    let ry = p0.y;
+    let rz = -tr.w * p0.x + tr.z * p0.z;
+    let ux = vx + t.z;
+    let uy = a.x * vy - a.y * vz + a.z * ry - a.w * rz;
+    let uz = a.y * vy + a.x * vz + a.w * ry + a.z * rz + t.w;
+    // Δ = Rz(φ') Δu + (Rz(φ') − Rz(φ)) u0, φ' = φ + 2h
+    let cphi = A.w;
+    let sphi = B.w;
+    let sm = sphi * t.y + cphi * t.x;
+    let cm = cphi * t.y - sphi * t.x;
+    let dcz = -2.0 * t.x * sm;
+    let dsz = 2.0 * t.x * cm;
+    let cz = cphi + dcz;
+    let sz = sphi + dsz;
+    return vec3<f32>(
+        cz * ux - sz * uy + dcz * A.x - dsz * A.y,
+        sz * ux + cz * uy + dsz * A.x + dcz * A.y,
+        uz,
+    );
+}
+
+@compute @workgroup_size(64)
+fn max_point_error(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= chunk.count) {
+        return;
+    }
+    // 64-bit draw index = first + i, with carry.
+    let lo = chunk.first.x + i;
+    let hi = chunk.first.y + select(0u, 1u, lo < chunk.first.x);
+    let draw = vec2<u32>(lo, hi);
+
+    var z: array<f32, 32>;
+    for (var b = 0u; b < 8u; b++) {
+        if ((cfg.block_mask & (1u << b)) != 0u) {
+            let v = normals_block(draw, b, 0u, cfg.key);
+            z[4u * b] = v.x;
+            z[4u * b + 1u] = v.y;
+            z[4u * b + 2u] = v.z;
+            z[4u * b + 3u] = v.w;
+        } else {
+            z[4u * b] = 0.0;
+            z[4u * b + 1u] = 0.0;
+            z[4u * b + 2u] = 0.0;
+            z[4u * b + 3u] = 0.0;
+        }
+    }
+
+    var d: array<f32, 30>;
+    if (cfg.mode == 0u) {
+        for (var p = 0u; p < 30u; p++) {
+            d[p] = spread[p] * z[p];
+        }
+    } else {
+        for (var p = 0u; p < 30u; p++) {
+            d[p] = 0.0;
+        }
+        let n = cfg.nfree;
+        for (var a = 0u; a < n; a++) {
+            var acc = 0.0;
+            for (var b = 0u; b <= a; b++) {
+                acc = acc + spread[a * n + b] * z[free_idx[b]];
+            }
+            d[free_idx[a]] = acc;
+        }
+    }
+
+    // Per joint: α' and β' as (cos', sin', cos' − cos, sin' − sin); θ as (sin h, cos h) with
+    // h = δθ/2; and (δa, δd). Constant indices throughout, so these stay in registers.
+    let j0 = joint_offsets(0u, d[0], d[1], d[2], d[3], d[4]);
+    let j1 = joint_offsets(1u, d[5], d[6], d[7], d[8], d[9]);
+    let j2 = joint_offsets(2u, d[10], d[11], d[12], d[13], d[14]);
+    let j3 = joint_offsets(3u, d[15], d[16], d[17], d[18], d[19]);
+    let j4 = joint_offsets(4u, d[20], d[21], d[22], d[23], d[24]);
+    let j5 = joint_offsets(5u, d[25], d[26], d[27], d[28], d[29]);
+    let t0 = joint_trig[0];
+    let t1 = joint_trig[1];
+    let t2 = joint_trig[2];
+    let t3 = joint_trig[3];
+    let t4 = joint_trig[4];
+    let t5 = joint_trig[5];
+
+    let m = cfg.m;
+    var w = 0.0;
+    for (var pj = 0u; pj < m; pj++) {
+        let base = pj * WORDS_PER_POINT;
+        var dv = vec3<f32>(0.0, 0.0, 0.0);
+        dv = joint_step(dv, pts[base + 10u], pts[base + 11u], t5, j5);
+        dv = joint_step(dv, pts[base + 8u], pts[base + 9u], t4, j4);
+        dv = joint_step(dv, pts[base + 6u], pts[base + 7u], t3, j3);
+        dv = joint_step(dv, pts[base + 4u], pts[base + 5u], t2, j2);
+        dv = joint_step(dv, pts[base + 2u], pts[base + 3u], t1, j1);
+        dv = joint_step(dv, pts[base], pts[base + 1u], t0, j0);
+        let dx = dv.x;
+        let dy = dv.y;
+        let dz = dv.z;
+        let o = pts[base + 12u];
+        let ex = dx + o.x;
+        let ey = dy + o.y;
+        let ez = dz + o.z;
+        let e = sqrt(ex * ex + ey * ey + ez * ez);
+        if (chunk.want_e != 0u) {
+            e_out[i * m + pj] = e;
+        }
+        w = max(w, e);
+    }
+    w_out[i] = w;
+}
