@@ -337,3 +337,76 @@ fn backend_choice_and_errors() {
     assert_eq!(info.backend, "gpu");
     assert!(!info.adapter.is_empty());
 }
+
+/// The main job on `--backend gpu` and `--backend cpu`: same batches and draws, the same report
+/// within the per-sample bound (1e-5 mm), reliabilities equal unless a draw lies within that
+/// bound of a threshold.
+#[test]
+fn main_job_gpu_report_equals_cpu_report() {
+    if !have_adapter("main_job_gpu_report_equals_cpu_report") {
+        return;
+    }
+    let dir = std::env::temp_dir().join(format!("gpu-amcs-gpu-cli-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let run = |backend: &str| -> serde_json::Value {
+        let f = dir.join(format!("{backend}.json"));
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_gpu-amcs"))
+            .args([
+                "--points",
+                "50",
+                "--delta",
+                "0.01",
+                "--quiet",
+                "--backend",
+                backend,
+                "--json",
+                f.to_str().unwrap(),
+            ])
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        serde_json::from_str::<serde_json::Value>(&std::fs::read_to_string(f).unwrap()).unwrap()
+            ["result"]
+            .clone()
+    };
+    let (g, c) = (run("gpu"), run("cpu"));
+    assert_eq!(g["backend"]["backend"], "gpu");
+    assert_eq!(c["backend"]["backend"], "cpu");
+    assert_eq!(g["draws"], c["draws"]);
+    assert_eq!(g["batches"], c["batches"]);
+    let f = |v: &serde_json::Value| v.as_f64().unwrap();
+    for k in ["estimate", "std_uncertainty", "min", "max"] {
+        assert!((f(&g[k]) - f(&c[k])).abs() < 1e-5, "{k}");
+    }
+    for k in ["low", "high"] {
+        assert!(
+            (f(&g["coverage_interval"][k]) - f(&c["coverage_interval"][k])).abs() < 1e-5,
+            "{k}"
+        );
+    }
+    for k in ["mean", "variance", "skewness", "kurtosis"] {
+        let (a, b) = (f(&g["moments"][k]), f(&c["moments"][k]));
+        assert!(((a - b) / b).abs() < 1e-4, "{k}: {a} vs {b}");
+    }
+    for (a, b) in g["reliability"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(c["reliability"].as_array().unwrap())
+    {
+        assert!(
+            (f(&a["r"]) - f(&b["r"])).abs() <= 2.0 / f(&g["draws"]),
+            "{a} vs {b}"
+        );
+    }
+    for (a, b) in g["trace"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .zip(c["trace"].as_array().unwrap())
+    {
+        for k in ["mean", "std_uncertainty", "low", "high"] {
+            assert!((f(&a[k]) - f(&b[k])).abs() < 1e-5, "trace {k}");
+        }
+    }
+}
