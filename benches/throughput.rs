@@ -101,12 +101,35 @@ fn main() {
 
     if !gpu_amcs::engine::list_adapters().is_empty() {
         let (m, lo, hi) = time(reps.min(3), || {
-            let o = std::process::Command::new(exe).args(["--points", "50", "--delta", "0.01", "--backend", "gpu", "--quiet"]).output().unwrap();
+            let o = std::process::Command::new(exe)
+                .args([
+                    "--points",
+                    "50",
+                    "--delta",
+                    "0.01",
+                    "--backend",
+                    "gpu",
+                    "--quiet",
+                ])
+                .output()
+                .unwrap();
             assert!(o.status.success());
         });
         println!("`gpu-amcs --points 50 --delta 0.01` (process, gpu)  {m:.3} s  ({lo:.3}–{hi:.3})");
         let (m, lo, hi) = time(reps.min(3), || {
-            let o = std::process::Command::new(exe).args(["mcs", "--draws", "1000000", "--points", "50", "--backend", "gpu", "--quiet"]).output().unwrap();
+            let o = std::process::Command::new(exe)
+                .args([
+                    "mcs",
+                    "--draws",
+                    "1000000",
+                    "--points",
+                    "50",
+                    "--backend",
+                    "gpu",
+                    "--quiet",
+                ])
+                .output()
+                .unwrap();
             assert!(o.status.success());
         });
         println!("`gpu-amcs mcs --draws 1000000` (process, gpu)       {m:.3} s  ({lo:.3}–{hi:.3})");

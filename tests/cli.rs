@@ -360,3 +360,68 @@ fn identify_then_analyse_then_validate() {
         "also an input",
     );
 }
+
+#[test]
+fn draw_cap_ends_as_not_converged() {
+    let d = tmpdir("cap");
+    let f = d.join("r.json");
+    let o = run(&[
+        "--delta",
+        "0.00001",
+        "--max-draws",
+        "30000",
+        "--points",
+        "5",
+        "--backend",
+        "cpu",
+        "--json",
+        f.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("NOT CONVERGED"));
+    assert!(stderr(&o).contains("did not converge"));
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&f).unwrap()).unwrap();
+    assert_eq!(v["result"]["converged"], false);
+    assert_eq!(v["result"]["draws"], 30000);
+}
+
+#[test]
+fn nominal_reference_adds_the_systematic_error() {
+    // A model whose a2 is 0.5 mm longer than the preset's: measured from the preset (nominal),
+    // every error grows by up to the systematic offset; from itself (calibrated) it does not.
+    let d = tmpdir("nominal");
+    let text =
+        String::from_utf8(run(&["model"]).stdout)
+            .unwrap()
+            .replacen("a = 290.0", "a = 290.5", 1);
+    let f = d.join("m.toml");
+    std::fs::write(&f, text).unwrap();
+    let mean = |reference: &str| -> f64 {
+        let j = d.join(format!("{reference}.json"));
+        let o = run(&[
+            "mcs",
+            "--draws",
+            "5000",
+            "--points",
+            "10",
+            "--backend",
+            "cpu",
+            "--quiet",
+            "--model",
+            f.to_str().unwrap(),
+            "--reference",
+            reference,
+            "--json",
+            j.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&j).unwrap()).unwrap();
+        v["result"]["estimate"].as_f64().unwrap()
+    };
+    let (cal, nom) = (mean("calibrated"), mean("nominal"));
+    assert!(
+        cal < 0.2 && nom > cal + 0.2,
+        "calibrated {cal}, nominal {nom}"
+    );
+}
