@@ -39,6 +39,123 @@ pub enum Command {
     Identify(IdentifyArgs),
     /// Positioning accuracy of a model against measured positions.
     Validate(ValidateArgs),
+    /// Simulate calibration sweeps of a virtual robot measured by a laser tracker (CSV).
+    #[command(allow_negative_numbers = true)]
+    Simulate(SimulateArgs),
+    /// Repeated simulated calibrations → model file with mean, σ and full covariance.
+    #[command(allow_negative_numbers = true)]
+    Calibrate(CalibrateArgs),
+    /// The paper's factor study: Tables 1–2 and Figs. 4–9 on a virtual TX60.
+    #[command(allow_negative_numbers = true)]
+    Study(StudyArgs),
+}
+
+/// Sweep direction (start position).
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StartArg {
+    /// From each joint's negative end to its positive end (the paper's baseline).
+    NegToPos,
+    /// From the positive end to the negative end.
+    PosToNeg,
+}
+
+/// The virtual robot and the five calibration factors.
+#[derive(Args, Debug, Clone)]
+pub struct FactorArgs {
+    /// Number of repeated calibration runs (at least 2).
+    #[arg(long, default_value_t = 20, value_name = "R")]
+    pub runs: usize,
+    /// Joint range swept, percent of each joint's measuring range (0 < r ≤ 100).
+    #[arg(long, default_value_t = 50.0, value_name = "PERCENT")]
+    pub range: f64,
+    /// Joint step, degrees.
+    #[arg(long, default_value_t = 2.0, value_name = "DEG")]
+    pub step: f64,
+    /// Joint speed, percent of rated (0 < s ≤ 100).
+    #[arg(long, default_value_t = 25.0, value_name = "PERCENT")]
+    pub speed: f64,
+    /// Start position: sweep direction of every joint.
+    #[arg(long, value_enum, default_value_t = StartArg::NegToPos)]
+    pub start: StartArg,
+    /// Seed of the simulated true robot (the nominal TX60 with 0.3 mm / 0.03° class errors).
+    #[arg(long, default_value_t = 2025, value_name = "SEED")]
+    pub robot_seed: u64,
+    /// The true robot as a model file instead (same structure as the TX60; its tool is the target).
+    #[arg(long, value_name = "FILE")]
+    pub truth: Option<PathBuf>,
+    /// Seed of the measurement noise (run r uses a seed derived from it and r).
+    #[arg(long, default_value_t = 1, value_name = "SEED")]
+    pub seed: u64,
+}
+
+/// `simulate` options.
+#[derive(Args, Debug, Clone)]
+pub struct SimulateArgs {
+    #[command(flatten)]
+    pub factors: FactorArgs,
+    /// Write the sweeps CSV to FILE (default: stdout).
+    #[arg(long, short, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// Also write the true robot's model file.
+    #[arg(long, value_name = "FILE")]
+    pub truth_out: Option<PathBuf>,
+}
+
+/// `calibrate` options.
+#[derive(Args, Debug, Clone)]
+pub struct CalibrateArgs {
+    #[command(flatten)]
+    pub factors: FactorArgs,
+    /// Write the calibrated model (mean, σ, full covariance) to FILE.
+    #[arg(long, short, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// Write independent σ only (no covariance table).
+    #[arg(long)]
+    pub independent: bool,
+    /// Random test points for the accuracy check before/after calibration.
+    #[arg(long, default_value_t = 50, value_name = "N")]
+    pub accuracy_points: usize,
+}
+
+/// `study` options.
+#[derive(Args, Debug, Clone)]
+pub struct StudyArgs {
+    /// Output directory (tables, figures, STUDY.md, study.json).
+    #[arg(long, short, default_value = "study-out", value_name = "DIR")]
+    pub out: PathBuf,
+    /// Reduced study (2–3 levels per factor, 10 runs, MCS 10^5): about a minute.
+    #[arg(long)]
+    pub quick: bool,
+    /// Factors to vary (default: all).
+    #[arg(long, value_delimiter = ',', value_name = "NAME,...")]
+    pub factors: Option<Vec<String>>,
+    /// Calibration runs at the baseline (default 20, --quick 10).
+    #[arg(long, value_name = "R")]
+    pub runs: Option<usize>,
+    /// MCS draws (default 10^6, --quick 10^5).
+    #[arg(long, value_name = "N")]
+    pub mcs_draws: Option<u64>,
+    /// Numbers of test points.
+    #[arg(long, value_delimiter = ',', default_values_t = [10usize, 50], value_name = "N,...")]
+    pub points: Vec<usize>,
+    /// AMCS tolerances δ (mm).
+    #[arg(long, value_delimiter = ',', default_values_t = [0.01, 0.02], value_name = "MM,...", allow_hyphen_values = true)]
+    pub deltas: Vec<f64>,
+    /// Seed of the simulated true robot.
+    #[arg(long, default_value_t = 2025, value_name = "SEED")]
+    pub robot_seed: u64,
+    /// Seed of the calibration runs.
+    #[arg(long, default_value_t = 1, value_name = "SEED")]
+    pub seed: u64,
+    /// Evaluation backend.
+    #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
+    pub backend: BackendArg,
+    /// GPU adapter to use (case-insensitive part of its name).
+    #[arg(long, value_name = "NAME")]
+    pub adapter: Option<String>,
+    /// No progress bar and no summary on stdout.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 /// Circle model of the identification.

@@ -9,6 +9,7 @@ use gpu_amcs::kinematics::{position_deg, preset, RobotModel};
 use gpu_amcs::mc::{self, AmcsOptions, IntervalKind, McsOptions, RunSettings, Tolerance};
 use gpu_amcs::points::{self, WorkspaceBox};
 use gpu_amcs::report::{self, Comparison, RunReport};
+use gpu_amcs::simulate::{self, Experiment, Factors, SweepDirection};
 use indicatif::{ProgressBar, ProgressStyle};
 use std::path::{Path, PathBuf};
 
@@ -24,6 +25,9 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Fk(a)) => run_fk(a),
         Some(Command::Identify(a)) => run_identify(a),
         Some(Command::Validate(a)) => run_validate(a),
+        Some(Command::Simulate(a)) => run_simulate(a),
+        Some(Command::Calibrate(a)) => run_calibrate(a),
+        Some(Command::Study(a)) => run_study(a),
     }
 }
 
@@ -427,5 +431,179 @@ fn run_validate(a: ValidateArgs) -> Result<()> {
     let m = identify::read_measurements(&a.measured)?;
     let v = identify::validate(&model, &m, nominal.as_ref())?;
     print!("{}", identify::render_validation(&v));
+    Ok(())
+}
+
+fn factors_of(a: &FactorArgs) -> Result<(Experiment, Factors)> {
+    let f = Factors {
+        runs: a.runs,
+        range_fraction: a.range / 100.0,
+        step_deg: a.step,
+        speed_fraction: a.speed / 100.0,
+        direction: match a.start {
+            StartArg::NegToPos => SweepDirection::NegToPos,
+            StartArg::PosToNeg => SweepDirection::PosToNeg,
+        },
+    };
+    f.check()?;
+    let exp = match &a.truth {
+        None => Experiment::tx60(a.robot_seed),
+        Some(p) => {
+            let truth = RobotModel::from_file(p).context("--truth")?;
+            let mut nominal = preset("tx60")?;
+            if truth.fixed != nominal.fixed {
+                bail!(
+                    "--truth {}: its fixed d/β pattern differs from the TX60's",
+                    p.display()
+                );
+            }
+            nominal.tool = truth.tool;
+            Experiment::with_truth(nominal, truth)
+        }
+    };
+    Ok((exp, f))
+}
+
+fn run_simulate(a: SimulateArgs) -> Result<()> {
+    let inputs: Vec<&Path> = a.factors.truth.as_deref().into_iter().collect();
+    let outs: Vec<&Path> = [a.out.as_deref(), a.truth_out.as_deref()]
+        .into_iter()
+        .flatten()
+        .collect();
+    guard_outputs(&inputs, &outs)?;
+    let (exp, f) = factors_of(&a.factors)?;
+    let data = exp.sweeps(&f, a.factors.seed);
+    let mut buf = Vec::new();
+    gpu_amcs::identify::write_sweeps(&data, &mut buf)?;
+    let text = String::from_utf8(buf).context("sweep CSV")?;
+    match &a.out {
+        Some(o) => {
+            report::write_atomic(o, &text)?;
+            eprintln!(
+                "wrote {} runs × 6 sweeps ({} points) to {}",
+                f.runs,
+                text.lines().count() - 1,
+                o.display()
+            );
+        }
+        None => print!("{text}"),
+    }
+    if let Some(t) = &a.truth_out {
+        report::write_atomic(t, &exp.truth.to_toml())?;
+    }
+    Ok(())
+}
+
+fn run_calibrate(a: CalibrateArgs) -> Result<()> {
+    use gpu_amcs::kinematics::ParamKind;
+    let inputs: Vec<&Path> = a.factors.truth.as_deref().into_iter().collect();
+    if let Some(o) = &a.out {
+        guard_outputs(&inputs, &[o])?;
+    }
+    if a.accuracy_points == 0 {
+        bail!("--accuracy-points must be at least 1");
+    }
+    let (exp, f) = factors_of(&a.factors)?;
+    let cal = simulate::calibrate(&exp, &f, a.factors.seed)?;
+    let acc = simulate::accuracy_check(
+        &exp,
+        &cal.independent,
+        a.accuracy_points,
+        &WorkspaceBox::default(),
+        a.factors.seed ^ 0x5eed,
+    )?;
+    println!(
+        "{} runs identified in {:.2} s ({})",
+        f.runs, cal.seconds, cal.independent.name
+    );
+    let sig = cal.independent.uncertainty.sigmas();
+    println!("σ of the identified parameters (mm, deg):");
+    for j in 0..6 {
+        let row: Vec<String> = ParamKind::ALL
+            .iter()
+            .enumerate()
+            .map(|(k, kind)| format!("{} {:.5}", kind.name(), sig[j * 5 + k] / kind.to_internal()))
+            .collect();
+        println!("  J{}: {}", j + 1, row.join(", "));
+    }
+    print!("{}", gpu_amcs::identify::render_validation(&acc));
+    let model = if a.independent {
+        cal.independent
+    } else {
+        cal.correlated
+    };
+    if let Some(o) = &a.out {
+        report::write_atomic(o, &model.to_toml())?;
+        println!("wrote {}", o.display());
+    }
+    Ok(())
+}
+
+fn run_study(a: StudyArgs) -> Result<()> {
+    use gpu_amcs::study::{self, Factor, StudySettings};
+    let mut s = if a.quick {
+        StudySettings::quick()
+    } else {
+        StudySettings::default()
+    };
+    if let Some(r) = a.runs {
+        s.baseline.runs = r;
+    }
+    if let Some(n) = a.mcs_draws {
+        s.mcs_draws = n;
+    }
+    if let Some(fs) = &a.factors {
+        s.factors = fs
+            .iter()
+            .map(|n| {
+                Factor::ALL
+                    .into_iter()
+                    .find(|f| f.name().eq_ignore_ascii_case(n.trim()))
+                    .ok_or_else(|| {
+                        anyhow::anyhow!(
+                            "--factors: unknown factor '{n}' (repeatability, range, step, speed, start)"
+                        )
+                    })
+            })
+            .collect::<Result<_>>()?;
+    }
+    s.point_counts = a.points.clone();
+    s.deltas = a.deltas.clone();
+    s.robot_seed = a.robot_seed;
+    s.calibration_seed = a.seed;
+    s.backend = match a.backend {
+        BackendArg::Auto => BackendChoice::Auto,
+        BackendArg::Gpu => BackendChoice::Gpu,
+        BackendArg::Cpu => BackendChoice::Cpu,
+    };
+    s.adapter = a.adapter.clone();
+    s.check()?;
+    let pb = if a.quiet {
+        ProgressBar::hidden()
+    } else {
+        let pb = ProgressBar::new(0);
+        pb.set_style(
+            ProgressStyle::with_template("study [{bar:30}] {pos}/{len} ({elapsed}) {msg}")
+                .unwrap_or_else(|_| ProgressStyle::default_bar())
+                .progress_chars("=> "),
+        );
+        pb
+    };
+    let cb = |done: u64, total: u64, msg: &str| {
+        pb.set_length(total);
+        pb.set_position(done);
+        pb.set_message(msg.to_string());
+    };
+    let result = study::run_study(&s, Some(&cb))?;
+    pb.finish_and_clear();
+    study::write_outputs(&result, &a.out)?;
+    if !a.quiet {
+        println!(
+            "study finished in {:.1} s: {} levels; wrote {}",
+            result.seconds,
+            result.levels.len(),
+            a.out.display()
+        );
+    }
     Ok(())
 }

@@ -43,3 +43,4 @@ pub mod points;
 pub mod report;
 pub mod sampling;
 pub mod simulate;
+pub mod study;

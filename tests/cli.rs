@@ -209,17 +209,17 @@ fn bad_files_are_named_and_nothing_is_half_written() {
     let good = String::from_utf8(run(&["model"]).stdout).unwrap();
     let cases = [
         (
-            good.replacen("d = 0.02,", "d = -0.02,", 1),
+            good.replacen("d = 0.005056,", "d = -0.005056,", 1),
             "joint[1].sigma.d",
         ),
         (
-            good.replacen("d = 0.02,", "d = nan,", 1),
+            good.replacen("d = 0.005056,", "d = nan,", 1),
             "joint[1].sigma.d",
         ),
         (
             good.replacen(
-                "sigma = { theta = 0.005, d = 0.02,",
-                "sigma = { d = 0.02,",
+                "sigma = { theta = 0.003216, d = 0.005056,",
+                "sigma = { d = 0.005056,",
                 1,
             ),
             "theta",

@@ -545,8 +545,8 @@ mod tests {
     fn bad_fields_are_named() {
         let good = tx60().to_toml();
         let neg = good.replacen(
-            "sigma = { theta = 0.005, d = 0.02",
-            "sigma = { theta = 0.005, d = -0.02",
+            "sigma = { theta = 0.003216, d = 0.005056",
+            "sigma = { theta = 0.003216, d = -0.005056",
             1,
         );
         assert_ne!(neg, good);
@@ -560,8 +560,8 @@ mod tests {
         let unknown = good.replacen("fixed = \"beta\"", "fixed = \"beta\"\nfoo = 1", 1);
         assert!(err_of(&unknown).contains("foo"), "{}", err_of(&unknown));
         let missing = good.replacen(
-            "sigma = { theta = 0.005, d = 0.02,",
-            "sigma = { d = 0.02,",
+            "sigma = { theta = 0.003216, d = 0.005056,",
+            "sigma = { d = 0.005056,",
             1,
         );
         assert!(err_of(&missing).contains("theta"), "{}", err_of(&missing));

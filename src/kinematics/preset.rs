@@ -2,19 +2,36 @@
 //!
 //! The Staubli TX60 table of METHOD.md §1: it reproduces the public ROS-Industrial TX60 chain
 //! (joint origins 375, 290, 20 lateral, 310, 70 mm), so at q = 0 the flange centre is at
-//! (0, 20, 1045) mm. Its default uncertainty is a plausible laser-tracker calibration:
-//! σ = 0.02 mm on every free length and σ = 0.005° on every free angle, the order of the AT960's
-//! ±(15 µm + 6 µm/m) MPE propagated through a circle-point fit (README, "Default uncertainty").
+//! (0, 20, 1045) mm.
+//!
+//! Its default uncertainty ([`TX60_SIGMA`], independent σ per parameter) is the one the
+//! calibration simulator produces at the paper's baseline settings: the virtual TX60 of
+//! `simulate::Experiment::tx60(2025)` (nominal geometry perturbed by 0.3 mm / 0.03° class errors
+//! from seed 2025, tool (30, −20, 80) mm, Leica AT960 tracker with MPE = 2σ at (2000, −600, 400) mm,
+//! TX60 repeatability ±0.02 mm, speed/backlash models of `simulate::factors`), calibrated
+//! `simulate::calibrate` with `Factors::default()` — 20 runs, 50 % of each measuring range,
+//! 2° steps, 25 % speed, negative→positive — and calibration seed 1, σ = the run-to-run standard
+//! deviation of the identified parameters. The numbers are baked in (no calibration at start-up);
+//! the test `baked_tx60_sigma_matches_the_simulator` in `tests/study.rs` re-runs that calibration
+//! and fails if the simulator no longer produces them. J6's θ, d, a, α are zero: the
+//! identification keeps them nominal and lets the tool point absorb them (`identify::mdh`), so the
+//! parameter model carries no spread for them; β is fixed except on J2 (J2 ∥ J3).
 
 use super::model::{param_index, FixedParam, ParamKind, RobotModel, Uncertainty, JOINTS, N_PARAMS};
 
 /// Names of the built-in presets.
 pub const PRESETS: &[&str] = &["tx60"];
 
-/// σ of a free length in the default uncertainty, mm.
-const SIGMA_LENGTH_MM: f64 = 0.02;
-/// σ of a free angle in the default uncertainty, degrees.
-const SIGMA_ANGLE_DEG: f64 = 0.005;
+/// The default σ of every parameter, `[θ (deg), d (mm), a (mm), α (deg), β (deg)]` per joint:
+/// the baseline calibration of the simulator (see the module docs), 4 significant digits.
+pub const TX60_SIGMA: [[f64; 5]; JOINTS] = [
+    [3.216e-3, 5.056e-3, 7.175e-3, 1.995e-3, 0.0],
+    [1.664e-3, 0.0, 8.480e-3, 4.335e-3, 2.208e-3],
+    [2.176e-3, 1.183e-2, 6.683e-3, 3.526e-3, 0.0],
+    [1.036e-2, 8.317e-3, 6.864e-3, 4.796e-3, 0.0],
+    [3.619e-3, 1.205e-2, 1.038e-2, 1.197e-2, 0.0],
+    [0.0, 0.0, 0.0, 0.0, 0.0],
+];
 
 /// The Staubli TX60 with its default uncertainty; tool point at the flange centre.
 pub fn tx60() -> RobotModel {
@@ -41,17 +58,7 @@ pub fn tx60() -> RobotModel {
         for (k, kind) in ParamKind::ALL.iter().enumerate() {
             let i = param_index(j, *kind);
             params[i] = table[j][k] * kind.to_internal();
-            let is_fixed = matches!(
-                (fixed[j], kind),
-                (FixedParam::D, ParamKind::D) | (FixedParam::Beta, ParamKind::Beta)
-            );
-            sigma[i] = if is_fixed {
-                0.0
-            } else if kind.is_angle() {
-                SIGMA_ANGLE_DEG.to_radians()
-            } else {
-                SIGMA_LENGTH_MM
-            };
+            sigma[i] = TX60_SIGMA[j][k] * kind.to_internal();
         }
     }
     RobotModel {

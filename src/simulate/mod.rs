@@ -6,15 +6,28 @@
 //! randomness comes from a seeded `ChaCha8Rng`, so every simulation is reproducible. The output is
 //! the same [`crate::identify::SweepData`] the CSV reader returns, and it is written by the same
 //! writer ([`write_sweeps`]), so real and simulated data go through one code path.
+//!
+//! The calibration-experiment simulator of the factor study builds on these: [`tracker`] (the
+//! AT960 noise model, radial and transverse), [`factors`] (the paper's five factors and the
+//! physical models behind them: repeatability, range, step, speed, start position) and
+//! [`calibrate`] (repeated simulate → identify runs → mean, σ and covariance).
 
+pub mod calibrate;
+pub mod factors;
 pub mod robot;
 pub mod sweep;
+pub mod tracker;
 
 pub use crate::identify::{write_measurements, write_sweeps};
+pub use calibrate::{
+    accuracy_check, calibrate, run_seed, sample_covariance, Calibration, Experiment, DESIGN_TOOL_MM,
+};
+pub use factors::{Factors, RobotErrorModel, SimulateError, SweepDirection};
 pub use robot::{measure_positions, perturbed_model, random_configurations, ParameterErrors};
 pub use sweep::{
     simulate_sweeps, simulate_sweeps_with, SweepPlan, TX60_HOME_DEG, TX60_MEASURING_RANGES_DEG,
 };
+pub use tracker::TrackerModel;
 
 use rand::Rng;
 

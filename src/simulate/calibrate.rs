@@ -1,0 +1,328 @@
+//! Repeated calibration experiments on a virtual robot (paper §2.2 and §3.2): simulate the
+//! circle-point sweeps of one factor setting R times, identify each run, and take the parameter
+//! statistics — mean, σ and the full covariance — that AMCS needs.
+//!
+//! An [`Experiment`] is the fixed part: the nominal (design) model, the true robot, the tracker
+//! ([`TrackerModel`]), the robot's non-geometric errors ([`RobotErrorModel`]), the measurement
+//! plan (home pose, measuring ranges) and the identification options. [`Factors`] is the part the
+//! paper varies. Run `r` of a calibration draws from its own generator seeded by
+//! [`run_seed`]`(seed, r)`, so the runs can be simulated and identified in parallel (rayon) and
+//! the result does not depend on the thread count. A measured point is
+//!
+//! `tracker(FK(truth, q_cmd + e_joint) + scatter)`
+//!
+//! with `e_joint` the moving joint's backlash and settling error and `scatter` the pose
+//! repeatability and residual vibration ([`RobotErrorModel`]), then the tracker's radial and
+//! transverse noise ([`TrackerModel::measure`]).
+//!
+//! The full covariance of R runs of ~20 free parameters is singular when R is at most the number
+//! of free parameters; the correlated model adds a ridge of [`COVARIANCE_RIDGE`] × its own
+//! diagonal so it has a Cholesky factor (the draws stay within 10⁻³ σ of the sample covariance's
+//! subspace).
+
+use super::factors::{Factors, RobotErrorModel, SimulateError};
+use super::robot::{perturbed_model, ParameterErrors};
+use super::sweep::SweepPlan;
+use super::tracker::TrackerModel;
+use crate::identify::{
+    identify_run, parameter_statistics, validate, IdentifyOptions, Measurement, Sweep, SweepData,
+    SweepPoint, SweepRun, Validation,
+};
+use crate::kinematics::{position, tx60, RobotModel, Uncertainty, JOINTS, N_PARAMS};
+use crate::points::{self, WorkspaceBox};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+
+/// The tracker target in the flange frame of the simulated TX60, mm (off-axis, so J6's circle has
+/// a radius of √(30² + 20²) ≈ 36 mm).
+pub const DESIGN_TOOL_MM: [f64; 3] = [30.0, -20.0, 80.0];
+/// Relative ridge added to the covariance's diagonal (see the module docs).
+pub const COVARIANCE_RIDGE: f64 = 1e-6;
+
+/// The fixed part of a calibration experiment.
+#[derive(Clone, Debug)]
+pub struct Experiment {
+    /// Design model (structure, conventions, prior), with the design tool point.
+    pub nominal: RobotModel,
+    /// The robot as it really is.
+    pub truth: RobotModel,
+    /// The laser tracker.
+    pub tracker: TrackerModel,
+    /// Repeatability, dynamics and backlash of the robot.
+    pub robot: RobotErrorModel,
+    /// Home pose and measuring ranges (its fraction and step are replaced by the factors).
+    pub plan: SweepPlan,
+    /// Identification options.
+    pub identify: IdentifyOptions,
+}
+
+impl Experiment {
+    /// A TX60 whose true geometry is the nominal one perturbed by [`ParameterErrors::default`]
+    /// (0.3 mm / 0.03° class) from `robot_seed`, tool [`DESIGN_TOOL_MM`], the AT960 and the TX60
+    /// error model.
+    pub fn tx60(robot_seed: u64) -> Self {
+        let mut nominal = tx60();
+        nominal.tool = DESIGN_TOOL_MM;
+        let mut rng = ChaCha8Rng::seed_from_u64(robot_seed);
+        let truth = perturbed_model(
+            &nominal,
+            &ParameterErrors::default(),
+            DESIGN_TOOL_MM,
+            &mut rng,
+        );
+        Self::with_truth(nominal, truth)
+    }
+
+    /// An experiment on a given true robot (its structure must match `nominal`'s).
+    pub fn with_truth(nominal: RobotModel, truth: RobotModel) -> Self {
+        Experiment {
+            nominal,
+            truth,
+            tracker: TrackerModel::default(),
+            robot: RobotErrorModel::default(),
+            plan: SweepPlan::default(),
+            identify: IdentifyOptions::default(),
+        }
+    }
+
+    /// The sweep plan of a factor setting.
+    pub fn plan_for(&self, f: &Factors) -> SweepPlan {
+        SweepPlan {
+            range_fraction: f.range_fraction,
+            step_deg: f.step_deg,
+            ..self.plan.clone()
+        }
+    }
+
+    /// One simulated calibration run (all six sweeps) from generator `rng`.
+    pub fn sweep_run(&self, f: &Factors, label: Option<String>, rng: &mut ChaCha8Rng) -> SweepRun {
+        let plan = self.plan_for(f);
+        let dir = f.direction.sign();
+        let sweeps = (1..=JOINTS)
+            .map(|j| {
+                let mut configs = plan.sweep_configurations(j);
+                if dir < 0.0 {
+                    configs.reverse();
+                }
+                let points = configs
+                    .into_iter()
+                    .map(|q_deg| {
+                        let mut q_act = q_deg;
+                        q_act[j - 1] += self.robot.joint_error_deg(
+                            &self.nominal,
+                            j - 1,
+                            &q_deg,
+                            dir,
+                            f.speed_fraction,
+                            rng,
+                        );
+                        let p = position(
+                            &self.truth.params,
+                            &self.truth.tool,
+                            &q_act.map(f64::to_radians),
+                        );
+                        let s = self.robot.point_scatter_mm(f.speed_fraction, rng);
+                        let p = [p[0] + s[0], p[1] + s[1], p[2] + s[2]];
+                        SweepPoint {
+                            q_deg,
+                            position_mm: self.tracker.measure(p, rng),
+                            line: 0,
+                        }
+                    })
+                    .collect();
+                Sweep { joint: j, points }
+            })
+            .collect();
+        SweepRun { run: label, sweeps }
+    }
+
+    /// All `f.runs` runs of a calibration from `seed`, labelled "1", "2", …, line numbers as
+    /// written by [`crate::identify::write_sweeps`].
+    pub fn sweeps(&self, f: &Factors, seed: u64) -> SweepData {
+        let runs: Vec<SweepRun> = (0..f.runs)
+            .into_par_iter()
+            .map(|r| {
+                let mut rng = ChaCha8Rng::seed_from_u64(run_seed(seed, r as u64));
+                self.sweep_run(f, Some((r + 1).to_string()), &mut rng)
+            })
+            .collect();
+        let mut data = SweepData { runs };
+        let mut line = 2;
+        for r in &mut data.runs {
+            for s in &mut r.sweeps {
+                for p in &mut s.points {
+                    p.line = line;
+                    line += 1;
+                }
+            }
+        }
+        data
+    }
+
+    /// Positions of `truth` at `configs` (degrees) as the tracker measures them (static poses:
+    /// repeatability scatter and tracker noise), lines numbered as written.
+    pub fn measure(&self, configs: &[[f64; JOINTS]], rng: &mut ChaCha8Rng) -> Vec<Measurement> {
+        configs
+            .iter()
+            .enumerate()
+            .map(|(k, q)| {
+                let p = position(
+                    &self.truth.params,
+                    &self.truth.tool,
+                    &q.map(f64::to_radians),
+                );
+                let s = self.robot.point_scatter_mm(0.0, rng);
+                Measurement {
+                    q_deg: *q,
+                    position_mm: self
+                        .tracker
+                        .measure([p[0] + s[0], p[1] + s[1], p[2] + s[2]], rng),
+                    line: k as u64 + 2,
+                }
+            })
+            .collect()
+    }
+}
+
+/// Seed of run `run` of a calibration seeded `seed` (SplitMix64 of both), so runs are
+/// independent and reproducible in any order.
+pub fn run_seed(seed: u64, run: u64) -> u64 {
+    splitmix(splitmix(seed) ^ run.wrapping_mul(0x9E37_79B9_7F4A_7C15))
+}
+
+/// SplitMix64 finaliser.
+pub fn splitmix(mut z: u64) -> u64 {
+    z = z.wrapping_add(0x9E37_79B9_7F4A_7C15);
+    z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+    z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+    z ^ (z >> 31)
+}
+
+/// The statistics of a repeated calibration.
+#[derive(Clone, Debug)]
+pub struct Calibration {
+    /// The factor setting.
+    pub factors: Factors,
+    /// The model identified from each run.
+    pub runs: Vec<RobotModel>,
+    /// Mean parameters with independent σ (the paper's assumption).
+    pub independent: RobotModel,
+    /// Mean parameters with the full sample covariance (plus the ridge).
+    pub correlated: RobotModel,
+    /// Wall time of simulation and identification, seconds.
+    pub seconds: f64,
+}
+
+/// Sample covariance (n − 1) of the parameters of `models`, row-major 30×30, internal units.
+pub fn sample_covariance(models: &[RobotModel]) -> Vec<f64> {
+    let n = models.len() as f64;
+    let mut mean = [0.0; N_PARAMS];
+    for m in models {
+        for (s, v) in mean.iter_mut().zip(&m.params) {
+            *s += v / n;
+        }
+    }
+    let mut c = vec![0.0; N_PARAMS * N_PARAMS];
+    for m in models {
+        for i in 0..N_PARAMS {
+            let di = m.params[i] - mean[i];
+            for k in 0..N_PARAMS {
+                c[i * N_PARAMS + k] += di * (m.params[k] - mean[k]) / (n - 1.0);
+            }
+        }
+    }
+    c
+}
+
+/// Runs `f.runs` simulated calibrations from `seed` (in parallel) and returns their statistics.
+pub fn calibrate(exp: &Experiment, f: &Factors, seed: u64) -> Result<Calibration, SimulateError> {
+    f.check()?;
+    let t0 = std::time::Instant::now();
+    let runs: Vec<RobotModel> = (0..f.runs)
+        .into_par_iter()
+        .map(|r| {
+            let mut rng = ChaCha8Rng::seed_from_u64(run_seed(seed, r as u64));
+            let run = exp.sweep_run(f, Some((r + 1).to_string()), &mut rng);
+            identify_run(&run, &exp.nominal, &exp.identify)
+                .map(|id| id.model)
+                .map_err(|source| SimulateError::Identify { run: r + 1, source })
+        })
+        .collect::<Result<_, _>>()?;
+    let mut independent = parameter_statistics(&runs).ok_or_else(|| {
+        SimulateError::Other("the runs identified models of different structure".into())
+    })?;
+    independent.name = format!(
+        "{} calibrated ({} runs, range {} %, step {}°, speed {} %, {})",
+        exp.nominal.name,
+        f.runs,
+        f.range_fraction * 100.0,
+        f.step_deg,
+        f.speed_fraction * 100.0,
+        f.direction.label()
+    );
+    let sig = independent.uncertainty.sigmas();
+    let mut cov = sample_covariance(&runs);
+    for i in 0..N_PARAMS {
+        for k in 0..N_PARAMS {
+            if sig[i] == 0.0 || sig[k] == 0.0 {
+                cov[i * N_PARAMS + k] = 0.0;
+            }
+        }
+        cov[i * N_PARAMS + i] *= 1.0 + COVARIANCE_RIDGE;
+    }
+    let mut correlated = independent.clone();
+    correlated.uncertainty = Uncertainty::Covariance(cov);
+    Ok(Calibration {
+        factors: *f,
+        runs,
+        independent,
+        correlated,
+        seconds: t0.elapsed().as_secs_f64(),
+    })
+}
+
+/// Accuracy before and after calibration (the paper's 22.9 % experiment): `n` random test
+/// configurations whose target lies in `bx`, measured on the true robot, against the calibrated
+/// model and the nominal model.
+pub fn accuracy_check(
+    exp: &Experiment,
+    calibrated: &RobotModel,
+    n: usize,
+    bx: &WorkspaceBox,
+    seed: u64,
+) -> Result<Validation, SimulateError> {
+    let configs = points::generate(&exp.nominal, n, bx, seed)
+        .map_err(|e| SimulateError::Other(format!("test points: {e}")))?;
+    let mut rng = ChaCha8Rng::seed_from_u64(splitmix(seed ^ 0xACC));
+    let m = exp.measure(&configs, &mut rng);
+    let mut nominal = exp.nominal.clone();
+    nominal.name = format!("{} (nominal)", exp.nominal.name);
+    validate(calibrated, &m, Some(&nominal)).map_err(|e| SimulateError::Other(e.to_string()))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn perfect_measurement_recovers_the_truth_and_runs_are_reproducible() {
+        let mut exp = Experiment::tx60(7);
+        exp.tracker = TrackerModel::perfect();
+        exp.robot = RobotErrorModel::none();
+        let f = Factors {
+            runs: 2,
+            ..Factors::default()
+        };
+        let c = calibrate(&exp, &f, 1).unwrap();
+        let v = accuracy_check(&exp, &c.independent, 20, &WorkspaceBox::default(), 3).unwrap();
+        assert!(v.model.max_mm < 1e-3, "{:?}", v.model);
+        assert!(v.nominal.unwrap().1.mean_mm > 0.1);
+        // noisy: same seed, same statistics
+        let exp = Experiment::tx60(7);
+        let a = calibrate(&exp, &f, 5).unwrap();
+        let b = calibrate(&exp, &f, 5).unwrap();
+        assert_eq!(a.independent.params, b.independent.params);
+        assert_eq!(a.independent.uncertainty, b.independent.uncertainty);
+    }
+}

@@ -1,0 +1,331 @@
+//! The five measurement factors of the paper (§3.2) and the physical models behind them.
+//!
+//! A calibration experiment is the circle-point measurement of [`super::sweep`]: every joint in
+//! turn sweeps part of its measuring range from the home pose while the tracker records the
+//! target. The paper varies five things about that experiment ([`Factors`]); each acts on the
+//! simulated measurement through a documented model ([`RobotErrorModel`]):
+//!
+//! | factor | paper levels | model |
+//! |---|---|---|
+//! | repeatability (`runs`) | 10–50 repeated runs | the parameter statistics (mean, σ, covariance) are taken over this many independent calibrations; every measured pose also scatters by the robot's pose repeatability (TX60: RP = ±0.02 mm, ISO 9283: RP = l̄ + 3 S_l; for an isotropic 3-D Gaussian that is 3.62 σ, so σ = 5.5 µm per coordinate) |
+//! | joint range (`range_fraction`) | 10–100 % of the measuring range | the centred fraction of each joint's measuring range swept: shorter arcs fix the axis worse (sagitta effect, see [`crate::identify`]) |
+//! | step (`step_deg`) | 1–5° | angle between measured points: fewer points per arc at larger steps |
+//! | speed (`speed_fraction`) | 10–100 % of rated | dynamic/settling error at each stop. Stable-point measurement waits for the target to settle, but what is left grows with the speed the joint stopped from: a residual vibration of the end point, isotropic Gaussian with σ = 25 µm · s² (s = speed fraction; kinetic energy ∝ s²), and a servo settling error of the moving joint, Gaussian with σ = 0.002° · s |
+//! | start position (`direction`) | negative→positive limit or positive→negative | joint backlash/hysteresis b_j (0.004° on J1–J3, 0.008° on J4–J6, harmonic/cycloid class gearing). Moving in direction d the output lags the command by d·b/2 (a systematic offset the calibration absorbs into θ). Where gravity pulls the distal links the way the joint moves (an overrunning load), the gear teeth float inside the backlash at every stop: the lost motion is uniform in [0, b] instead of b/2. Where gravity opposes the motion (or has no torque about the axis, e.g. J1) the driving flank stays engaged and only 10 % of b scatters. The gravity torque's sign is computed at each point from the nominal model, with the distal mass lumped at the target. So which direction is better depends on the pose, not on a rule written in here |
+//!
+//! Defaults are the paper's baseline: 20 runs, 50 % range, 2° step, 25 % speed, negative→positive.
+
+use super::standard_normal;
+use crate::kinematics::{position, transform, RobotModel, JOINTS};
+use rand::Rng;
+
+/// The order in which a joint's sweep visits its points.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum SweepDirection {
+    /// From the negative end of the swept range to the positive end (the paper's baseline).
+    NegToPos,
+    /// From the positive end to the negative end.
+    PosToNeg,
+}
+
+impl SweepDirection {
+    /// +1 for negative→positive, −1 otherwise.
+    pub fn sign(self) -> f64 {
+        match self {
+            Self::NegToPos => 1.0,
+            Self::PosToNeg => -1.0,
+        }
+    }
+    /// Label for reports.
+    pub fn label(self) -> &'static str {
+        match self {
+            Self::NegToPos => "neg→pos",
+            Self::PosToNeg => "pos→neg",
+        }
+    }
+}
+
+/// The five factors of one calibration setting.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Factors {
+    /// Number of repeated calibration runs (≥ 2).
+    pub runs: usize,
+    /// Fraction of each joint's measuring range swept, (0, 1].
+    pub range_fraction: f64,
+    /// Angle step, degrees (> 0).
+    pub step_deg: f64,
+    /// Joint speed as a fraction of rated, (0, 1].
+    pub speed_fraction: f64,
+    /// Sweep direction (start position).
+    pub direction: SweepDirection,
+}
+
+impl Default for Factors {
+    /// The paper's baseline: 20 runs, 50 %, 2°, 25 %, negative→positive.
+    fn default() -> Self {
+        Factors {
+            runs: 20,
+            range_fraction: 0.5,
+            step_deg: 2.0,
+            speed_fraction: 0.25,
+            direction: SweepDirection::NegToPos,
+        }
+    }
+}
+
+/// Errors of the simulation and calibration settings and runs.
+#[derive(Debug, thiserror::Error)]
+pub enum SimulateError {
+    /// A setting is out of range; `flag` names the command-line flag.
+    #[error("{flag} {message}")]
+    Setting {
+        /// The flag, e.g. `--range`.
+        flag: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// Identification of a simulated run failed.
+    #[error("calibration run {run}: {source}")]
+    Identify {
+        /// 1-based run.
+        run: usize,
+        /// Why.
+        source: crate::identify::IdentifyError,
+    },
+    /// Validation or statistics failed.
+    #[error("{0}")]
+    Other(String),
+}
+
+impl Factors {
+    /// Checks every factor; the error names the flag (`--runs`, `--range` in percent, `--step`,
+    /// `--speed` in percent).
+    pub fn check(&self) -> Result<(), SimulateError> {
+        let bad = |flag, message: String| Err(SimulateError::Setting { flag, message });
+        if self.runs < 2 {
+            return bad(
+                "--runs",
+                format!(
+                    "must be at least 2 (statistics need repeated runs), got {}",
+                    self.runs
+                ),
+            );
+        }
+        if !(self.range_fraction.is_finite()
+            && self.range_fraction > 0.0
+            && self.range_fraction <= 1.0)
+        {
+            return bad(
+                "--range",
+                format!(
+                    "must be more than 0 and at most 100 (% of the measuring range), got {}",
+                    self.range_fraction * 100.0
+                ),
+            );
+        }
+        if !(self.step_deg.is_finite() && self.step_deg > 0.0) {
+            return bad(
+                "--step",
+                format!("must be a positive angle in degrees, got {}", self.step_deg),
+            );
+        }
+        if !(self.speed_fraction.is_finite()
+            && self.speed_fraction > 0.0
+            && self.speed_fraction <= 1.0)
+        {
+            return bad(
+                "--speed",
+                format!(
+                    "must be more than 0 and at most 100 (% of rated speed), got {}",
+                    self.speed_fraction * 100.0
+                ),
+            );
+        }
+        Ok(())
+    }
+}
+
+/// The robot's non-geometric error sources during a calibration measurement (see the module
+/// docs for the physics and the defaults).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct RobotErrorModel {
+    /// ISO 9283 pose repeatability RP, mm (TX60: 0.02).
+    pub repeatability_mm: f64,
+    /// σ of the residual end-point vibration at rated speed, mm (scales with speed²).
+    pub vibration_at_rated_mm: f64,
+    /// σ of the moving joint's settling error at rated speed, degrees (scales with speed).
+    pub settling_at_rated_deg: f64,
+    /// Backlash of each joint, degrees.
+    pub backlash_deg: [f64; JOINTS],
+    /// Fraction of the backlash that scatters when the driving flank stays engaged.
+    pub engaged_scatter: f64,
+}
+
+/// RP = l̄ + 3 S_l of ISO 9283 for an isotropic 3-D Gaussian of σ per coordinate, in units of σ
+/// (Maxwell distribution: mean 1.596 σ, standard deviation 0.673 σ).
+pub const RP_IN_SIGMAS: f64 = 1.595_769 + 3.0 * 0.673_4;
+
+impl Default for RobotErrorModel {
+    fn default() -> Self {
+        RobotErrorModel {
+            repeatability_mm: 0.02,
+            vibration_at_rated_mm: 0.025,
+            settling_at_rated_deg: 0.002,
+            backlash_deg: [0.004, 0.004, 0.004, 0.008, 0.008, 0.008],
+            engaged_scatter: 0.1,
+        }
+    }
+}
+
+impl RobotErrorModel {
+    /// No error at all (for tests).
+    pub fn none() -> Self {
+        RobotErrorModel {
+            repeatability_mm: 0.0,
+            vibration_at_rated_mm: 0.0,
+            settling_at_rated_deg: 0.0,
+            backlash_deg: [0.0; JOINTS],
+            engaged_scatter: 0.0,
+        }
+    }
+
+    /// σ per coordinate of the pose repeatability scatter, mm.
+    pub fn repeatability_sigma_mm(&self) -> f64 {
+        self.repeatability_mm / RP_IN_SIGMAS
+    }
+
+    /// Whether gravity pulls joint `joint` (0-based) of `nominal` at `q_rad` in the direction
+    /// `dir` (+1 / −1): the sign of the gravity torque about the joint axis, distal mass lumped at
+    /// the target. Torques below 1 % of the lever arm count as none.
+    pub fn gravity_assists(
+        nominal: &RobotModel,
+        joint: usize,
+        q_rad: &[f64; JOINTS],
+        dir: f64,
+    ) -> bool {
+        let mut partial = [0.0; JOINTS];
+        partial[..joint].copy_from_slice(&q_rad[..joint]);
+        // Frame of joint `joint`: product of the transforms before it, rotated by its q about z.
+        let t = if joint == 0 {
+            [
+                [1.0, 0.0, 0.0, 0.0],
+                [0.0, 1.0, 0.0, 0.0],
+                [0.0, 0.0, 1.0, 0.0],
+                [0.0, 0.0, 0.0, 1.0],
+            ]
+        } else {
+            let mut p = nominal.params;
+            // zero the joints from `joint` on: transform of the first `joint` links only
+            for v in p[joint * 5..].iter_mut() {
+                *v = 0.0;
+            }
+            transform(&p, &partial)
+        };
+        let axis = [t[0][2], t[1][2], t[2][2]];
+        let origin = [t[0][3], t[1][3], t[2][3]];
+        let target = position(&nominal.params, &nominal.tool, q_rad);
+        let r = [
+            target[0] - origin[0],
+            target[1] - origin[1],
+            target[2] - origin[2],
+        ];
+        // torque of a unit downward force at the target: r × (0, 0, −1) = (−r_y, r_x, 0)
+        let tau = axis[0] * (-r[1]) + axis[1] * r[0];
+        let lever = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt().max(1e-9);
+        tau * dir > 0.01 * lever
+    }
+
+    /// The actual angle error (degrees) of the moving joint `joint` (0-based) at a stop reached
+    /// in direction `dir` at speed fraction `speed`: backlash lost motion plus settling error.
+    pub fn joint_error_deg(
+        &self,
+        nominal: &RobotModel,
+        joint: usize,
+        q_cmd_deg: &[f64; JOINTS],
+        dir: f64,
+        speed: f64,
+        rng: &mut impl Rng,
+    ) -> f64 {
+        let b = self.backlash_deg[joint];
+        let q_rad = q_cmd_deg.map(f64::to_radians);
+        let lost = if b == 0.0 {
+            0.0
+        } else if Self::gravity_assists(nominal, joint, &q_rad, dir) {
+            b * rng.random::<f64>()
+        } else {
+            b * (0.5 + self.engaged_scatter * (rng.random::<f64>() - 0.5))
+        };
+        let settle = self.settling_at_rated_deg * speed * standard_normal(rng);
+        -dir * lost + settle
+    }
+
+    /// End-point scatter (mm) of one stop: pose repeatability plus residual vibration.
+    pub fn point_scatter_mm(&self, speed: f64, rng: &mut impl Rng) -> [f64; 3] {
+        let s = (self.repeatability_sigma_mm().powi(2)
+            + (self.vibration_at_rated_mm * speed * speed).powi(2))
+        .sqrt();
+        if s == 0.0 {
+            return [0.0; 3];
+        }
+        std::array::from_fn(|_| s * standard_normal(rng))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn checks_name_flags() {
+        let bad = [
+            (
+                Factors {
+                    runs: 1,
+                    ..Default::default()
+                },
+                "--runs",
+            ),
+            (
+                Factors {
+                    range_fraction: 0.0,
+                    ..Default::default()
+                },
+                "--range",
+            ),
+            (
+                Factors {
+                    step_deg: 0.0,
+                    ..Default::default()
+                },
+                "--step",
+            ),
+            (
+                Factors {
+                    speed_fraction: -0.1,
+                    ..Default::default()
+                },
+                "--speed",
+            ),
+        ];
+        for (f, flag) in bad {
+            assert!(f.check().unwrap_err().to_string().starts_with(flag));
+        }
+        assert!(Factors::default().check().is_ok());
+    }
+
+    #[test]
+    fn repeatability_sigma_and_gravity() {
+        let m = RobotErrorModel::default();
+        assert!((m.repeatability_sigma_mm() - 0.02 / 3.616).abs() < 1e-4);
+        let n = crate::kinematics::tx60();
+        let q = [0.0, 61.0f64, 68.5, 0.0, 60.0, 0.0].map(f64::to_radians);
+        // J1 is vertical: gravity never assists it.
+        assert!(!RobotErrorModel::gravity_assists(&n, 0, &q, 1.0));
+        assert!(!RobotErrorModel::gravity_assists(&n, 0, &q, -1.0));
+        // J2 carries the arm: gravity assists exactly one direction.
+        let a = RobotErrorModel::gravity_assists(&n, 1, &q, 1.0);
+        let b = RobotErrorModel::gravity_assists(&n, 1, &q, -1.0);
+        assert!(a != b);
+    }
+}

@@ -1,0 +1,244 @@
+//! The calibration simulator, the calibrate command and the factor study as a user runs them
+//! (issue 5), plus the check that the baked TX60 σ is what the simulator produces.
+
+use gpu_amcs::kinematics::{tx60, ParamKind, RobotModel, Uncertainty, N_PARAMS};
+use gpu_amcs::simulate::{calibrate, Experiment, Factors};
+use std::path::PathBuf;
+use std::process::{Command, Output};
+
+fn run(args: &[&str]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_gpu-amcs"))
+        .args(args)
+        .output()
+        .unwrap()
+}
+
+fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("gpu-amcs-study-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+fn fails_naming(args: &[&str], flag: &str) {
+    let o = run(args);
+    let e = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success(), "{args:?} succeeded");
+    assert!(
+        e.contains(flag),
+        "{args:?}: error does not name {flag}: {e}"
+    );
+    assert!(!e.contains("panicked"), "{args:?} panicked: {e}");
+    assert_eq!(e.trim().lines().count(), 1, "{args:?}: not one line: {e}");
+}
+
+/// Well-formed XML by a small hand parser: every tag closes in order, attributes are quoted,
+/// exactly one root `<svg>` element.
+fn check_xml(text: &str, name: &str) {
+    let mut stack: Vec<String> = Vec::new();
+    let mut roots = 0;
+    let mut rest = text;
+    while let Some(i) = rest.find('<') {
+        let after = &rest[i + 1..];
+        let j = after
+            .find('>')
+            .unwrap_or_else(|| panic!("{name}: unclosed '<'"));
+        let tag = &after[..j];
+        rest = &after[j + 1..];
+        if tag.starts_with('?') || tag.starts_with('!') {
+            continue;
+        }
+        if let Some(close) = tag.strip_prefix('/') {
+            let open = stack
+                .pop()
+                .unwrap_or_else(|| panic!("{name}: stray </{close}>"));
+            assert_eq!(open, close.trim(), "{name}: </{close}> closes <{open}>");
+            continue;
+        }
+        let self_closing = tag.ends_with('/');
+        let body = tag.trim_end_matches('/');
+        let tname: String = body.chars().take_while(|c| !c.is_whitespace()).collect();
+        assert!(
+            !tname.is_empty() && tname.chars().all(|c| c.is_ascii_alphanumeric()),
+            "{name}: bad tag name <{tag}>"
+        );
+        assert_eq!(
+            body.matches('"').count() % 2,
+            0,
+            "{name}: unbalanced quotes in <{tag}>"
+        );
+        if stack.is_empty() {
+            roots += 1;
+            assert_eq!(tname, "svg", "{name}: root is not svg");
+        }
+        if !self_closing {
+            stack.push(tname);
+        }
+    }
+    assert!(stack.is_empty(), "{name}: unclosed {stack:?}");
+    assert_eq!(roots, 1, "{name}");
+    assert!(text.contains("<polyline"), "{name}: no curve");
+}
+
+/// Column `col` of the CSV rows whose first cells are `factor` and whose points (col 2) or
+/// method (col 2) cell is `key`, in file order.
+fn column(csv: &str, factor: &str, key: &str, col: usize) -> Vec<f64> {
+    csv.lines()
+        .skip(1)
+        .map(|l| l.split(',').collect::<Vec<_>>())
+        .filter(|c| c[0] == factor && c[2] == key)
+        .map(|c| c[col].parse().unwrap())
+        .collect()
+}
+
+#[test]
+fn quick_study_writes_tables_figures_and_shows_the_directions() {
+    let d = tmpdir("quick");
+    let out = d.join("study");
+    let o = run(&[
+        "study",
+        "--quick",
+        "--backend",
+        "cpu",
+        "--quiet",
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in [
+        "STUDY.md",
+        "table1.md",
+        "table1.csv",
+        "table2.md",
+        "table2.csv",
+        "correlation.md",
+        "correlation.csv",
+        "accuracy.csv",
+        "study.json",
+    ] {
+        assert!(out.join(f).is_file(), "{f} missing");
+    }
+    let mut svgs = 0;
+    for e in std::fs::read_dir(&out).unwrap() {
+        let p = e.unwrap().path();
+        if p.extension().is_some_and(|x| x == "svg") {
+            check_xml(
+                &std::fs::read_to_string(&p).unwrap(),
+                &p.display().to_string(),
+            );
+            svgs += 1;
+        }
+    }
+    assert_eq!(
+        svgs,
+        5 * 4,
+        "fig4 + fig5 + two convergence plots per factor"
+    );
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("study.json")).unwrap()).unwrap();
+    assert_eq!(json["levels"].as_array().unwrap().len(), 11);
+    // Directions that must emerge from the simulation: R_c(0.1 mm) at 50 points rises with the
+    // joint range and falls with the speed; M1 (MCS) falls with the range.
+    let t1 = std::fs::read_to_string(out.join("table1.csv")).unwrap();
+    let range = column(&t1, "range", "50", 3);
+    assert!(
+        range.windows(2).all(|w| w[1] >= w[0]) && range[2] > range[0],
+        "{range:?}"
+    );
+    let speed = column(&t1, "speed", "50", 3);
+    assert!(speed[1] < speed[0], "{speed:?}");
+    let t2 = std::fs::read_to_string(out.join("table2.csv")).unwrap();
+    let m1 = column(&t2, "range", "MCS", 3);
+    assert!(m1.windows(2).all(|w| w[1] < w[0]), "{m1:?}");
+    let md = std::fs::read_to_string(out.join("STUDY.md")).unwrap();
+    assert!(md.contains("Correlated parameters") && md.contains("22.9 %"));
+}
+
+#[test]
+fn bad_settings_are_one_line_errors_naming_the_flag() {
+    for cmd in ["simulate", "calibrate", "study"] {
+        let extra: &[&str] = if cmd == "study" { &["--quick"] } else { &[] };
+        let with = |a: &[&'static str]| -> Vec<&'static str> { [&[cmd][..], extra, a].concat() };
+        if cmd != "study" {
+            fails_naming(&with(&["--range", "0"]), "--range");
+            fails_naming(&with(&["--step", "0"]), "--step");
+            fails_naming(&with(&["--speed", "-10"]), "--speed");
+        }
+        fails_naming(&with(&["--runs", "1"]), "--runs");
+    }
+    fails_naming(&["study", "--factors", "colour"], "--factors");
+    fails_naming(&["calibrate", "--range", "150"], "--range");
+}
+
+#[test]
+fn simulated_sweeps_identify_and_calibrate_writes_a_covariance_model() {
+    let d = tmpdir("sim");
+    let sweeps = d.join("sweeps.csv");
+    let o = run(&[
+        "simulate",
+        "--runs",
+        "3",
+        "--step",
+        "5",
+        "--out",
+        sweeps.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let data = gpu_amcs::identify::read_sweeps(&sweeps).unwrap();
+    assert_eq!(data.runs.len(), 3);
+    let model = d.join("id.toml");
+    let o = run(&[
+        "identify",
+        sweeps.to_str().unwrap(),
+        "--out",
+        model.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+
+    let cal = d.join("cal.toml");
+    let o = run(&[
+        "calibrate",
+        "--runs",
+        "4",
+        "--step",
+        "5",
+        "--out",
+        cal.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("improvement"), "{out}");
+    let m = RobotModel::from_file(&cal).unwrap();
+    let Uncertainty::Covariance(c) = &m.uncertainty else {
+        panic!("no covariance")
+    };
+    assert_eq!(c.len(), N_PARAMS * N_PARAMS);
+    // the written model is usable by the main job
+    let o = run(&[
+        "--model",
+        cal.to_str().unwrap(),
+        "--points",
+        "5",
+        "--backend",
+        "cpu",
+        "--quiet",
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+}
+
+/// The baked default σ of the TX60 preset is the simulator's baseline calibration
+/// (robot seed 2025, calibration seed 1, `Factors::default()`); see `kinematics::preset`.
+#[test]
+fn baked_tx60_sigma_matches_the_simulator() {
+    let c = calibrate(&Experiment::tx60(2025), &Factors::default(), 1).unwrap();
+    let sim = c.independent.uncertainty.sigmas();
+    let baked = tx60().uncertainty.sigmas();
+    for i in 0..N_PARAMS {
+        let unit = ParamKind::ALL[i % 5].to_internal();
+        let (s, b) = (sim[i] / unit, baked[i] / unit);
+        assert!(
+            (s - b).abs() <= 1e-3 * b.abs().max(1e-12) || (s == 0.0 && b == 0.0),
+            "parameter {i}: simulator {s:.4e}, preset {b:.4e}"
+        );
+    }
+}
