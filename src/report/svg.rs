@@ -36,6 +36,8 @@ const L: f64 = 80.0;
 const R: f64 = 20.0;
 const T: f64 = 40.0;
 const B: f64 = 60.0;
+/// Series with at most this many points also get a marker at each point.
+const MARKER_LIMIT: usize = 40;
 const COLORS: [&str; 8] = [
     "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf",
 ];
@@ -99,11 +101,18 @@ impl LinePlot {
             y1 = y1.ceil();
         } else {
             let pad = 0.05 * (y1 - y0);
+            let non_negative = y0 >= 0.0;
             y0 -= pad;
             y1 += pad;
-            if y0 > 0.0 && y0 < 0.3 * y1 {
+            if non_negative && (y0 < 0.0 || y0 < 0.3 * y1) {
                 y0 = 0.0;
             }
+        }
+        // Integer abscissae (batch numbers): keep the end points off the frame.
+        let integer_x = pts.iter().all(|(x, _)| x.fract() == 0.0);
+        if integer_x {
+            x0 -= 0.25;
+            x1 += 0.25;
         }
         let sx = |x: f64| L + (x - x0) / (x1 - x0) * (W - L - R);
         let sy = |y: f64| H - B - (y - y0) / (y1 - y0) * (H - T - B);
@@ -131,7 +140,10 @@ impl LinePlot {
             H - T - B
         );
         // x ticks
-        let step = nice_step(x1 - x0, 8);
+        let mut step = nice_step(x1 - x0, 8);
+        if integer_x {
+            step = step.max(1.0);
+        }
         let mut x = (x0 / step).ceil() * step;
         while x <= x1 + 1e-9 * step {
             let px = sx(x);
@@ -201,6 +213,13 @@ impl LinePlot {
             (T + H - B) / 2.0,
             esc(&self.y_label)
         );
+        let legend_h = 16.0 * self.series.len() as f64 + 8.0;
+        let _ = writeln!(
+            s,
+            r##"<rect x="{}" y="{}" width="196" height="{legend_h}" fill="white" fill-opacity="0.85" stroke="#bbb"/>"##,
+            W - R - 206.0,
+            T + 4.0
+        );
         for (i, ser) in self.series.iter().enumerate() {
             let color = COLORS[i % COLORS.len()];
             let path: Vec<String> = ser
@@ -220,6 +239,12 @@ impl LinePlot {
                     r#"<polyline fill="none" stroke="{color}" stroke-width="1.6"{dash} points="{}"/>"#,
                     path.join(" ")
                 );
+            }
+            if !ser.dashed && path.len() <= MARKER_LIMIT {
+                for p in &path {
+                    let (cx, cy) = p.split_once(',').unwrap_or(("0", "0"));
+                    let _ = writeln!(s, r#"<circle cx="{cx}" cy="{cy}" r="3" fill="{color}"/>"#);
+                }
             }
             let ly = T + 16.0 + 16.0 * i as f64;
             let lx = W - R - 200.0;

@@ -161,6 +161,7 @@ pub fn render_comparison(c: &Comparison) -> String {
 
 /// Short general number format (no trailing zeros).
 pub fn fmt_g(v: f64) -> String {
+    let v = if v.abs() < 5e-7 { 0.0 } else { v };
     let s = format!("{v:.6}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
     if s.is_empty() || s == "-" {
