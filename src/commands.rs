@@ -182,8 +182,41 @@ fn check_outputs(a: &ProblemArgs, o: &OutputArgs) -> Result<()> {
     guard_outputs(&inputs_of(a), &outs)
 }
 
+/// Builds the problem and evaluator, runs `drive` under a progress bar and writes the reports.
+fn run_and_report(
+    problem: &ProblemArgs,
+    output: &OutputArgs,
+    label: &str,
+    drive: impl FnOnce(&mut dyn Evaluator, mc::Progress) -> Result<mc::McResult, mc::McError>,
+) -> Result<RunReport> {
+    check_outputs(problem, output)?;
+    let built = build_problem(problem)?;
+    let (model, points, seed) = (
+        built.problem.model.name.clone(),
+        built.problem.n_points(),
+        built.problem.seed,
+    );
+    let (mut ev, notes) = evaluator(problem, built.problem)?;
+    let pb = progress_bar(output.quiet, label);
+    let cb = |done: u64, total: u64| {
+        pb.set_length(total);
+        pb.set_position(done);
+    };
+    let result = drive(ev.as_mut(), &cb)?;
+    pb.finish_and_clear();
+    let rep = RunReport {
+        model,
+        points,
+        reference: built.reference,
+        seed,
+        notes,
+        result,
+    };
+    emit(&rep, output)?;
+    Ok(rep)
+}
+
 fn run_amcs(a: AmcsArgs) -> Result<()> {
-    check_outputs(&a.problem, &a.output)?;
     let opts = AmcsOptions {
         tolerance: match a.ndig {
             Some(n) => Tolerance::Ndig(n),
@@ -194,29 +227,9 @@ fn run_amcs(a: AmcsArgs) -> Result<()> {
         settings: settings(&a.output),
     };
     opts.check()?;
-    let built = build_problem(&a.problem)?;
-    let (model, m, seed) = (
-        built.problem.model.name.clone(),
-        built.problem.n_points(),
-        built.problem.seed,
-    );
-    let (mut ev, notes) = evaluator(&a.problem, built.problem)?;
-    let pb = progress_bar(a.output.quiet, "AMCS");
-    let cb = |done: u64, cap: u64| {
-        pb.set_length(cap);
-        pb.set_position(done);
-    };
-    let result = mc::run_amcs(ev.as_mut(), &opts, Some(&cb))?;
-    pb.finish_and_clear();
-    let rep = RunReport {
-        model,
-        points: m,
-        reference: built.reference,
-        seed,
-        notes,
-        result,
-    };
-    emit(&rep, &a.output)?;
+    let rep = run_and_report(&a.problem, &a.output, "AMCS", |ev, cb| {
+        mc::run_amcs(ev, &opts, Some(cb))
+    })?;
     if !rep.result.converged {
         eprintln!(
             "warning: AMCS did not converge within --max-draws {}; the results use all draws made",
@@ -227,37 +240,15 @@ fn run_amcs(a: AmcsArgs) -> Result<()> {
 }
 
 fn run_mcs(a: McsArgs) -> Result<()> {
-    check_outputs(&a.problem, &a.output)?;
     let opts = McsOptions {
         draws: a.draws,
         chunk: 100_000.min(a.draws.max(1)),
         settings: settings(&a.output),
     };
-    let built = build_problem(&a.problem)?;
-    let (model, m, seed) = (
-        built.problem.model.name.clone(),
-        built.problem.n_points(),
-        built.problem.seed,
-    );
-    let (mut ev, notes) = evaluator(&a.problem, built.problem)?;
-    let pb = progress_bar(a.output.quiet, "MCS");
-    let cb = |done: u64, total: u64| {
-        pb.set_length(total);
-        pb.set_position(done);
-    };
-    let result = mc::run_mcs(ev.as_mut(), &opts, Some(&cb))?;
-    pb.finish_and_clear();
-    emit(
-        &RunReport {
-            model,
-            points: m,
-            reference: built.reference,
-            seed,
-            notes,
-            result,
-        },
-        &a.output,
-    )
+    run_and_report(&a.problem, &a.output, "MCS", |ev, cb| {
+        mc::run_mcs(ev, &opts, Some(cb))
+    })?;
+    Ok(())
 }
 
 fn run_compare(a: CompareArgs) -> Result<()> {

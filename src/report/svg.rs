@@ -306,20 +306,19 @@ pub fn run_plots(rep: &super::RunReport) -> Vec<(String, String)> {
     if !r.trace.is_empty() {
         out.push((
             "convergence.svg".to_string(),
-            convergence_plot(&format!("AMCS convergence — {}", rep.model), r).render(),
+            convergence_plot(&format!("AMCS convergence — {}", rep.model), &r.trace).render(),
         ));
     }
     out
 }
 
 /// The four fluctuation indices of an AMCS trace against h, with δ dashed.
-pub fn convergence_plot(title: &str, r: &crate::mc::McResult) -> LinePlot {
+pub fn convergence_plot(title: &str, trace: &[crate::mc::BatchTrace]) -> LinePlot {
     let names = ["2s of mean w", "2s of u(w)", "2s of w_low", "2s of w_high"];
     let mut series: Vec<Series> = (0..4)
         .map(|k| Series {
             name: names[k].into(),
-            points: r
-                .trace
+            points: trace
                 .iter()
                 .filter(|t| t.h >= 2)
                 .map(|t| (t.h as f64, t.fluctuation[k]))
@@ -329,7 +328,7 @@ pub fn convergence_plot(title: &str, r: &crate::mc::McResult) -> LinePlot {
         .collect();
     series.push(Series {
         name: "δ".into(),
-        points: r.trace.iter().map(|t| (t.h as f64, t.delta)).collect(),
+        points: trace.iter().map(|t| (t.h as f64, t.delta)).collect(),
         dashed: true,
     });
     LinePlot {

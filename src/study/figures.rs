@@ -7,35 +7,7 @@
 use super::runner::StudyResult;
 use super::settings::Factor;
 use super::tables::table2_points;
-use crate::report::svg::{LinePlot, Series};
-
-fn conv_plot(title: String, r: &super::runner::RunSummary) -> LinePlot {
-    let names = ["2s of mean w", "2s of u(w)", "2s of w_low", "2s of w_high"];
-    let mut series: Vec<Series> = (0..4)
-        .map(|k| Series {
-            name: names[k].into(),
-            points: r
-                .trace
-                .iter()
-                .filter(|t| t.h >= 2)
-                .map(|t| (t.h as f64, t.fluctuation[k]))
-                .collect(),
-            dashed: false,
-        })
-        .collect();
-    series.push(Series {
-        name: "δ".into(),
-        points: r.trace.iter().map(|t| (t.h as f64, t.delta)).collect(),
-        dashed: true,
-    });
-    LinePlot {
-        title,
-        x_label: "batch h".into(),
-        y_label: "mm".into(),
-        series,
-        log_y: true,
-    }
-}
+use crate::report::svg::{convergence_plot, LinePlot, Series};
 
 /// All figures: `(file name, svg)`.
 pub fn figures(s: &StudyResult) -> Vec<(String, String)> {
@@ -92,14 +64,14 @@ pub fn figures(s: &StudyResult) -> Vec<(String, String)> {
                 let d = a.delta.unwrap_or(0.0);
                 out.push((
                     format!("fig6-9_convergence_{}_delta{d}.svg", f.name()),
-                    conv_plot(
-                        format!(
+                    convergence_plot(
+                        &format!(
                             "AMCS convergence, δ = {d} mm, {} points — {} {}",
                             p.points,
                             f.name(),
                             base.level
                         ),
-                        a,
+                        &a.trace,
                     )
                     .render(),
                 ));
