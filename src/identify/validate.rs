@@ -179,16 +179,23 @@ pub fn validate(
 /// Formats a validation for the terminal.
 pub fn render_validation(v: &Validation) -> String {
     let mut s = String::new();
+    let width = v
+        .nominal
+        .iter()
+        .map(|(n, _)| n.chars().count())
+        .chain([v.model_name.chars().count(), "improvement".len()])
+        .max()
+        .unwrap_or(0);
     let _ = writeln!(s, "Positioning error over {} points (mm)", v.model.points);
     let _ = writeln!(
         s,
-        "{:<40} {:>10} {:>10} {:>10}",
+        "{:<width$} {:>10} {:>10} {:>10}",
         "model", "mean", "rms", "max"
     );
     let row = |s: &mut String, name: &str, a: &AccuracyStats| {
         let _ = writeln!(
             s,
-            "{:<40} {:>10.4} {:>10.4} {:>10.4}",
+            "{:<width$} {:>10.4} {:>10.4} {:>10.4}",
             name, a.mean_mm, a.rms_mm, a.max_mm
         );
     };
@@ -199,7 +206,7 @@ pub fn render_validation(v: &Validation) -> String {
     if let Some([m, r, x]) = v.improvement_percent() {
         let _ = writeln!(
             s,
-            "{:<40} {:>9.1}% {:>9.1}% {:>9.1}%",
+            "{:<width$} {:>9.1}% {:>9.1}% {:>9.1}%",
             "improvement", m, r, x
         );
     }
