@@ -151,9 +151,9 @@ pub struct McResult {
     pub min: f64,
     /// Largest w, mm.
     pub max: f64,
-    /// R(l_c) = Pr[w < l_c] per threshold.
+    /// `R(l_c) = Pr[w < l_c]` per threshold.
     pub reliability: Vec<Reliability>,
-    /// Single-point reliabilities: `per_point_reliability[j][t]` = Pr[e_j < l_t].
+    /// Single-point reliabilities: `per_point_reliability[j][t]` = `Pr[e_j < l_t]`.
     pub per_point_reliability: Option<Vec<Vec<Reliability>>>,
     /// AMCS per-batch trace (empty for MCS).
     pub trace: Vec<BatchTrace>,

@@ -10,7 +10,7 @@
 //! The calibration-experiment simulator of the factor study builds on these: [`tracker`] (the
 //! AT960 noise model, radial and transverse), [`factors`] (the paper's five factors and the
 //! physical models behind them: repeatability, range, step, speed, start position) and
-//! [`calibrate`] (repeated simulate → identify runs → mean, σ and covariance).
+//! [`calibrate()`] (repeated simulate → identify runs → mean, σ and covariance).
 
 pub mod calibrate;
 pub mod factors;

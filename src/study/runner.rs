@@ -1,5 +1,5 @@
 //! Runs the factor study: for every factor level, a repeated calibration of the virtual TX60
-//! ([`crate::simulate::calibrate`]), the accuracy before/after calibration, then for each number
+//! ([`crate::simulate::calibrate()`]), the accuracy before/after calibration, then for each number
 //! of test points MCS, AMCS at every δ with independent σ (the paper's assumption) and AMCS at the
 //! first δ with the full covariance of the identified parameters (what the paper could not show).
 
