@@ -191,6 +191,10 @@ pub struct IdentifyArgs {
     /// Skip the least-squares refinement over all sweep points.
     #[arg(long)]
     pub no_refine: bool,
+    /// With several runs, write the full sample covariance of the parameters instead of
+    /// independent σ.
+    #[arg(long)]
+    pub covariance: bool,
 }
 
 /// `validate` options.

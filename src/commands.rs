@@ -398,11 +398,16 @@ fn run_identify(a: IdentifyArgs) -> Result<()> {
         m
     } else {
         let models: Vec<RobotModel> = ids.iter().map(|i| i.model.clone()).collect();
+        let (stats, what) = if a.covariance {
+            (identify::correlated_statistics(&models), "full covariance")
+        } else {
+            (identify::parameter_statistics(&models), "σ")
+        };
         println!(
-            "{} runs: the model file holds the mean parameters and their run-to-run σ",
+            "{} runs: the model file holds the mean parameters and their run-to-run {what}",
             ids.len()
         );
-        identify::parameter_statistics(&models).context("parameter statistics of the runs")?
+        stats.context("parameter statistics of the runs")?
     };
     model.name = format!("{} (identified from {})", nominal.name, a.sweeps.display());
     if let Some(o) = &a.out {

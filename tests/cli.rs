@@ -349,6 +349,32 @@ fn identify_then_analyse_then_validate() {
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("improvement"), "{out}");
+    // With --covariance the model file carries the runs' full covariance, and it samples.
+    let model_cov = d.join("model_cov.toml");
+    let o = run(&[
+        "identify",
+        sweeps_csv.to_str().unwrap(),
+        "--covariance",
+        "--out",
+        model_cov.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(std::fs::read_to_string(&model_cov)
+        .unwrap()
+        .contains("[covariance]"));
+    let o = run(&[
+        "mcs",
+        "--draws",
+        "2000",
+        "--points",
+        "5",
+        "--backend",
+        "cpu",
+        "--quiet",
+        "--model",
+        model_cov.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
     // Writing the model over the sweeps is refused.
     fails_naming(
         &[

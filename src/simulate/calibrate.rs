@@ -16,7 +16,7 @@
 //! transverse noise ([`TrackerModel::measure`]).
 //!
 //! The full covariance of R runs of ~20 free parameters is singular when R is at most the number
-//! of free parameters; the correlated model adds a ridge of [`COVARIANCE_RIDGE`] × its own
+//! of free parameters; the correlated model adds a ridge of [`crate::identify::COVARIANCE_RIDGE`] × its own
 //! diagonal so it has a Cholesky factor (the draws stay within 10⁻³ σ of the sample covariance's
 //! subspace).
 
@@ -25,10 +25,10 @@ use super::robot::{perturbed_model, ParameterErrors};
 use super::sweep::SweepPlan;
 use super::tracker::TrackerModel;
 use crate::identify::{
-    identify_run, parameter_statistics, validate, IdentifyOptions, Measurement, Sweep, SweepData,
-    SweepPoint, SweepRun, Validation,
+    correlated_statistics, identify_run, parameter_statistics, validate, IdentifyOptions,
+    Measurement, Sweep, SweepData, SweepPoint, SweepRun, Validation,
 };
-use crate::kinematics::{position, tx60, RobotModel, Uncertainty, JOINTS, N_PARAMS};
+use crate::kinematics::{position, tx60, RobotModel, JOINTS};
 use crate::points::{self, WorkspaceBox};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -37,8 +37,6 @@ use rayon::prelude::*;
 /// The tracker target in the flange frame of the simulated TX60, mm (off-axis, so J6's circle has
 /// a radius of √(30² + 20²) ≈ 36 mm).
 pub const DESIGN_TOOL_MM: [f64; 3] = [30.0, -20.0, 80.0];
-/// Relative ridge added to the covariance's diagonal (see the module docs).
-pub const COVARIANCE_RIDGE: f64 = 1e-6;
 
 /// The fixed part of a calibration experiment.
 #[derive(Clone, Debug)]
@@ -214,27 +212,6 @@ pub struct Calibration {
     pub seconds: f64,
 }
 
-/// Sample covariance (n − 1) of the parameters of `models`, row-major 30×30, internal units.
-pub fn sample_covariance(models: &[RobotModel]) -> Vec<f64> {
-    let n = models.len() as f64;
-    let mut mean = [0.0; N_PARAMS];
-    for m in models {
-        for (s, v) in mean.iter_mut().zip(&m.params) {
-            *s += v / n;
-        }
-    }
-    let mut c = vec![0.0; N_PARAMS * N_PARAMS];
-    for m in models {
-        for i in 0..N_PARAMS {
-            let di = m.params[i] - mean[i];
-            for k in 0..N_PARAMS {
-                c[i * N_PARAMS + k] += di * (m.params[k] - mean[k]) / (n - 1.0);
-            }
-        }
-    }
-    c
-}
-
 /// Runs `f.runs` simulated calibrations from `seed` (in parallel) and returns their statistics.
 pub fn calibrate(exp: &Experiment, f: &Factors, seed: u64) -> Result<Calibration, SimulateError> {
     f.check()?;
@@ -261,18 +238,10 @@ pub fn calibrate(exp: &Experiment, f: &Factors, seed: u64) -> Result<Calibration
         f.speed_fraction * 100.0,
         f.direction.label()
     );
-    let sig = independent.uncertainty.sigmas();
-    let mut cov = sample_covariance(&runs);
-    for i in 0..N_PARAMS {
-        for k in 0..N_PARAMS {
-            if sig[i] == 0.0 || sig[k] == 0.0 {
-                cov[i * N_PARAMS + k] = 0.0;
-            }
-        }
-        cov[i * N_PARAMS + i] *= 1.0 + COVARIANCE_RIDGE;
-    }
-    let mut correlated = independent.clone();
-    correlated.uncertainty = Uncertainty::Covariance(cov);
+    let mut correlated = correlated_statistics(&runs).ok_or_else(|| {
+        SimulateError::Other("the runs identified models of different structure".into())
+    })?;
+    correlated.name = independent.name.clone();
     Ok(Calibration {
         factors: *f,
         runs,

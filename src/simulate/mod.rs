@@ -19,9 +19,7 @@ pub mod sweep;
 pub mod tracker;
 
 pub use crate::identify::{write_measurements, write_sweeps};
-pub use calibrate::{
-    accuracy_check, calibrate, run_seed, sample_covariance, Calibration, Experiment, DESIGN_TOOL_MM,
-};
+pub use calibrate::{accuracy_check, calibrate, run_seed, Calibration, Experiment, DESIGN_TOOL_MM};
 pub use factors::{Factors, RobotErrorModel, SimulateError, SweepDirection};
 pub use robot::{measure_positions, perturbed_model, random_configurations, ParameterErrors};
 pub use sweep::{
