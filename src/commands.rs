@@ -139,7 +139,7 @@ fn progress_bar(quiet: bool, label: &str) -> ProgressBar {
     }
     let pb = ProgressBar::new(0);
     pb.set_style(
-        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} draws ({elapsed}, {per_sec})")
+        ProgressStyle::with_template("{msg} [{bar:30}] {pos}/{len} draws ({elapsed}, eta {eta})")
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
