@@ -49,6 +49,7 @@ fn gum_s1_9_2_additive_normal() {
     assert!(r.converged);
     let d = r.numerical_tolerance.unwrap();
     assert!((d - 0.05).abs() < 1e-12);
+    assert_eq!(r.ndig, Some(2));
     let half = 1.959_963_985 * 2.0;
     assert!(r.estimate.abs() <= d, "mean {}", r.estimate);
     assert!(

@@ -172,7 +172,11 @@ pub fn run_amcs(
             break;
         }
     }
-    Ok(acc.finish(Method::Amcs, opts.batch_size, converged, Some(delta), trace))
+    let mut result = acc.finish(Method::Amcs, opts.batch_size, converged, Some(delta), trace);
+    if let Tolerance::Ndig(n) = opts.tolerance {
+        result.ndig = Some(n);
+    }
+    Ok(result)
 }
 
 #[cfg(test)]

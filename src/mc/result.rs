@@ -137,6 +137,8 @@ pub struct McResult {
     pub converged: bool,
     /// AMCS: final numerical tolerance δ, mm.
     pub numerical_tolerance: Option<f64>,
+    /// AMCS with `--ndig`: the significant digits δ was derived from (GUM S1 §7.9.2).
+    pub ndig: Option<u32>,
     /// Estimate of w (the mean), mm.
     pub estimate: f64,
     /// Standard uncertainty u(w) (sample standard deviation), mm.
@@ -277,6 +279,7 @@ impl<'e> Accumulator<'e> {
             batch_size,
             converged,
             numerical_tolerance: tolerance,
+            ndig: None,
             estimate: moments.mean,
             std_uncertainty: moments.std_dev(),
             coverage_interval: coverage_interval(&values, p, self.settings.interval),

@@ -11,8 +11,11 @@ pub fn render(rep: &RunReport) -> String {
     let method = match r.method {
         Method::Mcs => "Monte Carlo (MCS)".to_string(),
         Method::Amcs => format!(
-            "Adaptive Monte Carlo (AMCS, GUM S1 §7.9), δ = {} mm",
-            fmt_g(r.numerical_tolerance.unwrap_or(f64::NAN))
+            "Adaptive Monte Carlo (AMCS, GUM S1 §7.9), δ = {} mm{}",
+            fmt_g(r.numerical_tolerance.unwrap_or(f64::NAN)),
+            r.ndig.map_or(String::new(), |n| format!(
+                " (from u(w) with ndig = {n}, GUM S1 §7.9.2)"
+            ))
         ),
     };
     let _ = writeln!(s, "{method}");
