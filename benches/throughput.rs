@@ -64,75 +64,37 @@ fn main() {
     });
     println!("AMCS δ = 0.01 end to end (library)       {m:.4} s  ({lo:.4}–{hi:.4})");
 
+    // Whole processes, start to report: the main job and MCS 10^6, on the CPU and (when an
+    // adapter exists) on the GPU backend.
     let exe = env!("CARGO_BIN_EXE_gpu-amcs");
-    let (m, lo, hi) = time(reps, || {
-        let o = std::process::Command::new(exe)
-            .args([
-                "--points",
-                "50",
-                "--delta",
-                "0.01",
-                "--backend",
-                "cpu",
-                "--quiet",
-            ])
-            .output()
-            .unwrap();
-        assert!(o.status.success());
-    });
-    println!("`gpu-amcs --points 50 --delta 0.01` (process, cpu)  {m:.3} s  ({lo:.3}–{hi:.3})");
-    let (m, lo, hi) = time(reps.min(3), || {
-        let o = std::process::Command::new(exe)
-            .args([
-                "mcs",
-                "--draws",
-                "1000000",
-                "--points",
-                "50",
-                "--backend",
-                "cpu",
-                "--quiet",
-            ])
-            .output()
-            .unwrap();
-        assert!(o.status.success());
-    });
-    println!("`gpu-amcs mcs --draws 1000000` (process, cpu)       {m:.3} s  ({lo:.3}–{hi:.3})");
-
+    let mut backends = vec!["cpu"];
     if !gpu_amcs::engine::list_adapters().is_empty() {
-        let (m, lo, hi) = time(reps.min(3), || {
-            let o = std::process::Command::new(exe)
-                .args([
-                    "--points",
-                    "50",
-                    "--delta",
-                    "0.01",
-                    "--backend",
-                    "gpu",
-                    "--quiet",
-                ])
-                .output()
-                .unwrap();
-            assert!(o.status.success());
-        });
-        println!("`gpu-amcs --points 50 --delta 0.01` (process, gpu)  {m:.3} s  ({lo:.3}–{hi:.3})");
-        let (m, lo, hi) = time(reps.min(3), || {
-            let o = std::process::Command::new(exe)
-                .args([
-                    "mcs",
-                    "--draws",
-                    "1000000",
-                    "--points",
-                    "50",
-                    "--backend",
-                    "gpu",
-                    "--quiet",
-                ])
-                .output()
-                .unwrap();
-            assert!(o.status.success());
-        });
-        println!("`gpu-amcs mcs --draws 1000000` (process, gpu)       {m:.3} s  ({lo:.3}–{hi:.3})");
+        backends.push("gpu");
+    }
+    for backend in backends {
+        let jobs: [(&str, &[&str], usize); 2] = [
+            (
+                "gpu-amcs --points 50 --delta 0.01",
+                &["--points", "50", "--delta", "0.01"],
+                reps,
+            ),
+            (
+                "gpu-amcs mcs --draws 1000000",
+                &["mcs", "--draws", "1000000", "--points", "50"],
+                reps.min(3),
+            ),
+        ];
+        for (label, args, n) in jobs {
+            let (m, lo, hi) = time(n, || {
+                let o = std::process::Command::new(exe)
+                    .args(args)
+                    .args(["--backend", backend, "--quiet"])
+                    .output()
+                    .unwrap();
+                assert!(o.status.success());
+            });
+            println!("`{label}` (process, {backend})  {m:.3} s  ({lo:.3}–{hi:.3})");
+        }
     }
 
     println!("\nWhat δ buys (AMCS against MCS 10^6, seeds 1..=5 for AMCS, seed 100 for MCS):");

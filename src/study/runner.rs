@@ -222,6 +222,12 @@ pub fn run_study_on(
         )?;
         let sig = cal.independent.uncertainty.sigmas();
         let mut results = Vec::new();
+        let amcs_options = |d: f64| AmcsOptions {
+            tolerance: Tolerance::Delta(d),
+            batch_size: settings.batch,
+            settings: run_settings.clone(),
+            ..AmcsOptions::default()
+        };
         for pts in &point_sets {
             let m = pts.len();
             let problem = |model: &RobotModel| {
@@ -255,16 +261,7 @@ pub fn run_study_on(
             let mut amcs = Vec::new();
             for (k, &d) in settings.deltas.iter().enumerate() {
                 tick(&mut done, &format!("{name}, {m} points: AMCS δ={d}"));
-                let r = run_amcs(
-                    ev.as_mut(),
-                    &AmcsOptions {
-                        tolerance: Tolerance::Delta(d),
-                        batch_size: settings.batch,
-                        settings: run_settings.clone(),
-                        ..AmcsOptions::default()
-                    },
-                    None,
-                )?;
+                let r = run_amcs(ev.as_mut(), &amcs_options(d), None)?;
                 amcs.push(RunSummary::of(
                     &format!("AMCS-{}", k + 1),
                     Some(d),
@@ -282,16 +279,7 @@ pub fn run_study_on(
                 settings.adapter.as_deref(),
             )?;
             let d = settings.deltas[0];
-            let rc = run_amcs(
-                ev_c.as_mut(),
-                &AmcsOptions {
-                    tolerance: Tolerance::Delta(d),
-                    batch_size: settings.batch,
-                    settings: run_settings.clone(),
-                    ..AmcsOptions::default()
-                },
-                None,
-            )?;
+            let rc = run_amcs(ev_c.as_mut(), &amcs_options(d), None)?;
             results.push(PointsResult {
                 points: m,
                 mcs: RunSummary::of("MCS", None, &mcs, None),
