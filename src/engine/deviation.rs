@@ -1,5 +1,5 @@
 //! The f32 deviation form: the constants an f32 evaluator needs so that it only ever handles
-//! small quantities (`docs/METHOD.md`, section on the f32 deviation form). Used by the WGSL
+//! small quantities (`docs/METHOD.md §7`). Used by the WGSL
 //! evaluator ([`super::gpu`]); a SIMD-f32 CPU or a CUDA evaluator would upload the same words.
 //!
 //! # Formulation (why f32 is enough)
@@ -98,8 +98,8 @@ pub fn joint_trig(problem: &Problem) -> [[f32; 4]; JOINTS] {
     })
 }
 
-/// How a kernel turns the normals `z` of a counter draw into offsets δ (`docs/METHOD.md`,
-/// section on the draw definition), packed for f32.
+/// How a kernel turns the normals `z` of a counter draw into offsets δ (`docs/METHOD.md §6`),
+/// packed for f32.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpreadPacking {
     /// `false`: independent, `δ_i = spread[i]·z_i` ([`N_PARAMS`] entries); `true`: correlated,

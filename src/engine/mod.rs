@@ -15,13 +15,13 @@
 //!
 //! A new backend (a SIMD CPU or a CUDA evaluator, say) writes its own `eval_draws` (and
 //! `eval_offsets`) and, if it computes in f32, reuses the deviation-form constants of
-//! [`deviation`] (`docs/METHOD.md`, section on the f32 deviation form), which carry the error
+//! [`deviation`] (`docs/METHOD.md §7`), which carry the error
 //! budget of that formulation.
 //!
 //! # Two ways to say which parameter vectors
 //!
 //! * **Counter draws** ([`Evaluator::evaluate`]): draws `first … first + n − 1` of the run's
-//!   Philox stream (`docs/METHOD.md`, section on the draw definition), generated inside the
+//!   Philox stream (`docs/METHOD.md §6`), generated inside the
 //!   backend, so a batch costs no host-to-device traffic. This is what AMCS and MCS use.
 //! * **Explicit offsets** ([`Evaluator::evaluate_offsets`]): an `n × N_PARAMS` row-major matrix
 //!   of parameter deviations `δ = μ − μ̄` from the model's values, in internal units (mm,
