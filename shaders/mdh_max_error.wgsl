@@ -1,10 +1,14 @@
-// Maximum point error of MDH parameter draws (METHOD.md §3, paper eqs. 12 and 17).
-// Composed after philox.wgsl. One invocation per draw:
-//   1. normals of the draw (Philox blocks the free parameters use, Box–Muller),
-//   2. parameter offsets δ: independent δ_i = σ_i z_i, or correlated δ_free[a] = Σ_{b<=a} L[a][b] z[free[b]],
-//   3. at every test point, the deviation Δ of the end position from the mean-parameter chain,
-//      propagated from the tool to the base (see src/engine/gpu.rs for the formulation and its
-//      error budget), e_j = |Δ_1 + o_j|, w = max_j e_j.
+// Maximum point error of MDH parameter vectors (docs/METHOD.md §3, paper eqs. 12 and 17).
+// Composed after philox.wgsl. One invocation per parameter vector, two entry points that share
+// the kinematics (point_errors):
+//   max_point_error: counter draws first + i,
+//     1. normals of the draw (Philox blocks the free parameters use, Box–Muller),
+//     2. parameter offsets δ: independent δ_i = σ_i z_i, or correlated
+//        δ_free[a] = Σ_{b<=a} L[a][b] z[free[b]];
+//   max_point_error_offsets: δ read from row i of the offset matrix (N_PARAMS f32 per row);
+// then at every test point the deviation Δ of the end position from the mean-parameter chain,
+// propagated from the tool to the base (see src/engine/deviation.rs for the formulation and its
+// error budget), e_j = |Δ_1 + o_j|, w = max_j e_j.
 // Only small quantities (offsets, rotation differences, deviations) are formed in f32; the
 // ~1000 mm nominal positions enter only multiplied by small rotation differences.
 
@@ -39,8 +43,12 @@ struct Chunk {
 @group(0) @binding(5) var<storage, read> pts: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read_write> w_out: array<f32>;
 @group(0) @binding(7) var<storage, read_write> e_out: array<f32>;
+// offset path: row i = δ of parameter vector i, N_PARAMS entries (mm, rad)
+@group(0) @binding(8) var<storage, read> offsets_in: array<f32>;
 
 const WORDS_PER_POINT: u32 = 13u;
+const N_PARAMS: u32 = 30u;
+const WORKGROUP_SIZE: u32 = 64u;
 
 // Offsets of one joint's rotations for a draw: α' and β' as (cos', sin', cos' − cos,
 // sin' − sin), θ as (sin h, cos h, δa, δd) with h = δθ/2.
@@ -103,17 +111,8 @@ fn joint_step(dv: vec3<f32>, A: vec4<f32>, B: vec4<f32>, tr: vec4<f32>, o: Joint
     );
 }
 
-@compute @workgroup_size(64)
-fn max_point_error(@builtin(global_invocation_id) gid: vec3<u32>) {
-    let i = gid.x;
-    if (i >= chunk.count) {
-        return;
-    }
-    // 64-bit draw index = first + i, with carry.
-    let lo = chunk.first.x + i;
-    let hi = chunk.first.y + select(0u, 1u, lo < chunk.first.x);
-    let draw = vec2<u32>(lo, hi);
-
+// Offsets δ of counter draw `draw` (the CPU sampler's definition, in f32).
+fn draw_offsets(draw: vec2<u32>) -> array<f32, 30> {
     var z: array<f32, 32>;
     for (var b = 0u; b < 8u; b++) {
         if ((cfg.block_mask & (1u << b)) != 0u) {
@@ -132,11 +131,11 @@ fn max_point_error(@builtin(global_invocation_id) gid: vec3<u32>) {
 
     var d: array<f32, 30>;
     if (cfg.mode == 0u) {
-        for (var p = 0u; p < 30u; p++) {
+        for (var p = 0u; p < N_PARAMS; p++) {
             d[p] = spread[p] * z[p];
         }
     } else {
-        for (var p = 0u; p < 30u; p++) {
+        for (var p = 0u; p < N_PARAMS; p++) {
             d[p] = 0.0;
         }
         let n = cfg.nfree;
@@ -148,7 +147,12 @@ fn max_point_error(@builtin(global_invocation_id) gid: vec3<u32>) {
             d[free_idx[a]] = acc;
         }
     }
+    return d;
+}
 
+// Errors of the parameter vector mean + d at every test point: e_out row i (if asked for) and
+// w_out[i] = max_j e_j.
+fn point_errors(i: u32, d: array<f32, 30>) {
     // Per joint: α' and β' as (cos', sin', cos' − cos, sin' − sin); θ as (sin h, cos h) with
     // h = δθ/2; and (δa, δd). Constant indices throughout, so these stay in registers.
     let j0 = joint_offsets(0u, d[0], d[1], d[2], d[3], d[4]);
@@ -175,13 +179,10 @@ fn max_point_error(@builtin(global_invocation_id) gid: vec3<u32>) {
         dv = joint_step(dv, pts[base + 4u], pts[base + 5u], t2, j2);
         dv = joint_step(dv, pts[base + 2u], pts[base + 3u], t1, j1);
         dv = joint_step(dv, pts[base], pts[base + 1u], t0, j0);
-        let dx = dv.x;
-        let dy = dv.y;
-        let dz = dv.z;
         let o = pts[base + 12u];
-        let ex = dx + o.x;
-        let ey = dy + o.y;
-        let ez = dz + o.z;
+        let ex = dv.x + o.x;
+        let ey = dv.y + o.y;
+        let ez = dv.z + o.z;
         let e = sqrt(ex * ex + ey * ey + ez * ez);
         if (chunk.want_e != 0u) {
             e_out[i * m + pj] = e;
@@ -189,4 +190,31 @@ fn max_point_error(@builtin(global_invocation_id) gid: vec3<u32>) {
         w = max(w, e);
     }
     w_out[i] = w;
+}
+
+// Counter draws first + i.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn max_point_error(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= chunk.count) {
+        return;
+    }
+    // 64-bit draw index = first + i, with carry.
+    let lo = chunk.first.x + i;
+    let hi = chunk.first.y + select(0u, 1u, lo < chunk.first.x);
+    point_errors(i, draw_offsets(vec2<u32>(lo, hi)));
+}
+
+// Explicit offsets: row i of offsets_in (chunk.first is unused).
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn max_point_error_offsets(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= chunk.count) {
+        return;
+    }
+    var d: array<f32, 30>;
+    for (var p = 0u; p < N_PARAMS; p++) {
+        d[p] = offsets_in[i * N_PARAMS + p];
+    }
+    point_errors(i, d);
 }

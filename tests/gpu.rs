@@ -1,14 +1,17 @@
-//! GPU evaluator tests (run on Mesa lavapipe in CI): the shader validates with naga, the shader's
+//! GPU evaluator tests (run on Mesa lavapipe in CI): the shader validates with naga and its
+//! workgroup size, bindings, constants and uniform sizes equal the Rust side's, the shader's
 //! Philox reproduces the Random123 known answers, and GPU and CPU evaluators agree draw by draw,
 //! per point and in the moments, for independent and correlated spreads, calibrated and nominal
-//! references, a moved parameter mean, and split batches.
+//! references, a moved parameter mean, and split batches; the explicit-offset path agrees with
+//! the counter draws and across backends; evaluators share one device per adapter.
 //!
 //! Without any Vulkan/Metal/DX12 adapter the GPU tests print a skip note and pass, unless the
 //! environment variable `CI` is `true`, where they fail.
 
 use gpu_amcs::engine::gpu::{self, philox_on_gpu, GpuEvaluator, GpuOptions};
 use gpu_amcs::engine::{
-    make_evaluator, BackendChoice, CpuEvaluator, Evaluator, Problem, Reference,
+    deviation, make_evaluator, BackendChoice, CpuEvaluator, EngineError, Evaluator, Problem,
+    Reference,
 };
 use gpu_amcs::kinematics::{tx60, RobotModel, Uncertainty, N_PARAMS};
 use gpu_amcs::sampling::{normals_block, philox4x32_10, Philox};
@@ -33,6 +36,22 @@ fn have_adapter(test: &str) -> bool {
 
 fn points(model: &RobotModel, n: usize) -> Vec<[f64; 6]> {
     gpu_amcs::points::generate(model, n, &Default::default(), 11).expect("points")
+}
+
+/// The TX60 at `n` generated test points, calibrated reference.
+fn tx60_problem(n: usize, seed: u64) -> Problem {
+    let m = tx60();
+    let pts = points(&m, n);
+    Problem::new(m, &pts, &Reference::Calibrated, seed).expect("problem")
+}
+
+/// A GPU evaluator that computes only what is asked for.
+fn gpu_without_prefetch(pb: Problem) -> GpuEvaluator {
+    let opts = GpuOptions {
+        prefetch: false,
+        ..GpuOptions::default()
+    };
+    GpuEvaluator::new(pb, &opts).expect("GPU evaluator")
 }
 
 fn evaluate(ev: &mut dyn Evaluator, first: u64, n: usize) -> (Vec<f64>, Vec<f64>) {
@@ -111,21 +130,97 @@ fn correlated_tx60() -> RobotModel {
     m
 }
 
+fn parse_and_validate(name: &str, src: &str) -> naga::Module {
+    let module = naga::front::wgsl::parse_str(src)
+        .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(src)));
+    naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::default(),
+    )
+    .validate(&module)
+    .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+    module
+}
+
 #[test]
 fn shaders_validate_with_naga() {
-    for (name, src) in [
-        ("evaluator", gpu::shader_source()),
-        ("philox test", gpu::philox_test_source()),
-    ] {
-        let module = naga::front::wgsl::parse_str(&src)
-            .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&src)));
-        naga::valid::Validator::new(
-            naga::valid::ValidationFlags::all(),
-            naga::valid::Capabilities::default(),
-        )
-        .validate(&module)
-        .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+    parse_and_validate("philox test", &gpu::philox_test_source());
+    let src = gpu::shader_source();
+    let module = parse_and_validate("evaluator", &src);
+
+    // Both entry points exist with the Rust workgroup size.
+    for entry in [gpu::ENTRY_POINT, gpu::OFFSETS_ENTRY_POINT] {
+        let ep = module
+            .entry_points
+            .iter()
+            .find(|e| e.name == entry)
+            .unwrap_or_else(|| panic!("no entry point {entry}"));
+        assert_eq!(ep.workgroup_size, [gpu::WORKGROUP as u32, 1, 1], "{entry}");
     }
+
+    // Every binding of the shader is the Rust constant of that name; the uniforms have the
+    // size of the packed Rust structs.
+    let expected: [(&str, u32, Option<usize>); 9] = [
+        (
+            "cfg",
+            gpu::binding::CONFIG,
+            Some(std::mem::size_of::<gpu::ConfigUniform>()),
+        ),
+        (
+            "chunk",
+            gpu::binding::CHUNK,
+            Some(std::mem::size_of::<gpu::ChunkUniform>()),
+        ),
+        ("joint_trig", gpu::binding::JOINT_TRIG, None),
+        ("spread", gpu::binding::SPREAD, None),
+        ("free_idx", gpu::binding::FREE, None),
+        ("pts", gpu::binding::POINTS, None),
+        ("w_out", gpu::binding::W, None),
+        ("e_out", gpu::binding::E, None),
+        ("offsets_in", gpu::binding::OFFSETS, None),
+    ];
+    let globals: Vec<_> = module
+        .global_variables
+        .iter()
+        .filter_map(|(_, g)| g.binding.as_ref().map(|b| (g, b)))
+        .collect();
+    assert_eq!(
+        globals.len(),
+        expected.len(),
+        "bindings of the evaluator shader"
+    );
+    for (name, binding, size) in expected {
+        let (g, b) = globals
+            .iter()
+            .find(|(g, _)| g.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("no global {name}"));
+        assert_eq!((b.group, b.binding), (0, binding), "{name}");
+        if let Some(size) = size {
+            assert_eq!(g.space, naga::AddressSpace::Uniform, "{name}");
+            let wgsl = module.types[g.ty].inner.size(module.to_ctx()) as usize;
+            assert_eq!(wgsl, size, "size of the uniform {name}");
+        }
+    }
+
+    // Shader constants equal the Rust ones.
+    let constant = |name: &str| -> u32 {
+        let c = module
+            .constants
+            .iter()
+            .find(|(_, c)| c.name.as_deref() == Some(name))
+            .unwrap_or_else(|| panic!("no constant {name}"))
+            .1;
+        match module.global_expressions[c.init] {
+            naga::Expression::Literal(naga::Literal::U32(v)) => v,
+            ref e => panic!("{name}: {e:?}"),
+        }
+    };
+    assert_eq!(constant("N_PARAMS") as usize, N_PARAMS);
+    assert_eq!(
+        constant("WORDS_PER_POINT") as usize,
+        deviation::WORDS_PER_POINT
+    );
+    assert_eq!(constant("WORKGROUP_SIZE") as usize, gpu::WORKGROUP);
 }
 
 #[test]
@@ -284,18 +379,9 @@ fn consecutive_batches_with_prefetch_equal_one_batch() {
     if !have_adapter("consecutive_batches_with_prefetch_equal_one_batch") {
         return;
     }
-    let m = tx60();
-    let pts = points(&m, 10);
-    let pb = Problem::new(m, &pts, &Reference::Calibrated, 8).expect("problem");
+    let pb = tx60_problem(10, 8);
     let (batch, batches) = (1_000, 20);
-    let mut plain = GpuEvaluator::new(
-        pb.clone(),
-        &GpuOptions {
-            prefetch: false,
-            ..GpuOptions::default()
-        },
-    )
-    .expect("GPU");
+    let mut plain = gpu_without_prefetch(pb.clone());
     let mut all = vec![0.0; batch * batches];
     plain.evaluate(1 << 40, &mut all, None).expect("evaluate");
     let mut ev = GpuEvaluator::new(pb, &GpuOptions::default()).expect("GPU");
@@ -409,4 +495,220 @@ fn main_job_gpu_report_equals_cpu_report() {
             assert!((f(&a[k]) - f(&b[k])).abs() < 1e-5, "trace {k}");
         }
     }
+}
+
+/// Rows of the sampler's own offsets δ for draws `first … first + n − 1`.
+fn draw_rows(problem: &Problem, first: u64, n: usize) -> Vec<f64> {
+    let mut rows = vec![0.0; n * N_PARAMS];
+    for (i, row) in rows.chunks_exact_mut(N_PARAMS).enumerate() {
+        let mut d = [0.0; N_PARAMS];
+        problem.sampler.deltas(first + i as u64, &mut d);
+        row.copy_from_slice(&d);
+    }
+    rows
+}
+
+fn evaluate_offsets(ev: &mut dyn Evaluator, rows: &[f64]) -> (Vec<f64>, Vec<f64>) {
+    let n = rows.len() / N_PARAMS;
+    let mut w = vec![0.0; n];
+    let mut e = vec![0.0; n * ev.n_points()];
+    ev.evaluate_offsets(rows, &mut w, Some(&mut e))
+        .expect("evaluate_offsets");
+    (w, e)
+}
+
+/// Offset rows equal to the sampler's draws give what the counter draws give, on both
+/// backends (bit for bit on the CPU; within the per-sample bound on the GPU, whose counter path
+/// forms δ from f32 normals and whose offset path rounds the f64 δ to f32); GPU and CPU offset
+/// paths agree sample by sample, also for rows that are not draws (three times the spread,
+/// pick-freeze style mixes) and across chunk boundaries.
+#[test]
+fn offsets_match_draws_and_cpu() {
+    if !have_adapter("offsets_match_draws_and_cpu") {
+        return;
+    }
+    for (label, model, reference) in [
+        ("independent", tx60(), Reference::Calibrated),
+        (
+            "correlated, nominal reference",
+            correlated_tx60(),
+            Reference::Nominal(Box::new(tx60())),
+        ),
+    ] {
+        let pts = points(&model, 25);
+        let pb = Problem::new(model, &pts, &reference, 17).expect("problem");
+        let (first, n) = (900_000u64, 5_000);
+        let rows = draw_rows(&pb, first, n);
+        let mut cpu = CpuEvaluator::new(pb.clone());
+        let small = GpuOptions {
+            chunk: 999, // several chunks, the last one partial
+            ..GpuOptions::default()
+        };
+        let mut gpu = GpuEvaluator::new(pb.clone(), &small).expect("GPU evaluator");
+
+        let (wc, ec) = evaluate(&mut cpu, first, n);
+        let (wco, eco) = evaluate_offsets(&mut cpu, &rows);
+        assert_eq!(wc, wco, "{label}: CPU offsets vs draws");
+        assert_eq!(ec, eco, "{label}: CPU offsets vs draws per point");
+
+        let (wg, eg) = evaluate(&mut gpu, first, n);
+        let (wgo, ego) = evaluate_offsets(&mut gpu, &rows);
+        assert_eq!(gpu.last_timings().chunks, n.div_ceil(999));
+        let d_draws = max_diff(&wg, &wgo).max(max_diff(&eg, &ego));
+        let d_cpu = max_diff(&wco, &wgo).max(max_diff(&eco, &ego));
+        eprintln!(
+            "{label}: GPU offsets vs GPU draws {d_draws:.3e} mm, vs CPU offsets {d_cpu:.3e} mm"
+        );
+        assert!(d_draws <= SAMPLE_TOL_MM, "{label}: {d_draws}");
+        assert!(d_cpu <= SAMPLE_TOL_MM, "{label}: {d_cpu}");
+
+        // Rows that are not draws: 3× the spread, and pick-freeze mixes of two draws (joints
+        // 1–3 from one, 4–6 from the other).
+        let wide: Vec<f64> = rows.iter().map(|v| 3.0 * v).collect();
+        let other = draw_rows(&pb, 7, n);
+        let mixed: Vec<f64> = rows
+            .chunks_exact(N_PARAMS)
+            .zip(other.chunks_exact(N_PARAMS))
+            .flat_map(|(a, b)| a[..15].iter().chain(&b[15..]).copied().collect::<Vec<_>>())
+            .collect();
+        for (kind, r) in [("3× spread", &wide), ("pick-freeze", &mixed)] {
+            let (wc, ec) = evaluate_offsets(&mut cpu, r);
+            let (wg, eg) = evaluate_offsets(&mut gpu, r);
+            let d = max_diff(&wc, &wg).max(max_diff(&ec, &eg));
+            eprintln!("{label}, {kind}: GPU vs CPU offsets {d:.3e} mm");
+            assert!(d <= SAMPLE_TOL_MM, "{label}, {kind}: {d}");
+        }
+        let (w3, _) = evaluate_offsets(&mut cpu, &wide);
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        assert!(
+            mean(&w3) > 2.0 * mean(&wc),
+            "{label}: wider offsets must give larger errors"
+        );
+    }
+}
+
+/// A speculative chunk of counter draws does not leak into an offset request, and the draws
+/// after an offset request are still right.
+#[test]
+fn offsets_between_draw_batches() {
+    if !have_adapter("offsets_between_draw_batches") {
+        return;
+    }
+    let pb = tx60_problem(8, 21);
+    let mut plain = gpu_without_prefetch(pb.clone());
+    let mut all = vec![0.0; 3000];
+    plain.evaluate(0, &mut all, None).expect("evaluate");
+    let mut ev = GpuEvaluator::new(pb.clone(), &GpuOptions::default()).expect("GPU");
+    let mut w = vec![0.0; 1000];
+    ev.evaluate(0, &mut w, None).expect("evaluate"); // leaves draws 1000.. computing
+    assert_eq!(&all[..1000], &w[..]);
+    let rows = draw_rows(&pb, 5_000, 1000);
+    let mut wo = vec![0.0; 1000];
+    ev.evaluate_offsets(&rows, &mut wo, None).expect("offsets");
+    let mut wd = vec![0.0; 1000];
+    plain.evaluate(5_000, &mut wd, None).expect("evaluate");
+    assert!(max_diff(&wo, &wd) <= SAMPLE_TOL_MM);
+    ev.evaluate(1000, &mut w, None).expect("evaluate");
+    assert_eq!(
+        ev.last_timings().prefetch_hits,
+        0,
+        "the offsets discarded it"
+    );
+    assert_eq!(&all[1000..2000], &w[..]);
+}
+
+/// Wrong lengths and bad entries are typed errors on every backend, raised before any work,
+/// and leave the evaluator usable.
+#[test]
+fn offset_errors_are_typed() {
+    let pb = tx60_problem(4, 2);
+    let mut evs: Vec<Box<dyn Evaluator>> = vec![Box::new(CpuEvaluator::new(pb.clone()))];
+    if have_adapter("offset_errors_are_typed") {
+        evs.push(Box::new(
+            GpuEvaluator::new(pb.clone(), &GpuOptions::default()).expect("GPU"),
+        ));
+    }
+    for ev in &mut evs {
+        let name = ev.info().backend;
+        let mut w = vec![0.0; 3];
+        let r = ev.evaluate_offsets(&[0.0; 2 * N_PARAMS], &mut w, None);
+        assert!(
+            matches!(
+                r,
+                Err(EngineError::OffsetsShape {
+                    rows: 3,
+                    expected: 90,
+                    got: 60
+                })
+            ),
+            "{name}: {r:?}"
+        );
+        let mut rows = vec![0.0; 3 * N_PARAMS];
+        rows[2 * N_PARAMS + 16] = f64::NAN; // row 2, d4
+        let r = ev.evaluate_offsets(&rows, &mut w, None);
+        match &r {
+            Err(e @ EngineError::BadOffset { row: 2, param, .. }) if param == "d4" => {
+                eprintln!("{name}: {e}")
+            }
+            _ => panic!("{name}: {r:?}"),
+        }
+        rows[2 * N_PARAMS + 16] = 0.0;
+        rows[N_PARAMS] = f64::NEG_INFINITY;
+        assert!(matches!(
+            ev.evaluate_offsets(&rows, &mut w, None),
+            Err(EngineError::BadOffset { row: 1, .. })
+        ));
+        rows[N_PARAMS] = 2.0; // θ1 beyond a quarter turn
+        assert!(matches!(
+            ev.evaluate_offsets(&rows, &mut w, None),
+            Err(EngineError::BadOffset { row: 1, .. })
+        ));
+        rows[N_PARAMS] = 0.0;
+        let mut e = vec![0.0; 5];
+        assert!(matches!(
+            ev.evaluate_offsets(&rows, &mut w, Some(&mut e)),
+            Err(EngineError::BufferSize {
+                expected: 12,
+                got: 5
+            })
+        ));
+        assert_eq!(w, [0.0; 3], "{name}: nothing written on error");
+        // Still usable: zero offsets are the mean model, whose errors are zero.
+        ev.evaluate_offsets(&rows, &mut w, None).expect("usable");
+        assert!(w.iter().all(|v| *v < 1e-6), "{name}: {w:?}");
+    }
+}
+
+/// Evaluators on one adapter share one device and its pipelines; `set_problem` swaps the
+/// per-problem buffers (also to another point count) and gives what a fresh evaluator gives.
+#[test]
+fn evaluators_share_one_device_and_swap_problems() {
+    if !have_adapter("evaluators_share_one_device_and_swap_problems") {
+        return;
+    }
+    let m = tx60();
+    let pts = points(&m, 12);
+    let a = Problem::new(m.clone(), &pts, &Reference::Calibrated, 4).expect("problem");
+    let b = Problem::new(correlated_tx60(), &pts[..5], &Reference::Calibrated, 9).expect("b");
+    let mut ev = GpuEvaluator::new(a.clone(), &GpuOptions::default()).expect("GPU");
+    let opened = gpu::devices_opened();
+    let mut fresh_b = GpuEvaluator::new(b.clone(), &GpuOptions::default()).expect("GPU");
+    make_evaluator(a.clone(), BackendChoice::Gpu, None).expect("gpu");
+    assert!(std::sync::Arc::ptr_eq(ev.context(), fresh_b.context()));
+    assert_eq!(
+        gpu::devices_opened(),
+        opened,
+        "no device opened for more evaluators"
+    );
+    assert!(gpu::devices_opened() <= gpu::adapters().len());
+
+    let (wa, ea) = evaluate(&mut ev, 0, 3000);
+    ev.set_problem(&b).expect("set_problem");
+    assert_eq!(ev.n_points(), 5);
+    let (wb, eb) = evaluate(&mut ev, 0, 3000);
+    let (wb2, eb2) = evaluate(&mut fresh_b, 0, 3000);
+    assert_eq!((wb, eb), (wb2, eb2));
+    ev.set_problem(&a).expect("set_problem back");
+    let (wa2, ea2) = evaluate(&mut ev, 0, 3000);
+    assert_eq!((wa, ea), (wa2, ea2));
 }

@@ -1,5 +1,6 @@
-//! Backend choice (`--backend auto|gpu|cpu`, `--adapter NAME`): builds the [`Evaluator`] a run
-//! uses and says, in a human note, what it chose and why.
+//! Backend choice (auto, gpu or cpu, and an optional adapter name): builds the [`Evaluator`] a
+//! run uses and says, in a human note, what it chose and why. Notes name the choice and the
+//! adapter, never a command-line flag: the CLI maps its flags onto [`BackendChoice`].
 //!
 //! `Auto` takes a hardware GPU when one is present and otherwise the rayon CPU evaluator (a
 //! software Vulkan device such as lavapipe is slower than rayon, so `Auto` does not pick it).
@@ -55,8 +56,7 @@ pub fn make_evaluator(
 ) -> Result<(Box<dyn Evaluator>, Option<String>), EngineError> {
     match choice {
         BackendChoice::Cpu => {
-            let note =
-                adapter.map(|a| format!("--adapter '{a}' ignored: the CPU backend is in use"));
+            let note = adapter.map(|a| format!("adapter '{a}' ignored: the CPU backend is in use"));
             Ok((Box::new(CpuEvaluator::new(problem)), note))
         }
         BackendChoice::Gpu => {
@@ -88,7 +88,7 @@ pub fn make_evaluator(
                 } else {
                     format!(
                         "no hardware GPU adapter found (software adapter {} present: \
-                         --backend gpu uses it); using the CPU (rayon) path",
+                         the gpu backend uses it); using the CPU (rayon) path",
                         soft.join(", ")
                     )
                 };

@@ -7,8 +7,12 @@
 //! `cos(θ_i + δ)` is formed from the mean's cos/sin and a Taylor series in the small offset δ
 //! (exact to f64 rounding for |δ| < 0.01 rad; larger offsets call `sin_cos`). Each draw depends
 //! only on its index, so the output is identical for any thread count or batch split.
+//!
+//! Explicit offset matrices ([`Evaluator::evaluate_offsets`]) go through the same lane kernel:
+//! only the source of the offsets δ differs (drawn or read from the matrix), so a row equal to
+//! [`crate::sampling::ParamSampler::deltas`] of draw `k` gives the bits of draw `k`.
 
-use super::{check_buffers, BackendInfo, EngineError, Evaluator, Problem};
+use super::{BackendInfo, EngineError, Evaluator, Problem};
 use crate::kinematics::{JOINTS, N_PARAMS};
 use rayon::prelude::*;
 
@@ -27,6 +31,43 @@ struct PointPre {
 
 /// Per-draw joint constants for a block of lanes: `[cθ, sθ, cα, sα, cβ, sβ, a, d][lane]`.
 type JointLanes = [[[f64; LANES]; 8]; JOINTS];
+
+/// Where the parameter offsets δ of a range of evaluations come from.
+#[derive(Clone, Copy)]
+enum Source<'a> {
+    /// Counter draws from this index on.
+    Draws(u64),
+    /// Rows of an `n × N_PARAMS` offset matrix, from the first row on.
+    Offsets(&'a [f64]),
+}
+
+impl<'a> Source<'a> {
+    /// The source of the evaluations from `n` on.
+    #[inline(always)]
+    fn skip(self, n: usize) -> Source<'a> {
+        match self {
+            Source::Draws(k) => Source::Draws(k + n as u64),
+            Source::Offsets(rows) => Source::Offsets(&rows[(n * N_PARAMS).min(rows.len())..]),
+        }
+    }
+
+    /// Offsets of the first [`LANES`] evaluations, lane-wise (lanes past the end of an offset
+    /// matrix are zero; past the end of a request they are computed and then discarded).
+    #[inline(always)]
+    fn lanes(self, sampler: &crate::sampling::ParamSampler, d: &mut [[f64; LANES]; N_PARAMS]) {
+        match self {
+            Source::Draws(k) => sampler.deltas_lanes::<LANES>(k, d),
+            Source::Offsets(rows) => {
+                *d = [[0.0; LANES]; N_PARAMS];
+                for (l, row) in rows.chunks_exact(N_PARAMS).take(LANES).enumerate() {
+                    for i in 0..N_PARAMS {
+                        d[i][l] = row[i];
+                    }
+                }
+            }
+        }
+    }
+}
 
 /// The rayon evaluator.
 pub struct CpuEvaluator {
@@ -101,12 +142,10 @@ impl CpuEvaluator {
         &self.problem
     }
 
+    /// Joint constants of the [`LANES`] parameter vectors `mean + d[..][l]`.
     #[inline(always)]
-    fn fill_lanes(&self, first: u64, jl: &mut JointLanes) {
+    fn fill_lanes(&self, d: &[[f64; LANES]; N_PARAMS], jl: &mut JointLanes) {
         let mean = &self.problem.sampler.mean;
-        let mut d = [[0.0; LANES]; N_PARAMS];
-        // Lanes past the end of the request compute draws that are then discarded.
-        self.problem.sampler.deltas_lanes::<LANES>(first, &mut d);
         for (j, lanes) in jl.iter_mut().enumerate() {
             let t = &self.mean_trig[j];
             for (slot, (idx, base)) in [
@@ -134,32 +173,33 @@ impl CpuEvaluator {
         }
     }
 
-    fn eval_chunk(&self, first: u64, w: &mut [f64], e: Option<&mut [f64]>) {
+    fn eval_chunk(&self, src: Source, w: &mut [f64], e: Option<&mut [f64]>) {
         #[cfg(target_arch = "x86_64")]
         if self.avx2 {
             // SAFETY: the processor supports AVX2 (checked at construction).
-            unsafe { self.eval_chunk_avx2(first, w, e) };
+            unsafe { self.eval_chunk_avx2(src, w, e) };
             return;
         }
-        self.eval_chunk_impl(first, w, e);
+        self.eval_chunk_impl(src, w, e);
     }
 
     #[cfg(target_arch = "x86_64")]
     #[target_feature(enable = "avx2")]
-    unsafe fn eval_chunk_avx2(&self, first: u64, w: &mut [f64], e: Option<&mut [f64]>) {
-        self.eval_chunk_impl(first, w, e);
+    unsafe fn eval_chunk_avx2(&self, src: Source, w: &mut [f64], e: Option<&mut [f64]>) {
+        self.eval_chunk_impl(src, w, e);
     }
 
-    /// Draw generation and kinematics of one rayon task, inlined into the AVX2 or the portable
-    /// entry so that both the per-draw work and the point loop vectorise.
+    /// Offsets (drawn or given) and kinematics of one rayon task, inlined into the AVX2 or the
+    /// portable entry so that both the per-draw work and the point loop vectorise.
     #[inline(always)]
-    fn eval_chunk_impl(&self, first: u64, w: &mut [f64], mut e: Option<&mut [f64]>) {
+    fn eval_chunk_impl(&self, src: Source, w: &mut [f64], mut e: Option<&mut [f64]>) {
         let m = self.points.len();
         let mut jl: JointLanes = [[[0.0; LANES]; 8]; JOINTS];
+        let mut d = [[0.0; LANES]; N_PARAMS];
         let mut e_lanes = vec![0.0; if e.is_some() { LANES * m } else { 0 }];
         for (b, wb) in w.chunks_mut(LANES).enumerate() {
-            let k0 = first + (b * LANES) as u64;
-            self.fill_lanes(k0, &mut jl);
+            src.skip(b * LANES).lanes(&self.problem.sampler, &mut d);
+            self.fill_lanes(&d, &mut jl);
             let mut w2 = [0.0f64; LANES];
             let el = if e.is_some() {
                 Some(e_lanes.as_mut_slice())
@@ -243,28 +283,41 @@ impl Evaluator for CpuEvaluator {
         self.points.len()
     }
 
-    fn evaluate(
+    fn eval_draws(
         &mut self,
         first: u64,
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
-        check_buffers(self.points.len(), w, per_point.as_ref())?;
+        self.run(Source::Draws(first), w, per_point);
+        Ok(())
+    }
+
+    fn eval_offsets(
+        &mut self,
+        offsets: &[f64],
+        w: &mut [f64],
+        per_point: Option<&mut [f64]>,
+    ) -> Result<(), EngineError> {
+        self.run(Source::Offsets(offsets), w, per_point);
+        Ok(())
+    }
+}
+
+impl CpuEvaluator {
+    /// Evaluates `w.len()` parameter vectors from `src` in parallel tasks of [`CHUNK`].
+    fn run(&self, src: Source, w: &mut [f64], per_point: Option<&mut [f64]>) {
         let m = self.points.len();
-        let this = &*self;
         match per_point {
             None => w.par_chunks_mut(CHUNK).enumerate().for_each(|(c, wc)| {
-                this.eval_chunk(first + (c * CHUNK) as u64, wc, None);
+                self.eval_chunk(src.skip(c * CHUNK), wc, None);
             }),
             Some(e) => w
                 .par_chunks_mut(CHUNK)
                 .zip(e.par_chunks_mut(CHUNK * m))
                 .enumerate()
-                .for_each(|(c, (wc, ec))| {
-                    this.eval_chunk(first + (c * CHUNK) as u64, wc, Some(ec))
-                }),
+                .for_each(|(c, (wc, ec))| self.eval_chunk(src.skip(c * CHUNK), wc, Some(ec))),
         }
-        Ok(())
     }
 }
 
@@ -315,6 +368,51 @@ mod tests {
             let mut other = vec![0.0; 1000];
             ev.evaluate(0, &mut other, None).unwrap();
             assert_eq!(all, other);
+        }
+    }
+
+    /// Rows equal to the sampler's own offsets give the bits of the counter draws, per point
+    /// too, for any row count (not a multiple of the lane or task size).
+    #[test]
+    fn offset_rows_of_the_draws_equal_the_draws() {
+        let pb = problem();
+        let mut ev = CpuEvaluator::new(pb.clone());
+        let (first, n, m) = (5_000u64, 2 * CHUNK + 13, 3);
+        let mut rows = vec![0.0; n * N_PARAMS];
+        for (i, row) in rows.chunks_exact_mut(N_PARAMS).enumerate() {
+            let mut d = [0.0; N_PARAMS];
+            pb.sampler.deltas(first + i as u64, &mut d);
+            row.copy_from_slice(&d);
+        }
+        let (mut w1, mut e1) = (vec![0.0; n], vec![0.0; n * m]);
+        let (mut w2, mut e2) = (vec![0.0; n], vec![0.0; n * m]);
+        ev.evaluate(first, &mut w1, Some(&mut e1)).unwrap();
+        ev.evaluate_offsets(&rows, &mut w2, Some(&mut e2)).unwrap();
+        assert_eq!(w1, w2);
+        assert_eq!(e1, e2);
+        let mut w3 = vec![0.0; n];
+        ev.evaluate_offsets(&rows, &mut w3, None).unwrap();
+        assert_eq!(w1, w3);
+    }
+
+    /// A large angular offset (beyond the series range) against direct forward kinematics.
+    #[test]
+    fn large_offsets_match_direct_forward_kinematics() {
+        let pb = problem();
+        let mut ev = CpuEvaluator::new(pb.clone());
+        let mut rows = vec![0.0; 2 * N_PARAMS];
+        rows[5] = 0.3; // θ2, rad
+        rows[N_PARAMS + 13] = -0.02; // α3, rad
+        rows[N_PARAMS + 7] = 1.5; // a2, mm
+        let (mut w, mut e) = (vec![0.0; 2], vec![0.0; 6]);
+        ev.evaluate_offsets(&rows, &mut w, Some(&mut e)).unwrap();
+        for (i, row) in rows.chunks_exact(N_PARAMS).enumerate() {
+            let params: [f64; N_PARAMS] = std::array::from_fn(|p| pb.sampler.mean[p] + row[p]);
+            let direct = pb.point_errors(&params);
+            for j in 0..3 {
+                assert!((direct[j] - e[i * 3 + j]).abs() < 1e-9, "{i} {j}");
+            }
+            assert!(w[i] > 1.0, "the offsets move the tool by over a millimetre");
         }
     }
 }

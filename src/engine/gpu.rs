@@ -1,83 +1,89 @@
-//! The GPU evaluator: the draws of [`crate::engine::Evaluator`] through a WGSL compute shader
-//! (`shaders/philox.wgsl` + `shaders/mdh_max_error.wgsl`) on any Vulkan, Metal or DX12 adapter
-//! via wgpu, one invocation per draw (METHOD.md §3: `w = max_j e_j`, paper eqs. 12 and 17).
+//! The GPU evaluator: the parameter vectors of [`crate::engine::Evaluator`] through a WGSL
+//! compute shader (`shaders/philox.wgsl` + `shaders/mdh_max_error.wgsl`) on any Vulkan, Metal or
+//! DX12 adapter via wgpu, one invocation per parameter vector (`docs/METHOD.md §3`:
+//! `w = max_j e_j`, paper eqs. 12 and 17).
 //!
-//! The shader draws exactly the normals of the CPU sampler (Philox4x32-10 with counter
-//! `[draw lo, draw hi, block, 0]`, the Box–Muller layout of [`crate::sampling::box_muller`],
-//! independent `δ_i = σ_i z_i` or correlated `δ = L z` on the free parameters), so draw `k` is
-//! the same parameter vector on both backends.
+//! The shader's entry point [`ENTRY_POINT`] draws exactly the normals of the CPU sampler
+//! (Philox4x32-10 with counter `[draw lo, draw hi, block, 0]`, the Box–Muller layout of
+//! [`crate::sampling::box_muller`], independent `δ_i = σ_i z_i` or correlated `δ = L z` on the
+//! free parameters), so draw `k` is the same parameter vector on both backends. The entry point
+//! [`OFFSETS_ENTRY_POINT`] reads δ from an uploaded offset matrix instead (rows converted to
+//! f32 chunk by chunk); both call the same WGSL kinematics. The kinematics is the f32
+//! deviation form of [`super::deviation`], whose module docs give the error budget.
 //!
-//! # Deviation formulation (why f32 is enough)
+//! # One device per process
 //!
-//! Positions are ~1000 mm and errors ~0.1 mm: subtracting two f32 positions would lose about
-//! 1e-4 mm to cancellation. Instead the shader propagates the *deviation* from the chain of the
-//! mean parameters. With `u_i = Rx(α_i)Ry(β_i)p_{i+1} + (a_i, 0, d_i)` and
-//! `p_i = Rz(θ_i + q_i) u_i` (tool → base), and `p0`, `u0` the mean-parameter intermediate points
-//! of each test point (computed here in f64 once, uploaded as f32):
-//!
-//! ```text
-//! Δ_7  = 0
-//! Δu_i = Rx(α')Ry(β') Δ_{i+1} + (Rx(α')Ry(β') − Rx(α)Ry(β)) p0_{i+1} + (δa, 0, δd)
-//! Δ_i  = Rz(φ') Δu_i + (Rz(φ') − Rz(φ)) u0_i,          φ = θ + q, φ' = φ + δθ
-//! e_j  = |Δ_1 + o_j|,  o_j = P(mean, q_j) − P_ref,j (f64; 0 for the calibrated reference)
-//! ```
-//!
-//! Rotation differences use `cos(x+δ) − cos x = −2 sin(δ/2) sin(x+δ/2)` and
-//! `sin(x+δ) − sin x = 2 sin(δ/2) cos(x+δ/2)` with `sin/cos(δ/2)` from a series and
-//! `sin/cos(x)` of the mean precomputed (per point for `φ`), so the GPU only handles small
-//! quantities. The ~1000 mm constants enter only multiplied by differences of order δ.
-//!
-//! # Error budget (f32 unit roundoff `u = 2^-24 ≈ 6e-8`)
-//!
-//! * normals: series truncation < 2e-9; f32 rounding gives `|Δz| ≲ 1e-6·(1+|z|)`, so the
-//!   offsets δ have relative error ≲ 1e-6 and `e_j` a relative error of the same order;
-//! * constants: `p0`, `u0` rounded to f32 (≤ u·1000 mm ≈ 6e-5 mm) times rotation differences
-//!   (≲ 1e-3) → ≲ 6e-8 mm per joint; `cos φ`, `sin φ` rounded (u) times `|Δu|` (≲ 1 mm) →
-//!   ≲ 6e-8 mm per joint;
-//! * arithmetic: ~25 f32 operations per joint on quantities of size `|Δ|` → ≲ 1e-6·|Δ|;
-//! * offsets `o_j` rounded to f32: ≤ u·|o_j| (6e-7 mm for a 10 mm nominal-reference offset).
-//!
-//! Together `|e_gpu − e_cpu| ≲ 2e-6·e_j + 1e-6 mm + u·|o_j|`, i.e. well under 1e-5 mm for the
-//! TX60 at the paper's spreads (e ≈ 0.1–1 mm). Measured on lavapipe (`tests/gpu.rs`, 50 test
-//! points, 4–6·10^4 draws): max `|w_gpu − w_cpu|` = 9.6e-8 mm (independent), 6.9e-8 mm
-//! (correlated), 2.0e-7 mm (nominal reference, `|o_j|` ≈ 1.3 mm); moments agree to ≤ 2e-8
-//! relative; the normals to 1.1e-7·(1+|z|). The tests assert 1e-5 mm per sample.
+//! Device, queue, bind-group layout and pipelines live in a [`GpuContext`], opened once per
+//! adapter and process and shared (`Arc`) by every evaluator on that adapter
+//! ([`GpuContext::shared`]; [`devices_opened`] counts the opens). An evaluator owns only the
+//! per-problem buffers (configuration, joint constants, spread, per-point constants) and its
+//! chunk slots; [`GpuEvaluator::set_problem`] replaces the per-problem buffers and keeps the
+//! rest. Bindings are named ([`binding`]), not positional; `tests/gpu.rs` checks them, the
+//! workgroup size and the uniform sizes against the shader.
 //!
 //! # Batching
 //!
-//! Device, pipeline and every buffer are created once. A request is cut into chunks of at most
-//! [`GpuOptions::chunk`] draws (also bounded by the device's workgroup-count, binding-size and
-//! buffer-size limits); two chunk slots alternate so the readback and f32→f64 conversion of
-//! chunk h overlaps the computation of chunk h+1. After a request for draws `[k, k+n)` (without
-//! per-point output) the evaluator speculatively submits `[k+n, k+n+min(n, chunk))`: draws are a
-//! pure function of their index, and the Monte Carlo drivers ask for consecutive batches, so
-//! the next batch is already computing while the caller sorts this one
-//! ([`GpuOptions::prefetch`]). Memory is per chunk, never per request: an MCS of 10^8 draws
-//! needs the caller's output slice and two chunks of GPU buffers.
+//! A request is cut into chunks of at most [`GpuOptions::chunk`] parameter vectors (also
+//! bounded by the device's workgroup-count, binding-size and buffer-size limits); two chunk
+//! slots alternate so the readback and f32→f64 conversion of chunk h overlaps the computation
+//! of chunk h+1. After a request for draws `[k, k+n)` (without per-point output) the evaluator
+//! speculatively submits `[k+n, k+n+min(n, chunk))`: draws are a pure function of their index,
+//! and the Monte Carlo drivers ask for consecutive batches, so the next batch is already
+//! computing while the caller sorts this one ([`GpuOptions::prefetch`]). Memory is per chunk,
+//! never per request: an MCS of 10^8 draws needs the caller's output slice and two chunks of GPU
+//! buffers; an offset request of n rows uploads `N_PARAMS` f32 per row, one chunk at a time.
 
+mod context;
 mod device;
 
-use super::{check_buffers, BackendInfo, EngineError, Evaluator, Problem};
-use crate::kinematics::{JOINTS, N_PARAMS};
-use device::{BindGroup, BindGroupLayout, Buffer, ComputePipeline, Gpu, Timer};
+pub use context::{devices_opened, GpuContext};
+
+use super::deviation::{self, SpreadPacking};
+use super::{BackendInfo, EngineError, Evaluator, Problem};
+use crate::kinematics::N_PARAMS;
+use device::{BindGroup, Buffer, Gpu, Timer};
 use std::collections::VecDeque;
+use std::sync::Arc;
 use std::time::Instant;
 
 /// WGSL: Philox4x32-10 and the Box–Muller transform.
 pub const PHILOX_WGSL: &str = include_str!("../../shaders/philox.wgsl");
-/// WGSL: the per-draw maximum point error kernel (entry point `max_point_error`).
+/// WGSL: the per-draw maximum point error kernel (entry points [`ENTRY_POINT`] and
+/// [`OFFSETS_ENTRY_POINT`]).
 pub const MDH_WGSL: &str = include_str!("../../shaders/mdh_max_error.wgsl");
 /// WGSL: a test kernel exposing Philox blocks and normals (entry point `philox_kat`).
 pub const PHILOX_KAT_WGSL: &str = include_str!("../../shaders/philox_kat.wgsl");
 
-/// Entry point of the evaluator kernel.
+/// Entry point of the evaluator kernel for counter draws.
 pub const ENTRY_POINT: &str = "max_point_error";
+/// Entry point of the evaluator kernel for explicit offset rows.
+pub const OFFSETS_ENTRY_POINT: &str = "max_point_error_offsets";
 /// Workgroup size of the kernel (must match `@workgroup_size` in the shader).
 pub const WORKGROUP: usize = 64;
 /// Default draws per dispatch.
 pub const DEFAULT_CHUNK: usize = 1 << 18;
-/// Vec4 words per test point in the point buffer.
-const WORDS_PER_POINT: usize = 13;
+
+/// Binding numbers of the evaluator shader's bind group 0 (the WGSL variable in brackets).
+pub mod binding {
+    /// Run configuration, [`super::ConfigUniform`] (`cfg`).
+    pub const CONFIG: u32 = 0;
+    /// Chunk description, [`super::ChunkUniform`] (`chunk`).
+    pub const CHUNK: u32 = 1;
+    /// Mean joint trigonometry, `deviation::joint_trig` (`joint_trig`).
+    pub const JOINT_TRIG: u32 = 2;
+    /// σ or the Cholesky factor (`spread`).
+    pub const SPREAD: u32 = 3;
+    /// Free-parameter indices (`free_idx`).
+    pub const FREE: u32 = 4;
+    /// Per-point constants, `deviation::point_constants` (`pts`).
+    pub const POINTS: u32 = 5;
+    /// Output: w per parameter vector (`w_out`).
+    pub const W: u32 = 6;
+    /// Output: e_j per parameter vector and point (`e_out`).
+    pub const E: u32 = 7;
+    /// Input of the offset path: `N_PARAMS` offsets per row (`offsets_in`).
+    pub const OFFSETS: u32 = 8;
+}
 
 /// The evaluator shader: [`PHILOX_WGSL`] followed by [`MDH_WGSL`].
 pub fn shader_source() -> String {
@@ -118,43 +124,6 @@ pub fn adapters() -> Vec<AdapterDescription> {
         .collect()
 }
 
-/// Picks an adapter: by case-insensitive substring of its name if `filter` is given, else the
-/// most capable (discrete, integrated, virtual, other, then CPU); `hardware_only` rejects
-/// software (CPU) adapters when no filter is given.
-fn pick_adapter(filter: Option<&str>, hardware_only: bool) -> Result<device::AdapterEntry, String> {
-    let mut list = device::adapters();
-    if list.is_empty() {
-        return Err(
-            "no Vulkan, Metal or DX12 adapter found (install a GPU driver, or Mesa's \
-                    lavapipe for a software Vulkan device)"
-                .into(),
-        );
-    }
-    if let Some(f) = filter {
-        let names: Vec<String> = list.iter().map(|a| a.name.clone()).collect();
-        let needle = f.to_lowercase();
-        return match list
-            .into_iter()
-            .find(|a| a.name.to_lowercase().contains(&needle))
-        {
-            Some(a) => Ok(a),
-            None => Err(format!(
-                "no adapter name contains '{f}'; available: {}",
-                names.join(", ")
-            )),
-        };
-    }
-    list.sort_by_key(|a| a.rank);
-    let best = list.remove(0);
-    if hardware_only && best.is_cpu {
-        return Err(format!(
-            "only a software adapter is present ({})",
-            best.name
-        ));
-    }
-    Ok(best)
-}
-
 /// Whether a hardware (non-CPU) adapter is present.
 pub fn hardware_adapter_present() -> bool {
     device::adapters().iter().any(|a| !a.is_cpu)
@@ -188,7 +157,8 @@ impl Default for GpuOptions {
     }
 }
 
-/// Where the time of the last [`Evaluator::evaluate`] call went.
+/// Where the time of the last [`Evaluator::evaluate`] or [`Evaluator::evaluate_offsets`] call
+/// went.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct GpuTimings {
     /// Sum of the compute passes' device time from timestamp queries, s (`None`: not
@@ -204,33 +174,175 @@ pub struct GpuTimings {
     pub prefetch_hits: usize,
 }
 
+/// The run configuration uniform (`cfg` in the shader; `tests/gpu.rs` checks that its size
+/// equals the WGSL struct's).
 #[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct ConfigU {
-    key: [u32; 2],
-    m: u32,
-    mode: u32,
-    nfree: u32,
-    block_mask: u32,
-    pad: [u32; 2],
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ConfigUniform {
+    /// Philox key.
+    pub key: [u32; 2],
+    /// Test points m.
+    pub m: u32,
+    /// 0: independent spread (σ), 1: correlated (Cholesky factor).
+    pub mode: u32,
+    /// Free parameters of a correlated spread.
+    pub nfree: u32,
+    /// Bit b set: Philox block b feeds some free parameter.
+    pub block_mask: u32,
+    /// Padding to the WGSL struct size.
+    pub pad: [u32; 2],
 }
 
+/// The per-chunk uniform (`chunk` in the shader).
 #[repr(C)]
-#[derive(Clone, Copy, bytemuck::Pod, bytemuck::Zeroable)]
-struct ChunkU {
-    first: [u32; 2],
-    count: u32,
-    want_e: u32,
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ChunkUniform {
+    /// First draw of the chunk, (lo, hi) words (unused by the offset path).
+    pub first: [u32; 2],
+    /// Parameter vectors in the chunk.
+    pub count: u32,
+    /// 1: write per-point errors.
+    pub want_e: u32,
 }
 
+/// The buffers of one problem (see [`GpuEvaluator::set_problem`]).
+struct ProblemBuffers {
+    config: Buffer,
+    joint_trig: Buffer,
+    spread: Buffer,
+    free: Buffer,
+    points: Buffer,
+    m: usize,
+}
+
+impl ProblemBuffers {
+    fn new(gpu: &Gpu, problem: &Problem) -> Self {
+        let packing = SpreadPacking::new(problem);
+        let m = problem.n_points();
+        let cfg = ConfigUniform {
+            key: problem.sampler.key(),
+            m: m as u32,
+            mode: u32::from(packing.correlated),
+            nfree: packing.n_free() as u32,
+            block_mask: packing.block_mask,
+            pad: [0; 2],
+        };
+        let config = gpu.uniform("config", std::mem::size_of::<ConfigUniform>() as u64);
+        gpu.write(&config, bytemuck::bytes_of(&cfg));
+        let trig = deviation::joint_trig(problem);
+        let pts = deviation::point_constants(problem);
+        ProblemBuffers {
+            config,
+            joint_trig: gpu.storage_init("joint trig", bytemuck::cast_slice(&trig)),
+            spread: gpu.storage_init("spread", bytemuck::cast_slice(&packing.spread)),
+            free: gpu.storage_init("free", bytemuck::cast_slice(&packing.free)),
+            points: gpu.storage_init("points", bytemuck::cast_slice(&pts)),
+            m,
+        }
+    }
+}
+
+/// One of the alternating chunk slots: its uniform, outputs, staging and offset input.
 struct Slot {
     chunk: Buffer,
     w: Buffer,
     w_stage: Buffer,
     e: Buffer,
     e_stage: Buffer,
+    offsets: Buffer,
     bind: BindGroup,
     timer: Option<Timer>,
+}
+
+/// The buffers a slot binds besides the problem's.
+struct SlotBuffers<'a> {
+    chunk: &'a Buffer,
+    w: &'a Buffer,
+    e: &'a Buffer,
+    offsets: &'a Buffer,
+}
+
+/// The bind group of a slot over `problem`'s buffers, every binding by name.
+fn bind_slot(ctx: &GpuContext, problem: &ProblemBuffers, s: SlotBuffers) -> BindGroup {
+    ctx.gpu.bind_group(
+        &ctx.layout,
+        &[
+            (binding::CONFIG, &problem.config),
+            (binding::CHUNK, s.chunk),
+            (binding::JOINT_TRIG, &problem.joint_trig),
+            (binding::SPREAD, &problem.spread),
+            (binding::FREE, &problem.free),
+            (binding::POINTS, &problem.points),
+            (binding::W, s.w),
+            (binding::E, s.e),
+            (binding::OFFSETS, s.offsets),
+        ],
+    )
+}
+
+impl Slot {
+    /// A slot of `chunk` outputs; per-point and offset buffers are placeholders until needed.
+    fn new(ctx: &GpuContext, problem: &ProblemBuffers, chunk: usize, timer: bool) -> Self {
+        let gpu = &ctx.gpu;
+        let w_bytes = 4 * chunk as u64;
+        let chunk = gpu.uniform("chunk", std::mem::size_of::<ChunkUniform>() as u64);
+        let w = gpu.storage("w", w_bytes);
+        let e = gpu.storage("e (unused)", 4);
+        let offsets = gpu.storage("offsets (unused)", 4);
+        let bind = bind_slot(
+            ctx,
+            problem,
+            SlotBuffers {
+                chunk: &chunk,
+                w: &w,
+                e: &e,
+                offsets: &offsets,
+            },
+        );
+        Slot {
+            chunk,
+            w,
+            w_stage: gpu.staging("w staging", w_bytes),
+            e,
+            e_stage: gpu.staging("e staging (unused)", 4),
+            offsets,
+            bind,
+            timer: if timer { gpu.timer() } else { None },
+        }
+    }
+
+    /// Rebuilds the bind group after a buffer changed.
+    fn rebind(&mut self, ctx: &GpuContext, problem: &ProblemBuffers) {
+        self.bind = bind_slot(
+            ctx,
+            problem,
+            SlotBuffers {
+                chunk: &self.chunk,
+                w: &self.w,
+                e: &self.e,
+                offsets: &self.offsets,
+            },
+        );
+    }
+}
+
+/// Where the parameter offsets of a request come from.
+#[derive(Clone, Copy)]
+enum Rows<'a> {
+    /// Counter draws from this index on.
+    Draws(u64),
+    /// An offset matrix, `N_PARAMS` per row, from its first row on.
+    Offsets(&'a [f64]),
+}
+
+impl<'a> Rows<'a> {
+    /// The rows from `n` on.
+    fn skip(self, n: usize) -> Rows<'a> {
+        match self {
+            Rows::Draws(k) => Rows::Draws(k.wrapping_add(n as u64)),
+            Rows::Offsets(o) => Rows::Offsets(&o[(n * N_PARAMS).min(o.len())..]),
+        }
+    }
 }
 
 struct InFlight {
@@ -245,55 +357,19 @@ struct InFlight {
 
 /// The wgpu evaluator (see the module docs).
 pub struct GpuEvaluator {
-    gpu: Gpu,
-    pipeline: ComputePipeline,
-    layout: BindGroupLayout,
-    statics: [Buffer; 5],
+    ctx: Arc<GpuContext>,
+    problem: ProblemBuffers,
     slots: Vec<Slot>,
-    m: usize,
     chunk: usize,
     chunk_e: usize,
+    chunk_o: usize,
     e_ready: bool,
+    offsets_ready: bool,
+    staging_f32: Vec<f32>,
     timings: GpuTimings,
     broken: Option<String>,
     prefetch_enabled: bool,
     prefetch: Option<(u64, InFlight)>,
-}
-
-/// Per-point constants of the mean-parameter chain (f64, then f32): see the module docs.
-fn point_constants(problem: &Problem) -> Vec<[f32; 4]> {
-    let mean = &problem.sampler.mean;
-    let mut out = Vec::with_capacity(problem.points.len() * WORDS_PER_POINT);
-    for (q, r) in problem.points.iter().zip(&problem.reference) {
-        let mut words = [[0f32; 4]; WORDS_PER_POINT];
-        let mut p = problem.model.tool;
-        for i in (0..JOINTS).rev() {
-            let [th, d, a, al, be] = [
-                mean[5 * i],
-                mean[5 * i + 1],
-                mean[5 * i + 2],
-                mean[5 * i + 3],
-                mean[5 * i + 4],
-            ];
-            let (sb, cb) = be.sin_cos();
-            let (sa, ca) = al.sin_cos();
-            let x1 = cb * p[0] + sb * p[2];
-            let z1 = -sb * p[0] + cb * p[2];
-            let u0 = [x1 + a, ca * p[1] - sa * z1, sa * p[1] + ca * z1 + d];
-            let (sp, cp) = (th + q[i]).sin_cos();
-            words[2 * i] = [u0[0] as f32, u0[1] as f32, u0[2] as f32, cp as f32];
-            words[2 * i + 1] = [p[0] as f32, p[1] as f32, p[2] as f32, sp as f32];
-            p = [cp * u0[0] - sp * u0[1], sp * u0[0] + cp * u0[1], u0[2]];
-        }
-        words[12] = [
-            (p[0] - r[0]) as f32,
-            (p[1] - r[1]) as f32,
-            (p[2] - r[2]) as f32,
-            0.0,
-        ];
-        out.extend_from_slice(&words);
-    }
-    out
 }
 
 fn gpu_err(e: impl std::fmt::Display) -> EngineError {
@@ -301,105 +377,43 @@ fn gpu_err(e: impl std::fmt::Display) -> EngineError {
 }
 
 impl GpuEvaluator {
-    /// Opens the adapter chosen by `opts`, compiles the shader and uploads the problem's
-    /// constants.
+    /// An evaluator for `problem` on the adapter chosen by `opts`, sharing the process's device
+    /// on that adapter ([`GpuContext::shared`]; opened, and the shader compiled, on first use).
     pub fn new(problem: Problem, opts: &GpuOptions) -> Result<Self, EngineError> {
-        let entry = pick_adapter(opts.adapter.as_deref(), opts.hardware_only).map_err(gpu_err)?;
-        let gpu = Gpu::open(entry, opts.timestamps).map_err(gpu_err)?;
-        let (pipeline, layout) = gpu
-            .pipeline(&shader_source(), ENTRY_POINT)
-            .map_err(gpu_err)?;
-        let m = problem.n_points();
+        let ctx = GpuContext::shared(opts.adapter.as_deref(), opts.hardware_only)?;
+        Self::with_context(ctx, &problem, opts)
+    }
 
-        // Chunk sizes within the device limits.
-        let by_groups = (gpu.max_workgroups as usize).saturating_mul(WORKGROUP);
-        let by_bytes = (gpu.max_binding.min(gpu.max_buffer) / 4) as usize;
-        let chunk = opts.chunk.max(1).min(by_groups).min(by_bytes).max(1);
-        let chunk_e = chunk.min((by_bytes / m.max(1)).max(1));
-
-        // Static buffers.
-        let sampler = &problem.sampler;
-        let mut block_mask = 0u32;
-        let (mode, nfree, spread, free): (u32, u32, Vec<f32>, Vec<u32>) =
-            match (sampler.sigmas(), sampler.cholesky()) {
-                (Some(s), _) => {
-                    for (i, v) in s.iter().enumerate() {
-                        if *v != 0.0 {
-                            block_mask |= 1 << (i / 4);
-                        }
-                    }
-                    (0, 0, s.iter().map(|v| *v as f32).collect(), vec![0])
-                }
-                (None, Some((free, l))) => {
-                    for &i in free {
-                        block_mask |= 1 << (i / 4);
-                    }
-                    (
-                        1,
-                        free.len() as u32,
-                        l.iter().map(|v| *v as f32).collect(),
-                        free.iter().map(|&i| i as u32).collect(),
-                    )
-                }
-                (None, None) => (0, 0, vec![0.0; N_PARAMS], vec![0]),
-            };
-        let cfg = ConfigU {
-            key: sampler.key(),
-            m: m as u32,
-            mode,
-            nfree,
-            block_mask,
-            pad: [0; 2],
-        };
-        let mean = &sampler.mean;
-        let trig: Vec<f32> = (0..JOINTS)
-            .flat_map(|j| {
-                let (sa, ca) = mean[5 * j + 3].sin_cos();
-                let (sb, cb) = mean[5 * j + 4].sin_cos();
-                [ca as f32, sa as f32, cb as f32, sb as f32]
-            })
+    /// An evaluator for `problem` on an open context (its adapter-selection options are
+    /// ignored): uploads the problem's constants and allocates the chunk slots.
+    pub fn with_context(
+        ctx: Arc<GpuContext>,
+        problem: &Problem,
+        opts: &GpuOptions,
+    ) -> Result<Self, EngineError> {
+        let gpu = &ctx.gpu;
+        let chunk = opts.chunk.max(1).min(ctx.max_chunk()).max(1);
+        let by_bytes = ctx.max_binding_words();
+        let chunk_o = chunk.min((by_bytes / N_PARAMS).max(1));
+        let problem_bufs = ProblemBuffers::new(gpu, problem);
+        let timestamps = opts.timestamps && gpu.timestamps;
+        let slots: Vec<Slot> = (0..2)
+            .map(|_| Slot::new(&ctx, &problem_bufs, chunk, timestamps))
             .collect();
-        let cfg_buf = gpu.uniform("config", std::mem::size_of::<ConfigU>() as u64);
-        gpu.write(&cfg_buf, bytemuck::bytes_of(&cfg));
-        let trig_buf = gpu.storage_init("joint trig", bytemuck::cast_slice(&trig));
-        let spread_buf = gpu.storage_init("spread", bytemuck::cast_slice(&spread));
-        let free_buf = gpu.storage_init("free", bytemuck::cast_slice(&free));
-        let pts = point_constants(&problem);
-        let pts_buf = gpu.storage_init("points", bytemuck::cast_slice(&pts));
-        let statics = [cfg_buf, trig_buf, spread_buf, free_buf, pts_buf];
-
-        let mut slots = Vec::with_capacity(2);
-        for _ in 0..2 {
-            let w_bytes = 4 * chunk as u64;
-            let chunk_buf = gpu.uniform("chunk", std::mem::size_of::<ChunkU>() as u64);
-            let w = gpu.storage("w", w_bytes);
-            let w_stage = gpu.staging("w staging", w_bytes);
-            let e = gpu.storage("e (unused)", 4);
-            let e_stage = gpu.staging("e staging (unused)", 4);
-            let bind = Self::bind(&gpu, &layout, &statics, &chunk_buf, &w, &e);
-            slots.push(Slot {
-                chunk: chunk_buf,
-                w,
-                w_stage,
-                e,
-                e_stage,
-                bind,
-                timer: gpu.timer(),
-            });
-        }
         if let Some(e) = gpu.take_error() {
             return Err(EngineError::Gpu(e));
         }
+        let chunk_e = Self::chunk_e_for(&ctx, chunk, problem_bufs.m);
         Ok(GpuEvaluator {
-            gpu,
-            pipeline,
-            layout,
-            statics,
+            ctx,
+            problem: problem_bufs,
             slots,
-            m,
             chunk,
             chunk_e,
+            chunk_o,
             e_ready: false,
+            offsets_ready: false,
+            staging_f32: Vec::new(),
             timings: GpuTimings::default(),
             broken: None,
             prefetch_enabled: opts.prefetch,
@@ -407,50 +421,100 @@ impl GpuEvaluator {
         })
     }
 
-    fn bind(
-        gpu: &Gpu,
-        layout: &BindGroupLayout,
-        s: &[Buffer; 5],
-        chunk: &Buffer,
-        w: &Buffer,
-        e: &Buffer,
-    ) -> BindGroup {
-        gpu.bind_group(layout, &[&s[0], chunk, &s[1], &s[2], &s[3], &s[4], w, e])
+    /// Draws per dispatch with per-point output for `m` points.
+    fn chunk_e_for(ctx: &GpuContext, chunk: usize, m: usize) -> usize {
+        chunk.min((ctx.max_binding_words() / m.max(1)).max(1))
     }
 
-    /// Draws per dispatch (without / with per-point output).
+    /// Replaces the problem (model, points, reference, seed): new per-problem buffers on the
+    /// same device, pipelines and chunk slots. A speculative chunk of the old problem is
+    /// dropped.
+    pub fn set_problem(&mut self, problem: &Problem) -> Result<(), EngineError> {
+        self.check_usable()?;
+        if let Some((_, f)) = self.prefetch.take() {
+            self.guard(|s| s.discard(f))?;
+        }
+        let m_old = self.problem.m;
+        self.problem = ProblemBuffers::new(&self.ctx.gpu, problem);
+        if self.problem.m != m_old {
+            self.chunk_e = Self::chunk_e_for(&self.ctx, self.chunk, self.problem.m);
+            if self.e_ready {
+                self.e_ready = false;
+                for slot in &mut self.slots {
+                    slot.e = self.ctx.gpu.storage("e (unused)", 4);
+                    slot.e_stage = self.ctx.gpu.staging("e staging (unused)", 4);
+                }
+            }
+        }
+        for slot in &mut self.slots {
+            slot.rebind(&self.ctx, &self.problem);
+        }
+        match self.ctx.gpu.take_error() {
+            Some(e) => self.guard(|_| Err(EngineError::Gpu(e))),
+            None => Ok(()),
+        }
+    }
+
+    /// The shared device context.
+    pub fn context(&self) -> &Arc<GpuContext> {
+        &self.ctx
+    }
+
+    /// Parameter vectors per dispatch (counter draws without / with per-point output).
     pub fn chunk_sizes(&self) -> (usize, usize) {
         (self.chunk, self.chunk_e)
     }
 
-    /// Where the time of the last `evaluate` call went.
+    /// Where the time of the last `evaluate` or `evaluate_offsets` call went.
     pub fn last_timings(&self) -> GpuTimings {
         self.timings
     }
 
     /// Whether device timestamps are being recorded.
     pub fn has_timestamps(&self) -> bool {
-        self.gpu.timestamps
+        self.slots.iter().any(|s| s.timer.is_some())
     }
 
     fn ensure_e_buffers(&mut self) {
         if self.e_ready {
             return;
         }
-        let bytes = 4 * (self.chunk_e * self.m) as u64;
+        let bytes = 4 * (self.chunk_e * self.problem.m) as u64;
         for slot in &mut self.slots {
-            slot.e = self.gpu.storage("e", bytes);
-            slot.e_stage = self.gpu.staging("e staging", bytes);
-            slot.bind = Self::bind(
-                &self.gpu,
-                &self.layout,
-                &self.statics,
-                &slot.chunk,
-                &slot.w,
-                &slot.e,
-            );
+            slot.e = self.ctx.gpu.storage("e", bytes);
+            slot.e_stage = self.ctx.gpu.staging("e staging", bytes);
+            slot.rebind(&self.ctx, &self.problem);
         }
         self.e_ready = true;
+    }
+
+    fn ensure_offset_buffers(&mut self) {
+        if self.offsets_ready {
+            return;
+        }
+        let bytes = 4 * (self.chunk_o * N_PARAMS) as u64;
+        for slot in &mut self.slots {
+            slot.offsets = self.ctx.gpu.storage("offsets", bytes);
+            slot.rebind(&self.ctx, &self.problem);
+        }
+        self.offsets_ready = true;
+    }
+
+    /// Copies `n` mapped f32 results of `stage` into `out` as f64.
+    fn read_f32(
+        gpu: &Gpu,
+        stage: &Buffer,
+        pending: device::PendingMap,
+        out: &mut [f64],
+    ) -> Result<(), EngineError> {
+        let n = out.len();
+        let mapped = gpu.mapped(stage, 4 * n as u64, pending).map_err(gpu_err)?;
+        let vals: &[f32] = bytemuck::try_cast_slice(&mapped.bytes()[..4 * n])
+            .map_err(|e| gpu_err(format!("result buffer: {e:?}")))?;
+        for (o, v) in out.iter_mut().zip(vals) {
+            *o = f64::from(*v);
+        }
+        Ok(())
     }
 
     fn finish(
@@ -459,36 +523,24 @@ impl GpuEvaluator {
         w: &mut [f64],
         e: &mut Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
+        let gpu = &self.ctx.gpu;
+        let m = self.problem.m;
         let t0 = Instant::now();
-        self.gpu.wait(f.index).map_err(gpu_err)?;
+        gpu.wait(f.index).map_err(gpu_err)?;
         let t1 = Instant::now();
         let slot = &self.slots[f.slot];
-        {
-            let mapped = self
-                .gpu
-                .mapped(&slot.w_stage, 4 * f.count as u64, f.pending_w)
-                .map_err(gpu_err)?;
-            let vals: &[f32] = bytemuck::try_cast_slice(&mapped.bytes()[..4 * f.count])
-                .map_err(|e| gpu_err(format!("result buffer: {e:?}")))?;
-            for (o, v) in w[f.start..f.start + f.count].iter_mut().zip(vals) {
-                *o = f64::from(*v);
-            }
-        }
+        Self::read_f32(
+            gpu,
+            &slot.w_stage,
+            f.pending_w,
+            &mut w[f.start..f.start + f.count],
+        )?;
         if let (Some(pe), Some(e)) = (f.pending_e, e.as_deref_mut()) {
-            let n = f.count * self.m;
-            let mapped = self
-                .gpu
-                .mapped(&slot.e_stage, 4 * n as u64, pe)
-                .map_err(gpu_err)?;
-            let vals: &[f32] = bytemuck::try_cast_slice(&mapped.bytes()[..4 * n])
-                .map_err(|e| gpu_err(format!("result buffer: {e:?}")))?;
-            let off = f.start * self.m;
-            for (o, v) in e[off..off + n].iter_mut().zip(vals) {
-                *o = f64::from(*v);
-            }
+            let rows = &mut e[f.start * m..(f.start + f.count) * m];
+            Self::read_f32(gpu, &slot.e_stage, pe, rows)?;
         }
         if let (Some(t), Some(pt)) = (&slot.timer, f.pending_t) {
-            let d = self.gpu.read_timer(t, pt).map_err(gpu_err)?;
+            let d = gpu.read_timer(t, pt).map_err(gpu_err)?;
             *self.timings.device_s.get_or_insert(0.0) += d;
         }
         self.timings.submit_wait_s += (t1 - t0).as_secs_f64();
@@ -496,33 +548,44 @@ impl GpuEvaluator {
         Ok(())
     }
 
-    /// Records and submits draws `[k0, k0 + count)` in slot `slot_i`; results go to offset
-    /// `start` of the caller's output.
+    /// Records and submits the first `count` rows of `rows` in slot `slot_i`; results go to
+    /// offset `start` of the caller's output.
     fn submit(
         &mut self,
         slot_i: usize,
-        k0: u64,
+        rows: Rows,
         start: usize,
         count: usize,
         want_e: bool,
     ) -> InFlight {
         let t0 = Instant::now();
-        let cu = ChunkU {
-            first: [k0 as u32, (k0 >> 32) as u32],
+        let gpu = &self.ctx.gpu;
+        let slot = &self.slots[slot_i];
+        let (first, pipeline) = match rows {
+            Rows::Draws(k0) => ([k0 as u32, (k0 >> 32) as u32], &self.ctx.draws),
+            Rows::Offsets(o) => {
+                self.staging_f32.clear();
+                self.staging_f32
+                    .extend(o[..count * N_PARAMS].iter().map(|&v| v as f32));
+                gpu.write(&slot.offsets, bytemuck::cast_slice(&self.staging_f32));
+                ([0, 0], &self.ctx.offsets)
+            }
+        };
+        let cu = ChunkUniform {
+            first,
             count: count as u32,
             want_e: u32::from(want_e),
         };
-        let slot = &self.slots[slot_i];
-        self.gpu.write(&slot.chunk, bytemuck::bytes_of(&cu));
+        gpu.write(&slot.chunk, bytemuck::bytes_of(&cu));
         let w_bytes = 4 * count as u64;
         let e_bytes = if want_e {
-            4 * (count * self.m) as u64
+            4 * (count * self.problem.m) as u64
         } else {
             0
         };
         let groups = count.div_ceil(WORKGROUP) as u32;
-        let index = self.gpu.dispatch(
-            &self.pipeline,
+        let index = gpu.dispatch(
+            pipeline,
             &slot.bind,
             groups,
             &[
@@ -531,9 +594,9 @@ impl GpuEvaluator {
             ],
             slot.timer.as_ref(),
         );
-        let pending_w = self.gpu.map_read(&slot.w_stage, w_bytes);
-        let pending_e = want_e.then(|| self.gpu.map_read(&slot.e_stage, e_bytes));
-        let pending_t = slot.timer.as_ref().map(|t| self.gpu.map_timer(t));
+        let pending_w = gpu.map_read(&slot.w_stage, w_bytes);
+        let pending_e = want_e.then(|| gpu.map_read(&slot.e_stage, e_bytes));
+        let pending_t = slot.timer.as_ref().map(|t| gpu.map_timer(t));
         self.timings.submit_wait_s += t0.elapsed().as_secs_f64();
         self.timings.chunks += 1;
         InFlight {
@@ -549,22 +612,22 @@ impl GpuEvaluator {
 
     /// Waits for a speculative chunk nobody asked for and releases its mappings.
     fn discard(&mut self, f: InFlight) -> Result<(), EngineError> {
-        self.gpu.wait(f.index).map_err(gpu_err)?;
+        let gpu = &self.ctx.gpu;
+        gpu.wait(f.index).map_err(gpu_err)?;
         let slot = &self.slots[f.slot];
         drop(
-            self.gpu
-                .mapped(&slot.w_stage, 4 * f.count as u64, f.pending_w)
+            gpu.mapped(&slot.w_stage, 4 * f.count as u64, f.pending_w)
                 .map_err(gpu_err)?,
         );
         if let (Some(t), Some(pt)) = (&slot.timer, f.pending_t) {
-            self.gpu.read_timer(t, pt).map_err(gpu_err)?;
+            gpu.read_timer(t, pt).map_err(gpu_err)?;
         }
         Ok(())
     }
 
     fn run(
         &mut self,
-        first: u64,
+        rows: Rows,
         w: &mut [f64],
         mut e: Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
@@ -572,7 +635,11 @@ impl GpuEvaluator {
         if want_e {
             self.ensure_e_buffers();
         }
-        let c = if want_e { self.chunk_e } else { self.chunk };
+        let mut c = if want_e { self.chunk_e } else { self.chunk };
+        if let Rows::Offsets(_) = rows {
+            self.ensure_offset_buffers();
+            c = c.min(self.chunk_o);
+        }
         let n = w.len();
         let nslots = self.slots.len();
         let mut inflight: VecDeque<InFlight> = VecDeque::with_capacity(nslots);
@@ -580,7 +647,7 @@ impl GpuEvaluator {
         let mut h = 0usize;
         // A speculative chunk from the previous call: used if it is the start of this request.
         if let Some((k, f)) = self.prefetch.take() {
-            if k == first && !want_e && f.count <= n {
+            if matches!(rows, Rows::Draws(first) if first == k) && !want_e && f.count <= n {
                 start = f.count;
                 h = f.slot + 1;
                 self.timings.prefetch_hits += 1;
@@ -596,8 +663,7 @@ impl GpuEvaluator {
                 }
             }
             let count = c.min(n - start);
-            let k0 = first.wrapping_add(start as u64);
-            let f = self.submit(h % nslots, k0, start, count, want_e);
+            let f = self.submit(h % nslots, rows.skip(start), start, count, want_e);
             inflight.push_back(f);
             start += count;
             h += 1;
@@ -607,13 +673,51 @@ impl GpuEvaluator {
         }
         // Draws are a pure function of their index: compute the likely next range (the Monte
         // Carlo drivers ask for consecutive batches) while the caller works on this one.
-        if self.prefetch_enabled && !want_e && n > 0 {
-            let next = first.wrapping_add(n as u64);
-            let count = n.min(self.chunk);
-            let f = self.submit(h % nslots, next, 0, count, false);
-            self.prefetch = Some((next, f));
+        if let Rows::Draws(first) = rows {
+            if self.prefetch_enabled && !want_e && n > 0 {
+                let next = first.wrapping_add(n as u64);
+                let count = n.min(self.chunk);
+                let f = self.submit(h % nslots, Rows::Draws(next), 0, count, false);
+                self.prefetch = Some((next, f));
+            }
         }
         Ok(())
+    }
+
+    /// Refuses work after a device error.
+    fn check_usable(&self) -> Result<(), EngineError> {
+        match &self.broken {
+            Some(b) => Err(EngineError::Gpu(format!(
+                "device unusable after an earlier error: {b}"
+            ))),
+            None => Ok(()),
+        }
+    }
+
+    /// Runs `f`; a GPU error marks this evaluator unusable and its context failed (so the next
+    /// evaluator on the adapter opens a fresh device).
+    fn guard(
+        &mut self,
+        f: impl FnOnce(&mut Self) -> Result<(), EngineError>,
+    ) -> Result<(), EngineError> {
+        let r = f(self);
+        if let Err(EngineError::Gpu(msg)) = &r {
+            self.broken = Some(msg.clone());
+            self.ctx.mark_failed();
+        }
+        r
+    }
+
+    /// A request of either kind: refuses a broken evaluator, resets the timings, runs.
+    fn request(
+        &mut self,
+        rows: Rows,
+        w: &mut [f64],
+        per_point: Option<&mut [f64]>,
+    ) -> Result<(), EngineError> {
+        self.check_usable()?;
+        self.timings = GpuTimings::default();
+        self.guard(|s| s.run(rows, w, per_point))
     }
 }
 
@@ -621,33 +725,31 @@ impl Evaluator for GpuEvaluator {
     fn info(&self) -> BackendInfo {
         BackendInfo {
             backend: "gpu".into(),
-            adapter: self.gpu.name.clone(),
-            driver: self.gpu.driver.clone(),
+            adapter: self.ctx.gpu.name.clone(),
+            driver: self.ctx.gpu.driver.clone(),
         }
     }
 
     fn n_points(&self) -> usize {
-        self.m
+        self.problem.m
     }
 
-    fn evaluate(
+    fn eval_draws(
         &mut self,
         first: u64,
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
-        check_buffers(self.m, w, per_point.as_ref())?;
-        if let Some(b) = &self.broken {
-            return Err(EngineError::Gpu(format!(
-                "device unusable after an earlier error: {b}"
-            )));
-        }
-        self.timings = GpuTimings::default();
-        let r = self.run(first, w, per_point);
-        if let Err(EngineError::Gpu(msg)) = &r {
-            self.broken = Some(msg.clone());
-        }
-        r
+        self.request(Rows::Draws(first), w, per_point)
+    }
+
+    fn eval_offsets(
+        &mut self,
+        offsets: &[f64],
+        w: &mut [f64],
+        per_point: Option<&mut [f64]>,
+    ) -> Result<(), EngineError> {
+        self.request(Rows::Offsets(offsets), w, per_point)
     }
 }
 
@@ -655,14 +757,14 @@ impl Evaluator for GpuEvaluator {
 pub type PhiloxBlock = ([u32; 4], [f32; 4]);
 
 /// Runs the Philox test kernel on the adapter chosen by `adapter` (substring, or the most
-/// capable): for each `(counter, key)` the 4 Philox words and the 4 normals of that block.
-/// For tests of the shader against the Rust generator.
+/// capable; the process's shared device): for each `(counter, key)` the 4 Philox words and the
+/// 4 normals of that block. For tests of the shader against the Rust generator.
 pub fn philox_on_gpu(
     adapter: Option<&str>,
     cases: &[([u32; 4], [u32; 2])],
 ) -> Result<Vec<PhiloxBlock>, EngineError> {
-    let entry = pick_adapter(adapter, false).map_err(gpu_err)?;
-    let gpu = Gpu::open(entry, false).map_err(gpu_err)?;
+    let ctx = GpuContext::shared(adapter, false)?;
+    let gpu = &ctx.gpu;
     let (pipeline, layout) = gpu
         .pipeline(&philox_test_source(), "philox_kat")
         .map_err(gpu_err)?;
@@ -674,7 +776,7 @@ pub fn philox_on_gpu(
     let bytes = 32 * cases.len() as u64;
     let out_buf = gpu.storage("kat out", bytes);
     let stage = gpu.staging("kat staging", bytes);
-    let bind = gpu.bind_group(&layout, &[&in_buf, &out_buf]);
+    let bind = gpu.bind_group(&layout, &[(0, &in_buf), (1, &out_buf)]);
     let index = gpu.dispatch(
         &pipeline,
         &bind,

@@ -1,22 +1,60 @@
-//! The evaluator seam: for draws `[k0, k0 + n)` compute the maximum point error
-//! `w_k = max_j e_j(μ_k)` (paper eqs. 12 and 17, METHOD.md §3) and, on request, every `e_j`.
+//! The evaluator seam: for a batch of parameter vectors compute the maximum point error
+//! `w_k = max_j e_j(μ_k)` (paper eqs. 12 and 17, `docs/METHOD.md §3`) and, on request, every
+//! `e_j`.
+//!
+//! # The seam
 //!
 //! The Monte Carlo drivers in [`crate::mc`] see only the [`Evaluator`] trait, so they cannot
-//! tell which backend produced a batch. [`cpu::CpuEvaluator`] (rayon, f64) is the reference;
-//! [`gpu`] runs the same draws through a WGSL compute shader; [`FnEvaluator`] wraps any scalar
-//! function of a Philox stream, for testing the drivers on models with known answers.
+//! tell which backend produced a batch. A backend implements three things: [`Evaluator::info`],
+//! [`Evaluator::n_points`] and [`Evaluator::eval_draws`]; the provided [`Evaluator::evaluate`]
+//! checks the caller's buffers once for every backend and then calls `eval_draws`, so a backend
+//! never sees a mismatched slice. [`cpu::CpuEvaluator`] (rayon, f64) is the reference; [`gpu`]
+//! runs the same draws through a WGSL compute shader; [`FnEvaluator`] wraps any scalar function
+//! of a Philox stream, for testing the drivers on models with known answers. Backends are
+//! chosen by [`BackendChoice`] in [`make_evaluator`].
+//!
+//! A new backend (a SIMD CPU or a CUDA evaluator, say) writes its own `eval_draws` (and
+//! `eval_offsets`) and, if it computes in f32, reuses the deviation-form constants of
+//! [`deviation`] (`docs/METHOD.md §7`), which carry the error
+//! budget of that formulation.
+//!
+//! # Two ways to say which parameter vectors
+//!
+//! * **Counter draws** ([`Evaluator::evaluate`]): draws `first … first + n − 1` of the run's
+//!   Philox stream (`docs/METHOD.md §6`), generated inside the
+//!   backend, so a batch costs no host-to-device traffic. This is what AMCS and MCS use.
+//! * **Explicit offsets** ([`Evaluator::evaluate_offsets`]): an `n × N_PARAMS` row-major matrix
+//!   of parameter deviations `δ = μ − μ̄` from the model's values, in internal units (mm,
+//!   radians). This is the extension point for methods whose parameter vectors are not i.i.d.
+//!   draws: pick-freeze matrices for Sobol indices, MCMC states for subset simulation, extra
+//!   uncertainty sources such as the tool. Row `i` equal to
+//!   [`ParamSampler::deltas`](crate::sampling::ParamSampler::deltas) of draw `k` gives what
+//!   `evaluate` gives for draw `k`. The provided method checks the matrix (shape, finite
+//!   entries, angular offsets within [`MAX_ANGLE_OFFSET`]) and calls the backend's
+//!   [`Evaluator::eval_offsets`]. Both paths share the kinematics code of each backend (in Rust
+//!   and in WGSL); only the source of `δ` differs. A backend without offset support (the
+//!   scalar [`FnEvaluator`], whose model has no parameter vector) keeps the default, which
+//!   returns [`EngineError::OffsetsUnsupported`].
 
 pub mod backend;
 pub mod cpu;
+pub mod deviation;
 pub mod gpu;
 mod problem;
 
 pub use backend::{list_adapters, make_evaluator, BackendChoice};
 pub use cpu::CpuEvaluator;
-pub use gpu::{GpuEvaluator, GpuOptions, GpuTimings};
+pub use gpu::{GpuContext, GpuEvaluator, GpuOptions, GpuTimings};
 pub use problem::{Problem, ProblemError, Reference};
 
+use crate::kinematics::{ParamKind, N_PARAMS, PARAMS_PER_JOINT};
 use crate::sampling::Philox;
+
+/// Largest accepted angular offset (θ, α, β) in an offset matrix, radians: a quarter turn.
+/// Offsets are deviations of a calibrated model, orders of magnitude smaller; the bound keeps
+/// every backend inside the range where its small-angle formulation holds its error budget
+/// (see [`deviation`]).
+pub const MAX_ANGLE_OFFSET: f64 = std::f64::consts::FRAC_PI_2;
 
 /// Which backend evaluated the draws (reported in every output).
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
@@ -40,17 +78,75 @@ pub enum EngineError {
         /// Entries given.
         got: usize,
     },
+    /// An offset matrix whose length is not `rows × N_PARAMS` for the requested rows.
+    #[error(
+        "offset matrix has {got} entries, expected {expected} ({rows} rows of {} parameters)",
+        N_PARAMS
+    )]
+    OffsetsShape {
+        /// Rows requested (the length of the output `w`).
+        rows: usize,
+        /// Entries needed.
+        expected: usize,
+        /// Entries given.
+        got: usize,
+    },
+    /// An offset that is not finite, or an angular offset beyond [`MAX_ANGLE_OFFSET`].
+    #[error("offset matrix row {row}, parameter {param}: {message}")]
+    BadOffset {
+        /// 0-based row.
+        row: usize,
+        /// Parameter name, e.g. `theta2` (1-based joint).
+        param: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The evaluator has no offset path.
+    #[error("the {evaluator} evaluator cannot evaluate explicit parameter offsets")]
+    OffsetsUnsupported {
+        /// Which evaluator.
+        evaluator: String,
+    },
     /// The GPU backend failed.
     #[error("GPU evaluator: {0}")]
     Gpu(String),
 }
 
-/// Evaluates the maximum point error for a range of draw indices.
+/// Evaluates the maximum point error of batches of parameter vectors (see the module docs).
+///
+/// Callers use the provided [`Evaluator::evaluate`] and [`Evaluator::evaluate_offsets`], which
+/// check their arguments; backends implement [`Evaluator::eval_draws`] and, optionally,
+/// [`Evaluator::eval_offsets`], which may assume checked arguments.
 pub trait Evaluator: Send {
     /// Backend description.
     fn info(&self) -> BackendInfo;
     /// Number of test points m (1 for a scalar model).
     fn n_points(&self) -> usize;
+
+    /// Backend part of [`Evaluator::evaluate`]: `per_point`, when given, has `w.len() · m`
+    /// entries.
+    fn eval_draws(
+        &mut self,
+        first: u64,
+        w: &mut [f64],
+        per_point: Option<&mut [f64]>,
+    ) -> Result<(), EngineError>;
+
+    /// Backend part of [`Evaluator::evaluate_offsets`]: `offsets` has `w.len() · N_PARAMS`
+    /// finite entries with angular offsets within [`MAX_ANGLE_OFFSET`], and `per_point`, when
+    /// given, `w.len() · m`. The default: [`EngineError::OffsetsUnsupported`].
+    fn eval_offsets(
+        &mut self,
+        offsets: &[f64],
+        w: &mut [f64],
+        per_point: Option<&mut [f64]>,
+    ) -> Result<(), EngineError> {
+        let _ = (offsets, w, per_point);
+        Err(EngineError::OffsetsUnsupported {
+            evaluator: self.info().adapter,
+        })
+    }
+
     /// Fills `w[i]` with `w` of draw `first + i` (mm) and, if given, `per_point[i·m + j]` with
     /// `e_j` of that draw.
     fn evaluate(
@@ -58,29 +154,72 @@ pub trait Evaluator: Send {
         first: u64,
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
-    ) -> Result<(), EngineError>;
+    ) -> Result<(), EngineError> {
+        check_buffers(self.n_points(), w, per_point.as_deref())?;
+        self.eval_draws(first, w, per_point)
+    }
+
+    /// Fills `w[i]` with `w` of the parameter vector `μ̄ + offsets[i·N_PARAMS ..][..N_PARAMS]`
+    /// (μ̄ the model's values; mm and radians) and, if given, `per_point[i·m + j]` with its
+    /// `e_j`. Errors: a matrix of the wrong length, a non-finite entry or an angular offset
+    /// beyond [`MAX_ANGLE_OFFSET`], output buffers of the wrong length, or an evaluator without
+    /// an offset path.
+    fn evaluate_offsets(
+        &mut self,
+        offsets: &[f64],
+        w: &mut [f64],
+        per_point: Option<&mut [f64]>,
+    ) -> Result<(), EngineError> {
+        check_offsets(offsets, w.len())?;
+        check_buffers(self.n_points(), w, per_point.as_deref())?;
+        self.eval_offsets(offsets, w, per_point)
+    }
 }
 
-/// Checks the output lengths of an [`Evaluator::evaluate`] call.
-pub fn check_buffers(
-    m: usize,
-    w: &[f64],
-    per_point: Option<&&mut [f64]>,
-) -> Result<(), EngineError> {
-    if let Some(e) = per_point {
-        if e.len() != w.len() * m {
-            return Err(EngineError::BufferSize {
-                expected: w.len() * m,
-                got: e.len(),
-            });
-        }
+/// Checks the output lengths of an evaluation: `per_point` must hold `m` entries per `w`.
+fn check_buffers(m: usize, w: &[f64], per_point: Option<&[f64]>) -> Result<(), EngineError> {
+    match per_point {
+        Some(e) if e.len() != w.len() * m => Err(EngineError::BufferSize {
+            expected: w.len() * m,
+            got: e.len(),
+        }),
+        _ => Ok(()),
+    }
+}
+
+/// Checks an offset matrix of `rows` rows: its length, finiteness, and the angle bound.
+fn check_offsets(offsets: &[f64], rows: usize) -> Result<(), EngineError> {
+    let expected = rows * N_PARAMS;
+    if offsets.len() != expected {
+        return Err(EngineError::OffsetsShape {
+            rows,
+            expected,
+            got: offsets.len(),
+        });
+    }
+    for (x, &v) in offsets.iter().enumerate() {
+        let (row, p) = (x / N_PARAMS, x % N_PARAMS);
+        let kind = ParamKind::ALL[p % PARAMS_PER_JOINT];
+        let message = if !v.is_finite() {
+            format!("{v} is not finite")
+        } else if kind.is_angle() && v.abs() > MAX_ANGLE_OFFSET {
+            format!("angular offset {v} rad exceeds {MAX_ANGLE_OFFSET:.4} rad (a quarter turn)")
+        } else {
+            continue;
+        };
+        return Err(EngineError::BadOffset {
+            row,
+            param: format!("{}{}", kind.name(), p / PARAMS_PER_JOINT + 1),
+            message,
+        });
     }
     Ok(())
 }
 
 /// An evaluator for a scalar model `y = f(gen, k)` of draw `k`, where `gen` is the run's Philox
 /// generator: for testing the Monte Carlo drivers on models with known distributions (e.g. the
-/// additive model of GUM S1 §9.2).
+/// additive model of GUM S1 §9.2). It has no parameter vector, so
+/// [`Evaluator::evaluate_offsets`] returns [`EngineError::OffsetsUnsupported`].
 pub struct FnEvaluator<F> {
     gen: Philox,
     f: F,
@@ -107,14 +246,13 @@ impl<F: Fn(&Philox, u64) -> f64 + Send + Sync> Evaluator for FnEvaluator<F> {
     fn n_points(&self) -> usize {
         1
     }
-    fn evaluate(
+    fn eval_draws(
         &mut self,
         first: u64,
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
         use rayon::prelude::*;
-        check_buffers(1, w, per_point.as_ref())?;
         let (gen, f) = (&self.gen, &self.f);
         w.par_iter_mut()
             .enumerate()
@@ -123,5 +261,81 @@ impl<F: Fn(&Philox, u64) -> f64 + Send + Sync> Evaluator for FnEvaluator<F> {
             e.copy_from_slice(w);
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn scalar() -> FnEvaluator<impl Fn(&Philox, u64) -> f64 + Send + Sync> {
+        FnEvaluator::new(1, |_: &Philox, k: u64| k as f64)
+    }
+
+    #[test]
+    fn evaluate_checks_buffers_before_the_backend() {
+        let mut ev = scalar();
+        let mut w = vec![0.0; 4];
+        let mut e = vec![0.0; 3];
+        match ev.evaluate(0, &mut w, Some(&mut e)) {
+            Err(EngineError::BufferSize { expected, got }) => assert_eq!((expected, got), (4, 3)),
+            r => panic!("expected a buffer-size error, got {r:?}"),
+        }
+        assert_eq!(w, [0.0; 4], "nothing is written on error");
+        let mut e = vec![0.0; 4];
+        ev.evaluate(10, &mut w, Some(&mut e)).unwrap();
+        assert_eq!(w, [10.0, 11.0, 12.0, 13.0]);
+        assert_eq!(e, w);
+    }
+
+    #[test]
+    fn scalar_evaluator_has_no_offset_path() {
+        let mut ev = scalar();
+        let mut w = vec![0.0; 2];
+        let r = ev.evaluate_offsets(&[0.0; 2 * N_PARAMS], &mut w, None);
+        assert!(
+            matches!(r, Err(EngineError::OffsetsUnsupported { .. })),
+            "{r:?}"
+        );
+    }
+
+    #[test]
+    fn offset_matrices_are_checked() {
+        assert!(check_offsets(&[0.0; 3 * N_PARAMS], 3).is_ok());
+        match check_offsets(&[0.0; 3 * N_PARAMS - 1], 3) {
+            Err(EngineError::OffsetsShape {
+                rows,
+                expected,
+                got,
+            }) => assert_eq!((rows, expected, got), (3, 90, 89)),
+            r => panic!("{r:?}"),
+        }
+        let mut m = vec![0.0; 2 * N_PARAMS];
+        m[N_PARAMS + 7] = f64::NAN; // row 1, a of joint 2
+        match check_offsets(&m, 2) {
+            Err(EngineError::BadOffset { row, param, .. }) => {
+                assert_eq!((row, param.as_str()), (1, "a2"))
+            }
+            r => panic!("{r:?}"),
+        }
+        m[N_PARAMS + 7] = 1e3; // lengths have no bound
+        assert!(check_offsets(&m, 2).is_ok());
+        m[3] = -2.0; // α1 beyond a quarter turn
+        match check_offsets(&m, 2) {
+            Err(EngineError::BadOffset {
+                row,
+                param,
+                message,
+            }) => {
+                assert_eq!((row, param.as_str()), (0, "alpha1"));
+                assert!(message.contains("exceeds"), "{message}");
+            }
+            r => panic!("{r:?}"),
+        }
+        m[3] = f64::INFINITY;
+        assert!(matches!(
+            check_offsets(&m, 2),
+            Err(EngineError::BadOffset { .. })
+        ));
     }
 }

@@ -1,7 +1,7 @@
 //! Philox4x32-10 counter-based generator (Salmon, Moraes, Dror, Shaw, SC'11; Random123).
 //!
 //! Ten rounds of `(hi, lo) = mulhilo(M, c)` S-boxes with a Weyl-sequence key schedule. Checked
-//! against the Random123 known-answer vectors in the tests below (and in `../shared/NOTES.md`).
+//! against the Random123 known-answer vectors in the tests below (`docs/METHOD.md §6`).
 
 const M0: u32 = 0xD251_1F53;
 const M1: u32 = 0xCD9E_8D57;

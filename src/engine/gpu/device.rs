@@ -1,11 +1,14 @@
 //! Every wgpu call of the crate, in one place, so that a wgpu upgrade touches only this file
-//! (written against wgpu 30; see `../shared/NOTES.md` for the API points that changed).
+//! (written against wgpu 30: `InstanceDescriptor::new_without_display_handle_from_env`,
+//! `enumerate_adapters` returning a future, `on_uncaptured_error` taking an `Arc`, error scopes
+//! popped through a guard, `PollType::Wait` with a submission index and a timeout).
 //!
-//! Adapter enumeration and selection, device creation (with an error handler that records
-//! validation errors and device loss instead of panicking), compute pipelines from WGSL,
-//! buffers, one-dispatch submissions with optional timestamp queries, and blocking readback.
+//! The process-wide instance, adapter enumeration and selection, device creation (with an error
+//! handler that records validation errors and device loss instead of panicking), compute
+//! pipelines from WGSL with an explicit bind-group layout, buffers, one-dispatch submissions
+//! with optional timestamp queries, and blocking readback.
 
-use std::sync::{mpsc, Arc, Mutex};
+use std::sync::{mpsc, Arc, Mutex, OnceLock};
 
 /// Buffers, bind groups and pipelines are wgpu's own handles.
 pub use wgpu::{BindGroup, BindGroupLayout, Buffer, ComputePipeline, SubmissionIndex};
@@ -15,13 +18,26 @@ fn backends() -> wgpu::Backends {
     wgpu::Backends::VULKAN | wgpu::Backends::METAL | wgpu::Backends::DX12
 }
 
-fn instance() -> wgpu::Instance {
-    let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
-    desc.backends &= backends();
-    if desc.backends.is_empty() {
-        desc.backends = backends();
-    }
-    wgpu::Instance::new(desc)
+/// The one wgpu instance of the process, created on first use.
+fn instance() -> &'static wgpu::Instance {
+    static INSTANCE: OnceLock<wgpu::Instance> = OnceLock::new();
+    INSTANCE.get_or_init(|| {
+        // Creating a Vulkan instance probes the Wayland client library, which prints
+        // "XDG_RUNTIME_DIR is invalid or not set" to stderr once per instance when the variable
+        // is missing (headless machines, CI, `sudo`). Nothing here uses a display, so point it at
+        // the temporary directory when unset; this runs once, before any Vulkan call of the
+        // process, and every instance is created here.
+        #[cfg(unix)]
+        if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
+            std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
+        }
+        let mut desc = wgpu::InstanceDescriptor::new_without_display_handle_from_env();
+        desc.backends &= backends();
+        if desc.backends.is_empty() {
+            desc.backends = backends();
+        }
+        wgpu::Instance::new(desc)
+    })
 }
 
 /// One adapter found on the machine.
@@ -41,10 +57,19 @@ pub struct AdapterEntry {
     adapter: wgpu::Adapter,
 }
 
+impl AdapterEntry {
+    /// Whether `other` is the same adapter (name, backend, type and driver).
+    pub fn same_as(&self, name: &str, backend: &str, device_type: &str, driver: &str) -> bool {
+        self.name == name
+            && self.backend == backend
+            && self.device_type == device_type
+            && self.driver == driver
+    }
+}
+
 /// All Vulkan / Metal / DX12 adapters, in the order wgpu reports them.
 pub fn adapters() -> Vec<AdapterEntry> {
-    let inst = instance();
-    pollster::block_on(inst.enumerate_adapters(backends()))
+    pollster::block_on(instance().enumerate_adapters(backends()))
         .into_iter()
         .map(|adapter| {
             let info = adapter.get_info();
@@ -76,15 +101,67 @@ fn driver_string(info: &wgpu::AdapterInfo) -> String {
     }
 }
 
+/// Picks an adapter: by case-insensitive substring of its name if `filter` is given, else the
+/// most capable (discrete, integrated, virtual, other, then CPU); `hardware_only` rejects
+/// software (CPU) adapters when no filter is given.
+pub fn pick_adapter(filter: Option<&str>, hardware_only: bool) -> Result<AdapterEntry, String> {
+    let mut list = adapters();
+    if list.is_empty() {
+        return Err(
+            "no Vulkan, Metal or DX12 adapter found (install a GPU driver, or Mesa's \
+                    lavapipe for a software Vulkan device)"
+                .into(),
+        );
+    }
+    if let Some(f) = filter {
+        let names: Vec<String> = list.iter().map(|a| a.name.clone()).collect();
+        let needle = f.to_lowercase();
+        return match list
+            .into_iter()
+            .find(|a| a.name.to_lowercase().contains(&needle))
+        {
+            Some(a) => Ok(a),
+            None => Err(format!(
+                "no adapter name contains '{f}'; available: {}",
+                names.join(", ")
+            )),
+        };
+    }
+    list.sort_by_key(|a| a.rank);
+    let best = list.remove(0);
+    if hardware_only && best.is_cpu {
+        return Err(format!(
+            "only a software adapter is present ({})",
+            best.name
+        ));
+    }
+    Ok(best)
+}
+
+/// What a binding of the explicit bind-group layout holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BindingKind {
+    /// A uniform buffer.
+    Uniform,
+    /// A read-only storage buffer (`var<storage, read>`).
+    StorageRead,
+    /// A read-write storage buffer (`var<storage, read_write>`).
+    StorageReadWrite,
+}
+
 /// An open device with its queue.
 pub struct Gpu {
     device: wgpu::Device,
     queue: wgpu::Queue,
     /// Adapter name.
     pub name: String,
+    /// Backend name.
+    pub backend: String,
+    /// Device type.
+    pub device_type: String,
     /// Driver name and info.
     pub driver: String,
-    /// Whether the device was created with timestamp queries.
+    /// Whether the device was created with timestamp queries (when the adapter has them).
     pub timestamps: bool,
     /// Largest workgroup count in one dispatch dimension.
     pub max_workgroups: u32,
@@ -132,11 +209,10 @@ pub struct PendingMap {
 }
 
 impl Gpu {
-    /// Opens a device on `entry`, with timestamp queries if asked for and supported.
-    pub fn open(entry: AdapterEntry, want_timestamps: bool) -> Result<Self, String> {
+    /// Opens a device on `entry`, with timestamp queries if the adapter supports them.
+    pub fn open(entry: AdapterEntry) -> Result<Self, String> {
         let adapter = entry.adapter;
-        let timestamps =
-            want_timestamps && adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
+        let timestamps = adapter.features().contains(wgpu::Features::TIMESTAMP_QUERY);
         let limits = adapter.limits();
         let desc = wgpu::DeviceDescriptor {
             label: Some("gpu-amcs"),
@@ -161,6 +237,8 @@ impl Gpu {
             device,
             queue,
             name: entry.name,
+            backend: entry.backend,
+            device_type: entry.device_type,
             driver: entry.driver,
             timestamps,
             max_workgroups: limits.max_compute_workgroups_per_dimension,
@@ -211,6 +289,79 @@ impl Gpu {
         Ok((pipeline, layout))
     }
 
+    /// An explicit bind-group layout for compute shaders: `(binding, kind)` per entry.
+    pub fn layout(&self, entries: &[(u32, BindingKind)]) -> BindGroupLayout {
+        let entries: Vec<wgpu::BindGroupLayoutEntry> = entries
+            .iter()
+            .map(|&(binding, kind)| wgpu::BindGroupLayoutEntry {
+                binding,
+                visibility: wgpu::ShaderStages::COMPUTE,
+                ty: wgpu::BindingType::Buffer {
+                    ty: match kind {
+                        BindingKind::Uniform => wgpu::BufferBindingType::Uniform,
+                        BindingKind::StorageRead => {
+                            wgpu::BufferBindingType::Storage { read_only: true }
+                        }
+                        BindingKind::StorageReadWrite => {
+                            wgpu::BufferBindingType::Storage { read_only: false }
+                        }
+                    },
+                    has_dynamic_offset: false,
+                    min_binding_size: None,
+                },
+                count: None,
+            })
+            .collect();
+        self.device
+            .create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+                label: None,
+                entries: &entries,
+            })
+    }
+
+    /// Compiles `source` once and builds one compute pipeline per entry point, all with
+    /// `layout` as bind group 0, so one bind group serves every entry point. Validation errors
+    /// come back as `Err`.
+    pub fn pipelines(
+        &self,
+        source: &str,
+        entries: &[&str],
+        layout: &BindGroupLayout,
+    ) -> Result<Vec<ComputePipeline>, String> {
+        let scope = self.device.push_error_scope(wgpu::ErrorFilter::Validation);
+        let module = self
+            .device
+            .create_shader_module(wgpu::ShaderModuleDescriptor {
+                label: entries.first().copied(),
+                source: wgpu::ShaderSource::Wgsl(source.into()),
+            });
+        let pl = self
+            .device
+            .create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+                label: None,
+                bind_group_layouts: &[Some(layout)],
+                immediate_size: 0,
+            });
+        let out = entries
+            .iter()
+            .map(|entry| {
+                self.device
+                    .create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+                        label: Some(entry),
+                        layout: Some(&pl),
+                        module: &module,
+                        entry_point: Some(entry),
+                        compilation_options: Default::default(),
+                        cache: None,
+                    })
+            })
+            .collect();
+        if let Some(e) = pollster::block_on(scope.pop()) {
+            return Err(format!("shader '{}': {e}", entries.join("', '")));
+        }
+        Ok(out)
+    }
+
     /// A storage buffer of `size` bytes (copy source, so results can be read back).
     pub fn storage(&self, label: &str, size: u64) -> Buffer {
         self.device.create_buffer(&wgpu::BufferDescriptor {
@@ -257,13 +408,12 @@ impl Gpu {
         self.queue.write_buffer(buffer, 0, data);
     }
 
-    /// Bind group with `buffers[i]` at binding `i`.
-    pub fn bind_group(&self, layout: &BindGroupLayout, buffers: &[&Buffer]) -> BindGroup {
+    /// Bind group with each `(binding, buffer)` pair.
+    pub fn bind_group(&self, layout: &BindGroupLayout, buffers: &[(u32, &Buffer)]) -> BindGroup {
         let entries: Vec<wgpu::BindGroupEntry> = buffers
             .iter()
-            .enumerate()
-            .map(|(i, b)| wgpu::BindGroupEntry {
-                binding: i as u32,
+            .map(|&(binding, b)| wgpu::BindGroupEntry {
+                binding,
                 resource: b.as_entire_binding(),
             })
             .collect();
