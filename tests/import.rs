@@ -310,7 +310,7 @@ fn ur_yaml_joints(text: &str) -> Vec<([f64; 3], [f64; 3], [f64; 3])> {
     let v: Vec<f64> = text
         .lines()
         .filter_map(|l| l.split_once(':'))
-        .filter_map(|(_, v)| v.trim().parse::<f64>().ok())
+        .filter_map(|(_, v)| v.split('#').next().unwrap().trim().parse::<f64>().ok())
         .collect();
     (0..6)
         .map(|j| {
@@ -338,6 +338,153 @@ fn ur_calibration_file() {
     // ... and against UR's DH table everywhere, to that rounding.
     let rows = ur_rows(UR5E_D, UR5E_A);
     assert!(max_dev(&imp.model, |q| dh_standard(&rows, q)) < 1e-6);
+}
+
+/// A UR10e calibration file in the style a controller's factory calibration produces: every
+/// joint off its nominal by small lengths and angles, rotations near π written as roll/pitch/yaw
+/// near π (test figures, not a real robot's).
+const UR10E_CALIBRATED: &str = "\
+# test figures in the style of a factory calibration
+---
+kinematics:
+  shoulder:
+    x: 0
+    y: 0
+    z: 0.1807193
+    roll: -0
+    pitch: 0
+    yaw: 4.0e-07
+  upper_arm:
+    x: 0.000115
+    y: 0
+    z: 0
+    roll: 1.57057447
+    pitch: 0
+    yaw: 1.0e-05
+  forearm:
+    x: -0.6127535
+    y: 0
+    z: 0
+    roll: 3.14085459
+    pitch: 3.14156384
+    yaw: 3.14159004
+  wrist_1:
+    x: -0.5715611
+    y: 0.0008017
+    z: 0.1741035
+    roll: 0.00058793
+    pitch: -0.00070168
+    yaw: 8.26e-06
+  wrist_2:
+    x: 0.0000531  # comment after a value
+    y: -0.1198317
+    z: 0.0000422
+    roll: 1.5704152
+    pitch: 0
+    yaw: 1.6e-06
+  wrist_3:
+    x: 0
+    y: 0.1165806
+    z: -0.0000393
+    roll: 1.5709651
+    pitch: 3.14159265
+    yaw: 3.14159240
+  hash: calib_123
+";
+
+#[test]
+fn calibrated_ur_file_uses_beta_on_the_parallel_axes() {
+    let dir = tmpdir("urcal");
+    let imp = import(&write(&dir, "cal.yml", UR10E_CALIBRATED)).unwrap();
+    let joints = ur_yaml_joints(UR10E_CALIBRATED);
+    let dev = max_dev(&imp.model, |q| urdf_fk(&joints, &eye(), q));
+    assert!(dev < 1e-9, "{dev}");
+    assert!(imp.max_deviation_mm < 1e-9);
+    // J2 ∥ J3 ∥ J4 within the threshold: β form, β ≠ 0 from the calibration's tilts.
+    use kinematics::{param_index, FixedParam, ParamKind};
+    for j in [1, 2] {
+        assert_eq!(imp.model.fixed[j], FixedParam::D, "J{}", j + 1);
+        assert!(imp.model.params[param_index(j, ParamKind::Beta)].abs() > 1e-6);
+    }
+    assert_eq!(imp.model.fixed[0], FixedParam::Beta);
+    // Exported again and re-imported: the same FK.
+    let yaml = export::to_ur_calibration(&imp.model).unwrap();
+    let back = import(&write(&dir, "back.yaml", &yaml)).unwrap().model;
+    assert!(max_dev(&imp.model, |q| position(&back.params, &back.tool, q)) < 1e-9);
+}
+
+#[test]
+fn ur_file_errors_name_the_line_and_key() {
+    let dir = tmpdir("urbad");
+    for (text, want) in [
+        (
+            UR5E_CALIBRATION.replace("    roll: 0\n", "    rol: 0\n"),
+            "unknown key 'rol'",
+        ),
+        (
+            UR5E_CALIBRATION.replace("z: 0.1625", "z: abc"),
+            "kinematics.shoulder.z",
+        ),
+        (
+            UR5E_CALIBRATION.replace("  wrist_3:", "  wrist_9:"),
+            "unknown key 'wrist_9'",
+        ),
+        (
+            UR5E_CALIBRATION.replace("kinematics:", "kin:"),
+            "missing the top-level 'kinematics:'",
+        ),
+    ] {
+        let e = import(&write(&dir, "bad.yaml", &text))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(want), "{want}: {e}");
+        assert!(e.contains("bad.yaml:"), "{e}");
+    }
+    let no_x = UR5E_CALIBRATION.replacen("    x: -0.425\n", "", 1);
+    let e = import(&write(&dir, "nox.yaml", &no_x))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("kinematics.forearm.x: missing"), "{e}");
+}
+
+#[test]
+fn dh_table_errors_name_the_field() {
+    let dir = tmpdir("dhbad");
+    let good = "convention,standard\nunits,mm-deg\ntheta,d,a,alpha,lower,upper\n0,100,0,90,-10,10\n0,0,300,0,-10,10\n0,0,300,0,-10,10\n0,100,0,90,-10,10\n0,100,0,-90,-10,10\n0,80,0,0,-10,10\n";
+    assert!(import(&write(&dir, "g.csv", good)).is_ok());
+    for (text, want) in [
+        (good.replace("units,mm-deg", "units,inch"), "units 'inch'"),
+        (
+            good.replace("convention,standard\n", ""),
+            "missing 'convention'",
+        ),
+        (
+            good.replace("0,80,0,0,-10,10\n", ""),
+            "expected 6 rows, found 5",
+        ),
+        (
+            good.replace("0,80,0,0,-10,10", "0,80,0,0,10,-10"),
+            "joint[6].limits",
+        ),
+        (
+            good.replace("0,80,0,0,-10,10", "0,80,0,x,-10,10"),
+            "'x' is not a number",
+        ),
+        (
+            good.replace("0,80,0,0,-10,10", "0,80,0,0,-10"),
+            "a row needs 6 values",
+        ),
+    ] {
+        let e = import(&write(&dir, "bad.csv", &text))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains(want), "{want}: {e}");
+    }
+    let toml = "convention = \"standard\"\nunits = \"m-rad\"\n[[joint]]\ntheta = 0.0\nd = 0.1\na = 0.0\nalpha = 1.0\nlimits = [-1.0, 1.0]\nfoo = 1\n";
+    let e = import(&write(&dir, "bad.toml", toml))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("foo") && e.contains("bad.toml:"), "{e}");
 }
 
 /// The ABB IRB 2400 as its ROS-Industrial URDF describes it (xacro expanded), with the extra
