@@ -150,6 +150,13 @@ fn import(path: &Path) -> Result<import::Imported, ImportError> {
     import::import_file(path, &ImportOptions::default())
 }
 
+/// The one-line error of importing `text` written as `dir/name`.
+fn import_err(dir: &Path, name: &str, text: &str) -> String {
+    let e = import(&write(dir, name, text)).unwrap_err().to_string();
+    assert!(!e.contains('\n'), "one line: {e}");
+    e
+}
+
 const UR5E_D: [f64; 6] = [162.5, 0.0, 0.0, 133.3, 99.7, 99.6];
 const UR5E_A: [f64; 6] = [0.0, -425.0, -392.2, 0.0, 0.0, 0.0];
 const UR10E_D: [f64; 6] = [180.7, 0.0, 0.0, 174.15, 119.85, 116.55];
@@ -434,16 +441,12 @@ fn ur_file_errors_name_the_line_and_key() {
             "missing the top-level 'kinematics:'",
         ),
     ] {
-        let e = import(&write(&dir, "bad.yaml", &text))
-            .unwrap_err()
-            .to_string();
+        let e = import_err(&dir, "bad.yaml", &text);
         assert!(e.contains(want), "{want}: {e}");
         assert!(e.contains("bad.yaml:"), "{e}");
     }
     let no_x = UR5E_CALIBRATION.replacen("    x: -0.425\n", "", 1);
-    let e = import(&write(&dir, "nox.yaml", &no_x))
-        .unwrap_err()
-        .to_string();
+    let e = import_err(&dir, "nox.yaml", &no_x);
     assert!(e.contains("kinematics.forearm.x: missing"), "{e}");
 }
 
@@ -475,15 +478,11 @@ fn dh_table_errors_name_the_field() {
             "a row needs 6 values",
         ),
     ] {
-        let e = import(&write(&dir, "bad.csv", &text))
-            .unwrap_err()
-            .to_string();
+        let e = import_err(&dir, "bad.csv", &text);
         assert!(e.contains(want), "{want}: {e}");
     }
     let toml = "convention = \"standard\"\nunits = \"m-rad\"\n[[joint]]\ntheta = 0.0\nd = 0.1\na = 0.0\nalpha = 1.0\nlimits = [-1.0, 1.0]\nfoo = 1\n";
-    let e = import(&write(&dir, "bad.toml", toml))
-        .unwrap_err()
-        .to_string();
+    let e = import_err(&dir, "bad.toml", toml);
     assert!(e.contains("foo") && e.contains("bad.toml:"), "{e}");
 }
 
@@ -611,9 +610,7 @@ fn simple_urdf(extra: &str) -> String {
 }
 
 fn refused(name: &str, text: &str, want: &[&str]) {
-    let dir = tmpdir("refuse");
-    let e = import(&write(&dir, name, text)).unwrap_err().to_string();
-    assert!(!e.contains('\n'), "one line: {e}");
+    let e = import_err(&tmpdir("refuse"), name, text);
     for w in want {
         assert!(e.contains(w), "{name}: expected '{w}' in: {e}");
     }
