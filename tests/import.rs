@@ -724,6 +724,48 @@ fn the_refusals_name_the_element() {
 }
 
 #[test]
+fn base_link_chooses_the_base_frame() {
+    // A `world` root with the arm bolted 1 m off its origin: from `world` the first axis is off
+    // the base origin (refused, naming it); from `l0` (the arm's own base) it imports.
+    let t = simple_urdf(
+        "  <link name=\"world\"/>\n  <joint name=\"bolt\" type=\"fixed\"><origin xyz=\"1 0 0\"/><parent link=\"world\"/><child link=\"l0\"/></joint>\n",
+    );
+    let dir = tmpdir("base");
+    let e = import_err(&dir, "w.urdf", &t);
+    assert!(
+        e.contains("joint 'j1'") && e.contains("from the base origin"),
+        "{e}"
+    );
+    let opts = ImportOptions {
+        base: Some("l0".into()),
+        ..Default::default()
+    };
+    let m = import::import_file(&dir.join("w.urdf"), &opts)
+        .unwrap()
+        .model;
+    let direct = import(&write(&dir, "d.urdf", &simple_urdf("")))
+        .unwrap()
+        .model;
+    assert_eq!(m.params, direct.params);
+    let opts = ImportOptions {
+        base: Some("l9".into()),
+        ..Default::default()
+    };
+    let e = import::import_file(&dir.join("w.urdf"), &opts).unwrap_err();
+    assert!(
+        e.to_string().contains("base link 'l9' is not in the file"),
+        "{e}"
+    );
+    // A DH table in TOML has no line for a field: none is printed.
+    let toml = "convention = \"standard\"\nunits = \"metres\"\njoint = []\n";
+    let e = import_err(&dir, "u.toml", toml);
+    assert!(
+        e.ends_with("u.toml: units: 'metres' must be 'mm-deg' or 'm-rad'"),
+        "{e}"
+    );
+}
+
+#[test]
 fn continuous_joints_get_360_degrees() {
     let t = simple_urdf("").replace(
         "<joint name=\"j6\" type=\"revolute\">",

@@ -148,11 +148,11 @@ pub enum ImportError {
         what: String,
     },
     /// An element or field is wrong or not supported; the message names it.
-    #[error("{path}:{line}: {element}: {message}")]
+    #[error("{path}{}: {element}: {message}", at_line(.line))]
     Element {
         /// The path given.
         path: String,
-        /// 1-based line (0 when the file has no line for it).
+        /// 1-based line (0 when the file has no line for it: then none is printed).
         line: usize,
         /// The element, e.g. `joint 'elbow'` or `joint[3].alpha`.
         element: String,
@@ -197,6 +197,16 @@ pub enum ImportError {
         /// The configuration, degrees.
         q_deg: [f64; JOINTS],
     },
+}
+
+/// `":LINE"`, or nothing for line 0 (a field with no line, e.g. one the TOML reader located only
+/// by name).
+fn at_line(line: &usize) -> String {
+    if *line == 0 {
+        String::new()
+    } else {
+        format!(":{line}")
+    }
 }
 
 /// A converted model and the evidence that it reproduces its source.
