@@ -35,6 +35,11 @@ pub enum Command {
     Points(PointsArgs),
     /// Forward kinematics: tool positions (mm) of the configurations in a CSV.
     Fk(FkArgs),
+    /// Convert a URDF, DH table (CSV/TOML) or UR calibration file (YAML) to a model file,
+    /// proving the conversion.
+    Import(ImportArgs),
+    /// Write a model as URDF and/or as a UR calibration file.
+    Export(ExportArgs),
     /// Identify the MDH parameters from laser-tracker sweeps (circle point method).
     Identify(IdentifyArgs),
     /// Positioning accuracy of a model against measured positions.
@@ -402,6 +407,9 @@ pub struct ModelArgs {
     /// Write to FILE instead of stdout.
     #[arg(long, short, value_name = "FILE")]
     pub out: Option<PathBuf>,
+    /// List the built-in models instead.
+    #[arg(long, conflicts_with = "out")]
+    pub list: bool,
 }
 
 /// `points` options.
@@ -442,4 +450,46 @@ pub struct FkArgs {
     /// Built-in model used when --model is not given.
     #[arg(long, default_value = "tx60", value_name = "NAME")]
     pub preset: String,
+}
+
+/// `import` options.
+#[derive(Args, Debug, Clone)]
+pub struct ImportArgs {
+    /// Robot description: .urdf/.xml (URDF), .csv/.toml (standard or modified DH table),
+    /// .yaml/.yml (UR calibration).
+    #[arg(value_name = "FILE")]
+    pub source: PathBuf,
+    /// Model file to write (TOML).
+    #[arg(long, short, value_name = "FILE")]
+    pub out: PathBuf,
+    /// URDF: base link of the chain (default: the root link).
+    #[arg(long, value_name = "LINK")]
+    pub base: Option<String>,
+    /// URDF: tip link of the chain; its origin becomes the tool point (default: the single leaf).
+    #[arg(long, value_name = "LINK")]
+    pub tip: Option<String>,
+    /// Model name (default: the robot's name in the file, else the file name).
+    #[arg(long, value_name = "NAME")]
+    pub name: Option<String>,
+}
+
+/// `export` options.
+#[derive(Args, Debug, Clone)]
+#[command(group(clap::ArgGroup::new("target").required(true).multiple(true).args(["urdf", "ur_calibration"])))]
+pub struct ExportArgs {
+    /// Model file (default: the preset).
+    #[arg(long, value_name = "FILE")]
+    pub model: Option<PathBuf>,
+    /// Built-in model used when --model is not given.
+    #[arg(long, default_value = "tx60", value_name = "NAME")]
+    pub preset: String,
+    /// Write the model as URDF to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub urdf: Option<PathBuf>,
+    /// Write the model as a UR calibration file (YAML) to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub ur_calibration: Option<PathBuf>,
+    /// Robot name in the URDF (default: the model's name).
+    #[arg(long, value_name = "NAME")]
+    pub name: Option<String>,
 }

@@ -23,6 +23,8 @@ pub fn run(cli: Cli) -> Result<()> {
         Some(Command::Model(a)) => run_model(a),
         Some(Command::Points(a)) => run_points(a),
         Some(Command::Fk(a)) => run_fk(a),
+        Some(Command::Import(a)) => run_import(a),
+        Some(Command::Export(a)) => run_export(a),
         Some(Command::Identify(a)) => run_identify(a),
         Some(Command::Validate(a)) => run_validate(a),
         Some(Command::Simulate(a)) => run_simulate(a),
@@ -332,6 +334,12 @@ fn write_or_print(out: &Option<PathBuf>, text: &str, inputs: &[&Path]) -> Result
 }
 
 fn run_model(a: ModelArgs) -> Result<()> {
+    if a.list {
+        for name in gpu_amcs::kinematics::PRESETS {
+            println!("{name:<10} {}", preset(name)?.name);
+        }
+        return Ok(());
+    }
     write_or_print(&a.out, &preset(&a.preset)?.to_toml(), &[])
 }
 
@@ -354,15 +362,57 @@ fn run_fk(a: FkArgs) -> Result<()> {
     for q in &pts {
         let p = position_deg(&model.params, &model.tool, q);
         let qs: Vec<String> = q.iter().map(|v| format!("{v}")).collect();
-        s.push_str(&format!(
-            "{},{:.6},{:.6},{:.6}\n",
-            qs.join(","),
-            p[0],
-            p[1],
-            p[2]
-        ));
+        // Shortest representation that reads back to the same f64: full precision.
+        s.push_str(&format!("{},{},{},{}\n", qs.join(","), p[0], p[1], p[2]));
     }
     print!("{s}");
+    Ok(())
+}
+
+fn run_import(a: ImportArgs) -> Result<()> {
+    use gpu_amcs::import::{import_file, ImportError, ImportOptions};
+    guard_outputs(&[&a.source], &[&a.out])?;
+    let opts = ImportOptions {
+        base: a.base.clone(),
+        tip: a.tip.clone(),
+        name: a.name.clone(),
+    };
+    let imported = import_file(&a.source, &opts).map_err(|e| match e {
+        ImportError::Branching { .. } => anyhow::anyhow!("{e} (--tip LINK)"),
+        _ => e.into(),
+    })?;
+    report::write_atomic(&a.out, &imported.to_toml())?;
+    println!(
+        "imported {} ({}) -> {}: max deviation source vs model {:e} mm over {} configurations",
+        a.source.display(),
+        imported.format.name(),
+        a.out.display(),
+        imported.max_deviation_mm,
+        imported.configurations
+    );
+    Ok(())
+}
+
+fn run_export(a: ExportArgs) -> Result<()> {
+    use gpu_amcs::import::export;
+    let model = load_model(&a.model, &a.preset)?;
+    let inputs: Vec<&Path> = a.model.as_deref().into_iter().collect();
+    let outputs: Vec<&Path> = [a.urdf.as_deref(), a.ur_calibration.as_deref()]
+        .into_iter()
+        .flatten()
+        .collect();
+    guard_outputs(&inputs, &outputs)?;
+    // Build everything before writing anything.
+    let ur = match &a.ur_calibration {
+        Some(_) => Some(export::to_ur_calibration(&model).context("--ur-calibration")?),
+        None => None,
+    };
+    if let Some(f) = &a.urdf {
+        report::write_atomic(f, &export::to_urdf(&model, a.name.as_deref()))?;
+    }
+    if let (Some(f), Some(text)) = (&a.ur_calibration, ur) {
+        report::write_atomic(f, &text)?;
+    }
     Ok(())
 }
 

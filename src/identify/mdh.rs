@@ -234,6 +234,42 @@ pub fn axes_to_chain(
     })
 }
 
+/// The chain whose joint axes at q = 0 are `axes` (base frame, direction = positive rotation
+/// sense) and whose tool point at q = 0 is `tip`: the conversion of a kinematic description
+/// (URDF, DH table, UR calibration; `crate::import`) to the MDH form, by the same
+/// [`axes_to_chain`] that identification uses, with the reference parameters all zero:
+///
+/// * every `θ_i` is chosen nearest 0 and every `α_i` nearest 0 (the sign of the common normal);
+/// * consecutive axes within [`PARALLEL_THRESHOLD_DEG`] of parallel get `β_i` free and `d_i = 0`;
+/// * joint 6 keeps `θ_6 = a_6 = α_6 = β_6 = 0`; the tip's offset along the joint-6 axis goes into
+///   `d_6` and the rest into the tool point, so a flange on the axis gives a zero tool point.
+///
+/// `axes[0]` must be the base z axis (the model has no parameters before `Rz(θ_1 + q_1)`); the
+/// caller checks that (this function cannot see it: [`axes_to_chain`] does not use `axes[0]`).
+pub fn chain_from_zero_pose(
+    axes: &[Line; JOINTS],
+    tip: Vector3<f64>,
+) -> Result<Chain, IdentifyError> {
+    let reference = RobotModel {
+        name: String::new(),
+        params: [0.0; N_PARAMS],
+        fixed: [FixedParam::Beta; JOINTS],
+        limits_deg: [(-180.0, 180.0); JOINTS],
+        tool: [0.0; 3],
+        uncertainty: crate::kinematics::Uncertainty::Independent([0.0; N_PARAMS]),
+    };
+    let measured = axes.map(|line| MeasuredAxis {
+        line,
+        home_deg: [0.0; JOINTS],
+    });
+    let mut chain = axes_to_chain(&reference, &measured, &[([0.0; JOINTS], tip)])?;
+    // With θ6 = a6 = α6 = β6 = 0, T6·p = Rz(q6)·(p + (0, 0, d6)): the along-axis part of the tool
+    // point is d6, exactly.
+    chain.params[26] = chain.tool[2];
+    chain.tool[2] = 0.0;
+    Ok(chain)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

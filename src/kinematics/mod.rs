@@ -20,4 +20,4 @@ pub use model::{
     param_index, FixedParam, ModelError, ParamKind, RobotModel, Uncertainty, JOINTS, N_PARAMS,
     PARAMS_PER_JOINT,
 };
-pub use preset::{preset, tx60, PRESETS};
+pub use preset::{irb2400, preset, tx60, ur10e, ur5e, UrdfJointFigures, IRB2400_URDF, PRESETS};

@@ -145,7 +145,7 @@ pub enum ModelError {
         message: String,
     },
     /// Unknown preset name.
-    #[error("unknown preset '{0}' (known: tx60)")]
+    #[error("unknown preset '{0}' (known: {known})", known = super::PRESETS.join(", "))]
     UnknownPreset(String),
 }
 

@@ -16,11 +16,21 @@
 //! and fails if the simulator no longer produces them. J6's θ, d, a, α are zero: the
 //! identification keeps them nominal and lets the tool point absorb them (`identify::mdh`), so the
 //! parameter model carries no spread for them; β is fixed except on J2 (J2 ∥ J3).
+//!
+//! The other presets are published nominal geometries converted by the importer
+//! (`crate::import`, the same conversion and proof as `gpu-amcs import`); each one's source is
+//! quoted at its function. They carry no uncertainty (every σ is 0): a published table says
+//! nothing about a particular robot's spread; give σ in a model file or calibrate.
+
+use crate::import::dh::{Convention, DhRow, DhTable};
+use crate::import::{convert, SourceChain, SourceFormat, SourceJoint};
+use nalgebra::{Isometry3, Unit, Vector3};
+use std::f64::consts::FRAC_PI_2;
 
 use super::model::{param_index, FixedParam, ParamKind, RobotModel, Uncertainty, JOINTS, N_PARAMS};
 
 /// Names of the built-in presets.
-pub const PRESETS: &[&str] = &["tx60"];
+pub const PRESETS: &[&str] = &["tx60", "ur5e", "ur10e", "irb2400"];
 
 /// The default σ of every parameter, `[θ (deg), d (mm), a (mm), α (deg), β (deg)]` per joint:
 /// the baseline calibration of the simulator (see the module docs), 4 significant digits.
@@ -78,10 +88,152 @@ pub fn tx60() -> RobotModel {
     }
 }
 
+/// A UR-style standard DH table `(d, a, α)` in metres and radians, θ = 0, limits ±360°.
+fn ur_dh(name: &str, d: [f64; JOINTS], a: [f64; JOINTS], alpha: [f64; JOINTS]) -> RobotModel {
+    let table = DhTable {
+        name: name.into(),
+        convention: Convention::Standard,
+        rows: std::array::from_fn(|j| DhRow {
+            params: [0.0, d[j] * 1000.0, a[j] * 1000.0, alpha[j]],
+            limits_deg: (-360.0, 360.0),
+        }),
+        tool: [0.0; 3],
+    };
+    converted(&table.to_chain())
+}
+
+fn converted(chain: &SourceChain) -> RobotModel {
+    // The conversion of a built-in table cannot fail: the tests of every preset prove it.
+    convert(chain, &chain.name)
+        .expect("a built-in preset converts exactly (see the preset tests)")
+        .model
+}
+
+/// Standard DH of the UR arms' α column (rad): UR's published tables.
+const UR_ALPHA: [f64; JOINTS] = [FRAC_PI_2, 0.0, 0.0, FRAC_PI_2, -FRAC_PI_2, 0.0];
+
+/// Universal Robots UR5e from UR's published standard DH parameters (Universal Robots, "DH
+/// parameters for calculations of kinematics and dynamics"; m, rad):
+/// d = (0.1625, 0, 0, 0.1333, 0.0997, 0.0996), a = (0, −0.425, −0.3922, 0, 0, 0),
+/// α = (π/2, 0, 0, π/2, −π/2, 0), θ offsets 0; limits ±360° on every joint. Base frame: UR's
+/// `Base` (the DH base); tool point: the flange centre, at (−817.2, −232.9, 62.8) mm at q = 0.
+pub fn ur5e() -> RobotModel {
+    ur_dh(
+        "Universal Robots UR5e",
+        [0.1625, 0.0, 0.0, 0.1333, 0.0997, 0.0996],
+        [0.0, -0.425, -0.3922, 0.0, 0.0, 0.0],
+        UR_ALPHA,
+    )
+}
+
+/// Universal Robots UR10e from UR's published standard DH parameters (same source as
+/// [`ur5e`]; m, rad): d = (0.1807, 0, 0, 0.17415, 0.11985, 0.11655),
+/// a = (0, −0.6127, −0.57155, 0, 0, 0), α as the UR5e; limits ±360°.
+pub fn ur10e() -> RobotModel {
+    ur_dh(
+        "Universal Robots UR10e",
+        [0.1807, 0.0, 0.0, 0.17415, 0.11985, 0.11655],
+        [0.0, -0.6127, -0.57155, 0.0, 0.0, 0.0],
+        UR_ALPHA,
+    )
+}
+
+/// One revolute joint as a URDF gives it: origin xyz (m, rpy 0), axis, limits (rad).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UrdfJointFigures {
+    /// Joint name in the URDF.
+    pub name: &'static str,
+    /// `<origin xyz>`, metres (`rpy` is 0).
+    pub xyz: [f64; 3],
+    /// `<axis xyz>`.
+    pub axis: [f64; 3],
+    /// `<limit lower upper>`, radians.
+    pub limits_rad: (f64, f64),
+}
+
+const fn urdf_joint(
+    name: &'static str,
+    xyz: [f64; 3],
+    axis: [f64; 3],
+    limits_rad: (f64, f64),
+) -> UrdfJointFigures {
+    UrdfJointFigures {
+        name,
+        xyz,
+        axis,
+        limits_rad,
+    }
+}
+
+/// ABB IRB 2400 joint origins, axes and limits of the ROS-Industrial `abb_irb2400_support`
+/// URDF (`urdf/irb2400_macro.xacro`). `tool0` sits on `link_6` with no offset: at q = 0 it is
+/// at (940, 0, 1455) mm. (±3.1416 is the file's figure, not π.)
+#[allow(clippy::approx_constant)]
+pub const IRB2400_URDF: [UrdfJointFigures; JOINTS] = [
+    urdf_joint(
+        "joint_1",
+        [0.0, 0.0, 0.0],
+        [0.0, 0.0, 1.0],
+        (-3.1416, 3.1416),
+    ),
+    urdf_joint(
+        "joint_2",
+        [0.1, 0.0, 0.615],
+        [0.0, 1.0, 0.0],
+        (-1.7453, 1.9199),
+    ),
+    urdf_joint(
+        "joint_3",
+        [0.0, 0.0, 0.705],
+        [0.0, 1.0, 0.0],
+        (-1.0472, 1.1345),
+    ),
+    urdf_joint(
+        "joint_4",
+        [0.258, 0.0, 0.135],
+        [1.0, 0.0, 0.0],
+        (-3.49, 3.49),
+    ),
+    urdf_joint(
+        "joint_5",
+        [0.497, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        (-2.0944, 2.0944),
+    ),
+    urdf_joint(
+        "joint_6",
+        [0.085, 0.0, 0.0],
+        [1.0, 0.0, 0.0],
+        (-6.9813, 6.9813),
+    ),
+];
+
+/// ABB IRB 2400 from [`IRB2400_URDF`]; tool point at `tool0`.
+pub fn irb2400() -> RobotModel {
+    let joints = IRB2400_URDF
+        .iter()
+        .map(|j| SourceJoint {
+            name: j.name.into(),
+            origin: Isometry3::translation(j.xyz[0] * 1000.0, j.xyz[1] * 1000.0, j.xyz[2] * 1000.0),
+            axis: Unit::new_normalize(Vector3::from(j.axis)),
+            limits_deg: (j.limits_rad.0.to_degrees(), j.limits_rad.1.to_degrees()),
+        })
+        .collect();
+    converted(&SourceChain {
+        name: "ABB IRB 2400".into(),
+        format: SourceFormat::Urdf,
+        joints,
+        tip: Isometry3::identity(),
+    })
+}
+
 /// A preset by name.
 pub fn preset(name: &str) -> Result<RobotModel, super::ModelError> {
     match name.to_ascii_lowercase().as_str() {
         "tx60" => Ok(tx60()),
+        "ur5e" => Ok(ur5e()),
+        "ur10e" => Ok(ur10e()),
+        "irb2400" => Ok(irb2400()),
         _ => Err(super::ModelError::UnknownPreset(name.to_string())),
     }
 }

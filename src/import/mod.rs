@@ -1,0 +1,462 @@
+//! Robot descriptions from other tools to the MDH model and back (docs/METHOD.md §1).
+//!
+//! Every reader ([`urdf`], [`dh`], [`ur`]) turns its file into a [`SourceChain`]: six revolute
+//! joints, each a fixed transform from the previous joint's frame followed by a rotation about
+//! its axis, and the fixed transform from the last joint's frame to the tip. [`convert`] then
+//!
+//! 1. places every joint axis in the base frame at q = 0 and hands the six lines and the tip
+//!    point to the identification's lines → MDH conversion
+//!    ([`crate::identify::mdh::chain_from_zero_pose`]): one conversion for measured and imported
+//!    axes;
+//! 2. **proves** the result: the source's own forward kinematics ([`SourceChain::position`],
+//!    composed from its transforms with no MDH code) against the model's at q = 0 and
+//!    [`PROOF_CONFIGURATIONS`] random configurations within the limits; a maximum deviation above
+//!    [`PROOF_TOLERANCE_MM`] fails the import.
+//!
+//! What the MDH form cannot hold is an error naming the joint, never an approximation: the
+//! model's first axis is the base z axis through the base origin, pointing up (there are no
+//! parameters before `Rz(θ_1 + q_1)`), and two consecutive axes cannot coincide. Source q = 0 is
+//! model q = 0 and each joint turns in its source's sense. Only the tip's position is kept (the
+//! model's tool point); its orientation is not part of the model.
+//!
+//! [`export`] writes a model back out as URDF or as a UR calibration file.
+
+pub mod dh;
+pub mod export;
+pub mod ur;
+pub mod urdf;
+
+use crate::identify::mdh::chain_from_zero_pose;
+use crate::identify::{IdentifyError, Line};
+use crate::kinematics::{position, RobotModel, Uncertainty, JOINTS, N_PARAMS};
+use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
+use rand::{Rng, SeedableRng};
+use std::fmt::Write as _;
+
+/// Random configurations of the import proof (q = 0 is checked besides).
+pub const PROOF_CONFIGURATIONS: usize = 1000;
+/// Largest tool-point deviation (mm) between source and model that the proof accepts. The
+/// conversion is exact; what remains is f64 rounding, about 1e-13 mm at a 2 m reach.
+pub const PROOF_TOLERANCE_MM: f64 = 1e-9;
+/// Seed of the proof's configurations (fixed: an import is reproducible).
+pub const PROOF_SEED: u64 = 0x1d_2024;
+/// Tolerance of the base check on joint 1: tilt of its axis from base z (radians) and offset of
+/// the axis from the base origin (mm). Well below what would move a 2 m arm by 1e-9 mm.
+const BASE_TILT_EPS: f64 = 1e-13;
+const BASE_OFFSET_EPS_MM: f64 = 1e-10;
+
+/// The kind of file a chain came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SourceFormat {
+    /// URDF (XML).
+    Urdf,
+    /// Standard (distal) DH table.
+    StandardDh,
+    /// Craig's modified (proximal) DH table.
+    ModifiedDh,
+    /// UR calibration file (`kinematics:` with x, y, z, roll, pitch, yaw per joint).
+    UrCalibration,
+}
+
+impl SourceFormat {
+    /// The name written in the model header.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Urdf => "URDF",
+            Self::StandardDh => "standard DH table",
+            Self::ModifiedDh => "modified (Craig) DH table",
+            Self::UrCalibration => "UR calibration",
+        }
+    }
+}
+
+/// One revolute joint of a source chain (lengths in mm).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceJoint {
+    /// The joint's name in its file.
+    pub name: String,
+    /// Fixed transform from the previous joint's frame (after its rotation; the base frame for
+    /// the first joint) to this joint's frame.
+    pub origin: Isometry3<f64>,
+    /// Rotation axis in this joint's frame (unit; positive q turns right-handed about it).
+    pub axis: Unit<Vector3<f64>>,
+    /// Joint limits, degrees, min < max.
+    pub limits_deg: (f64, f64),
+}
+
+/// A serial chain of six revolute joints as a file describes it (lengths in mm).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SourceChain {
+    /// Model name.
+    pub name: String,
+    /// Where it came from.
+    pub format: SourceFormat,
+    /// The six joints, base to tip.
+    pub joints: Vec<SourceJoint>,
+    /// Fixed transform from the last joint's frame (after its rotation) to the tip.
+    pub tip: Isometry3<f64>,
+}
+
+impl SourceChain {
+    /// Tip transform at joint angles `q` (radians), composed from the source's own transforms.
+    pub fn transform(&self, q: &[f64; JOINTS]) -> Isometry3<f64> {
+        let mut t = Isometry3::identity();
+        for (j, qj) in self.joints.iter().zip(q) {
+            t = t * j.origin * UnitQuaternion::from_axis_angle(&j.axis, *qj);
+        }
+        t * self.tip
+    }
+
+    /// Tip position (mm) at joint angles `q` (radians).
+    pub fn position(&self, q: &[f64; JOINTS]) -> [f64; 3] {
+        let p = self.transform(q).translation.vector;
+        [p.x, p.y, p.z]
+    }
+}
+
+/// Errors reading or converting a robot description.
+#[derive(Debug, thiserror::Error)]
+pub enum ImportError {
+    /// The file could not be read.
+    #[error("cannot read {path}: {source}")]
+    Io {
+        /// The path given.
+        path: String,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// The file is not well-formed (XML, CSV, TOML or YAML).
+    #[error("{path}:{line}: {message}")]
+    Syntax {
+        /// The path given.
+        path: String,
+        /// 1-based line.
+        line: usize,
+        /// What is wrong.
+        message: String,
+    },
+    /// The file is an unexpanded xacro macro file.
+    #[error(
+        "{path}:{line}: unexpanded xacro ({what}); run xacro first and import the URDF it writes"
+    )]
+    Xacro {
+        /// The path given.
+        path: String,
+        /// 1-based line of the first xacro construct.
+        line: usize,
+        /// The construct found.
+        what: String,
+    },
+    /// An element or field is wrong or not supported; the message names it.
+    #[error("{path}{}: {element}: {message}", at_line(.line))]
+    Element {
+        /// The path given.
+        path: String,
+        /// 1-based line (0 when the file has no line for it: then none is printed).
+        line: usize,
+        /// The element, e.g. `joint 'elbow'` or `joint[3].alpha`.
+        element: String,
+        /// What is wrong.
+        message: String,
+    },
+    /// The chain between base and tip is not six revolute joints, or cannot be found.
+    #[error("{path}: {message}")]
+    Chain {
+        /// The path given.
+        path: String,
+        /// What is wrong, naming links and joints.
+        message: String,
+    },
+    /// The chain branches below the base and no tip link was named.
+    #[error("{path}: the chain branches below link '{base}' (leaf links: {}); name the tip link", leaves.join(", "))]
+    Branching {
+        /// The path given.
+        path: String,
+        /// The base link.
+        base: String,
+        /// The leaf links found.
+        leaves: Vec<String>,
+    },
+    /// A joint's geometry has no exact MDH representation.
+    #[error("{path}: joint '{joint}': {message}")]
+    NotRepresentable {
+        /// The path given.
+        path: String,
+        /// The joint's name in the file.
+        joint: String,
+        /// Why.
+        message: String,
+    },
+    /// The converted model's forward kinematics differs from the source's.
+    #[error("{path}: the MDH model deviates from the source by {deviation_mm:e} mm at q = {q_deg:?} deg (limit {PROOF_TOLERANCE_MM:e} mm)")]
+    Proof {
+        /// The path given.
+        path: String,
+        /// The deviation found, mm.
+        deviation_mm: f64,
+        /// The configuration, degrees.
+        q_deg: [f64; JOINTS],
+    },
+}
+
+/// `":LINE"`, or nothing for line 0 (a field with no line, e.g. one the TOML reader located only
+/// by name).
+fn at_line(line: &usize) -> String {
+    if *line == 0 {
+        String::new()
+    } else {
+        format!(":{line}")
+    }
+}
+
+/// A converted model and the evidence that it reproduces its source.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Imported {
+    /// The MDH model (zero uncertainty: a description carries none).
+    pub model: RobotModel,
+    /// The file it came from, as given.
+    pub source: String,
+    /// Its format.
+    pub format: SourceFormat,
+    /// Largest tool-point deviation source vs model over the proof configurations, mm.
+    pub max_deviation_mm: f64,
+    /// Number of configurations checked (q = 0 and the random ones).
+    pub configurations: usize,
+}
+
+impl Imported {
+    /// The provenance as TOML comment lines (no schema change: the model reader skips them).
+    pub fn header(&self) -> String {
+        let mut s = String::new();
+        let _ = writeln!(
+            s,
+            "# Imported by gpu-amcs {} from {} ({}).",
+            env!("CARGO_PKG_VERSION"),
+            self.source,
+            self.format.name()
+        );
+        let _ = writeln!(
+            s,
+            "# Proof: max tool-point deviation source vs MDH model = {:e} mm over {} configurations within the limits (limit {:e} mm).",
+            self.max_deviation_mm, self.configurations, PROOF_TOLERANCE_MM
+        );
+        let _ = writeln!(
+            s,
+            "# The description carries no uncertainty: every sigma is 0 until calibrated."
+        );
+        s
+    }
+
+    /// The model file: [`Imported::header`] then [`RobotModel::to_toml`].
+    pub fn to_toml(&self) -> String {
+        format!("{}{}", self.header(), self.model.to_toml())
+    }
+}
+
+/// Converts a source chain to the MDH model and proves the conversion (see the module docs).
+/// `path` names the source in errors and in the header.
+pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError> {
+    if chain.joints.len() != JOINTS {
+        return Err(ImportError::Chain {
+            path: path.into(),
+            message: format!(
+                "expected {JOINTS} revolute joints, found {}",
+                chain.joints.len()
+            ),
+        });
+    }
+    // Axis lines at q = 0 in the base frame.
+    let mut frame = Isometry3::identity();
+    let mut axes = [Line {
+        point: Vector3::zeros(),
+        dir: Vector3::z(),
+    }; JOINTS];
+    for (j, joint) in chain.joints.iter().enumerate() {
+        frame *= joint.origin;
+        axes[j] = Line {
+            point: frame.translation.vector,
+            dir: frame.rotation * joint.axis.into_inner(),
+        };
+    }
+    let tip = (frame * chain.tip).translation.vector;
+    check_base(&axes[0], &chain.joints[0].name, path)?;
+    let c = chain_from_zero_pose(&axes, tip).map_err(|e| match e {
+        IdentifyError::Geometry { joint, message } => ImportError::NotRepresentable {
+            path: path.into(),
+            joint: chain.joints[joint - 1].name.clone(),
+            message,
+        },
+        other => ImportError::Chain {
+            path: path.into(),
+            message: other.to_string(),
+        },
+    })?;
+    let model = RobotModel {
+        name: chain.name.clone(),
+        params: c.params,
+        fixed: c.fixed,
+        limits_deg: std::array::from_fn(|j| chain.joints[j].limits_deg),
+        tool: c.tool,
+        uncertainty: Uncertainty::Independent([0.0; N_PARAMS]),
+    };
+    let (max_deviation_mm, configurations) = prove(chain, &model, path)?;
+    Ok(Imported {
+        model,
+        source: path.into(),
+        format: chain.format,
+        max_deviation_mm,
+        configurations,
+    })
+}
+
+/// The model's first axis is fixed: base z through the origin, pointing up.
+fn check_base(axis: &Line, joint: &str, path: &str) -> Result<(), ImportError> {
+    let tilt = axis.dir.cross(&Vector3::z()).norm();
+    let offset = Vector3::new(axis.point.x, axis.point.y, 0.0).norm();
+    let message = if axis.dir.z < 0.0 {
+        Some("its axis points down (-z of the base frame); the model's first axis is base +z: flip the base frame or the joint's axis sign".to_string())
+    } else if tilt > BASE_TILT_EPS {
+        Some(format!(
+            "its axis is tilted {:e} deg from base z; the model's first axis is base z: express the chain in a base frame whose z is this axis",
+            tilt.asin().to_degrees()
+        ))
+    } else if offset > BASE_OFFSET_EPS_MM {
+        Some(format!(
+            "its axis is {offset:e} mm from the base origin; the model's first axis passes through it: express the chain in a base frame on this axis"
+        ))
+    } else {
+        None
+    };
+    match message {
+        Some(message) => Err(ImportError::NotRepresentable {
+            path: path.into(),
+            joint: joint.into(),
+            message,
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Maximum tool-point deviation source vs model at q = 0 and [`PROOF_CONFIGURATIONS`] uniform
+/// random configurations within the limits; an error above [`PROOF_TOLERANCE_MM`].
+pub fn prove(
+    chain: &SourceChain,
+    model: &RobotModel,
+    path: &str,
+) -> Result<(f64, usize), ImportError> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(PROOF_SEED);
+    let mut worst = (0.0_f64, [0.0; JOINTS]);
+    for k in 0..=PROOF_CONFIGURATIONS {
+        let q_deg: [f64; JOINTS] = if k == 0 {
+            [0.0; JOINTS]
+        } else {
+            std::array::from_fn(|j| {
+                let (lo, hi) = model.limits_deg[j];
+                lo + (hi - lo) * rng.random::<f64>()
+            })
+        };
+        let q = q_deg.map(f64::to_radians);
+        let a = chain.position(&q);
+        let b = position(&model.params, &model.tool, &q);
+        let dev = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+        // NaN compares false: treat it as the worst.
+        if dev > worst.0 || dev.is_nan() {
+            worst = (dev, q_deg);
+        }
+    }
+    if worst.0.is_nan() || worst.0 > PROOF_TOLERANCE_MM {
+        return Err(ImportError::Proof {
+            path: path.into(),
+            deviation_mm: worst.0,
+            q_deg: worst.1,
+        });
+    }
+    Ok((worst.0, PROOF_CONFIGURATIONS + 1))
+}
+
+/// Which reader a file needs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FileKind {
+    /// `.urdf`, `.xml`.
+    Urdf,
+    /// `.csv`, `.toml`: a DH table (standard or modified, as the file states).
+    DhTable,
+    /// `.yaml`, `.yml`: a UR calibration file.
+    UrCalibration,
+}
+
+/// Options of [`import_file`].
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct ImportOptions {
+    /// URDF: the base link (default: the root link).
+    pub base: Option<String>,
+    /// URDF: the tip link (default: the single leaf below the base).
+    pub tip: Option<String>,
+    /// Model name (default: the file's robot name, else the file stem).
+    pub name: Option<String>,
+}
+
+/// The reader for `path` by its extension; `.xacro` is refused (run xacro first).
+pub fn kind_of(path: &std::path::Path) -> Result<FileKind, ImportError> {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .unwrap_or("")
+        .to_ascii_lowercase();
+    match ext.as_str() {
+        "urdf" | "xml" => Ok(FileKind::Urdf),
+        "csv" | "toml" => Ok(FileKind::DhTable),
+        "yaml" | "yml" => Ok(FileKind::UrCalibration),
+        "xacro" => Err(ImportError::Xacro {
+            path: path.display().to_string(),
+            line: 1,
+            what: "a .xacro file".into(),
+        }),
+        _ => Err(ImportError::Chain {
+            path: path.display().to_string(),
+            message: "unknown file type: expected .urdf/.xml (URDF), .csv/.toml (DH table) or .yaml/.yml (UR calibration)".into(),
+        }),
+    }
+}
+
+/// Reads a robot description of any supported format (chosen by [`kind_of`]), converts and
+/// proves it.
+pub fn import_file(path: &std::path::Path, opts: &ImportOptions) -> Result<Imported, ImportError> {
+    let kind = kind_of(path)?;
+    let p = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|source| ImportError::Io {
+        path: p.clone(),
+        source,
+    })?;
+    let stem = path
+        .file_stem()
+        .and_then(|s| s.to_str())
+        .unwrap_or("robot")
+        .to_string();
+    let mut chain = match kind {
+        FileKind::Urdf => urdf::parse(&text, &p, opts.base.as_deref(), opts.tip.as_deref())?,
+        FileKind::DhTable => {
+            let is_toml = path
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+            if is_toml {
+                dh::parse_toml(&text, &p, &stem)?
+            } else {
+                dh::parse_csv(&text, &p, &stem)?
+            }
+        }
+        FileKind::UrCalibration => ur::parse(&text, &p, &stem)?,
+    };
+    if let Some(n) = &opts.name {
+        chain.name = n.clone();
+    }
+    convert(&chain, &p)
+}
+
+/// `Trans(xyz)·Rz(yaw)·Ry(pitch)·Rx(roll)`: the URDF `<origin>` and UR calibration transform.
+pub(crate) fn xyz_rpy(xyz: [f64; 3], rpy: [f64; 3]) -> Isometry3<f64> {
+    Isometry3::from_parts(
+        Translation3::new(xyz[0], xyz[1], xyz[2]),
+        UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2]),
+    )
+}

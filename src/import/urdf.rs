@@ -1,0 +1,433 @@
+//! URDF reader: the serial chain from a base link to a tip link.
+//!
+//! Joint origins (`xyz`, `rpy`, and URDF 1.1's `quat_xyzw` when given, which then replaces
+//! `rpy`) are composed in f64; fixed joints fold into the next joint's origin (or into the tip
+//! transform after the last joint); axes keep their sign; limits go from radians to degrees and a
+//! `continuous` joint gets ±360°. Lengths go from metres to millimetres.
+//!
+//! Refused, naming the element and its line: prismatic, floating and planar joints on the chain,
+//! mimic joints, revolute joints without `<limit>`, zero or non-finite axes and numbers, a chain
+//! that is not exactly six revolute joints, a branching tree with no tip named, malformed XML and
+//! unexpanded xacro.
+
+use super::{ImportError, SourceChain, SourceFormat, SourceJoint};
+use nalgebra::{Isometry3, Quaternion, Translation3, Unit, UnitQuaternion, Vector3};
+use std::collections::HashMap;
+
+/// Metres to millimetres.
+const MM_PER_M: f64 = 1000.0;
+
+struct JointEl {
+    name: String,
+    kind: String,
+    parent: String,
+    child: String,
+    origin: Isometry3<f64>,
+    axis: Vector3<f64>,
+    limits_rad: Option<(f64, f64)>,
+    mimic: bool,
+    line: usize,
+}
+
+/// Parses URDF text into the chain from `base` (default: the root link) to `tip` (default: the
+/// single leaf below the base). `path` names the file in errors.
+pub fn parse(
+    text: &str,
+    path: &str,
+    base: Option<&str>,
+    tip: Option<&str>,
+) -> Result<SourceChain, ImportError> {
+    let doc = roxmltree::Document::parse(text).map_err(|e| {
+        let pos = e.pos();
+        if text.contains("xmlns:xacro") || text.contains("<xacro:") {
+            return xacro(path, text);
+        }
+        ImportError::Syntax {
+            path: path.into(),
+            line: pos.row as usize,
+            message: format!("malformed XML: {e}"),
+        }
+    })?;
+    let line_of = |n: &roxmltree::Node| doc.text_pos_at(n.range().start).row as usize;
+    for n in doc.descendants() {
+        let is_xacro = n
+            .tag_name()
+            .namespace()
+            .is_some_and(|ns| ns.contains("xacro"))
+            || n.attributes().any(|a| a.value().contains("${"));
+        if is_xacro {
+            return Err(ImportError::Xacro {
+                path: path.into(),
+                line: line_of(&n),
+                what: if n
+                    .tag_name()
+                    .namespace()
+                    .is_some_and(|ns| ns.contains("xacro"))
+                {
+                    format!("<xacro:{}>", n.tag_name().name())
+                } else {
+                    "a ${...} expression".into()
+                },
+            });
+        }
+    }
+    let root = doc.root_element();
+    if root.tag_name().name() != "robot" {
+        return Err(ImportError::Element {
+            path: path.into(),
+            line: line_of(&root),
+            element: format!("<{}>", root.tag_name().name()),
+            message: "the root element of a URDF must be <robot>".into(),
+        });
+    }
+    let robot_name = root.attribute("name").unwrap_or("robot").to_string();
+    let mut links = Vec::new();
+    let mut joints = Vec::new();
+    for n in root.children().filter(|n| n.is_element()) {
+        match n.tag_name().name() {
+            "link" => links.push(required(&n, "name", "link", path, line_of(&n))?),
+            "joint" => joints.push(joint_el(&n, path, line_of(&n))?),
+            _ => {}
+        }
+    }
+    // child link → joint index
+    let mut parent_joint: HashMap<&str, usize> = HashMap::new();
+    for (k, j) in joints.iter().enumerate() {
+        if parent_joint.insert(j.child.as_str(), k).is_some() {
+            return Err(ImportError::Element {
+                path: path.into(),
+                line: j.line,
+                element: format!("joint '{}'", j.name),
+                message: format!("link '{}' has a second parent joint", j.child),
+            });
+        }
+        for l in [&j.parent, &j.child] {
+            if !links.contains(l) {
+                return Err(ImportError::Element {
+                    path: path.into(),
+                    line: j.line,
+                    element: format!("joint '{}'", j.name),
+                    message: format!("link '{l}' is not defined"),
+                });
+            }
+        }
+    }
+    let base = match base {
+        Some(b) => {
+            if !links.iter().any(|l| l == b) {
+                return Err(ImportError::Chain {
+                    path: path.into(),
+                    message: format!("base link '{b}' is not in the file"),
+                });
+            }
+            b.to_string()
+        }
+        None => {
+            let roots: Vec<&String> = links
+                .iter()
+                .filter(|l| !parent_joint.contains_key(l.as_str()))
+                .collect();
+            match roots.as_slice() {
+                [r] => r.to_string(),
+                _ => {
+                    return Err(ImportError::Chain {
+                        path: path.into(),
+                        message: format!(
+                            "expected one root link, found {}: {}",
+                            roots.len(),
+                            roots
+                                .iter()
+                                .map(|s| s.as_str())
+                                .collect::<Vec<_>>()
+                                .join(", ")
+                        ),
+                    })
+                }
+            }
+        }
+    };
+    let tip = match tip {
+        Some(t) => {
+            if !links.iter().any(|l| l == t) {
+                return Err(ImportError::Chain {
+                    path: path.into(),
+                    message: format!("tip link '{t}' is not in the file"),
+                });
+            }
+            t.to_string()
+        }
+        None => {
+            // Leaves below the base.
+            let mut leaves = Vec::new();
+            let mut stack = vec![base.clone()];
+            while let Some(l) = stack.pop() {
+                let kids: Vec<String> = joints
+                    .iter()
+                    .filter(|j| j.parent == l)
+                    .map(|j| j.child.clone())
+                    .collect();
+                if kids.is_empty() {
+                    leaves.push(l);
+                } else {
+                    stack.extend(kids);
+                }
+            }
+            if leaves.len() != 1 {
+                leaves.sort();
+                return Err(ImportError::Branching {
+                    path: path.into(),
+                    base,
+                    leaves,
+                });
+            }
+            leaves.remove(0)
+        }
+    };
+    // Walk up from the tip.
+    let mut chain_idx = Vec::new();
+    let mut link = tip.as_str();
+    while link != base {
+        match parent_joint.get(link) {
+            Some(&k) => {
+                if chain_idx.len() > joints.len() {
+                    break;
+                }
+                chain_idx.push(k);
+                link = joints[k].parent.as_str();
+            }
+            None => {
+                return Err(ImportError::Chain {
+                    path: path.into(),
+                    message: format!("tip link '{tip}' is not below base link '{base}'"),
+                })
+            }
+        }
+    }
+    chain_idx.reverse();
+    let mut out = Vec::new();
+    let mut pending = Isometry3::identity();
+    for &k in &chain_idx {
+        let j = &joints[k];
+        let el = || format!("joint '{}'", j.name);
+        let refuse = |message: String| ImportError::Element {
+            path: path.into(),
+            line: j.line,
+            element: el(),
+            message,
+        };
+        if j.mimic {
+            return Err(refuse(
+                "mimic joints are not supported: the model's six joints move independently".into(),
+            ));
+        }
+        match j.kind.as_str() {
+            "fixed" => {
+                pending *= j.origin;
+                continue;
+            }
+            "revolute" | "continuous" => {}
+            "prismatic" | "floating" | "planar" => {
+                return Err(refuse(format!(
+                    "{} joints are not supported: the model has revolute joints only",
+                    j.kind
+                )))
+            }
+            other => return Err(refuse(format!("unknown joint type '{other}'"))),
+        }
+        let n = j.axis.norm();
+        if !(n.is_finite() && n > 1e-12) {
+            return Err(refuse(format!(
+                "axis ({}, {}, {}) cannot be normalised",
+                j.axis.x, j.axis.y, j.axis.z
+            )));
+        }
+        let limits_deg = if j.kind == "continuous" {
+            (-360.0, 360.0)
+        } else {
+            let (lo, hi) = j
+                .limits_rad
+                .ok_or_else(|| refuse("revolute joint without <limit lower=.. upper=..>".into()))?;
+            if lo >= hi {
+                return Err(refuse(format!(
+                    "limit lower = {lo} must be below upper = {hi} (rad)"
+                )));
+            }
+            (lo.to_degrees(), hi.to_degrees())
+        };
+        out.push(SourceJoint {
+            name: j.name.clone(),
+            origin: pending * j.origin,
+            axis: Unit::new_normalize(j.axis),
+            limits_deg,
+        });
+        pending = Isometry3::identity();
+    }
+    if out.len() != super::JOINTS {
+        let names: Vec<&str> = out.iter().map(|j| j.name.as_str()).collect();
+        return Err(ImportError::Chain {
+            path: path.into(),
+            message: format!(
+                "the chain from '{base}' to '{tip}' has {} revolute joints ({}); the model needs exactly {}",
+                out.len(),
+                if names.is_empty() { "none".to_string() } else { names.join(", ") },
+                super::JOINTS
+            ),
+        });
+    }
+    Ok(SourceChain {
+        name: robot_name,
+        format: SourceFormat::Urdf,
+        joints: out,
+        tip: pending,
+    })
+}
+
+fn xacro(path: &str, text: &str) -> ImportError {
+    let line = text
+        .lines()
+        .position(|l| l.contains("xacro"))
+        .map_or(1, |k| k + 1);
+    ImportError::Xacro {
+        path: path.into(),
+        line,
+        what: "xacro namespace or macro".into(),
+    }
+}
+
+fn required(
+    n: &roxmltree::Node,
+    attr: &str,
+    what: &str,
+    path: &str,
+    line: usize,
+) -> Result<String, ImportError> {
+    n.attribute(attr)
+        .map(str::to_string)
+        .ok_or_else(|| ImportError::Element {
+            path: path.into(),
+            line,
+            element: format!("<{what}>"),
+            message: format!("missing attribute '{attr}'"),
+        })
+}
+
+/// Parses `count` whitespace-separated finite numbers.
+fn numbers<const N: usize>(s: &str) -> Option<[f64; N]> {
+    let v: Vec<f64> = s
+        .split_whitespace()
+        .map(|t| t.parse::<f64>())
+        .collect::<Result<_, _>>()
+        .ok()?;
+    if v.len() != N || !v.iter().all(|x| x.is_finite()) {
+        return None;
+    }
+    Some(std::array::from_fn(|k| v[k]))
+}
+
+fn joint_el(n: &roxmltree::Node, path: &str, line: usize) -> Result<JointEl, ImportError> {
+    let name = required(n, "name", "joint", path, line)?;
+    let element = format!("joint '{name}'");
+    let bad = |line: usize, message: String| ImportError::Element {
+        path: path.into(),
+        line,
+        element: element.clone(),
+        message,
+    };
+    let kind = n
+        .attribute("type")
+        .ok_or_else(|| bad(line, "missing attribute 'type'".into()))?
+        .to_string();
+    let child_el = |tag: &str| n.children().find(|c| c.has_tag_name(tag));
+    let link_of = |tag: &str| -> Result<String, ImportError> {
+        child_el(tag)
+            .and_then(|c| c.attribute("link"))
+            .map(str::to_string)
+            .ok_or_else(|| bad(line, format!("missing <{tag} link=\"..\"/>")))
+    };
+    let parent = link_of("parent")?;
+    let child = link_of("child")?;
+    let mut origin = Isometry3::identity();
+    if let Some(o) = child_el("origin") {
+        let ol = o.document().text_pos_at(o.range().start).row as usize;
+        let attr3 = |a: &str| -> Result<[f64; 3], ImportError> {
+            match o.attribute(a) {
+                None => Ok([0.0; 3]),
+                Some(s) => numbers::<3>(s).ok_or_else(|| {
+                    bad(
+                        ol,
+                        format!("origin {a}=\"{s}\" is not three finite numbers"),
+                    )
+                }),
+            }
+        };
+        let xyz = attr3("xyz")?.map(|v| v * MM_PER_M);
+        let rotation = match o.attribute("quat_xyzw") {
+            Some(s) => {
+                let q = numbers::<4>(s).ok_or_else(|| {
+                    bad(
+                        ol,
+                        format!("origin quat_xyzw=\"{s}\" is not four finite numbers"),
+                    )
+                })?;
+                let quat = Quaternion::new(q[3], q[0], q[1], q[2]);
+                if quat.norm() <= 1e-12 {
+                    return Err(bad(ol, "origin quat_xyzw is zero".into()));
+                }
+                UnitQuaternion::from_quaternion(quat)
+            }
+            None => {
+                let rpy = attr3("rpy")?;
+                UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2])
+            }
+        };
+        origin = Isometry3::from_parts(Translation3::new(xyz[0], xyz[1], xyz[2]), rotation);
+    }
+    // URDF's default axis is x.
+    let axis =
+        match child_el("axis") {
+            None => Vector3::x(),
+            Some(a) => {
+                let al = a.document().text_pos_at(a.range().start).row as usize;
+                let s = a.attribute("xyz").unwrap_or("1 0 0");
+                Vector3::from(numbers::<3>(s).ok_or_else(|| {
+                    bad(al, format!("axis xyz=\"{s}\" is not three finite numbers"))
+                })?)
+            }
+        };
+    let limits_rad = match child_el("limit") {
+        None => None,
+        Some(l) => {
+            let ll = l.document().text_pos_at(l.range().start).row as usize;
+            let num = |a: &str| -> Result<Option<f64>, ImportError> {
+                match l.attribute(a) {
+                    None => Ok(None),
+                    Some(s) => match s.trim().parse::<f64>() {
+                        Ok(v) if v.is_finite() => Ok(Some(v)),
+                        _ => Err(bad(ll, format!("limit {a}=\"{s}\" is not a finite number"))),
+                    },
+                }
+            };
+            match (num("lower")?, num("upper")?) {
+                (Some(lo), Some(hi)) => Some((lo, hi)),
+                _ if kind == "revolute" => {
+                    return Err(bad(
+                        ll,
+                        "revolute joint's <limit> needs lower and upper".into(),
+                    ))
+                }
+                _ => None,
+            }
+        }
+    };
+    Ok(JointEl {
+        name,
+        kind,
+        parent,
+        child,
+        origin,
+        axis,
+        limits_rad,
+        mimic: child_el("mimic").is_some(),
+        line,
+    })
+}
