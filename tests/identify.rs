@@ -328,3 +328,69 @@ fn malformed_rows_name_the_line() {
         .to_string();
     assert!(e.contains("missing column 'q3'"), "{e}");
 }
+
+// ---- The command line: messages, warnings and output size ----
+
+fn bin() -> std::process::Command {
+    std::process::Command::new(env!("CARGO_BIN_EXE_gpu-amcs"))
+}
+
+fn tmpdir(name: &str) -> std::path::PathBuf {
+    let d = std::env::temp_dir().join(format!("gpu-amcs-identify-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Runs the binary; returns (exit code, stdout, stderr).
+fn run_cli(args: &[&str]) -> (i32, String, String) {
+    let o = bin().args(args).output().unwrap();
+    let text = |b: &[u8]| String::from_utf8_lossy(b).into_owned();
+    (
+        o.status.code().unwrap_or(-1),
+        text(&o.stdout),
+        text(&o.stderr),
+    )
+}
+
+/// A failing run: exit code 2, one `error:` line, no panic.
+fn cli_error(args: &[&str]) -> String {
+    let (code, _, e) = run_cli(args);
+    assert_eq!(code, 2, "{args:?}: {e}");
+    assert!(!e.contains("panicked"), "{args:?}: {e}");
+    assert_eq!(e.trim().lines().count(), 1, "{args:?}: {e}");
+    e
+}
+
+#[test]
+fn each_cause_is_printed_once() {
+    // A simulated calibration whose 1 % range leaves two points per sweep.
+    let e = cli_error(&["calibrate", "--range", "1", "--runs", "2"]);
+    assert_eq!(e.matches("only 2 points").count(), 1, "{e}");
+    assert!(
+        e.contains("calibration run 1") && e.contains("joint 1"),
+        "{e}"
+    );
+    // A directory is not a sweep file, and no line of it is to blame.
+    let d = tmpdir("dir");
+    let e = cli_error(&["identify", d.to_str().unwrap()]);
+    assert!(e.contains("directory") && !e.contains("line 0"), "{e}");
+    let model = d.join("m.toml");
+    std::fs::write(&model, tx60().to_toml()).unwrap();
+    let e = cli_error(&[
+        "validate",
+        d.to_str().unwrap(),
+        "--model",
+        model.to_str().unwrap(),
+    ]);
+    assert!(e.contains("directory") && !e.contains("line 0"), "{e}");
+    // A missing file: the OS error once.
+    let missing = d.join("missing.csv");
+    let e = cli_error(&["identify", missing.to_str().unwrap()]);
+    assert_eq!(e.matches("os error 2").count(), 1, "{e}");
+    // The library's error does not expose its cause a second time.
+    let mut data = clean_data();
+    data.runs[0].sweeps[3].points.truncate(2);
+    let err = identify(&data, &tx60(), &IdentifyOptions::default()).unwrap_err();
+    assert!(std::error::Error::source(&err).is_none(), "{err}");
+}

@@ -6,10 +6,9 @@
 //! [`validate`] reports its mean, RMS and maximum for a model and optionally for a nominal model,
 //! with the improvement in percent ([`Validation::improvement_percent`]).
 
-use super::sweeps::{column_indices, csv_error, csv_reader, parse_number};
+use super::sweeps::{column_indices, csv_error, csv_reader, open_input, parse_number};
 use super::IdentifyError;
 use crate::kinematics::{position, RobotModel, JOINTS};
-use std::fmt::Write as _;
 use std::io::{Read, Write};
 use std::path::Path;
 
@@ -29,11 +28,7 @@ pub struct Measurement {
 
 /// Reads a measurement CSV file.
 pub fn read_measurements(path: &Path) -> Result<Vec<Measurement>, IdentifyError> {
-    let origin = path.display().to_string();
-    let file = std::fs::File::open(path).map_err(|source| IdentifyError::Io {
-        path: origin.clone(),
-        source,
-    })?;
+    let (file, origin) = open_input(path)?;
     parse_measurements(file, &origin)
 }
 
@@ -71,7 +66,7 @@ pub fn parse_measurements<R: Read>(
 pub fn write_measurements<W: Write>(m: &[Measurement], writer: W) -> Result<(), IdentifyError> {
     let io = |e: csv::Error| IdentifyError::Io {
         path: "<measurement output>".into(),
-        source: std::io::Error::other(e.to_string()),
+        cause: std::io::Error::other(e.to_string()),
     };
     let mut w = csv::Writer::from_writer(writer);
     w.write_record(MEASUREMENT_COLUMNS).map_err(io)?;
@@ -84,9 +79,9 @@ pub fn write_measurements<W: Write>(m: &[Measurement], writer: W) -> Result<(), 
             .collect();
         w.write_record(&row).map_err(io)?;
     }
-    w.flush().map_err(|source| IdentifyError::Io {
+    w.flush().map_err(|cause| IdentifyError::Io {
         path: "<measurement output>".into(),
-        source,
+        cause,
     })
 }
 
@@ -176,47 +171,11 @@ pub fn validate(
     })
 }
 
-/// Formats a validation for the terminal.
-pub fn render_validation(v: &Validation) -> String {
-    let mut s = String::new();
-    let width = v
-        .nominal
-        .iter()
-        .map(|(n, _)| n.chars().count())
-        .chain([v.model_name.chars().count(), "improvement".len()])
-        .max()
-        .unwrap_or(0);
-    let _ = writeln!(s, "Positioning error over {} points (mm)", v.model.points);
-    let _ = writeln!(
-        s,
-        "{:<width$} {:>10} {:>10} {:>10}",
-        "model", "mean", "rms", "max"
-    );
-    let row = |s: &mut String, name: &str, a: &AccuracyStats| {
-        let _ = writeln!(
-            s,
-            "{:<width$} {:>10.4} {:>10.4} {:>10.4}",
-            name, a.mean_mm, a.rms_mm, a.max_mm
-        );
-    };
-    if let Some((name, n)) = &v.nominal {
-        row(&mut s, name, n);
-    }
-    row(&mut s, &v.model_name, &v.model);
-    if let Some([m, r, x]) = v.improvement_percent() {
-        let _ = writeln!(
-            s,
-            "{:<width$} {:>9.1}% {:>9.1}% {:>9.1}%",
-            "improvement", m, r, x
-        );
-    }
-    s
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::kinematics::tx60;
+    use crate::report::identify::render_validation;
 
     #[test]
     fn round_trip_and_stats() {
