@@ -1,4 +1,4 @@
-//! Plane and circle fit to one joint's sweep (METHOD.md §2, paper §1.3).
+//! Plane and circle fit to one joint's sweep (docs/METHOD.md §2, paper §1.3).
 //!
 //! Two fits, selected by [`CircleFitMethod`]:
 //!

@@ -1,7 +1,7 @@
-//! Robot identification by the circle-point (axis measurement) method (METHOD.md §2, paper §1.3).
+//! Robot identification by the circle-point (axis measurement) method (docs/METHOD.md §2, paper §1.3).
 //!
 //! Flow: [`read_sweeps`] (CSV → [`SweepData`]) → [`identify`] → one [`Identification`] per run:
-//! the identified [`RobotModel`] plus an [`IdentifyReport`] ([`render_identify_report`] formats
+//! the identified [`RobotModel`](crate::kinematics::RobotModel) plus an [`IdentifyReport`] ([`render_identify_report`] formats
 //! it; the renderers live in [`crate::report::identify`]). Per run and joint: the sweep is checked ([`check_sweep`]), a circle is fitted
 //! ([`circle::fit_circle`], by [`CircleFitMethod`]) giving the joint's axis line in the base frame;
 //! consecutive axes give the MDH parameters ([`mdh`]) and the J6 sweep the tool point. The

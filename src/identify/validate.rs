@@ -1,5 +1,5 @@
 //! Positioning accuracy of a model against measured positions (the paper's accuracy check,
-//! METHOD.md §5: mean absolute positioning error before and after calibration).
+//! docs/METHOD.md §5: mean absolute positioning error before and after calibration).
 //!
 //! Input CSV header `q1,q2,q3,q4,q5,q6,x,y,z`: commanded joint angles (deg) and the measured
 //! target position (mm, base frame). The error at a point is `‖P(model, q) − p_measured‖`;
