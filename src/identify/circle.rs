@@ -33,9 +33,10 @@ pub const MIN_POINTS: usize = 3;
 pub const MIN_ARC_DEG: f64 = 5.0;
 /// Smallest circle radius accepted, mm: a target this close to the axis carries no direction.
 pub const MIN_RADIUS_MM: f64 = 1.0;
-/// Relative size of the second singular value of the centred points below which they are
-/// collinear (or coincide).
-const COLLINEAR_REL: f64 = 1e-9;
+/// Points whose spread off their best-fit line (relative to their spread along it) is below this
+/// fraction of what an exact arc through the same commanded angles would have are collinear,
+/// exactly or within their scatter: such a sweep carries no circle, whatever radius a fit returns.
+pub const COLLINEAR_FRACTION: f64 = 0.1;
 
 /// Which circle model to fit (see the module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -172,9 +173,9 @@ pub enum CircleFitError {
         /// The span, degrees.
         span_deg: f64,
     },
-    /// The points lie on a line or coincide: radius 0 (target on the axis, or the joint did not
-    /// move).
-    #[error("the points are collinear or coincide (circle radius 0): the target is on the axis or the joint did not move")]
+    /// The points lie on a line or coincide, exactly or within their scatter (see
+    /// [`COLLINEAR_FRACTION`]).
+    #[error("the points are collinear or coincide (their spread off a straight line is under {COLLINEAR_FRACTION} of an arc's through the same angles): the target is on the axis, the joint did not move, or the positions are not this sweep's")]
     Collinear,
     /// The fitted radius is below [`MIN_RADIUS_MM`].
     #[error("circle radius {radius_mm:.4} mm is below MIN_RADIUS_MM = {MIN_RADIUS_MM} mm: the target is too close to the axis")]
@@ -267,7 +268,14 @@ pub fn fit_circle(
         .iter()
         .map(|p| (p - centroid).norm())
         .fold(0.0, f64::max);
-    if sv[1] <= COLLINEAR_REL * sv[0] || scale < 1e-9 {
+    // The shape of an exact arc through these angles, on the unit circle: the ratio of the
+    // spreads across and along the best-fit line does not depend on the radius or position.
+    let unit_arc: Vec<Vector3<f64>> = angles_rad
+        .iter()
+        .map(|q| Vector3::new(q.cos(), q.sin(), 0.0))
+        .collect();
+    let (_, _, sv_arc) = fit_plane(&unit_arc);
+    if scale < 1e-9 || sv[1] <= COLLINEAR_FRACTION * sv[0] * sv_arc[1] / sv_arc[0] {
         return Err(CircleFitError::Collinear);
     }
     let (center, normal, radius, residuals) = match method {

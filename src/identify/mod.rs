@@ -10,7 +10,9 @@
 //! a prior that keeps poorly determined quantities near the nominal geometry ([`NominalPrior`],
 //! [`circle::AxisPrior`]) and a whole-chain least-squares refinement over all sweep points
 //! ([`refine`]); both can be switched off to get the plain circle-point result.
-//! [`validate()`] compares a model's predictions with measured positions.
+//! [`quality_warnings`] flags results that fitted but look implausible (residuals far above
+//! tracker noise, parameters far from nominal, a J1 axis away from base z); every report carries
+//! them. [`validate()`] compares a model's predictions with measured positions.
 //!
 //! Held-out RMS error on simulated TX60s (perturbed by 0.3 mm / 0.03°, tool (30, −20, 80) mm,
 //! σ = 10 µm, 2° steps; `cargo bench --bench identify_range`, 20 robots; nominal model 0.87 mm):
@@ -52,12 +54,15 @@ pub mod lines;
 pub mod lm;
 pub mod mdh;
 mod pipeline;
+mod quality;
 pub mod refine;
 mod statistics;
 pub mod sweeps;
 pub mod validate;
 
-pub use crate::report::identify::{render_identify_report, render_validation};
+pub use crate::report::identify::{
+    render_identify_report, render_identify_summary, render_validation,
+};
 pub use circle::{fit_circle, AxisPrior, CircleFit, CircleFitError, CircleFitMethod, MIN_ARC_DEG};
 pub use error::IdentifyError;
 pub use lines::{common_normal, CommonNormal, Line, LineRelation};
@@ -66,6 +71,10 @@ pub use pipeline::{
     check_sweep, identify, identify_run, Identification, IdentifyOptions, IdentifyReport,
     JointReport, NominalPrior, HOME_TOLERANCE_DEG, NOMINAL_ANGLE_SIGMA_DEG,
     NOMINAL_LENGTH_SIGMA_MM,
+};
+pub use quality::{
+    quality_warnings, IdentifyWarning, QualityLimits, MAX_ANGLE_CHANGE_DEG, MAX_LENGTH_CHANGE_MM,
+    MAX_RMS_RESIDUAL_MM,
 };
 pub use statistics::{
     correlated_statistics, parameter_statistics, sample_covariance, COVARIANCE_RIDGE,

@@ -4,6 +4,7 @@
 
 use super::circle::{self, fit_circle, CircleFitError, CircleFitMethod};
 use super::lines::{common_normal, Line};
+use super::quality::{quality_warnings, IdentifyWarning, QualityLimits};
 use super::sweeps::{self, Sweep, SweepData, SweepRun};
 use super::{mdh, refine, IdentifyError};
 use crate::kinematics::{
@@ -113,6 +114,8 @@ pub struct IdentifyReport {
     pub j1_tilt_deg: f64,
     /// Distance of the measured J1 axis from the base z axis, mm (the model uses base z).
     pub j1_offset_mm: f64,
+    /// What looks implausible, under the default [`QualityLimits`] ([`quality_warnings`]).
+    pub warnings: Vec<IdentifyWarning>,
 }
 
 /// An identified model and its report.
@@ -284,16 +287,16 @@ pub fn identify_run(
             axis_angle_deg: chain.axis_angles_deg.get(j).copied(),
         })
         .collect();
-    Ok(Identification {
-        model,
-        report: IdentifyReport {
-            run: run.run.clone(),
-            method: options.method,
-            joints,
-            tool_mm: chain.tool,
-            nominal_tool_mm: nominal.tool,
-            j1_tilt_deg: j1.angle.to_degrees(),
-            j1_offset_mm: j1.distance,
-        },
-    })
+    let mut report = IdentifyReport {
+        run: run.run.clone(),
+        method: options.method,
+        joints,
+        tool_mm: chain.tool,
+        nominal_tool_mm: nominal.tool,
+        j1_tilt_deg: j1.angle.to_degrees(),
+        j1_offset_mm: j1.distance,
+        warnings: Vec::new(),
+    };
+    report.warnings = quality_warnings(&report, &QualityLimits::default());
+    Ok(Identification { model, report })
 }

@@ -80,6 +80,67 @@ pub fn render_identify_report(report: &IdentifyReport) -> String {
     s
 }
 
+/// Formats a short summary of the runs of an identification for the terminal: the number of runs,
+/// and per joint its points, arc and the worst circle-fit RMS residual over the runs (with the
+/// run it came from), and the mean identified tool point. [`render_identify_report`] gives the
+/// full detail of one run.
+pub fn render_identify_summary<'a>(
+    reports: impl IntoIterator<Item = &'a IdentifyReport>,
+) -> String {
+    let reports: Vec<&IdentifyReport> = reports.into_iter().collect();
+    let mut s = String::new();
+    let Some(first) = reports.first() else {
+        return s;
+    };
+    let n = reports.len();
+    let runs = if n == 1 {
+        "1 run".to_string()
+    } else {
+        format!("{n} runs")
+    };
+    let _ = writeln!(s, "Identified {runs}, {} circle fit", first.method.name());
+    let _ = writeln!(
+        s,
+        "{:>3} {:>6} {:>9} {:>13}  worst run",
+        "J", "points", "arc deg", "worst rms mm"
+    );
+    for (j, joint) in first.joints.iter().enumerate() {
+        let worst = reports
+            .iter()
+            .filter_map(|r| {
+                r.joints
+                    .get(j)
+                    .map(|jr| (jr.rms_residual_mm, r.run.as_deref()))
+            })
+            .max_by(|a, b| a.0.total_cmp(&b.0));
+        let (rms, run) = worst.unwrap_or((joint.rms_residual_mm, None));
+        let _ = writeln!(
+            s,
+            "{:>3} {:>6} {:>9.2} {:>13.5}  {}",
+            joint.joint,
+            joint.points,
+            joint.arc_span_deg,
+            rms,
+            run.unwrap_or("-")
+        );
+    }
+    let mut tool = [0.0; 3];
+    for r in &reports {
+        for (t, v) in tool.iter_mut().zip(&r.tool_mm) {
+            *t += v / n as f64;
+        }
+    }
+    let _ = writeln!(
+        s,
+        "Tool point (flange frame){}: ({:.4}, {:.4}, {:.4}) mm",
+        if n == 1 { "" } else { ", mean of the runs" },
+        tool[0],
+        tool[1],
+        tool[2]
+    );
+    s
+}
+
 /// Formats a validation for the terminal.
 pub fn render_validation(v: &Validation) -> String {
     let mut s = String::new();
