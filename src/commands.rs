@@ -476,7 +476,13 @@ fn run_validate(a: ValidateArgs) -> Result<()> {
         Some(f) => Some(load_model(f, &a.preset).context("--nominal")?),
     };
     let m = identify::read_measurements(&a.measured)?;
-    let v = identify::validate(&model, &m, nominal.as_ref())?;
+    let v = identify::validate(&model, &m, nominal.as_ref()).map_err(|e| match e {
+        // The library names the line; the file is named here.
+        identify::IdentifyError::OutsideLimits { .. } => {
+            anyhow::anyhow!("{}: {e} of model {}", a.measured.display(), model.name)
+        }
+        e => e.into(),
+    })?;
     print!("{}", identify::render_validation(&v));
     Ok(())
 }

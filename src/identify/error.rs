@@ -88,6 +88,14 @@ pub enum IdentifyError {
         /// What is wrong.
         message: String,
     },
+    /// A measurement's commanded angles are outside the model's joint limits.
+    #[error("line {line}: {message}")]
+    OutsideLimits {
+        /// The measurement's line.
+        line: u64,
+        /// Which joint, its value and the limits.
+        message: String,
+    },
     /// Nothing to evaluate.
     #[error("{0}")]
     NoData(String),

@@ -128,6 +128,12 @@ pub fn stats(e: &[f64]) -> AccuracyStats {
     }
 }
 
+/// A nominal model whose tool point is further than this from the validated model's (mm) is taken
+/// to describe another target (a preset's flange centre against a tracker target): its errors are
+/// computed with the model's tool instead. Closer tools are two estimates of the same target (a
+/// calibration moves the tool by tenths of a millimetre) and are kept.
+pub const SAME_TOOL_MM: f64 = 5.0;
+
 /// A model's accuracy, optionally beside a nominal model's.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Validation {
@@ -137,6 +143,9 @@ pub struct Validation {
     pub model: AccuracyStats,
     /// The nominal model's name and errors, if one was given.
     pub nominal: Option<(String, AccuracyStats)>,
+    /// The nominal model's own tool point (mm) when it was more than [`SAME_TOOL_MM`] from the
+    /// model's and the nominal errors were computed with the model's tool instead.
+    pub nominal_tool_replaced: Option<[f64; 3]>,
 }
 
 impl Validation {
@@ -153,7 +162,10 @@ impl Validation {
     }
 }
 
-/// Validates `model` (and optionally `nominal`) against measurements. Errors if there are none.
+/// Validates `model` (and optionally `nominal`) against measurements. Errors if there are none
+/// or a measurement's angles are outside the model's joint limits (naming its line and joint).
+/// The nominal model is evaluated with the model's tool when its own is another target (see
+/// [`SAME_TOOL_MM`] and [`Validation::nominal_tool_replaced`]).
 pub fn validate(
     model: &RobotModel,
     measurements: &[Measurement],
@@ -164,10 +176,32 @@ pub fn validate(
             "no measurements to validate against".into(),
         ));
     }
+    for m in measurements {
+        model
+            .check_limits(&m.q_deg)
+            .map_err(|message| IdentifyError::OutsideLimits {
+                line: m.line,
+                message,
+            })?;
+    }
+    let mut nominal_tool_replaced = None;
+    let nominal = nominal.map(|n| {
+        let mut n = n.clone();
+        let gap = (0..3)
+            .map(|k| (n.tool[k] - model.tool[k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        if gap.is_nan() || gap > SAME_TOOL_MM {
+            nominal_tool_replaced = Some(n.tool);
+            n.tool = model.tool;
+        }
+        (n.name.clone(), accuracy(&n, measurements))
+    });
     Ok(Validation {
         model_name: model.name.clone(),
         model: accuracy(model, measurements),
-        nominal: nominal.map(|n| (n.name.clone(), accuracy(n, measurements))),
+        nominal,
+        nominal_tool_replaced,
     })
 }
 

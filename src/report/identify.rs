@@ -175,5 +175,13 @@ pub fn render_validation(v: &Validation) -> String {
             "improvement", m, r, x
         );
     }
+    if let (Some(own), Some((name, _))) = (v.nominal_tool_replaced, &v.nominal) {
+        let _ = writeln!(
+            s,
+            "note: {name}'s tool point ({:.4}, {:.4}, {:.4}) mm is another target than the \
+             measured one; its errors use {}'s tool instead",
+            own[0], own[1], own[2], v.model_name
+        );
+    }
     s
 }
