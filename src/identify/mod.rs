@@ -51,7 +51,7 @@
 pub mod circle;
 mod error;
 pub mod lines;
-pub mod lm;
+mod lm;
 pub mod mdh;
 mod pipeline;
 mod quality;
@@ -82,5 +82,5 @@ pub use statistics::{
 pub use sweeps::{parse_sweeps, read_sweeps, write_sweeps, Sweep, SweepData, SweepPoint, SweepRun};
 pub use validate::{
     accuracy, parse_measurements, read_measurements, validate, write_measurements, AccuracyStats,
-    Measurement, Validation,
+    Measurement, Validation, SAME_TOOL_MM,
 };
