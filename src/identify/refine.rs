@@ -37,6 +37,23 @@ pub fn refined_params(fixed: &[FixedParam; JOINTS]) -> Vec<usize> {
         .collect()
 }
 
+/// `P(params, q_k) − p_k` for every point, x, y, z in turn. A function of its own (not inlined
+/// into the solver) so that the forward kinematics is inlined here and the sines and cosines of the
+/// parameters, the same for every point, are computed once per call.
+#[inline(never)]
+fn point_residuals(
+    params: &[f64; N_PARAMS],
+    tool: &[f64; 3],
+    points: &[([f64; JOINTS], [f64; 3])],
+) -> Vec<f64> {
+    let mut r = Vec::with_capacity(3 * points.len());
+    for (q, p) in points {
+        let x = position(params, tool, q);
+        r.extend_from_slice(&[x[0] - p[0], x[1] - p[1], x[2] - p[2]]);
+    }
+    r
+}
+
 /// Refines `params` and `tool` against every point of `run`; returns the refined pair and the
 /// RMS point residual (mm) after refinement.
 ///
@@ -60,14 +77,7 @@ pub fn refine_chain(
         .map(|p| (p.q_deg.map(f64::to_radians), p.position_mm))
         .collect();
     type State = ([f64; N_PARAMS], [f64; 3]);
-    let residuals = |s: &State| -> Vec<f64> {
-        let mut r = Vec::with_capacity(3 * points.len());
-        for (q, p) in &points {
-            let x = position(&s.0, &s.1, q);
-            r.extend_from_slice(&[x[0] - p[0], x[1] - p[1], x[2] - p[2]]);
-        }
-        r
-    };
+    let residuals = |s: &State| point_residuals(&s.0, &s.1, &points);
     let apply = |s: &State, d: &[f64]| -> State {
         let mut n = *s;
         for (k, &i) in free.iter().enumerate() {
