@@ -337,8 +337,14 @@ fn bin() -> std::process::Command {
 }
 
 fn tmpdir(name: &str) -> std::path::PathBuf {
-    let d = std::env::temp_dir().join(format!("gpu-amcs-identify-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
+    // Process id and clock: unique also beside test runs of other checkouts sharing the temp dir.
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos());
+    let d = std::env::temp_dir().join(format!(
+        "gpu-amcs-identify-{}-{nanos}-{name}",
+        std::process::id()
+    ));
     std::fs::create_dir_all(&d).unwrap();
     d
 }
