@@ -513,6 +513,34 @@ fn residuals_far_above_tracker_noise_warn_per_joint_and_strict_refuses() {
 }
 
 #[test]
+fn any_swapped_or_mirrored_axes_warn() {
+    // A swap of two columns or a flipped sign mirrors the robot: the measured J1 axis (signed by
+    // the commanded rotation sense) ends up sideways or upside down.
+    let edits: [(&str, fn(&mut [f64; 3])); 4] = [
+        ("x/y", |p| p.swap(0, 1)),
+        ("y/z", |p| p.swap(1, 2)),
+        ("x/z", |p| p.swap(0, 2)),
+        ("-x", |p| p[0] = -p[0]),
+    ];
+    for (what, edit) in edits {
+        let mut d = clean_data();
+        for s in &mut d.runs[0].sweeps {
+            for p in &mut s.points {
+                edit(&mut p.position_mm);
+            }
+        }
+        let id = identify(&d, &tx60(), &IdentifyOptions::default()).unwrap();
+        let w = &id[0].report.warnings;
+        assert!(
+            w.iter().any(
+                |w| matches!(w, IdentifyWarning::BaseAxis { tilt_deg, .. } if *tilt_deg > 80.0)
+            ),
+            "{what}: {w:?}"
+        );
+    }
+}
+
+#[test]
 fn swapped_axes_warn_and_strict_refuses() {
     // The header's x and z swapped: a mirrored robot whose J1 axis lies along base x.
     let mut d = clean_data();
