@@ -516,7 +516,8 @@ fn residuals_far_above_tracker_noise_warn_per_joint_and_strict_refuses() {
 fn any_swapped_or_mirrored_axes_warn() {
     // A swap of two columns or a flipped sign mirrors the robot: the measured J1 axis (signed by
     // the commanded rotation sense) ends up sideways or upside down.
-    let edits: [(&str, fn(&mut [f64; 3])); 4] = [
+    type Edit = fn(&mut [f64; 3]);
+    let edits: [(&str, Edit); 4] = [
         ("x/y", |p| p.swap(0, 1)),
         ("y/z", |p| p.swap(1, 2)),
         ("x/z", |p| p.swap(0, 2)),
