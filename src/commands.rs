@@ -444,12 +444,20 @@ fn run_identify(a: IdentifyArgs) -> Result<()> {
 /// number of runs that share it.
 fn identify_warnings(ids: &[gpu_amcs::identify::Identification]) -> Vec<String> {
     use gpu_amcs::identify::IdentifyWarning;
-    let key = |w: &IdentifyWarning| match w {
-        IdentifyWarning::Residual { joint, .. } => (*joint, "rms".to_string()),
-        IdentifyWarning::Parameter { joint, kind, .. } => (*joint, kind.name().to_string()),
-        IdentifyWarning::BaseAxis { .. } => (1, "base".to_string()),
+    // One line per joint, kind of warning and parameter.
+    let key = |w: &IdentifyWarning| {
+        let kind = match w {
+            IdentifyWarning::Parameter { kind, .. } => Some(*kind),
+            _ => None,
+        };
+        (w.joint(), std::mem::discriminant(w), kind)
     };
-    let mut seen: Vec<((usize, String), String, usize)> = Vec::new();
+    type Key = (
+        usize,
+        std::mem::Discriminant<IdentifyWarning>,
+        Option<gpu_amcs::kinematics::ParamKind>,
+    );
+    let mut seen: Vec<(Key, String, usize)> = Vec::new();
     for w in ids.iter().flat_map(|i| &i.report.warnings) {
         match seen.iter_mut().find(|(k, _, _)| *k == key(w)) {
             Some((_, _, n)) => *n += 1,

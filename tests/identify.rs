@@ -502,6 +502,14 @@ fn residuals_far_above_tracker_noise_warn_per_joint_and_strict_refuses() {
     }
     std::fs::remove_file(&out).unwrap();
     strict_refuses(&f, &out);
+    // Several runs: still one line per joint, saying in how many runs.
+    let data = simulate_sweeps(&truth, &SweepPlan::default(), 1.0, 3, 8);
+    let (_, f) = sweep_file("noisy-runs", &data);
+    let (code, _, e) = run_cli(&["identify", f.to_str().unwrap(), "--quiet"]);
+    assert_eq!(code, 0, "{e}");
+    let w = warning_lines(&e);
+    assert_eq!(w.len(), 6, "{e}");
+    assert!(w.iter().all(|l| l.ends_with("[3 of 3 runs]")), "{e}");
     // Tracker-class noise (10 µm) leaves no warning.
     let clean = simulate_sweeps(&truth, &SweepPlan::default(), SIGMA_MM, 1, 8);
     let id = identify(&clean, &tx60(), &IdentifyOptions::default()).unwrap();
