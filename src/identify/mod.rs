@@ -1,8 +1,10 @@
-//! Robot identification by the circle-point (axis measurement) method (docs/METHOD.md §2, paper §1.3).
+//! Robot identification by the circle-point (axis measurement) method (docs/METHOD.md §2, paper
+//! §1.3).
 //!
 //! Flow: [`read_sweeps`] (CSV → [`SweepData`]) → [`identify`] → one [`Identification`] per run:
-//! the identified [`RobotModel`](crate::kinematics::RobotModel) plus an [`IdentifyReport`] ([`render_identify_report`] formats
-//! it; the renderers live in [`crate::report::identify`]). Per run and joint: the sweep is checked ([`check_sweep`]), a circle is fitted
+//! the identified [`RobotModel`](crate::kinematics::RobotModel) plus an [`IdentifyReport`]
+//! ([`render_identify_report`] formats it, [`render_identify_summary`] summarises the runs). Per
+//! run and joint: the sweep is checked ([`check_sweep`]), a circle is fitted
 //! ([`circle::fit_circle`], by [`CircleFitMethod`]) giving the joint's axis line in the base frame;
 //! consecutive axes give the MDH parameters ([`mdh`]) and the J6 sweep the tool point. The
 //! conventions for what point measurements cannot separate are documented in [`mdh`]. By default
@@ -13,6 +15,12 @@
 //! [`quality_warnings`] flags results that fitted but look implausible (residuals far above
 //! tracker noise, parameters far from nominal, a J1 axis away from base z); every report carries
 //! them. [`validate()`] compares a model's predictions with measured positions.
+//!
+//! One algorithm per file: `sweeps` (CSV), `circle` (circle fits), `lm` (the Levenberg–Marquardt
+//! solver of the fits and the refinement), `lines` and `mdh` (axes → parameters), `refine`,
+//! `pipeline` (one run end to end), `quality` (plausibility), `statistics` (over runs),
+//! `validate` (accuracy against measurements), `error`; the terminal renderers are in
+//! [`crate::report::identify`].
 //!
 //! Held-out RMS error on simulated TX60s (perturbed by 0.3 mm / 0.03°, tool (30, −20, 80) mm,
 //! σ = 10 µm, 2° steps; `cargo bench --bench identify_range`, 20 robots; nominal model 0.87 mm):
