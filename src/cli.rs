@@ -200,6 +200,16 @@ pub struct IdentifyArgs {
     /// independent σ.
     #[arg(long)]
     pub covariance: bool,
+    /// Fail (exit 2, no model file) when a result looks implausible: a fit RMS residual above
+    /// 0.05 mm, a parameter more than 5 mm / 2° from nominal, a J1 axis away from base z.
+    #[arg(long)]
+    pub strict: bool,
+    /// Print every run's per-joint fit and parameter tables instead of a summary.
+    #[arg(long, short, conflicts_with = "quiet")]
+    pub verbose: bool,
+    /// Print only warnings and errors.
+    #[arg(long, short)]
+    pub quiet: bool,
 }
 
 /// `validate` options.

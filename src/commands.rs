@@ -434,16 +434,39 @@ fn run_identify(a: IdentifyArgs) -> Result<()> {
         refine: !a.no_refine,
     };
     let ids = identify::identify(&data, &nominal, &opts)?;
-    for id in &ids {
-        print!("{}", identify::render_identify_report(&id.report));
-        println!();
+    if a.verbose {
+        for id in &ids {
+            print!("{}", identify::render_identify_report(&id.report));
+            println!();
+        }
+    } else if !a.quiet {
+        print!(
+            "{}",
+            identify::render_identify_summary(ids.iter().map(|i| &i.report))
+        );
     }
+    let warnings = identify_warnings(&ids);
+    for w in &warnings {
+        eprintln!("warning: {w}");
+    }
+    if a.strict && !warnings.is_empty() {
+        bail!(
+            "--strict: {} implausible result(s) (warnings above); no model written",
+            warnings.len()
+        );
+    }
+    let say = |line: String| {
+        if !a.quiet {
+            println!("{line}");
+        }
+    };
     let mut model = if ids.len() == 1 {
         let mut m = ids[0].model.clone();
         m.uncertainty = nominal.uncertainty.clone();
-        println!(
-            "note: one run says nothing about the spread: the model file keeps the nominal model's \
-             uncertainty; give several runs (a `run` column) to estimate it"
+        say(
+            "note: one run says nothing about the spread: the model file keeps the nominal \
+             model's uncertainty; give several runs (a `run` column) to estimate it"
+                .into(),
         );
         m
     } else {
@@ -453,18 +476,54 @@ fn run_identify(a: IdentifyArgs) -> Result<()> {
         } else {
             (identify::parameter_statistics(&models), "σ")
         };
-        println!(
+        say(format!(
             "{} runs: the model file holds the mean parameters and their run-to-run {what}",
             ids.len()
-        );
+        ));
         stats.context("parameter statistics of the runs")?
     };
     model.name = format!("{} (identified from {})", nominal.name, a.sweeps.display());
     if let Some(o) = &a.out {
         report::write_atomic(o, &model.to_toml())?;
-        println!("wrote {}", o.display());
+        say(format!("wrote {}", o.display()));
     }
     Ok(())
+}
+
+/// The runs' warnings, one line per joint and kind of problem: the first run's message, with the
+/// number of runs that share it.
+fn identify_warnings(ids: &[gpu_amcs::identify::Identification]) -> Vec<String> {
+    use gpu_amcs::identify::IdentifyWarning;
+    // One line per joint, kind of warning and parameter.
+    let key = |w: &IdentifyWarning| {
+        let kind = match w {
+            IdentifyWarning::Parameter { kind, .. } => Some(*kind),
+            _ => None,
+        };
+        (w.joint(), std::mem::discriminant(w), kind)
+    };
+    type Key = (
+        usize,
+        std::mem::Discriminant<IdentifyWarning>,
+        Option<gpu_amcs::kinematics::ParamKind>,
+    );
+    let mut seen: Vec<(Key, String, usize)> = Vec::new();
+    for w in ids.iter().flat_map(|i| &i.report.warnings) {
+        match seen.iter_mut().find(|(k, _, _)| *k == key(w)) {
+            Some((_, _, n)) => *n += 1,
+            None => seen.push((key(w), w.to_string(), 1)),
+        }
+    }
+    seen.sort_by_key(|s| s.0 .0);
+    seen.into_iter()
+        .map(|(_, text, n)| {
+            if n > 1 {
+                format!("{text} [{n} of {} runs]", ids.len())
+            } else {
+                text
+            }
+        })
+        .collect()
 }
 
 fn run_validate(a: ValidateArgs) -> Result<()> {
@@ -475,7 +534,13 @@ fn run_validate(a: ValidateArgs) -> Result<()> {
         Some(f) => Some(load_model(f, &a.preset).context("--nominal")?),
     };
     let m = identify::read_measurements(&a.measured)?;
-    let v = identify::validate(&model, &m, nominal.as_ref())?;
+    let v = identify::validate(&model, &m, nominal.as_ref()).map_err(|e| match e {
+        // The library names the line; the file is named here.
+        identify::IdentifyError::OutsideLimits { .. } => {
+            anyhow::anyhow!("{}: {e} of model {}", a.measured.display(), model.name)
+        }
+        e => e.into(),
+    })?;
     print!("{}", identify::render_validation(&v));
     Ok(())
 }

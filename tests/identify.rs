@@ -2,7 +2,8 @@
 
 use gpu_amcs::identify::{
     accuracy, identify, parameter_statistics, parse_sweeps, render_identify_report,
-    render_validation, validate, write_sweeps, CircleFitMethod, IdentifyOptions, SweepData,
+    render_validation, validate, write_sweeps, CircleFitMethod, IdentifyOptions, IdentifyWarning,
+    SweepData,
 };
 use gpu_amcs::kinematics::{param_index, position, tx60, ParamKind, RobotModel};
 use gpu_amcs::simulate::{
@@ -327,4 +328,351 @@ fn malformed_rows_name_the_line() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("missing column 'q3'"), "{e}");
+}
+
+// ---- The command line: messages, warnings and output size ----
+
+fn bin() -> std::process::Command {
+    std::process::Command::new(env!("CARGO_BIN_EXE_gpu-amcs"))
+}
+
+fn tmpdir(name: &str) -> std::path::PathBuf {
+    // Process id and clock: unique also beside test runs of other checkouts sharing the temp dir.
+    let nanos = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map_or(0, |d| d.as_nanos());
+    let d = std::env::temp_dir().join(format!(
+        "gpu-amcs-identify-{}-{nanos}-{name}",
+        std::process::id()
+    ));
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// Runs the binary; returns (exit code, stdout, stderr).
+fn run_cli(args: &[&str]) -> (i32, String, String) {
+    let o = bin().args(args).output().unwrap();
+    let text = |b: &[u8]| String::from_utf8_lossy(b).into_owned();
+    (
+        o.status.code().unwrap_or(-1),
+        text(&o.stdout),
+        text(&o.stderr),
+    )
+}
+
+/// A failing run: exit code 2, one `error:` line, no panic.
+fn cli_error(args: &[&str]) -> String {
+    let (code, _, e) = run_cli(args);
+    assert_eq!(code, 2, "{args:?}: {e}");
+    assert!(!e.contains("panicked"), "{args:?}: {e}");
+    assert_eq!(e.trim().lines().count(), 1, "{args:?}: {e}");
+    e
+}
+
+#[test]
+fn each_cause_is_printed_once() {
+    // A simulated calibration whose 1 % range leaves two points per sweep.
+    let e = cli_error(&["calibrate", "--range", "1", "--runs", "2"]);
+    assert_eq!(e.matches("only 2 points").count(), 1, "{e}");
+    assert!(
+        e.contains("calibration run 1") && e.contains("joint 1"),
+        "{e}"
+    );
+    // A directory is not a sweep file, and no line of it is to blame.
+    let d = tmpdir("dir");
+    let e = cli_error(&["identify", d.to_str().unwrap()]);
+    assert!(e.contains("directory") && !e.contains("line 0"), "{e}");
+    let model = d.join("m.toml");
+    std::fs::write(&model, tx60().to_toml()).unwrap();
+    let e = cli_error(&[
+        "validate",
+        d.to_str().unwrap(),
+        "--model",
+        model.to_str().unwrap(),
+    ]);
+    assert!(e.contains("directory") && !e.contains("line 0"), "{e}");
+    // A missing file: the OS error once.
+    let missing = d.join("missing.csv");
+    let e = cli_error(&["identify", missing.to_str().unwrap()]);
+    assert_eq!(e.matches("os error 2").count(), 1, "{e}");
+    // The library's error does not expose its cause a second time.
+    let mut data = clean_data();
+    data.runs[0].sweeps[3].points.truncate(2);
+    let err = identify(&data, &tx60(), &IdentifyOptions::default()).unwrap_err();
+    assert!(std::error::Error::source(&err).is_none(), "{err}");
+}
+
+/// Writes `data` as a sweep CSV in a fresh directory; returns (directory, file).
+fn sweep_file(name: &str, data: &SweepData) -> (std::path::PathBuf, std::path::PathBuf) {
+    let d = tmpdir(name);
+    let f = d.join("sweeps.csv");
+    write_sweeps(data, std::fs::File::create(&f).unwrap()).unwrap();
+    (d, f)
+}
+
+/// Replaces joint `joint`'s measured positions by points on the chord from its first to its last
+/// point, plus `noise` (mm, Gaussian per coordinate), rounded to 1 µm as a tracker file would be.
+fn flatten_sweep(data: &mut SweepData, joint: usize, noise: f64, seed: u64) {
+    use gpu_amcs::simulate::standard_normal;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let s = &mut data.runs[0].sweeps[joint - 1];
+    assert_eq!(s.joint, joint);
+    let a = s.points[0].position_mm;
+    let b = s.points.last().unwrap().position_mm;
+    let n = s.points.len();
+    for (i, p) in s.points.iter_mut().enumerate() {
+        let t = i as f64 / (n - 1) as f64;
+        for k in 0..3 {
+            let v = a[k] + (b[k] - a[k]) * t + noise * standard_normal(&mut rng);
+            p.position_mm[k] = (v * 1e3).round() / 1e3;
+        }
+    }
+}
+
+#[test]
+fn collinear_sweeps_are_refused_at_any_scale() {
+    // Exactly collinear up to the file's rounding, and collinear within 10 µm of tracker noise:
+    // either way the sweep has no circle (today's radius 367 mm with a 22 mm RMS is no answer).
+    for noise in [0.0, SIGMA_MM] {
+        let mut d = clean_data();
+        flatten_sweep(&mut d, 3, noise, 11);
+        let e = err(&d);
+        assert!(e.contains("joint 3") && e.contains("collinear"), "{e}");
+        // The command line refuses too, and writes no model.
+        let (dir, f) = sweep_file("collinear", &d);
+        let out = dir.join("model.toml");
+        let e = cli_error(&["identify", f.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+        assert!(e.contains("joint 3") && e.contains("collinear"), "{e}");
+        assert!(!out.exists());
+    }
+    // A genuine arc as short as the fit accepts still passes.
+    let mut d = clean_data();
+    let s = &mut d.runs[0].sweeps[5].points;
+    s.truncate(4); // 2° steps: a 6° arc of J6 (radius ~36 mm, sagitta ~0.05 mm)
+    identify(&d, &tx60(), &IdentifyOptions::default()).unwrap();
+}
+
+/// The warning lines of a run's stderr.
+fn warning_lines(stderr: &str) -> Vec<&str> {
+    stderr
+        .lines()
+        .filter(|l| l.starts_with("warning:"))
+        .collect()
+}
+
+/// `identify --strict` on sweeps that warn: an error line last, exit 2, no model file.
+fn strict_refuses(sweeps: &std::path::Path, out: &std::path::Path) {
+    let (code, _, e) = run_cli(&[
+        "identify",
+        sweeps.to_str().unwrap(),
+        "--strict",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 2, "{e}");
+    assert!(e.lines().last().unwrap().starts_with("error:"), "{e}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn residuals_far_above_tracker_noise_warn_per_joint_and_strict_refuses() {
+    let (truth, _) = robot(8);
+    // 1 mm per coordinate: a 3-D fit residual of ~1.7 mm, ~35 × the 0.05 mm limit.
+    let data = simulate_sweeps(&truth, &SweepPlan::default(), 1.0, 1, 8);
+    let id = identify(&data, &tx60(), &IdentifyOptions::default()).unwrap();
+    let joints: Vec<usize> = id[0]
+        .report
+        .warnings
+        .iter()
+        .filter(|w| matches!(w, IdentifyWarning::Residual { .. }))
+        .map(IdentifyWarning::joint)
+        .collect();
+    assert_eq!(joints, vec![1, 2, 3, 4, 5, 6]);
+    let (dir, f) = sweep_file("noisy", &data);
+    let out = dir.join("model.toml");
+    let (code, _, e) = run_cli(&["identify", f.to_str().unwrap(), "-o", out.to_str().unwrap()]);
+    assert_eq!(code, 0, "{e}");
+    let w = warning_lines(&e);
+    assert_eq!(w.len(), 6, "{e}");
+    for (k, line) in w.iter().enumerate() {
+        assert!(
+            line.contains(&format!("joint {}", k + 1)) && line.contains("0.05 mm"),
+            "{line}"
+        );
+    }
+    std::fs::remove_file(&out).unwrap();
+    strict_refuses(&f, &out);
+    // Several runs: still one line per joint, saying in how many runs.
+    let data = simulate_sweeps(&truth, &SweepPlan::default(), 1.0, 3, 8);
+    let (_, f) = sweep_file("noisy-runs", &data);
+    let (code, _, e) = run_cli(&["identify", f.to_str().unwrap(), "--quiet"]);
+    assert_eq!(code, 0, "{e}");
+    let w = warning_lines(&e);
+    assert_eq!(w.len(), 6, "{e}");
+    assert!(w.iter().all(|l| l.ends_with("[3 of 3 runs]")), "{e}");
+    // Tracker-class noise (10 µm) leaves no warning.
+    let clean = simulate_sweeps(&truth, &SweepPlan::default(), SIGMA_MM, 1, 8);
+    let id = identify(&clean, &tx60(), &IdentifyOptions::default()).unwrap();
+    assert!(
+        id[0].report.warnings.is_empty(),
+        "{:?}",
+        id[0].report.warnings
+    );
+}
+
+#[test]
+fn any_swapped_or_mirrored_axes_warn() {
+    // A swap of two columns or a flipped sign mirrors the robot: the measured J1 axis (signed by
+    // the commanded rotation sense) ends up sideways or upside down.
+    type Edit = fn(&mut [f64; 3]);
+    let edits: [(&str, Edit); 4] = [
+        ("x/y", |p| p.swap(0, 1)),
+        ("y/z", |p| p.swap(1, 2)),
+        ("x/z", |p| p.swap(0, 2)),
+        ("-x", |p| p[0] = -p[0]),
+    ];
+    for (what, edit) in edits {
+        let mut d = clean_data();
+        for s in &mut d.runs[0].sweeps {
+            for p in &mut s.points {
+                edit(&mut p.position_mm);
+            }
+        }
+        let id = identify(&d, &tx60(), &IdentifyOptions::default()).unwrap();
+        let w = &id[0].report.warnings;
+        assert!(
+            w.iter().any(
+                |w| matches!(w, IdentifyWarning::BaseAxis { tilt_deg, .. } if *tilt_deg > 80.0)
+            ),
+            "{what}: {w:?}"
+        );
+    }
+}
+
+#[test]
+fn swapped_axes_warn_and_strict_refuses() {
+    // The header's x and z swapped: a mirrored robot whose J1 axis lies along base x.
+    let mut d = clean_data();
+    for s in &mut d.runs[0].sweeps {
+        for p in &mut s.points {
+            p.position_mm.swap(0, 2);
+        }
+    }
+    let id = identify(&d, &tx60(), &IdentifyOptions::default()).unwrap();
+    assert!(
+        id[0]
+            .report
+            .warnings
+            .iter()
+            .any(|w| matches!(w, IdentifyWarning::BaseAxis { tilt_deg, .. } if *tilt_deg > 80.0)),
+        "{:?}",
+        id[0].report.warnings
+    );
+    let (dir, f) = sweep_file("swapped", &d);
+    let (code, _, e) = run_cli(&["identify", f.to_str().unwrap()]);
+    assert_eq!(code, 0, "{e}");
+    let w = warning_lines(&e);
+    assert!(
+        w.iter()
+            .any(|l| l.contains("joint 1") && l.contains("swapped")),
+        "{e}"
+    );
+    strict_refuses(&f, &dir.join("model.toml"));
+}
+
+#[test]
+fn identify_prints_a_summary_by_default() {
+    let (truth, _) = robot(9);
+    let data = simulate_sweeps(&truth, &SweepPlan::default(), SIGMA_MM, 20, 9);
+    let (dir, f) = sweep_file("summary", &data);
+    let out = dir.join("model.toml");
+    let args = ["identify", f.to_str().unwrap(), "-o", out.to_str().unwrap()];
+    let (code, summary, e) = run_cli(&args);
+    assert_eq!(code, 0, "{e}");
+    assert!(e.is_empty(), "no warnings expected: {e}");
+    // Title, column heads, 6 joints, tool point, what the file holds, the file written.
+    assert_eq!(summary.lines().count(), 11, "{summary}");
+    assert!(
+        summary.contains("20 runs") && summary.contains("model.toml"),
+        "{summary}"
+    );
+    let model = std::fs::read_to_string(&out).unwrap();
+    // --verbose: every run's tables (20 lines or more per run).
+    let (code, verbose, _) = run_cli(&[&args[..], &["--verbose"]].concat());
+    assert_eq!(code, 0);
+    assert!(verbose.lines().count() >= 20 * 20, "{}", verbose.len());
+    assert_eq!(verbose.matches("Identification (run").count(), 20);
+    // --quiet: nothing on stdout, the same model file.
+    let (code, quiet, e) = run_cli(&[&args[..], &["--quiet"]].concat());
+    assert_eq!(code, 0, "{e}");
+    assert!(quiet.is_empty() && e.is_empty(), "{quiet}{e}");
+    assert_eq!(std::fs::read_to_string(&out).unwrap(), model);
+}
+
+#[test]
+fn validate_refuses_angles_outside_the_joint_limits_naming_line_and_joint() {
+    let d = tmpdir("limits");
+    let model = d.join("m.toml");
+    std::fs::write(&model, tx60().to_toml()).unwrap();
+    let meas = d.join("measured.csv");
+    std::fs::write(
+        &meas,
+        "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1,2,3\n0,200,0,0,0,0,1,2,3\n",
+    )
+    .unwrap();
+    let e = cli_error(&[
+        "validate",
+        meas.to_str().unwrap(),
+        "--model",
+        model.to_str().unwrap(),
+    ]);
+    assert!(
+        e.contains("measured.csv: line 3") && e.contains("q2 = 200") && e.contains("limits"),
+        "{e}"
+    );
+}
+
+#[test]
+fn validate_nominal_uses_the_models_tool() {
+    // A model identified from tracker sweeps has the target as its tool; the preset's tool is the
+    // flange centre, ~88 mm away. The nominal errors must be the geometry's, not the tool's.
+    let (truth, configs) = robot(10);
+    let data = simulate_sweeps(&truth, &SweepPlan::default(), SIGMA_MM, 1, 10);
+    let id = identify(&data, &tx60(), &IdentifyOptions::default()).unwrap();
+    let mut rng = ChaCha8Rng::seed_from_u64(10);
+    let m = measure_positions(&truth, &configs, 0.0, &mut rng);
+    let v = validate(&id[0].model, &m, Some(&tx60())).unwrap();
+    let (_, nominal) = v.nominal.as_ref().unwrap();
+    assert_eq!(v.nominal_tool_replaced, Some(tx60().tool));
+    // The nominal geometry with the identified tool: the 0.3 mm / 0.03° class errors leave
+    // millimetres at most, far from the 88 mm tool offset.
+    assert!(
+        nominal.mean_mm < 5.0 && nominal.mean_mm > v.model.mean_mm,
+        "{v:?}"
+    );
+    assert!(
+        render_validation(&v).contains("tool"),
+        "{}",
+        render_validation(&v)
+    );
+    // The same through the command line (bare --nominal takes the preset).
+    let d = tmpdir("nominal-tool");
+    let model = d.join("m.toml");
+    std::fs::write(&model, id[0].model.to_toml()).unwrap();
+    let meas = d.join("measured.csv");
+    gpu_amcs::identify::write_measurements(&m, std::fs::File::create(&meas).unwrap()).unwrap();
+    let (code, out, e) = run_cli(&[
+        "validate",
+        meas.to_str().unwrap(),
+        "--model",
+        model.to_str().unwrap(),
+        "--nominal",
+    ]);
+    assert_eq!(code, 0, "{e}");
+    assert!(out.contains("note:") && out.contains("tool"), "{out}");
+    // A nominal whose tool is the same target (within a calibration correction) is kept as given.
+    let mut near = tx60();
+    near.tool = TOOL;
+    let v = validate(&id[0].model, &m, Some(&near)).unwrap();
+    assert_eq!(v.nominal_tool_replaced, None);
 }

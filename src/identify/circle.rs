@@ -1,4 +1,4 @@
-//! Plane and circle fit to one joint's sweep (METHOD.md §2, paper §1.3).
+//! Plane and circle fit to one joint's sweep (docs/METHOD.md §2, paper §1.3).
 //!
 //! Two fits, selected by [`CircleFitMethod`]:
 //!
@@ -24,6 +24,7 @@
 //! The in-plane basis is built from the world axis least aligned with the normal, so no axis
 //! direction (for example the world y axis) degenerates it.
 
+use super::lm::levenberg_marquardt;
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 
 /// Fewest points a sweep may have.
@@ -32,9 +33,10 @@ pub const MIN_POINTS: usize = 3;
 pub const MIN_ARC_DEG: f64 = 5.0;
 /// Smallest circle radius accepted, mm: a target this close to the axis carries no direction.
 pub const MIN_RADIUS_MM: f64 = 1.0;
-/// Relative size of the second singular value of the centred points below which they are
-/// collinear (or coincide).
-const COLLINEAR_REL: f64 = 1e-9;
+/// Points whose spread off their best-fit line (relative to their spread along it) is below this
+/// fraction of what an exact arc through the same commanded angles would have are collinear,
+/// exactly or within their scatter: such a sweep carries no circle, whatever radius a fit returns.
+pub const COLLINEAR_FRACTION: f64 = 0.1;
 
 /// Which circle model to fit (see the module docs).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
@@ -171,9 +173,9 @@ pub enum CircleFitError {
         /// The span, degrees.
         span_deg: f64,
     },
-    /// The points lie on a line or coincide: radius 0 (target on the axis, or the joint did not
-    /// move).
-    #[error("the points are collinear or coincide (circle radius 0): the target is on the axis or the joint did not move")]
+    /// The points lie on a line or coincide, exactly or within their scatter (see
+    /// [`COLLINEAR_FRACTION`]).
+    #[error("the points are collinear or coincide (their spread off a straight line is under {COLLINEAR_FRACTION} of an arc's through the same angles): the target is on the axis, the joint did not move, or the positions are not this sweep's")]
     Collinear,
     /// The fitted radius is below [`MIN_RADIUS_MM`].
     #[error("circle radius {radius_mm:.4} mm is below MIN_RADIUS_MM = {MIN_RADIUS_MM} mm: the target is too close to the axis")]
@@ -266,7 +268,14 @@ pub fn fit_circle(
         .iter()
         .map(|p| (p - centroid).norm())
         .fold(0.0, f64::max);
-    if sv[1] <= COLLINEAR_REL * sv[0] || scale < 1e-9 {
+    // The shape of an exact arc through these angles, on the unit circle: the ratio of the
+    // spreads across and along the best-fit line does not depend on the radius or position.
+    let unit_arc: Vec<Vector3<f64>> = angles_rad
+        .iter()
+        .map(|q| Vector3::new(q.cos(), q.sin(), 0.0))
+        .collect();
+    let (_, _, sv_arc) = fit_plane(&unit_arc);
+    if scale < 1e-9 || sv[1] <= COLLINEAR_FRACTION * sv[0] * sv_arc[1] / sv_arc[0] {
         return Err(CircleFitError::Collinear);
     }
     let (center, normal, radius, residuals) = match method {
@@ -460,70 +469,6 @@ fn commanded(
         .collect();
     let normal = s.rot * Vector3::z();
     Ok((s.c, normal, s.r, res))
-}
-
-/// Levenberg–Marquardt with a central-difference Jacobian over a local update `apply(state, δ)`.
-pub(crate) fn levenberg_marquardt<S: Clone>(
-    seed: S,
-    steps: &[f64],
-    apply: impl Fn(&S, &[f64]) -> S,
-    residuals: impl Fn(&S) -> Vec<f64>,
-) -> S {
-    let np = steps.len();
-    let cost = |r: &[f64]| r.iter().map(|v| v * v).sum::<f64>();
-    let mut state = seed;
-    let mut r0 = residuals(&state);
-    let mut c0 = cost(&r0);
-    let mut lambda = 1e-6;
-    let zero = vec![0.0; np];
-    for _ in 0..200 {
-        let m = r0.len();
-        let mut j = DMatrix::<f64>::zeros(m, np);
-        for (col, &h) in steps.iter().enumerate() {
-            let mut d = zero.clone();
-            d[col] = h;
-            let rp = residuals(&apply(&state, &d));
-            d[col] = -h;
-            let rm = residuals(&apply(&state, &d));
-            for row in 0..m {
-                j[(row, col)] = (rp[row] - rm[row]) / (2.0 * h);
-            }
-        }
-        let r = DVector::from_column_slice(&r0);
-        let jtj = j.transpose() * &j;
-        let jtr = j.transpose() * r;
-        let mut improved = false;
-        while lambda < 1e12 {
-            let mut a = jtj.clone();
-            for i in 0..np {
-                a[(i, i)] += lambda * jtj[(i, i)].max(1e-30);
-            }
-            let Some(delta) = a.cholesky().map(|ch| ch.solve(&(-&jtr))) else {
-                lambda *= 10.0;
-                continue;
-            };
-            let cand = apply(&state, delta.as_slice());
-            let rc = residuals(&cand);
-            let cc = cost(&rc);
-            if cc.is_finite() && cc < c0 {
-                let rel = (c0 - cc) / c0.max(1e-300);
-                state = cand;
-                r0 = rc;
-                c0 = cc;
-                lambda = (lambda / 10.0).max(1e-12);
-                improved = true;
-                if rel < 1e-14 {
-                    return state;
-                }
-                break;
-            }
-            lambda *= 10.0;
-        }
-        if !improved || c0 == 0.0 {
-            break;
-        }
-    }
-    state
 }
 
 #[cfg(test)]

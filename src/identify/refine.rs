@@ -10,25 +10,48 @@
 //! axis stays base z, as in [`super::mdh`]). It is the maximum-likelihood estimate for isotropic
 //! tracker noise given the same data and conventions.
 
-use super::circle::levenberg_marquardt;
+use super::lm::levenberg_marquardt;
 use super::sweeps::SweepRun;
 use crate::kinematics::{param_index, position, FixedParam, ParamKind, JOINTS, N_PARAMS};
 
+/// The parameters the refinement adjusts: `(joint (0-based), kind)` in storage order.
+fn refined(fixed: &[FixedParam; JOINTS]) -> Vec<(usize, ParamKind)> {
+    fixed
+        .iter()
+        .enumerate()
+        .take(JOINTS - 1)
+        .flat_map(|(j, f)| {
+            ParamKind::ALL
+                .into_iter()
+                .filter(move |&kind| kind != f.kind())
+                .map(move |kind| (j, kind))
+        })
+        .collect()
+}
+
 /// Indices (into the 30-vector) of the parameters the refinement adjusts.
 pub fn refined_params(fixed: &[FixedParam; JOINTS]) -> Vec<usize> {
-    let mut out = Vec::new();
-    for (j, f) in fixed.iter().enumerate().take(JOINTS - 1) {
-        for kind in ParamKind::ALL {
-            let is_fixed = matches!(
-                (f, kind),
-                (FixedParam::D, ParamKind::D) | (FixedParam::Beta, ParamKind::Beta)
-            );
-            if !is_fixed {
-                out.push(param_index(j, kind));
-            }
-        }
+    refined(fixed)
+        .into_iter()
+        .map(|(j, kind)| param_index(j, kind))
+        .collect()
+}
+
+/// `P(params, q_k) − p_k` for every point, x, y, z in turn. A function of its own (not inlined
+/// into the solver) so that the forward kinematics is inlined here and the sines and cosines of the
+/// parameters, the same for every point, are computed once per call.
+#[inline(never)]
+fn point_residuals(
+    params: &[f64; N_PARAMS],
+    tool: &[f64; 3],
+    points: &[([f64; JOINTS], [f64; 3])],
+) -> Vec<f64> {
+    let mut r = Vec::with_capacity(3 * points.len());
+    for (q, p) in points {
+        let x = position(params, tool, q);
+        r.extend_from_slice(&[x[0] - p[0], x[1] - p[1], x[2] - p[2]]);
     }
-    out
+    r
 }
 
 /// Refines `params` and `tool` against every point of `run`; returns the refined pair and the
@@ -45,6 +68,7 @@ pub fn refine_chain(
     tool: &[f64; 3],
     prior: Option<(&[f64; N_PARAMS], f64, f64)>,
 ) -> ([f64; N_PARAMS], [f64; 3], f64) {
+    let kinds = refined(fixed);
     let free = refined_params(fixed);
     let points: Vec<([f64; JOINTS], [f64; 3])> = run
         .sweeps
@@ -53,14 +77,7 @@ pub fn refine_chain(
         .map(|p| (p.q_deg.map(f64::to_radians), p.position_mm))
         .collect();
     type State = ([f64; N_PARAMS], [f64; 3]);
-    let residuals = |s: &State| -> Vec<f64> {
-        let mut r = Vec::with_capacity(3 * points.len());
-        for (q, p) in &points {
-            let x = position(&s.0, &s.1, q);
-            r.extend_from_slice(&[x[0] - p[0], x[1] - p[1], x[2] - p[2]]);
-        }
-        r
-    };
+    let residuals = |s: &State| point_residuals(&s.0, &s.1, &points);
     let apply = |s: &State, d: &[f64]| -> State {
         let mut n = *s;
         for (k, &i) in free.iter().enumerate() {
@@ -71,15 +88,9 @@ pub fn refine_chain(
         }
         n
     };
-    let mut steps: Vec<f64> = free
+    let mut steps: Vec<f64> = kinds
         .iter()
-        .map(|&i| {
-            if ParamKind::ALL[i % 5].is_angle() {
-                1e-8
-            } else {
-                1e-5
-            }
-        })
+        .map(|&(_, kind)| if kind.is_angle() { 1e-8 } else { 1e-5 })
         .collect();
     steps.extend_from_slice(&[1e-5; 3]);
     let mut s = levenberg_marquardt((*params, *tool), &steps, apply, residuals);
@@ -87,10 +98,10 @@ pub fn refine_chain(
         let r = residuals(&s);
         let dof = r.len().saturating_sub(steps.len()).max(1) as f64;
         let noise = (r.iter().map(|v| v * v).sum::<f64>() / dof).sqrt();
-        let weights: Vec<f64> = free
+        let weights: Vec<f64> = kinds
             .iter()
-            .map(|&i| {
-                let sigma = if ParamKind::ALL[i % 5].is_angle() {
+            .map(|&(_, kind)| {
+                let sigma = if kind.is_angle() {
                     angle_sigma
                 } else {
                     length_sigma

@@ -74,12 +74,23 @@ pub struct SweepData {
 
 /// Reads a sweep CSV file.
 pub fn read_sweeps(path: &Path) -> Result<SweepData, IdentifyError> {
-    let origin = path.display().to_string();
-    let file = std::fs::File::open(path).map_err(|source| IdentifyError::Io {
-        path: origin.clone(),
-        source,
-    })?;
+    let (file, origin) = open_input(path)?;
     parse_sweeps(file, &origin)
+}
+
+/// Opens an input CSV file; a directory or an unreadable path is an [`IdentifyError::Io`] naming
+/// it. Returns the file and its name for messages.
+pub(crate) fn open_input(path: &Path) -> Result<(std::fs::File, String), IdentifyError> {
+    let origin = path.display().to_string();
+    let io = |cause| IdentifyError::Io {
+        path: origin.clone(),
+        cause,
+    };
+    if path.is_dir() {
+        return Err(io(std::io::Error::other("is a directory, not a CSV file")));
+    }
+    let file = std::fs::File::open(path).map_err(io)?;
+    Ok((file, origin))
 }
 
 /// Finds the columns of `names` in a header; `origin` names the source in errors.
@@ -148,10 +159,17 @@ pub(crate) fn csv_error(e: csv::Error, origin: &str) -> IdentifyError {
         }
         _ => e.to_string(),
     };
-    IdentifyError::Csv {
-        origin: origin.to_string(),
-        line,
-        message,
+    match e.into_kind() {
+        // A read failure is about the file, not a line of it.
+        csv::ErrorKind::Io(cause) => IdentifyError::Io {
+            path: origin.to_string(),
+            cause,
+        },
+        _ => IdentifyError::Csv {
+            origin: origin.to_string(),
+            line,
+            message,
+        },
     }
 }
 
@@ -233,7 +251,7 @@ pub fn parse_sweeps<R: Read>(reader: R, origin: &str) -> Result<SweepData, Ident
 pub fn write_sweeps<W: Write>(data: &SweepData, writer: W) -> Result<(), IdentifyError> {
     let io = |e: csv::Error| IdentifyError::Io {
         path: "<sweep output>".into(),
-        source: std::io::Error::other(e.to_string()),
+        cause: std::io::Error::other(e.to_string()),
     };
     let with_run = data.runs.iter().any(|r| r.run.is_some());
     let mut w = csv::Writer::from_writer(writer);
@@ -257,9 +275,9 @@ pub fn write_sweeps<W: Write>(data: &SweepData, writer: W) -> Result<(), Identif
             }
         }
     }
-    w.flush().map_err(|source| IdentifyError::Io {
+    w.flush().map_err(|cause| IdentifyError::Io {
         path: "<sweep output>".into(),
-        source,
+        cause,
     })
 }
 

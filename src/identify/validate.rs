@@ -1,15 +1,14 @@
 //! Positioning accuracy of a model against measured positions (the paper's accuracy check,
-//! METHOD.md §5: mean absolute positioning error before and after calibration).
+//! docs/METHOD.md §5: mean absolute positioning error before and after calibration).
 //!
 //! Input CSV header `q1,q2,q3,q4,q5,q6,x,y,z`: commanded joint angles (deg) and the measured
 //! target position (mm, base frame). The error at a point is `‖P(model, q) − p_measured‖`;
 //! [`validate`] reports its mean, RMS and maximum for a model and optionally for a nominal model,
 //! with the improvement in percent ([`Validation::improvement_percent`]).
 
-use super::sweeps::{column_indices, csv_error, csv_reader, parse_number};
+use super::sweeps::{column_indices, csv_error, csv_reader, open_input, parse_number};
 use super::IdentifyError;
 use crate::kinematics::{position, RobotModel, JOINTS};
-use std::fmt::Write as _;
 use std::io::{Read, Write};
 use std::path::Path;
 
@@ -29,11 +28,7 @@ pub struct Measurement {
 
 /// Reads a measurement CSV file.
 pub fn read_measurements(path: &Path) -> Result<Vec<Measurement>, IdentifyError> {
-    let origin = path.display().to_string();
-    let file = std::fs::File::open(path).map_err(|source| IdentifyError::Io {
-        path: origin.clone(),
-        source,
-    })?;
+    let (file, origin) = open_input(path)?;
     parse_measurements(file, &origin)
 }
 
@@ -71,7 +66,7 @@ pub fn parse_measurements<R: Read>(
 pub fn write_measurements<W: Write>(m: &[Measurement], writer: W) -> Result<(), IdentifyError> {
     let io = |e: csv::Error| IdentifyError::Io {
         path: "<measurement output>".into(),
-        source: std::io::Error::other(e.to_string()),
+        cause: std::io::Error::other(e.to_string()),
     };
     let mut w = csv::Writer::from_writer(writer);
     w.write_record(MEASUREMENT_COLUMNS).map_err(io)?;
@@ -84,9 +79,9 @@ pub fn write_measurements<W: Write>(m: &[Measurement], writer: W) -> Result<(), 
             .collect();
         w.write_record(&row).map_err(io)?;
     }
-    w.flush().map_err(|source| IdentifyError::Io {
+    w.flush().map_err(|cause| IdentifyError::Io {
         path: "<measurement output>".into(),
-        source,
+        cause,
     })
 }
 
@@ -133,6 +128,12 @@ pub fn stats(e: &[f64]) -> AccuracyStats {
     }
 }
 
+/// A nominal model whose tool point is further than this from the validated model's (mm) is taken
+/// to describe another target (a preset's flange centre against a tracker target): its errors are
+/// computed with the model's tool instead. Closer tools are two estimates of the same target (a
+/// calibration moves the tool by tenths of a millimetre) and are kept.
+pub const SAME_TOOL_MM: f64 = 5.0;
+
 /// A model's accuracy, optionally beside a nominal model's.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Validation {
@@ -142,6 +143,9 @@ pub struct Validation {
     pub model: AccuracyStats,
     /// The nominal model's name and errors, if one was given.
     pub nominal: Option<(String, AccuracyStats)>,
+    /// The nominal model's own tool point (mm) when it was more than [`SAME_TOOL_MM`] from the
+    /// model's and the nominal errors were computed with the model's tool instead.
+    pub nominal_tool_replaced: Option<[f64; 3]>,
 }
 
 impl Validation {
@@ -158,7 +162,10 @@ impl Validation {
     }
 }
 
-/// Validates `model` (and optionally `nominal`) against measurements. Errors if there are none.
+/// Validates `model` (and optionally `nominal`) against measurements. Errors if there are none
+/// or a measurement's angles are outside the model's joint limits (naming its line and joint).
+/// The nominal model is evaluated with the model's tool when its own is another target (see
+/// [`SAME_TOOL_MM`] and [`Validation::nominal_tool_replaced`]).
 pub fn validate(
     model: &RobotModel,
     measurements: &[Measurement],
@@ -169,54 +176,40 @@ pub fn validate(
             "no measurements to validate against".into(),
         ));
     }
+    for m in measurements {
+        model
+            .check_limits(&m.q_deg)
+            .map_err(|message| IdentifyError::OutsideLimits {
+                line: m.line,
+                message,
+            })?;
+    }
+    let mut nominal_tool_replaced = None;
+    let nominal = nominal.map(|n| {
+        let mut n = n.clone();
+        let gap = (0..3)
+            .map(|k| (n.tool[k] - model.tool[k]).powi(2))
+            .sum::<f64>()
+            .sqrt();
+        if gap.is_nan() || gap > SAME_TOOL_MM {
+            nominal_tool_replaced = Some(n.tool);
+            n.tool = model.tool;
+        }
+        (n.name.clone(), accuracy(&n, measurements))
+    });
     Ok(Validation {
         model_name: model.name.clone(),
         model: accuracy(model, measurements),
-        nominal: nominal.map(|n| (n.name.clone(), accuracy(n, measurements))),
+        nominal,
+        nominal_tool_replaced,
     })
-}
-
-/// Formats a validation for the terminal.
-pub fn render_validation(v: &Validation) -> String {
-    let mut s = String::new();
-    let width = v
-        .nominal
-        .iter()
-        .map(|(n, _)| n.chars().count())
-        .chain([v.model_name.chars().count(), "improvement".len()])
-        .max()
-        .unwrap_or(0);
-    let _ = writeln!(s, "Positioning error over {} points (mm)", v.model.points);
-    let _ = writeln!(
-        s,
-        "{:<width$} {:>10} {:>10} {:>10}",
-        "model", "mean", "rms", "max"
-    );
-    let row = |s: &mut String, name: &str, a: &AccuracyStats| {
-        let _ = writeln!(
-            s,
-            "{:<width$} {:>10.4} {:>10.4} {:>10.4}",
-            name, a.mean_mm, a.rms_mm, a.max_mm
-        );
-    };
-    if let Some((name, n)) = &v.nominal {
-        row(&mut s, name, n);
-    }
-    row(&mut s, &v.model_name, &v.model);
-    if let Some([m, r, x]) = v.improvement_percent() {
-        let _ = writeln!(
-            s,
-            "{:<width$} {:>9.1}% {:>9.1}% {:>9.1}%",
-            "improvement", m, r, x
-        );
-    }
-    s
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::kinematics::tx60;
+    use crate::report::identify::render_validation;
 
     #[test]
     fn round_trip_and_stats() {

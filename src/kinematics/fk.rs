@@ -60,7 +60,7 @@ pub fn transform(params: &[f64; N_PARAMS], q: &[f64; JOINTS]) -> Mat4 {
 }
 
 /// End position `P(q) = T(q)·p_tool` in mm, for parameters in radians/mm and `q` in radians.
-#[inline]
+#[inline(always)]
 pub fn position(params: &[f64; N_PARAMS], tool: &[f64; 3], q: &[f64; JOINTS]) -> [f64; 3] {
     let [mut x, mut y, mut z] = *tool;
     for i in (0..JOINTS).rev() {

@@ -78,6 +78,16 @@ pub enum FixedParam {
     Beta,
 }
 
+impl FixedParam {
+    /// The parameter this variant holds fixed.
+    pub const fn kind(self) -> ParamKind {
+        match self {
+            FixedParam::D => ParamKind::D,
+            FixedParam::Beta => ParamKind::Beta,
+        }
+    }
+}
+
 /// Spread of the parameters about their values (internal units: mm, rad).
 #[derive(Clone, Debug, PartialEq)]
 #[allow(clippy::large_enum_variant)] // one per model; boxing buys nothing

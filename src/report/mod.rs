@@ -6,6 +6,7 @@
 //! run never leaves a half-written file behind.
 
 pub mod csv;
+pub mod identify;
 pub mod json;
 pub mod markdown;
 pub mod svg;

@@ -223,7 +223,7 @@ pub fn calibrate(exp: &Experiment, f: &Factors, seed: u64) -> Result<Calibration
             let run = exp.sweep_run(f, Some((r + 1).to_string()), &mut rng);
             identify_run(&run, &exp.nominal, &exp.identify)
                 .map(|id| id.model)
-                .map_err(|source| SimulateError::Identify { run: r + 1, source })
+                .map_err(|cause| SimulateError::Identify { run: r + 1, cause })
         })
         .collect::<Result<_, _>>()?;
     let mut independent = parameter_statistics(&runs).ok_or_else(|| {

@@ -86,12 +86,12 @@ pub enum SimulateError {
         message: String,
     },
     /// Identification of a simulated run failed.
-    #[error("calibration run {run}: {source}")]
+    #[error("calibration run {run}: {cause}")]
     Identify {
         /// 1-based run.
         run: usize,
-        /// Why.
-        source: crate::identify::IdentifyError,
+        /// Why (part of the message, not a separate source, so it is printed once).
+        cause: crate::identify::IdentifyError,
     },
     /// Validation or statistics failed.
     #[error("{0}")]
