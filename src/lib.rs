@@ -37,6 +37,7 @@
 
 pub mod engine;
 pub mod identify;
+pub mod input;
 pub mod kinematics;
 pub mod mc;
 pub mod points;

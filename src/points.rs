@@ -2,7 +2,7 @@
 //!
 //! Generated sets are seeded: configurations uniform within the joint limits, kept when the tool
 //! point lies in the workspace box (the paper's 900 × 1200 × 800 mm box centred at
-//! (250, 0, 200) mm in the base frame by default, METHOD.md §5). Sets can also be read from and
+//! (250, 0, 200) mm in the base frame by default, docs/METHOD.md §5). Sets can also be read from and
 //! written to CSV (`q1..q6` in degrees, one configuration per row).
 
 use crate::kinematics::{position_deg, RobotModel, JOINTS};
@@ -52,7 +52,10 @@ pub enum PointsError {
         /// Tries made.
         tries: u64,
     },
-    /// A CSV file could not be read or written.
+    /// A CSV file could not be read: missing, too large or not UTF-8.
+    #[error(transparent)]
+    Read(#[from] crate::input::ReadError),
+    /// A CSV file's contents are wrong (the message names the line).
     #[error("{path}: {message}")]
     Csv {
         /// File.
@@ -105,17 +108,19 @@ pub fn generate(
     Ok(out)
 }
 
-/// Reads configurations from a CSV with header `q1..q6` (degrees). Errors name the line.
+/// Reads configurations from a CSV with header `q1..q6` (degrees), at most
+/// [`crate::input::CSV_FILE_LIMIT`] bytes. Errors name the line as an editor counts it (also for
+/// CRLF files).
 pub fn read_csv(path: &std::path::Path) -> Result<Vec<[f64; JOINTS]>, PointsError> {
     let p = path.display().to_string();
     let err = |message: String| PointsError::Csv {
         path: p.clone(),
         message,
     };
+    let text = crate::input::read_csv_text(path)?;
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
-        .from_path(path)
-        .map_err(|e| err(e.to_string()))?;
+        .from_reader(text.as_bytes());
     let headers = rdr.headers().map_err(|e| err(e.to_string()))?.clone();
     let cols: Vec<usize> = (1..=JOINTS)
         .map(|j| {

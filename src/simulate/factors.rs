@@ -86,7 +86,7 @@ pub enum SimulateError {
         message: String,
     },
     /// Identification of a simulated run failed.
-    #[error("calibration run {run}: {source}")]
+    #[error("calibration run {run}")]
     Identify {
         /// 1-based run.
         run: usize,
