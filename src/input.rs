@@ -9,7 +9,7 @@
 use std::io::Read;
 use std::path::Path;
 
-/// Largest model file read: a model with a full 30 × 30 covariance is about 25 KiB.
+/// Largest model file read: a model with a full 30 × 30 covariance is 15–30 KiB.
 pub const MODEL_FILE_LIMIT: u64 = 1 << 20;
 /// Largest CSV file read (test points, sweeps, measurements): about two million rows of six
 /// angles, far more than any analysis uses.

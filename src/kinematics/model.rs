@@ -129,7 +129,7 @@ pub const MAX_SIGMA_MM: f64 = 100.0;
 /// sense while the draws stay well inside one turn (a spread of 1e6° is a uniform angle, not a
 /// calibration result), and the GPU's deviation form evaluates `sin`/`cos` of half the offset by
 /// its series for |δ/2| ≤ 45°: draws reach at most 6.8 σ (the Box–Muller bound for 32-bit
-/// uniforms), so σ ≤ 10° keeps every offset under 68° (docs/METHOD.md, the f32 deviation form).
+/// uniforms), so σ ≤ 10° keeps every independent offset under 68° (docs/METHOD.md §7).
 pub const MAX_SIGMA_DEG: f64 = 10.0;
 
 /// A model field that is out of range: the TOML field path (`joint[3].sigma.d`, 1-based joint)
