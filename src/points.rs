@@ -33,12 +33,19 @@ impl WorkspaceBox {
     }
 }
 
+/// Most test points a set may have (generated or read): far more than an analysis needs (the
+/// paper uses tens to hundreds), and a bound on the memory a mistyped count can claim.
+pub const MAX_POINTS: usize = 1_000_000;
+
 /// Errors about test points.
 #[derive(Debug, thiserror::Error)]
 pub enum PointsError {
     /// Zero points asked for.
     #[error("the number of test points must be at least 1")]
     Zero,
+    /// More test points than [`MAX_POINTS`] asked for.
+    #[error("the number of test points must be at most {MAX_POINTS}, got {0}")]
+    TooMany(usize),
     /// The box is empty or not finite.
     #[error("workspace box: {0}")]
     BadBox(String),
@@ -75,6 +82,9 @@ pub fn generate(
 ) -> Result<Vec<[f64; JOINTS]>, PointsError> {
     if n == 0 {
         return Err(PointsError::Zero);
+    }
+    if n > MAX_POINTS {
+        return Err(PointsError::TooMany(n));
     }
     if !(bx.size.iter().all(|s| s.is_finite() && *s > 0.0)
         && bx.center.iter().all(|c| c.is_finite()))
@@ -144,6 +154,11 @@ pub fn read_csv(path: &std::path::Path) -> Result<Vec<[f64; JOINTS]>, PointsErro
             ))
         })?;
         let line = rec.position().map_or(0, |p| p.line());
+        if out.len() == MAX_POINTS {
+            return Err(err(format!(
+                "line {line}: more than {MAX_POINTS} configurations (the most a set may have)"
+            )));
+        }
         let mut q = [0.0; JOINTS];
         for (j, &c) in cols.iter().enumerate() {
             let s = rec.get(c).unwrap_or("");
@@ -192,6 +207,16 @@ mod tests {
         for q in &a {
             assert!(m.check_limits(q).is_ok());
             assert!(bx.contains(&position_deg(&m.params, &m.tool, q)));
+        }
+    }
+
+    #[test]
+    fn absurd_counts_are_errors_not_allocations() {
+        for n in [MAX_POINTS + 1, usize::MAX] {
+            assert!(matches!(
+                generate(&tx60(), n, &WorkspaceBox::default(), 1),
+                Err(PointsError::TooMany(k)) if k == n
+            ));
         }
     }
 

@@ -368,6 +368,25 @@ fn oversized_inputs_are_refused_naming_the_limit() {
         &["--model", s(&big), "--backend", "cpu"],
         &["big.toml", "1 MiB"],
     );
+    // A mistyped count of test points is an error, not an allocation of terabytes.
+    fails_naming(
+        &["--points", "100000000000", "--backend", "cpu"],
+        &["at most 1000000", "100000000000"],
+    );
+    let rows = gpu_amcs::points::MAX_POINTS + 1;
+    let csv = write(
+        &d,
+        "many.csv",
+        &format!("q1,q2,q3,q4,q5,q6\n{}", "0,0,0,0,0,0\n".repeat(rows)),
+    );
+    fails_naming(
+        &["fk", "--points-file", s(&csv)],
+        &[
+            "many.csv",
+            &format!("line {}", rows + 1),
+            "more than 1000000",
+        ],
+    );
 }
 
 /// A preset whose every σ is 0: every draw is the mean.
