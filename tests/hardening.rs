@@ -252,6 +252,23 @@ fn absurd_magnitudes_are_refused_naming_the_field() {
 }
 
 #[test]
+fn limits_need_exactly_two_values() {
+    let d = tmpdir("limits");
+    for (limits, found) in [("[-180.0, 180.0, 5.0]", 3), ("[-180.0]", 1)] {
+        let text = preset_with("limits = [-180.0, 180.0]", &format!("limits = {limits}"));
+        let f = write(&d, "m.toml", &text);
+        fails_naming(
+            &["--model", s(&f), "--backend", "cpu"],
+            &[
+                "m.toml",
+                "joint[1].limits",
+                &format!("exactly 2 numbers [min, max] (deg), found {found}"),
+            ],
+        );
+    }
+}
+
+#[test]
 fn tool_needs_exactly_three_values() {
     let d = tmpdir("tool");
     for (tool, ok) in [

@@ -191,7 +191,7 @@ struct JointFile {
     alpha: f64,
     beta: f64,
     fixed: FixedParam,
-    limits: [f64; 2],
+    limits: Vec<f64>,
     sigma: SigmaFile,
 }
 
@@ -266,7 +266,18 @@ impl RobotModel {
                 sigma[j * 5 + k] = sig[k] * kind.to_internal();
             }
             fixed[j] = jf.fixed;
-            limits[j] = (jf.limits[0], jf.limits[1]);
+            limits[j] = match jf.limits[..] {
+                [lo, hi] => (lo, hi),
+                _ => {
+                    return Err(bad(
+                        &format!("{}.limits", joint_field(j)),
+                        format!(
+                            "must be exactly 2 numbers [min, max] (deg), found {}",
+                            jf.limits.len()
+                        ),
+                    ))
+                }
+            };
         }
         let uncertainty = match &file.covariance {
             None => Uncertainty::Independent(sigma),
