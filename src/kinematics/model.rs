@@ -472,6 +472,12 @@ fn show(v: f64) -> String {
     }
 }
 
+/// Whether `v` (converted back from internal units) exceeds `max`, allowing for the rounding of
+/// the degree/radian round trip so that a file value of exactly `max` passes.
+fn exceeds(v: f64, max: f64) -> bool {
+    v.abs() > max * (1.0 + 1e-12)
+}
+
 /// `v` finite and `|v| ≤ max`.
 fn check_magnitude(field: &str, v: f64, max: f64, unit: &str) -> Result<(), InvalidField> {
     if !v.is_finite() {
@@ -480,7 +486,7 @@ fn check_magnitude(field: &str, v: f64, max: f64, unit: &str) -> Result<(), Inva
             message: format!("must be finite, got {v}"),
         });
     }
-    if v.abs() > max {
+    if exceeds(v, max) {
         return Err(InvalidField {
             field: field.into(),
             message: format!(
@@ -501,7 +507,7 @@ fn check_sigmas(s: &[f64; N_PARAMS], fixed: &[FixedParam; JOINTS]) -> Result<(),
             if !v.is_finite() || v < 0.0 {
                 return Err(InvalidField {
                     field,
-                    message: format!("must be a finite number ≥ 0, got {v}"),
+                    message: format!("must be a finite number ≥ 0, got {}", show(v)),
                 });
             }
             let (max, unit, why) = if kind.is_angle() {
@@ -518,7 +524,7 @@ fn check_sigmas(s: &[f64; N_PARAMS], fixed: &[FixedParam; JOINTS]) -> Result<(),
                     "a spread this large is a unit mistake, not a calibration uncertainty",
                 )
             };
-            if v > max {
+            if exceeds(v, max) {
                 return Err(InvalidField {
                     field,
                     message: format!(
@@ -715,6 +721,50 @@ mod tests {
         RobotModel::from_toml(text, "m.toml")
             .unwrap_err()
             .to_string()
+    }
+
+    #[test]
+    fn values_exactly_at_the_limits_pass_and_just_past_fail() {
+        // The file's degrees go through radians and back: the check must not reject a value of
+        // exactly the limit by a rounding ulp, for any joint or parameter.
+        let mut m = tx60();
+        for (i, p) in m.params.iter_mut().enumerate() {
+            let kind = ParamKind::ALL[i % 5];
+            let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+            let max = if kind.is_angle() {
+                MAX_ANGLE_DEG
+            } else {
+                MAX_LENGTH_MM
+            };
+            *p = sign * max * kind.to_internal();
+        }
+        let mut s = [0.0; N_PARAMS];
+        for (i, v) in s.iter_mut().enumerate() {
+            let kind = ParamKind::ALL[i % 5];
+            let fixed = match m.fixed[i / 5] {
+                FixedParam::D => ParamKind::D,
+                FixedParam::Beta => ParamKind::Beta,
+            };
+            if kind != fixed {
+                *v = if kind.is_angle() {
+                    MAX_SIGMA_DEG
+                } else {
+                    MAX_SIGMA_MM
+                } * kind.to_internal();
+            }
+        }
+        m.uncertainty = Uncertainty::Independent(s);
+        m.limits_deg = [(-MAX_LIMIT_DEG, MAX_LIMIT_DEG); JOINTS];
+        m.tool = [MAX_LENGTH_MM, -MAX_LENGTH_MM, 0.0];
+        m.check().unwrap();
+        RobotModel::from_toml(&m.to_toml(), "m.toml").unwrap();
+        let mut past = m.clone();
+        past.params[3] *= 1.000_001;
+        assert_eq!(past.check().unwrap_err().field, "joint[1].alpha");
+        let mut past = m.clone();
+        s[2] *= 1.000_001;
+        past.uncertainty = Uncertainty::Independent(s);
+        assert_eq!(past.check().unwrap_err().field, "joint[1].sigma.a");
     }
 
     #[test]
