@@ -2,8 +2,9 @@
 //! megabytes, so a wrong path (`/dev/zero`, a disk image) gives an error naming the file and the
 //! limit instead of filling the memory.
 //!
-//! Text must be UTF-8; an invalid byte is reported with its line. CSV text has its `\r\n` line
-//! ends turned into `\n` before parsing, so the line numbers the CSV reader reports are those an
+//! Text must be UTF-8 (a leading byte-order mark, as spreadsheet programs write, is dropped); an
+//! invalid byte is reported with its line. CSV text has its `\r\n` (and lone `\r`) line ends
+//! turned into `\n` before parsing, so the line numbers the CSV reader reports are those an
 //! editor shows (the `csv` crate counts a CRLF file's lines one short).
 
 use std::io::Read;
@@ -82,6 +83,9 @@ pub fn read_text(path: &Path, limit: u64, what: &'static str) -> Result<String, 
             limit,
         });
     }
+    if buf.starts_with(b"\xef\xbb\xbf") {
+        buf.drain(..3);
+    }
     String::from_utf8(buf).map_err(|e| {
         let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
         ReadError::NotUtf8 {
@@ -92,11 +96,11 @@ pub fn read_text(path: &Path, limit: u64, what: &'static str) -> Result<String, 
     })
 }
 
-/// Reads a CSV file (at most [`CSV_FILE_LIMIT`]) with `\r\n` line ends made `\n`.
+/// Reads a CSV file (at most [`CSV_FILE_LIMIT`]) with `\r\n` and lone `\r` line ends made `\n`.
 pub fn read_csv_text(path: &Path) -> Result<String, ReadError> {
     let text = read_text(path, CSV_FILE_LIMIT, "CSV file")?;
     Ok(if text.contains('\r') {
-        text.replace("\r\n", "\n")
+        text.replace("\r\n", "\n").replace('\r', "\n")
     } else {
         text
     })
@@ -135,9 +139,9 @@ mod tests {
     }
 
     #[test]
-    fn crlf_becomes_lf() {
-        let p = temp("crlf", b"q1\r\n1\r\n");
-        assert_eq!(read_csv_text(&p).unwrap(), "q1\n1\n");
+    fn crlf_and_cr_become_lf_and_a_bom_is_dropped() {
+        let p = temp("crlf", b"\xef\xbb\xbfq1\r\n1\r\n2\r3\n");
+        assert_eq!(read_csv_text(&p).unwrap(), "q1\n1\n2\n3\n");
         let _ = std::fs::remove_file(p);
     }
 }

@@ -302,8 +302,8 @@ fn crlf_files_give_the_line_an_editor_shows() {
     let short = "q1,q2,q3,q4,q5,q6\r\n0,0,0,0,0,0\r\n0,0,0,0,0\r\n";
     let f = write(&d, "short.csv", short);
     fails_naming(&["fk", "--points-file", s(&f)], &["short.csv", "line 3"]);
-    // A good CRLF file reads the same as with LF.
-    let good = "q1,q2,q3,q4,q5,q6\r\n10,20,30,40,50,60\r\n";
+    // A good CRLF file reads the same as with LF, also with a spreadsheet's byte-order mark.
+    let good = "\u{feff}q1,q2,q3,q4,q5,q6\r\n10,20,30,40,50,60\r\n";
     let f = write(&d, "good.csv", good);
     assert_eq!(
         gpu_amcs::points::read_csv(&f).unwrap(),
