@@ -429,6 +429,8 @@ fn undefined_moments_are_reported_as_undefined_on_every_backend() {
             backend,
             "--json",
             s(&j),
+            "--csv",
+            s(&d.join(backend)),
         ]);
         if backend == "gpu" && !o.status.success() {
             eprintln!("no GPU adapter, GPU half skipped: {}", stderr(&o));
@@ -454,6 +456,10 @@ fn undefined_moments_are_reported_as_undefined_on_every_backend() {
         assert_eq!(m["variance"], 0.0, "{backend}");
         let se = &v["result"]["moment_standard_errors"];
         assert!(se[2].is_null() && se[3].is_null(), "{backend}: {se}");
+        // A point mass has no density: the PDF file has its header and no rows (it used to have
+        // one bin of 4.5e307 per mm).
+        let pdf = std::fs::read_to_string(d.join(backend).join("pdf.csv")).unwrap();
+        assert_eq!(pdf, "w_mm,density_per_mm\n", "{backend}");
         seen.push(backend);
     }
     assert!(seen.contains(&"cpu"));

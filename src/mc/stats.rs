@@ -230,9 +230,15 @@ pub fn ecdf_grid(sorted: &[f64], points: usize) -> Vec<(f64, f64)> {
 }
 
 /// A histogram density estimate: `(bin centre, density)` for `bins` equal bins over
-/// `[min, max]` of ascending values; densities integrate to 1.
+/// `[min, max]` of ascending values; densities integrate to 1. Empty when there are no values or
+/// all are equal: a point mass has no density (the reports then write no PDF rows).
 pub fn histogram(sorted: &[f64], bins: usize) -> Vec<(f64, f64)> {
-    let (lo, hi) = (sorted[0], sorted[sorted.len() - 1]);
+    let (Some(&lo), Some(&hi)) = (sorted.first(), sorted.last()) else {
+        return Vec::new();
+    };
+    if hi <= lo || bins == 0 {
+        return Vec::new();
+    }
     let width = ((hi - lo) / bins as f64).max(f64::MIN_POSITIVE);
     let mut counts = vec![0u64; bins];
     for &v in sorted {
@@ -328,5 +334,8 @@ mod tests {
         let width = h[1].0 - h[0].0;
         let total: f64 = h.iter().map(|(_, d)| d * width).sum();
         assert!((total - 1.0).abs() < 1e-12);
+        // A point mass (all σ = 0) has no density, not one bin of 1/MIN_POSITIVE.
+        assert!(histogram(&[0.3; 50], 37).is_empty());
+        assert!(histogram(&[], 37).is_empty());
     }
 }
