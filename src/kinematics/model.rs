@@ -222,7 +222,7 @@ impl RobotModel {
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, ModelError> {
         let file: ModelFile = toml::from_str(text).map_err(|e| ModelError::Syntax {
             path: origin.to_string(),
-            message: e.to_string().trim().replace('\n', " "),
+            message: toml_error_line(text, &e),
         })?;
         let invalid = |e: InvalidField| ModelError::Invalid {
             path: origin.to_string(),
@@ -453,6 +453,20 @@ impl RobotModel {
             }
         }
         Ok(())
+    }
+}
+
+/// The parser's error as one line, `line L, column C: message` (the parser's own text spans
+/// several lines with a source excerpt).
+fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
+    let message = e.message().trim().replace('\n', " ");
+    match e.span().and_then(|sp| text.get(..sp.start)) {
+        Some(before) => {
+            let line = 1 + before.matches('\n').count();
+            let column = 1 + before.rsplit('\n').next().map_or(0, |l| l.chars().count());
+            format!("line {line}, column {column}: {message}")
+        }
+        None => message,
     }
 }
 
@@ -785,6 +799,17 @@ mod tests {
         assert!(err_of(&nan).contains("joint[1].a"), "{}", err_of(&nan));
         let unknown = good.replacen("fixed = \"beta\"", "fixed = \"beta\"\nfoo = 1", 1);
         assert!(err_of(&unknown).contains("foo"), "{}", err_of(&unknown));
+        let line = 1
+            + good[..good.find("fixed = \"beta\"").unwrap()]
+                .matches('\n')
+                .count()
+            + 1;
+        assert!(
+            err_of(&unknown).starts_with(&format!("model file m.toml: line {line}, column 1: ")),
+            "{}",
+            err_of(&unknown)
+        );
+        assert!(!err_of("x = ").contains('|'), "{}", err_of("x = "));
         let missing = good.replacen(
             "sigma = { theta = 0.003216, d = 0.005056,",
             "sigma = { d = 0.005056,",
