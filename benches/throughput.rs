@@ -106,7 +106,10 @@ fn main() {
     .unwrap();
     println!(
         "MCS: M1 {:.5} M2 {:.4e} M3 {:.4} M4 {:.4}",
-        mcs.moments.mean, mcs.moments.variance, mcs.moments.skewness, mcs.moments.kurtosis
+        mcs.moments.mean,
+        mcs.moments.variance,
+        mcs.moments.as_array()[2],
+        mcs.moments.as_array()[3]
     );
     println!(
         "{:>7} {:>14} {:>14} {:>12}",

@@ -95,14 +95,13 @@ fn build_problem(a: &ProblemArgs) -> Result<Built> {
         )
         .context("--points")?,
     };
-    let (reference, label) = match a.reference {
-        ReferenceArg::Calibrated => (Reference::Calibrated, "calibrated model".to_string()),
-        ReferenceArg::Nominal => {
-            let n = load_model(&a.nominal, &a.preset).context("--nominal")?;
-            let label = format!("nominal model ({})", n.name);
-            (Reference::Nominal(Box::new(n)), label)
-        }
+    let reference = match a.reference {
+        ReferenceArg::Calibrated => Reference::Calibrated,
+        ReferenceArg::Nominal => Reference::Nominal(Box::new(
+            load_model(&a.nominal, &a.preset).context("--nominal")?,
+        )),
     };
+    let label = reference.label(&model);
     let problem = Problem::new(model, &pts, &reference, a.seed).context(match &a.points_file {
         Some(f) => format!("--points-file {}", f.display()),
         None => "test points".into(),

@@ -38,6 +38,7 @@
 pub mod engine;
 pub mod identify;
 pub mod import;
+pub mod input;
 pub mod kinematics;
 pub mod mc;
 pub mod points;

@@ -2,7 +2,7 @@
 //!
 //! Generated sets are seeded: configurations uniform within the joint limits, kept when the tool
 //! point lies in the workspace box (the paper's 900 × 1200 × 800 mm box centred at
-//! (250, 0, 200) mm in the base frame by default, METHOD.md §5). Sets can also be read from and
+//! (250, 0, 200) mm in the base frame by default, docs/METHOD.md §5). Sets can also be read from and
 //! written to CSV (`q1..q6` in degrees, one configuration per row).
 
 use crate::kinematics::{position_deg, RobotModel, JOINTS};
@@ -33,12 +33,19 @@ impl WorkspaceBox {
     }
 }
 
+/// Most test points a set may have (generated or read): far more than an analysis needs (the
+/// paper uses tens to hundreds), and a bound on the memory a mistyped count can claim.
+pub const MAX_POINTS: usize = 1_000_000;
+
 /// Errors about test points.
 #[derive(Debug, thiserror::Error)]
 pub enum PointsError {
     /// Zero points asked for.
     #[error("the number of test points must be at least 1")]
     Zero,
+    /// More test points than [`MAX_POINTS`] asked for.
+    #[error("the number of test points must be at most {MAX_POINTS}, got {0}")]
+    TooMany(usize),
     /// The box is empty or not finite.
     #[error("workspace box: {0}")]
     BadBox(String),
@@ -52,7 +59,10 @@ pub enum PointsError {
         /// Tries made.
         tries: u64,
     },
-    /// A CSV file could not be read or written.
+    /// A CSV file could not be read: missing, too large or not UTF-8.
+    #[error(transparent)]
+    Read(#[from] crate::input::ReadError),
+    /// A CSV file's contents are wrong (the message names the line).
     #[error("{path}: {message}")]
     Csv {
         /// File.
@@ -72,6 +82,9 @@ pub fn generate(
 ) -> Result<Vec<[f64; JOINTS]>, PointsError> {
     if n == 0 {
         return Err(PointsError::Zero);
+    }
+    if n > MAX_POINTS {
+        return Err(PointsError::TooMany(n));
     }
     if !(bx.size.iter().all(|s| s.is_finite() && *s > 0.0)
         && bx.center.iter().all(|c| c.is_finite()))
@@ -105,17 +118,19 @@ pub fn generate(
     Ok(out)
 }
 
-/// Reads configurations from a CSV with header `q1..q6` (degrees). Errors name the line.
+/// Reads configurations from a CSV with header `q1..q6` (degrees), at most
+/// [`crate::input::CSV_FILE_LIMIT`] bytes. Errors name the line as an editor counts it (also for
+/// CRLF files).
 pub fn read_csv(path: &std::path::Path) -> Result<Vec<[f64; JOINTS]>, PointsError> {
     let p = path.display().to_string();
     let err = |message: String| PointsError::Csv {
         path: p.clone(),
         message,
     };
+    let text = crate::input::read_csv_text(path)?;
     let mut rdr = csv::ReaderBuilder::new()
         .trim(csv::Trim::All)
-        .from_path(path)
-        .map_err(|e| err(e.to_string()))?;
+        .from_reader(text.as_bytes());
     let headers = rdr.headers().map_err(|e| err(e.to_string()))?.clone();
     let cols: Vec<usize> = (1..=JOINTS)
         .map(|j| {
@@ -139,6 +154,11 @@ pub fn read_csv(path: &std::path::Path) -> Result<Vec<[f64; JOINTS]>, PointsErro
             ))
         })?;
         let line = rec.position().map_or(0, |p| p.line());
+        if out.len() == MAX_POINTS {
+            return Err(err(format!(
+                "line {line}: more than {MAX_POINTS} configurations (the most a set may have)"
+            )));
+        }
         let mut q = [0.0; JOINTS];
         for (j, &c) in cols.iter().enumerate() {
             let s = rec.get(c).unwrap_or("");
@@ -187,6 +207,16 @@ mod tests {
         for q in &a {
             assert!(m.check_limits(q).is_ok());
             assert!(bx.contains(&position_deg(&m.params, &m.tool, q)));
+        }
+    }
+
+    #[test]
+    fn absurd_counts_are_errors_not_allocations() {
+        for n in [MAX_POINTS + 1, usize::MAX] {
+            assert!(matches!(
+                generate(&tx60(), n, &WorkspaceBox::default(), 1),
+                Err(PointsError::TooMany(k)) if k == n
+            ));
         }
     }
 

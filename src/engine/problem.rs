@@ -2,7 +2,13 @@
 //!
 //! The reference position of test point j is `P_ref,j` of paper eq. 12: by default the position
 //! the calibrated model predicts (FK with its own parameter values), optionally that of a nominal
-//! (design) model, which adds the systematic error of an uncalibrated robot (METHOD.md §3).
+//! (design) model, which adds the systematic error of an uncalibrated robot (docs/METHOD.md §3).
+//!
+//! The nominal reference is where the design geometry would put *the same target*: the nominal
+//! model's joint parameters with the analysed model's tool. A nominal model is usually a preset
+//! without a tracker target (tool `[0, 0, 0]`), while every identified model carries the target
+//! it was measured with; using the nominal model's own tool would add the tool offset (tens of
+//! mm) to every error.
 
 use crate::kinematics::{position, RobotModel, JOINTS};
 use crate::sampling::{ParamSampler, SamplerError};
@@ -12,8 +18,27 @@ use crate::sampling::{ParamSampler, SamplerError};
 pub enum Reference {
     /// The model's own parameter values (the calibrated model).
     Calibrated,
-    /// Another (nominal) model's prediction.
+    /// Another (nominal) model's joint parameters, with the analysed model's tool.
     Nominal(Box<RobotModel>),
+}
+
+impl Reference {
+    /// How reports name the reference of an analysis of `model`: `"calibrated model"`,
+    /// `"nominal model (NAME)"`, or, when the nominal model's own tool differs from the model's,
+    /// `"nominal model (NAME) with the model's tool [x, y, z]"` (mm).
+    pub fn label(&self, model: &RobotModel) -> String {
+        match self {
+            Reference::Calibrated => "calibrated model".to_string(),
+            Reference::Nominal(n) if n.tool == model.tool => format!("nominal model ({})", n.name),
+            Reference::Nominal(n) => {
+                let [x, y, z] = model.tool;
+                format!(
+                    "nominal model ({}) with the model's tool [{x:.3}, {y:.3}, {z:.3}]",
+                    n.name
+                )
+            }
+        }
+    }
 }
 
 /// Errors setting up a problem.
@@ -22,6 +47,16 @@ pub enum ProblemError {
     /// No test points.
     #[error("no test points: at least one is needed")]
     NoPoints,
+    /// A value of the model is out of range (see [`RobotModel::check`]).
+    #[error("model {model}: {field}: {message}")]
+    Model {
+        /// The model's name.
+        model: String,
+        /// The field, as the model file spells it.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
     /// A test point is outside the joint limits or not finite.
     #[error("test point {index}: {message}")]
     BadPoint {
@@ -51,13 +86,19 @@ pub struct Problem {
 }
 
 impl Problem {
-    /// Builds a problem from test points in degrees (checked against the model's limits).
+    /// Builds a problem from test points in degrees (checked against the model's limits). The
+    /// model is checked as a model file is ([`RobotModel::check`]).
     pub fn new(
         model: RobotModel,
         points_deg: &[[f64; JOINTS]],
         reference: &Reference,
         seed: u64,
     ) -> Result<Self, ProblemError> {
+        model.check().map_err(|e| ProblemError::Model {
+            model: model.name.clone(),
+            field: e.field,
+            message: e.message,
+        })?;
         if points_deg.is_empty() {
             return Err(ProblemError::NoPoints);
         }
@@ -75,7 +116,7 @@ impl Problem {
             .iter()
             .map(|q| match reference {
                 Reference::Calibrated => position(&model.params, &model.tool, q),
-                Reference::Nominal(n) => position(&n.params, &n.tool, q),
+                Reference::Nominal(n) => position(&n.params, &model.tool, q),
             })
             .collect();
         let sampler = ParamSampler::new(&model, seed)?;

@@ -1,4 +1,4 @@
-//! Robot kinematics: the Hayati-extended (modified) DH chain of METHOD.md §1.
+//! Robot kinematics: the Hayati-extended (modified) DH chain of docs/METHOD.md §1.
 //!
 //! Each joint contributes five geometric parameters,
 //! `T_i(q_i) = Rz(θ_i + q_i) · Tz(d_i) · Tx(a_i) · Rx(α_i) · Ry(β_i)`,
@@ -17,7 +17,8 @@ mod preset;
 
 pub use fk::{joint_transform, position, position_deg, transform, Mat4};
 pub use model::{
-    param_index, FixedParam, ModelError, ParamKind, RobotModel, Uncertainty, JOINTS, N_PARAMS,
+    param_index, FixedParam, InvalidField, ModelError, ParamKind, RobotModel, Uncertainty, JOINTS,
+    MAX_ANGLE_DEG, MAX_LENGTH_MM, MAX_LIMIT_DEG, MAX_SIGMA_DEG, MAX_SIGMA_MM, N_PARAMS,
     PARAMS_PER_JOINT,
 };
 pub use preset::{irb2400, preset, tx60, ur10e, ur5e, UrdfJointFigures, IRB2400_URDF, PRESETS};

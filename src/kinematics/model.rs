@@ -68,7 +68,7 @@ pub const fn param_index(joint: usize, kind: ParamKind) -> usize {
         }
 }
 
-/// Which of `d` and `β` a joint keeps fixed (METHOD.md §1).
+/// Which of `d` and `β` a joint keeps fixed (docs/METHOD.md §1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum FixedParam {
@@ -125,17 +125,40 @@ pub struct RobotModel {
     pub uncertainty: Uncertainty,
 }
 
+/// Largest magnitude of a length in a model (`d`, `a`, the tool's coordinates), mm: 100 m, far
+/// beyond any arm; a larger value is a unit mistake (see the README, "Model file").
+pub const MAX_LENGTH_MM: f64 = 1e5;
+/// Largest magnitude of an angle parameter (`theta`, `alpha`, `beta`), degrees.
+pub const MAX_ANGLE_DEG: f64 = 360.0;
+/// Largest magnitude of a joint limit, degrees: two turns, room for multi-turn wrist joints.
+pub const MAX_LIMIT_DEG: f64 = 720.0;
+/// Largest standard deviation of a length, mm. Calibration spreads are micrometres; a tenth of
+/// the arm's reach is a unit mistake, not an uncertainty.
+pub const MAX_SIGMA_MM: f64 = 100.0;
+/// Largest standard deviation of an angle, degrees. The normal model of an angle only makes
+/// sense while the draws stay well inside one turn (a spread of 1e6° is a uniform angle, not a
+/// calibration result), and the GPU's deviation form evaluates `sin`/`cos` of half the offset by
+/// its series for |δ/2| ≤ 45°: draws reach at most 6.8 σ (the Box–Muller bound for 32-bit
+/// uniforms), so σ ≤ 10° keeps every independent offset under 68° (docs/METHOD.md §7).
+pub const MAX_SIGMA_DEG: f64 = 10.0;
+
+/// A model field that is out of range: the TOML field path (`joint[3].sigma.d`, 1-based joint)
+/// and what is wrong, in file units (mm, degrees).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("{field}: {message}")]
+pub struct InvalidField {
+    /// The field, e.g. `joint[2].sigma.d` or `covariance.matrix[3][1]`.
+    pub field: String,
+    /// What is wrong.
+    pub message: String,
+}
+
 /// Errors reading or checking a model.
 #[derive(Debug, thiserror::Error)]
 pub enum ModelError {
-    /// The model file could not be read.
-    #[error("cannot read model file {path}: {source}")]
-    Io {
-        /// The path given.
-        path: String,
-        /// The OS error.
-        source: std::io::Error,
-    },
+    /// The model file could not be read, is too large or is not UTF-8.
+    #[error(transparent)]
+    Read(#[from] crate::input::ReadError),
     /// The TOML is malformed or has unknown or missing keys (the message names line and key).
     #[error("model file {path}: {message}")]
     Syntax {
@@ -178,7 +201,7 @@ struct JointFile {
     alpha: f64,
     beta: f64,
     fixed: FixedParam,
-    limits: [f64; 2],
+    limits: Vec<f64>,
     sigma: SigmaFile,
 }
 
@@ -192,136 +215,157 @@ struct CovarianceFile {
 #[serde(deny_unknown_fields)]
 struct ModelFile {
     name: String,
-    tool: [f64; 3],
+    tool: Vec<f64>,
     joint: Vec<JointFile>,
     #[serde(skip_serializing_if = "Option::is_none")]
     covariance: Option<CovarianceFile>,
 }
 
 impl RobotModel {
-    /// Reads and checks a model file.
+    /// Reads and checks a model file (at most [`crate::input::MODEL_FILE_LIMIT`] bytes).
     pub fn from_file(path: &std::path::Path) -> Result<Self, ModelError> {
-        let p = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ModelError::Io {
-            path: p.clone(),
-            source,
-        })?;
-        Self::from_toml(&text, &p)
+        let text = crate::input::read_text(path, crate::input::MODEL_FILE_LIMIT, "model file")?;
+        Self::from_toml(&text, &path.display().to_string())
     }
 
     /// Parses and checks a model from TOML text; `origin` names the source in errors.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, ModelError> {
         let file: ModelFile = toml::from_str(text).map_err(|e| ModelError::Syntax {
             path: origin.to_string(),
-            message: e.to_string().trim().replace('\n', " "),
+            message: toml_error_line(text, &e),
         })?;
-        let invalid = |field: String, message: String| ModelError::Invalid {
+        let invalid = |e: InvalidField| ModelError::Invalid {
             path: origin.to_string(),
-            field,
-            message,
+            field: e.field,
+            message: e.message,
+        };
+        let bad = |field: &str, message: String| {
+            invalid(InvalidField {
+                field: field.into(),
+                message,
+            })
         };
         if file.joint.len() != JOINTS {
-            return Err(invalid(
-                "joint".into(),
+            return Err(bad(
+                "joint",
                 format!(
                     "expected {JOINTS} [[joint]] tables, found {}",
                     file.joint.len()
                 ),
             ));
         }
-        for (k, v) in file.tool.iter().enumerate() {
-            if !v.is_finite() {
-                return Err(invalid(
-                    format!("tool[{k}]"),
-                    format!("must be finite, got {v}"),
-                ));
-            }
-        }
+        let tool: [f64; 3] = file.tool.as_slice().try_into().map_err(|_| {
+            bad(
+                "tool",
+                format!(
+                    "must be exactly 3 numbers [x, y, z] (mm), found {}",
+                    file.tool.len()
+                ),
+            )
+        })?;
         let mut params = [0.0; N_PARAMS];
         let mut sigma = [0.0; N_PARAMS];
         let mut fixed = [FixedParam::Beta; JOINTS];
         let mut limits = [(0.0, 0.0); JOINTS];
         for (j, jf) in file.joint.iter().enumerate() {
-            let n = j + 1;
             let vals = [jf.theta, jf.d, jf.a, jf.alpha, jf.beta];
-            let sig = [
-                jf.sigma.theta,
-                jf.sigma.d,
-                jf.sigma.a,
-                jf.sigma.alpha,
-                jf.sigma.beta,
-            ];
+            let s = &jf.sigma;
+            let sig = [s.theta, s.d, s.a, s.alpha, s.beta];
             for (k, kind) in ParamKind::ALL.iter().enumerate() {
-                if !vals[k].is_finite() {
-                    return Err(invalid(
-                        format!("joint[{n}].{}", kind.name()),
-                        format!("must be finite, got {}", vals[k]),
-                    ));
-                }
-                if !sig[k].is_finite() || sig[k] < 0.0 {
-                    return Err(invalid(
-                        format!("joint[{n}].sigma.{}", kind.name()),
-                        format!("must be a finite number ≥ 0, got {}", sig[k]),
-                    ));
-                }
                 params[j * 5 + k] = vals[k] * kind.to_internal();
                 sigma[j * 5 + k] = sig[k] * kind.to_internal();
             }
-            let fixed_kind = match jf.fixed {
-                FixedParam::D => ParamKind::D,
-                FixedParam::Beta => ParamKind::Beta,
-            };
-            if sigma[param_index(j, fixed_kind)] != 0.0 {
-                return Err(invalid(
-                    format!("joint[{n}].sigma.{}", fixed_kind.name()),
-                    format!(
-                        "must be 0: {} is the fixed parameter of this joint",
-                        fixed_kind.name()
-                    ),
-                ));
-            }
             fixed[j] = jf.fixed;
-            let [lo, hi] = jf.limits;
-            if !(lo.is_finite() && hi.is_finite() && lo < hi) {
-                return Err(invalid(
-                    format!("joint[{n}].limits"),
-                    format!("must be [min, max] with min < max (deg), got [{lo}, {hi}]"),
-                ));
-            }
-            limits[j] = (lo, hi);
+            limits[j] = match jf.limits[..] {
+                [lo, hi] => (lo, hi),
+                _ => {
+                    return Err(bad(
+                        &format!("{}.limits", joint_field(j)),
+                        format!(
+                            "must be exactly 2 numbers [min, max] (deg), found {}",
+                            jf.limits.len()
+                        ),
+                    ))
+                }
+            };
         }
         let uncertainty = match &file.covariance {
             None => Uncertainty::Independent(sigma),
             Some(c) => {
-                let cov = check_covariance(&c.matrix, &fixed)
-                    .map_err(|(field, msg)| invalid(field, msg))?;
-                // The per-joint sigma must agree with the covariance diagonal so a reader of the
-                // file is not misled.
-                let diag = Uncertainty::Covariance(cov.clone()).sigmas();
-                for i in 0..N_PARAMS {
-                    if (diag[i] - sigma[i]).abs() > 1e-6 * diag[i].max(sigma[i]).max(1e-300) {
-                        let kind = ParamKind::ALL[i % 5];
-                        return Err(invalid(
-                            format!("joint[{}].sigma.{}", i / 5 + 1, kind.name()),
-                            format!(
-                                "differs from sqrt of covariance diagonal ({} vs {})",
-                                sigma[i] / kind.to_internal(),
-                                diag[i] / kind.to_internal()
-                            ),
-                        ));
-                    }
-                }
-                Uncertainty::Covariance(cov)
+                // The `sigma` tables are checked on their own: the model keeps only the matrix.
+                check_sigmas(&sigma, &fixed).map_err(invalid)?;
+                Uncertainty::Covariance(covariance_from_file(&c.matrix).map_err(invalid)?)
             }
         };
-        Ok(RobotModel {
+        let model = RobotModel {
             name: file.name,
             params,
             fixed,
             limits_deg: limits,
-            tool: file.tool,
+            tool,
             uncertainty,
-        })
+        };
+        model.check().map_err(invalid)?;
+        // The per-joint sigma must agree with the covariance diagonal so a reader of the file is
+        // not misled.
+        if let Uncertainty::Covariance(_) = &model.uncertainty {
+            let diag = model.uncertainty.sigmas();
+            for i in 0..N_PARAMS {
+                if (diag[i] - sigma[i]).abs() > 1e-6 * diag[i].max(sigma[i]).max(1e-300) {
+                    let kind = ParamKind::ALL[i % 5];
+                    return Err(bad(
+                        &format!("{}.sigma.{}", joint_field(i / 5), kind.name()),
+                        format!(
+                            "differs from sqrt of covariance diagonal ({} vs {})",
+                            sigma[i] / kind.to_internal(),
+                            diag[i] / kind.to_internal()
+                        ),
+                    ));
+                }
+            }
+        }
+        Ok(model)
+    }
+
+    /// Checks every value against the model file's rules (README, "Model file"): finite
+    /// parameters, lengths within ±[`MAX_LENGTH_MM`], angles within ±[`MAX_ANGLE_DEG`], limits
+    /// `min < max` within ±[`MAX_LIMIT_DEG`], standard deviations ≥ 0 and at most
+    /// [`MAX_SIGMA_MM`] / [`MAX_SIGMA_DEG`], zero spread on each joint's fixed parameter, and a
+    /// covariance that is symmetric and positive definite on the parameters with nonzero
+    /// variance. The error names the field as the file spells it.
+    pub fn check(&self) -> Result<(), InvalidField> {
+        for (k, &v) in self.tool.iter().enumerate() {
+            check_magnitude(&format!("tool[{k}]"), v, MAX_LENGTH_MM, "mm")?;
+        }
+        for j in 0..JOINTS {
+            for kind in ParamKind::ALL {
+                let v = self.params[param_index(j, kind)] / kind.to_internal();
+                let (max, unit) = if kind.is_angle() {
+                    (MAX_ANGLE_DEG, "deg")
+                } else {
+                    (MAX_LENGTH_MM, "mm")
+                };
+                check_magnitude(&format!("{}.{}", joint_field(j), kind.name()), v, max, unit)?;
+            }
+            let (lo, hi) = self.limits_deg[j];
+            let field = format!("{}.limits", joint_field(j));
+            if !(lo.is_finite() && hi.is_finite() && lo < hi) {
+                return Err(InvalidField {
+                    field,
+                    message: format!("must be [min, max] with min < max (deg), got [{lo}, {hi}]"),
+                });
+            }
+            check_magnitude(&field, lo, MAX_LIMIT_DEG, "deg")?;
+            check_magnitude(&field, hi, MAX_LIMIT_DEG, "deg")?;
+        }
+        match &self.uncertainty {
+            Uncertainty::Independent(s) => check_sigmas(s, &self.fixed),
+            Uncertainty::Covariance(c) => {
+                check_covariance(c, &self.fixed)?;
+                check_sigmas(&self.uncertainty.sigmas(), &self.fixed)?;
+                check_positive_definite(c, &self.free_params())
+            }
+        }
     }
 
     /// Writes the model as TOML (mm, degrees) with explanatory comments.
@@ -422,50 +466,173 @@ impl RobotModel {
     }
 }
 
-/// Checks a covariance given in file units; returns it in internal units.
-fn check_covariance(
-    m: &[Vec<f64>],
-    fixed: &[FixedParam; JOINTS],
-) -> Result<Vec<f64>, (String, String)> {
+/// The parser's error as one line, `line L, column C: message` (the parser's own text spans
+/// several lines with a source excerpt).
+fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
+    let message = e.message().trim().replace('\n', " ");
+    match e.span().and_then(|sp| text.get(..sp.start)) {
+        Some(before) => {
+            let line = 1 + before.matches('\n').count();
+            let column = 1 + before.rsplit('\n').next().map_or(0, |l| l.chars().count());
+            format!("line {line}, column {column}: {message}")
+        }
+        None => message,
+    }
+}
+
+/// `joint[n]` with the 1-based joint number of 0-based `j`.
+fn joint_field(j: usize) -> String {
+    format!("joint[{}]", j + 1)
+}
+
+/// A value as the file would show it: rounded to 12 significant digits, which undoes the
+/// degree/radian round trip, in exponent form when large.
+fn show(v: f64) -> String {
+    let r: f64 = format!("{v:.12e}").parse().unwrap_or(v);
+    if r.abs() >= 1e6 {
+        format!("{r:e}")
+    } else {
+        format!("{r}")
+    }
+}
+
+/// Whether `v` (converted back from internal units) exceeds `max`, allowing for the rounding of
+/// the degree/radian round trip so that a file value of exactly `max` passes.
+fn exceeds(v: f64, max: f64) -> bool {
+    v.abs() > max * (1.0 + 1e-12)
+}
+
+/// `v` finite and `|v| ≤ max`.
+fn check_magnitude(field: &str, v: f64, max: f64, unit: &str) -> Result<(), InvalidField> {
+    if !v.is_finite() {
+        return Err(InvalidField {
+            field: field.into(),
+            message: format!("must be finite, got {v}"),
+        });
+    }
+    if exceeds(v, max) {
+        return Err(InvalidField {
+            field: field.into(),
+            message: format!(
+                "{} {unit} is out of range: the magnitude must be at most {max} {unit}",
+                show(v)
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Standard deviations (internal units): finite, ≥ 0, within the limits, 0 on fixed parameters.
+fn check_sigmas(s: &[f64; N_PARAMS], fixed: &[FixedParam; JOINTS]) -> Result<(), InvalidField> {
+    for j in 0..JOINTS {
+        for kind in ParamKind::ALL {
+            let v = s[param_index(j, kind)] / kind.to_internal();
+            let field = format!("{}.sigma.{}", joint_field(j), kind.name());
+            if !v.is_finite() || v < 0.0 {
+                return Err(InvalidField {
+                    field,
+                    message: format!("must be a finite number ≥ 0, got {}", show(v)),
+                });
+            }
+            let (max, unit, why) = if kind.is_angle() {
+                (
+                    MAX_SIGMA_DEG,
+                    "deg",
+                    "the normal model and the small-offset evaluation of an angle assume offsets \
+                     well inside one turn",
+                )
+            } else {
+                (
+                    MAX_SIGMA_MM,
+                    "mm",
+                    "a spread this large is a unit mistake, not a calibration uncertainty",
+                )
+            };
+            if exceeds(v, max) {
+                return Err(InvalidField {
+                    field,
+                    message: format!(
+                        "{} {unit} is too large: a standard deviation must be at most {max} \
+                         {unit} ({why})",
+                        show(v)
+                    ),
+                });
+            }
+        }
+        let fixed_kind = match fixed[j] {
+            FixedParam::D => ParamKind::D,
+            FixedParam::Beta => ParamKind::Beta,
+        };
+        if s[param_index(j, fixed_kind)] != 0.0 {
+            return Err(InvalidField {
+                field: format!("{}.sigma.{}", joint_field(j), fixed_kind.name()),
+                message: format!(
+                    "must be 0: {} is the fixed parameter of this joint",
+                    fixed_kind.name()
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
+/// The covariance matrix of the file (30 rows of 30, file units) in internal units.
+fn covariance_from_file(m: &[Vec<f64>]) -> Result<Vec<f64>, InvalidField> {
     if m.len() != N_PARAMS {
-        return Err((
-            "covariance.matrix".into(),
-            format!("must have {N_PARAMS} rows, found {}", m.len()),
-        ));
+        return Err(InvalidField {
+            field: "covariance.matrix".into(),
+            message: format!("must have {N_PARAMS} rows, found {}", m.len()),
+        });
     }
     let mut c = vec![0.0; N_PARAMS * N_PARAMS];
     for (i, row) in m.iter().enumerate() {
         if row.len() != N_PARAMS {
-            return Err((
-                format!("covariance.matrix[{}]", i + 1),
-                format!("must have {N_PARAMS} entries, found {}", row.len()),
-            ));
+            return Err(InvalidField {
+                field: format!("covariance.matrix[{}]", i + 1),
+                message: format!("must have {N_PARAMS} entries, found {}", row.len()),
+            });
         }
         for (k, &v) in row.iter().enumerate() {
-            if !v.is_finite() {
-                return Err((
-                    format!("covariance.matrix[{}][{}]", i + 1, k + 1),
-                    format!("must be finite, got {v}"),
-                ));
-            }
             let f = ParamKind::ALL[i % 5].to_internal() * ParamKind::ALL[k % 5].to_internal();
             c[i * N_PARAMS + k] = v * f;
         }
     }
+    Ok(c)
+}
+
+/// A covariance in internal units: finite, symmetric, variances ≥ 0, fixed parameters' rows 0.
+fn check_covariance(c: &[f64], fixed: &[FixedParam; JOINTS]) -> Result<(), InvalidField> {
+    let cell = |i: usize, k: usize| format!("covariance.matrix[{}][{}]", i + 1, k + 1);
+    if c.len() != N_PARAMS * N_PARAMS {
+        return Err(InvalidField {
+            field: "covariance.matrix".into(),
+            message: format!(
+                "must have {} entries, found {}",
+                N_PARAMS * N_PARAMS,
+                c.len()
+            ),
+        });
+    }
+    if let Some(x) = c.iter().position(|v| !v.is_finite()) {
+        return Err(InvalidField {
+            field: cell(x / N_PARAMS, x % N_PARAMS),
+            message: format!("must be finite, got {}", c[x]),
+        });
+    }
     for i in 0..N_PARAMS {
         if c[i * N_PARAMS + i] < 0.0 {
-            return Err((
-                format!("covariance.matrix[{}][{}]", i + 1, i + 1),
-                "variance must be ≥ 0".into(),
-            ));
+            return Err(InvalidField {
+                field: cell(i, i),
+                message: "variance must be ≥ 0".into(),
+            });
         }
         for k in 0..i {
             let (a, b) = (c[i * N_PARAMS + k], c[k * N_PARAMS + i]);
             if (a - b).abs() > 1e-9 * a.abs().max(b.abs()).max(1e-300) {
-                return Err((
-                    format!("covariance.matrix[{}][{}]", i + 1, k + 1),
-                    "matrix must be symmetric".into(),
-                ));
+                return Err(InvalidField {
+                    field: cell(i, k),
+                    message: "matrix must be symmetric".into(),
+                });
             }
         }
     }
@@ -477,17 +644,46 @@ fn check_covariance(
         };
         let i = param_index(j, kind);
         if (0..N_PARAMS).any(|k| c[i * N_PARAMS + k] != 0.0) {
-            return Err((
-                format!("covariance.matrix[{}]", i + 1),
-                format!(
+            return Err(InvalidField {
+                field: format!("covariance.matrix[{}]", i + 1),
+                message: format!(
                     "row of joint {} {} must be 0: it is the fixed parameter",
                     j + 1,
                     kind.name()
                 ),
-            ));
+            });
         }
     }
-    Ok(c)
+    Ok(())
+}
+
+/// The covariance restricted to the `free` parameters has a Cholesky factor (the same test the
+/// sampler makes); otherwise names the first row where the factorisation fails.
+fn check_positive_definite(c: &[f64], free: &[usize]) -> Result<(), InvalidField> {
+    let factors = |k: usize| {
+        let sub = nalgebra::DMatrix::from_fn(k, k, |a, b| c[free[a] * N_PARAMS + free[b]]);
+        nalgebra::linalg::Cholesky::new(sub).is_some()
+    };
+    if factors(free.len()) {
+        return Ok(());
+    }
+    // The factorisation proceeds row by row, so the first leading block without a factor ends
+    // at the row where it fails.
+    let k = (1..=free.len())
+        .find(|&k| !factors(k))
+        .unwrap_or(free.len());
+    let i = free[k - 1];
+    Err(InvalidField {
+        field: "covariance.matrix".into(),
+        message: format!(
+            "not positive definite on the parameters with nonzero variance: the Cholesky \
+             factorisation fails at row {} ({}.{}), which the rows before it (with nonzero \
+             variance) make dependent or indefinite",
+            i + 1,
+            joint_field(i / 5),
+            ParamKind::ALL[i % 5].name()
+        ),
+    })
 }
 
 fn fnum(v: f64) -> String {
@@ -552,6 +748,50 @@ mod tests {
     }
 
     #[test]
+    fn values_exactly_at_the_limits_pass_and_just_past_fail() {
+        // The file's degrees go through radians and back: the check must not reject a value of
+        // exactly the limit by a rounding ulp, for any joint or parameter.
+        let mut m = tx60();
+        for (i, p) in m.params.iter_mut().enumerate() {
+            let kind = ParamKind::ALL[i % 5];
+            let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+            let max = if kind.is_angle() {
+                MAX_ANGLE_DEG
+            } else {
+                MAX_LENGTH_MM
+            };
+            *p = sign * max * kind.to_internal();
+        }
+        let mut s = [0.0; N_PARAMS];
+        for (i, v) in s.iter_mut().enumerate() {
+            let kind = ParamKind::ALL[i % 5];
+            let fixed = match m.fixed[i / 5] {
+                FixedParam::D => ParamKind::D,
+                FixedParam::Beta => ParamKind::Beta,
+            };
+            if kind != fixed {
+                *v = if kind.is_angle() {
+                    MAX_SIGMA_DEG
+                } else {
+                    MAX_SIGMA_MM
+                } * kind.to_internal();
+            }
+        }
+        m.uncertainty = Uncertainty::Independent(s);
+        m.limits_deg = [(-MAX_LIMIT_DEG, MAX_LIMIT_DEG); JOINTS];
+        m.tool = [MAX_LENGTH_MM, -MAX_LENGTH_MM, 0.0];
+        m.check().unwrap();
+        RobotModel::from_toml(&m.to_toml(), "m.toml").unwrap();
+        let mut past = m.clone();
+        past.params[3] *= 1.000_001;
+        assert_eq!(past.check().unwrap_err().field, "joint[1].alpha");
+        let mut past = m.clone();
+        s[2] *= 1.000_001;
+        past.uncertainty = Uncertainty::Independent(s);
+        assert_eq!(past.check().unwrap_err().field, "joint[1].sigma.a");
+    }
+
+    #[test]
     fn bad_fields_are_named() {
         let good = tx60().to_toml();
         let neg = good.replacen(
@@ -569,6 +809,17 @@ mod tests {
         assert!(err_of(&nan).contains("joint[1].a"), "{}", err_of(&nan));
         let unknown = good.replacen("fixed = \"beta\"", "fixed = \"beta\"\nfoo = 1", 1);
         assert!(err_of(&unknown).contains("foo"), "{}", err_of(&unknown));
+        let line = 1
+            + good[..good.find("fixed = \"beta\"").unwrap()]
+                .matches('\n')
+                .count()
+            + 1;
+        assert!(
+            err_of(&unknown).starts_with(&format!("model file m.toml: line {line}, column 1: ")),
+            "{}",
+            err_of(&unknown)
+        );
+        assert!(!err_of("x = ").contains('|'), "{}", err_of("x = "));
         let missing = good.replacen(
             "sigma = { theta = 0.003216, d = 0.005056,",
             "sigma = { d = 0.005056,",

@@ -59,22 +59,36 @@ pub fn coverage_interval(sorted: &[f64], p: f64, kind: IntervalKind) -> Coverage
 
 /// Mean, variance (n − 1), skewness and kurtosis (plain fourth standardised moment, 3 for a
 /// normal), the paper's M1–M4 (two-pass, so no cancellation).
+///
+/// Skewness and kurtosis divide by powers of the variance: when every value is the same (all
+/// σ = 0, or a single value) or the variance is not finite they are undefined, `None` here,
+/// `null` in JSON and "n/a" in the text report, whichever backend produced the values.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize)]
 pub struct Moments {
     /// M1, mm.
     pub mean: f64,
     /// M2, mm².
     pub variance: f64,
-    /// M3 = m3 / m2^{3/2}.
-    pub skewness: f64,
-    /// M4 = m4 / m2².
-    pub kurtosis: f64,
+    /// M3 = m3 / m2^{3/2}, or `None` when undefined.
+    pub skewness: Option<f64>,
+    /// M4 = m4 / m2², or `None` when undefined.
+    pub kurtosis: Option<f64>,
 }
 
 impl Moments {
     /// Moments of `v` (non-empty).
     pub fn of(v: &[f64]) -> Moments {
         let n = v.len() as f64;
+        // Equal values: the mean is that value exactly. (Summing would round it, and the
+        // rounding error would pose as a spread with skewness ±1 and kurtosis 1.)
+        if let Some(&first) = v.first().filter(|&&x| v.iter().all(|&y| y == x)) {
+            return Moments {
+                mean: first,
+                variance: 0.0,
+                skewness: None,
+                kurtosis: None,
+            };
+        }
         let mean = v.iter().sum::<f64>() / n;
         let (mut m2, mut m3, mut m4) = (0.0, 0.0, 0.0);
         for x in v {
@@ -84,29 +98,50 @@ impl Moments {
             m3 += d2 * d;
             m4 += d2 * d2;
         }
-        let variance = if v.len() > 1 { m2 / (n - 1.0) } else { 0.0 };
+        let variance = m2 / (n - 1.0);
         let (m2, m3, m4) = (m2 / n, m3 / n, m4 / n);
-        let (skewness, kurtosis) = if m2 > 0.0 {
-            (m3 / m2.powf(1.5), m4 / (m2 * m2))
-        } else {
-            (0.0, 0.0)
-        };
+        let defined = |x: f64| (m2 > 0.0 && m2.is_finite() && x.is_finite()).then_some(x);
         Moments {
             mean,
             variance,
-            skewness,
-            kurtosis,
+            skewness: defined(m3 / m2.powf(1.5)),
+            kurtosis: defined(m4 / (m2 * m2)),
         }
     }
 
-    /// The four as an array `[M1, M2, M3, M4]`.
+    /// The four as an array `[M1, M2, M3, M4]`, NaN for an undefined moment.
     pub fn as_array(&self) -> [f64; 4] {
-        [self.mean, self.variance, self.skewness, self.kurtosis]
+        [
+            self.mean,
+            self.variance,
+            self.skewness.unwrap_or(f64::NAN),
+            self.kurtosis.unwrap_or(f64::NAN),
+        ]
     }
 
     /// Standard deviation, mm.
     pub fn std_dev(&self) -> f64 {
         self.variance.sqrt()
+    }
+
+    /// Maximum relative error `|M − M_base| / |M_base|` of M1–M4 against `base`, in percent (the
+    /// paper's MRE), over the moments that are defined in both with `M_base ≠ 0` (or equal);
+    /// NaN when no moment qualifies.
+    pub fn max_relative_error(&self, base: &Moments) -> f64 {
+        self.as_array()
+            .iter()
+            .zip(base.as_array())
+            .filter_map(|(&a, b)| {
+                if a == b {
+                    Some(0.0)
+                } else if a.is_finite() && b.is_finite() && b != 0.0 {
+                    Some(((a - b) / b).abs() * 100.0)
+                } else {
+                    None
+                }
+            })
+            .reduce(f64::max)
+            .unwrap_or(f64::NAN)
     }
 }
 
@@ -195,9 +230,15 @@ pub fn ecdf_grid(sorted: &[f64], points: usize) -> Vec<(f64, f64)> {
 }
 
 /// A histogram density estimate: `(bin centre, density)` for `bins` equal bins over
-/// `[min, max]` of ascending values; densities integrate to 1.
+/// `[min, max]` of ascending values; densities integrate to 1. Empty when there are no values or
+/// all are equal: a point mass has no density (the reports then write no PDF rows).
 pub fn histogram(sorted: &[f64], bins: usize) -> Vec<(f64, f64)> {
-    let (lo, hi) = (sorted[0], sorted[sorted.len() - 1]);
+    let (Some(&lo), Some(&hi)) = (sorted.first(), sorted.last()) else {
+        return Vec::new();
+    };
+    if hi <= lo || bins == 0 {
+        return Vec::new();
+    }
     let width = ((hi - lo) / bins as f64).max(f64::MIN_POSITIVE);
     let mut counts = vec![0u64; bins];
     for &v in sorted {
@@ -239,9 +280,41 @@ mod tests {
         assert!((m.mean - 4.0).abs() < 1e-15);
         assert!((m.variance - 12.5).abs() < 1e-12);
         // m2 = 10, m3 = 28.8·... computed by hand: deviations −3,−2,−1,0,6 → m3 = (−27−8−1+216)/5 = 36
-        assert!((m.skewness - 36.0 / 10f64.powf(1.5)).abs() < 1e-12);
+        assert!((m.skewness.unwrap() - 36.0 / 10f64.powf(1.5)).abs() < 1e-12);
         // m4 = (81+16+1+1296)/5 = 278.8
-        assert!((m.kurtosis - 278.8 / 100.0).abs() < 1e-12);
+        assert!((m.kurtosis.unwrap() - 278.8 / 100.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn moments_of_equal_values_are_undefined_beyond_the_mean() {
+        // 0.1 + 0.2 is not exactly representable: a summed mean of copies would be off by an
+        // ulp and fake a spread with skewness ±1, kurtosis 1.
+        let x = 0.1 + 0.2;
+        let m = Moments::of(&[x; 1000]);
+        assert_eq!((m.mean, m.variance), (x, 0.0));
+        assert_eq!((m.skewness, m.kurtosis), (None, None));
+        assert!(m.as_array()[2].is_nan() && m.as_array()[3].is_nan());
+        // A variance that overflows leaves M3 and M4 undefined, not NaN.
+        let m = Moments::of(&[0.0, 1e200, 3e200]);
+        assert!(m.variance.is_infinite());
+        assert_eq!((m.skewness, m.kurtosis), (None, None));
+    }
+
+    #[test]
+    fn relative_error_skips_undefined_moments() {
+        let a = Moments::of(&[1.0, 2.0, 4.0]);
+        let b = Moments::of(&[1.0, 2.0, 5.0]);
+        let full = a.max_relative_error(&b);
+        let mut a_undef = a;
+        a_undef.skewness = None;
+        a_undef.kurtosis = None;
+        // Only M1 and M2 count now: (7/3 − 8/3)/(8/3) = 12.5 %, (7/3 − 13/3)/(13/3) = 46.15 %.
+        let m12 = a_undef.max_relative_error(&b);
+        assert!((m12 - 600.0 / 13.0).abs() < 1e-9, "{m12}");
+        assert!(full >= m12);
+        let zero = Moments::of(&[0.0; 4]);
+        assert_eq!(zero.max_relative_error(&zero), 0.0);
+        assert!(b.max_relative_error(&zero).is_nan());
     }
 
     #[test]
@@ -261,5 +334,8 @@ mod tests {
         let width = h[1].0 - h[0].0;
         let total: f64 = h.iter().map(|(_, d)| d * width).sum();
         assert!((total - 1.0).abs() < 1e-12);
+        // A point mass (all σ = 0) has no density, not one bin of 1/MIN_POSITIVE.
+        assert!(histogram(&[0.3; 50], 37).is_empty());
+        assert!(histogram(&[], 37).is_empty());
     }
 }

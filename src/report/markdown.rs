@@ -1,5 +1,6 @@
 //! Markdown tables (for the comparison and the factor study).
 
+use super::text::{finite_or, NA};
 use super::{max_relative_error, Comparison};
 use std::fmt::Write as _;
 
@@ -55,9 +56,9 @@ fn row(name: &str, r: &crate::mc::McResult, mre: Option<f64>) -> Vec<String> {
         name.to_string(),
         format!("{:.4}", m.mean),
         format!("{:.5}", m.variance),
-        format!("{:.4}", m.skewness),
-        format!("{:.4}", m.kurtosis),
-        mre.map_or("—".into(), |v| format!("{v:.2}")),
+        m.skewness.map_or(NA.into(), |v| format!("{v:.4}")),
+        m.kurtosis.map_or(NA.into(), |v| format!("{v:.4}")),
+        mre.map_or("—".into(), |v| finite_or(v, NA, |x| format!("{x:.2}"))),
         r.draws.to_string(),
         format!("{:.3}", r.seconds),
     ]

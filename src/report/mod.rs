@@ -48,14 +48,10 @@ pub struct Comparison {
     pub amcs: Vec<(f64, McResult, f64)>,
 }
 
-/// Maximum relative error of M1–M4 of `r` against `base`, in percent (the paper's MRE).
+/// Maximum relative error of M1–M4 of `r` against `base`, in percent (the paper's MRE), over
+/// the moments defined in both (see [`crate::mc::Moments::max_relative_error`]).
 pub fn max_relative_error(r: &McResult, base: &McResult) -> f64 {
-    r.moments
-        .as_array()
-        .iter()
-        .zip(base.moments.as_array())
-        .map(|(a, b)| ((a - b) / b).abs() * 100.0)
-        .fold(0.0, f64::max)
+    r.moments.max_relative_error(&base.moments)
 }
 
 /// Errors writing reports.

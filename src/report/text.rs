@@ -57,22 +57,20 @@ pub fn render(rep: &RunReport) -> String {
     let _ = writeln!(s, "  min / max              {:.6} / {:.6}", r.min, r.max);
     let m = &r.moments;
     let se = &r.moment_standard_errors;
-    let _ = writeln!(s, "  M1 mean                {:.6} ± {:.1e}", m.mean, se[0]);
-    let _ = writeln!(
-        s,
-        "  M2 variance            {:.6e} ± {:.1e}",
-        m.variance, se[1]
-    );
-    let _ = writeln!(
-        s,
-        "  M3 skewness            {:.4} ± {:.1e}",
-        m.skewness, se[2]
-    );
-    let _ = writeln!(
-        s,
-        "  M4 kurtosis            {:.4} ± {:.1e}",
-        m.kurtosis, se[3]
-    );
+    let rows = [
+        ("M1 mean    ", Some(m.mean).map(|v| format!("{v:.6}"))),
+        ("M2 variance", Some(m.variance).map(|v| format!("{v:.6e}"))),
+        ("M3 skewness", m.skewness.map(|v| format!("{v:.4}"))),
+        ("M4 kurtosis", m.kurtosis.map(|v| format!("{v:.4}"))),
+    ];
+    for ((name, value), se) in rows.into_iter().zip(se) {
+        // An undefined moment (zero variance) has no standard error either.
+        let line = match value {
+            Some(v) => format!("{v} ± {}", finite_or(*se, "n/a", |x| format!("{x:.1e}"))),
+            None => NA.to_string(),
+        };
+        let _ = writeln!(s, "  {name}            {line}");
+    }
     let _ = writeln!(s);
     let _ = writeln!(
         s,
@@ -117,10 +115,13 @@ pub fn render(rep: &RunReport) -> String {
             "      h    draws      2s_w     2s_u(w)    2s_wlow   2s_whigh        δ"
         );
         for t in &r.trace {
-            let f = t.fluctuation;
+            // The first batch has no spread of batch estimates yet.
+            let f = t
+                .fluctuation
+                .map(|v| finite_or(v, "—", |x| format!("{x:.2e}")));
             let _ = writeln!(
                 s,
-                "  {:>5} {:>8} {:>10.2e} {:>10.2e} {:>10.2e} {:>10.2e} {:>10.2e}",
+                "  {:>5} {:>8} {:>10} {:>10} {:>10} {:>10} {:>10.2e}",
                 t.h, t.draws, f[0], f[1], f[2], f[3], t.delta
             );
         }
@@ -143,11 +144,14 @@ pub fn render_comparison(c: &Comparison) -> String {
     );
     let row = |s: &mut String, name: &str, r: &McResult, mre: Option<f64>| {
         let m = &r.moments;
-        let mre = mre.map_or("—".to_string(), |v| format!("{v:.3}"));
+        let mre = mre.map_or("—".to_string(), |v| {
+            finite_or(v, NA, |x| format!("{x:.3}"))
+        });
+        let [m3, m4] = [m.skewness, m.kurtosis].map(|v| v.map_or(NA.into(), |x| format!("{x:.4}")));
         let _ = writeln!(
             s,
-            "{:<14} {:>10.6} {:>12.5e} {:>9.4} {:>9.4} {:>8} {:>10} {:>10.3}",
-            name, m.mean, m.variance, m.skewness, m.kurtosis, mre, r.draws, r.seconds
+            "{:<14} {:>10.6} {:>12.5e} {:>9} {:>9} {:>8} {:>10} {:>10.3}",
+            name, m.mean, m.variance, m3, m4, mre, r.draws, r.seconds
         );
     };
     row(&mut s, "MCS", &c.mcs, None);
@@ -160,6 +164,18 @@ pub fn render_comparison(c: &Comparison) -> String {
         );
     }
     s
+}
+
+/// What the reports print for an undefined number (a moment of a zero-variance result).
+pub const NA: &str = "n/a";
+
+/// `f(v)` for a finite `v`, else `other`.
+pub fn finite_or(v: f64, other: &str, f: impl Fn(f64) -> String) -> String {
+    if v.is_finite() {
+        f(v)
+    } else {
+        other.to_string()
+    }
 }
 
 /// Short general number format (no trailing zeros).

@@ -16,7 +16,7 @@ pub const MAX_NORMALS: usize = 32;
 #[derive(Debug, thiserror::Error)]
 pub enum SamplerError {
     /// The covariance of the free parameters has no Cholesky factor.
-    #[error("the covariance matrix is not positive definite on its free parameters (rows with nonzero variance)")]
+    #[error("the model's covariance matrix is not positive definite on its free parameters (rows with nonzero variance)")]
     NotPositiveDefinite,
 }
 
