@@ -355,7 +355,7 @@ fn each_cause_is_printed_once() {
     assert_each_cause_once(&RobotModel::from_file(&f).unwrap_err());
     let identify = gpu_amcs::simulate::SimulateError::Identify {
         run: 3,
-        source: gpu_amcs::identify::IdentifyError::Empty {
+        cause: gpu_amcs::identify::IdentifyError::Empty {
             origin: "sweeps.csv".into(),
         },
     };

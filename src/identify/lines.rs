@@ -1,4 +1,4 @@
-//! Axis-line geometry: the common normal of two lines in space (METHOD.md §2).
+//! Axis-line geometry: the common normal of two lines in space (docs/METHOD.md §2).
 //!
 //! A joint axis is a [`Line`] (a point and a unit direction). Two consecutive axes are related by
 //! their common normal: the shortest segment between them, its length (the MDH `a`) and the

@@ -1,4 +1,4 @@
-//! From measured joint axes to the MDH (Hayati) parameters and the tool point (METHOD.md §1–2,
+//! From measured joint axes to the MDH (Hayati) parameters and the tool point (docs/METHOD.md §1–2,
 //! paper eqs. 7–11).
 //!
 //! Frame `i−1` has its z axis on joint `i`'s axis; `T_i = Rz(θ_i+q_i)·Tz(d_i)·Tx(a_i)·Rx(α_i)·Ry(β_i)`
@@ -29,7 +29,7 @@
 //! * **Joint 6 and the tool**: `θ_6, d_6, a_6, α_6, β_6` keep their nominal values; only the
 //!   target's position relative to the J6 axis is observable (three numbers), and it is absorbed
 //!   in the tool point, estimated as the mean of the J6 sweep points mapped into the flange frame.
-//! * A fixed `β` is fixed at 0 (METHOD.md §1); a fixed `d` at its nominal value.
+//! * A fixed `β` is fixed at 0 (docs/METHOD.md §1); a fixed `d` at its nominal value.
 
 use super::lines::{common_normal, Line};
 use super::IdentifyError;

@@ -1,4 +1,4 @@
-//! Forward kinematics of the MDH chain in f64 (METHOD.md §1, paper eq. 2).
+//! Forward kinematics of the MDH chain in f64 (docs/METHOD.md §1, paper eq. 2).
 //!
 //! [`position`] applies the joint transforms to the tool point from the flange back to the base,
 //! `p ← Rz(θ_i+q_i)·(Rx(α_i)·Ry(β_i)·p + (a_i, 0, d_i))` for i = 6…1, which is the same product as

@@ -1,6 +1,6 @@
 //! Built-in robot models.
 //!
-//! The Staubli TX60 table of METHOD.md §1: it reproduces the public ROS-Industrial TX60 chain
+//! The Staubli TX60 table of docs/METHOD.md §1: it reproduces the public ROS-Industrial TX60 chain
 //! (joint origins 375, 290, 20 lateral, 310, 70 mm), so at q = 0 the flange centre is at
 //! (0, 20, 1045) mm.
 //!

@@ -1,4 +1,4 @@
-//! Laser-tracker noise model built on the Leica AT960 specification (paper §3.1, METHOD.md §2).
+//! Laser-tracker noise model built on the Leica AT960 specification (paper §3.1, docs/METHOD.md §2).
 //!
 //! The AT960's accuracy is stated as a maximum permissible error (MPE, ISO 10360-10) of the
 //! measured point, `U_xyz = ±(15 µm + 6 µm/m · L)` with `L` the distance from the tracker; its
@@ -20,7 +20,7 @@
 //!
 //! **Placement.** By default the tracker stands at [`DEFAULT_TRACKER_POSITION_MM`]
 //! = (2000, −600, 400) mm in the robot base frame: about 2 m in front of and beside the TX60, at
-//! a height where it sees the target on all six sweeps (measuring ranges of METHOD.md §1).
+//! a height where it sees the target on all six sweeps (measuring ranges of docs/METHOD.md §1).
 
 use super::standard_normal;
 use rand::Rng;

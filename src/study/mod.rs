@@ -1,4 +1,4 @@
-//! The paper's factor study (§3.2–3.4, METHOD.md §5) on a virtual TX60: for each of the five
+//! The paper's factor study (§3.2–3.4, docs/METHOD.md §5) on a virtual TX60: for each of the five
 //! calibration factors over the paper's levels, a repeated simulated calibration, then MCS and
 //! AMCS at two tolerances for 10 and 50 test points, and AMCS with the full parameter covariance.
 //!

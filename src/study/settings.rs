@@ -1,4 +1,4 @@
-//! What the factor study varies and how much it computes (paper §3.2–3.4, METHOD.md §5).
+//! What the factor study varies and how much it computes (paper §3.2–3.4, docs/METHOD.md §5).
 //!
 //! One factor is varied at a time over the paper's levels, the others stay at the baseline
 //! ([`Factors::default`]: 20 runs, 50 % range, 2° step, 25 % speed, negative→positive):
