@@ -15,6 +15,9 @@ pub const MODEL_FILE_LIMIT: u64 = 1 << 20;
 /// Largest CSV file read (test points, sweeps, measurements): about two million rows of six
 /// angles, far more than any analysis uses.
 pub const CSV_FILE_LIMIT: u64 = 128 << 20;
+/// Largest robot description read by the importer (URDF, DH table, UR calibration): a URDF with
+/// inertials and visual elements is tens of kilobytes.
+pub const DESCRIPTION_FILE_LIMIT: u64 = 16 << 20;
 
 /// Errors reading an input file.
 #[derive(Debug, thiserror::Error)]

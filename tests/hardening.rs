@@ -302,6 +302,17 @@ fn crlf_files_give_the_line_an_editor_shows() {
     let short = "q1,q2,q3,q4,q5,q6\r\n0,0,0,0,0,0\r\n0,0,0,0,0\r\n";
     let f = write(&d, "short.csv", short);
     fails_naming(&["fk", "--points-file", s(&f)], &["short.csv", "line 3"]);
+    // Sweeps and measurements too: line 3 of a CRLF file is line 3.
+    let sweeps = "joint,q1,q2,q3,q4,q5,q6,x,y,z\r\n1,0,0,0,0,0,0,1,2,3\r\n1,2,0,0,0,0,0,1,2,zz\r\n";
+    let f = write(&d, "sweeps.csv", sweeps);
+    fails_naming(&["identify", s(&f)], &["sweeps.csv", "line 3", "column z"]);
+    let measured = "q1,q2,q3,q4,q5,q6,x,y,z\r\n0,0,0,0,0,0,1,2,3\r\n0,0,0,0,0,0,1,2,zz\r\n";
+    let f = write(&d, "measured.csv", measured);
+    let model = write(&d, "m.toml", &tx60().to_toml());
+    fails_naming(
+        &["validate", "--model", s(&model), s(&f)],
+        &["measured.csv", "line 3", "column z"],
+    );
     // A good CRLF file reads the same as with LF, also with a spreadsheet's byte-order mark.
     let good = "\u{feff}q1,q2,q3,q4,q5,q6\r\n10,20,30,40,50,60\r\n";
     let f = write(&d, "good.csv", good);
@@ -373,6 +384,7 @@ fn oversized_inputs_are_refused_naming_the_limit() {
         &["--points-file", "/dev/zero", "--backend", "cpu"],
         &["/dev/zero", "128 MiB"],
     );
+    fails_naming(&["identify", "/dev/zero"], &["/dev/zero", "128 MiB"]);
     // A model file of comments past the limit is refused as well; one under it is read.
     let d = tmpdir("big");
     let model = tx60().to_toml();

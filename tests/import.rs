@@ -222,6 +222,28 @@ fn standard_dh_toml_in_mm_degrees() {
     let rows = ur_rows(UR10E_D, UR10E_A);
     let dev = max_dev(&imp.model, |q| dh_standard(&rows, q));
     assert!(dev < 1e-9, "{dev}");
+    // Extra or missing values are refused, never dropped.
+    let three = t.replacen(
+        "limits = [-360.0, 360.0]",
+        "limits = [-360.0, 360.0, 5.0]",
+        1,
+    );
+    let e = import(&write(&dir, "three.toml", &three))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        e.contains("joint[1].limits") && e.contains("exactly 2"),
+        "{e}"
+    );
+    let tool = t.replacen(
+        "units = \"mm-deg\"\n",
+        "units = \"mm-deg\"\ntool = [1.0, 2.0]\n",
+        1,
+    );
+    let e = import(&write(&dir, "tool.toml", &tool))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("tool") && e.contains("exactly 3"), "{e}");
 }
 
 /// Craig's PUMA 560 table (Craig, Introduction to Robotics, table 3.4): α_{i−1}, a_{i−1}, d_i,

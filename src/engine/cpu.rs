@@ -13,7 +13,7 @@
 //! [`crate::sampling::ParamSampler::deltas`] of draw `k` gives the bits of draw `k`.
 
 use super::{BackendInfo, EngineError, Evaluator, Problem};
-use crate::kinematics::{JOINTS, N_PARAMS};
+use crate::kinematics::{param_index, ParamKind, JOINTS, N_PARAMS};
 use rayon::prelude::*;
 
 /// Draws per vector block.
@@ -120,9 +120,9 @@ impl CpuEvaluator {
         let p = &problem.sampler.mean;
         let mean_trig = std::array::from_fn(|j| {
             [
-                p[5 * j].sin_cos(),
-                p[5 * j + 3].sin_cos(),
-                p[5 * j + 4].sin_cos(),
+                p[param_index(j, ParamKind::Theta)].sin_cos(),
+                p[param_index(j, ParamKind::Alpha)].sin_cos(),
+                p[param_index(j, ParamKind::Beta)].sin_cos(),
             ]
         });
         #[cfg(target_arch = "x86_64")]
@@ -149,9 +149,9 @@ impl CpuEvaluator {
         for (j, lanes) in jl.iter_mut().enumerate() {
             let t = &self.mean_trig[j];
             for (slot, (idx, base)) in [
-                (0, (5 * j, t[0])),
-                (2, (5 * j + 3, t[1])),
-                (4, (5 * j + 4, t[2])),
+                (0, (param_index(j, ParamKind::Theta), t[0])),
+                (2, (param_index(j, ParamKind::Alpha), t[1])),
+                (4, (param_index(j, ParamKind::Beta), t[2])),
             ] {
                 for l in 0..LANES {
                     let (s, c) = shifted(base, d[idx][l]);
@@ -167,8 +167,10 @@ impl CpuEvaluator {
                 }
             }
             for l in 0..LANES {
-                lanes[6][l] = mean[5 * j + 2] + d[5 * j + 2][l];
-                lanes[7][l] = mean[5 * j + 1] + d[5 * j + 1][l];
+                lanes[6][l] =
+                    mean[param_index(j, ParamKind::A)] + d[param_index(j, ParamKind::A)][l];
+                lanes[7][l] =
+                    mean[param_index(j, ParamKind::D)] + d[param_index(j, ParamKind::D)][l];
             }
         }
     }

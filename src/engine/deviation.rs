@@ -45,7 +45,7 @@
 //! relative; the normals to 1.1e-7·(1+|z|). The tests assert 1e-5 mm per sample.
 
 use super::Problem;
-use crate::kinematics::{JOINTS, N_PARAMS};
+use crate::kinematics::{param_index, ParamKind, JOINTS, N_PARAMS};
 
 /// Vec4 words per test point in [`point_constants`].
 pub const WORDS_PER_POINT: usize = 13;
@@ -92,8 +92,8 @@ pub fn point_constants(problem: &Problem) -> Vec<[f32; 4]> {
 pub fn joint_trig(problem: &Problem) -> [[f32; 4]; JOINTS] {
     let mean = &problem.sampler.mean;
     std::array::from_fn(|j| {
-        let (sa, ca) = mean[5 * j + 3].sin_cos();
-        let (sb, cb) = mean[5 * j + 4].sin_cos();
+        let (sa, ca) = mean[param_index(j, ParamKind::Alpha)].sin_cos();
+        let (sb, cb) = mean[param_index(j, ParamKind::Beta)].sin_cos();
         [ca as f32, sa as f32, cb as f32, sb as f32]
     })
 }

@@ -18,6 +18,9 @@ pub enum IdentifyError {
         /// The OS error (part of the message, not a separate source).
         cause: std::io::Error,
     },
+    /// The file could not be read, is not UTF-8 or is too large.
+    #[error(transparent)]
+    Read(#[from] crate::input::ReadError),
     /// A malformed CSV row: wrong number of fields, a field that is not a (finite) number, a
     /// joint number outside 1–6. Fix the named line.
     #[error("{origin}: line {line}: {message}")]

@@ -33,7 +33,9 @@
 
 use super::lines::{common_normal, Line};
 use super::IdentifyError;
-use crate::kinematics::{joint_transform, FixedParam, RobotModel, JOINTS, N_PARAMS};
+use crate::kinematics::{
+    joint_transform, param_index, FixedParam, ParamKind, RobotModel, JOINTS, N_PARAMS,
+};
 use nalgebra::{Matrix3, Vector3};
 
 /// Consecutive axes closer to parallel than this (degrees) are identified with `β` instead of
@@ -134,7 +136,7 @@ pub fn frame(
     let mut r = Matrix3::identity();
     let mut t = Vector3::zeros();
     for (j, q) in q_rad.iter().enumerate().take(k) {
-        let p = &params[5 * j..5 * j + 5];
+        let p = &params[param_index(j, ParamKind::Theta)..param_index(j + 1, ParamKind::Theta)];
         let m = joint_transform(p[0], p[1], p[2], p[3], p[4], *q);
         let rj = Matrix3::from_fn(|a, b| m[a][b]);
         let tj = Vector3::new(m[0][3], m[1][3], m[2][3]);

@@ -74,13 +74,14 @@ pub struct SweepData {
 
 /// Reads a sweep CSV file.
 pub fn read_sweeps(path: &Path) -> Result<SweepData, IdentifyError> {
-    let (file, origin) = open_input(path)?;
-    parse_sweeps(file, &origin)
+    let (text, origin) = open_input(path)?;
+    parse_sweeps(text.as_bytes(), &origin)
 }
 
-/// Opens an input CSV file; a directory or an unreadable path is an [`IdentifyError::Io`] naming
-/// it. Returns the file and its name for messages.
-pub(crate) fn open_input(path: &Path) -> Result<(std::fs::File, String), IdentifyError> {
+/// Reads an input CSV file (bounded in size, line ends normalised so line numbers match an
+/// editor's: [`crate::input::read_csv_text`]); a directory or an unreadable path is an error
+/// naming it. Returns the text and the file's name for messages.
+pub(crate) fn open_input(path: &Path) -> Result<(String, String), IdentifyError> {
     let origin = path.display().to_string();
     let io = |cause| IdentifyError::Io {
         path: origin.clone(),
@@ -89,8 +90,8 @@ pub(crate) fn open_input(path: &Path) -> Result<(std::fs::File, String), Identif
     if path.is_dir() {
         return Err(io(std::io::Error::other("is a directory, not a CSV file")));
     }
-    let file = std::fs::File::open(path).map_err(io)?;
-    Ok((file, origin))
+    let text = crate::input::read_csv_text(path)?;
+    Ok((text, origin))
 }
 
 /// Finds the columns of `names` in a header; `origin` names the source in errors.

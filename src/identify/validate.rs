@@ -28,8 +28,8 @@ pub struct Measurement {
 
 /// Reads a measurement CSV file.
 pub fn read_measurements(path: &Path) -> Result<Vec<Measurement>, IdentifyError> {
-    let (file, origin) = open_input(path)?;
-    parse_measurements(file, &origin)
+    let (text, origin) = open_input(path)?;
+    parse_measurements(text.as_bytes(), &origin)
 }
 
 /// Parses measurement CSV text; `origin` names the source in errors.

@@ -275,7 +275,7 @@ struct TomlJoint {
     d: f64,
     a: f64,
     alpha: f64,
-    limits: [f64; 2],
+    limits: Vec<f64>,
 }
 
 #[derive(Deserialize)]
@@ -284,7 +284,7 @@ struct TomlTable {
     convention: String,
     units: String,
     name: Option<String>,
-    tool: Option<[f64; 3]>,
+    tool: Option<Vec<f64>>,
     joint: Vec<TomlJoint>,
 }
 
@@ -325,14 +325,32 @@ pub fn parse_toml(text: &str, path: &str, default_name: &str) -> Result<SourceCh
     }
     let mut rows = Vec::with_capacity(JOINTS);
     for (j, jt) in t.joint.iter().enumerate() {
-        let raw = [jt.theta, jt.d, jt.a, jt.alpha, jt.limits[0], jt.limits[1]];
+        let [lo, hi] = jt.limits[..] else {
+            return Err(bad(
+                format!("joint[{}].limits", j + 1),
+                format!(
+                    "needs exactly 2 values [lower, upper], got {}",
+                    jt.limits.len()
+                ),
+            ));
+        };
+        let raw = [jt.theta, jt.d, jt.a, jt.alpha, lo, hi];
         rows.push(row(raw, unit, &bad, j + 1)?);
     }
     finish(
         t.name.unwrap_or_else(|| default_name.to_string()),
         conv,
         rows,
-        t.tool.unwrap_or([0.0; 3]),
+        match t.tool.as_deref() {
+            None => [0.0; 3],
+            Some(&[x, y, z]) => [x, y, z],
+            Some(v) => {
+                return Err(bad(
+                    "tool".into(),
+                    format!("needs exactly 3 values [x, y, z], got {}", v.len()),
+                ))
+            }
+        },
         unit,
         path,
     )

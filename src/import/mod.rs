@@ -117,14 +117,10 @@ impl SourceChain {
 /// Errors reading or converting a robot description.
 #[derive(Debug, thiserror::Error)]
 pub enum ImportError {
-    /// The file could not be read.
-    #[error("cannot read {path}: {source}")]
-    Io {
-        /// The path given.
-        path: String,
-        /// The OS error.
-        source: std::io::Error,
-    },
+    /// The file could not be read, is not UTF-8 or is larger than
+    /// [`DESCRIPTION_FILE_LIMIT`](crate::input::DESCRIPTION_FILE_LIMIT).
+    #[error(transparent)]
+    Read(#[from] crate::input::ReadError),
     /// The file is not well-formed (XML, CSV, TOML or YAML).
     #[error("{path}:{line}: {message}")]
     Syntax {
@@ -424,10 +420,11 @@ pub fn kind_of(path: &std::path::Path) -> Result<FileKind, ImportError> {
 pub fn import_file(path: &std::path::Path, opts: &ImportOptions) -> Result<Imported, ImportError> {
     let kind = kind_of(path)?;
     let p = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| ImportError::Io {
-        path: p.clone(),
-        source,
-    })?;
+    let text = crate::input::read_text(
+        path,
+        crate::input::DESCRIPTION_FILE_LIMIT,
+        "robot description",
+    )?;
     let stem = path
         .file_stem()
         .and_then(|s| s.to_str())

@@ -68,6 +68,16 @@ pub const fn param_index(joint: usize, kind: ParamKind) -> usize {
         }
 }
 
+/// The kind of parameter at index `i` of the 30-vector (the inverse of [`param_index`]).
+pub const fn param_kind(i: usize) -> ParamKind {
+    ParamKind::ALL[i % PARAMS_PER_JOINT]
+}
+
+/// The 0-based joint of parameter index `i` of the 30-vector.
+pub const fn param_joint(i: usize) -> usize {
+    i / PARAMS_PER_JOINT
+}
+
 /// Which of `d` and `β` a joint keeps fixed (docs/METHOD.md §1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -272,8 +282,8 @@ impl RobotModel {
             let s = &jf.sigma;
             let sig = [s.theta, s.d, s.a, s.alpha, s.beta];
             for (k, kind) in ParamKind::ALL.iter().enumerate() {
-                params[j * 5 + k] = vals[k] * kind.to_internal();
-                sigma[j * 5 + k] = sig[k] * kind.to_internal();
+                params[param_index(j, *kind)] = vals[k] * kind.to_internal();
+                sigma[param_index(j, *kind)] = sig[k] * kind.to_internal();
             }
             fixed[j] = jf.fixed;
             limits[j] = match jf.limits[..] {
@@ -312,9 +322,9 @@ impl RobotModel {
             let diag = model.uncertainty.sigmas();
             for i in 0..N_PARAMS {
                 if (diag[i] - sigma[i]).abs() > 1e-6 * diag[i].max(sigma[i]).max(1e-300) {
-                    let kind = ParamKind::ALL[i % 5];
+                    let kind = param_kind(i);
                     return Err(bad(
-                        &format!("{}.sigma.{}", joint_field(i / 5), kind.name()),
+                        &format!("{}.sigma.{}", joint_field(param_joint(i)), kind.name()),
                         format!(
                             "differs from sqrt of covariance diagonal ({} vs {})",
                             sigma[i] / kind.to_internal(),
@@ -404,10 +414,7 @@ impl RobotModel {
             for k in ParamKind::ALL {
                 let _ = writeln!(s, "{} = {}", k.name(), fnum(v(k)));
             }
-            let fixed = match self.fixed[j] {
-                FixedParam::D => "d",
-                FixedParam::Beta => "beta",
-            };
+            let fixed = self.fixed[j].kind().name();
             let _ = writeln!(s, "fixed = \"{fixed}\"");
             let (lo, hi) = self.limits_deg[j];
             let _ = writeln!(s, "limits = [{}, {}]", fnum(lo), fnum(hi));
@@ -431,8 +438,7 @@ impl RobotModel {
             for i in 0..N_PARAMS {
                 let row: Vec<String> = (0..N_PARAMS)
                     .map(|k| {
-                        let f = ParamKind::ALL[i % 5].to_internal()
-                            * ParamKind::ALL[k % 5].to_internal();
+                        let f = param_kind(i).to_internal() * param_kind(k).to_internal();
                         fnum(c[i * N_PARAMS + k] / f)
                     })
                     .collect();
@@ -559,10 +565,7 @@ fn check_sigmas(s: &[f64; N_PARAMS], fixed: &[FixedParam; JOINTS]) -> Result<(),
                 });
             }
         }
-        let fixed_kind = match fixed[j] {
-            FixedParam::D => ParamKind::D,
-            FixedParam::Beta => ParamKind::Beta,
-        };
+        let fixed_kind = fixed[j].kind();
         if s[param_index(j, fixed_kind)] != 0.0 {
             return Err(InvalidField {
                 field: format!("{}.sigma.{}", joint_field(j), fixed_kind.name()),
@@ -593,7 +596,7 @@ fn covariance_from_file(m: &[Vec<f64>]) -> Result<Vec<f64>, InvalidField> {
             });
         }
         for (k, &v) in row.iter().enumerate() {
-            let f = ParamKind::ALL[i % 5].to_internal() * ParamKind::ALL[k % 5].to_internal();
+            let f = param_kind(i).to_internal() * param_kind(k).to_internal();
             c[i * N_PARAMS + k] = v * f;
         }
     }
@@ -680,8 +683,8 @@ fn check_positive_definite(c: &[f64], free: &[usize]) -> Result<(), InvalidField
              factorisation fails at row {} ({}.{}), which the rows before it (with nonzero \
              variance) make dependent or indefinite",
             i + 1,
-            joint_field(i / 5),
-            ParamKind::ALL[i % 5].name()
+            joint_field(param_joint(i)),
+            param_kind(i).name()
         ),
     })
 }
@@ -753,7 +756,7 @@ mod tests {
         // exactly the limit by a rounding ulp, for any joint or parameter.
         let mut m = tx60();
         for (i, p) in m.params.iter_mut().enumerate() {
-            let kind = ParamKind::ALL[i % 5];
+            let kind = param_kind(i);
             let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
             let max = if kind.is_angle() {
                 MAX_ANGLE_DEG
@@ -764,8 +767,8 @@ mod tests {
         }
         let mut s = [0.0; N_PARAMS];
         for (i, v) in s.iter_mut().enumerate() {
-            let kind = ParamKind::ALL[i % 5];
-            let fixed = match m.fixed[i / 5] {
+            let kind = param_kind(i);
+            let fixed = match m.fixed[param_joint(i)] {
                 FixedParam::D => ParamKind::D,
                 FixedParam::Beta => ParamKind::Beta,
             };

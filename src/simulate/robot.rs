@@ -7,7 +7,7 @@
 
 use super::add_tracker_noise;
 use crate::identify::Measurement;
-use crate::kinematics::{param_index, position, FixedParam, ParamKind, RobotModel, JOINTS};
+use crate::kinematics::{param_index, position, ParamKind, RobotModel, JOINTS};
 use rand::Rng;
 
 /// Sizes of the parameter errors of a simulated robot.
@@ -42,11 +42,7 @@ pub fn perturbed_model(
     m.tool = tool;
     for j in 0..JOINTS {
         for kind in ParamKind::ALL {
-            let fixed = matches!(
-                (nominal.fixed[j], kind),
-                (FixedParam::D, ParamKind::D) | (FixedParam::Beta, ParamKind::Beta)
-            );
-            if fixed {
+            if nominal.fixed[j].kind() == kind {
                 continue;
             }
             let size = if kind.is_angle() {

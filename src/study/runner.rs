@@ -6,7 +6,7 @@
 use super::settings::{Factor, StudySettings};
 use crate::engine::backend::make_evaluator;
 use crate::engine::{Problem, Reference};
-use crate::kinematics::{ParamKind, RobotModel, N_PARAMS};
+use crate::kinematics::{param_kind, RobotModel, N_PARAMS};
 use crate::mc::stats::{ecdf_grid, histogram};
 use crate::mc::{
     run_amcs, run_mcs, AmcsOptions, BatchTrace, McResult, McsOptions, RunSettings, Tolerance,
@@ -19,14 +19,15 @@ use serde::Serialize;
 /// Errors of the study.
 #[derive(Debug, thiserror::Error)]
 pub enum StudyError {
-    /// A setting or a calibration failed.
+    /// A setting or a calibration failed. (Causes are `source()`s, not part of the messages, so
+    /// a chain printer shows each once.)
     #[error(transparent)]
     Simulate(#[from] SimulateError),
     /// Test points could not be generated.
-    #[error("test points: {0}")]
+    #[error("test points")]
     Points(#[from] crate::points::PointsError),
     /// The problem could not be set up (e.g. a covariance without Cholesky factor).
-    #[error("{context}: {source}")]
+    #[error("{context}")]
     Problem {
         /// Which level.
         context: String,
@@ -34,7 +35,7 @@ pub enum StudyError {
         source: crate::engine::ProblemError,
     },
     /// The backend failed.
-    #[error("backend: {0}")]
+    #[error("backend")]
     Engine(#[from] crate::engine::EngineError),
     /// A Monte Carlo run failed.
     #[error(transparent)]
@@ -293,7 +294,7 @@ pub fn run_study_on(
             factors: f,
             calibration_seconds: cal.seconds,
             sigma: (0..N_PARAMS)
-                .map(|i| sig[i] / ParamKind::ALL[i % 5].to_internal())
+                .map(|i| sig[i] / param_kind(i).to_internal())
                 .collect(),
             mean_abs_correlation: mean_abs_correlation(&cal.correlated),
             accuracy_before_mm: acc.nominal.as_ref().map_or(f64::NAN, |n| n.1.mean_mm),
