@@ -39,6 +39,7 @@ pub mod engine;
 pub mod identify;
 pub mod kinematics;
 pub mod mc;
+pub mod memory;
 pub mod points;
 pub mod report;
 pub mod sampling;

@@ -1,0 +1,27 @@
+//! `model`: print a built-in model as a model file.
+
+use super::outputs::Outputs;
+use super::Run;
+use anyhow::Result;
+use clap::Args;
+use gpu_amcs::kinematics::preset;
+use std::path::PathBuf;
+
+/// `model` options.
+#[derive(Args, Debug, Clone)]
+pub struct ModelCmdArgs {
+    /// Built-in model to print.
+    #[arg(long, default_value = "tx60", value_name = "NAME")]
+    pub preset: String,
+    /// Write to FILE instead of stdout.
+    #[arg(long, short, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+}
+
+impl Run for ModelCmdArgs {
+    fn run(self) -> Result<()> {
+        let mut outputs = Outputs::new([]);
+        outputs.file("--out", self.out.as_deref())?;
+        outputs.write_or_print("--out", preset(&self.preset)?.to_toml())
+    }
+}

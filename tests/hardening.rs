@@ -1,0 +1,242 @@
+//! Bad requests get one line and exit code 2 before any work, and outputs are all-or-nothing:
+//! oversized runs are refused up front, thread pools that cannot start are named, output paths
+//! are checked before the computation, and a write that fails midway or a termination leaves
+//! neither outputs nor temporary files.
+
+mod common;
+
+use common::*;
+use std::time::{Duration, Instant};
+
+const CPU: [&str; 3] = ["-q", "--backend", "cpu"];
+
+fn with_cpu<'a>(args: &[&'a str]) -> Vec<&'a str> {
+    let mut v = args.to_vec();
+    v.extend(CPU);
+    v
+}
+
+#[test]
+fn threads_that_cannot_start_are_named() {
+    fails_naming(&with_cpu(&["--threads", "0"]), "--threads");
+    // 5000 threads reserve about 10 GB of stacks: over a 1 GB address-space limit the pool
+    // cannot start (this holds for root too, unlike a process-count limit).
+    let d = tmpdir("threads");
+    let o = sh(
+        &d,
+        "ulimit -v 1000000 && exec \"$BIN\" -q --backend cpu --points 5 --threads 5000",
+    );
+    assert_fails_naming(&o, "--threads", "--threads 5000 under ulimit -v");
+}
+
+#[test]
+fn oversized_runs_are_refused_before_allocating() {
+    let max = u64::MAX.to_string();
+    for (args, what) in [
+        (vec!["--batch", &max, "--max-draws", &max], "--max-draws"),
+        (
+            vec!["--batch", "4000000000", "--max-draws", "8000000000"],
+            "--max-draws",
+        ),
+        (
+            vec![
+                "mcs",
+                "--points",
+                "50000",
+                "--per-point",
+                "--draws",
+                "100000",
+            ],
+            "--per-point",
+        ),
+        (vec!["mcs", "--draws", "1000000000000"], "--draws"),
+        (
+            vec!["--points", "100000", "--memory-limit", "1M"],
+            "--points",
+        ),
+        (vec!["--memory-limit", "lots"], "--memory-limit"),
+    ] {
+        let start = Instant::now();
+        fails_naming(&with_cpu(&args), what);
+        assert!(
+            start.elapsed() < Duration::from_secs(5),
+            "{args:?}: refused only after {:?}",
+            start.elapsed()
+        );
+    }
+    let d = tmpdir("oversized");
+    fails_leaving_nothing(
+        &d,
+        &["points", "4000000000", "-o", &arg(&d, "p.csv")],
+        "points",
+    );
+    fails_leaving_nothing(
+        &d,
+        &["simulate", "--step", "0.000001", "-o", &arg(&d, "s.csv")],
+        "--step",
+    );
+    fails_leaving_nothing(
+        &d,
+        &["simulate", "--runs", "100000000", "-o", &arg(&d, "s.csv")],
+        "--runs",
+    );
+    fails_leaving_nothing(
+        &d,
+        &["calibrate", "--runs", "100000000", "-o", &arg(&d, "m.toml")],
+        "--runs",
+    );
+    fails_leaving_nothing(
+        &d,
+        &["study", "--mcs-draws", "1000000000000", "-o", &arg(&d, "s")],
+        "--mcs-draws",
+    );
+}
+
+#[test]
+fn device_outputs_are_written_in_place() {
+    let o = run(&["points", "3", "-o", "/dev/null"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let m = std::fs::metadata("/dev/null").unwrap();
+    assert!(!m.is_file(), "/dev/null was replaced by a regular file");
+}
+
+#[test]
+fn output_paths_are_checked_before_the_computation() {
+    let d = tmpdir("early");
+    std::fs::write(d.join("f"), "a file").unwrap();
+    let ok = arg(&d, "ok.json");
+    let under_file = arg(&d, "f/svgd");
+    let start = Instant::now();
+    fails_leaving_nothing(
+        &d,
+        &with_cpu(&["--json", &ok, "--svg", &under_file]),
+        "--svg",
+    );
+    fails_leaving_nothing(
+        &d,
+        &with_cpu(&["mcs", "--draws", "10000000", "--json", &arg(&d, "f/x.json")]),
+        "--json",
+    );
+    fails_leaving_nothing(&d, &["study", "--quick", "--out", &arg(&d, "f")], "--out");
+    assert!(
+        start.elapsed() < Duration::from_secs(5),
+        "refused only after {:?}",
+        start.elapsed()
+    );
+    let same = arg(&d, "out/same");
+    fails_leaving_nothing(
+        &d,
+        &with_cpu(&["--json", &same, "--csv", &same]),
+        "same file",
+    );
+    let s = arg(&d, "s.csv");
+    fails_leaving_nothing(
+        &d,
+        &["simulate", "--out", &s, "--truth-out", &s],
+        "--truth-out",
+    );
+    let c = arg(&d, "c.md");
+    fails_leaving_nothing(
+        &d,
+        &with_cpu(&["compare", "--json", &c, "--markdown", &c]),
+        "--markdown",
+    );
+    // A JSON report where the CSV directory will write its CDF.
+    fails_leaving_nothing(
+        &d,
+        &with_cpu(&["--json", &arg(&d, "c/cdf.csv"), "--csv", &arg(&d, "c")]),
+        "same file",
+    );
+}
+
+#[test]
+fn inputs_inside_an_output_directory_are_protected() {
+    let d = tmpdir("inside");
+    let p = d.join("out/p");
+    std::fs::create_dir_all(&p).unwrap();
+    let input = p.join("cdf.csv");
+    let o = run(&["points", "5", "-o", input.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let before = std::fs::read_to_string(&input).unwrap();
+    fails_leaving_nothing(
+        &d,
+        &with_cpu(&[
+            "--points-file",
+            input.to_str().unwrap(),
+            "--csv",
+            p.to_str().unwrap(),
+        ]),
+        "--points-file",
+    );
+    assert_eq!(std::fs::read_to_string(&input).unwrap(), before);
+}
+
+#[test]
+fn a_write_failing_midway_leaves_no_output_and_no_temp_file() {
+    // A file size limit of 4 blocks: the JSON and the small CSVs fit, the SVG plots do not.
+    let d = tmpdir("efbig");
+    let o = sh(
+        &d,
+        "ulimit -f 4 && exec \"$BIN\" -q --backend cpu --points 10 \
+         --json r.json --csv csv --svg svg",
+    );
+    assert_fails_naming(&o, "cannot write", "write over ulimit -f");
+    assert_eq!(tree(&d), Vec::<String>::new(), "left behind");
+}
+
+#[test]
+fn termination_during_a_run_leaves_nothing() {
+    let d = tmpdir("term");
+    let mut child = bin()
+        .args(with_cpu(&[
+            "mcs",
+            "--draws",
+            "200000000",
+            "--json",
+            &arg(&d, "x.json"),
+            "--csv",
+            &arg(&d, "csv"),
+        ]))
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(500));
+    let pid = child.id().to_string();
+    let k = std::process::Command::new("kill")
+        .args(["-TERM", &pid])
+        .status()
+        .unwrap();
+    assert!(k.success());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(143), "{status:?}");
+    assert_eq!(tree(&d), Vec::<String>::new());
+}
+
+#[test]
+fn flags_that_would_be_ignored_are_errors() {
+    fails_naming(&with_cpu(&["--adapter", "no-such-gpu"]), "--adapter");
+    fails_naming(
+        &["-q", "--backend", "auto", "--adapter", "no-such-gpu"],
+        "--adapter",
+    );
+    fails_naming(
+        &with_cpu(&["--nominal", "/nonexistent/nominal.toml"]),
+        "--reference nominal",
+    );
+}
+
+#[test]
+fn messages_name_the_right_flag_and_number() {
+    fails_naming(&with_cpu(&["compare", "--deltas=-1"]), "--deltas");
+    let o = run(&with_cpu(&["--coverage", "0.9999"]));
+    assert_fails_naming(&o, "--batch", "--coverage 0.9999");
+    assert!(stderr(&o).contains("= 1000000 "), "{}", stderr(&o));
+    fails_naming(&with_cpu(&["--coverage", "abc"]), "--coverage");
+    fails_naming(&["validate"], "--model");
+    let help = stdout(&run(&["--help"]));
+    for default in ["[default: 250,0,200]", "[default: 900,1200,800]"] {
+        assert!(help.contains(default), "help lacks {default}");
+    }
+    // What the help shows as the default is accepted as written.
+    let o = run(&["points", "2", "--box-center", "250,0,200"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
