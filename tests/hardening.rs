@@ -19,14 +19,15 @@ fn with_cpu<'a>(args: &[&'a str]) -> Vec<&'a str> {
 #[test]
 fn threads_that_cannot_start_are_named() {
     fails_naming(&with_cpu(&["--threads", "0"]), "--threads");
-    // 5000 threads reserve about 10 GB of stacks: over a 1 GB address-space limit the pool
+    fails_naming(&with_cpu(&["--threads", "100000"]), "--threads");
+    // 4000 threads reserve about 8 GB of stacks: over a 1 GB address-space limit the pool
     // cannot start (this holds for root too, unlike a process-count limit).
     let d = tmpdir("threads");
     let o = sh(
         &d,
-        "ulimit -v 1000000 && exec \"$BIN\" -q --backend cpu --points 5 --threads 5000",
+        "ulimit -v 1000000 && exec \"$BIN\" -q --backend cpu --points 5 --threads 4000",
     );
-    assert_fails_naming(&o, "--threads", "--threads 5000 under ulimit -v");
+    assert_fails_naming(&o, "--threads", "--threads 4000 under ulimit -v");
 }
 
 #[test]
@@ -92,12 +93,20 @@ fn oversized_runs_are_refused_before_allocating() {
     );
 }
 
+/// An output that exists and is not a regular file (a FIFO here, `/dev/null` in use) is written
+/// in place, not replaced by a regular file through a rename.
 #[test]
-fn device_outputs_are_written_in_place() {
-    let o = run(&["points", "3", "-o", "/dev/null"]);
+fn special_file_outputs_are_written_in_place() {
+    let d = tmpdir("fifo");
+    let o = sh(
+        &d,
+        "mkfifo p && { cat p > got & } && \"$BIN\" points 3 -o p; s=$?; wait; \
+         test -p p && echo fifo-kept; exit $s",
+    );
     assert!(o.status.success(), "{}", stderr(&o));
-    let m = std::fs::metadata("/dev/null").unwrap();
-    assert!(!m.is_file(), "/dev/null was replaced by a regular file");
+    assert!(stdout(&o).contains("fifo-kept"), "the FIFO was replaced");
+    let got = std::fs::read_to_string(d.join("got")).unwrap();
+    assert_eq!(got.lines().count(), 4, "{got}");
 }
 
 #[test]

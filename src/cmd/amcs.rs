@@ -62,9 +62,14 @@ impl Run for AmcsArgs {
             "lower --max-draws or --batch, use fewer --points or no --per-point, \
              or raise --memory-limit",
         ))?;
-        let rep = run_and_report(&self.problem, &self.output, "AMCS", Flags::RUN, |ev, cb| {
-            mc::run_amcs(ev, &opts, Some(cb))
-        })?;
+        let rep = run_and_report(
+            &self.problem,
+            &self.output,
+            "AMCS",
+            true,
+            Flags::RUN,
+            |ev, cb| mc::run_amcs(ev, &opts, Some(cb)),
+        )?;
         if !rep.result.converged {
             eprintln!(
                 "warning: AMCS did not converge within --max-draws {}; the results use all draws made",

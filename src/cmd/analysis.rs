@@ -49,6 +49,7 @@ pub fn run_and_report(
     problem: &ProblemArgs,
     output: &OutputArgs,
     label: &str,
+    capped: bool,
     flags: Flags,
     drive: impl FnOnce(&mut dyn Evaluator, mc::Progress) -> Result<McResult, McError> + Send,
 ) -> Result<RunReport> {
@@ -63,6 +64,7 @@ pub fn run_and_report(
         );
         let (mut ev, notes) = problem.backend.evaluator(built.problem)?;
         let bar = Progress::new(output.quiet, label, "draws");
+        let bar = if capped { bar.capped() } else { bar };
         let result = drive(ev.as_mut(), &|done, total| bar.update(done, total));
         bar.finish();
         Ok(RunReport {

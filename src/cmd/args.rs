@@ -115,12 +115,23 @@ impl MemoryArgs {
     }
 }
 
+/// Most threads `--threads` accepts: results do not depend on the count, and more threads than
+/// cores only cost memory and start-up time.
+pub const MAX_THREADS: usize = 4096;
+
+/// `--threads` is 1 to [`MAX_THREADS`].
+fn check_threads(threads: Option<usize>) -> Result<()> {
+    match threads {
+        Some(0) => bail!("--threads must be at least 1"),
+        Some(t) if t > MAX_THREADS => bail!("--threads must be at most {MAX_THREADS}, got {t}"),
+        _ => Ok(()),
+    }
+}
+
 /// A rayon pool of `threads` threads (all cores when `None`) to run the work in; failing to
 /// start it is an error naming `--threads`.
 pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
-    if threads == Some(0) {
-        bail!("--threads must be at least 1");
-    }
+    check_threads(threads)?;
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads.unwrap_or(0))
         .build()
@@ -151,10 +162,7 @@ impl ProblemArgs {
             self.workspace.workspace()?;
         }
         self.backend.choice()?;
-        if self.threads == Some(0) {
-            bail!("--threads must be at least 1");
-        }
-        Ok(())
+        check_threads(self.threads)
     }
 
     /// Bytes for the test points (their number is known before reading a points file only

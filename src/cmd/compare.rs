@@ -118,6 +118,7 @@ impl Run for CompareArgs {
             let mut amcs = Vec::new();
             for (d, o) in a.deltas.iter().zip(&amcs_opts) {
                 bar.set_label(format!("AMCS δ={d}"));
+                bar.restart(true);
                 let r = mc::run_amcs(ev.as_mut(), o, Some(&cb)).map_err(|e| FLAGS.error(e))?;
                 let mre = report::max_relative_error(&r, &mcs);
                 amcs.push((*d, r, mre));

@@ -42,9 +42,14 @@ impl Run for McsArgs {
             "use fewer --draws (or AMCS), fewer --points or no --per-point, \
              or raise --memory-limit",
         ))?;
-        run_and_report(&self.problem, &self.output, "MCS", Flags::RUN, |ev, cb| {
-            mc::run_mcs(ev, &opts, Some(cb))
-        })?;
+        run_and_report(
+            &self.problem,
+            &self.output,
+            "MCS",
+            false,
+            Flags::RUN,
+            |ev, cb| mc::run_mcs(ev, &opts, Some(cb)),
+        )?;
         Ok(())
     }
 }

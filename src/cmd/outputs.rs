@@ -168,12 +168,9 @@ impl Outputs {
             bail!("{flag} {}: is a directory", path.display());
         }
         let resolved = resolve(path);
+        // Opening a FIFO here would consume its reader; it is opened once, at the commit.
         let special = std::fs::metadata(path).is_ok_and(|m| !m.is_file());
-        if special {
-            if let Err(e) = std::fs::OpenOptions::new().write(true).open(path) {
-                bail!("{flag} {}: cannot write: {e}", path.display());
-            }
-        } else {
+        if !special {
             let parent = resolved.parent().unwrap_or(Path::new("/"));
             check_writable(flag, path, parent)?;
         }
