@@ -66,6 +66,24 @@ fn oversized_runs_are_refused_before_allocating() {
         );
     }
     let d = tmpdir("oversized");
+    // The number of points of a points file is known once it is read: checked then.
+    let pts = arg(&d, "p2000.csv");
+    let o = run(&["points", "2000", "-o", &pts]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    fails_leaving_nothing(
+        &d,
+        &with_cpu(&[
+            "mcs",
+            "--per-point",
+            "--points-file",
+            &pts,
+            "--memory-limit",
+            "1G",
+            "--json",
+            &arg(&d, "r.json"),
+        ]),
+        "--per-point",
+    );
     fails_leaving_nothing(
         &d,
         &["points", "4000000000", "-o", &arg(&d, "p.csv")],

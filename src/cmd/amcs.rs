@@ -1,6 +1,6 @@
 //! `amcs` (and the default run): adaptive Monte Carlo, GUM S1 §7.9.
 
-use super::analysis::{estimate, run_and_report};
+use super::analysis::{run_and_report, Plan};
 use super::{Flags, Run};
 use crate::cli::{OutputArgs, ProblemArgs};
 use anyhow::Result;
@@ -52,24 +52,18 @@ impl Run for AmcsArgs {
     fn run(self) -> Result<()> {
         let opts = self.options();
         opts.check().map_err(|e| Flags::RUN.error(e))?;
-        self.problem.check()?;
-        self.problem.memory.check(&estimate(
-            &self.problem,
-            &self.output,
-            format!("AMCS with up to {} draws", self.max_draws),
-            self.max_draws,
-            self.batch,
-            "lower --max-draws or --batch, use fewer --points or no --per-point, \
-             or raise --memory-limit",
-        ))?;
-        let rep = run_and_report(
-            &self.problem,
-            &self.output,
-            "AMCS",
-            true,
-            Flags::RUN,
-            |ev, cb| mc::run_amcs(ev, &opts, Some(cb)),
-        )?;
+        let plan = Plan {
+            label: "AMCS",
+            capped: true,
+            what: format!("AMCS with up to {} draws", self.max_draws),
+            draws: self.max_draws,
+            batch: self.batch,
+            advice: "lower --max-draws or --batch, use fewer --points or no --per-point, \
+                     or raise --memory-limit",
+        };
+        let rep = run_and_report(&self.problem, &self.output, plan, Flags::RUN, |ev, cb| {
+            mc::run_amcs(ev, &opts, Some(cb))
+        })?;
         if !rep.result.converged {
             eprintln!(
                 "warning: AMCS did not converge within --max-draws {}; the results use all draws made",

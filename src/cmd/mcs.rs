@@ -1,6 +1,6 @@
 //! `mcs`: classic Monte Carlo with a fixed number of draws.
 
-use super::analysis::{estimate, run_and_report};
+use super::analysis::{run_and_report, Plan};
 use super::{Flags, Run};
 use crate::cli::{OutputArgs, ProblemArgs};
 use anyhow::Result;
@@ -32,24 +32,18 @@ impl Run for McsArgs {
             settings: self.output.settings(),
         };
         opts.settings.check().map_err(|e| Flags::RUN.error(e))?;
-        self.problem.check()?;
-        self.problem.memory.check(&estimate(
-            &self.problem,
-            &self.output,
-            format!("MCS with {} draws", self.draws),
-            self.draws,
-            opts.chunk,
-            "use fewer --draws (or AMCS), fewer --points or no --per-point, \
-             or raise --memory-limit",
-        ))?;
-        run_and_report(
-            &self.problem,
-            &self.output,
-            "MCS",
-            false,
-            Flags::RUN,
-            |ev, cb| mc::run_mcs(ev, &opts, Some(cb)),
-        )?;
+        let plan = Plan {
+            label: "MCS",
+            capped: false,
+            what: format!("MCS with {} draws", self.draws),
+            draws: self.draws,
+            batch: opts.chunk,
+            advice: "use fewer --draws (or AMCS), fewer --points or no --per-point, \
+                     or raise --memory-limit",
+        };
+        run_and_report(&self.problem, &self.output, plan, Flags::RUN, |ev, cb| {
+            mc::run_mcs(ev, &opts, Some(cb))
+        })?;
         Ok(())
     }
 }
