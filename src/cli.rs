@@ -236,6 +236,20 @@ pub struct ProblemArgs {
     pub memory: MemoryArgs,
 }
 
+/// The AMCS tolerances of a comparison.
+#[derive(Args, Debug, Clone)]
+pub struct DeltasArgs {
+    /// AMCS tolerances δ (mm).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0.01,0.02",
+        value_name = "MM,...",
+        allow_hyphen_values = true
+    )]
+    pub deltas: Vec<f64>,
+}
+
 /// Reporting options.
 #[derive(Args, Debug, Clone)]
 pub struct OutputArgs {

@@ -211,22 +211,33 @@ fn a_write_failing_midway_leaves_no_output_and_no_temp_file() {
     assert_eq!(tree(&d), Vec::<String>::new(), "left behind");
 }
 
+/// A long run says how long up front, and SIGTERM during it leaves no file (exit 128 + 15).
 #[test]
-fn termination_during_a_run_leaves_nothing() {
+fn long_runs_say_so_and_termination_leaves_nothing() {
+    use std::io::{BufRead, BufReader};
     let d = tmpdir("term");
+    // 2·10^6 draws × 5000 points: minutes on any machine, 32 MB of values.
     let mut child = bin()
-        .args(with_cpu(&[
+        .args([
             "mcs",
+            "--backend",
+            "cpu",
+            "--points",
+            "5000",
             "--draws",
-            "200000000",
+            "2000000",
             "--json",
             &arg(&d, "x.json"),
             "--csv",
             &arg(&d, "csv"),
-        ]))
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
-    std::thread::sleep(Duration::from_millis(500));
+    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
+    let first = lines.next().expect("no estimate line").unwrap();
+    assert!(first.contains("estimated ~"), "{first}");
     let pid = child.id().to_string();
     let k = std::process::Command::new("kill")
         .args(["-TERM", &pid])

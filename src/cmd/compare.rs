@@ -5,7 +5,7 @@ use super::mcs::chunk;
 use super::outputs::Outputs;
 use super::progress::Progress;
 use super::{Flags, Run};
-use crate::cli::ProblemArgs;
+use crate::cli::{DeltasArgs, ProblemArgs};
 use anyhow::Result;
 use clap::Args;
 use gpu_amcs::mc::{self, AmcsOptions, McsOptions, RunSettings, Tolerance};
@@ -24,15 +24,8 @@ pub struct CompareArgs {
     /// Number of MCS draws.
     #[arg(long, default_value_t = 1_000_000, value_name = "N")]
     pub draws: u64,
-    /// AMCS tolerances δ (mm).
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "0.01,0.02",
-        value_name = "MM,...",
-        allow_hyphen_values = true
-    )]
-    pub deltas: Vec<f64>,
+    #[command(flatten)]
+    pub deltas: DeltasArgs,
     /// AMCS batch size H.
     #[arg(long, default_value_t = 10_000, value_name = "H")]
     pub batch: u64,
@@ -70,6 +63,7 @@ impl Run for CompareArgs {
             ..RunSettings::default()
         };
         let amcs_opts: Vec<AmcsOptions> = a
+            .deltas
             .deltas
             .iter()
             .map(|&d| AmcsOptions {
@@ -116,7 +110,7 @@ impl Run for CompareArgs {
             )
             .map_err(|e| FLAGS.error(e))?;
             let mut amcs = Vec::new();
-            for (d, o) in a.deltas.iter().zip(&amcs_opts) {
+            for (d, o) in a.deltas.deltas.iter().zip(&amcs_opts) {
                 bar.set_label(format!("AMCS δ={d}"));
                 bar.restart(true);
                 let r = mc::run_amcs(ev.as_mut(), o, Some(&cb)).map_err(|e| FLAGS.error(e))?;

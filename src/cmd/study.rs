@@ -4,7 +4,7 @@ use super::args::{sweeps_estimate, BYTES_PER_DRAW};
 use super::outputs::Outputs;
 use super::progress::Progress;
 use super::Run;
-use crate::cli::{BackendArgs, MemoryArgs};
+use crate::cli::{BackendArgs, DeltasArgs, MemoryArgs};
 use anyhow::Result;
 use clap::Args;
 use gpu_amcs::memory::Estimate;
@@ -36,15 +36,8 @@ pub struct StudyArgs {
         value_name = "N,..."
     )]
     pub points: Vec<usize>,
-    /// AMCS tolerances δ (mm).
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "0.01,0.02",
-        value_name = "MM,...",
-        allow_hyphen_values = true
-    )]
-    pub deltas: Vec<f64>,
+    #[command(flatten)]
+    pub deltas: DeltasArgs,
     /// Seed of the simulated true robot.
     #[arg(long, default_value_t = 2025, value_name = "SEED")]
     pub robot_seed: u64,
@@ -93,7 +86,7 @@ impl Run for StudyArgs {
             .collect::<Result<_>>()?;
         }
         s.point_counts = a.points.clone();
-        s.deltas = a.deltas.clone();
+        s.deltas = a.deltas.deltas.clone();
         s.robot_seed = a.robot_seed;
         s.calibration_seed = a.seed;
         let (backend, adapter) = a.backend.choice()?;
