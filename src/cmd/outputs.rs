@@ -339,12 +339,14 @@ impl Outputs {
                 .map_err(|e| anyhow!("{flag}: cannot write {}: {e}", path.display()))?;
             temps.push((flag, tmp, path.clone()));
         }
-        for (flag, tmp, path) in &temps {
-            std::fs::rename(tmp, path)
-                .map_err(|e| anyhow!("{flag}: cannot write {}: {e}", path.display()))?;
-        }
         {
+            // Held through the renames: a signal now waits for them to finish, so the reports
+            // are all in place before the process exits.
             let mut p = pending();
+            for (flag, tmp, path) in &temps {
+                std::fs::rename(tmp, path)
+                    .map_err(|e| anyhow!("{flag}: cannot write {}: {e}", path.display()))?;
+            }
             p.files.clear();
             p.dirs.clear();
         }
