@@ -278,3 +278,47 @@ fn messages_name_the_right_flag_and_number() {
     let o = run(&["points", "2", "--box-center", "250,0,200"]);
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+/// A cause the message already holds is printed once.
+#[test]
+fn causes_are_not_repeated() {
+    for args in [
+        vec!["--model", "/nonexistent/m.toml"],
+        vec!["identify", "/nonexistent/s.csv"],
+        vec!["fk", "--points-file", "/nonexistent/p.csv"],
+        vec!["simulate", "--truth", "/nonexistent/t.toml"],
+    ] {
+        let o = run(&args);
+        assert_fails_naming(&o, "/nonexistent/", &format!("{args:?}"));
+        let e = stderr(&o);
+        assert_eq!(e.matches("os error").count(), 1, "{args:?}: {e}");
+    }
+}
+
+/// A study stopped before it finishes leaves no output directory (its files are written at the
+/// end, all or none).
+#[test]
+fn interrupted_study_leaves_nothing() {
+    let d = tmpdir("study-int");
+    let mut child = bin()
+        .args([
+            "study",
+            "--quick",
+            "--quiet",
+            "--backend",
+            "cpu",
+            "--out",
+            &arg(&d, "s"),
+        ])
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    let k = std::process::Command::new("kill")
+        .args(["-INT", &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(k.success());
+    let status = child.wait().unwrap();
+    assert_eq!(status.code(), Some(130), "{status:?}");
+    assert_eq!(tree(&d), Vec::<String>::new());
+}
