@@ -238,13 +238,7 @@ fn long_runs_say_so_and_termination_leaves_nothing() {
     let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
     let first = lines.next().expect("no estimate line").unwrap();
     assert!(first.contains("estimated ~"), "{first}");
-    let pid = child.id().to_string();
-    let k = std::process::Command::new("kill")
-        .args(["-TERM", &pid])
-        .status()
-        .unwrap();
-    assert!(k.success());
-    let status = child.wait().unwrap();
+    let status = signal(&mut child, "TERM");
     assert_eq!(status.code(), Some(143), "{status:?}");
     assert_eq!(tree(&d), Vec::<String>::new());
 }
@@ -313,12 +307,7 @@ fn interrupted_study_leaves_nothing() {
         .spawn()
         .unwrap();
     std::thread::sleep(Duration::from_millis(1500));
-    let k = std::process::Command::new("kill")
-        .args(["-INT", &child.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(k.success());
-    let status = child.wait().unwrap();
+    let status = signal(&mut child, "INT");
     assert_eq!(status.code(), Some(130), "{status:?}");
     assert_eq!(tree(&d), Vec::<String>::new());
 }

@@ -101,3 +101,13 @@ pub fn fails_leaving_nothing(dir: &Path, args: &[&str], what: &str) {
 pub fn arg(dir: &Path, name: &str) -> String {
     dir.join(name).to_str().unwrap().to_string()
 }
+
+/// Sends signal `sig` (`"TERM"`, `"INT"`) to a running child and waits for its exit.
+pub fn signal(child: &mut std::process::Child, sig: &str) -> std::process::ExitStatus {
+    let k = Command::new("kill")
+        .args([&format!("-{sig}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(k.success(), "kill -{sig} failed");
+    child.wait().unwrap()
+}
