@@ -41,6 +41,7 @@ pub mod import;
 pub mod input;
 pub mod kinematics;
 pub mod mc;
+pub mod memory;
 pub mod points;
 pub mod report;
 pub mod sampling;

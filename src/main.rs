@@ -1,9 +1,37 @@
 //! The `gpu-amcs` binary: parse the command line, call the library, print errors.
 
 mod cli;
-mod commands;
+mod cmd;
 
 use clap::Parser;
+
+/// The error and its causes on one line, each cause once: a cause whose text the line already
+/// holds (an error that embeds its source) is not repeated.
+fn one_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        let text = text.split_whitespace().collect::<Vec<_>>().join(" ");
+        if text.is_empty() || line.contains(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
+/// A command-line parsing error on one line: clap's text without the blank lines and the
+/// "For more information" hint.
+fn usage_line(text: &str) -> String {
+    text.lines()
+        .map(str::trim)
+        .filter(|l| !l.is_empty() && !l.starts_with("For more information"))
+        .collect::<Vec<_>>()
+        .join(" ")
+}
 
 fn main() {
     // The Vulkan loader prints "XDG_RUNTIME_DIR is invalid or not set" when probing for adapters
@@ -12,9 +40,34 @@ fn main() {
     if std::env::var_os("XDG_RUNTIME_DIR").is_none() {
         std::env::set_var("XDG_RUNTIME_DIR", std::env::temp_dir());
     }
-    let cli = cli::Cli::parse();
-    if let Err(e) = commands::run(cli) {
-        eprintln!("error: {e:#}");
+    let cli = match cli::Cli::try_parse() {
+        Ok(cli) => cli,
+        Err(e) if !e.use_stderr() => e.exit(),
+        Err(e) => {
+            eprintln!("{}", usage_line(&e.to_string()));
+            std::process::exit(2);
+        }
+    };
+    cmd::outputs::install_signal_cleanup();
+    if let Err(e) = cli.run() {
+        eprintln!("error: {}", one_line(&e));
         std::process::exit(2);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::one_line;
+    use anyhow::Context;
+
+    #[test]
+    fn each_cause_printed_once() {
+        let io = std::io::Error::from(std::io::ErrorKind::PermissionDenied);
+        let inner = anyhow::Error::new(io).context("cannot write x: permission denied");
+        let e = Err::<(), _>(inner).context("--json").unwrap_err();
+        let line = one_line(&e);
+        assert_eq!(line, "--json: cannot write x: permission denied");
+        let e = anyhow::anyhow!("two\nlines");
+        assert_eq!(one_line(&e), "two lines");
     }
 }

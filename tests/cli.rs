@@ -1,43 +1,9 @@
 //! The binary as a user runs it: the main job, outputs, reproducibility and bad input.
 
+mod common;
+
+use common::*;
 use std::path::PathBuf;
-use std::process::{Command, Output};
-
-fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_gpu-amcs"))
-}
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("gpu-amcs-test-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn run(args: &[&str]) -> Output {
-    bin().args(args).output().unwrap()
-}
-
-fn stderr(o: &Output) -> String {
-    String::from_utf8_lossy(&o.stderr).into_owned()
-}
-
-/// A failing run: exit ≠ 0, a one-line error naming `what`, no panic.
-fn fails_naming(args: &[&str], what: &str) {
-    let o = run(args);
-    let e = stderr(&o);
-    assert!(!o.status.success(), "{args:?} succeeded");
-    assert!(
-        e.contains(what),
-        "{args:?}: error does not name '{what}': {e}"
-    );
-    assert!(!e.contains("panicked"), "{args:?} panicked: {e}");
-    assert_eq!(
-        e.trim().lines().count(),
-        1,
-        "{args:?}: not a one-line error: {e}"
-    );
-}
 
 #[test]
 fn main_job_runs_and_writes_outputs() {

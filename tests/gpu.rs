@@ -8,12 +8,15 @@
 //! Without any Vulkan/Metal/DX12 adapter the GPU tests print a skip note and pass, unless the
 //! environment variable `CI` is `true`, where they fail.
 
+mod common;
+
 use gpu_amcs::engine::gpu::{self, philox_on_gpu, GpuEvaluator, GpuOptions};
 use gpu_amcs::engine::{
     deviation, make_evaluator, BackendChoice, CpuEvaluator, EngineError, Evaluator, Problem,
     Reference,
 };
 use gpu_amcs::kinematics::{tx60, RobotModel, Uncertainty, N_PARAMS};
+use gpu_amcs::mc::Moments;
 use gpu_amcs::sampling::{normals_block, philox4x32_10, Philox};
 
 /// Largest allowed |e_gpu − e_cpu| per draw and point, mm (the module docs of
@@ -70,19 +73,9 @@ fn max_diff(a: &[f64], b: &[f64]) -> f64 {
         .fold(0.0, f64::max)
 }
 
-/// Mean, variance, skewness, kurtosis.
+/// Mean, variance, skewness, kurtosis, as the library computes them.
 fn moments(x: &[f64]) -> [f64; 4] {
-    let n = x.len() as f64;
-    let mean = x.iter().sum::<f64>() / n;
-    let (mut m2, mut m3, mut m4) = (0.0, 0.0, 0.0);
-    for v in x {
-        let d = v - mean;
-        m2 += d * d;
-        m3 += d * d * d;
-        m4 += d * d * d * d;
-    }
-    let (m2, m3, m4) = (m2 / n, m3 / n, m4 / n);
-    [mean, m2, m3 / m2.powf(1.5), m4 / (m2 * m2)]
+    Moments::of(x).as_array()
 }
 
 /// Compares GPU and CPU on `n` draws from `first`; returns (max |Δw|, max |Δe|).
@@ -432,25 +425,21 @@ fn main_job_gpu_report_equals_cpu_report() {
     if !have_adapter("main_job_gpu_report_equals_cpu_report") {
         return;
     }
-    let dir = std::env::temp_dir().join(format!("gpu-amcs-gpu-cli-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
+    let dir = common::tmpdir("gpu-cli");
     let run = |backend: &str| -> serde_json::Value {
         let f = dir.join(format!("{backend}.json"));
-        let o = std::process::Command::new(env!("CARGO_BIN_EXE_gpu-amcs"))
-            .args([
-                "--points",
-                "50",
-                "--delta",
-                "0.01",
-                "--quiet",
-                "--backend",
-                backend,
-                "--json",
-                f.to_str().unwrap(),
-            ])
-            .output()
-            .unwrap();
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let o = common::run(&[
+            "--points",
+            "50",
+            "--delta",
+            "0.01",
+            "--quiet",
+            "--backend",
+            backend,
+            "--json",
+            f.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", common::stderr(&o));
         serde_json::from_str::<serde_json::Value>(&std::fs::read_to_string(f).unwrap()).unwrap()
             ["result"]
             .clone()

@@ -3,34 +3,9 @@
 
 use gpu_amcs::kinematics::{tx60, ParamKind, RobotModel, Uncertainty, N_PARAMS};
 use gpu_amcs::simulate::{calibrate, Experiment, Factors};
-use std::path::PathBuf;
-use std::process::{Command, Output};
+mod common;
 
-fn run(args: &[&str]) -> Output {
-    Command::new(env!("CARGO_BIN_EXE_gpu-amcs"))
-        .args(args)
-        .output()
-        .unwrap()
-}
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("gpu-amcs-study-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
-
-fn fails_naming(args: &[&str], flag: &str) {
-    let o = run(args);
-    let e = String::from_utf8_lossy(&o.stderr);
-    assert!(!o.status.success(), "{args:?} succeeded");
-    assert!(
-        e.contains(flag),
-        "{args:?}: error does not name {flag}: {e}"
-    );
-    assert!(!e.contains("panicked"), "{args:?} panicked: {e}");
-    assert_eq!(e.trim().lines().count(), 1, "{args:?}: not one line: {e}");
-}
+use common::*;
 
 /// Well-formed XML by a small hand parser: every tag closes in order, attributes are quoted,
 /// exactly one root `<svg>` element.

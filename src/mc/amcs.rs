@@ -8,7 +8,8 @@
 //! The results come from all h·H values. A cap on the draws ends the run as "not converged".
 
 use super::result::{
-    batch_estimates, Accumulator, BatchTrace, McError, McResult, Method, Progress, RunSettings,
+    batch_estimates, min_draws, Accumulator, BatchTrace, McError, McResult, Method, Progress,
+    RunSettings, Setting,
 };
 use crate::engine::Evaluator;
 
@@ -46,41 +47,41 @@ impl Default for AmcsOptions {
 }
 
 impl AmcsOptions {
-    /// Checks every setting; errors name the flag.
+    /// Checks every setting; errors name the setting.
     pub fn check(&self) -> Result<(), McError> {
         self.settings.check()?;
         match self.tolerance {
             Tolerance::Delta(d) if !(d.is_finite() && d > 0.0) => {
                 return Err(McError::Setting {
-                    field: "numerical tolerance (--delta)",
+                    field: Setting::Tolerance,
                     message: format!("must be a positive number of mm, got {d}"),
                 })
             }
             Tolerance::Ndig(n) if !(1..=12).contains(&n) => {
                 return Err(McError::Setting {
-                    field: "significant digits (--ndig)",
+                    field: Setting::SignificantDigits,
                     message: format!("must be 1 to 12, got {n}"),
                 })
             }
             _ => {}
         }
         let p = self.settings.coverage_probability;
-        let min_h = (100.0 / (1.0 - p)).ceil() as u64;
+        let min_h = min_draws(p);
         if self.batch_size < min_h {
             return Err(McError::Setting {
-                field: "batch size (--batch)",
+                field: Setting::BatchSize,
                 message: format!(
                     "must be at least 100/(1 − p) = {min_h} for p = {p} (GUM S1 §7.9.2), got {}",
                     self.batch_size
                 ),
             });
         }
-        if self.max_draws < 2 * self.batch_size {
+        let two = self.batch_size.saturating_mul(2);
+        if self.max_draws < two {
             return Err(McError::Setting {
-                field: "draw cap (--max-draws)",
+                field: Setting::MaxDraws,
                 message: format!(
-                    "must allow at least two batches (≥ {}), got {}",
-                    2 * self.batch_size,
+                    "must allow at least two batches (≥ {two}), got {}",
                     self.max_draws
                 ),
             });
@@ -117,7 +118,7 @@ pub fn run_amcs(
     let mut acc = Accumulator::new(
         eval,
         opts.settings.clone(),
-        opts.max_draws.min(100 * opts.batch_size),
+        opts.max_draws.min(opts.batch_size.saturating_mul(100)),
     )?;
     let mut est: [Vec<f64>; 4] = Default::default();
     let mut trace = Vec::new();

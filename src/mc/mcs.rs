@@ -1,7 +1,9 @@
 //! Classic Monte Carlo (GUM S1 §7): a fixed number of draws, evaluated in chunks so a run of
 //! 10^8 draws keeps only the w values (8 bytes a draw) and one chunk's per-point buffer.
 
-use super::result::{Accumulator, McError, McResult, Method, Progress, RunSettings};
+use super::result::{
+    min_draws, Accumulator, McError, McResult, Method, Progress, RunSettings, Setting,
+};
 use crate::engine::Evaluator;
 
 /// MCS settings.
@@ -31,17 +33,17 @@ pub fn run_mcs(
     opts: &McsOptions,
     progress: Option<Progress>,
 ) -> Result<McResult, McError> {
-    let min = (100.0 / (1.0 - opts.settings.coverage_probability)).ceil() as u64;
+    let min = min_draws(opts.settings.coverage_probability);
     opts.settings.check()?;
     if opts.draws < min {
         return Err(McError::Setting {
-            field: "number of draws (--draws)",
+            field: Setting::Draws,
             message: format!("must be at least 100/(1 − p) = {min}, got {}", opts.draws),
         });
     }
     if opts.chunk == 0 {
         return Err(McError::Setting {
-            field: "chunk size",
+            field: Setting::Chunk,
             message: "must be positive".into(),
         });
     }

@@ -14,5 +14,7 @@ pub mod stats;
 
 pub use amcs::{run_amcs, AmcsOptions, Tolerance};
 pub use mcs::{run_mcs, McsOptions};
-pub use result::{BatchTrace, McError, McResult, Method, Progress, RunSettings};
+pub use result::{
+    min_draws, BatchTrace, McError, McResult, Method, Progress, RunSettings, Setting,
+};
 pub use stats::{CoverageInterval, IntervalKind, Moments, Reliability};

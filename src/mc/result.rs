@@ -47,13 +47,13 @@ impl RunSettings {
         let p = self.coverage_probability;
         if !(p > 0.0 && p < 1.0) {
             return Err(McError::Setting {
-                field: "coverage probability (--coverage)",
+                field: Setting::CoverageProbability,
                 message: format!("must lie in (0, 1), got {p}"),
             });
         }
         if self.thresholds.is_empty() {
             return Err(McError::Setting {
-                field: "thresholds (--thresholds)",
+                field: Setting::Thresholds,
                 message: "at least one is needed".into(),
             });
         }
@@ -63,11 +63,61 @@ impl RunSettings {
             .find(|t| !t.is_finite() || **t <= 0.0)
         {
             return Err(McError::Setting {
-                field: "thresholds (--thresholds)",
+                field: Setting::Thresholds,
                 message: format!("each must be a positive number of mm, got {t}"),
             });
         }
         Ok(())
+    }
+}
+
+/// The smallest number of draws GUM S1 §7.9.2 asks for at coverage probability `p`:
+/// `⌈100/(1 − p)⌉`, where a quotient within rounding of an integer counts as that integer (so
+/// p = 0.9999 gives 10^6, not 10^6 + 1). Saturates at `u64::MAX` as p approaches 1.
+pub fn min_draws(p: f64) -> u64 {
+    let x = 100.0 / (1.0 - p);
+    let r = x.round();
+    if (x - r).abs() <= 1e-9 * r.abs().max(1.0) {
+        r as u64
+    } else {
+        x.ceil() as u64
+    }
+}
+
+/// The settings a driver checks, named in its errors ([`McError::Setting`]); a front end maps
+/// each to its own option name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Setting {
+    /// [`RunSettings::coverage_probability`].
+    CoverageProbability,
+    /// [`RunSettings::thresholds`].
+    Thresholds,
+    /// The AMCS numerical tolerance δ.
+    Tolerance,
+    /// The AMCS significant digits.
+    SignificantDigits,
+    /// The AMCS batch size H.
+    BatchSize,
+    /// The AMCS draw cap.
+    MaxDraws,
+    /// The MCS number of draws.
+    Draws,
+    /// The MCS evaluation chunk.
+    Chunk,
+}
+
+impl std::fmt::Display for Setting {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Setting::CoverageProbability => "coverage probability",
+            Setting::Thresholds => "thresholds",
+            Setting::Tolerance => "numerical tolerance",
+            Setting::SignificantDigits => "significant digits",
+            Setting::BatchSize => "batch size",
+            Setting::MaxDraws => "draw cap",
+            Setting::Draws => "number of draws",
+            Setting::Chunk => "chunk size",
+        })
     }
 }
 
@@ -77,8 +127,8 @@ pub enum McError {
     /// A setting is out of range; names the setting.
     #[error("{field}: {message}")]
     Setting {
-        /// The setting, with its CLI flag.
-        field: &'static str,
+        /// The setting.
+        field: Setting,
         /// What is wrong.
         message: String,
     },

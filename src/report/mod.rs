@@ -82,11 +82,13 @@ pub fn write_atomic(path: &Path, contents: &str) -> Result<(), ReportError> {
         .map(|n| n.to_string_lossy().into_owned())
         .unwrap_or_default();
     let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
-    std::fs::write(&tmp, contents).map_err(err)?;
-    std::fs::rename(&tmp, path).map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        err(e)
-    })
+    std::fs::write(&tmp, contents)
+        .and_then(|()| std::fs::rename(&tmp, path))
+        .map_err(|e| {
+            // A write that failed midway (disk full, file size limit) leaves no temporary file.
+            let _ = std::fs::remove_file(&tmp);
+            err(e)
+        })
 }
 
 /// Creates `dir` (and parents) and writes each `(file name, contents)` into it atomically.

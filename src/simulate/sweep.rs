@@ -55,22 +55,36 @@ impl SweepPlan {
     /// The commanded angles of joint `joint` (1-based) in its sweep, degrees, ascending. Empty for
     /// a joint outside 1–6 or a non-positive step or fraction.
     pub fn sweep_angles(&self, joint: usize) -> Vec<f64> {
+        let Some(steps) = self.steps(joint) else {
+            return Vec::new();
+        };
+        let (lo, hi) = self.measuring_range_deg[joint - 1];
+        let centre = (lo + hi) / 2.0;
+        let start = centre - steps as f64 * self.step_deg / 2.0;
+        (0..=steps)
+            .map(|k| start + k as f64 * self.step_deg)
+            .collect()
+    }
+
+    /// The number of points in joint `joint`'s sweep (the length of [`Self::sweep_angles`]),
+    /// without building it: for sizing a run before it allocates. Saturates at `u64::MAX`.
+    pub fn sweep_len(&self, joint: usize) -> u64 {
+        self.steps(joint)
+            .map_or(0, |s| (s as u64).saturating_add(1))
+    }
+
+    fn steps(&self, joint: usize) -> Option<usize> {
         if !(1..=JOINTS).contains(&joint)
             || self.step_deg.is_nan()
             || self.step_deg <= 0.0
             || self.range_fraction.is_nan()
             || self.range_fraction <= 0.0
         {
-            return Vec::new();
+            return None;
         }
         let (lo, hi) = self.measuring_range_deg[joint - 1];
         let span = (hi - lo) * self.range_fraction.min(1.0);
-        let centre = (lo + hi) / 2.0;
-        let steps = (span / self.step_deg + 1e-9).floor() as usize;
-        let start = centre - steps as f64 * self.step_deg / 2.0;
-        (0..=steps)
-            .map(|k| start + k as f64 * self.step_deg)
-            .collect()
+        Some((span / self.step_deg + 1e-9).floor() as usize)
     }
 
     /// The commanded configurations of joint `joint`'s sweep, degrees.

@@ -1,0 +1,75 @@
+//! `amcs` (and the default run): adaptive Monte Carlo, GUM S1 §7.9.
+
+use super::analysis::{run_and_report, Plan};
+use super::{Flags, Run};
+use crate::cli::{OutputArgs, ProblemArgs};
+use anyhow::Result;
+use clap::Args;
+use gpu_amcs::mc::{self, AmcsOptions, Tolerance};
+
+/// AMCS options.
+#[derive(Args, Debug, Clone)]
+pub struct AmcsArgs {
+    #[command(flatten)]
+    pub problem: ProblemArgs,
+    #[command(flatten)]
+    pub output: OutputArgs,
+    /// Numerical tolerance δ in mm (GUM S1 §7.9.4).
+    #[arg(
+        long,
+        default_value_t = 0.01,
+        value_name = "MM",
+        conflicts_with = "ndig"
+    )]
+    pub delta: f64,
+    /// Derive δ from u(w) and this many significant digits (GUM S1 §7.9.2) instead of --delta.
+    #[arg(long, value_name = "N")]
+    pub ndig: Option<u32>,
+    /// Batch size H.
+    #[arg(long, default_value_t = 10_000, value_name = "H")]
+    pub batch: u64,
+    /// Cap on the total number of draws; reaching it ends the run as not converged.
+    #[arg(long, default_value_t = 10_000_000, value_name = "N")]
+    pub max_draws: u64,
+}
+
+impl AmcsArgs {
+    /// The driver's options.
+    pub fn options(&self) -> AmcsOptions {
+        AmcsOptions {
+            tolerance: match self.ndig {
+                Some(n) => Tolerance::Ndig(n),
+                None => Tolerance::Delta(self.delta),
+            },
+            batch_size: self.batch,
+            max_draws: self.max_draws,
+            settings: self.output.settings(),
+        }
+    }
+}
+
+impl Run for AmcsArgs {
+    fn run(self) -> Result<()> {
+        let opts = self.options();
+        opts.check().map_err(|e| Flags::RUN.error(e))?;
+        let plan = Plan {
+            label: "AMCS",
+            capped: true,
+            what: format!("AMCS with up to {} draws", self.max_draws),
+            draws: self.max_draws,
+            batch: self.batch,
+            advice: "lower --max-draws or --batch, use fewer --points or no --per-point, \
+                     or raise --memory-limit",
+        };
+        let rep = run_and_report(&self.problem, &self.output, plan, Flags::RUN, |ev, cb| {
+            mc::run_amcs(ev, &opts, Some(cb))
+        })?;
+        if !rep.result.converged {
+            eprintln!(
+                "warning: AMCS did not converge within --max-draws {}; the results use all draws made",
+                self.max_draws
+            );
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,103 @@
+//! What `amcs` and `mcs` share: check the outputs and the memory, build the problem and the
+//! evaluator in a thread pool, run a driver under the progress bar, write the reports.
+
+use super::args::{thread_pool, BYTES_PER_DRAW, BYTES_PER_POINT};
+use super::outputs::{Outputs, CSV_NAMES, SVG_NAMES};
+use super::progress::Progress;
+use super::Flags;
+use crate::cli::{OutputArgs, ProblemArgs};
+use anyhow::Result;
+use gpu_amcs::engine::Evaluator;
+use gpu_amcs::mc::{self, McError, McResult};
+use gpu_amcs::memory::Estimate;
+use gpu_amcs::report::{self, RunReport};
+
+/// The outputs of a run, checked.
+pub fn outputs(problem: &ProblemArgs, output: &OutputArgs) -> Result<Outputs> {
+    let mut o = Outputs::new(problem.inputs());
+    o.file("--json", output.json.as_deref())?;
+    o.dir("--csv", output.csv.as_deref(), CSV_NAMES)?;
+    o.dir("--svg", output.svg.as_deref(), SVG_NAMES)?;
+    Ok(o)
+}
+
+/// What a run is and keeps, for its label and its memory estimate.
+pub struct Plan {
+    /// Progress bar label.
+    pub label: &'static str,
+    /// Whether `draws` is a cap the run may stop short of (AMCS).
+    pub capped: bool,
+    /// What is sized, for the message.
+    pub what: String,
+    /// Draws kept (the cap for AMCS).
+    pub draws: u64,
+    /// Draws evaluated at a time.
+    pub batch: u64,
+    /// What to change when it does not fit.
+    pub advice: &'static str,
+}
+
+impl Plan {
+    /// `draws` values, `m` test points and, with per-point output, `batch` × m errors in the
+    /// driver's buffer and as many in the evaluator's.
+    fn estimate(&self, output: &OutputArgs, m: u64) -> Estimate {
+        let e = Estimate::new(self.what.clone(), self.advice)
+            .plus(&[self.draws, BYTES_PER_DRAW])
+            .plus(&[m, BYTES_PER_POINT]);
+        if output.per_point {
+            e.plus(&[self.batch, m, 2 * 8])
+        } else {
+            e
+        }
+    }
+}
+
+/// Checks the outputs and the memory (before and, for a points file, again after reading the
+/// points), runs `drive` on the problem under a progress bar and writes the reports.
+pub fn run_and_report(
+    problem: &ProblemArgs,
+    output: &OutputArgs,
+    plan: Plan,
+    flags: Flags,
+    drive: impl FnOnce(&mut dyn Evaluator, mc::Progress) -> Result<McResult, McError> + Send,
+) -> Result<RunReport> {
+    problem.check()?;
+    let mut outputs = outputs(problem, output)?;
+    let generated = match problem.points_file {
+        Some(_) => 0,
+        None => problem.points as u64,
+    };
+    problem.memory.check(&plan.estimate(output, generated))?;
+    let pool = thread_pool(problem.threads)?;
+    let rep = pool.install(|| -> Result<RunReport> {
+        let built = problem.build()?;
+        let m = built.problem.n_points() as u64;
+        problem.memory.check(&plan.estimate(output, m))?;
+        let (model, points, seed) = (
+            built.problem.model.name.clone(),
+            built.problem.n_points(),
+            built.problem.seed,
+        );
+        let (mut ev, notes) = problem.backend.evaluator(built.problem)?;
+        let bar = Progress::new(output.quiet, plan.label, "draws");
+        let bar = if plan.capped { bar.capped() } else { bar };
+        let result = drive(ev.as_mut(), &|done, total| bar.update(done, total));
+        bar.finish();
+        Ok(RunReport {
+            model,
+            points,
+            reference: built.reference,
+            seed,
+            notes,
+            result: result.map_err(|e| flags.error(e))?,
+        })
+    })?;
+    outputs.stage_file("--json", report::json::render_run(&rep))?;
+    outputs.stage_dir("--csv", report::csv::files(&rep))?;
+    outputs.stage_dir("--svg", report::svg::run_plots(&rep))?;
+    outputs.commit()?;
+    if !output.quiet {
+        print!("{}", report::text::render(&rep));
+    }
+    Ok(rep)
+}

@@ -1,0 +1,298 @@
+//! From arguments to library values: each shared argument group converts itself
+//! (`ModelArgs::load`, `ProblemArgs::build`, `OutputArgs::settings`, …), naming the flag in its
+//! errors. Nothing here computes or writes.
+
+use crate::cli::*;
+use anyhow::{bail, Context, Result};
+use gpu_amcs::engine::backend::{make_evaluator, BackendChoice};
+use gpu_amcs::engine::{Evaluator, Problem, ProblemError, Reference};
+use gpu_amcs::kinematics::{preset, RobotModel};
+use gpu_amcs::mc::{IntervalKind, RunSettings};
+use gpu_amcs::memory::{self, Estimate, MemoryBudget};
+use gpu_amcs::points::{self, WorkspaceBox};
+use gpu_amcs::simulate::{Experiment, Factors, SweepDirection};
+use std::path::Path;
+
+/// Bytes kept per test point: the configuration in degrees and radians, the reference
+/// position and the problem's bookkeeping, with room to spare.
+pub const BYTES_PER_POINT: u64 = 256;
+
+/// Bytes kept per draw: its value, and as much again for the growth of the value vector.
+pub const BYTES_PER_DRAW: u64 = 16;
+
+impl From<BackendArg> for BackendChoice {
+    fn from(b: BackendArg) -> Self {
+        match b {
+            BackendArg::Auto => BackendChoice::Auto,
+            BackendArg::Gpu => BackendChoice::Gpu,
+            BackendArg::Cpu => BackendChoice::Cpu,
+        }
+    }
+}
+
+impl From<IntervalArg> for IntervalKind {
+    fn from(i: IntervalArg) -> Self {
+        match i {
+            IntervalArg::Shortest => IntervalKind::Shortest,
+            IntervalArg::Symmetric => IntervalKind::Symmetric,
+        }
+    }
+}
+
+impl ModelArgs {
+    /// The model file, or the preset when none is given.
+    pub fn load(&self) -> Result<RobotModel> {
+        load_model(self.model.as_deref(), &self.preset)
+    }
+}
+
+/// A model file, or the preset `name` when there is none.
+pub fn load_model(file: Option<&Path>, name: &str) -> Result<RobotModel> {
+    Ok(match file {
+        Some(p) => RobotModel::from_file(p)?,
+        None => preset(name)?,
+    })
+}
+
+impl BoxArgs {
+    /// The workspace box.
+    pub fn workspace(&self) -> Result<WorkspaceBox> {
+        let three = |v: &[f64], flag: &str| -> Result<[f64; 3]> {
+            match v {
+                [x, y, z] => Ok([*x, *y, *z]),
+                _ => bail!("{flag} needs three numbers x,y,z (mm), got {}", v.len()),
+            }
+        };
+        Ok(WorkspaceBox {
+            center: three(&self.box_center, "--box-center")?,
+            size: three(&self.box_size, "--box-size")?,
+        })
+    }
+}
+
+impl BackendArgs {
+    /// The backend and adapter; an adapter name needs a backend that can use it, and with
+    /// `auto` it asks for that GPU (an error when none matches, not a silent CPU fallback).
+    pub fn choice(&self) -> Result<(BackendChoice, Option<&str>)> {
+        let adapter = self.adapter.as_deref();
+        match (self.backend, adapter) {
+            (BackendArg::Cpu, Some(a)) => bail!(
+                "--adapter '{a}' needs --backend gpu or auto: the CPU backend uses no adapter"
+            ),
+            (BackendArg::Auto, Some(a)) => Ok((BackendChoice::Gpu, Some(a))),
+            (b, a) => Ok((b.into(), a)),
+        }
+    }
+
+    /// Builds the evaluator; the notes say what was chosen and why.
+    pub fn evaluator(&self, problem: Problem) -> Result<(Box<dyn Evaluator>, Vec<String>)> {
+        let (choice, adapter) = self.choice()?;
+        let flag = if adapter.is_some() {
+            "--adapter"
+        } else {
+            "--backend"
+        };
+        let (ev, note) = make_evaluator(problem, choice, adapter).context(flag)?;
+        Ok((ev, note.into_iter().collect()))
+    }
+}
+
+impl MemoryArgs {
+    /// The memory budget: `--memory-limit`, or a share of the available memory.
+    pub fn budget(&self) -> Result<MemoryBudget> {
+        let limit = self
+            .memory_limit
+            .as_deref()
+            .map(memory::parse_size)
+            .transpose()
+            .context("--memory-limit")?;
+        Ok(MemoryBudget::new(limit))
+    }
+
+    /// Checks `estimate` against the budget.
+    pub fn check(&self, estimate: &Estimate) -> Result<()> {
+        Ok(self.budget()?.check(estimate)?)
+    }
+}
+
+/// Most threads `--threads` accepts: results do not depend on the count, and more threads than
+/// cores only cost memory and start-up time.
+pub const MAX_THREADS: usize = 4096;
+
+/// `--threads` is 1 to [`MAX_THREADS`].
+fn check_threads(threads: Option<usize>) -> Result<()> {
+    match threads {
+        Some(0) => bail!("--threads must be at least 1"),
+        Some(t) if t > MAX_THREADS => bail!("--threads must be at most {MAX_THREADS}, got {t}"),
+        _ => Ok(()),
+    }
+}
+
+/// A rayon pool of `threads` threads (all cores when `None`) to run the work in; failing to
+/// start it is an error naming `--threads`.
+pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
+    check_threads(threads)?;
+    rayon::ThreadPoolBuilder::new()
+        .num_threads(threads.unwrap_or(0))
+        .build()
+        .map_err(|e| {
+            anyhow::anyhow!(
+                "--threads {}: cannot start the threads ({e}); use fewer",
+                threads.map_or_else(|| "(all cores)".to_string(), |t| t.to_string())
+            )
+        })
+}
+
+/// The problem a run analyses and a label of its reference.
+pub struct Built {
+    /// Model, points, reference and seed.
+    pub problem: Problem,
+    /// "calibrated model" or "nominal model (NAME)".
+    pub reference: String,
+}
+
+impl ProblemArgs {
+    /// Checks the flags that need no file: `--nominal` only with `--reference nominal`, the
+    /// box, the backend and adapter, `--threads`.
+    pub fn check(&self) -> Result<()> {
+        if self.nominal.is_some() && self.reference != ReferenceArg::Nominal {
+            bail!("--nominal is used only with --reference nominal");
+        }
+        if self.points_file.is_none() {
+            self.workspace.workspace()?;
+            if self.points > gpu_amcs::points::MAX_POINTS {
+                return Err(anyhow::Error::new(gpu_amcs::points::PointsError::TooMany(
+                    self.points,
+                ))
+                .context("--points"));
+            }
+        }
+        self.backend.choice()?;
+        check_threads(self.threads)
+    }
+
+    /// Bytes for the test points (their number is known before reading a points file only
+    /// when they are generated; a points file is bounded by its size).
+    pub fn points_estimate(&self, e: Estimate) -> Estimate {
+        match self.points_file {
+            Some(_) => e,
+            None => e.plus(&[self.points as u64, BYTES_PER_POINT]),
+        }
+    }
+
+    /// The files this problem reads, with their flags.
+    pub fn inputs(&self) -> Vec<(&'static str, &Path)> {
+        [
+            ("--model", self.model.model.as_deref()),
+            ("--points-file", self.points_file.as_deref()),
+            ("--nominal", self.nominal.as_deref()),
+        ]
+        .into_iter()
+        .filter_map(|(f, p)| p.map(|p| (f, p)))
+        .collect()
+    }
+
+    /// Reads the model and points and builds the problem.
+    pub fn build(&self) -> Result<Built> {
+        self.check()?;
+        let model = self.model.load()?;
+        let pts = match &self.points_file {
+            Some(f) => points::read_csv(f)?,
+            None => points::generate(
+                &model,
+                self.points,
+                &self.workspace.workspace()?,
+                self.points_seed,
+            )
+            .context("--points")?,
+        };
+        let reference = match self.reference {
+            ReferenceArg::Calibrated => Reference::Calibrated,
+            ReferenceArg::Nominal => Reference::Nominal(Box::new(
+                load_model(self.nominal.as_deref(), &self.model.preset).context("--nominal")?,
+            )),
+        };
+        let label = reference.label(&model);
+        let problem = Problem::new(model, &pts, &reference, self.seed).map_err(|e| {
+            // Only errors about the test points are blamed on where the points came from; the
+            // model's own errors already name the model file and field.
+            let about_points = matches!(e, ProblemError::NoPoints | ProblemError::BadPoint { .. });
+            let e = anyhow::Error::new(e);
+            match (&self.points_file, about_points) {
+                (Some(f), true) => e.context(format!("--points-file {}", f.display())),
+                (None, true) => e.context("test points"),
+                (_, false) => e,
+            }
+        })?;
+        Ok(Built {
+            problem,
+            reference: label,
+        })
+    }
+}
+
+impl OutputArgs {
+    /// The drivers' reporting settings.
+    pub fn settings(&self) -> RunSettings {
+        RunSettings {
+            coverage_probability: self.coverage,
+            interval: self.interval.into(),
+            thresholds: self.thresholds.clone(),
+            per_point: self.per_point,
+        }
+    }
+}
+
+/// Bytes per simulated sweep point: the point itself, its CSV line as text and while it is
+/// built, and the identification's work on it.
+pub const BYTES_PER_SWEEP_POINT: u64 = 512;
+
+impl FactorArgs {
+    /// The experiment (the virtual robot) and the factor levels, checked.
+    pub fn experiment(&self) -> Result<(Experiment, Factors)> {
+        let f = self.factors();
+        f.check()?;
+        let exp = match &self.truth {
+            None => Experiment::tx60(self.robot_seed),
+            Some(p) => {
+                let truth = RobotModel::from_file(p).context("--truth")?;
+                let mut nominal = preset("tx60")?;
+                if truth.fixed != nominal.fixed {
+                    bail!(
+                        "--truth {}: its fixed d/β pattern differs from the TX60's",
+                        p.display()
+                    );
+                }
+                nominal.tool = truth.tool;
+                Experiment::with_truth(nominal, truth)
+            }
+        };
+        Ok((exp, f))
+    }
+
+    /// The factor levels.
+    pub fn factors(&self) -> Factors {
+        Factors {
+            runs: self.runs,
+            range_fraction: self.range / 100.0,
+            step_deg: self.step,
+            speed_fraction: self.speed / 100.0,
+            direction: match self.start {
+                StartArg::NegToPos => SweepDirection::NegToPos,
+                StartArg::PosToNeg => SweepDirection::PosToNeg,
+            },
+        }
+    }
+
+    /// What the sweeps of all runs keep, before any is simulated (the TX60's sweep plan).
+    pub fn sweep_estimate(&self, e: Estimate) -> Estimate {
+        sweeps_estimate(e, &self.factors())
+    }
+}
+
+/// Adds the memory of the sweeps of `f`'s runs on the TX60 sweep plan to `e`.
+pub fn sweeps_estimate(e: Estimate, f: &Factors) -> Estimate {
+    let plan = Experiment::tx60(0).plan_for(f);
+    let per_run = (1..=6).fold(0u64, |acc, j| acc.saturating_add(plan.sweep_len(j)));
+    e.plus(&[f.runs as u64, per_run, BYTES_PER_SWEEP_POINT])
+}

@@ -1,0 +1,82 @@
+//! `calibrate`: repeated simulated calibrations → a model file with mean, σ and covariance.
+
+use super::outputs::Outputs;
+use super::Run;
+use crate::cli::{FactorArgs, MemoryArgs};
+use anyhow::{bail, Result};
+use clap::Args;
+use gpu_amcs::kinematics::ParamKind;
+use gpu_amcs::memory::Estimate;
+use gpu_amcs::points::WorkspaceBox;
+use gpu_amcs::simulate;
+use std::path::PathBuf;
+
+/// `calibrate` options.
+#[derive(Args, Debug, Clone)]
+pub struct CalibrateArgs {
+    #[command(flatten)]
+    pub factors: FactorArgs,
+    /// Write the calibrated model (mean, σ, full covariance) to FILE.
+    #[arg(long, short, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// Write independent σ only (no covariance table).
+    #[arg(long)]
+    pub independent: bool,
+    /// Random test points for the accuracy check before/after calibration.
+    #[arg(long, default_value_t = 50, value_name = "N")]
+    pub accuracy_points: usize,
+    #[command(flatten)]
+    pub memory: MemoryArgs,
+}
+
+impl Run for CalibrateArgs {
+    fn run(self) -> Result<()> {
+        let a = self;
+        let mut outputs = Outputs::new(a.factors.truth.as_deref().map(|t| ("--truth", t)));
+        outputs.file("--out", a.out.as_deref())?;
+        if a.accuracy_points == 0 {
+            bail!("--accuracy-points must be at least 1");
+        }
+        let (exp, f) = a.factors.experiment()?;
+        a.memory.check(&a.factors.sweep_estimate(Estimate::new(
+            format!("{} calibration runs at a {}° step", f.runs, f.step_deg),
+            "use fewer --runs or a larger --step, or raise --memory-limit",
+        )))?;
+        let cal = simulate::calibrate(&exp, &f, a.factors.seed)?;
+        let acc = simulate::accuracy_check(
+            &exp,
+            &cal.independent,
+            a.accuracy_points,
+            &WorkspaceBox::default(),
+            a.factors.seed ^ 0x5eed,
+        )?;
+        println!(
+            "{} runs identified in {:.2} s ({})",
+            f.runs, cal.seconds, cal.independent.name
+        );
+        let sig = cal.independent.uncertainty.sigmas();
+        println!("σ of the identified parameters (mm, deg):");
+        for j in 0..6 {
+            let row: Vec<String> = ParamKind::ALL
+                .iter()
+                .enumerate()
+                .map(|(k, kind)| {
+                    format!("{} {:.5}", kind.name(), sig[j * 5 + k] / kind.to_internal())
+                })
+                .collect();
+            println!("  J{}: {}", j + 1, row.join(", "));
+        }
+        print!("{}", gpu_amcs::identify::render_validation(&acc));
+        let model = if a.independent {
+            cal.independent
+        } else {
+            cal.correlated
+        };
+        if let Some(o) = &a.out {
+            outputs.stage_file("--out", model.to_toml())?;
+            outputs.commit()?;
+            println!("wrote {}", o.display());
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,135 @@
+//! `compare`: MCS against AMCS at several tolerances, the paper's Table 2 for one model.
+
+use super::args::{thread_pool, BYTES_PER_DRAW};
+use super::mcs::chunk;
+use super::outputs::Outputs;
+use super::progress::Progress;
+use super::{Flags, Run};
+use crate::cli::{DeltasArgs, ProblemArgs};
+use anyhow::Result;
+use clap::Args;
+use gpu_amcs::mc::{self, AmcsOptions, McsOptions, RunSettings, Tolerance};
+use gpu_amcs::memory::Estimate;
+use gpu_amcs::report::{self, Comparison};
+use std::path::PathBuf;
+
+/// The draw cap of each AMCS run of the comparison.
+const AMCS_CAP: u64 = 100_000_000;
+
+/// Comparison options.
+#[derive(Args, Debug, Clone)]
+pub struct CompareArgs {
+    #[command(flatten)]
+    pub problem: ProblemArgs,
+    /// Number of MCS draws.
+    #[arg(long, default_value_t = 1_000_000, value_name = "N")]
+    pub draws: u64,
+    #[command(flatten)]
+    pub deltas: DeltasArgs,
+    /// AMCS batch size H.
+    #[arg(long, default_value_t = 10_000, value_name = "H")]
+    pub batch: u64,
+    /// Coverage probability p.
+    #[arg(
+        long,
+        default_value_t = 0.95,
+        value_name = "P",
+        allow_hyphen_values = true
+    )]
+    pub coverage: f64,
+    /// Write the comparison as JSON to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write the comparison as a Markdown table to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub markdown: Option<PathBuf>,
+    /// No progress bar.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+const FLAGS: Flags = Flags {
+    tolerance: "--deltas",
+};
+
+impl Run for CompareArgs {
+    fn run(self) -> Result<()> {
+        let a = self;
+        let mut outputs = Outputs::new(a.problem.inputs());
+        outputs.file("--json", a.json.as_deref())?;
+        outputs.file("--markdown", a.markdown.as_deref())?;
+        let base = RunSettings {
+            coverage_probability: a.coverage,
+            ..RunSettings::default()
+        };
+        let amcs_opts: Vec<AmcsOptions> = a
+            .deltas
+            .deltas
+            .iter()
+            .map(|&d| AmcsOptions {
+                tolerance: Tolerance::Delta(d),
+                batch_size: a.batch,
+                max_draws: AMCS_CAP,
+                settings: base.clone(),
+            })
+            .collect();
+        for o in &amcs_opts {
+            o.check().map_err(|e| FLAGS.error(e))?;
+        }
+        a.problem.check()?;
+        // The MCS values are kept while each AMCS run grows up to its cap.
+        let e = Estimate::new(
+            format!(
+                "MCS with {} draws and AMCS with up to {AMCS_CAP} draws",
+                a.draws
+            ),
+            "use fewer --draws or --points, or raise --memory-limit",
+        )
+        .plus(&[a.draws, BYTES_PER_DRAW])
+        .plus(&[AMCS_CAP, BYTES_PER_DRAW]);
+        a.problem.memory.check(&a.problem.points_estimate(e))?;
+        let pool = thread_pool(a.problem.threads)?;
+        let c = pool.install(|| -> Result<Comparison> {
+            let built = a.problem.build()?;
+            let (model, m, seed) = (
+                built.problem.model.name.clone(),
+                built.problem.n_points(),
+                built.problem.seed,
+            );
+            let (mut ev, _notes) = a.problem.backend.evaluator(built.problem)?;
+            let bar = Progress::new(a.quiet, "MCS", "draws");
+            let cb = |done: u64, total: u64| bar.update(done, total);
+            let mcs = mc::run_mcs(
+                ev.as_mut(),
+                &McsOptions {
+                    draws: a.draws,
+                    chunk: chunk(a.draws),
+                    settings: base.clone(),
+                },
+                Some(&cb),
+            )
+            .map_err(|e| FLAGS.error(e))?;
+            let mut amcs = Vec::new();
+            for (d, o) in a.deltas.deltas.iter().zip(&amcs_opts) {
+                bar.set_label(format!("AMCS δ={d}"));
+                bar.restart(true);
+                let r = mc::run_amcs(ev.as_mut(), o, Some(&cb)).map_err(|e| FLAGS.error(e))?;
+                let mre = report::max_relative_error(&r, &mcs);
+                amcs.push((*d, r, mre));
+            }
+            bar.finish();
+            Ok(Comparison {
+                model,
+                points: m,
+                seed,
+                mcs,
+                amcs,
+            })
+        })?;
+        outputs.stage_file("--json", report::json::render_comparison(&c))?;
+        outputs.stage_file("--markdown", report::markdown::render_comparison(&c))?;
+        outputs.commit()?;
+        print!("{}", report::text::render_comparison(&c));
+        Ok(())
+    }
+}

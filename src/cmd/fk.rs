@@ -1,0 +1,35 @@
+//! `fk`: forward kinematics of the configurations in a CSV.
+
+use super::Run;
+use crate::cli::ModelArgs;
+use anyhow::Result;
+use clap::Args;
+use gpu_amcs::kinematics::position_deg;
+use gpu_amcs::points;
+use std::path::PathBuf;
+
+/// `fk` options.
+#[derive(Args, Debug, Clone)]
+pub struct FkArgs {
+    /// Configurations (header q1..q6, degrees).
+    #[arg(long, value_name = "CSV")]
+    pub points_file: PathBuf,
+    #[command(flatten)]
+    pub model: ModelArgs,
+}
+
+impl Run for FkArgs {
+    fn run(self) -> Result<()> {
+        let model = self.model.load()?;
+        let pts = points::read_csv(&self.points_file)?;
+        let mut s = String::from("q1,q2,q3,q4,q5,q6,x,y,z\n");
+        for q in &pts {
+            let p = position_deg(&model.params, &model.tool, q);
+            let qs: Vec<String> = q.iter().map(|v| format!("{v}")).collect();
+            // Shortest representation that reads back to the same f64: full precision.
+            s.push_str(&format!("{},{},{},{}\n", qs.join(","), p[0], p[1], p[2]));
+        }
+        print!("{s}");
+        Ok(())
+    }
+}

@@ -1,0 +1,171 @@
+//! `identify`: MDH parameters from laser-tracker sweeps (circle point method).
+
+use super::args::load_model;
+use super::outputs::Outputs;
+use super::Run;
+use anyhow::{bail, Context, Result};
+use clap::{Args, ValueEnum};
+use gpu_amcs::kinematics::RobotModel;
+use std::path::PathBuf;
+
+/// Circle model of the identification.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FitArg {
+    /// Circle through the points with each point's angle known from the commanded joint angle.
+    Commanded,
+    /// Plain point-cloud circle fit (plane, algebraic circle, geometric refinement).
+    PointCloud,
+}
+
+/// `identify` options.
+#[derive(Args, Debug, Clone)]
+pub struct IdentifyArgs {
+    /// Sweeps CSV: joint,q1..q6,x,y,z (optionally a run column); degrees and mm.
+    #[arg(value_name = "SWEEPS.csv")]
+    pub sweeps: PathBuf,
+    /// Write the identified model (TOML) to FILE.
+    #[arg(long, short, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// Nominal model giving the structure and conventions (default: the preset).
+    #[arg(long, value_name = "FILE")]
+    pub nominal: Option<PathBuf>,
+    /// Built-in nominal model used when --nominal is not given.
+    #[arg(long, default_value = "tx60", value_name = "NAME")]
+    pub preset: String,
+    /// Circle model.
+    #[arg(long, value_enum, default_value_t = FitArg::Commanded)]
+    pub fit: FitArg,
+    /// Use the data alone: no prior towards the nominal geometry.
+    #[arg(long)]
+    pub no_prior: bool,
+    /// Skip the least-squares refinement over all sweep points.
+    #[arg(long)]
+    pub no_refine: bool,
+    /// With several runs, write the full sample covariance of the parameters instead of
+    /// independent σ.
+    #[arg(long)]
+    pub covariance: bool,
+    /// Fail (exit 2, no model file) when a result looks implausible: a fit RMS residual above
+    /// 0.05 mm, a parameter more than 5 mm / 2° from nominal, a J1 axis away from base z.
+    #[arg(long)]
+    pub strict: bool,
+    /// Print every run's per-joint fit and parameter tables instead of a summary.
+    #[arg(long, short, conflicts_with = "quiet")]
+    pub verbose: bool,
+    /// Print only warnings and errors.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+impl Run for IdentifyArgs {
+    fn run(self) -> Result<()> {
+        let a = self;
+        use gpu_amcs::identify::{self, CircleFitMethod, IdentifyOptions, NominalPrior};
+        let mut inputs = vec![("the sweeps file", a.sweeps.as_path())];
+        inputs.extend(a.nominal.as_deref().map(|n| ("--nominal", n)));
+        let mut outputs = Outputs::new(inputs);
+        outputs.file("--out", a.out.as_deref())?;
+        let nominal = load_model(a.nominal.as_deref(), &a.preset).context("--nominal")?;
+        let data = identify::read_sweeps(&a.sweeps)?;
+        let opts = IdentifyOptions {
+            method: match a.fit {
+                FitArg::Commanded => CircleFitMethod::CommandedAngles,
+                FitArg::PointCloud => CircleFitMethod::PointCloud,
+            },
+            nominal_prior: (!a.no_prior).then(NominalPrior::default),
+            refine: !a.no_refine,
+        };
+        let ids = identify::identify(&data, &nominal, &opts)?;
+        if a.verbose {
+            for id in &ids {
+                print!("{}", identify::render_identify_report(&id.report));
+                println!();
+            }
+        } else if !a.quiet {
+            print!(
+                "{}",
+                identify::render_identify_summary(ids.iter().map(|i| &i.report))
+            );
+        }
+        let warnings = identify_warnings(&ids);
+        for w in &warnings {
+            eprintln!("warning: {w}");
+        }
+        if a.strict && !warnings.is_empty() {
+            bail!(
+                "--strict: {} implausible result(s) (warnings above); no model written",
+                warnings.len()
+            );
+        }
+        let say = |line: String| {
+            if !a.quiet {
+                println!("{line}");
+            }
+        };
+        let mut model = if ids.len() == 1 {
+            let mut m = ids[0].model.clone();
+            m.uncertainty = nominal.uncertainty.clone();
+            say(
+                "note: one run says nothing about the spread: the model file keeps the nominal \
+                 model's uncertainty; give several runs (a `run` column) to estimate it"
+                    .into(),
+            );
+            m
+        } else {
+            let models: Vec<RobotModel> = ids.iter().map(|i| i.model.clone()).collect();
+            let (stats, what) = if a.covariance {
+                (identify::correlated_statistics(&models), "full covariance")
+            } else {
+                (identify::parameter_statistics(&models), "σ")
+            };
+            say(format!(
+                "{} runs: the model file holds the mean parameters and their run-to-run {what}",
+                ids.len()
+            ));
+            stats.context("parameter statistics of the runs")?
+        };
+        model.name = format!("{} (identified from {})", nominal.name, a.sweeps.display());
+        if let Some(o) = &a.out {
+            outputs.stage_file("--out", model.to_toml())?;
+            outputs.commit()?;
+            say(format!("wrote {}", o.display()));
+        }
+        Ok(())
+    }
+}
+
+/// The runs' warnings, one line per joint and kind of problem: the first run's message, with the
+/// number of runs that share it.
+fn identify_warnings(ids: &[gpu_amcs::identify::Identification]) -> Vec<String> {
+    use gpu_amcs::identify::IdentifyWarning;
+    // One line per joint, kind of warning and parameter.
+    let key = |w: &IdentifyWarning| {
+        let kind = match w {
+            IdentifyWarning::Parameter { kind, .. } => Some(*kind),
+            _ => None,
+        };
+        (w.joint(), std::mem::discriminant(w), kind)
+    };
+    type Key = (
+        usize,
+        std::mem::Discriminant<IdentifyWarning>,
+        Option<gpu_amcs::kinematics::ParamKind>,
+    );
+    let mut seen: Vec<(Key, String, usize)> = Vec::new();
+    for w in ids.iter().flat_map(|i| &i.report.warnings) {
+        match seen.iter_mut().find(|(k, _, _)| *k == key(w)) {
+            Some((_, _, n)) => *n += 1,
+            None => seen.push((key(w), w.to_string(), 1)),
+        }
+    }
+    seen.sort_by_key(|s| s.0 .0);
+    seen.into_iter()
+        .map(|(_, text, n)| {
+            if n > 1 {
+                format!("{text} [{n} of {} runs]", ids.len())
+            } else {
+                text
+            }
+        })
+        .collect()
+}

@@ -1,0 +1,111 @@
+//! The progress bar all long subcommands use: hidden with `--quiet`, on stderr otherwise, with
+//! the remaining time; a run estimated to take more than [`ANNOUNCE_S`] says so once on stderr,
+//! terminal or not.
+
+use indicatif::{ProgressBar, ProgressStyle};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Mutex;
+use std::time::Instant;
+
+/// Runs estimated to take longer than this many seconds print the estimate.
+pub const ANNOUNCE_S: f64 = 10.0;
+
+/// A progress bar over draws or steps.
+pub struct Progress {
+    bar: ProgressBar,
+    unit: &'static str,
+    quiet: bool,
+    capped: AtomicBool,
+    start: Mutex<Instant>,
+    announced: AtomicBool,
+}
+
+impl Progress {
+    /// A bar labelled `label` counting `unit` ("draws", "steps"); hidden when `quiet`.
+    pub fn new(quiet: bool, label: &str, unit: &'static str) -> Self {
+        let bar = if quiet {
+            ProgressBar::hidden()
+        } else {
+            let bar = ProgressBar::new(0);
+            bar.set_style(
+                ProgressStyle::with_template(&format!(
+                    "{{prefix}} [{{bar:30}}] {{pos}}/{{len}} {unit} ({{elapsed}}, eta {{eta}}) {{msg}}"
+                ))
+                .unwrap_or_else(|_| ProgressStyle::default_bar())
+                .progress_chars("=> "),
+            );
+            bar
+        };
+        bar.set_prefix(label.to_string());
+        Progress {
+            bar,
+            unit,
+            quiet,
+            capped: AtomicBool::new(false),
+            start: Mutex::new(Instant::now()),
+            announced: AtomicBool::new(false),
+        }
+    }
+
+    /// The totals are a cap the run may stop short of (AMCS).
+    pub fn capped(self) -> Self {
+        self.capped.store(true, Ordering::Relaxed);
+        self
+    }
+
+    /// `done` of `total` (the plan or the cap) so far; announces a long estimate once.
+    pub fn update(&self, done: u64, total: u64) {
+        self.bar.set_length(total);
+        self.bar.set_position(done);
+        let elapsed = self
+            .start
+            .lock()
+            .unwrap_or_else(|e| e.into_inner())
+            .elapsed()
+            .as_secs_f64();
+        if done == 0 || done >= total || elapsed < 0.2 {
+            return;
+        }
+        let estimate = elapsed * total as f64 / done as f64;
+        if estimate > ANNOUNCE_S && !self.quiet && !self.announced.swap(true, Ordering::Relaxed) {
+            let line = format!(
+                "{}: estimated ~{estimate:.0} s for {total} {}{}",
+                self.bar.prefix(),
+                self.unit,
+                if self.capped.load(Ordering::Relaxed) {
+                    " (the cap: it may stop sooner)"
+                } else {
+                    ""
+                }
+            );
+            // Without a terminal the bar is not drawn; the estimate still goes to stderr.
+            if self.bar.is_hidden() {
+                eprintln!("{line}");
+            } else {
+                self.bar.println(line);
+            }
+        }
+    }
+
+    /// Starts the clock and the estimate again, for the next run under the same bar.
+    pub fn restart(&self, capped: bool) {
+        *self.start.lock().unwrap_or_else(|e| e.into_inner()) = Instant::now();
+        self.capped.store(capped, Ordering::Relaxed);
+        self.announced.store(false, Ordering::Relaxed);
+    }
+
+    /// Sets the label.
+    pub fn set_label(&self, label: String) {
+        self.bar.set_prefix(label);
+    }
+
+    /// Sets the message after the counts.
+    pub fn set_message(&self, msg: &str) {
+        self.bar.set_message(msg.to_string());
+    }
+
+    /// Removes the bar.
+    pub fn finish(&self) {
+        self.bar.finish_and_clear();
+    }
+}

@@ -1,0 +1,124 @@
+//! `study`: the paper's factor study on a virtual TX60, written all or nothing into a directory.
+
+use super::args::{sweeps_estimate, BYTES_PER_DRAW};
+use super::outputs::Outputs;
+use super::progress::Progress;
+use super::Run;
+use crate::cli::{BackendArgs, DeltasArgs, MemoryArgs};
+use anyhow::Result;
+use clap::Args;
+use gpu_amcs::memory::Estimate;
+use std::path::PathBuf;
+
+/// `study` options.
+#[derive(Args, Debug, Clone)]
+pub struct StudyArgs {
+    /// Output directory (tables, figures, STUDY.md, study.json).
+    #[arg(long, short, default_value = "study-out", value_name = "DIR")]
+    pub out: PathBuf,
+    /// Reduced study (2–3 levels per factor, 10 runs, MCS 10^5): about a minute.
+    #[arg(long)]
+    pub quick: bool,
+    /// Factors to vary (default: all).
+    #[arg(long, value_delimiter = ',', value_name = "NAME,...")]
+    pub factors: Option<Vec<String>>,
+    /// Calibration runs at the baseline (default 20, --quick 10).
+    #[arg(long, value_name = "R")]
+    pub runs: Option<usize>,
+    /// MCS draws (default 10^6, --quick 10^5).
+    #[arg(long, value_name = "N")]
+    pub mcs_draws: Option<u64>,
+    /// Numbers of test points.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "10,50",
+        value_name = "N,..."
+    )]
+    pub points: Vec<usize>,
+    #[command(flatten)]
+    pub deltas: DeltasArgs,
+    /// Seed of the simulated true robot.
+    #[arg(long, default_value_t = 2025, value_name = "SEED")]
+    pub robot_seed: u64,
+    /// Seed of the calibration runs.
+    #[arg(long, default_value_t = 1, value_name = "SEED")]
+    pub seed: u64,
+    #[command(flatten)]
+    pub backend: BackendArgs,
+    /// No progress bar and no summary on stdout.
+    #[arg(long, short)]
+    pub quiet: bool,
+    #[command(flatten)]
+    pub memory: MemoryArgs,
+}
+
+impl Run for StudyArgs {
+    fn run(self) -> Result<()> {
+        let a = self;
+        let mut outputs = Outputs::new([]);
+        outputs.dir("--out", Some(&a.out), &[])?;
+        use gpu_amcs::study::{self, Factor, StudySettings};
+        let mut s = if a.quick {
+            StudySettings::quick()
+        } else {
+            StudySettings::default()
+        };
+        if let Some(r) = a.runs {
+            s.baseline.runs = r;
+        }
+        if let Some(n) = a.mcs_draws {
+            s.mcs_draws = n;
+        }
+        if let Some(fs) = &a.factors {
+            s.factors = fs
+            .iter()
+            .map(|n| {
+                Factor::ALL
+                    .into_iter()
+                    .find(|f| f.name().eq_ignore_ascii_case(n.trim()))
+                    .ok_or_else(|| {
+                        anyhow::anyhow!(
+                            "--factors: unknown factor '{n}' (repeatability, range, step, speed, start)"
+                        )
+                    })
+            })
+            .collect::<Result<_>>()?;
+        }
+        s.point_counts = a.points.clone();
+        s.deltas = a.deltas.deltas.clone();
+        s.robot_seed = a.robot_seed;
+        s.calibration_seed = a.seed;
+        let (backend, adapter) = a.backend.choice()?;
+        s.backend = backend;
+        s.adapter = adapter.map(str::to_owned);
+        s.check()?;
+        let e = Estimate::new(
+            format!(
+                "a study with {} MCS draws and {} calibration runs",
+                s.mcs_draws, s.baseline.runs
+            ),
+            "lower --mcs-draws or --runs, or raise --memory-limit",
+        )
+        .plus(&[s.mcs_draws, BYTES_PER_DRAW]);
+        a.memory.check(&sweeps_estimate(e, &s.baseline))?;
+        let bar = Progress::new(a.quiet, "study", "steps");
+        let cb = |done: u64, total: u64, msg: &str| {
+            bar.update(done, total);
+            bar.set_message(msg);
+        };
+        let result = study::run_study(&s, Some(&cb))?;
+        bar.finish();
+        outputs.stage_dir("--out", study::output_files(&result))?;
+        outputs.commit()?;
+        if !a.quiet {
+            println!(
+                "study finished in {:.1} s: {} levels; wrote {}",
+                result.seconds,
+                result.levels.len(),
+                a.out.display()
+            );
+        }
+        Ok(())
+    }
+}

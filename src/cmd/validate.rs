@@ -1,0 +1,48 @@
+//! `validate`: positioning accuracy of a model against measured positions.
+
+use super::args::load_model;
+use super::Run;
+use anyhow::{Context, Result};
+use clap::Args;
+use gpu_amcs::kinematics::RobotModel;
+use std::path::PathBuf;
+
+/// `validate` options.
+#[derive(Args, Debug, Clone)]
+pub struct ValidateArgs {
+    /// Measured positions: q1..q6,x,y,z (degrees, mm).
+    #[arg(value_name = "MEASURED.csv")]
+    pub measured: PathBuf,
+    /// Model to check (TOML).
+    #[arg(long, value_name = "FILE")]
+    pub model: PathBuf,
+    /// Also check a nominal model (FILE, or the preset when no file is given) and report the
+    /// improvement.
+    #[arg(long, value_name = "FILE", num_args = 0..=1)]
+    pub nominal: Option<Option<PathBuf>>,
+    /// Built-in nominal model for a bare --nominal.
+    #[arg(long, default_value = "tx60", value_name = "NAME")]
+    pub preset: String,
+}
+
+impl Run for ValidateArgs {
+    fn run(self) -> Result<()> {
+        let a = self;
+        use gpu_amcs::identify;
+        let model = RobotModel::from_file(&a.model)?;
+        let nominal = match &a.nominal {
+            None => None,
+            Some(f) => Some(load_model(f.as_deref(), &a.preset).context("--nominal")?),
+        };
+        let m = identify::read_measurements(&a.measured)?;
+        let v = identify::validate(&model, &m, nominal.as_ref()).map_err(|e| match e {
+            // The library names the line; the file is named here.
+            identify::IdentifyError::OutsideLimits { .. } => {
+                anyhow::anyhow!("{}: {e} of model {}", a.measured.display(), model.name)
+            }
+            e => e.into(),
+        })?;
+        print!("{}", identify::render_validation(&v));
+        Ok(())
+    }
+}

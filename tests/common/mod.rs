@@ -1,0 +1,113 @@
+//! Helpers the integration tests share: running the binary, scratch directories, and the checks
+//! of a failed run (exit code 2, one line naming what is wrong, nothing left behind).
+//! Each test binary includes it with `mod common;`; not every binary uses every helper.
+#![allow(dead_code)]
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output};
+
+/// The binary under test.
+pub fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_gpu-amcs"))
+}
+
+/// Runs the binary with `args`.
+pub fn run(args: &[&str]) -> Output {
+    bin().args(args).output().unwrap()
+}
+
+/// Runs `script` in `sh -c` with `$BIN` set to the binary, in `dir`.
+pub fn sh(dir: &Path, script: &str) -> Output {
+    Command::new("sh")
+        .arg("-c")
+        .arg(script)
+        .env("BIN", env!("CARGO_BIN_EXE_gpu-amcs"))
+        .current_dir(dir)
+        .output()
+        .unwrap()
+}
+
+/// A fresh, empty scratch directory for one test of this process.
+pub fn tmpdir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("gpu-amcs-test-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).unwrap();
+    d
+}
+
+/// The run's stderr as text.
+pub fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+/// The run's stdout as text.
+pub fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+/// Every file and directory under `dir`, relative, sorted (hidden temporary files included).
+pub fn tree(dir: &Path) -> Vec<String> {
+    fn walk(base: &Path, d: &Path, out: &mut Vec<String>) {
+        let Ok(rd) = std::fs::read_dir(d) else { return };
+        for e in rd.flatten() {
+            let p = e.path();
+            out.push(p.strip_prefix(base).unwrap().display().to_string());
+            if p.is_dir() {
+                walk(base, &p, out);
+            }
+        }
+    }
+    let mut out = Vec::new();
+    walk(dir, dir, &mut out);
+    out.sort();
+    out
+}
+
+/// Asserts a failed run as the README promises: exit code 2, no panic, one stderr line that
+/// names `what`.
+pub fn assert_fails_naming(o: &Output, what: &str, label: &str) {
+    let e = stderr(o);
+    assert_eq!(
+        o.status.code(),
+        Some(2),
+        "{label}: exit {:?}: {e}",
+        o.status
+    );
+    assert!(!e.contains("panicked"), "{label} panicked: {e}");
+    assert!(
+        e.contains(what),
+        "{label}: error does not name '{what}': {e}"
+    );
+    assert_eq!(
+        e.trim().lines().count(),
+        1,
+        "{label}: not a one-line error: {e}"
+    );
+}
+
+/// Runs `args` and asserts it fails naming `what` ([`assert_fails_naming`]).
+pub fn fails_naming(args: &[&str], what: &str) {
+    assert_fails_naming(&run(args), what, &format!("{args:?}"));
+}
+
+/// Runs `args`, asserts it fails naming `what`, and that `dir` holds exactly what it held before.
+pub fn fails_leaving_nothing(dir: &Path, args: &[&str], what: &str) {
+    let before = tree(dir);
+    fails_naming(args, what);
+    assert_eq!(tree(dir), before, "{args:?} left files behind");
+}
+
+/// A path inside `dir` as a string argument.
+pub fn arg(dir: &Path, name: &str) -> String {
+    dir.join(name).to_str().unwrap().to_string()
+}
+
+/// Sends signal `sig` (`"TERM"`, `"INT"`) to a running child and waits for its exit.
+pub fn signal(child: &mut std::process::Child, sig: &str) -> std::process::ExitStatus {
+    let k = Command::new("kill")
+        .args([&format!("-{sig}"), &child.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(k.success(), "kill -{sig} failed");
+    child.wait().unwrap()
+}
