@@ -92,7 +92,7 @@ impl Run for StudyArgs {
         let (backend, adapter) = a.backend.choice()?;
         s.backend = backend;
         s.adapter = adapter.map(str::to_owned);
-        s.check()?;
+        s.check().map_err(super::args::simulate_setting)?;
         let e = Estimate::new(
             format!(
                 "a study with {} MCS draws and {} calibration runs",

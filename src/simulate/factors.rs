@@ -77,11 +77,12 @@ impl Default for Factors {
 /// Errors of the simulation and calibration settings and runs.
 #[derive(Debug, thiserror::Error)]
 pub enum SimulateError {
-    /// A setting is out of range; `flag` names the command-line flag.
-    #[error("{flag} {message}")]
+    /// A setting is out of range; `field` names the setting (e.g. `range`, see
+    /// [`Factors::check`] and `StudySettings::check`); a command line adds its flag.
+    #[error("{field}: {message}")]
     Setting {
-        /// The flag, e.g. `--range`.
-        flag: &'static str,
+        /// The setting, e.g. `range`.
+        field: &'static str,
         /// What is wrong.
         message: String,
     },
@@ -99,13 +100,13 @@ pub enum SimulateError {
 }
 
 impl Factors {
-    /// Checks every factor; the error names the flag (`--runs`, `--range` in percent, `--step`,
-    /// `--speed` in percent).
+    /// Checks every factor; the error names the setting (`runs`, `range` in percent, `step`,
+    /// `speed` in percent).
     pub fn check(&self) -> Result<(), SimulateError> {
-        let bad = |flag, message: String| Err(SimulateError::Setting { flag, message });
+        let bad = |field, message: String| Err(SimulateError::Setting { field, message });
         if self.runs < 2 {
             return bad(
-                "--runs",
+                "runs",
                 format!(
                     "must be at least 2 (statistics need repeated runs), got {}",
                     self.runs
@@ -117,7 +118,7 @@ impl Factors {
             && self.range_fraction <= 1.0)
         {
             return bad(
-                "--range",
+                "range",
                 format!(
                     "must be more than 0 and at most 100 (% of the measuring range), got {}",
                     self.range_fraction * 100.0
@@ -126,7 +127,7 @@ impl Factors {
         }
         if !(self.step_deg.is_finite() && self.step_deg > 0.0) {
             return bad(
-                "--step",
+                "step",
                 format!("must be a positive angle in degrees, got {}", self.step_deg),
             );
         }
@@ -135,7 +136,7 @@ impl Factors {
             && self.speed_fraction <= 1.0)
         {
             return bad(
-                "--speed",
+                "speed",
                 format!(
                     "must be more than 0 and at most 100 (% of rated speed), got {}",
                     self.speed_fraction * 100.0
@@ -277,39 +278,39 @@ mod tests {
     use super::*;
 
     #[test]
-    fn checks_name_flags() {
+    fn checks_name_the_setting() {
         let bad = [
             (
                 Factors {
                     runs: 1,
                     ..Default::default()
                 },
-                "--runs",
+                "runs",
             ),
             (
                 Factors {
                     range_fraction: 0.0,
                     ..Default::default()
                 },
-                "--range",
+                "range",
             ),
             (
                 Factors {
                     step_deg: 0.0,
                     ..Default::default()
                 },
-                "--step",
+                "step",
             ),
             (
                 Factors {
                     speed_fraction: -0.1,
                     ..Default::default()
                 },
-                "--speed",
+                "speed",
             ),
         ];
-        for (f, flag) in bad {
-            assert!(f.check().unwrap_err().to_string().starts_with(flag));
+        for (f, field) in bad {
+            assert!(f.check().unwrap_err().to_string().starts_with(field));
         }
         assert!(Factors::default().check().is_ok());
     }

@@ -204,13 +204,14 @@ impl StudySettings {
             .collect()
     }
 
-    /// Checks the settings; errors name the flag.
+    /// Checks the settings; errors name the setting (`point counts`, `MCS draws`, `tolerances`,
+    /// `factors`, or a factor of the baseline).
     pub fn check(&self) -> Result<(), SimulateError> {
         self.baseline.check()?;
-        let bad = |flag, message: String| Err(SimulateError::Setting { flag, message });
+        let bad = |field, message: String| Err(SimulateError::Setting { field, message });
         if self.point_counts.is_empty() || self.point_counts.contains(&0) {
             return bad(
-                "--points",
+                "point counts",
                 format!(
                     "needs positive numbers of test points, got {:?}",
                     self.point_counts
@@ -219,18 +220,18 @@ impl StudySettings {
         }
         if self.mcs_draws < 2000 {
             return bad(
-                "--mcs-draws",
+                "MCS draws",
                 format!("must be at least 2000, got {}", self.mcs_draws),
             );
         }
         if self.deltas.is_empty() || self.deltas.iter().any(|d| !(d.is_finite() && *d > 0.0)) {
             return bad(
-                "--deltas",
+                "tolerances",
                 format!("needs positive tolerances in mm, got {:?}", self.deltas),
             );
         }
         if self.factors.is_empty() {
-            return bad("--factors", "needs at least one factor".into());
+            return bad("factors", "needs at least one factor".into());
         }
         Ok(())
     }
