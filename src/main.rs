@@ -48,6 +48,14 @@ fn main() {
             std::process::exit(2);
         }
     };
+    // Like other command-line tools, end quietly when the reader of stdout goes away
+    // (`gpu-amcs calibrate | head -1`) instead of panicking in `print!`. Reports are written
+    // (renamed into place) before anything goes to stdout, so no temporary file is left.
+    #[cfg(unix)]
+    // SAFETY: restoring the default disposition of SIGPIPE before any thread starts.
+    unsafe {
+        libc::signal(libc::SIGPIPE, libc::SIG_DFL);
+    }
     cmd::outputs::install_signal_cleanup();
     if let Err(e) = cli.run() {
         eprintln!("error: {}", one_line(&e));

@@ -311,3 +311,21 @@ fn interrupted_study_leaves_nothing() {
     assert_eq!(status.code(), Some(130), "{status:?}");
     assert_eq!(tree(&d), Vec::<String>::new());
 }
+
+/// A reader that stops early (`| head -1`) ends the run quietly, as with any command-line tool:
+/// no panic message, and the files the run wrote before printing are complete.
+#[test]
+fn a_closed_stdout_is_not_a_panic() {
+    let d = tmpdir("sigpipe");
+    let o = sh(
+        &d,
+        "\"$BIN\" calibrate --runs 3 -o cal.toml | head -1 >/dev/null; \
+         \"$BIN\" model | head -1 >/dev/null",
+    );
+    let err = stderr(&o);
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!err.contains("Broken pipe"), "{err}");
+    let written = std::fs::read_to_string(d.join("cal.toml")).unwrap();
+    assert!(gpu_amcs::kinematics::RobotModel::from_toml(&written, "cal.toml").is_ok());
+    assert_eq!(tree(&d), vec!["cal.toml".to_string()]);
+}
