@@ -10,6 +10,9 @@ use gpu_amcs::simulate::{
     measure_positions, perturbed_model, random_configurations, simulate_sweeps, ParameterErrors,
     SweepPlan,
 };
+mod common;
+
+use common::{bin, tmpdir};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
@@ -331,23 +334,6 @@ fn malformed_rows_name_the_line() {
 }
 
 // ---- The command line: messages, warnings and output size ----
-
-fn bin() -> std::process::Command {
-    std::process::Command::new(env!("CARGO_BIN_EXE_gpu-amcs"))
-}
-
-fn tmpdir(name: &str) -> std::path::PathBuf {
-    // Process id and clock: unique also beside test runs of other checkouts sharing the temp dir.
-    let nanos = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map_or(0, |d| d.as_nanos());
-    let d = std::env::temp_dir().join(format!(
-        "gpu-amcs-identify-{}-{nanos}-{name}",
-        std::process::id()
-    ));
-    std::fs::create_dir_all(&d).unwrap();
-    d
-}
 
 /// Runs the binary; returns (exit code, stdout, stderr).
 fn run_cli(args: &[&str]) -> (i32, String, String) {

@@ -5,11 +5,13 @@
 //! products of the source's own transforms (DH rows, URDF origins with Rodrigues rotations).
 #![allow(clippy::needless_range_loop)]
 
+mod common;
+
+use common::{run, tmpdir};
 use gpu_amcs::import::{self, export, ImportError, ImportOptions, SourceFormat};
 use gpu_amcs::kinematics::{self, position, RobotModel, JOINTS};
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::path::{Path, PathBuf};
-use std::process::Command;
 
 type M4 = [[f64; 4]; 4];
 
@@ -132,12 +134,6 @@ fn max_dev(model: &RobotModel, reference: impl Fn(&[f64; 6]) -> [f64; 3]) -> f64
     qs.iter()
         .map(|q| dist(position(&model.params, &model.tool, q), reference(q)))
         .fold(0.0, f64::max)
-}
-
-fn tmpdir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("gpu-amcs-import-{name}-{}", std::process::id()));
-    std::fs::create_dir_all(&d).unwrap();
-    d
 }
 
 fn write(dir: &Path, name: &str, text: &str) -> PathBuf {
@@ -938,13 +934,6 @@ fn presets_equal_their_sources() {
         // Every preset is a valid model file.
         RobotModel::from_toml(&m.to_toml(), name).unwrap();
     }
-}
-
-fn run(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_gpu-amcs"))
-        .args(args)
-        .output()
-        .unwrap()
 }
 
 fn ok(o: &std::process::Output) -> String {
