@@ -10,6 +10,10 @@ use crate::sampling::Philox;
 /// Philox stream of the bootstrap resampling indices (the parameter draws use stream 0).
 const BOOTSTRAP_STREAM: u32 = 0x50b1;
 
+/// Fewest rows of A and B on each side of a threshold below which an exceedance's indices get
+/// a note: the indicator's variance then has a relative standard error above 1/√100 = 10 %.
+pub const MIN_EVENTS: usize = 100;
+
 /// Two-sided level of the bootstrap intervals.
 pub const CONFIDENCE: f64 = 0.95;
 
@@ -77,7 +81,8 @@ pub struct QuantityIndices {
     pub inputs: Vec<SobolIndex>,
     /// Per group, ranked by decreasing total index. Empty when the variance is zero.
     pub groups: Vec<SobolIndex>,
-    /// Why there are no indices, when there are none.
+    /// Why there are no indices, when there are none, or why they are unreliable (an
+    /// exceedance with fewer than [`MIN_EVENTS`] rows on one side of its threshold).
     pub note: Option<String>,
 }
 
@@ -371,6 +376,17 @@ fn analyse(
         .filter_map(|p| estimate(y, Some(p)))
         .collect();
     q.bootstrap_valid = reps.len();
+    if let Quantity::Exceedance { .. } = quantity {
+        let rows = 2 * y.a.len();
+        let hits = (mean * rows as f64).round() as usize;
+        let fewer = hits.min(rows - hits);
+        if fewer < MIN_EVENTS {
+            q.note = Some(format!(
+                "only {fewer} of the {rows} rows of A and B are on one side of the threshold: \
+                 the indices rest on few events and their intervals are wide (more draws help)"
+            ));
+        }
+    }
     let index = |s: usize, name: &str, members: Vec<String>| SobolIndex {
         name: name.to_string(),
         members,
