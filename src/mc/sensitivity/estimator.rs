@@ -150,13 +150,13 @@ struct Outputs {
     sets: Vec<Vec<f64>>,
 }
 
-impl Outputs {
-    fn map(&self, g: impl Fn(f64) -> f64 + Sync) -> Outputs {
-        let m = |v: &Vec<f64>| v.iter().map(|&y| g(y)).collect();
-        Outputs {
-            a: m(&self.a),
-            b: m(&self.b),
-            sets: self.sets.iter().map(m).collect(),
+impl Quantity {
+    /// The quantity of model output `y`.
+    #[inline]
+    fn of(self, y: f64) -> f64 {
+        match self {
+            Quantity::Value => y,
+            Quantity::Exceedance { threshold } => f64::from(u8::from(y >= threshold)),
         }
     }
 }
@@ -239,20 +239,18 @@ where
         k0 += c;
     }
 
-    let resamples = bootstrap_indices(n, opts.bootstrap, opts.bootstrap_seed);
-    let mut quantities = vec![analyse(
-        Quantity::Value,
-        &out,
-        &resamples,
-        &plan,
-        names,
-        groups,
-    )];
-    for &l in &opts.thresholds {
-        let ind = out.map(|y| if y >= l { 1.0 } else { 0.0 });
-        let q = Quantity::Exceedance { threshold: l };
-        quantities.push(analyse(q, &ind, &resamples, &plan, names, groups));
-    }
+    let boot = Bootstrap {
+        gen: Philox::new(opts.bootstrap_seed),
+        count: opts.bootstrap,
+    };
+    let quantities = std::iter::once(Quantity::Value)
+        .chain(
+            opts.thresholds
+                .iter()
+                .map(|&threshold| Quantity::Exceedance { threshold }),
+        )
+        .map(|q| analyse(q, &out, &boot, &plan, names, groups))
+        .collect();
     Ok(SobolAnalysis {
         draws: n,
         dimension: dim,
@@ -265,33 +263,37 @@ where
     })
 }
 
-/// Resample `r` draws base sample `p_k` uniformly from `0 … n − 1` (n a power of 2): the top
-/// `log2 n` bits of Philox word `k` of resample `r`, so the resamples depend only on the seed.
-fn bootstrap_indices(n: usize, count: usize, seed: u64) -> Vec<Vec<u32>> {
-    let gen = Philox::new(seed);
-    let shift = 32 - n.trailing_zeros();
-    (0..count)
-        .into_par_iter()
-        .map(|r| {
-            let mut idx = Vec::with_capacity(n);
-            for blk in 0..n.div_ceil(4) {
-                let w = gen.block(r as u64, blk as u32, BOOTSTRAP_STREAM);
-                idx.extend(w.iter().map(|&x| x.checked_shr(shift).unwrap_or(0)));
-            }
-            idx.truncate(n);
-            idx
-        })
-        .collect()
+/// The bootstrap resamples: generated on demand from the seed, so only the resamples in
+/// flight (one per thread) are held in memory.
+struct Bootstrap {
+    gen: Philox,
+    count: usize,
+}
+
+impl Bootstrap {
+    /// Resample `r`: base sample `p_k` drawn uniformly from `0 … n − 1` (n a power of 2) as the
+    /// top `log2 n` bits of Philox word `k` of resample `r`, so it depends only on the seed.
+    fn indices(&self, r: usize, n: usize) -> Vec<u32> {
+        let shift = 32 - n.trailing_zeros();
+        let mut idx = Vec::with_capacity(n + 3);
+        for blk in 0..n.div_ceil(4) {
+            let w = self.gen.block(r as u64, blk as u32, BOOTSTRAP_STREAM);
+            idx.extend(w.iter().map(|&x| x.checked_shr(shift).unwrap_or(0)));
+        }
+        idx.truncate(n);
+        idx
+    }
 }
 
 /// First-order and total indices of every set from the rows `pick` (all rows when `None`):
 /// `None` when the variance of those rows is zero.
-fn estimate(y: &Outputs, pick: Option<&[u32]>) -> Option<(Vec<f64>, Vec<f64>)> {
+fn estimate(y: &Outputs, q: Quantity, pick: Option<&[u32]>) -> Option<(Vec<f64>, Vec<f64>)> {
     let n = y.a.len();
     let row = |k: usize| pick.map_or(k, |p| p[k] as usize);
-    let mean = (0..n).map(|k| y.a[row(k)] + y.b[row(k)]).sum::<f64>() / (2 * n) as f64;
+    let (fa, fb) = (|k: usize| q.of(y.a[row(k)]), |k: usize| q.of(y.b[row(k)]));
+    let mean = (0..n).map(|k| fa(k) + fb(k)).sum::<f64>() / (2 * n) as f64;
     let ss: f64 = (0..n)
-        .map(|k| (y.a[row(k)] - mean).powi(2) + (y.b[row(k)] - mean).powi(2))
+        .map(|k| (fa(k) - mean).powi(2) + (fb(k) - mean).powi(2))
         .sum();
     let var = ss / (2 * n - 1) as f64;
     if var.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
@@ -303,7 +305,7 @@ fn estimate(y: &Outputs, pick: Option<&[u32]>) -> Option<(Vec<f64>, Vec<f64>)> {
         .map(|s| {
             let (mut f, mut t) = (0.0, 0.0);
             for k in 0..n {
-                let (a, b, ab) = (y.a[row(k)], y.b[row(k)], s[row(k)]);
+                let (a, b, ab) = (fa(k), fb(k), q.of(s[row(k)]));
                 f += (b - mean) * (ab - a);
                 t += (a - ab) * (a - ab);
             }
@@ -314,9 +316,9 @@ fn estimate(y: &Outputs, pick: Option<&[u32]>) -> Option<(Vec<f64>, Vec<f64>)> {
 }
 
 /// The mean and variance of a quantity over the rows of A and B.
-fn mean_variance(y: &Outputs) -> (f64, f64) {
+fn mean_variance(y: &Outputs, q: Quantity) -> (f64, f64) {
     let n = (2 * y.a.len()) as f64;
-    let all = || y.a.iter().chain(&y.b);
+    let all = || y.a.iter().chain(&y.b).map(|&v| q.of(v));
     let mean = all().sum::<f64>() / n;
     let var = all().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
     (mean, var)
@@ -349,12 +351,12 @@ fn summarise(value: f64, mut reps: Vec<f64>) -> Estimate {
 fn analyse(
     quantity: Quantity,
     y: &Outputs,
-    resamples: &[Vec<u32>],
+    boot: &Bootstrap,
     plan: &Plan,
     names: &[String],
     groups: &[InputGroup],
 ) -> QuantityIndices {
-    let (mean, variance) = mean_variance(y);
+    let (mean, variance) = mean_variance(y, quantity);
     let mut q = QuantityIndices {
         quantity,
         mean,
@@ -364,16 +366,17 @@ fn analyse(
         groups: Vec::new(),
         note: None,
     };
-    let Some((first, total)) = estimate(y, None) else {
+    let Some((first, total)) = estimate(y, quantity, None) else {
         q.note = Some(format!(
             "the quantity is constant ({mean}) on all {} rows of A and B: its indices are undefined",
             2 * y.a.len()
         ));
         return q;
     };
-    let reps: Vec<(Vec<f64>, Vec<f64>)> = resamples
-        .par_iter()
-        .filter_map(|p| estimate(y, Some(p)))
+    let n = y.a.len();
+    let reps: Vec<(Vec<f64>, Vec<f64>)> = (0..boot.count)
+        .into_par_iter()
+        .filter_map(|r| estimate(y, quantity, Some(&boot.indices(r, n))))
         .collect();
     q.bootstrap_valid = reps.len();
     if let Quantity::Exceedance { .. } = quantity {
@@ -444,9 +447,16 @@ mod tests {
 
     #[test]
     fn bootstrap_indices_are_uniform_and_seeded() {
-        let a = bootstrap_indices(64, 200, 9);
-        assert_eq!(a, bootstrap_indices(64, 200, 9));
-        assert_ne!(a, bootstrap_indices(64, 200, 10));
+        let all = |seed| {
+            let b = Bootstrap {
+                gen: Philox::new(seed),
+                count: 200,
+            };
+            (0..b.count).map(|r| b.indices(r, 64)).collect::<Vec<_>>()
+        };
+        let a = all(9);
+        assert_eq!(a, all(9));
+        assert_ne!(a, all(10));
         let mut counts = [0u32; 64];
         for r in &a {
             assert_eq!(r.len(), 64);
@@ -470,6 +480,8 @@ mod tests {
             b: vec![1.0; 8],
             sets: vec![vec![1.0; 8]],
         };
-        assert!(estimate(&y, None).is_none());
+        assert!(estimate(&y, Quantity::Value, None).is_none());
+        let q = Quantity::Exceedance { threshold: 2.0 };
+        assert!(estimate(&y, q, None).is_none());
     }
 }

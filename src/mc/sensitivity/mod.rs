@@ -84,9 +84,10 @@ use crate::kinematics::{param_joint, param_kind, ParamKind, JOINTS, N_PARAMS};
 pub const B_DRAW_OFFSET: u64 = 1 << 63;
 /// Smallest accepted number of base samples N.
 pub const MIN_DRAWS: usize = 64;
-/// Largest accepted number of base samples N (the outputs of `N · (D + 2 + groups)` rows are
-/// kept for the bootstrap: 2²⁴ · 40 values are 5 GB).
-pub const MAX_DRAWS: usize = 1 << 24;
+/// Largest accepted number of base samples N: the `N · (2 + S)` outputs are kept for the
+/// bootstrap (2²⁰ · 40 values are 336 MB), and each of the bootstrap resamples costs
+/// `N · S` operations per quantity.
+pub const MAX_DRAWS: usize = 1 << 20;
 /// Fewest bootstrap resamples (the 2.5 % order statistic needs a few values below it).
 pub const MIN_BOOTSTRAP: usize = 100;
 /// Most bootstrap resamples.
@@ -135,7 +136,7 @@ impl SensitivityOptions {
         if !(MIN_DRAWS..=MAX_DRAWS).contains(&n) {
             return bad(
                 "draws",
-                format!("{n} is outside {MIN_DRAWS} to {MAX_DRAWS} (2^6 to 2^24)"),
+                format!("{n} is outside {MIN_DRAWS} to {MAX_DRAWS} (2^6 to 2^20)"),
             );
         }
         if !(MIN_BOOTSTRAP..=MAX_BOOTSTRAP).contains(&self.bootstrap) {
@@ -322,8 +323,17 @@ pub fn run_sensitivity(
         });
     }
     let sampler = &problem.sampler;
-    let (map, input_kind) = match (sampler.sigmas(), sampler.cholesky()) {
-        (Some(s), _) => {
+    let (map, input_kind) = match sampler.cholesky() {
+        Some((free, chol)) => (
+            InputMap {
+                free: free.to_vec(),
+                m: chol.to_vec(),
+            },
+            InputKind::CholeskyInnovations,
+        ),
+        None => {
+            // An independent sampler always has its σ; none would mean no free parameter.
+            let s = sampler.sigmas().copied().unwrap_or([0.0; N_PARAMS]);
             let free: Vec<usize> = (0..N_PARAMS).filter(|&i| s[i] > 0.0).collect();
             let d = free.len();
             let mut m = vec![0.0; d * d];
@@ -332,14 +342,6 @@ pub fn run_sensitivity(
             }
             (InputMap { free, m }, InputKind::IndependentParameters)
         }
-        (None, Some((free, chol))) => (
-            InputMap {
-                free: free.to_vec(),
-                m: chol.to_vec(),
-            },
-            InputKind::CholeskyInnovations,
-        ),
-        (None, None) => unreachable!("a sampler is either independent or correlated"),
     };
     if map.free.is_empty() {
         return Err(SensitivityError::NoFreeParameter {
@@ -397,6 +399,13 @@ mod tests {
         assert_eq!(
             field(SensitivityOptions {
                 draws: 1000,
+                ..o.clone()
+            }),
+            "draws"
+        );
+        assert_eq!(
+            field(SensitivityOptions {
+                draws: MAX_DRAWS * 2,
                 ..o.clone()
             }),
             "draws"
