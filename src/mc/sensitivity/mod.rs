@@ -92,8 +92,9 @@ pub const MAX_DRAWS: usize = 1 << 20;
 pub const MIN_BOOTSTRAP: usize = 100;
 /// Most bootstrap resamples.
 pub const MAX_BOOTSTRAP: usize = 100_000;
-/// Most base samples per chunk.
-pub const MAX_CHUNK: usize = 1 << 20;
+/// Most base samples per chunk: a chunk holds `chunk · (2 + S)` rows of inputs and of the 30
+/// parameter offsets (2¹⁴ · 30 rows of 50 values are 200 MB).
+pub const MAX_CHUNK: usize = 1 << 14;
 
 /// Settings of a sensitivity analysis.
 #[derive(Clone, Debug, PartialEq, Serialize)]
