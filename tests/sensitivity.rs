@@ -290,7 +290,7 @@ fn robot_against_quadrature(
     assert_eq!(r.skipped_parameters.len(), N_PARAMS - 2);
     // A, B, θ1, d1 and joint 1 = {θ1, d1}; the kind groups reuse the single inputs.
     assert_eq!(r.analysis.evaluations, 5 << 13);
-    let q = r.analysis.quantities[0].clone();
+    let q = r.w().clone();
     eprintln!(
         "quadrature S = {fine:?} (40 vs 80 nodes: {qerr:.1e}); pick-freeze S = {:.4}, {:.4}",
         find(&q.inputs, "theta1").first_order.value,

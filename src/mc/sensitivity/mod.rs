@@ -251,6 +251,13 @@ pub struct SensitivityResult {
     pub analysis: SobolAnalysis,
 }
 
+impl SensitivityResult {
+    /// The indices of `w` itself (the first quantity; the exceedances follow).
+    pub fn w(&self) -> &QuantityIndices {
+        &self.analysis.quantities[0]
+    }
+}
+
 /// Report name of parameter `i` of the 30-vector, e.g. `alpha3`.
 pub fn param_name(i: usize) -> String {
     format!("{}{}", param_kind(i).name(), param_joint(i) + 1)
