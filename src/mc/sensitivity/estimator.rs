@@ -82,7 +82,7 @@ pub struct QuantityIndices {
     /// Per group, ranked by decreasing total index. Empty when the variance is zero.
     pub groups: Vec<SobolIndex>,
     /// Why there are no indices, when there are none, or why they are unreliable (an
-    /// exceedance with fewer than [`MIN_EVENTS`](crate::mc::sensitivity::MIN_EVENTS) rows on one side of its threshold).
+    /// exceedance with fewer than [`MIN_EVENTS`] rows on one side of its threshold).
     pub note: Option<String>,
 }
 

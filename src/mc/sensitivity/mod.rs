@@ -72,7 +72,7 @@ mod estimator;
 
 pub use estimator::{
     pick_freeze, rank, Estimate, InputGroup, Quantity, QuantityIndices, SobolAnalysis, SobolIndex,
-    CONFIDENCE,
+    CONFIDENCE, MIN_EVENTS,
 };
 
 use serde::Serialize;
