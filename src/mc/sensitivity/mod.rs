@@ -15,16 +15,17 @@
 //! * `V(Y)` the sample variance of the 2N values `f(A) ∪ f(B)`, `f̄` their mean, and
 //!   `S = V_S / V(Y)`, `S_T = VT_S / V(Y)`.
 //!
-//! Centring `f(B)` on `f̄` leaves the expectation of Saltelli's sum unchanged (the difference
-//! `f(A_B^(S)) − f(A)` has mean zero) and removes the term `f̄ · Σ (f(A_B^(S)) − f(A))`, whose
+//! Centring `f(B)` on `f̄` leaves the expectation of Saltelli's sum unchanged up to O(1/N)
+//! (the difference `f(A_B^(S)) − f(A)` has mean zero) and removes the term `f̄ · Σ (f(A_B^(S)) − f(A))`, whose
 //! variance would otherwise grow with the square of the mean of `w` (the mean of `w` is several
 //! times its standard deviation). For a group, `S` is its closed index (all interactions inside
 //! the group included). Both estimators are unbiased up to O(1/N) and need no other matrices,
 //! so one input costs N evaluations: the D inputs cost `N · (D + 2)` model evaluations in all,
 //! and each group whose member set is not a single input adds N more (reported as
-//! [`SobolAnalysis::evaluations`]).
+//! [`SobolAnalysis::evaluations`]). Estimates are not clipped: sampling error can make an
+//! index slightly negative or above 1, and the interval shows by how much.
 //!
-//! Confidence intervals: B resamples (with replacement) of the N base-sample indices `k`,
+//! Confidence intervals: R resamples ([`SensitivityOptions::bootstrap`]) (with replacement) of the N base-sample indices `k`,
 //! shared by every index so their replicates stay coherent; each resample recomputes `V(Y)`,
 //! `f̄` and every index, and the 2.5 % and 97.5 % order statistics of the replicates give the
 //! 95 % percentile interval, their standard deviation a standard error. The resampling uses
@@ -35,8 +36,9 @@
 //! Row `k` of A is draw `k` of the run (the draw AMCS uses, [`ParamSampler::deltas`]); row `k`
 //! of B is draw `2⁶³ + k` ([`B_DRAW_OFFSET`]) of the same counter-based stream, independent of
 //! row `k` of A and of every other draw for any N the run can reach. `A_B^(S)` rows are
-//! assembled from the two rows chunk by chunk, so nothing of size `N × D` is stored; only the
-//! `N · (2 + S)` outputs are kept (for the bootstrap).
+//! assembled from the two rows chunk by chunk ([`SensitivityOptions::chunk`] base samples, one
+//! evaluator call of `chunk · (2 + S)` rows), so no input matrix of size `N × D` is stored;
+//! only the `N · (2 + S)` outputs are kept (for the bootstrap), S the pick-freeze matrices.
 //!
 //! # Inputs, and correlated parameters
 //!
@@ -53,8 +55,8 @@
 //!   swaps components of `u`, and the index reported under a parameter's name is that of its
 //!   innovation ([`InputKind::CholeskyInnovations`]). These indices depend on the parameter
 //!   order (the first parameter's innovation carries everything it shares with the later
-//!   ones); they answer "which independent source of variation matters", which is what a
-//!   calibration can reduce, not "which parameter" in the sense of Shapley effects. Group
+//!   ones); they answer "which independent source of variation matters", not "which
+//!   parameter" in the sense of Shapley effects. Group
 //!   indices of a whole joint or kind are of the innovations of its members.
 //!
 //! Parameters with σ = 0 are no inputs; they are listed in
