@@ -10,6 +10,7 @@
 mod amcs;
 mod mcs;
 mod result;
+pub mod sensitivity;
 pub mod stats;
 
 pub use amcs::{run_amcs, AmcsOptions, Tolerance};

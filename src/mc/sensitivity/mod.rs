@@ -1,0 +1,495 @@
+//! Which parameters matter: first-order and total Sobol indices of the maximum point error `w`
+//! (and of the failure indicators `1[w ≥ l_c]`) for every free parameter, per joint and per
+//! kind of parameter.
+//!
+//! # Estimators
+//!
+//! With inputs `X = (X_1 … X_D)` independent and `Y = f(X)`, the first-order index of a set `S`
+//! of inputs is `S_S = V[E(Y | X_S)] / V(Y)` and its total index
+//! `S_T,S = E[V(Y | X_~S)] / V(Y)`. Two independent N × D sample matrices A and B and, for each
+//! set `S`, the matrix `A_B^(S)` (A with the columns of `S` taken from B) give
+//!
+//! * first order, Saltelli et al. (2010), *Comput. Phys. Commun.* 181, 259–270, Table 2 (b):
+//!   `V_S ≈ (1/N) Σ_k (f(B)_k − f̄) (f(A_B^(S))_k − f(A)_k)`;
+//! * total, Jansen (1999): `VT_S ≈ (1/2N) Σ_k (f(A)_k − f(A_B^(S))_k)²`;
+//! * `V(Y)` the sample variance of the 2N values `f(A) ∪ f(B)`, `f̄` their mean, and
+//!   `S = V_S / V(Y)`, `S_T = VT_S / V(Y)`.
+//!
+//! Centring `f(B)` on `f̄` leaves the expectation of Saltelli's sum unchanged up to O(1/N)
+//! (the difference `f(A_B^(S)) − f(A)` has mean zero) and removes the term `f̄ · Σ (f(A_B^(S)) − f(A))`, whose
+//! variance would otherwise grow with the square of the mean of `w` (the mean of `w` is several
+//! times its standard deviation). For a group, `S` is its closed index (all interactions inside
+//! the group included). Both estimators are unbiased up to O(1/N) and need no other matrices,
+//! so one input costs N evaluations: the D inputs cost `N · (D + 2)` model evaluations in all,
+//! and each group whose member set is not a single input adds N more (reported as
+//! [`SobolAnalysis::evaluations`]). Estimates are not clipped: sampling error can make an
+//! index slightly negative or above 1, and the interval shows by how much.
+//!
+//! Confidence intervals: R resamples ([`SensitivityOptions::bootstrap`]) (with replacement) of the N base-sample indices `k`,
+//! shared by every index so their replicates stay coherent; each resample recomputes `V(Y)`,
+//! `f̄` and every index, and the 2.5 % and 97.5 % order statistics of the replicates give the
+//! 95 % percentile interval, their standard deviation a standard error. The resampling uses
+//! Philox keyed by [`SensitivityOptions::bootstrap_seed`], so it is reproducible.
+//!
+//! # Draw definition
+//!
+//! Row `k` of A is draw `k` of the run (the draw AMCS uses, [`ParamSampler::deltas`]); row `k`
+//! of B is draw `2⁶³ + k` ([`B_DRAW_OFFSET`]) of the same counter-based stream, independent of
+//! row `k` of A and of every other draw for any N the run can reach. `A_B^(S)` rows are
+//! assembled from the two rows chunk by chunk ([`SensitivityOptions::chunk`] base samples, one
+//! evaluator call of `chunk · (2 + S)` rows), so no input matrix of size `N × D` is stored;
+//! only the `N · (2 + S)` outputs are kept (for the bootstrap), S the pick-freeze matrices.
+//!
+//! # Inputs, and correlated parameters
+//!
+//! Sobol indices are defined for independent inputs. The inputs here are the independent
+//! standard normals `u` behind each draw, mapped to parameter offsets by `δ = M u` on the free
+//! parameters (σ > 0, in index order), with `M` the diagonal of the σ for a model with
+//! independent parameters and the lower Cholesky factor `L` of the covariance of the free
+//! parameters for a correlated model (`docs/METHOD.md §6`).
+//!
+//! * Independent parameters: `u_i = δ_i / σ_i`, so the index of `u_i` is that of parameter i
+//!   ([`InputKind::IndependentParameters`]).
+//! * Correlated model: `u = L⁻¹ δ`, and `u_i` is the *innovation* of parameter i in Cholesky
+//!   order: the part of parameter i not explained by the parameters before it. Pick-freeze
+//!   swaps components of `u`, and the index reported under a parameter's name is that of its
+//!   innovation ([`InputKind::CholeskyInnovations`]). These indices depend on the parameter
+//!   order (the first parameter's innovation carries everything it shares with the later
+//!   ones); they answer "which independent source of variation matters", not "which
+//!   parameter" in the sense of Shapley effects. Group
+//!   indices of a whole joint or kind are of the innovations of its members.
+//!
+//! Parameters with σ = 0 are no inputs; they are listed in
+//! [`SensitivityResult::skipped_parameters`].
+//!
+//! # Groups
+//!
+//! Besides each free parameter: per joint (`joint 1` … `joint 6`) and per kind (`joint angles
+//! θ`, `twists α/β`, `lengths a/d`), each over its free members; a group without free members
+//! is left out.
+//!
+//! [`ParamSampler::deltas`]: crate::sampling::ParamSampler::deltas
+
+mod estimator;
+
+pub use estimator::{
+    pick_freeze, rank, Estimate, InputGroup, Quantity, QuantityIndices, SobolAnalysis, SobolIndex,
+    CONFIDENCE, MIN_EVENTS,
+};
+
+use serde::Serialize;
+
+use crate::engine::{BackendInfo, EngineError, Evaluator, Problem};
+use crate::kinematics::{param_joint, param_kind, ParamKind, JOINTS, N_PARAMS};
+
+/// Draw index offset of matrix B: row `k` of B is draw `B_DRAW_OFFSET + k`.
+pub const B_DRAW_OFFSET: u64 = 1 << 63;
+/// Smallest accepted number of base samples N.
+pub const MIN_DRAWS: usize = 64;
+/// Largest accepted number of base samples N: the `N · (2 + S)` outputs are kept for the
+/// bootstrap (2²⁰ · 40 values are 336 MB), and each of the bootstrap resamples costs
+/// `N · S` operations per quantity.
+pub const MAX_DRAWS: usize = 1 << 20;
+/// Fewest bootstrap resamples (the 2.5 % order statistic needs a few values below it).
+pub const MIN_BOOTSTRAP: usize = 100;
+/// Most bootstrap resamples.
+pub const MAX_BOOTSTRAP: usize = 100_000;
+/// Most base samples per chunk: a chunk holds `chunk · (2 + S)` rows of inputs and of the 30
+/// parameter offsets (2¹⁴ · 30 rows of 50 values are 200 MB).
+pub const MAX_CHUNK: usize = 1 << 14;
+
+/// Settings of a sensitivity analysis.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SensitivityOptions {
+    /// Base samples N: rows of A and of B, a power of 2 from [`MIN_DRAWS`] to [`MAX_DRAWS`].
+    pub draws: usize,
+    /// Bootstrap resamples for the 95 % intervals, [`MIN_BOOTSTRAP`] to [`MAX_BOOTSTRAP`].
+    pub bootstrap: usize,
+    /// Seed of the bootstrap resampling.
+    pub bootstrap_seed: u64,
+    /// Base samples per evaluation call (each call evaluates `chunk · (2 + S)` rows), 1 to
+    /// [`MAX_CHUNK`].
+    pub chunk: usize,
+    /// Thresholds `l_c` of the failure indicators `1[w ≥ l_c]` (mm), each finite and > 0.
+    pub thresholds: Vec<f64>,
+}
+
+impl Default for SensitivityOptions {
+    fn default() -> Self {
+        SensitivityOptions {
+            draws: 1 << 13,
+            bootstrap: 300,
+            bootstrap_seed: 1,
+            chunk: 1 << 10,
+            thresholds: Vec::new(),
+        }
+    }
+}
+
+impl SensitivityOptions {
+    /// Checks every setting; the error names the field.
+    pub fn check(&self) -> Result<(), SensitivityError> {
+        let bad = |field: &'static str, message: String| {
+            Err(SensitivityError::Setting { field, message })
+        };
+        let n = self.draws;
+        if !n.is_power_of_two() {
+            return bad("draws", format!("{n} is not a power of 2"));
+        }
+        if !(MIN_DRAWS..=MAX_DRAWS).contains(&n) {
+            return bad(
+                "draws",
+                format!("{n} is outside {MIN_DRAWS} to {MAX_DRAWS} (2^6 to 2^20)"),
+            );
+        }
+        if !(MIN_BOOTSTRAP..=MAX_BOOTSTRAP).contains(&self.bootstrap) {
+            return bad(
+                "bootstrap",
+                format!(
+                    "{} resamples is outside {MIN_BOOTSTRAP} to {MAX_BOOTSTRAP}",
+                    self.bootstrap
+                ),
+            );
+        }
+        if !(1..=MAX_CHUNK).contains(&self.chunk) {
+            return bad(
+                "chunk",
+                format!("{} is outside 1 to {MAX_CHUNK}", self.chunk),
+            );
+        }
+        for (i, &l) in self.thresholds.iter().enumerate() {
+            if !(l.is_finite() && l > 0.0) {
+                return bad(
+                    "thresholds",
+                    format!("threshold {} is {l}: it must be a finite length > 0", i + 1),
+                );
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Errors of a sensitivity analysis.
+#[derive(Debug, thiserror::Error)]
+pub enum SensitivityError {
+    /// A setting is out of range; names the field of [`SensitivityOptions`].
+    #[error("{field}: {message}")]
+    Setting {
+        /// The field.
+        field: &'static str,
+        /// What is wrong.
+        message: String,
+    },
+    /// Every parameter has σ = 0.
+    #[error("model {model}: no parameter has a nonzero standard deviation, so nothing varies")]
+    NoFreeParameter {
+        /// The model's name.
+        model: String,
+    },
+    /// The inputs or groups of a generic analysis are inconsistent.
+    #[error("{0}")]
+    Design(String),
+    /// The evaluator was built for another problem.
+    #[error("the evaluator has {evaluator} test points, the problem {problem}")]
+    EvaluatorMismatch {
+        /// Points of the problem.
+        problem: usize,
+        /// Points of the evaluator.
+        evaluator: usize,
+    },
+    /// The model returned the wrong number of outputs.
+    #[error("the model returned {got} outputs for {expected} rows")]
+    ModelOutput {
+        /// Rows given.
+        expected: usize,
+        /// Outputs returned.
+        got: usize,
+    },
+    /// The model returned a value that is not finite.
+    #[error("base sample {sample}, matrix {matrix}: the model gave {value}")]
+    NonFinite {
+        /// 0-based base sample.
+        sample: u64,
+        /// Which matrix (A, B or A_B for a set of inputs).
+        matrix: String,
+        /// The value.
+        value: f64,
+    },
+    /// The evaluator failed.
+    #[error(transparent)]
+    Engine(#[from] EngineError),
+}
+
+/// What the inputs of the indices are.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+pub enum InputKind {
+    /// Independent parameters: each input is one parameter.
+    #[serde(rename = "independent parameters")]
+    IndependentParameters,
+    /// Correlated model: each input is the Cholesky innovation of one parameter.
+    #[serde(rename = "Cholesky innovations (correlated model)")]
+    CholeskyInnovations,
+}
+
+/// Sobol indices of `w` for a robot model.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SensitivityResult {
+    /// The model's name.
+    pub model: String,
+    /// Test points m.
+    pub points: usize,
+    /// Seed of the parameter draws (the problem's).
+    pub seed: u64,
+    /// What the indices are of.
+    pub input_kind: InputKind,
+    /// Free parameters, in input (Cholesky) order, e.g. `theta1`.
+    pub parameters: Vec<String>,
+    /// Parameters with σ = 0, not inputs.
+    pub skipped_parameters: Vec<String>,
+    /// Which backend evaluated `w`.
+    pub backend: BackendInfo,
+    /// The indices; [`Quantity::Value`] is `w` (mm), the exceedances are `1[w ≥ l_c]`.
+    #[serde(flatten)]
+    pub analysis: SobolAnalysis,
+}
+
+impl SensitivityResult {
+    /// The indices of `w` itself (the first quantity; the exceedances follow).
+    pub fn w(&self) -> &QuantityIndices {
+        &self.analysis.quantities[0]
+    }
+}
+
+/// Report name of parameter `i` of the 30-vector, e.g. `alpha3`.
+pub fn param_name(i: usize) -> String {
+    format!("{}{}", param_kind(i).name(), param_joint(i) + 1)
+}
+
+/// The map `δ_free = M u` between the independent inputs and the free parameters' offsets:
+/// `M` lower triangular over the free parameters (diagonal σ, or the Cholesky factor).
+struct InputMap {
+    free: Vec<usize>,
+    /// Row-major `free.len()²`.
+    m: Vec<f64>,
+}
+
+impl InputMap {
+    /// `u = M⁻¹ δ_free` by forward substitution.
+    fn inputs(&self, delta: &[f64; N_PARAMS], u: &mut [f64]) {
+        let d = self.free.len();
+        for a in 0..d {
+            let row = &self.m[a * d..a * d + a];
+            let s: f64 = row.iter().zip(&u[..a]).map(|(l, x)| l * x).sum();
+            u[a] = (delta[self.free[a]] - s) / self.m[a * d + a];
+        }
+    }
+
+    /// `δ = M u` on the free parameters, 0 elsewhere.
+    fn offsets(&self, u: &[f64], delta: &mut [f64]) {
+        let d = self.free.len();
+        delta.fill(0.0);
+        for a in 0..d {
+            let row = &self.m[a * d..=a * d + a];
+            delta[self.free[a]] = row.iter().zip(&u[..=a]).map(|(l, x)| l * x).sum();
+        }
+    }
+}
+
+/// The groups of the free parameters `free` (as input columns): per joint, then per kind.
+fn robot_groups(free: &[usize]) -> Vec<InputGroup> {
+    let select = |name: String, keep: &dyn Fn(usize) -> bool| InputGroup {
+        name,
+        members: (0..free.len()).filter(|&c| keep(free[c])).collect(),
+    };
+    let joints =
+        (0..JOINTS).map(|j| select(format!("joint {}", j + 1), &move |i| param_joint(i) == j));
+    let kinds: [(&str, &[ParamKind]); 3] = [
+        ("joint angles θ", &[ParamKind::Theta]),
+        ("twists α/β", &[ParamKind::Alpha, ParamKind::Beta]),
+        ("lengths a/d", &[ParamKind::A, ParamKind::D]),
+    ];
+    let kinds = kinds
+        .into_iter()
+        .map(|(name, ks)| select(name.to_string(), &move |i| ks.contains(&param_kind(i))));
+    joints
+        .chain(kinds)
+        .filter(|g| !g.members.is_empty())
+        .collect()
+}
+
+/// Sobol indices of `w` for every free parameter of `problem`, per joint and per kind, with the
+/// evaluator `ev` built for the same problem (CPU or GPU: only its offset path is used).
+/// See the module docs for the estimators, the draw definition and correlated models.
+pub fn run_sensitivity(
+    problem: &Problem,
+    ev: &mut dyn Evaluator,
+    opts: &SensitivityOptions,
+) -> Result<SensitivityResult, SensitivityError> {
+    opts.check()?;
+    if ev.n_points() != problem.n_points() {
+        return Err(SensitivityError::EvaluatorMismatch {
+            problem: problem.n_points(),
+            evaluator: ev.n_points(),
+        });
+    }
+    let sampler = &problem.sampler;
+    let (map, input_kind) = match sampler.cholesky() {
+        Some((free, chol)) => (
+            InputMap {
+                free: free.to_vec(),
+                m: chol.to_vec(),
+            },
+            InputKind::CholeskyInnovations,
+        ),
+        None => {
+            // An independent sampler always has its σ; none would mean no free parameter.
+            let s = sampler.sigmas().copied().unwrap_or([0.0; N_PARAMS]);
+            let free: Vec<usize> = (0..N_PARAMS).filter(|&i| s[i] > 0.0).collect();
+            let d = free.len();
+            let mut m = vec![0.0; d * d];
+            for (a, &i) in free.iter().enumerate() {
+                m[a * d + a] = s[i];
+            }
+            (InputMap { free, m }, InputKind::IndependentParameters)
+        }
+    };
+    if map.free.is_empty() {
+        return Err(SensitivityError::NoFreeParameter {
+            model: problem.model.name.clone(),
+        });
+    }
+    let names: Vec<String> = map.free.iter().map(|&i| param_name(i)).collect();
+    let skipped = (0..N_PARAMS)
+        .filter(|i| !map.free.contains(i))
+        .map(param_name)
+        .collect();
+    let groups = robot_groups(&map.free);
+    let d = map.free.len();
+    let draw = |k: u64, u: &mut [f64]| {
+        let mut delta = [0.0; N_PARAMS];
+        sampler.deltas(k, &mut delta);
+        map.inputs(&delta, u);
+    };
+    let model = |rows: &[f64]| {
+        let n = rows.len() / d;
+        let mut offsets = vec![0.0; n * N_PARAMS];
+        for (u, delta) in rows.chunks(d).zip(offsets.chunks_mut(N_PARAMS)) {
+            map.offsets(u, delta);
+        }
+        let mut w = vec![0.0; n];
+        ev.evaluate_offsets(&offsets, &mut w, None)?;
+        Ok(w)
+    };
+    let analysis = pick_freeze(&names, &groups, draw, model, opts)?;
+    Ok(SensitivityResult {
+        model: problem.model.name.clone(),
+        points: problem.n_points(),
+        seed: problem.seed,
+        input_kind,
+        parameters: names,
+        skipped_parameters: skipped,
+        backend: ev.info(),
+        analysis,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::tx60;
+
+    #[test]
+    fn options_name_the_field() {
+        let field = |o: SensitivityOptions| match o.check() {
+            Err(SensitivityError::Setting { field, .. }) => field,
+            r => panic!("{r:?}"),
+        };
+        let o = SensitivityOptions::default();
+        assert!(o.check().is_ok());
+        assert_eq!(
+            field(SensitivityOptions {
+                draws: 1000,
+                ..o.clone()
+            }),
+            "draws"
+        );
+        assert_eq!(
+            field(SensitivityOptions {
+                draws: MAX_DRAWS * 2,
+                ..o.clone()
+            }),
+            "draws"
+        );
+        assert_eq!(
+            field(SensitivityOptions {
+                draws: 32,
+                ..o.clone()
+            }),
+            "draws"
+        );
+        assert_eq!(
+            field(SensitivityOptions {
+                bootstrap: 10,
+                ..o.clone()
+            }),
+            "bootstrap"
+        );
+        assert_eq!(
+            field(SensitivityOptions {
+                chunk: 0,
+                ..o.clone()
+            }),
+            "chunk"
+        );
+        for l in [0.0, -1.0, f64::NAN] {
+            let t = SensitivityOptions {
+                thresholds: vec![0.5, l],
+                ..o.clone()
+            };
+            assert_eq!(field(t), "thresholds");
+        }
+    }
+
+    #[test]
+    fn input_map_round_trips_a_cholesky_factor() {
+        let map = InputMap {
+            free: vec![1, 4, 7],
+            m: vec![2.0, 0.0, 0.0, 0.5, 1.5, 0.0, -0.3, 0.2, 0.7],
+        };
+        let u0 = [0.3, -1.2, 2.0];
+        let mut delta = [0.0; N_PARAMS];
+        map.offsets(&u0, &mut delta);
+        assert_eq!(delta[1], 0.6);
+        assert_eq!(delta[0], 0.0);
+        let mut u = [0.0; 3];
+        map.inputs(&delta, &mut u);
+        for (a, b) in u.iter().zip(&u0) {
+            assert!((a - b).abs() < 1e-15, "{u:?}");
+        }
+    }
+
+    #[test]
+    fn tx60_groups_cover_the_free_parameters() {
+        let free = tx60().free_params();
+        let g = robot_groups(&free);
+        let names: Vec<&str> = g.iter().map(|g| g.name.as_str()).collect();
+        // Joint 6 has no free parameter.
+        assert_eq!(
+            names,
+            [
+                "joint 1",
+                "joint 2",
+                "joint 3",
+                "joint 4",
+                "joint 5",
+                "joint angles θ",
+                "twists α/β",
+                "lengths a/d"
+            ]
+        );
+        let per_joint: usize = g[..5].iter().map(|g| g.members.len()).sum();
+        let per_kind: usize = g[5..].iter().map(|g| g.members.len()).sum();
+        assert_eq!((per_joint, per_kind), (free.len(), free.len()));
+        assert_eq!(param_name(free[g[1].members[3]]), "beta2");
+    }
+}
