@@ -61,6 +61,9 @@ subcommands! {
     /// MCS against AMCS at two tolerances: the paper's Table 2 for one model.
     #[command(allow_negative_numbers = true)]
     Compare(cmd::compare::CompareArgs),
+    /// Sobol sensitivity indices of w: which parameters' spread matters (first order and total).
+    #[command(allow_negative_numbers = true)]
+    Sensitivity(cmd::sensitivity::SensitivityArgs),
     /// Print a built-in model as a model file (TOML) to start from.
     Model(cmd::model::ModelCmdArgs),
     /// Generate test points and write them as CSV (q1..q6 in degrees).

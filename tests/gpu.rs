@@ -10,6 +10,8 @@
 
 mod common;
 
+use common::have_adapter;
+
 use gpu_amcs::engine::gpu::{self, philox_on_gpu, GpuEvaluator, GpuOptions};
 use gpu_amcs::engine::{
     deviation, make_evaluator, BackendChoice, CpuEvaluator, EngineError, Evaluator, Problem,
@@ -25,17 +27,6 @@ const SAMPLE_TOL_MM: f64 = 1e-5;
 /// Largest allowed relative difference of each of the four moments (the requirement is 1e-3;
 /// measured ~2e-8 on lavapipe).
 const MOMENT_TOL: f64 = 1e-5;
-
-fn have_adapter(test: &str) -> bool {
-    if !gpu::adapters().is_empty() {
-        return true;
-    }
-    if std::env::var("CI").map(|v| v == "true").unwrap_or(false) {
-        panic!("{test}: no Vulkan/Metal/DX12 adapter found and CI=true (install mesa-vulkan-drivers for lavapipe)");
-    }
-    eprintln!("{test}: skipped, no GPU adapter (set CI=true to make this a failure)");
-    false
-}
 
 fn points(model: &RobotModel, n: usize) -> Vec<[f64; 6]> {
     gpu_amcs::points::generate(model, n, &Default::default(), 11).expect("points")

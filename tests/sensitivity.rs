@@ -7,7 +7,11 @@
 //! analytic value (a normal deviation beyond 4 sd has probability 6e-5 per index), plus, for
 //! the robot, the quadrature error (estimated by comparing two quadrature orders).
 
-use gpu_amcs::engine::gpu::{self, GpuEvaluator, GpuOptions};
+mod common;
+
+use common::have_adapter;
+
+use gpu_amcs::engine::gpu::{GpuEvaluator, GpuOptions};
 use gpu_amcs::engine::{CpuEvaluator, Evaluator, Problem, Reference};
 use gpu_amcs::kinematics::{param_index, tx60, ParamKind, RobotModel, Uncertainty, N_PARAMS};
 use gpu_amcs::mc::sensitivity::{
@@ -470,17 +474,6 @@ fn bad_input_is_a_typed_error() {
     assert!(matches!(e, SensitivityError::ModelOutput { .. }), "{e}");
 }
 
-fn have_adapter(test: &str) -> bool {
-    if !gpu::adapters().is_empty() {
-        return true;
-    }
-    if std::env::var("CI").map(|v| v == "true").unwrap_or(false) {
-        panic!("{test}: no Vulkan/Metal/DX12 adapter found and CI=true (install mesa-vulkan-drivers for lavapipe)");
-    }
-    eprintln!("{test}: skipped, no GPU adapter (set CI=true to make this a failure)");
-    false
-}
-
 /// GPU and CPU indices of the TX60 agree: per draw |Δw| ≤ 1e-5 mm (tests/gpu.rs); an index is
 /// a ratio of sums of products of outputs with V(Y) = σ_w², so a perturbation Δ per output
 /// moves it by at most about 8 Δ / σ_w.
@@ -518,4 +511,76 @@ fn gpu_and_cpu_agree() {
     }
     eprintln!("largest |GPU − CPU| index difference {worst:.2e} (tolerance {tol:.2e})");
     assert!(worst <= tol);
+}
+
+/// The `sensitivity` subcommand: JSON and CSV from one run agree with each other and with the
+/// estimator's bookkeeping; bad settings are one-line errors naming the flag, with no output.
+#[test]
+fn sensitivity_subcommand_writes_json_and_csv() {
+    let d = common::tmpdir("sens-cli");
+    let json = d.join("s.json");
+    let csv = d.join("csv");
+    let o = common::run(&[
+        "sensitivity",
+        "--backend",
+        "cpu",
+        "--points",
+        "10",
+        "--draws",
+        "1024",
+        "--thresholds",
+        "0.12",
+        "--json",
+        json.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+    let text = common::stdout(&o);
+    assert!(
+        text.contains("theta1") && text.contains("twists α/β"),
+        "{text}"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let s = &v["sensitivity"];
+    let n = s["draws"].as_u64().unwrap();
+    let extra = s["pick_freeze_matrices"].as_u64().unwrap();
+    assert_eq!(n, 1024);
+    assert_eq!(s["evaluations"].as_u64().unwrap(), n * (2 + extra));
+    assert_eq!(s["quantities"].as_array().unwrap().len(), 2);
+    let inputs = s["quantities"][0]["inputs"].as_array().unwrap();
+    assert_eq!(inputs.len(), s["dimension"].as_u64().unwrap() as usize);
+    // Ranked by total index, and every total index is in [0, 1] within its interval.
+    let totals: Vec<f64> = inputs
+        .iter()
+        .map(|i| i["total"]["value"].as_f64().unwrap())
+        .collect();
+    assert!(totals.windows(2).all(|w| w[0] >= w[1]), "{totals:?}");
+    assert!(
+        totals.iter().all(|t| (-0.05..=1.05).contains(t)),
+        "{totals:?}"
+    );
+    let rows = std::fs::read_to_string(csv.join("indices.csv")).unwrap();
+    let first = inputs[0]["name"].as_str().unwrap();
+    let line = rows
+        .lines()
+        .find(|l| l.starts_with(&format!("w,,input,{first},")))
+        .unwrap();
+    let total: f64 = line.split(',').nth(7).unwrap().parse().unwrap();
+    assert_eq!(total, totals[0]);
+    for (args, flag) in [
+        (vec!["sensitivity", "--draws", "1000"], "--draws"),
+        (vec!["sensitivity", "--thresholds", "0"], "--thresholds"),
+        (vec!["sensitivity", "--bootstrap", "1"], "--bootstrap"),
+    ] {
+        let out = d.join("bad.json");
+        let mut args = args.clone();
+        args.extend(["--json", out.to_str().unwrap()]);
+        let o = common::run(&args);
+        let e = common::stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        assert!(e.contains(flag) && e.trim().lines().count() == 1, "{e}");
+        assert!(!out.exists());
+    }
 }

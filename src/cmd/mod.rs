@@ -17,6 +17,7 @@ pub mod model;
 pub mod outputs;
 pub mod points;
 pub mod progress;
+pub mod sensitivity;
 pub mod simulate;
 pub mod study;
 pub mod validate;

@@ -9,6 +9,7 @@ pub mod csv;
 pub mod identify;
 pub mod json;
 pub mod markdown;
+pub mod sensitivity;
 pub mod svg;
 pub mod text;
 
