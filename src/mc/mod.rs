@@ -11,6 +11,7 @@ mod amcs;
 mod mcs;
 mod result;
 pub mod stats;
+pub mod tail;
 
 pub use amcs::{run_amcs, AmcsOptions, Tolerance};
 pub use mcs::{run_mcs, McsOptions};
