@@ -111,11 +111,15 @@ fn theta1_closed_form_down_to_1e_9() {
         assert!((beta + normal_quantile(e.p_f)).abs() < 1e-12);
     }
     eprintln!(
-        "theta1 1e-9: {} evaluations, {} replicas, {:.2} s, cov {:?}",
+        "theta1 1e-9: {} evaluations, {} replicas, {:.2} s, cov {:?} between replicas {:?}",
         res.evaluations,
         res.replicas.len(),
         res.seconds,
-        res.estimates.iter().map(|e| e.cov).collect::<Vec<_>>()
+        res.estimates.iter().map(|e| e.cov).collect::<Vec<_>>(),
+        res.estimates
+            .iter()
+            .map(|e| e.cov_between_replicas)
+            .collect::<Vec<_>>()
     );
 }
 
@@ -356,4 +360,51 @@ fn gpu_matches_cpu() {
             assert!((x - y).abs() <= 1e-5, "{x} vs {y}");
         }
     }
+}
+
+/// A diagonal covariance and the equivalent σ list give the same map `u ↦ L u`, so the same run.
+#[test]
+fn diagonal_covariance_equals_sigma_list() {
+    let m = tx60();
+    let s = m.uncertainty.sigmas();
+    let mut mc = m.clone();
+    let mut c = vec![0.0; N_PARAMS * N_PARAMS];
+    for i in 0..N_PARAMS {
+        c[i * N_PARAMS + i] = s[i] * s[i];
+    }
+    mc.uncertainty = Uncertainty::Covariance(c);
+    let opts = subset(vec![0.2], 500, 0.9, 20_000);
+    let a = run_cpu(&problem(m, 10, 3), &opts);
+    let b = run_cpu(&problem(mc, 10, 3), &opts);
+    assert_eq!(a.dimension, b.dimension);
+    for (x, y) in a.estimates.iter().zip(&b.estimates) {
+        assert!((x.p_f / y.p_f - 1.0).abs() < 1e-12, "{x:?} {y:?}");
+    }
+}
+
+/// Measurement, not a check of correctness (run with `--ignored --nocapture`): evaluations and
+/// seconds for P_f ≈ 1e-9 at a coefficient of variation ≤ 0.15 on the CPU, for the default
+/// TX60 at 50 points. The threshold is the ninth intermediate level of a first replica
+/// (P ≈ 0.1^9).
+#[test]
+#[ignore]
+fn measure_default_tx60_at_1e_9() {
+    let pb = problem(tx60(), 50, 1);
+    let probe = run_cpu(&pb, &subset(vec![10.0], 1000, 0.99, 9_000));
+    let l = probe.replicas[0].levels[8].next.unwrap();
+    let res = run_cpu(&pb, &subset(vec![l], 1000, 0.15, 10_000_000));
+    let e = &res.estimates[0];
+    eprintln!(
+        "default TX60, l = {l:.4} mm: P_f {:.3e}, cov {:.3} (independent levels {:.3}, between replicas {:.3}), beta {:.3}, {} evaluations in {} replicas, {:.1} s, outcome {:?}",
+        e.p_f,
+        e.cov.unwrap(),
+        e.cov_independent_levels.unwrap(),
+        e.cov_between_replicas.unwrap(),
+        e.beta.unwrap(),
+        res.evaluations,
+        res.replicas.len(),
+        res.seconds,
+        res.outcome
+    );
+    assert_eq!(res.outcome, TailOutcome::TargetReached);
 }
