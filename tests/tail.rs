@@ -408,3 +408,17 @@ fn measure_default_tx60_at_1e_9() {
     );
     assert_eq!(res.outcome, TailOutcome::TargetReached);
 }
+
+/// A threshold every draw exceeds: `P_f = 1` from level 0 alone, β undefined (not ±∞ in the
+/// output), and nothing beyond the first level is evaluated.
+#[test]
+fn certain_failure_stops_at_level_zero() {
+    let (pb, _) = theta1_problem(2);
+    let res = run_cpu(&pb, &subset(vec![1e-12], 500, 0.1, 100_000));
+    assert_eq!(res.outcome, TailOutcome::TargetReached);
+    assert_eq!(res.evaluations, 500);
+    let e = &res.estimates[0];
+    assert_eq!((e.p_f, e.cov, e.beta), (1.0, Some(0.0), None));
+    let json = serde_json::to_string(&res).unwrap();
+    assert!(!json.contains("inf") && !json.contains("NaN"), "{json}");
+}

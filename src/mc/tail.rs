@@ -65,7 +65,8 @@
 //! combined coefficient of variation of every requested threshold is at or below the target:
 //! `P̄ = (1/R) Σ_r P_r`, `δ̄ = √(Σ_r δ_r²) / R`. A replica starts only if the evaluations of the
 //! previous one still fit under [`TailOptions::max_evaluations`]; a level starts only if its
-//! `N (1 − p0)` evaluations fit. When the cap ends the run the outcome is
+//! `N (1 − p0)` evaluations fit; a later replica that the cap cuts short is left out of the
+//! average (its evaluations still count). When the cap ends the run the outcome is
 //! [`TailOutcome::EvaluationCapReached`] with the estimates so far (a threshold that no level
 //! reached has `p_f = 0` and no `cov`/`beta`), not an error.
 //!
@@ -297,7 +298,7 @@ pub struct TailEstimate {
     /// Subset simulation with two or more replicas: the empirical coefficient of variation of
     /// their mean, `s(P_r) / (√R · P̄)` (a check on `cov` from the data; noisy for few replicas).
     pub cov_between_replicas: Option<f64>,
-    /// `β = −Φ⁻¹(p_f)`; `None` when `p_f = 0`.
+    /// `β = −Φ⁻¹(p_f)`; `None` when `p_f` is 0 or 1 (β = ±∞).
     pub beta: Option<f64>,
 }
 
@@ -310,7 +311,7 @@ impl TailEstimate {
             cov: cov.filter(|_| ok),
             cov_independent_levels: cov_independent.filter(|_| ok),
             cov_between_replicas: None,
-            beta: ok.then(|| -normal_quantile(p_f)),
+            beta: (ok && p_f < 1.0).then(|| -normal_quantile(p_f)),
         }
     }
 }
