@@ -56,17 +56,20 @@
 //! the lower bound. On the default TX60 (30 normals), 100 seeds with `N = 500` gave an empirical
 //! 0.51 at `P_f ≈ 8e-5` and 1.03 at 5e-7 against `Σ δ_j` = 0.89 and 1.51 and `√Σ δ_j²` = 0.43
 //! and 0.60: the chains mix better there, and `Σ δ_j` is conservative by up to a factor 1.75,
-//! the safe side. Runs with several replicas also report the empirical spread of the replicas
-//! ([`TailEstimate::cov_between_replicas`]) as a check. The estimator's bias is `O(1/N)`
-//! (Au & Beck 2001 §5).
+//! the safe side.
 //!
-//! **Target and cap**: one subset run (a *replica*) has a `δ` fixed by `N`. To reach
-//! [`TailOptions::target_cov`], independent replicas (other Philox counters) run until the
-//! combined coefficient of variation of every requested threshold is at or below the target:
-//! `P̄ = (1/R) Σ_r P_r`, `δ̄ = √(Σ_r δ_r²) / R`. A replica starts only if the evaluations of the
-//! previous one still fit under [`TailOptions::max_evaluations`]; a level starts only if its
-//! `N (1 − p0)` evaluations fit; a later replica that the cap cuts short is left out of the
-//! average (its evaluations still count). When the cap ends the run the outcome is
+//! **Bias and the target**: `P̂_f` is biased upward by about `δ²` of its own run, because the
+//! estimate divides by the random conditional probabilities of the levels (Jensen), so the bias
+//! is `O(1/N)` (Au & Beck 2001 §5) but large for a small `N`: on the θ1-only TX60, 400 seeds gave
+//! a mean `P̂/P` of 1.31 ± 0.14 at 1e-6 with `N = 500` and 1.16 ± 0.07 with `N = 2000`. Averaging
+//! independent small runs would keep that bias, so [`TailOptions::target_cov`] is met by
+//! growing `N` instead: a pilot run with [`TailOptions::samples_per_level`] gives `δ` and the
+//! cost per sample; the next run has `N ← N · (δ / target)² · 1.2` (`N_c` grows, the chain
+//! length `N_s = 1/p0` stays), as large as the remaining evaluations allow, and so on until
+//! every threshold's `δ` is at or below the target. The estimates are those of the last
+//! complete run (its bias about `target²`); earlier runs are reported but not mixed in. A level
+//! starts only if its `N (1 − p0)` evaluations fit under [`TailOptions::max_evaluations`], and a
+//! run only if it can be larger than the last. When the cap ends the run the outcome is
 //! [`TailOutcome::EvaluationCapReached`] with the estimates so far (a threshold that no level
 //! reached has `p_f = 0` and no `cov`/`beta`), not an error.
 //!
@@ -86,7 +89,7 @@
 //! # Random numbers
 //!
 //! All normals and uniforms come from the run's Philox key ([`ParamSampler::key`]) with the
-//! counter `[state index, replica, block, stream]`: stream [`TAIL_STREAM`] for level 0 and
+//! counter `[state index, run, block, stream]`: stream [`TAIL_STREAM`] for level 0 and
 //! `TAIL_STREAM + j` for the Markov steps of level `j`; blocks `0 … ⌈d/4⌉ − 1` give the normals
 //! (Box–Muller, as the parameter draws) and the next `⌈d/4⌉` blocks the uniforms of the
 //! component acceptance. The state index of chain `k`, step `t` is `k N_s + t`. So a run depends
@@ -104,7 +107,7 @@ use crate::sampling::{box_muller, uniform_open, ParamSampler, Philox};
 /// `TAIL_STREAM + j` (the parameter draws use stream 0).
 pub const TAIL_STREAM: u32 = 0x7A11_0000;
 
-/// Most levels of one replica: `p0^200` is below 1e-60 for every allowed `p0`, so a threshold
+/// Most levels of one run: `p0^200` is below 1e-60 for every allowed `p0`, so a threshold
 /// that needs more lies beyond what `w` can reach (it is bounded for a robot's rotations).
 pub const MAX_LEVELS: usize = 200;
 
@@ -278,7 +281,7 @@ pub enum TailOutcome {
     TargetReached,
     /// The evaluation cap ended the run first; the estimates are those reached so far.
     EvaluationCapReached,
-    /// A replica needed more than [`MAX_LEVELS`] levels: the largest threshold is beyond what
+    /// A run needed more than [`MAX_LEVELS`] levels: the largest threshold is beyond what
     /// `w` reaches (or has a probability below `p0^MAX_LEVELS`).
     LevelLimitReached,
 }
@@ -295,9 +298,6 @@ pub struct TailEstimate {
     /// Subset simulation: Au & Beck's `√(Σ_j δ_j²)`, which treats the levels as independent (a
     /// lower bound of the coefficient of variation); crude MC: equal to `cov`.
     pub cov_independent_levels: Option<f64>,
-    /// Subset simulation with two or more replicas: the empirical coefficient of variation of
-    /// their mean, `s(P_r) / (√R · P̄)` (a check on `cov` from the data; noisy for few replicas).
-    pub cov_between_replicas: Option<f64>,
     /// `β = −Φ⁻¹(p_f)`; `None` when `p_f` is 0 or 1 (β = ±∞).
     pub beta: Option<f64>,
 }
@@ -310,13 +310,12 @@ impl TailEstimate {
             p_f: if ok { p_f } else { 0.0 },
             cov: cov.filter(|_| ok),
             cov_independent_levels: cov_independent.filter(|_| ok),
-            cov_between_replicas: None,
             beta: (ok && p_f < 1.0).then(|| -normal_quantile(p_f)),
         }
     }
 }
 
-/// One level of one subset-simulation replica.
+/// One level of one subset-simulation run.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct LevelSummary {
     /// `b_j`, the threshold the level's samples exceed (mm); `None` for level 0.
@@ -333,16 +332,18 @@ pub struct LevelSummary {
     pub evaluations: u64,
 }
 
-/// One subset-simulation run (replica).
+/// One subset-simulation run.
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct Replica {
+pub struct SubsetRun {
+    /// Samples per level `N` of this run.
+    pub samples_per_level: usize,
     /// Levels, from level 0.
     pub levels: Vec<LevelSummary>,
     /// Whether the levels reached the largest threshold.
     pub complete: bool,
-    /// Evaluations of this replica.
+    /// Evaluations of this run.
     pub evaluations: u64,
-    /// This replica's estimate at each threshold, in the order given.
+    /// This run's estimate at each threshold, in the order given.
     pub estimates: Vec<TailEstimate>,
 }
 
@@ -353,8 +354,8 @@ pub struct TailResult {
     pub method: TailMethod,
     /// Why the run stopped.
     pub outcome: TailOutcome,
-    /// The estimate at each threshold, in the order given (for subset simulation the average
-    /// over the complete replicas).
+    /// The estimate at each threshold, in the order given (for subset simulation those of the
+    /// last complete run, else of the first, cut-short run).
     pub estimates: Vec<TailEstimate>,
     /// Model evaluations spent.
     pub evaluations: u64,
@@ -364,10 +365,10 @@ pub struct TailResult {
     pub max_evaluations: u64,
     /// Dimension `d` of the standard-normal space (free parameters).
     pub dimension: usize,
-    /// Subset simulation: `N`, `p0`, the proposal spread (`None` for crude MC).
+    /// Subset simulation: `p0`, the proposal spread (`None` for crude MC).
     pub subset: Option<SubsetSettings>,
-    /// Subset simulation: every replica (empty for crude MC).
-    pub replicas: Vec<Replica>,
+    /// Subset simulation: every run, the pilot first (empty for crude MC).
+    pub runs: Vec<SubsetRun>,
     /// Backend that evaluated `w`.
     pub backend: BackendInfo,
     /// Wall-clock seconds.
@@ -377,12 +378,10 @@ pub struct TailResult {
 /// The subset-simulation settings of a run, as reported.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SubsetSettings {
-    /// Samples per level `N`.
-    pub samples_per_level: usize,
+    /// Samples per level `N` of the pilot run.
+    pub pilot_samples_per_level: usize,
     /// Level probability `p0`.
     pub p0: f64,
-    /// Chains per level `N_c = p0 N`.
-    pub chains: usize,
     /// Proposal spread `s`.
     pub proposal_spread: f64,
 }
@@ -409,7 +408,7 @@ pub fn run_tail(
         progress,
         cap: opts.max_evaluations,
     };
-    let (outcome, estimates, replicas, subset) = match opts.method {
+    let (outcome, estimates, runs, subset) = match opts.method {
         TailMethod::MonteCarlo => {
             let (o, e) = crude_mc(&mut m, opts)?;
             (o, e, Vec::new(), None)
@@ -417,9 +416,8 @@ pub fn run_tail(
         TailMethod::Subset => {
             let (o, e, r) = subset_simulation(&mut m, opts)?;
             let s = SubsetSettings {
-                samples_per_level: opts.samples_per_level,
+                pilot_samples_per_level: opts.samples_per_level,
                 p0: opts.p0,
-                chains: opts.chains(),
                 proposal_spread: opts.proposal_spread,
             };
             (o, e, r, Some(s))
@@ -434,7 +432,7 @@ pub fn run_tail(
         max_evaluations: opts.max_evaluations,
         dimension: m.space.dim(),
         subset,
-        replicas,
+        runs,
         backend,
         seconds: start.elapsed().as_secs_f64(),
     })
@@ -530,7 +528,7 @@ impl Model<'_> {
         Ok(())
     }
 
-    /// Fills `out` with standard normals of counter `(state, replica, block, stream)`, blocks
+    /// Fills `out` with standard normals of counter `(state, run, block, stream)`, blocks
     /// from `first_block` on.
     fn normals(&self, state: u64, stream: u32, first_block: u32, out: &mut [f64]) {
         for (b, chunk) in out.chunks_mut(4).enumerate() {
@@ -553,7 +551,7 @@ impl Model<'_> {
         }
     }
 
-    /// `state` carries the state index in its low and the replica in its high word.
+    /// `state` carries the state index in its low and the run number in its high word.
     fn block(&self, state: u64, block: u32, stream: u32) -> [u32; 4] {
         self.gen.block(state, block, stream)
     }
@@ -640,10 +638,15 @@ pub fn gamma(ind: &[bool], chains: usize) -> f64 {
     g
 }
 
-/// One replica: levels until the `N_c`-th largest `w` reaches `l_max`, the cap, or
+/// One run of `n` samples per level, number `r`: levels until the `N_c`-th largest `w` reaches `l_max`, the cap, or
 /// [`MAX_LEVELS`].
-fn replica(m: &mut Model, opts: &TailOptions, r: u32) -> Result<(Replica, TailOutcome), TailError> {
-    let (n, nc, d) = (opts.samples_per_level, opts.chains(), m.space.dim());
+fn subset_run(
+    m: &mut Model,
+    opts: &TailOptions,
+    n: usize,
+    r: u32,
+) -> Result<(SubsetRun, TailOutcome), TailError> {
+    let (nc, d) = ((opts.p0 * n as f64).round() as usize, m.space.dim());
     let ns = n / nc;
     let nb = d.div_ceil(4) as u32;
     let l_max = opts.thresholds.iter().copied().fold(0.0, f64::max);
@@ -712,7 +715,8 @@ fn replica(m: &mut Model, opts: &TailOptions, r: u32) -> Result<(Replica, TailOu
         .iter()
         .map(|&l| level_estimate(&levels, &summaries, n, l))
         .collect();
-    let rep = Replica {
+    let rep = SubsetRun {
+        samples_per_level: n,
         levels: summaries,
         complete: outcome == TailOutcome::TargetReached,
         evaluations: m.evaluations - start,
@@ -734,7 +738,7 @@ fn mcmc_level(
     hi: u64,
     nb: u32,
 ) -> Result<(Level, usize), TailError> {
-    let (n, nc, d) = (opts.samples_per_level, seeds.len(), m.space.dim());
+    let (n, nc, d) = (prev.w.len(), seeds.len(), m.space.dim());
     let ns = n / nc;
     let stream = TAIL_STREAM + j as u32;
     let s = opts.proposal_spread;
@@ -825,64 +829,54 @@ fn level_estimate(levels: &[Level], summaries: &[LevelSummary], n: usize, l: f64
     TailEstimate::new(l, p_f * p, Some(sum + d), Some((var + d * d).sqrt()))
 }
 
-type SubsetOutput = (TailOutcome, Vec<TailEstimate>, Vec<Replica>);
+type SubsetOutput = (TailOutcome, Vec<TailEstimate>, Vec<SubsetRun>);
 
-/// Replicas until the combined coefficient of variation of every threshold meets the target.
+/// Safety factor on the predicted `N` of the next run: the coefficient of variation is itself
+/// estimated.
+const N_MARGIN: f64 = 1.2;
+
+/// A pilot run with `N` = [`TailOptions::samples_per_level`], then runs with `N` grown by
+/// `(δ/target)²` until every threshold meets the target or the cap.
 fn subset_simulation(m: &mut Model, opts: &TailOptions) -> Result<SubsetOutput, TailError> {
-    let mut reps: Vec<Replica> = Vec::new();
-    let mut r = 0u32;
+    // N = N_c · N_s with N_s = 1/p0 fixed: N_c scales.
+    let ns = opts.samples_per_level / opts.chains();
+    let mut n = opts.samples_per_level;
+    let mut runs: Vec<SubsetRun> = Vec::new();
     let outcome = loop {
-        if let Some(last) = reps.last() {
-            if m.evaluations + last.evaluations > opts.max_evaluations {
-                break TailOutcome::EvaluationCapReached;
-            }
+        let (run, outcome) = subset_run(m, opts, n, runs.len() as u32)?;
+        let worst = run
+            .estimates
+            .iter()
+            .map(|e| e.cov.unwrap_or(f64::INFINITY))
+            .fold(0.0, f64::max);
+        let cost = run.evaluations as f64 / n as f64;
+        let complete = run.complete;
+        if complete || runs.iter().all(|r| !r.complete) {
+            runs.push(run);
         }
-        let (rep, outcome) = replica(m, opts, r)?;
-        r += 1;
-        let done = rep.complete;
-        if done || reps.is_empty() {
-            reps.push(rep);
-        }
-        if !done {
+        if !complete {
             break outcome;
         }
-        let comb = combine(&reps, &opts.thresholds);
-        if comb
-            .iter()
-            .all(|e| e.cov.is_some_and(|c| c <= opts.target_cov))
-        {
+        if worst <= opts.target_cov {
             break TailOutcome::TargetReached;
         }
+        let want = n as f64 * (worst / opts.target_cov).powi(2) * N_MARGIN;
+        let fit = opts.max_evaluations.saturating_sub(m.evaluations) as f64 / (cost * N_MARGIN);
+        let limit = (MAX_SAMPLES_PER_LEVEL / ns * ns) as f64;
+        let next = ((want.min(fit).min(limit) / ns as f64).floor() as usize) * ns;
+        if next <= n {
+            break TailOutcome::EvaluationCapReached;
+        }
+        n = next;
     };
-    let complete: Vec<Replica> = reps.iter().filter(|r| r.complete).cloned().collect();
-    let est = if complete.is_empty() {
-        reps[0].estimates.clone()
-    } else {
-        combine(&complete, &opts.thresholds)
-    };
-    Ok((outcome, est, reps))
-}
-
-/// `P̄ = (1/R) Σ P_r`, `δ̄ = √(Σ δ_r²)/R` over complete replicas.
-fn combine(reps: &[Replica], thresholds: &[f64]) -> Vec<TailEstimate> {
-    let rn = reps.len() as f64;
-    thresholds
+    let est = runs
         .iter()
-        .enumerate()
-        .map(|(i, &l)| {
-            let p = reps.iter().map(|r| r.estimates[i].p_f).sum::<f64>() / rn;
-            let var = |f: fn(&TailEstimate) -> Option<f64>| -> Option<f64> {
-                let v: Option<f64> = reps.iter().map(|r| f(&r.estimates[i]).map(|c| c * c)).sum();
-                v.map(|v| v.sqrt() / rn)
-            };
-            let mut e = TailEstimate::new(l, p, var(|e| e.cov), var(|e| e.cov_independent_levels));
-            if reps.len() >= 2 && e.cov.is_some() {
-                let ss: f64 = reps.iter().map(|r| (r.estimates[i].p_f - p).powi(2)).sum();
-                e.cov_between_replicas = Some((ss / (rn - 1.0) / rn).sqrt() / p);
-            }
-            e
-        })
-        .collect()
+        .rev()
+        .find(|r| r.complete)
+        .unwrap_or(&runs[0])
+        .estimates
+        .clone();
+    Ok((outcome, est, runs))
 }
 
 /// The standard normal quantile `Φ⁻¹(p)` for `p ∈ (0, 1)` (Acklam's rational approximation,
