@@ -100,8 +100,8 @@
 //! `TAIL_STREAM + j` for the Markov steps of level `j`; blocks `0 … ⌈d/4⌉ − 1` give the normals
 //! (Box–Muller, as the parameter draws) and the next `⌈d/4⌉` blocks the uniforms of the
 //! component acceptance. The state index of chain `k`, step `t` is `k N_s + t`. So a run depends
-//! only on the seed and the options, not on thread count, batch size or backend.
-//! `docs/METHOD.md §4` describes the Monte Carlo conventions this module follows.
+//! only on the seed and the options, not on thread count, batch size or backend. The counter
+//! layout and the Box–Muller normals are those of the draw definition (`docs/METHOD.md §6`).
 
 use serde::Serialize;
 
