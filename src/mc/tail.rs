@@ -118,9 +118,9 @@ pub const TAIL_STREAM: u32 = 0x7A11_0000;
 /// that needs more lies beyond what `w` can reach (it is bounded for a robot's rotations).
 pub const MAX_LEVELS: usize = 200;
 
-/// Largest accepted [`TailOptions::samples_per_level`] (bounds the memory of a level:
-/// `N · (d + 1)` numbers).
-pub const MAX_SAMPLES_PER_LEVEL: usize = 1 << 22;
+/// Largest `N` of a run, given or grown (bounds the memory: two levels of `N · (d + 1)`
+/// numbers, 0.5 GB for the 30 parameters of a 6R robot).
+pub const MAX_SAMPLES_PER_LEVEL: usize = 1 << 20;
 
 /// Largest accepted [`TailOptions::batch_size`].
 pub const MAX_BATCH: usize = 1 << 22;
@@ -614,6 +614,15 @@ struct Level {
 }
 
 impl Level {
+    /// The level without its states `u`, which the estimates do not need (a run keeps only
+    /// two levels' states at a time).
+    fn without_states(self) -> Level {
+        Level {
+            u: Vec::new(),
+            ..self
+        }
+    }
+
     /// `#{w ≥ l}/N` and `γ` of the indicator `1[w ≥ l]` over the chains.
     fn fraction(&self, l: f64) -> (f64, f64) {
         let ind: Vec<bool> = self.w.iter().map(|&v| v >= l).collect();
@@ -690,7 +699,7 @@ fn subset_run(
         };
         if b_next >= l_max {
             summaries.push(summary);
-            levels.push(level);
+            levels.push(level.without_states());
             break TailOutcome::TargetReached;
         }
         // p_j = p0 exactly: the count #{w ≥ b} would include the repeats of a stuck chain at
@@ -703,18 +712,18 @@ fn subset_run(
         summaries.push(summary);
         let j = levels.len() + 1;
         if j >= MAX_LEVELS {
-            levels.push(level);
+            levels.push(level.without_states());
             break TailOutcome::LevelLimitReached;
         }
         if m.evaluations + (n - nc) as u64 > opts.max_evaluations {
-            levels.push(level);
+            levels.push(level.without_states());
             break TailOutcome::EvaluationCapReached;
         }
         let before = m.evaluations;
         let (next, acc) = mcmc_level(m, opts, &level, &order[..nc], b_next, j, hi, nb)?;
         level_evals = m.evaluations - before;
         acceptance = Some(acc as f64 / (nc * (ns - 1)).max(1) as f64);
-        levels.push(level);
+        levels.push(level.without_states());
         level = next;
     };
     let estimates = opts
