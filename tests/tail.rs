@@ -9,6 +9,7 @@ use gpu_amcs::engine::{CpuEvaluator, Evaluator, Problem, Reference};
 use gpu_amcs::kinematics::{tx60, RobotModel, Uncertainty, N_PARAMS};
 use gpu_amcs::mc::tail::{
     normal_quantile, run_tail, TailError, TailMethod, TailOptions, TailOutcome, TailResult,
+    TailSetting,
 };
 
 /// `1 − Φ(x)` for x ≥ 0 by composite Simpson integration of the density over [x, x + 12]
@@ -245,69 +246,72 @@ fn evaluation_cap_is_an_outcome() {
 fn bad_settings_name_the_field() {
     let (pb, _) = theta1_problem(1);
     let ok = subset(vec![0.1], 1000, 0.1, 100_000);
-    let cases: Vec<(TailOptions, &str)> = vec![
-        (subset(vec![], 1000, 0.1, 100_000), "thresholds"),
-        (subset(vec![0.1, 0.0], 1000, 0.1, 100_000), "thresholds"),
-        (subset(vec![-1.0], 1000, 0.1, 100_000), "thresholds"),
-        (subset(vec![f64::NAN], 1000, 0.1, 100_000), "thresholds"),
+    use TailSetting as S;
+    let cases: Vec<(TailOptions, TailSetting)> = vec![
+        (subset(vec![], 1000, 0.1, 100_000), S::Thresholds),
+        (subset(vec![0.1, 0.0], 1000, 0.1, 100_000), S::Thresholds),
+        (subset(vec![-1.0], 1000, 0.1, 100_000), S::Thresholds),
+        (subset(vec![f64::NAN], 1000, 0.1, 100_000), S::Thresholds),
         (
             subset(vec![f64::INFINITY], 1000, 0.1, 100_000),
-            "thresholds",
+            S::Thresholds,
         ),
-        (subset(vec![0.1], 1000, 0.0, 100_000), "target_cov"),
-        (subset(vec![0.1], 1000, 1.0, 100_000), "target_cov"),
-        (subset(vec![0.1], 1000, f64::NAN, 100_000), "target_cov"),
+        (subset(vec![0.1], 1000, 0.0, 100_000), S::TargetCov),
+        (subset(vec![0.1], 1000, 1.0, 100_000), S::TargetCov),
+        (subset(vec![0.1], 1000, f64::NAN, 100_000), S::TargetCov),
         (
             TailOptions {
                 p0: 0.0,
                 ..ok.clone()
             },
-            "p0",
+            S::P0,
         ),
         (
             TailOptions {
                 p0: 0.6,
                 ..ok.clone()
             },
-            "p0",
+            S::P0,
         ),
         (
             TailOptions {
                 p0: f64::NAN,
                 ..ok.clone()
             },
-            "p0",
+            S::P0,
         ),
         (
             TailOptions {
                 p0: 0.3,
                 ..ok.clone()
             },
-            "samples_per_level",
+            S::SamplesPerLevel,
         ),
-        (subset(vec![0.1], 1, 0.1, 100_000), "samples_per_level"),
-        (subset(vec![0.1], 1000, 0.1, 999), "max_evaluations"),
-        (subset(vec![0.1], 1000, 0.1, 0), "max_evaluations"),
+        (subset(vec![0.1], 1, 0.1, 100_000), S::SamplesPerLevel),
+        (subset(vec![0.1], 1000, 0.1, 999), S::MaxEvaluations),
+        (subset(vec![0.1], 1000, 0.1, 0), S::MaxEvaluations),
         (
             TailOptions {
                 proposal_spread: 0.0,
                 ..ok.clone()
             },
-            "proposal_spread",
+            S::ProposalSpread,
         ),
         (
             TailOptions {
                 batch_size: 0,
                 ..ok.clone()
             },
-            "batch_size",
+            S::BatchSize,
         ),
     ];
     for (opts, field) in cases {
         match run_tail(&mut CpuEvaluator::new(pb.clone()), &pb.sampler, &opts, None) {
             Err(TailError::Setting { field: f, message }) => {
                 assert_eq!(f, field, "{message}");
-                assert!(!message.contains("--"), "{message}");
+                let line = TailError::Setting { field: f, message }.to_string();
+                assert!(line.starts_with(&field.to_string()), "{line}");
+                assert!(!line.contains("--"), "{line}");
             }
             r => panic!("{field}: expected a setting error, got {r:?}"),
         }

@@ -173,6 +173,40 @@ impl Default for TailOptions {
     }
 }
 
+/// The settings [`TailOptions::check`] names in its errors; a front end maps each to its own
+/// option name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum TailSetting {
+    /// [`TailOptions::thresholds`].
+    Thresholds,
+    /// [`TailOptions::target_cov`].
+    TargetCov,
+    /// [`TailOptions::max_evaluations`].
+    MaxEvaluations,
+    /// [`TailOptions::samples_per_level`].
+    SamplesPerLevel,
+    /// [`TailOptions::p0`].
+    P0,
+    /// [`TailOptions::proposal_spread`].
+    ProposalSpread,
+    /// [`TailOptions::batch_size`].
+    BatchSize,
+}
+
+impl std::fmt::Display for TailSetting {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            TailSetting::Thresholds => "thresholds",
+            TailSetting::TargetCov => "target coefficient of variation",
+            TailSetting::MaxEvaluations => "evaluation cap",
+            TailSetting::SamplesPerLevel => "samples per level",
+            TailSetting::P0 => "level probability p0",
+            TailSetting::ProposalSpread => "proposal spread",
+            TailSetting::BatchSize => "batch size",
+        })
+    }
+}
+
 /// Errors of a tail-probability run.
 #[derive(Debug, thiserror::Error)]
 pub enum TailError {
@@ -180,7 +214,7 @@ pub enum TailError {
     #[error("{field}: {message}")]
     Setting {
         /// The field.
-        field: &'static str,
+        field: TailSetting,
         /// What is wrong.
         message: String,
     },
@@ -198,7 +232,7 @@ pub enum TailError {
     },
 }
 
-fn setting(field: &'static str, message: String) -> TailError {
+fn setting(field: TailSetting, message: String) -> TailError {
     TailError::Setting { field, message }
 }
 
@@ -206,7 +240,10 @@ impl TailOptions {
     /// Checks every field; the error names the first field out of range.
     pub fn check(&self) -> Result<(), TailError> {
         if self.thresholds.is_empty() {
-            return Err(setting("thresholds", "at least one is needed".into()));
+            return Err(setting(
+                TailSetting::Thresholds,
+                "at least one is needed".into(),
+            ));
         }
         if let Some(l) = self
             .thresholds
@@ -214,41 +251,47 @@ impl TailOptions {
             .find(|l| !(l.is_finite() && **l > 0.0))
         {
             return Err(setting(
-                "thresholds",
+                TailSetting::Thresholds,
                 format!("{l} is not a finite positive length (mm)"),
             ));
         }
         if !(self.target_cov > 0.0 && self.target_cov < 1.0) {
             return Err(setting(
-                "target_cov",
+                TailSetting::TargetCov,
                 format!("{} is outside (0, 1)", self.target_cov),
             ));
         }
         if self.batch_size == 0 || self.batch_size > MAX_BATCH {
             return Err(setting(
-                "batch_size",
+                TailSetting::BatchSize,
                 format!("{} is outside 1 … {MAX_BATCH}", self.batch_size),
             ));
         }
         if self.max_evaluations == 0 {
-            return Err(setting("max_evaluations", "must be positive".into()));
+            return Err(setting(
+                TailSetting::MaxEvaluations,
+                "must be positive".into(),
+            ));
         }
         if self.method == TailMethod::MonteCarlo {
             return Ok(());
         }
         if !(self.p0 > 0.0 && self.p0 <= 0.5) {
-            return Err(setting("p0", format!("{} is outside (0, 0.5]", self.p0)));
+            return Err(setting(
+                TailSetting::P0,
+                format!("{} is outside (0, 0.5]", self.p0),
+            ));
         }
         if !(self.proposal_spread.is_finite() && self.proposal_spread > 0.0) {
             return Err(setting(
-                "proposal_spread",
+                TailSetting::ProposalSpread,
                 format!("{} is not a finite positive number", self.proposal_spread),
             ));
         }
         let n = self.samples_per_level;
         if !(2..=MAX_SAMPLES_PER_LEVEL).contains(&n) {
             return Err(setting(
-                "samples_per_level",
+                TailSetting::SamplesPerLevel,
                 format!("{n} is outside 2 … {MAX_SAMPLES_PER_LEVEL}"),
             ));
         }
@@ -256,7 +299,7 @@ impl TailOptions {
         let chains = nc.round() as usize;
         if (nc - chains as f64).abs() > 1e-9 * nc || chains == 0 || !n.is_multiple_of(chains) {
             return Err(setting(
-                "samples_per_level",
+                TailSetting::SamplesPerLevel,
                 format!(
                     "p0 · N = {} · {n} = {nc} must be a whole number of chains that divides N",
                     self.p0
@@ -265,7 +308,7 @@ impl TailOptions {
         }
         if self.max_evaluations < n as u64 {
             return Err(setting(
-                "max_evaluations",
+                TailSetting::MaxEvaluations,
                 format!(
                     "{} is too small for one level of {n} samples",
                     self.max_evaluations
