@@ -64,6 +64,9 @@ subcommands! {
     /// Sobol sensitivity indices of w: which parameters' spread matters (first order and total).
     #[command(allow_negative_numbers = true)]
     Sensitivity(cmd::sensitivity::SensitivityArgs),
+    /// Tail probability P_f = Pr[w ≥ L] and β down to 1e-9 (subset simulation).
+    #[command(allow_negative_numbers = true)]
+    Tail(cmd::tail::TailArgs),
     /// Print a built-in model as a model file (TOML) to start from.
     Model(cmd::model::ModelCmdArgs),
     /// Generate test points and write them as CSV (q1..q6 in degrees).

@@ -4,6 +4,9 @@
 //! default TX60 against crude Monte Carlo; GPU (lavapipe) against CPU; typed errors for bad
 //! settings; the evaluation cap as an outcome.
 
+mod common;
+
+use common::have_adapter;
 use gpu_amcs::engine::gpu::{self, GpuEvaluator, GpuOptions};
 use gpu_amcs::engine::{CpuEvaluator, Evaluator, Problem, Reference};
 use gpu_amcs::kinematics::{tx60, RobotModel, Uncertainty, N_PARAMS};
@@ -325,17 +328,6 @@ fn bad_settings_name_the_field() {
     assert!(matches!(r, Err(TailError::NoUncertainty)), "{r:?}");
 }
 
-fn have_adapter(test: &str) -> bool {
-    if !gpu::adapters().is_empty() {
-        return true;
-    }
-    if std::env::var("CI").map(|v| v == "true").unwrap_or(false) {
-        panic!("{test}: no Vulkan/Metal/DX12 adapter found and CI=true (install mesa-vulkan-drivers for lavapipe)");
-    }
-    eprintln!("{test}: skipped, no GPU adapter (set CI=true to make this a failure)");
-    false
-}
-
 /// The same run on the GPU: its f32 `w` differ from the CPU's by ≲ 1e-5 mm (see tests/gpu.rs),
 /// far below the spacing of the sample values at the level thresholds, so every comparison and
 /// count agrees and the estimates are equal; the intermediate thresholds (sample values) agree
@@ -428,4 +420,67 @@ fn certain_failure_stops_at_level_zero() {
     assert_eq!((e.p_f, e.cov, e.beta), (1.0, Some(0.0), None));
     let json = serde_json::to_string(&res).unwrap();
     assert!(!json.contains("inf") && !json.contains("NaN"), "{json}");
+}
+
+/// The `tail` subcommand: JSON and CSV of one run agree, P_f falls with the threshold, β is
+/// −Φ⁻¹(P_f); bad settings are one-line errors naming the flag, with no output written.
+#[test]
+fn tail_subcommand_writes_json_and_csv() {
+    let d = common::tmpdir("tail-cli");
+    let json = d.join("t.json");
+    let csv = d.join("csv");
+    let o = common::run(&[
+        "tail",
+        "--backend",
+        "cpu",
+        "--points",
+        "10",
+        "--threshold",
+        "0.15,0.2",
+        "--cov",
+        "0.3",
+        "--samples-per-level",
+        "500",
+        "--json",
+        json.to_str().unwrap(),
+        "--csv",
+        csv.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let est = v["tail"]["estimates"].as_array().unwrap();
+    assert_eq!(est.len(), 2);
+    let p: Vec<f64> = est.iter().map(|e| e["p_f"].as_f64().unwrap()).collect();
+    assert!(p[0] > p[1] && p[1] > 0.0, "{p:?}");
+    for e in est {
+        let (pf, beta) = (e["p_f"].as_f64().unwrap(), e["beta"].as_f64().unwrap());
+        assert!((-normal_quantile(pf) - beta).abs() < 1e-9 * beta.abs().max(1.0));
+    }
+    let rows = std::fs::read_to_string(csv.join("tail.csv")).unwrap();
+    let second: f64 = rows
+        .lines()
+        .nth(2)
+        .unwrap()
+        .split(',')
+        .nth(1)
+        .unwrap()
+        .parse()
+        .unwrap();
+    assert_eq!(second, p[1]);
+    for (args, flag) in [
+        (vec!["tail", "--threshold", "0"], "--threshold"),
+        (vec!["tail", "--threshold", "0.3", "--cov", "1.5"], "--cov"),
+        (vec!["tail", "--threshold", "0.3", "--p0", "0.7"], "--p0"),
+    ] {
+        let out = d.join("bad.json");
+        let mut args = args.clone();
+        args.extend(["--json", out.to_str().unwrap()]);
+        let o = common::run(&args);
+        let e = common::stderr(&o);
+        assert_eq!(o.status.code(), Some(2), "{e}");
+        assert!(e.contains(flag) && e.trim().lines().count() == 1, "{e}");
+        assert!(!out.exists());
+    }
 }

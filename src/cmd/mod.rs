@@ -20,6 +20,7 @@ pub mod progress;
 pub mod sensitivity;
 pub mod simulate;
 pub mod study;
+pub mod tail;
 pub mod validate;
 
 use gpu_amcs::mc::{McError, Setting};

@@ -11,6 +11,7 @@ pub mod json;
 pub mod markdown;
 pub mod sensitivity;
 pub mod svg;
+pub mod tail;
 pub mod text;
 
 use crate::mc::McResult;

@@ -1,0 +1,162 @@
+//! `tail`: the probability that w reaches a threshold, down to 1e-9, by subset simulation.
+
+use super::args::thread_pool;
+use super::outputs::Outputs;
+use super::progress::Progress;
+use super::Run;
+use crate::cli::ProblemArgs;
+use anyhow::Result;
+use clap::{Args, ValueEnum};
+use gpu_amcs::mc::tail::{run_tail, TailError, TailMethod, TailOptions, TailSetting};
+use gpu_amcs::memory::Estimate;
+use gpu_amcs::report::tail as report;
+use std::path::PathBuf;
+
+/// Files `--csv DIR` may write.
+const CSV_NAMES: &[&str] = &["tail.csv"];
+
+/// Estimator of the tail probability.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MethodArg {
+    /// Subset simulation in the standard-normal space of the draws.
+    Subset,
+    /// Crude Monte Carlo on the run's draws (for comparison; needs ~100/P_f draws).
+    Mc,
+}
+
+/// `tail` options.
+#[derive(Args, Debug, Clone)]
+pub struct TailArgs {
+    #[command(flatten)]
+    pub problem: ProblemArgs,
+    /// Thresholds L (mm): P_f = Pr[w ≥ L] at each.
+    #[arg(
+        long,
+        required = true,
+        value_delimiter = ',',
+        value_name = "MM,...",
+        allow_hyphen_values = true
+    )]
+    pub threshold: Vec<f64>,
+    /// Target coefficient of variation of every estimate, in (0, 1).
+    #[arg(
+        long,
+        default_value_t = 0.1,
+        value_name = "C",
+        allow_hyphen_values = true
+    )]
+    pub cov: f64,
+    /// Estimator.
+    #[arg(long, value_enum, default_value_t = MethodArg::Subset)]
+    pub method: MethodArg,
+    /// Cap on evaluations of w; reaching it ends the run with the estimates so far, marked as
+    /// not reaching the target.
+    #[arg(long, default_value_t = 5_000_000, value_name = "N")]
+    pub max_evaluations: u64,
+    /// Subset simulation: samples per level of the pilot run.
+    #[arg(long, default_value_t = 1000, value_name = "N")]
+    pub samples_per_level: usize,
+    /// Subset simulation: level probability p0, in (0, 0.5].
+    #[arg(
+        long,
+        default_value_t = 0.1,
+        value_name = "P",
+        allow_hyphen_values = true
+    )]
+    pub p0: f64,
+    /// Write the result as JSON to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write tail.csv into DIR.
+    #[arg(long, value_name = "DIR")]
+    pub csv: Option<PathBuf>,
+    /// No progress bar and no table on stdout.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// A settings error with the flag that sets the field.
+fn with_flag(e: TailError) -> anyhow::Error {
+    match e {
+        TailError::Setting { field, message } => {
+            let flag = match field {
+                TailSetting::Thresholds => "--threshold",
+                TailSetting::TargetCov => "--cov",
+                TailSetting::MaxEvaluations => "--max-evaluations",
+                TailSetting::SamplesPerLevel => "--samples-per-level",
+                TailSetting::P0 => "--p0",
+                _ => return anyhow::anyhow!("{field}: {message}"),
+            };
+            anyhow::anyhow!("{field} ({flag}): {message}")
+        }
+        other => other.into(),
+    }
+}
+
+impl Run for TailArgs {
+    fn run(self) -> Result<()> {
+        let a = self;
+        let opts = TailOptions {
+            method: match a.method {
+                MethodArg::Subset => TailMethod::Subset,
+                MethodArg::Mc => TailMethod::MonteCarlo,
+            },
+            thresholds: a.threshold.clone(),
+            target_cov: a.cov,
+            max_evaluations: a.max_evaluations,
+            samples_per_level: a.samples_per_level,
+            p0: a.p0,
+            ..TailOptions::default()
+        };
+        opts.check().map_err(with_flag)?;
+        a.problem.check()?;
+        let mut outputs = Outputs::new(a.problem.inputs());
+        outputs.file("--json", a.json.as_deref())?;
+        outputs.dir("--csv", a.csv.as_deref(), CSV_NAMES)?;
+        // Kept: two levels of states (30 normals and w each), their offsets, one batch of rows.
+        let states = (a.samples_per_level as u64).max(opts.batch_size as u64);
+        a.problem.memory.check(
+            &a.problem.points_estimate(
+                Estimate::new(
+                    format!(
+                        "tail probabilities with {} samples per level",
+                        a.samples_per_level
+                    ),
+                    "use fewer --samples-per-level, or raise --memory-limit",
+                )
+                .plus(&[states, 4, 32 * 8]),
+            ),
+        )?;
+        let pool = thread_pool(a.problem.threads)?;
+        let result = pool.install(|| -> Result<_> {
+            let built = a.problem.build()?;
+            let sampler = built.problem.sampler.clone();
+            let (mut ev, notes) = a.problem.backend.evaluator(built.problem)?;
+            if !a.quiet {
+                for n in &notes {
+                    eprintln!("note: {n}");
+                }
+            }
+            let bar = Progress::new(a.quiet, "tail", "evaluations").capped();
+            let r = run_tail(
+                ev.as_mut(),
+                &sampler,
+                &opts,
+                Some(&|done, total| bar.update(done, total)),
+            )
+            .map_err(with_flag);
+            bar.finish();
+            r
+        })?;
+        outputs.stage_file("--json", report::render_json(&result))?;
+        outputs.stage_dir(
+            "--csv",
+            vec![("tail.csv".to_string(), report::render_csv(&result))],
+        )?;
+        outputs.commit()?;
+        if !a.quiet {
+            print!("{}", report::render_text(&result));
+        }
+        Ok(())
+    }
+}
