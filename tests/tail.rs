@@ -7,7 +7,7 @@
 mod common;
 
 use common::have_adapter;
-use gpu_amcs::engine::gpu::{self, GpuEvaluator, GpuOptions};
+use gpu_amcs::engine::gpu::{GpuEvaluator, GpuOptions};
 use gpu_amcs::engine::{CpuEvaluator, Evaluator, Problem, Reference};
 use gpu_amcs::kinematics::{tx60, RobotModel, Uncertainty, N_PARAMS};
 use gpu_amcs::mc::tail::{
