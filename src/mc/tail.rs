@@ -36,7 +36,7 @@
 //! [`TailOptions::proposal_spread`], 1 by default: the standard deviation of the conditional
 //! target itself, which Au & Beck (2001) and Zuev et al. (2012) find near the efficiency optimum
 //! for component-wise proposals. Because the proposal acts per component, the acceptance rate
-//! does not collapse with the dimension `d` (30 for the TX60).
+//! does not collapse with the dimension `d` (20 free parameters for the default TX60).
 //!
 //! **Coefficient of variation** (Au & Beck 2001 eqs. 27–30): per level
 //! `δ_j² = (1 − p_j)/(p_j N) · (1 + γ_j)`, with `γ_0 = 0` (independent samples) and, for the
@@ -53,7 +53,7 @@
 //! `N = 500` gave an empirical coefficient of variation of 1.01 at `P_f = 1e-4` and 1.71 at 1e-6,
 //! against a mean `Σ δ_j` of 1.03 and 1.70 and a mean `√Σ δ_j²` of 0.51 and 0.69. So
 //! [`TailEstimate::cov`] reports `δ = Σ_j δ_j`, and [`TailEstimate::cov_independent_levels`]
-//! the lower bound. On the default TX60 (30 normals), 100 seeds with `N = 500` gave an empirical
+//! the lower bound. On the default TX60 (20 normals), 100 seeds with `N = 500` gave an empirical
 //! 0.51 at `P_f ≈ 8e-5` and 1.03 at 5e-7 against `Σ δ_j` = 0.89 and 1.51 and `√Σ δ_j²` = 0.43
 //! and 0.60: the chains mix better there, and `Σ δ_j` is conservative by up to a factor 1.75,
 //! the safe side.
