@@ -584,3 +584,72 @@ fn sensitivity_subcommand_writes_json_and_csv() {
         assert!(!out.exists());
     }
 }
+
+/// Well-formed SVG (tests/common) with no non-finite number anywhere.
+fn check_svg_xml(text: &str, name: &str) {
+    common::check_svg(text, name);
+    assert!(
+        !text.contains("NaN") && !text.contains("inf"),
+        "{name}: non-finite number"
+    );
+}
+
+/// `sensitivity --svg DIR`: indices.svg and groups.svg are well-formed, with one first-order
+/// and one total bar per parameter (at most 20) and per group, each with an interval.
+#[test]
+fn sensitivity_subcommand_writes_svg() {
+    let d = common::tmpdir("sens-svg");
+    let json = d.join("s.json");
+    let svg = d.join("svg");
+    let o = common::run(&[
+        "sensitivity",
+        "--backend",
+        "cpu",
+        "--points",
+        "10",
+        "--draws",
+        "1024",
+        "--json",
+        json.to_str().unwrap(),
+        "--svg",
+        svg.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let q = &v["sensitivity"]["quantities"][0];
+    for (file, key) in [("indices.svg", "inputs"), ("groups.svg", "groups")] {
+        let text = std::fs::read_to_string(svg.join(file)).unwrap();
+        check_svg_xml(&text, file);
+        let rows = q[key].as_array().unwrap();
+        let bars = rows.len().min(20);
+        assert!(bars > 0, "{file}");
+        assert_eq!(text.matches(r#"class="bar-s""#).count(), bars, "{file}");
+        assert_eq!(text.matches(r#"class="bar-st""#).count(), bars, "{file}");
+        let intervals = rows[..bars]
+            .iter()
+            .flat_map(|r| [&r["first_order"], &r["total"]])
+            .filter(|e| e["ci_low"].is_number() && e["ci_high"].is_number())
+            .count();
+        assert_eq!(text.matches(r#"class="ci""#).count(), intervals, "{file}");
+        // Negative estimates are drawn as zero-width bars, and the figure says so.
+        let negative = rows[..bars]
+            .iter()
+            .flat_map(|r| [&r["first_order"], &r["total"]])
+            .any(|e| e["value"].as_f64().unwrap() < 0.0);
+        assert_eq!(text.contains("drawn as 0"), negative, "{file}");
+        assert!(!text.contains(r#"width="-"#), "{file}");
+        // The first bar is the parameter (group) with the largest total index.
+        let first = rows[0]["name"].as_str().unwrap();
+        assert!(
+            text.contains(&format!(">{first}</text>")),
+            "{file}: {first}"
+        );
+    }
+    let names: Vec<String> = std::fs::read_dir(&svg)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .collect();
+    assert_eq!(names.len(), 2, "{names:?}");
+}

@@ -484,3 +484,105 @@ fn tail_subcommand_writes_json_and_csv() {
         assert!(!out.exists());
     }
 }
+
+/// Well-formed SVG (tests/common) with no non-finite number anywhere.
+fn check_svg_xml(text: &str, name: &str) {
+    common::check_svg(text, name);
+    assert!(
+        !text.contains("NaN") && !text.contains("inf"),
+        "{name}: non-finite number"
+    );
+}
+
+/// The exponents of the log-axis tick labels `1eK` of a tail.svg.
+fn log_ticks(text: &str) -> Vec<i32> {
+    text.split(r#"<text class="ytick""#)
+        .skip(1)
+        .map(|t| {
+            let label = &t[t.find('>').unwrap() + 1..t.find("</text>").unwrap()];
+            label.strip_prefix("1e").unwrap().parse().unwrap()
+        })
+        .collect()
+}
+
+/// `tail --svg DIR`: tail.svg is well-formed, has one marker per positive estimate, the level
+/// curve of the last run, and a log axis spanning the smallest positive P_f; crude Monte Carlo
+/// with a threshold no draw reaches draws no levels and names the left-out estimate in a note.
+#[test]
+fn tail_subcommand_writes_svg() {
+    let d = common::tmpdir("tail-svg");
+    let json = d.join("t.json");
+    let svg = d.join("svg");
+    let o = common::run(&[
+        "tail",
+        "--backend",
+        "cpu",
+        "--points",
+        "10",
+        "--threshold",
+        "0.15,0.2",
+        "--cov",
+        "0.3",
+        "--samples-per-level",
+        "500",
+        "--json",
+        json.to_str().unwrap(),
+        "--svg",
+        svg.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let p: Vec<f64> = v["tail"]["estimates"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|e| e["p_f"].as_f64().unwrap())
+        .filter(|p| *p > 0.0)
+        .collect();
+    assert_eq!(p.len(), 2);
+    let text = std::fs::read_to_string(svg.join("tail.svg")).unwrap();
+    check_svg_xml(&text, "tail.svg");
+    assert_eq!(text.matches(r#"class="estimate""#).count(), p.len());
+    assert_eq!(text.matches(r#"class="err""#).count(), p.len());
+    assert_eq!(text.matches(r#"<polyline class="levels""#).count(), 1);
+    let ticks = log_ticks(&text);
+    let smallest = p.iter().copied().fold(f64::INFINITY, f64::min);
+    let (lo, hi) = (*ticks.iter().min().unwrap(), *ticks.iter().max().unwrap());
+    assert!(
+        f64::from(lo) <= smallest.log10() && f64::from(hi) >= -1.0 && hi <= 0,
+        "{ticks:?} for P_f down to {smallest}"
+    );
+    assert!(ticks.windows(2).all(|w| w[1] == w[0] + 1), "{ticks:?}");
+
+    let mc = d.join("mc");
+    let o = common::run(&[
+        "tail",
+        "--backend",
+        "cpu",
+        "--points",
+        "10",
+        "--threshold",
+        "0.12,5",
+        "--method",
+        "mc",
+        "--cov",
+        "0.3",
+        "--max-evaluations",
+        "20000",
+        "--svg",
+        mc.to_str().unwrap(),
+        "-q",
+    ]);
+    assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+    let text = std::fs::read_to_string(mc.join("tail.svg")).unwrap();
+    check_svg_xml(&text, "mc/tail.svg");
+    assert_eq!(text.matches(r#"class="estimate""#).count(), 1);
+    assert!(!text.contains("<polyline"));
+    assert!(
+        text.contains("P_f = 0") && text.contains("L = 5 mm"),
+        "no note on the left-out estimate"
+    );
+    assert!(!log_ticks(&text).is_empty());
+}

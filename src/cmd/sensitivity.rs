@@ -13,6 +13,8 @@ use std::path::PathBuf;
 
 /// Files `--csv DIR` may write.
 const CSV_NAMES: &[&str] = &["indices.csv"];
+/// Files `--svg DIR` may write.
+const SVG_NAMES: &[&str] = &["indices.svg", "groups.svg"];
 
 /// `sensitivity` options.
 #[derive(Args, Debug, Clone)]
@@ -43,6 +45,9 @@ pub struct SensitivityArgs {
     /// Write indices.csv into DIR.
     #[arg(long, value_name = "DIR")]
     pub csv: Option<PathBuf>,
+    /// Write indices.svg and groups.svg (bar charts of the indices of w) into DIR.
+    #[arg(long, value_name = "DIR")]
+    pub svg: Option<PathBuf>,
     /// No table on stdout.
     #[arg(long, short)]
     pub quiet: bool,
@@ -79,6 +84,7 @@ impl Run for SensitivityArgs {
         let mut outputs = Outputs::new(a.problem.inputs());
         outputs.file("--json", a.json.as_deref())?;
         outputs.dir("--csv", a.csv.as_deref(), CSV_NAMES)?;
+        outputs.dir("--svg", a.svg.as_deref(), SVG_NAMES)?;
         // Kept: w and every pick-freeze output (at most 2 + 30 parameters + 8 groups matrices)
         // for the bootstrap, and one chunk of offset rows and outputs.
         let matrices = 40u64;
@@ -112,6 +118,7 @@ impl Run for SensitivityArgs {
             "--csv",
             vec![("indices.csv".to_string(), report::render_csv(&result))],
         )?;
+        outputs.stage_dir("--svg", report::render_svg(&result))?;
         outputs.commit()?;
         if !a.quiet {
             print!("{}", report::render_text(&result));

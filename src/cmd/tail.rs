@@ -14,6 +14,8 @@ use std::path::PathBuf;
 
 /// Files `--csv DIR` may write.
 const CSV_NAMES: &[&str] = &["tail.csv"];
+/// Files `--svg DIR` may write.
+const SVG_NAMES: &[&str] = &["tail.svg"];
 
 /// Estimator of the tail probability.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -70,6 +72,9 @@ pub struct TailArgs {
     /// Write tail.csv into DIR.
     #[arg(long, value_name = "DIR")]
     pub csv: Option<PathBuf>,
+    /// Write tail.svg (P_f against L on a log axis) into DIR.
+    #[arg(long, value_name = "DIR")]
+    pub svg: Option<PathBuf>,
     /// No progress bar and no table on stdout.
     #[arg(long, short)]
     pub quiet: bool,
@@ -113,6 +118,7 @@ impl Run for TailArgs {
         let mut outputs = Outputs::new(a.problem.inputs());
         outputs.file("--json", a.json.as_deref())?;
         outputs.dir("--csv", a.csv.as_deref(), CSV_NAMES)?;
+        outputs.dir("--svg", a.svg.as_deref(), SVG_NAMES)?;
         // Kept: two levels of states (30 normals and w each), their offsets, one batch of rows.
         let states = (a.samples_per_level as u64).max(opts.batch_size as u64);
         a.problem.memory.check(
@@ -153,6 +159,7 @@ impl Run for TailArgs {
             "--csv",
             vec![("tail.csv".to_string(), report::render_csv(&result))],
         )?;
+        outputs.stage_dir("--svg", report::render_svg(&result))?;
         outputs.commit()?;
         if !a.quiet {
             print!("{}", report::render_text(&result));

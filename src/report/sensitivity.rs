@@ -139,3 +139,238 @@ pub fn render_json(r: &SensitivityResult) -> String {
     });
     serde_json::to_string_pretty(&v).unwrap_or_default() + "\n"
 }
+
+/// At most this many rows in a bar chart.
+const MAX_BARS: usize = 20;
+
+/// A horizontal bar chart of first-order and total indices with their 95 % intervals.
+fn bar_chart(title: &str, what: &str, rows: &[SobolIndex], note: Option<&str>) -> String {
+    use super::svg::{begin, esc, nice_step, tick_label, COLORS};
+    const W: f64 = 720.0;
+    const T: f64 = 76.0;
+    const B: f64 = 50.0;
+    const R: f64 = 24.0;
+    const ROW: f64 = 26.0;
+    let shown = &rows[..rows.len().min(MAX_BARS)];
+    let longest = shown
+        .iter()
+        .map(|r| r.name.chars().count())
+        .max()
+        .unwrap_or(0);
+    let left = (longest as f64 * 7.0 + 16.0).clamp(90.0, 240.0);
+    let finite = |x: Option<f64>| x.filter(|v| v.is_finite());
+    let ends = shown.iter().flat_map(|r| {
+        [&r.first_order, &r.total]
+            .into_iter()
+            .flat_map(|e| [Some(e.value), e.ci_low, e.ci_high])
+            .filter_map(finite)
+    });
+    let (mut lo, mut hi) = (0.0f64, 0.0f64);
+    for v in ends {
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    let (lo, hi) = (lo.max(-1.0), hi.clamp(0.05, 2.0));
+    let step = nice_step(hi - lo, 8);
+    let (x0, x1) = ((lo / step).floor() * step, (hi / step).ceil() * step);
+    let sx = |x: f64| left + (x.clamp(x0, x1) - x0) / (x1 - x0) * (W - left - R);
+    let mut notes: Vec<String> = Vec::new();
+    if rows.len() > shown.len() {
+        notes.push(format!(
+            "the {} {what}s with the largest total index of {}",
+            shown.len(),
+            rows.len()
+        ));
+    }
+    if shown
+        .iter()
+        .any(|r| r.first_order.value < 0.0 || r.total.value < 0.0)
+    {
+        notes.push("negative estimates are drawn as 0; their intervals are shown".into());
+    }
+    if let Some(n) = note {
+        notes.push(n.to_string());
+    }
+    if shown.is_empty() {
+        notes.push(format!("no {what} indices"));
+    }
+    let plot_h = ROW * shown.len().max(1) as f64;
+    let h = T + plot_h + B + 16.0 * notes.len() as f64;
+    let mut s = String::new();
+    begin(&mut s, W, h, title);
+    // Legend, one row under the title.
+    let ly = 44.0;
+    let _ = writeln!(
+        s,
+        r##"<rect x="{left}" y="{}" width="{}" height="22" fill="white" stroke="#bbb"/>"##,
+        ly - 13.0,
+        W - left - R
+    );
+    let mut lx = left + 10.0;
+    for (k, label) in ["first order S", "total ST"].iter().enumerate() {
+        let _ = writeln!(
+            s,
+            r#"<rect x="{lx}" y="{}" width="18" height="9" fill="{}"/>"#,
+            ly - 7.0,
+            COLORS[k]
+        );
+        let _ = writeln!(
+            s,
+            r#"<text x="{}" y="{}">{label}</text>"#,
+            lx + 24.0,
+            ly + 2.0
+        );
+        lx += 130.0;
+    }
+    let _ = writeln!(
+        s,
+        r#"<line x1="{lx}" y1="{}" x2="{}" y2="{}" stroke="black"/>"#,
+        ly - 2.5,
+        lx + 18.0,
+        ly - 2.5
+    );
+    for cx in [lx, lx + 18.0] {
+        let _ = writeln!(
+            s,
+            r#"<line x1="{cx}" y1="{}" x2="{cx}" y2="{}" stroke="black"/>"#,
+            ly - 6.0,
+            ly + 1.0
+        );
+    }
+    let _ = writeln!(
+        s,
+        r#"<text x="{}" y="{}">95 % bootstrap interval</text>"#,
+        lx + 24.0,
+        ly + 2.0
+    );
+    // Axes box and x ticks.
+    let _ = writeln!(
+        s,
+        r#"<rect x="{left}" y="{T}" width="{}" height="{plot_h}" fill="none" stroke="black"/>"#,
+        W - left - R
+    );
+    let mut x = x0;
+    while x <= x1 + 1e-9 * step {
+        let px = sx(x);
+        let _ = writeln!(
+            s,
+            r##"<line x1="{px:.1}" y1="{T}" x2="{px:.1}" y2="{}" stroke="#ddd"/>"##,
+            T + plot_h
+        );
+        let _ = writeln!(
+            s,
+            r#"<text x="{px:.1}" y="{}" text-anchor="middle">{}</text>"#,
+            T + plot_h + 16.0,
+            tick_label(x)
+        );
+        x += step;
+    }
+    if x0 < 0.0 {
+        let px = sx(0.0);
+        let _ = writeln!(
+            s,
+            r#"<line x1="{px:.1}" y1="{T}" x2="{px:.1}" y2="{}" stroke="black"/>"#,
+            T + plot_h
+        );
+    }
+    let _ = writeln!(
+        s,
+        r#"<text x="{}" y="{}" text-anchor="middle">Sobol index</text>"#,
+        (left + W - R) / 2.0,
+        T + plot_h + 36.0
+    );
+    for (i, r) in shown.iter().enumerate() {
+        let top = T + ROW * i as f64;
+        let _ = writeln!(
+            s,
+            r#"<text x="{}" y="{:.1}" text-anchor="end">{}</text>"#,
+            left - 6.0,
+            top + ROW / 2.0 + 4.0,
+            esc(&r.name)
+        );
+        for (k, (class, e)) in [("bar-s", &r.first_order), ("bar-st", &r.total)]
+            .into_iter()
+            .enumerate()
+        {
+            let y = top + 4.0 + 9.5 * k as f64;
+            let v = if e.value.is_finite() {
+                e.value.max(0.0)
+            } else {
+                0.0
+            };
+            let _ = writeln!(
+                s,
+                r#"<rect class="{class}" x="{:.1}" y="{y:.1}" width="{:.1}" height="8.5" fill="{}"/>"#,
+                sx(0.0),
+                sx(v) - sx(0.0),
+                COLORS[k]
+            );
+            if let (Some(a), Some(b)) = (finite(e.ci_low), finite(e.ci_high)) {
+                let cy = y + 4.25;
+                let (pa, pb) = (sx(a), sx(b));
+                let _ = writeln!(
+                    s,
+                    r#"<line class="ci" x1="{pa:.1}" y1="{cy:.2}" x2="{pb:.1}" y2="{cy:.2}" stroke="black"/>"#
+                );
+                for px in [pa, pb] {
+                    let _ = writeln!(
+                        s,
+                        r#"<line x1="{px:.1}" y1="{:.2}" x2="{px:.1}" y2="{:.2}" stroke="black"/>"#,
+                        cy - 3.0,
+                        cy + 3.0
+                    );
+                }
+            }
+        }
+    }
+    for (i, n) in notes.iter().enumerate() {
+        let _ = writeln!(
+            s,
+            r##"<text class="note" x="{left}" y="{}" fill="#555">note: {}</text>"##,
+            T + plot_h + B + 8.0 + 16.0 * i as f64,
+            esc(n)
+        );
+    }
+    let _ = writeln!(s, "</svg>");
+    s
+}
+
+/// `indices.svg` (the parameters ranked by total index, at most 20) and `groups.svg` (the
+/// groups): first-order and total indices of the first quantity (w) as horizontal bars with
+/// their 95 % bootstrap intervals as error bars. `(file name, svg)`.
+pub fn render_svg(r: &SensitivityResult) -> Vec<(String, String)> {
+    let empty = Vec::new();
+    let (inputs, groups, note, what) = match r.analysis.quantities.first() {
+        Some(q) => (
+            &q.inputs,
+            &q.groups,
+            q.note.as_deref(),
+            match q.quantity {
+                Quantity::Value => "w".to_string(),
+                Quantity::Exceedance { threshold } => format!("1[w ≥ {threshold} mm]"),
+            },
+        ),
+        None => (&empty, &empty, None, "w".to_string()),
+    };
+    let tail = format!("{}, {} points, N = {}", r.model, r.points, r.analysis.draws);
+    vec![
+        (
+            "indices.svg".to_string(),
+            bar_chart(
+                &format!("Sobol indices of {what} per parameter — {tail}"),
+                "parameter",
+                inputs,
+                note,
+            ),
+        ),
+        (
+            "groups.svg".to_string(),
+            bar_chart(
+                &format!("Sobol indices of {what} per group — {tail}"),
+                "group",
+                groups,
+                note,
+            ),
+        ),
+    ]
+}

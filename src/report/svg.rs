@@ -38,11 +38,12 @@ const T: f64 = 40.0;
 const B: f64 = 60.0;
 /// Series with at most this many points also get a marker at each point.
 const MARKER_LIMIT: usize = 40;
-const COLORS: [&str; 8] = [
+pub(crate) const COLORS: [&str; 8] = [
     "#1f77b4", "#d62728", "#2ca02c", "#ff7f0e", "#9467bd", "#8c564b", "#e377c2", "#17becf",
 ];
 
-fn nice_step(range: f64, target: usize) -> f64 {
+/// A 1–2–5 step that cuts `range` into about `target` intervals.
+pub(crate) fn nice_step(range: f64, target: usize) -> f64 {
     let raw = range / target as f64;
     let mag = 10f64.powf(raw.log10().floor());
     let f = raw / mag;
@@ -58,10 +59,36 @@ fn nice_step(range: f64, target: usize) -> f64 {
     nf * mag
 }
 
-fn esc(s: &str) -> String {
+/// Escapes text content for XML.
+pub(crate) fn esc(s: &str) -> String {
     s.replace('&', "&amp;")
         .replace('<', "&lt;")
         .replace('>', "&gt;")
+}
+
+/// Opens a `width` × `height` SVG document: the XML declaration, the root element, a white
+/// background and the centred title (as [`LinePlot::render`] does).
+pub(crate) fn begin(s: &mut String, width: f64, height: f64, title: &str) {
+    let _ = writeln!(s, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
+    let _ = writeln!(
+        s,
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width}" height="{height}" viewBox="0 0 {width} {height}" font-family="sans-serif" font-size="12">"#
+    );
+    let _ = writeln!(
+        s,
+        r#"<rect x="0" y="0" width="{width}" height="{height}" fill="white"/>"#
+    );
+    let _ = writeln!(
+        s,
+        r#"<text x="{}" y="24" text-anchor="middle" font-size="15">{}</text>"#,
+        width / 2.0,
+        esc(title)
+    );
+}
+
+/// Short tick label (no trailing zeros).
+pub(crate) fn tick_label(v: f64) -> String {
+    super::text::fmt_g(v)
 }
 
 impl LinePlot {
