@@ -692,3 +692,48 @@ fn evaluators_share_one_device_and_swap_problems() {
     let (wa2, ea2) = evaluate(&mut ev, 0, 3000);
     assert_eq!((wa, ea), (wa2, ea2));
 }
+
+/// The Vulkan loader's "XDG_RUNTIME_DIR is invalid or not set" complaint never reaches the user:
+/// a GPU run on a machine without the variable prints nothing on stderr but the report's notes.
+#[test]
+fn no_loader_noise_without_xdg_runtime_dir() {
+    if !have_adapter("no_loader_noise_without_xdg_runtime_dir") {
+        return;
+    }
+    let o = common::bin()
+        .env_remove("XDG_RUNTIME_DIR")
+        .args(["-q", "--backend", "gpu", "--points", "5"])
+        .output()
+        .unwrap();
+    let err = common::stderr(&o);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(!err.contains("XDG_RUNTIME_DIR"), "{err}");
+}
+
+/// Lists the adapters in-process (the child of the next test; harmless on its own).
+#[test]
+fn adapters_probe_child() {
+    let _ = gpu_amcs::engine::gpu::adapters();
+}
+
+/// The library's own adapter probe keeps the test output clean too: this test binary, re-run
+/// with only `adapters_probe_child` and without XDG_RUNTIME_DIR, prints no loader complaint.
+#[test]
+fn library_probe_is_quiet_without_xdg_runtime_dir() {
+    if !have_adapter("library_probe_is_quiet_without_xdg_runtime_dir") {
+        return;
+    }
+    let o = std::process::Command::new(std::env::current_exe().unwrap())
+        .args([
+            "adapters_probe_child",
+            "--exact",
+            "--nocapture",
+            "--test-threads=1",
+        ])
+        .env_remove("XDG_RUNTIME_DIR")
+        .output()
+        .unwrap();
+    let err = common::stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(!err.contains("XDG_RUNTIME_DIR"), "{err}");
+}
