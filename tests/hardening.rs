@@ -320,6 +320,8 @@ fn a_closed_stdout_is_not_a_panic() {
     let o = sh(
         &d,
         "\"$BIN\" calibrate --runs 3 -o cal.toml | head -1 >/dev/null; \
+         \"$BIN\" simulate --runs 2 -o s.csv 2>/dev/null; \
+         \"$BIN\" identify s.csv -o id.toml --verbose | head -1 >/dev/null; \
          \"$BIN\" model | head -1 >/dev/null",
     );
     let err = stderr(&o);
@@ -327,5 +329,10 @@ fn a_closed_stdout_is_not_a_panic() {
     assert!(!err.contains("Broken pipe"), "{err}");
     let written = std::fs::read_to_string(d.join("cal.toml")).unwrap();
     assert!(gpu_amcs::kinematics::RobotModel::from_toml(&written, "cal.toml").is_ok());
-    assert_eq!(tree(&d), vec!["cal.toml".to_string()]);
+    let written = std::fs::read_to_string(d.join("id.toml")).unwrap();
+    assert!(gpu_amcs::kinematics::RobotModel::from_toml(&written, "id.toml").is_ok());
+    assert_eq!(
+        tree(&d),
+        vec!["cal.toml".to_string(), "id.toml".into(), "s.csv".into()]
+    );
 }

@@ -5,7 +5,7 @@ use super::Run;
 use crate::cli::{FactorArgs, MemoryArgs};
 use anyhow::{bail, Result};
 use clap::Args;
-use gpu_amcs::kinematics::ParamKind;
+use gpu_amcs::kinematics::{param_index, ParamKind};
 use gpu_amcs::memory::Estimate;
 use gpu_amcs::points::WorkspaceBox;
 use gpu_amcs::simulate;
@@ -50,33 +50,39 @@ impl Run for CalibrateArgs {
             &WorkspaceBox::default(),
             a.factors.seed ^ 0x5eed,
         )?;
-        println!(
-            "{} runs identified in {:.2} s ({})",
+        // Everything printed is built first and the model file is written before any of it is
+        // printed, so a reader that stops early (`| head -1`) cannot cost the file.
+        let mut text = format!(
+            "{} runs identified in {:.2} s ({})\n",
             f.runs, cal.seconds, cal.independent.name
         );
         let sig = cal.independent.uncertainty.sigmas();
-        println!("σ of the identified parameters (mm, deg):");
+        text.push_str("σ of the identified parameters (mm, deg):\n");
         for j in 0..6 {
             let row: Vec<String> = ParamKind::ALL
                 .iter()
-                .enumerate()
-                .map(|(k, kind)| {
-                    format!("{} {:.5}", kind.name(), sig[j * 5 + k] / kind.to_internal())
+                .map(|kind| {
+                    format!(
+                        "{} {:.5}",
+                        kind.name(),
+                        sig[param_index(j, *kind)] / kind.to_internal()
+                    )
                 })
                 .collect();
-            println!("  J{}: {}", j + 1, row.join(", "));
+            text.push_str(&format!("  J{}: {}\n", j + 1, row.join(", ")));
         }
-        print!("{}", gpu_amcs::identify::render_validation(&acc));
+        text.push_str(&gpu_amcs::identify::render_validation(&acc));
         let model = if a.independent {
             cal.independent
         } else {
             cal.correlated
         };
+        outputs.stage_file("--out", model.to_toml())?;
+        outputs.commit()?;
         if let Some(o) = &a.out {
-            outputs.stage_file("--out", model.to_toml())?;
-            outputs.commit()?;
-            println!("wrote {}", o.display());
+            text.push_str(&format!("wrote {}\n", o.display()));
         }
+        print!("{text}");
         Ok(())
     }
 }

@@ -76,16 +76,18 @@ impl Run for IdentifyArgs {
             refine: !a.no_refine,
         };
         let ids = identify::identify(&data, &nominal, &opts)?;
+        // stdout is built first and printed after the model file is written, so a reader that
+        // stops early (`| head`) cannot cost the file.
+        let mut text = String::new();
         if a.verbose {
             for id in &ids {
-                print!("{}", identify::render_identify_report(&id.report));
-                println!();
+                text.push_str(&identify::render_identify_report(&id.report));
+                text.push('\n');
             }
         } else if !a.quiet {
-            print!(
-                "{}",
-                identify::render_identify_summary(ids.iter().map(|i| &i.report))
-            );
+            text.push_str(&identify::render_identify_summary(
+                ids.iter().map(|i| &i.report),
+            ));
         }
         let warnings = identify_warnings(&ids);
         for w in &warnings {
@@ -97,9 +99,10 @@ impl Run for IdentifyArgs {
                 warnings.len()
             );
         }
-        let say = |line: String| {
+        let mut say = |line: String| {
             if !a.quiet {
-                println!("{line}");
+                text.push_str(&line);
+                text.push('\n');
             }
         };
         let mut model = if ids.len() == 1 {
@@ -130,6 +133,7 @@ impl Run for IdentifyArgs {
             outputs.commit()?;
             say(format!("wrote {}", o.display()));
         }
+        print!("{text}");
         Ok(())
     }
 }
