@@ -28,7 +28,7 @@ fn sharded(pb: &Problem, draws: u64, cuts: &[u64], settings: &RunSettings) -> Su
     let mut first = 0;
     for (i, &end) in cuts.iter().enumerate() {
         let mut ev = CpuEvaluator::new(pb.clone());
-        let prov = Provenance::new(pb, draws, 0, draws);
+        let prov = Provenance::new(pb, "calibrated model", draws, 0, draws);
         let s = summarize(&mut ev, first, end, 65_536, settings, prov, None).unwrap();
         named.push((format!("shard-{i}.json"), s));
         first = end;
@@ -144,6 +144,7 @@ fn histogram_intervals_within_h_of_the_sorted_values() {
             version: "test".into(),
             model: "scalar".into(),
             model_hash: String::new(),
+            reference: String::new(),
             points: 1,
             points_hash: String::new(),
             seed: 5,
@@ -182,7 +183,7 @@ fn shards(seed: u64, cuts: &[u64]) -> Vec<(String, Summary)> {
         .enumerate()
         .map(|(i, &end)| {
             let mut ev = CpuEvaluator::new(pb.clone());
-            let prov = Provenance::new(&pb, draws, 0, draws);
+            let prov = Provenance::new(&pb, "calibrated model", draws, 0, draws);
             let s = summarize(
                 &mut ev,
                 first,
@@ -244,4 +245,110 @@ fn merge_refuses_mismatches_gaps_overlaps_and_corrupt_files() {
         .unwrap_err()
         .to_string();
     assert!(e.contains("t.json") && e.contains("below"), "{e}");
+}
+
+mod common;
+use common::{assert_fails_naming, bin, fails_leaving_nothing, run, tmpdir};
+
+fn json(path: &std::path::Path) -> serde_json::Value {
+    serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap()
+}
+
+#[test]
+fn cli_shards_then_merge_equal_the_single_run() {
+    let d = tmpdir("summary-cli");
+    let p = |name: &str| d.join(name).display().to_string();
+    let base = [
+        "mcs",
+        "--points",
+        "10",
+        "--draws",
+        "200000",
+        "--backend",
+        "cpu",
+        "-q",
+    ];
+    for k in 0..3 {
+        let shard = format!("{k}/3");
+        let out = p(&format!("s{k}.json"));
+        let o = run(&[&base[..], &["--shard", &shard, "--summary-out", &out]].concat());
+        assert!(o.status.success(), "{}", common::stderr(&o));
+    }
+    // A Slurm array task (indices 1..3) without --shard: the same summary as shard 1/3.
+    let o = bin()
+        .args(base)
+        .args(["--summary-out", &p("slurm.json")])
+        .env("SLURM_ARRAY_TASK_ID", "2")
+        .env("SLURM_ARRAY_TASK_MIN", "1")
+        .env("SLURM_ARRAY_TASK_COUNT", "3")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let (mut a, mut b) = (json(&d.join("slurm.json")), json(&d.join("s1.json")));
+    a["seconds"] = 0.into();
+    b["seconds"] = 0.into();
+    assert_eq!(a, b);
+
+    let o = run(&[
+        "merge",
+        &p("s2.json"),
+        &p("s0.json"),
+        &p("s1.json"),
+        "-q",
+        "--json",
+        &p("m.json"),
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let o = run(&[&base[..], &["--json", &p("e.json")]].concat());
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let (m, e) = (json(&d.join("m.json")), json(&d.join("e.json")));
+    let (mr, er) = (&m["result"], &e["result"]);
+    for key in [
+        "draws",
+        "reliability",
+        "min",
+        "max",
+        "batch_size",
+        "settings",
+    ] {
+        assert_eq!(mr[key], er[key], "{key}");
+    }
+    for key in ["mean", "variance", "skewness", "kurtosis"] {
+        let (x, y) = (
+            mr["moments"][key].as_f64().unwrap(),
+            er["moments"][key].as_f64().unwrap(),
+        );
+        assert!(rel(x, y) < 1e-12, "{key}: {x} vs {y}");
+    }
+    for key in ["low", "high"] {
+        let x = mr["coverage_interval"][key].as_f64().unwrap();
+        let y = er["coverage_interval"][key].as_f64().unwrap();
+        assert!((x - y).abs() <= BIN_WIDTH, "{key}: {x} vs {y}");
+    }
+    assert!(m["notes"][0].as_str().unwrap().contains("histogram"));
+
+    // Refusals: one line naming the file, exit 2, nothing written.
+    std::fs::write(d.join("bad.json"), "{\"provenance\": 3").unwrap();
+    let out = p("out.json");
+    for (args, what) in [
+        (vec![p("s0.json"), p("s1.json")], "s1.json"),
+        (
+            vec![p("s0.json"), p("s1.json"), p("slurm.json"), p("s2.json")],
+            "overlap",
+        ),
+        (
+            vec![p("s0.json"), p("bad.json"), p("s2.json")],
+            "bad.json: not a summary",
+        ),
+        (vec![p("s0.json"), p("nothing.json")], "nothing.json"),
+    ] {
+        let mut a: Vec<&str> = vec!["merge", "--json", &out];
+        a.extend(args.iter().map(String::as_str));
+        fails_leaving_nothing(&d, &a, what);
+    }
+    let o = run(&[&base[..], &["--shard", "3/3", "--summary-out", &out]].concat());
+    assert_fails_naming(&o, "--shard", "shard 3/3");
+    let o = run(&[&base[..], &["--shard", "0/3"]].concat());
+    assert_fails_naming(&o, "--summary-out", "--shard alone");
+    let _ = std::fs::remove_dir_all(&d);
 }

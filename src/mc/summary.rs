@@ -35,6 +35,8 @@ pub struct Provenance {
     pub model: String,
     /// FNV-1a hash of the model's TOML text, hex.
     pub model_hash: String,
+    /// What the errors are measured from (e.g. "calibrated model").
+    pub reference: String,
     /// Number of test points.
     pub points: usize,
     /// FNV-1a hash of the test points and their reference positions, hex.
@@ -50,8 +52,9 @@ pub struct Provenance {
 }
 
 impl Provenance {
-    /// The provenance of draws `[first, end)` of a run of `draws` draws of `problem`.
-    pub fn new(problem: &Problem, draws: u64, first: u64, end: u64) -> Provenance {
+    /// The provenance of draws `[first, end)` of a run of `draws` draws of `problem`, whose
+    /// errors are measured from `reference` (a label for the reports).
+    pub fn new(problem: &Problem, reference: &str, draws: u64, first: u64, end: u64) -> Provenance {
         let mut h = Fnv::new();
         for q in &problem.points {
             q.iter().for_each(|x| h.write(&x.to_le_bytes()));
@@ -65,6 +68,7 @@ impl Provenance {
             version: env!("CARGO_PKG_VERSION").to_string(),
             model: problem.model.name.clone(),
             model_hash: format!("{:016x}", mh.0),
+            reference: reference.to_string(),
             points: problem.n_points(),
             points_hash: format!("{:016x}", h.0),
             seed: problem.seed,
@@ -532,10 +536,13 @@ impl Summary {
     }
 
     /// The batch-means standard errors of M1–M4 over the [`GROUPS`] groups, as an MCS run
-    /// computes them (NaN, "not available", when a group has fewer than 2 draws).
+    /// computes them (NaN, "not available", for a part of a run or when a group has fewer
+    /// than 2 draws).
     pub fn moment_standard_errors(&self) -> [f64; 4] {
         let g = GROUPS as f64;
-        if self.provenance.draws / GROUPS < 2 || self.groups.iter().any(|s| s.n < 2) {
+        let p = &self.provenance;
+        let complete = p.first == 0 && p.end == p.draws;
+        if !complete || p.draws / GROUPS < 2 || self.groups.iter().any(|s| s.n < 2) {
             return [f64::NAN; 4];
         }
         let per: Vec<[f64; 4]> = self.groups.iter().map(|s| s.moments().as_array()).collect();
@@ -549,7 +556,7 @@ impl Summary {
     /// The note a report from this summary carries.
     pub fn note(&self) -> String {
         format!(
-            "merged summary of draws [{}, {}): coverage interval from a histogram of bin width \
+            "summary of draws [{}, {}): coverage interval from a histogram of bin width \
              h = {BIN_WIDTH:e} mm (each end within h of the sorted-values interval); PDF and CDF \
              curves from {} histogram quantiles; moments, R(l_c) and min/max exact",
             self.provenance.first,
@@ -692,10 +699,11 @@ pub fn merge(named: &[(String, Summary)]) -> Result<Summary, SummaryError> {
 /// Checks that `s` (from `file`) belongs to the run of `a` (from `first_file`).
 fn check_same(first_file: &str, a: &Summary, file: &str, s: &Summary) -> Result<(), SummaryError> {
     let (p, q) = (&a.provenance, &s.provenance);
-    let fields: [(&'static str, String, String); 10] = [
+    let fields: [(&'static str, String, String); 11] = [
         ("version", p.version.clone(), q.version.clone()),
         ("model", p.model.clone(), q.model.clone()),
         ("model_hash", p.model_hash.clone(), q.model_hash.clone()),
+        ("reference", p.reference.clone(), q.reference.clone()),
         ("points", p.points.to_string(), q.points.to_string()),
         ("points_hash", p.points_hash.clone(), q.points_hash.clone()),
         ("seed", p.seed.to_string(), q.seed.to_string()),
