@@ -19,6 +19,12 @@ use std::path::{Path, PathBuf};
 /// Largest summary file read, bytes (a summary holds at most one entry per occupied bin).
 const MAX_SUMMARY_BYTES: u64 = 1 << 30;
 
+/// Histogram bins a shard is sized for: one a draw, up to a 2 mm spread of w at 10^-6 mm a bin.
+const HISTOGRAM_BINS: u64 = 2_000_000;
+
+/// Bytes of one occupied histogram bin (a map entry and its share of the tree).
+const BYTES_PER_BIN: u64 = 64;
+
 /// Merge options.
 #[derive(Args, Debug, Clone)]
 pub struct MergeArgs {
@@ -195,7 +201,8 @@ pub fn run_shard(
             "use fewer --points or no --per-point, or raise --memory-limit",
         )
         .plus(&[chunk, 8])
-        .plus(&[m, BYTES_PER_POINT]);
+        .plus(&[m, BYTES_PER_POINT])
+        .plus(&[(end - first).min(HISTOGRAM_BINS), BYTES_PER_BIN]);
         if output.per_point {
             e.plus(&[chunk, m, 2 * 8])
         } else {

@@ -6,9 +6,13 @@
 //! Chan et al. for M2 and Pébay 2008 for M3 and M4), the counts below each threshold (so
 //! R(l_c) and its Wilson interval are those of the single run), the optional per-point counts,
 //! and the moments of the 20 equal groups the batch-means standard errors use. Quantiles and
-//! the coverage interval come from a fine histogram of fixed bin width [`BIN_WIDTH`] stored
-//! sparsely (only occupied bins), so each end of the interval is within [`BIN_WIDTH`] of the
-//! sorted-values interval whenever the interval picks the same ranks.
+//! the coverage interval come from a fine histogram of fixed bin width h = [`BIN_WIDTH`] stored
+//! sparsely (only occupied bins, so memory grows with the occupied range of w, not the draws).
+//! A rank's value is read as its bin's centre (the exact min and max at the ends), within h/2
+//! of the value: the symmetric interval's ends are within h/2 of the sorted-values ends; the
+//! shortest interval is chosen among the same ranks with widths off by at most h, so its true
+//! width is within 2h of the shortest, and its ends are within h/2 of the sorted-values ends
+//! whenever it picks the same ranks (tested within h on 3·10^5 and 10^6 draws).
 
 use super::result::{McError, McResult, Method, Progress, RunSettings, Setting};
 use super::stats::{CoverageInterval, IntervalKind, Moments, Reliability};
@@ -18,6 +22,11 @@ use std::collections::BTreeMap;
 
 /// Width h of a histogram bin, mm: bin `b` holds `b·h ≤ w < (b + 1)·h`.
 pub const BIN_WIDTH: f64 = 1e-6;
+
+/// The histogram bin of `w` (non-negative).
+fn bin_of(w: f64) -> u64 {
+    (w / BIN_WIDTH) as u64
+}
 
 /// Number of groups of the batch-means standard errors of M1–M4 (as in an MCS run).
 pub const GROUPS: u64 = 20;
@@ -312,7 +321,7 @@ impl Summary {
         for &v in w {
             self.min = self.min.min(v);
             self.max = self.max.max(v);
-            *self.bins.entry((v / BIN_WIDTH) as u64).or_insert(0) += 1;
+            *self.bins.entry(bin_of(v)).or_insert(0) += 1;
             for (c, l) in self.below.iter_mut().zip(&self.thresholds) {
                 *c += u64::from(v < *l);
             }
@@ -349,6 +358,11 @@ impl Summary {
             (
                 s.min.is_finite() && s.max.is_finite() && s.min <= s.max && s.min >= 0.0,
                 "min/max",
+            ),
+            (
+                s.bins.first_key_value().map(|(&b, _)| b) == Some(bin_of(s.min))
+                    && s.bins.last_key_value().map(|(&b, _)| b) == Some(bin_of(s.max)),
+                "bins",
             ),
             (
                 s.sums.mean.is_finite() && s.sums.m2 >= 0.0 && s.sums.m4 >= 0.0,
@@ -419,7 +433,8 @@ impl Summary {
     }
 
     /// The coverage interval of GUM S1 §7.7 (as [`coverage_interval`] picks its ranks) from
-    /// the histogram: each end within [`BIN_WIDTH`] of the sorted-values end of the same rank.
+    /// the histogram: each end within h/2 of the sorted-values end of the same rank (see the
+    /// module documentation for the shortest interval's bound).
     ///
     /// [`coverage_interval`]: super::stats::coverage_interval
     pub fn coverage_interval(&self) -> CoverageInterval {
