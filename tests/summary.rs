@@ -209,6 +209,21 @@ fn refusal(named: &[(String, Summary)], file: &str, what: &str) {
 #[test]
 fn merge_refuses_mismatches_gaps_overlaps_and_corrupt_files() {
     let good = shards(3, &[2000, 5000, 6000]);
+    // A part of a run reports no batch-means standard errors, and says so.
+    assert!(good[1]
+        .1
+        .to_result()
+        .moment_standard_errors
+        .iter()
+        .all(|x| x.is_nan()));
+    assert!(good[1].1.note().contains("not available"));
+    let whole = merge(&good).unwrap();
+    assert!(whole
+        .to_result()
+        .moment_standard_errors
+        .iter()
+        .all(|x| x.is_finite()));
+    assert!(!whole.note().contains("not available"));
     // Any order gives the same summary.
     let mut rev = good.clone();
     rev.reverse();

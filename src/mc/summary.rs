@@ -570,12 +570,19 @@ impl Summary {
 
     /// The note a report from this summary carries.
     pub fn note(&self) -> String {
+        let p = &self.provenance;
+        let part = if p.first == 0 && p.end == p.draws {
+            ""
+        } else {
+            "; a part of the run, so the standard errors of M1–M4 (batch means over the whole \
+             run) are not available"
+        };
         format!(
             "summary of draws [{}, {}): coverage interval from a histogram of bin width \
              h = {BIN_WIDTH:e} mm (each end within h of the sorted-values interval); PDF and CDF \
-             curves from {} histogram quantiles; moments, R(l_c) and min/max exact",
-            self.provenance.first,
-            self.provenance.end,
+             curves from {} histogram quantiles; moments, R(l_c) and min/max exact{part}",
+            p.first,
+            p.end,
             self.curve_values_len()
         )
     }
