@@ -6,6 +6,7 @@ use crate::cli::{OutputArgs, ProblemArgs};
 use anyhow::Result;
 use clap::Args;
 use gpu_amcs::mc::{self, McsOptions};
+use std::path::PathBuf;
 
 /// MCS options.
 #[derive(Args, Debug, Clone)]
@@ -17,6 +18,15 @@ pub struct McsArgs {
     /// Number of draws.
     #[arg(long, default_value_t = 1_000_000, value_name = "N")]
     pub draws: u64,
+    /// Evaluate only shard K of N (K from 0): draws [K·n/N, (K+1)·n/N) of the run's one
+    /// stream. Without it, with --summary-out, read from SLURM_ARRAY_TASK_ID and
+    /// SLURM_ARRAY_TASK_COUNT when set.
+    #[arg(long, value_name = "K/N", requires = "summary_out")]
+    pub shard: Option<String>,
+    /// Write a mergeable summary of the draws (JSON) for `gpu-amcs merge`; the values are not
+    /// kept and the reports come from the summary.
+    #[arg(long, value_name = "FILE")]
+    pub summary_out: Option<PathBuf>,
 }
 
 /// Draws per evaluation chunk of an MCS run of `draws` draws.
@@ -26,6 +36,18 @@ pub fn chunk(draws: u64) -> u64 {
 
 impl Run for McsArgs {
     fn run(self) -> Result<()> {
+        if let Some(out) = &self.summary_out {
+            let shard = super::merge::Shard::from_flag_or_env(self.shard.as_deref())?;
+            let chunk = chunk(self.draws);
+            return super::merge::run_shard(
+                &self.problem,
+                &self.output,
+                self.draws,
+                chunk,
+                shard,
+                out,
+            );
+        }
         let opts = McsOptions {
             draws: self.draws,
             chunk: chunk(self.draws),

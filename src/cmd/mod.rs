@@ -13,6 +13,7 @@ pub mod fk;
 pub mod identify;
 pub mod import;
 pub mod mcs;
+pub mod merge;
 pub mod model;
 pub mod outputs;
 pub mod points;

@@ -12,6 +12,7 @@ mod mcs;
 mod result;
 pub mod sensitivity;
 pub mod stats;
+pub mod summary;
 pub mod tail;
 
 pub use amcs::{run_amcs, AmcsOptions, Tolerance};
