@@ -579,7 +579,8 @@ impl Summary {
         };
         format!(
             "summary of draws [{}, {}): coverage interval from a histogram of bin width \
-             h = {BIN_WIDTH:e} mm (each end within h of the sorted-values interval); PDF and CDF \
+             h = {BIN_WIDTH:e} mm (symmetric: each end within h/2 of the sorted values'; shortest: \
+             width within 2h of the shortest, ends may move where widths tie within h); PDF and CDF \
              curves from {} histogram quantiles; moments, R(l_c) and min/max exact{part}",
             p.first,
             p.end,
