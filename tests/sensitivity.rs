@@ -577,21 +577,8 @@ fn sensitivity_subcommand_writes_json_and_csv() {
         let out = d.join("bad.json");
         let mut args = args.clone();
         args.extend(["--json", out.to_str().unwrap()]);
-        let o = common::run(&args);
-        let e = common::stderr(&o);
-        assert_eq!(o.status.code(), Some(2), "{e}");
-        assert!(e.contains(flag) && e.trim().lines().count() == 1, "{e}");
-        assert!(!out.exists());
+        common::fails_leaving_nothing(&d, &args, flag);
     }
-}
-
-/// Well-formed SVG (tests/common) with no non-finite number anywhere.
-fn check_svg_xml(text: &str, name: &str) {
-    common::check_svg(text, name);
-    assert!(
-        !text.contains("NaN") && !text.contains("inf"),
-        "{name}: non-finite number"
-    );
 }
 
 /// `sensitivity --svg DIR`: indices.svg and groups.svg are well-formed, with one first-order
@@ -621,7 +608,7 @@ fn sensitivity_subcommand_writes_svg() {
     let q = &v["sensitivity"]["quantities"][0];
     for (file, key) in [("indices.svg", "inputs"), ("groups.svg", "groups")] {
         let text = std::fs::read_to_string(svg.join(file)).unwrap();
-        check_svg_xml(&text, file);
+        common::check_svg_finite(&text, file);
         let rows = q[key].as_array().unwrap();
         let bars = rows.len().min(20);
         assert!(bars > 0, "{file}");

@@ -477,21 +477,8 @@ fn tail_subcommand_writes_json_and_csv() {
         let out = d.join("bad.json");
         let mut args = args.clone();
         args.extend(["--json", out.to_str().unwrap()]);
-        let o = common::run(&args);
-        let e = common::stderr(&o);
-        assert_eq!(o.status.code(), Some(2), "{e}");
-        assert!(e.contains(flag) && e.trim().lines().count() == 1, "{e}");
-        assert!(!out.exists());
+        common::fails_leaving_nothing(&d, &args, flag);
     }
-}
-
-/// Well-formed SVG (tests/common) with no non-finite number anywhere.
-fn check_svg_xml(text: &str, name: &str) {
-    common::check_svg(text, name);
-    assert!(
-        !text.contains("NaN") && !text.contains("inf"),
-        "{name}: non-finite number"
-    );
 }
 
 /// The exponents of the log-axis tick labels `1eK` of a tail.svg.
@@ -543,7 +530,7 @@ fn tail_subcommand_writes_svg() {
         .collect();
     assert_eq!(p.len(), 2);
     let text = std::fs::read_to_string(svg.join("tail.svg")).unwrap();
-    check_svg_xml(&text, "tail.svg");
+    common::check_svg_finite(&text, "tail.svg");
     assert_eq!(text.matches(r#"class="estimate""#).count(), p.len());
     assert_eq!(text.matches(r#"class="err""#).count(), p.len());
     assert_eq!(text.matches(r#"<polyline class="levels""#).count(), 1);
@@ -577,7 +564,7 @@ fn tail_subcommand_writes_svg() {
     ]);
     assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
     let text = std::fs::read_to_string(mc.join("tail.svg")).unwrap();
-    check_svg_xml(&text, "mc/tail.svg");
+    common::check_svg_finite(&text, "mc/tail.svg");
     assert_eq!(text.matches(r#"class="estimate""#).count(), 1);
     assert!(!text.contains("<polyline"));
     assert!(

@@ -171,3 +171,12 @@ pub fn check_svg(text: &str, name: &str) {
     assert!(stack.is_empty(), "{name}: unclosed {stack:?}");
     assert_eq!(roots, 1, "{name}");
 }
+
+/// Well-formed SVG ([`check_svg`]) with no non-finite number anywhere.
+pub fn check_svg_finite(text: &str, name: &str) {
+    check_svg(text, name);
+    assert!(
+        !text.contains("NaN") && !text.contains("inf"),
+        "{name}: non-finite number"
+    );
+}
