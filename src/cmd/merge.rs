@@ -2,18 +2,19 @@
 //! --summary-out FILE`), and the shard run itself: draws `[K·n/N, (K+1)·n/N)` of the one
 //! stream, summarised without keeping the values.
 
-use super::analysis::outputs;
+use super::analysis::{outputs, write_reports};
 use super::args::{thread_pool, BYTES_PER_POINT};
+use super::html;
 use super::outputs::{Outputs, CSV_NAMES, SVG_NAMES};
 use super::progress::Progress;
 use super::{Flags, Run};
-use crate::cli::{OutputArgs, ProblemArgs};
+use crate::cli::{HtmlArgs, OutputArgs, ProblemArgs};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use gpu_amcs::mc::summary::{self, Provenance, Summary};
 use gpu_amcs::mc::{min_draws, McError, Setting};
 use gpu_amcs::memory::Estimate;
-use gpu_amcs::report::{self, RunReport};
+use gpu_amcs::report::RunReport;
 use std::path::{Path, PathBuf};
 
 /// Largest summary file read, bytes (a summary holds at most one entry per occupied bin).
@@ -40,6 +41,8 @@ pub struct MergeArgs {
     /// Write SVG plots into this directory.
     #[arg(long, value_name = "DIR")]
     pub svg: Option<PathBuf>,
+    #[command(flatten)]
+    pub html: HtmlArgs,
     /// No text report on stdout.
     #[arg(long, short)]
     pub quiet: bool,
@@ -51,6 +54,7 @@ impl Run for MergeArgs {
         outputs.file("--json", self.json.as_deref())?;
         outputs.dir("--csv", self.csv.as_deref(), CSV_NAMES)?;
         outputs.dir("--svg", self.svg.as_deref(), SVG_NAMES)?;
+        self.html.declare(&mut outputs, html::RUN_NAMES)?;
         let named = self
             .files
             .iter()
@@ -58,7 +62,9 @@ impl Run for MergeArgs {
             .collect::<Result<Vec<_>>>()?;
         let merged = summary::merge(&named)?;
         let rep = report_of(&merged, Vec::new());
-        write_reports(outputs, &rep, self.quiet)
+        let shards: Vec<String> = named.iter().map(|(n, _)| n.clone()).collect();
+        let rows = vec![("shard summaries".to_string(), shards.join(", "))];
+        write_reports(outputs, &rep, &rows, self.quiet)
     }
 }
 
@@ -87,18 +93,6 @@ fn report_of(s: &Summary, mut notes: Vec<String>) -> RunReport {
         notes,
         result: s.to_result(),
     }
-}
-
-/// Stages the JSON, CSV and SVG reports, writes them and prints the text report.
-fn write_reports(mut outputs: Outputs, rep: &RunReport, quiet: bool) -> Result<()> {
-    outputs.stage_file("--json", report::json::render_run(rep))?;
-    outputs.stage_dir("--csv", report::csv::files(rep))?;
-    outputs.stage_dir("--svg", report::svg::run_plots(rep))?;
-    outputs.commit()?;
-    if !quiet {
-        print!("{}", report::text::render(rep));
-    }
-    Ok(())
 }
 
 /// Shard K of N (0-based K).
@@ -215,12 +209,13 @@ pub fn run_shard(
     };
     problem.memory.check(&estimate(generated))?;
     let pool = thread_pool(problem.threads)?;
-    let (s, notes) = pool.install(|| -> Result<(Summary, Vec<String>)> {
+    let (s, notes, rows) = pool.install(|| -> Result<(Summary, Vec<String>, _)> {
         let built = problem.build()?;
         problem
             .memory
             .check(&estimate(built.problem.n_points() as u64))?;
         let prov = Provenance::new(&built.problem, &built.reference, draws, first, end);
+        let rows = html::problem_rows(problem, &built.problem);
         let (mut ev, notes) = problem.backend.evaluator(built.problem)?;
         let bar = Progress::new(output.quiet, "MCS shard", "draws");
         let s = summary::summarize(
@@ -233,8 +228,8 @@ pub fn run_shard(
             Some(&|done, total| bar.update(done, total)),
         );
         bar.finish();
-        Ok((s?, notes))
+        Ok((s?, notes, rows))
     })?;
     outputs.stage_file("--summary-out", s.to_json())?;
-    write_reports(outputs, &report_of(&s, notes), output.quiet)
+    write_reports(outputs, &report_of(&s, notes), &rows, output.quiet)
 }
