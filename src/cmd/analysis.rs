@@ -42,7 +42,7 @@ pub struct Plan {
 impl Plan {
     /// `draws` values, `m` test points and, with per-point output, `batch` × m errors in the
     /// driver's buffer and as many in the evaluator's.
-    fn estimate(&self, output: &OutputArgs, m: u64) -> Estimate {
+    pub fn estimate(&self, output: &OutputArgs, m: u64) -> Estimate {
         let e = Estimate::new(self.what.clone(), self.advice)
             .plus(&[self.draws, BYTES_PER_DRAW])
             .plus(&[m, BYTES_PER_POINT]);
