@@ -15,6 +15,7 @@ use gpu_amcs::sampling::ParamSampler;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
+use rayon::prelude::*;
 use std::path::PathBuf;
 
 /// Rows of `params` converted and evaluated at a time: bounds the offset buffer (8 MiB per
@@ -146,7 +147,8 @@ fn columns(cols: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<usize>> {
 }
 
 /// Fills `buf` (`rows × 30`, internal units) with the offsets from the mean of rows
-/// `first .. first + rows` of `params`; entries of parameters not in `cols` are 0.
+/// `first .. first + rows` of `params`; entries of parameters not in `cols` are 0. Rows are
+/// converted in parallel; an error names the first bad row.
 fn offsets_of(
     params: &numpy::ndarray::ArrayView2<'_, f64>,
     cols: &[usize],
@@ -155,8 +157,8 @@ fn offsets_of(
     first: usize,
     buf: &mut [f64],
 ) -> Result<(), String> {
-    buf.fill(0.0);
-    for (r, out) in buf.chunks_exact_mut(N_PARAMS).enumerate() {
+    let row = |r: usize, out: &mut [f64]| -> Result<(), String> {
+        out.fill(0.0);
         let row = params.row(first + r);
         for (c, &p) in cols.iter().enumerate() {
             let v = row[c];
@@ -176,8 +178,20 @@ fn offsets_of(
             }
             out[p] = off * unit(p);
         }
+        Ok(())
+    };
+    let parallel = buf
+        .par_chunks_exact_mut(N_PARAMS)
+        .enumerate()
+        .try_for_each(|(r, out)| row(r, out));
+    match parallel {
+        Ok(()) => Ok(()),
+        // Another thread may have stopped at a later bad row: name the first one.
+        Err(_) => buf
+            .chunks_exact_mut(N_PARAMS)
+            .enumerate()
+            .try_for_each(|(r, out)| row(r, out)),
     }
-    Ok(())
 }
 
 #[pymethods]
