@@ -160,17 +160,14 @@ impl Common<'_> {
             }
             (c, _) => c,
         };
-        let given = [
-            self.model.is_some(),
-            self.q_deg.is_some(),
-            self.points_file.is_some(),
-        ];
-        if given[1] && given[2] {
+        let (by_array, by_file) = (self.q_deg.is_some(), self.points_file.is_some());
+        if by_array && by_file {
             return Err(value_error(
                 "q_deg and points_file exclude each other: give one",
             ));
         }
-        let m_known = if given[1] || given[2] {
+        // Generated points are counted before any work; given ones once read.
+        let m_known = if by_array || by_file {
             0
         } else {
             self.points as u64

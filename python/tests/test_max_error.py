@@ -1,5 +1,6 @@
 """max_error and fk against an independent NumPy forward kinematics; input handling."""
 
+import os
 import threading
 import time
 
@@ -244,3 +245,20 @@ def test_draws_are_the_runs_draws(tx60, q):
     np.testing.assert_array_equal(d[:, fixed], np.broadcast_to(tx60.params[fixed], (3000, len(fixed))))
     # Their spread is the model's σ (3000 draws: the sample σ is within 4 × σ/√(2·3000) ≈ 5 %).
     np.testing.assert_allclose(d[:, tx60.free].std(axis=0), tx60.sigma[tx60.free], rtol=0.05)
+
+
+# Largest allowed |w_gpu − w_cpu| per row, mm: the f32 deviation form's error budget at spreads
+# of a few σ (docs/METHOD.md, "GPU backend"; the Rust GPU tests use the same 1e-5 mm bound).
+GPU_TOL_MM = 1e-5
+
+
+def test_gpu_backend_agrees_with_cpu(tx60, q):
+    if not gpu_amcs.adapters():
+        if os.environ.get("CI") == "true":
+            pytest.fail("no GPU adapter and CI=true (install mesa-vulkan-drivers for lavapipe)")
+        pytest.skip("no GPU adapter")
+    p = rows(tx60, 3000, seed=21)
+    cpu = tx60.max_error(p, q, backend="cpu", per_point=True)
+    gpu = tx60.max_error(p, q, backend="gpu", per_point=True)
+    assert np.abs(gpu - cpu).max() < GPU_TOL_MM
+    assert cpu.max() > 0.05  # the comparison is on errors of tenths of a mm, not zeros
