@@ -209,8 +209,8 @@ pub struct BackendArgs {
 /// The memory a run may plan to use.
 #[derive(Args, Debug, Clone)]
 pub struct MemoryArgs {
-    /// Refuse runs estimated to need more memory than SIZE (e.g. 500M, 2G); default: 80 % of
-    /// the available memory.
+    /// Refuse runs estimated to need more memory than SIZE (e.g. 500M, 2G; mcs summarises its
+    /// draws instead of keeping them); default: 80 % of the available memory.
     #[arg(long, value_name = "SIZE")]
     pub memory_limit: Option<String>,
 }

@@ -50,7 +50,12 @@ fn oversized_runs_are_refused_before_allocating() {
             ],
             "--per-point",
         ),
-        (vec!["mcs", "--draws", "1000000000000"], "--draws"),
+        // 10^12 values would not fit, so mcs summarises (bounded memory); under 1 MiB not even
+        // one chunk and the histogram's reserve fit.
+        (
+            vec!["mcs", "--draws", "1000000000000", "--memory-limit", "1M"],
+            "--memory-limit",
+        ),
         (
             vec!["--points", "100000", "--memory-limit", "1M"],
             "--points",

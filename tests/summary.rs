@@ -515,3 +515,93 @@ fn cli_shard_from_an_indexed_job_and_inconsistent_variables() {
     assert!(!d.join("half.json").exists());
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn sensitivity_shards_merge_to_the_single_run_bit_for_bit() {
+    let d = tmpdir("summary-sens");
+    let p = |name: &str| d.join(name).display().to_string();
+    // 4096 base samples in chunks of 1024: 4 chunks, split 1 + 1 + 2.
+    let base = [
+        "sensitivity",
+        "--points",
+        "5",
+        "--draws",
+        "4096",
+        "--bootstrap",
+        "100",
+        "--thresholds",
+        "0.1",
+        "--backend",
+        "cpu",
+        "-q",
+    ];
+    for k in 0..2 {
+        let (shard, out) = (format!("{k}/3"), p(&format!("x{k}.json")));
+        let o = run(&[&base[..], &["--shard", &shard, "--summary-out", &out]].concat());
+        assert!(o.status.success(), "{}", common::stderr(&o));
+    }
+    let o = bin()
+        .args(base)
+        .args(["--summary-out", &p("x2.json")])
+        .env("SLURM_ARRAY_TASK_ID", "2")
+        .env("SLURM_ARRAY_TASK_COUNT", "3")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let o = run(&[&base[..], &["--json", &p("one.json")]].concat());
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let o = run(&[
+        "merge",
+        &p("x2.json"),
+        &p("x0.json"),
+        &p("x1.json"),
+        "-q",
+        "--json",
+        &p("merged.json"),
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    // The bootstrap resamples the whole range, so the shards keep their outputs (as f64 bits)
+    // and the merge runs the one analysis: the same JSON, byte for byte.
+    let one = std::fs::read_to_string(d.join("one.json")).unwrap();
+    assert_eq!(std::fs::read_to_string(d.join("merged.json")).unwrap(), one);
+    assert!(one.contains("\"first_order\""));
+
+    let out = p("out.json");
+    fails_leaving_nothing(
+        &d,
+        &["merge", &p("x0.json"), &p("x2.json"), "--json", &out],
+        "x2.json: draws [2048, 4096) leave draws [1024, 2048) missing",
+    );
+    let other = run(&[&base[..], &["--seed", "7", "--shard", "1/3"]].concat());
+    assert_fails_naming(&other, "--summary-out", "--shard alone");
+    let o = run(&[
+        &base[..],
+        &[
+            "--seed",
+            "7",
+            "--shard",
+            "1/3",
+            "--summary-out",
+            &p("seed7.json"),
+        ],
+    ]
+    .concat());
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    fails_leaving_nothing(
+        &d,
+        &[
+            "merge",
+            &p("x0.json"),
+            &p("seed7.json"),
+            &p("x2.json"),
+            "--json",
+            &out,
+        ],
+        "seed7.json: field `seed` is 7",
+    );
+    let o = run(&[&base[..], &["--shard", "4/5", "--summary-out", &out]].concat());
+    assert_fails_naming(&o, "--shard", "5 shards of 4 chunks");
+    let o = run(&[&base[..], &["--summary-out", &out, "--json", &p("j.json")]].concat());
+    assert_fails_naming(&o, "--json", "--summary-out with --json");
+    let _ = std::fs::remove_dir_all(&d);
+}

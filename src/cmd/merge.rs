@@ -7,11 +7,15 @@ use super::args::{thread_pool, BYTES_PER_POINT};
 use super::html;
 use super::outputs::{Outputs, CSV_NAMES, SVG_NAMES};
 use super::progress::Progress;
+use super::sensitivity::{CSV_NAMES as SENS_CSV, SVG_NAMES as SENS_SVG};
 use super::{Flags, Run};
 use crate::cli::{HtmlArgs, OutputArgs, ProblemArgs};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
-use gpu_amcs::mc::summary::{self, Provenance, Summary, SummaryError, BYTES_PER_BIN};
+use gpu_amcs::mc::sensitivity::SensitivityOptions;
+use gpu_amcs::mc::summary::{
+    self, Provenance, SensitivityShard, Summary, SummaryError, BYTES_PER_BIN,
+};
 use gpu_amcs::mc::{min_draws, McError, Setting};
 use gpu_amcs::memory::Estimate;
 use gpu_amcs::report::RunReport;
@@ -44,26 +48,54 @@ pub struct MergeArgs {
 
 impl Run for MergeArgs {
     fn run(self) -> Result<()> {
-        let mut outputs = Outputs::new(self.files.iter().map(|f| ("FILE", f.as_path())));
-        outputs.file("--json", self.json.as_deref())?;
-        outputs.dir("--csv", self.csv.as_deref(), CSV_NAMES)?;
-        outputs.dir("--svg", self.svg.as_deref(), SVG_NAMES)?;
-        self.html.declare(&mut outputs, html::RUN_NAMES)?;
-        let named = self
+        let texts = self
             .files
             .iter()
-            .map(|f| read_summary(f).map(|s| (f.display().to_string(), s)))
+            .map(|f| read_text(f).map(|t| (f.display().to_string(), t)))
+            .collect::<Result<Vec<_>>>()?;
+        let sensitivity = match texts.first() {
+            Some((_, t)) => serde_json::from_str::<Kind>(t)
+                .is_ok_and(|k| k.kind.as_deref() == Some(SensitivityShard::KIND)),
+            None => false,
+        };
+        let (csv, svg, pages) = if sensitivity {
+            (SENS_CSV, SENS_SVG, html::SENSITIVITY_NAMES)
+        } else {
+            (CSV_NAMES, SVG_NAMES, html::RUN_NAMES)
+        };
+        let mut outputs = Outputs::new(self.files.iter().map(|f| ("FILE", f.as_path())));
+        outputs.file("--json", self.json.as_deref())?;
+        outputs.dir("--csv", self.csv.as_deref(), csv)?;
+        outputs.dir("--svg", self.svg.as_deref(), svg)?;
+        self.html.declare(&mut outputs, pages)?;
+        let files: Vec<String> = texts.iter().map(|(n, _)| n.clone()).collect();
+        let rows = vec![("shard summaries".to_string(), files.join(", "))];
+        if sensitivity {
+            let named = texts
+                .iter()
+                .map(|(f, t)| Ok((f.clone(), SensitivityShard::from_json(t, f)?)))
+                .collect::<Result<Vec<_>>>()?;
+            let result = summary::merge_sensitivity(&named)?;
+            return super::sensitivity::write_reports(outputs, &result, &rows, self.quiet);
+        }
+        let named = texts
+            .iter()
+            .map(|(f, t)| Ok((f.clone(), Summary::from_json(t, f)?)))
             .collect::<Result<Vec<_>>>()?;
         let merged = summary::merge(&named)?;
         let rep = report_of(&merged, Vec::new());
-        let shards: Vec<String> = named.iter().map(|(n, _)| n.clone()).collect();
-        let rows = vec![("shard summaries".to_string(), shards.join(", "))];
         write_reports(outputs, &rep, &rows, self.quiet)
     }
 }
 
-/// Reads one summary file, naming it in every error.
-fn read_summary(path: &Path) -> Result<Summary> {
+/// The `kind` field of a shard file (absent in a run summary).
+#[derive(serde::Deserialize)]
+struct Kind {
+    kind: Option<String>,
+}
+
+/// Reads one shard file, naming it in every error.
+fn read_text(path: &Path) -> Result<String> {
     let shown = path.display().to_string();
     let len = std::fs::metadata(path)
         .with_context(|| format!("{shown}: cannot read"))?
@@ -71,8 +103,7 @@ fn read_summary(path: &Path) -> Result<Summary> {
     if len > MAX_SUMMARY_BYTES {
         bail!("{shown}: not a summary: {len} bytes, more than {MAX_SUMMARY_BYTES}");
     }
-    let text = std::fs::read_to_string(path).with_context(|| format!("{shown}: cannot read"))?;
-    Ok(Summary::from_json(&text, &shown)?)
+    std::fs::read_to_string(path).with_context(|| format!("{shown}: cannot read"))
 }
 
 /// The run report of a summary, with its note after `notes`.
@@ -295,6 +326,43 @@ pub fn run_summary(
     })?;
     outputs.stage_file("--summary-out", s.to_json())?;
     write_reports(outputs, &report_of(&s, notes), &rows, output.quiet)
+}
+
+/// Evaluates the shard of a sensitivity analysis that `--shard` or the scheduler's variables
+/// name (chunks `[K·C/N, (K+1)·C/N)` of the C evaluation chunks of base samples) and writes its
+/// outputs to `summary_out`.
+pub fn run_sensitivity_shard(
+    problem: &ProblemArgs,
+    opts: &SensitivityOptions,
+    flag: Option<&str>,
+    summary_out: &Path,
+) -> Result<()> {
+    let shard = Shard::from_flags_or_env(flag, None, |v| std::env::var(v).ok())?;
+    // Whole evaluation chunks, so every model call sees the rows of the one-run call (the
+    // evaluators round alike only for the same rows at the same place in a call).
+    let (n, chunk) = (opts.draws as u64, opts.chunk as u64);
+    let chunks = n.div_ceil(chunk);
+    if shard.n > chunks {
+        bail!(
+            "--shard: {} shards of {chunks} chunks of {chunk} base samples leave some empty",
+            shard.n
+        );
+    }
+    let mut outputs = Outputs::new(problem.inputs());
+    outputs.file("--summary-out", Some(summary_out))?;
+    let (c0, c1) = shard.range(chunks);
+    let (first, end) = (c0 * chunk, (c1 * chunk).min(n));
+    let pool = thread_pool(problem.threads)?;
+    let s = pool.install(|| -> Result<SensitivityShard> {
+        let built = problem.build()?;
+        let prov = Provenance::new(&built.problem, &built.reference, n, first, end);
+        let pb = built.problem.clone();
+        let (mut ev, _) = problem.backend.evaluator(built.problem)?;
+        SensitivityShard::run(&pb, ev.as_mut(), opts, prov).map_err(super::sensitivity::with_flag)
+    })?;
+    outputs.stage_file("--summary-out", s.to_json())?;
+    outputs.commit()?;
+    Ok(())
 }
 
 /// A summary error for the command line: settings name their flag, a histogram that

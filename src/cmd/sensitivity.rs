@@ -7,15 +7,17 @@ use super::Run;
 use crate::cli::{HtmlArgs, ProblemArgs};
 use anyhow::Result;
 use clap::Args;
-use gpu_amcs::mc::sensitivity::{run_sensitivity, SensitivityError, SensitivityOptions};
+use gpu_amcs::mc::sensitivity::{
+    run_sensitivity, SensitivityError, SensitivityOptions, SensitivityResult,
+};
 use gpu_amcs::memory::Estimate;
 use gpu_amcs::report::sensitivity as report;
 use std::path::PathBuf;
 
 /// Files `--csv DIR` may write.
-const CSV_NAMES: &[&str] = &["indices.csv"];
+pub const CSV_NAMES: &[&str] = &["indices.csv"];
 /// Files `--svg DIR` may write.
-const SVG_NAMES: &[&str] = &["indices.svg", "groups.svg"];
+pub const SVG_NAMES: &[&str] = &["indices.svg", "groups.svg"];
 
 /// `sensitivity` options.
 #[derive(Args, Debug, Clone)]
@@ -54,10 +56,18 @@ pub struct SensitivityArgs {
     /// No table on stdout.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Evaluate only shard K of N (K from 0): base samples [K·N_b/N, (K+1)·N_b/N). Without it,
+    /// with --summary-out, K and N come from SLURM_ARRAY_TASK_ID and SLURM_ARRAY_TASK_COUNT
+    /// when set.
+    #[arg(long, value_name = "K/N", requires = "summary_out")]
+    pub shard: Option<String>,
+    /// Write the shard's model outputs (JSON) for `gpu-amcs merge`, which computes the indices.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["json", "csv", "svg"])]
+    pub summary_out: Option<PathBuf>,
 }
 
 /// A settings error with the flag that sets the field.
-fn with_flag(e: SensitivityError) -> anyhow::Error {
+pub fn with_flag(e: SensitivityError) -> anyhow::Error {
     match e {
         SensitivityError::Setting { field, message } => {
             let flag = match field {
@@ -105,6 +115,9 @@ impl Run for SensitivityArgs {
             .plus(&[opts.chunk as u64, matrices, 8 * 30 + 8]),
         );
         a.problem.memory.check(&estimate)?;
+        if let Some(out) = &a.summary_out {
+            return super::merge::run_sensitivity_shard(&a.problem, &opts, a.shard.as_deref(), out);
+        }
         let pool = thread_pool(a.problem.threads)?;
         let (result, rows) = pool.install(|| -> Result<_> {
             let built = a.problem.build()?;
@@ -121,22 +134,33 @@ impl Run for SensitivityArgs {
                 rows,
             ))
         })?;
-        outputs.stage_file("--json", report::render_json(&result))?;
-        outputs.stage_dir(
-            "--csv",
-            vec![("indices.csv".to_string(), report::render_csv(&result))],
-        )?;
-        outputs.stage_dir("--svg", report::render_svg(&result))?;
-        if outputs.has(html::FLAG) {
-            outputs.stage_dir(
-                html::FLAG,
-                gpu_amcs::report::html::pages::sensitivity_files(&result, &rows),
-            )?;
-        }
-        outputs.commit()?;
-        if !a.quiet {
-            print!("{}", report::render_text(&result));
-        }
-        Ok(())
+        write_reports(outputs, &result, &rows, a.quiet)
     }
+}
+
+/// Stages the JSON, CSV, SVG and HTML reports of `result` (`rows`: the settings shown on the
+/// HTML page), writes them and prints the table.
+pub fn write_reports(
+    mut outputs: Outputs,
+    result: &SensitivityResult,
+    rows: &[(String, String)],
+    quiet: bool,
+) -> Result<()> {
+    outputs.stage_file("--json", report::render_json(result))?;
+    outputs.stage_dir(
+        "--csv",
+        vec![("indices.csv".to_string(), report::render_csv(result))],
+    )?;
+    outputs.stage_dir("--svg", report::render_svg(result))?;
+    if outputs.has(html::FLAG) {
+        outputs.stage_dir(
+            html::FLAG,
+            gpu_amcs::report::html::pages::sensitivity_files(result, rows),
+        )?;
+    }
+    outputs.commit()?;
+    if !quiet {
+        print!("{}", report::render_text(result));
+    }
+    Ok(())
 }

@@ -15,6 +15,9 @@
 //! whenever it picks the same ranks (tested within h on 3·10^5 and 10^6 draws).
 
 use super::result::{McError, McResult, Method, Progress, RunSettings, Setting};
+use super::sensitivity::{
+    self, Design, Outputs, SensitivityError, SensitivityOptions, SensitivityResult,
+};
 use super::stats::{CoverageInterval, IntervalKind, Moments, Reliability};
 use crate::engine::{BackendInfo, Evaluator, Problem};
 use serde::{Deserialize, Serialize};
@@ -702,16 +705,67 @@ pub fn summarize(
 /// settings, and their ranges must cover `[0, draws)` exactly once. The result does not depend
 /// on the order given (summaries are merged in draw order).
 pub fn merge(named: &[(String, Summary)]) -> Result<Summary, SummaryError> {
-    let mut order: Vec<&(String, Summary)> = named.iter().collect();
-    order.sort_by_key(|(_, s)| (s.provenance.first, s.provenance.end));
-    let Some(((first_file, first), rest)) = order.split_first().map(|(f, r)| (*f, r)) else {
+    let order = in_draw_order(named, |s| &s.provenance, settings_of)?;
+    let mut out = order[0].1.clone();
+    for (_, s) in &order[1..] {
+        out.absorb(s);
+    }
+    Ok(out)
+}
+
+/// The settings a summary's merge partners must share, by field.
+fn settings_of(s: &Summary) -> Vec<(&'static str, String)> {
+    vec![
+        ("coverage_probability", s.coverage_probability.to_string()),
+        ("interval", format!("{:?}", s.interval)),
+        (
+            "thresholds",
+            format!("{:?}, per_point {}", s.thresholds, s.per_point),
+        ),
+    ]
+}
+
+/// `named` in draw order, after checking that they are parts of one run: provenance (apart
+/// from the range) and `settings` agree with the first's, and the ranges tile `[0, draws)`.
+fn in_draw_order<T>(
+    named: &[(String, T)],
+    provenance: impl Fn(&T) -> &Provenance,
+    settings: impl Fn(&T) -> Vec<(&'static str, String)>,
+) -> Result<Vec<(&str, &T)>, SummaryError> {
+    let mut order: Vec<(&str, &T)> = named.iter().map(|(f, s)| (f.as_str(), s)).collect();
+    order.sort_by_key(|(_, s)| (provenance(s).first, provenance(s).end));
+    let Some(&(first_file, first)) = order.first() else {
         return Err(SummaryError::Empty);
     };
-    let mut out = first.clone();
+    let fields = |s: &T| {
+        let p = provenance(s);
+        let mut v = vec![
+            ("version", p.version.clone()),
+            ("model", p.model.clone()),
+            ("model_hash", p.model_hash.clone()),
+            ("reference", p.reference.clone()),
+            ("points", p.points.to_string()),
+            ("points_hash", p.points_hash.clone()),
+            ("seed", p.seed.to_string()),
+            ("draws", p.draws.to_string()),
+        ];
+        v.extend(settings(s));
+        v
+    };
+    let expected = fields(first);
     let mut covered = 0;
-    for (file, s) in order.iter().map(|(f, s)| (f, s)) {
-        check_same(first_file, first, file, s)?;
-        let (a, b) = (s.provenance.first, s.provenance.end);
+    for &(file, s) in &order {
+        let mismatch = expected.iter().zip(fields(s)).find(|(x, y)| x.1 != y.1);
+        if let Some(((field, want), (_, found))) = mismatch {
+            return Err(SummaryError::Mismatch {
+                file: file.to_string(),
+                field,
+                found,
+                first_file: first_file.to_string(),
+                expected: want.clone(),
+            });
+        }
+        let (a, b) = (provenance(s).first, provenance(s).end);
         if a != covered {
             let problem = if a < covered {
                 format!("overlap draws before {covered} of another summary")
@@ -727,60 +781,205 @@ pub fn merge(named: &[(String, Summary)]) -> Result<Summary, SummaryError> {
         }
         covered = b;
     }
-    if covered != first.provenance.draws {
+    let draws = provenance(first).draws;
+    if covered != draws {
         let (file, s) = order[order.len() - 1];
         return Err(SummaryError::Range {
-            file: file.clone(),
-            first: s.provenance.first,
-            end: s.provenance.end,
-            problem: format!(
-                "leave draws [{covered}, {}) missing",
-                first.provenance.draws
-            ),
+            file: file.to_string(),
+            first: provenance(s).first,
+            end: provenance(s).end,
+            problem: format!("leave draws [{covered}, {draws}) missing"),
         });
     }
-    for (_, s) in rest {
-        out.absorb(s);
-    }
-    Ok(out)
+    Ok(order)
 }
 
-/// Checks that `s` (from `file`) belongs to the run of `a` (from `first_file`).
-fn check_same(first_file: &str, a: &Summary, file: &str, s: &Summary) -> Result<(), SummaryError> {
-    let (p, q) = (&a.provenance, &s.provenance);
-    let fields: [(&'static str, String, String); 11] = [
-        ("version", p.version.clone(), q.version.clone()),
-        ("model", p.model.clone(), q.model.clone()),
-        ("model_hash", p.model_hash.clone(), q.model_hash.clone()),
-        ("reference", p.reference.clone(), q.reference.clone()),
-        ("points", p.points.to_string(), q.points.to_string()),
-        ("points_hash", p.points_hash.clone(), q.points_hash.clone()),
-        ("seed", p.seed.to_string(), q.seed.to_string()),
-        ("draws", p.draws.to_string(), q.draws.to_string()),
-        (
-            "coverage_probability",
-            a.coverage_probability.to_string(),
-            s.coverage_probability.to_string(),
-        ),
-        (
-            "interval",
-            format!("{:?}", a.interval),
-            format!("{:?}", s.interval),
-        ),
-        (
-            "thresholds",
-            format!("{:?}, per_point {}", a.thresholds, a.per_point),
-            format!("{:?}, per_point {}", s.thresholds, s.per_point),
-        ),
-    ];
-    match fields.into_iter().find(|(_, x, y)| x != y) {
-        Some((field, expected, found)) => Err(SummaryError::Mismatch {
-            file: file.to_string(),
-            field,
-            found,
-            first_file: first_file.to_string(),
-            expected,
-        }),
-        None => Ok(()),
+/// A shard of a sensitivity analysis (`docs/METHOD.md §11`): the model outputs of base samples
+/// `[first, end)` (the provenance's range; its `draws` are the base samples N). The bootstrap
+/// resamples base samples from the whole range, so shards keep their outputs (8 bytes ×
+/// (2 + S) a base sample) and the merge analyses them together, exactly as one run would.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SensitivityShard {
+    /// Always [`SensitivityShard::KIND`]: tells a sensitivity shard from a run summary.
+    pub kind: String,
+    /// Where the base samples come from.
+    pub provenance: Provenance,
+    /// Bootstrap resamples of the analysis.
+    pub bootstrap: usize,
+    /// Seed of the bootstrap resampling.
+    pub bootstrap_seed: u64,
+    /// Thresholds of the exceedance indicators, mm.
+    pub thresholds: Vec<f64>,
+    /// The inputs.
+    pub design: Design,
+    /// Backend that evaluated the outputs: backend, adapter, driver.
+    pub backend: [String; 3],
+    /// The outputs of the shard's base samples, written as the bits of each f64 (a JSON
+    /// number need not read back to the same f64; the bits do, so the merge is exact).
+    #[serde(with = "output_bits")]
+    pub outputs: Outputs,
+}
+
+/// [`Outputs`] as the IEEE-754 bits of its values.
+mod output_bits {
+    use super::Outputs;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    #[derive(Serialize, Deserialize)]
+    struct Bits {
+        a: Vec<u64>,
+        b: Vec<u64>,
+        sets: Vec<Vec<u64>>,
     }
+
+    fn to_bits(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    fn from_bits(v: Vec<u64>) -> Vec<f64> {
+        v.into_iter().map(f64::from_bits).collect()
+    }
+
+    pub fn serialize<S: Serializer>(o: &Outputs, s: S) -> Result<S::Ok, S::Error> {
+        Bits {
+            a: to_bits(&o.a),
+            b: to_bits(&o.b),
+            sets: o.sets.iter().map(|v| to_bits(v)).collect(),
+        }
+        .serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Outputs, D::Error> {
+        let b = Bits::deserialize(d)?;
+        Ok(Outputs {
+            a: from_bits(b.a),
+            b: from_bits(b.b),
+            sets: b.sets.into_iter().map(from_bits).collect(),
+        })
+    }
+}
+
+impl SensitivityShard {
+    /// The `kind` of a sensitivity shard.
+    pub const KIND: &'static str = "sensitivity shard";
+
+    /// Evaluates base samples `[provenance.first, provenance.end)` of the analysis of
+    /// `problem` with `opts` (`opts.draws` the provenance's draws).
+    pub fn run(
+        problem: &Problem,
+        ev: &mut dyn Evaluator,
+        opts: &SensitivityOptions,
+        provenance: Provenance,
+    ) -> Result<SensitivityShard, SensitivityError> {
+        let range = provenance.first as usize..provenance.end as usize;
+        let (outputs, design) = sensitivity::run_outputs(problem, ev, opts, range)?;
+        let info = ev.info();
+        Ok(SensitivityShard {
+            kind: Self::KIND.to_string(),
+            provenance,
+            bootstrap: opts.bootstrap,
+            bootstrap_seed: opts.bootstrap_seed,
+            thresholds: opts.thresholds.clone(),
+            design,
+            backend: [info.backend, info.adapter, info.driver],
+            outputs,
+        })
+    }
+
+    /// The shard as JSON (`kind` first, so a reader can tell it from a summary).
+    pub fn to_json(&self) -> String {
+        // Plain data with finite floats: serialising cannot fail.
+        serde_json::to_string(self).unwrap_or_default() + "\n"
+    }
+
+    /// Reads a shard written by [`SensitivityShard::to_json`]; `file` names it in errors.
+    pub fn from_json(text: &str, file: &str) -> Result<SensitivityShard, SummaryError> {
+        let corrupt = |message: String| SummaryError::Corrupt {
+            file: file.to_string(),
+            message,
+        };
+        let s: SensitivityShard = serde_json::from_str(text).map_err(|e| corrupt(e.to_string()))?;
+        let p = &s.provenance;
+        let n = (p.end - p.first) as usize;
+        let o = &s.outputs;
+        let checks = [
+            (s.kind == Self::KIND, "kind"),
+            (p.first < p.end && p.end <= p.draws, "provenance draw range"),
+            (o.a.len() == n && o.b.len() == n, "outputs"),
+            (o.sets.iter().all(|v| v.len() == n), "outputs"),
+            (
+                o.a.iter()
+                    .chain(&o.b)
+                    .chain(o.sets.iter().flatten())
+                    .all(|v| v.is_finite()),
+                "outputs",
+            ),
+        ];
+        if let Some((_, field)) = checks.iter().find(|(ok, _)| !ok) {
+            return Err(corrupt(format!("field `{field}` is inconsistent")));
+        }
+        Ok(s)
+    }
+}
+
+/// Errors of merging sensitivity shards: the shards' own, or the analysis's.
+#[derive(Debug, thiserror::Error)]
+pub enum SensitivityMergeError {
+    /// The shards do not make one analysis.
+    #[error(transparent)]
+    Shards(#[from] SummaryError),
+    /// The analysis of the merged outputs failed.
+    #[error(transparent)]
+    Analysis(#[from] SensitivityError),
+}
+
+/// The analysis of named sensitivity shards that together hold every base sample of one run
+/// once (checked as [`merge`] checks summaries): the same result as one run, to the bit.
+pub fn merge_sensitivity(
+    named: &[(String, SensitivityShard)],
+) -> Result<SensitivityResult, SensitivityMergeError> {
+    let order = in_draw_order(
+        named,
+        |s| &s.provenance,
+        |s| {
+            vec![
+                ("bootstrap", s.bootstrap.to_string()),
+                ("bootstrap_seed", s.bootstrap_seed.to_string()),
+                ("thresholds", format!("{:?}", s.thresholds)),
+                ("design", format!("{:?}", s.design)),
+                (
+                    "outputs",
+                    format!("{} pick-freeze sets", s.outputs.sets.len()),
+                ),
+            ]
+        },
+    )?;
+    let first = order[0].1;
+    let mut out = Outputs {
+        sets: vec![Vec::new(); first.outputs.sets.len()],
+        ..Outputs::default()
+    };
+    for (_, s) in &order {
+        out.a.extend_from_slice(&s.outputs.a);
+        out.b.extend_from_slice(&s.outputs.b);
+        for (all, part) in out.sets.iter_mut().zip(&s.outputs.sets) {
+            all.extend_from_slice(part);
+        }
+    }
+    let p = &first.provenance;
+    let opts = SensitivityOptions {
+        draws: p.draws as usize,
+        bootstrap: first.bootstrap,
+        bootstrap_seed: first.bootstrap_seed,
+        thresholds: first.thresholds.clone(),
+        ..SensitivityOptions::default()
+    };
+    let [backend, adapter, driver] = first.backend.clone();
+    let info = BackendInfo {
+        backend,
+        adapter,
+        driver,
+    };
+    let model = (p.model.clone(), p.points, p.seed);
+    Ok(first.design.result(model, info, &out, &opts)?)
 }

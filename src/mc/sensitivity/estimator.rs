@@ -2,7 +2,7 @@
 //! the matrices A, B and A_B^(S), then the Saltelli/Jansen estimates with bootstrap intervals.
 
 use rayon::prelude::*;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use super::{SensitivityError, SensitivityOptions, B_DRAW_OFFSET};
 use crate::sampling::Philox;
@@ -143,11 +143,16 @@ impl Plan {
     }
 }
 
-/// Model outputs on A, B and every A_B^(S), in base-sample order.
-struct Outputs {
-    a: Vec<f64>,
-    b: Vec<f64>,
-    sets: Vec<Vec<f64>>,
+/// Model outputs on A, B and every A_B^(S), in base-sample order (of all base samples, or of
+/// a range of them in a shard).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Outputs {
+    /// Outputs on the rows of A.
+    pub a: Vec<f64>,
+    /// Outputs on the rows of B.
+    pub b: Vec<f64>,
+    /// Outputs on the rows of each A_B^(S), in the order the design evaluates the sets.
+    pub sets: Vec<Vec<f64>>,
 }
 
 impl Quantity {
@@ -174,27 +179,52 @@ pub fn pick_freeze<S, F>(
     names: &[String],
     groups: &[InputGroup],
     draw: S,
-    mut model: F,
+    model: F,
     opts: &SensitivityOptions,
 ) -> Result<SobolAnalysis, SensitivityError>
 where
     S: Fn(u64, &mut [f64]) + Sync,
     F: FnMut(&[f64]) -> Result<Vec<f64>, SensitivityError>,
 {
+    let out = pick_freeze_outputs(names.len(), groups, draw, model, opts, 0..opts.draws)?;
+    analyse_outputs(names, groups, &out, opts)
+}
+
+/// The outputs of base samples `range` (of `opts.draws`) of the design of [`pick_freeze`] with
+/// `dim` inputs: what a shard of the analysis evaluates. [`analyse_outputs`] takes the
+/// outputs of all base samples, in order.
+pub fn pick_freeze_outputs<S, F>(
+    dim: usize,
+    groups: &[InputGroup],
+    draw: S,
+    mut model: F,
+    opts: &SensitivityOptions,
+    range: std::ops::Range<usize>,
+) -> Result<Outputs, SensitivityError>
+where
+    S: Fn(u64, &mut [f64]) + Sync,
+    F: FnMut(&[f64]) -> Result<Vec<f64>, SensitivityError>,
+{
     opts.check()?;
-    let dim = names.len();
     if dim == 0 {
         return Err(SensitivityError::Design("no inputs".into()));
     }
+    if range.start >= range.end || range.end > opts.draws {
+        return Err(SensitivityError::Design(format!(
+            "base samples {range:?} must be a non-empty range within the {} base samples",
+            opts.draws
+        )));
+    }
     let plan = Plan::new(dim, groups)?;
-    let n = opts.draws;
+    let n = range.end;
     let blocks = 2 + plan.sets.len();
+    let len = range.end - range.start;
     let mut out = Outputs {
-        a: Vec::with_capacity(n),
-        b: Vec::with_capacity(n),
-        sets: vec![Vec::with_capacity(n); plan.sets.len()],
+        a: Vec::with_capacity(len),
+        b: Vec::with_capacity(len),
+        sets: vec![Vec::with_capacity(len); plan.sets.len()],
     };
-    let mut k0 = 0;
+    let mut k0 = range.start;
     while k0 < n {
         let c = opts.chunk.min(n - k0);
         let mut rows = vec![0.0; blocks * c * dim];
@@ -238,7 +268,33 @@ where
         }
         k0 += c;
     }
+    Ok(out)
+}
 
+/// The indices from the outputs of all `opts.draws` base samples ([`pick_freeze_outputs`],
+/// concatenated in base-sample order when evaluated in shards): the same analysis, to the bit,
+/// as one [`pick_freeze`] run.
+pub fn analyse_outputs(
+    names: &[String],
+    groups: &[InputGroup],
+    out: &Outputs,
+    opts: &SensitivityOptions,
+) -> Result<SobolAnalysis, SensitivityError> {
+    opts.check()?;
+    let dim = names.len();
+    let plan = Plan::new(dim, groups)?;
+    let n = opts.draws;
+    let blocks = 2 + plan.sets.len();
+    if out.a.len() != n
+        || out.b.len() != n
+        || out.sets.len() != plan.sets.len()
+        || out.sets.iter().any(|s| s.len() != n)
+    {
+        return Err(SensitivityError::ModelOutput {
+            expected: blocks * n,
+            got: out.a.len() + out.b.len() + out.sets.iter().map(Vec::len).sum::<usize>(),
+        });
+    }
     let boot = Bootstrap {
         gen: Philox::new(opts.bootstrap_seed),
         count: opts.bootstrap,
@@ -249,7 +305,7 @@ where
                 .iter()
                 .map(|&threshold| Quantity::Exceedance { threshold }),
         )
-        .map(|q| analyse(q, &out, &boot, &plan, names, groups))
+        .map(|q| analyse(q, out, &boot, &plan, names, groups))
         .collect();
     Ok(SobolAnalysis {
         draws: n,

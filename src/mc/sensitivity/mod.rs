@@ -73,11 +73,11 @@
 mod estimator;
 
 pub use estimator::{
-    pick_freeze, rank, Estimate, InputGroup, Quantity, QuantityIndices, SobolAnalysis, SobolIndex,
-    CONFIDENCE, MIN_EVENTS,
+    analyse_outputs, pick_freeze, pick_freeze_outputs, rank, Estimate, InputGroup, Outputs,
+    Quantity, QuantityIndices, SobolAnalysis, SobolIndex, CONFIDENCE, MIN_EVENTS,
 };
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::engine::{BackendInfo, EngineError, Evaluator, Problem};
 use crate::kinematics::{param_joint, param_kind, ParamKind, JOINTS, N_PARAMS};
@@ -221,7 +221,7 @@ pub enum SensitivityError {
 }
 
 /// What the inputs of the indices are.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum InputKind {
     /// Independent parameters: each input is one parameter.
     #[serde(rename = "independent parameters")]
@@ -325,6 +325,19 @@ pub fn run_sensitivity(
     ev: &mut dyn Evaluator,
     opts: &SensitivityOptions,
 ) -> Result<SensitivityResult, SensitivityError> {
+    let (out, design) = run_outputs(problem, ev, opts, 0..opts.draws)?;
+    let model = (problem.model.name.clone(), problem.n_points(), problem.seed);
+    design.result(model, ev.info(), &out, opts)
+}
+
+/// The outputs of base samples `range` of the analysis of [`run_sensitivity`] (a shard), and
+/// the design that analyses them once all are gathered.
+pub fn run_outputs(
+    problem: &Problem,
+    ev: &mut dyn Evaluator,
+    opts: &SensitivityOptions,
+    range: std::ops::Range<usize>,
+) -> Result<(Outputs, Design), SensitivityError> {
     opts.check()?;
     if ev.n_points() != problem.n_points() {
         return Err(SensitivityError::EvaluatorMismatch {
@@ -358,12 +371,10 @@ pub fn run_sensitivity(
             model: problem.model.name.clone(),
         });
     }
-    let names: Vec<String> = map.free.iter().map(|&i| param_name(i)).collect();
-    let skipped = (0..N_PARAMS)
-        .filter(|i| !map.free.contains(i))
-        .map(param_name)
-        .collect();
-    let groups = robot_groups(&map.free);
+    let design = Design {
+        input_kind,
+        free: map.free.clone(),
+    };
     let d = map.free.len();
     let draw = |k: u64, u: &mut [f64]| {
         let mut delta = [0.0; N_PARAMS];
@@ -380,17 +391,55 @@ pub fn run_sensitivity(
         ev.evaluate_offsets(&offsets, &mut w, None)?;
         Ok(w)
     };
-    let analysis = pick_freeze(&names, &groups, draw, model, opts)?;
-    Ok(SensitivityResult {
-        model: problem.model.name.clone(),
-        points: problem.n_points(),
-        seed: problem.seed,
-        input_kind,
-        parameters: names,
-        skipped_parameters: skipped,
-        backend: ev.info(),
-        analysis,
-    })
+    let out = pick_freeze_outputs(d, &robot_groups(&map.free), draw, model, opts, range)?;
+    Ok((out, design))
+}
+
+/// What the analysis of a robot's outputs needs besides the outputs: the inputs (free
+/// parameters, in input order) and what they are.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Design {
+    /// What the inputs are.
+    pub input_kind: InputKind,
+    /// Indices of the free parameters in the 30-vector, in input order.
+    pub free: Vec<usize>,
+}
+
+impl Design {
+    /// The indices from the outputs of all base samples (`out`, in base-sample order) of the
+    /// model named `model` with `points` test points and draw seed `seed`: the model itself is
+    /// not needed, so a merge of shards can run anywhere.
+    pub fn result(
+        &self,
+        (model, points, seed): (String, usize, u64),
+        backend: BackendInfo,
+        out: &Outputs,
+        opts: &SensitivityOptions,
+    ) -> Result<SensitivityResult, SensitivityError> {
+        if self.free.is_empty() || self.free.iter().any(|&i| i >= N_PARAMS) {
+            return Err(SensitivityError::Design(format!(
+                "free parameters {:?} must be a non-empty set of 0 … {}",
+                self.free,
+                N_PARAMS - 1
+            )));
+        }
+        let names: Vec<String> = self.free.iter().map(|&i| param_name(i)).collect();
+        let skipped = (0..N_PARAMS)
+            .filter(|i| !self.free.contains(i))
+            .map(param_name)
+            .collect();
+        let analysis = analyse_outputs(&names, &robot_groups(&self.free), out, opts)?;
+        Ok(SensitivityResult {
+            model,
+            points,
+            seed,
+            input_kind: self.input_kind,
+            parameters: names,
+            skipped_parameters: skipped,
+            backend,
+            analysis,
+        })
+    }
 }
 
 #[cfg(test)]
