@@ -867,8 +867,12 @@ impl Step {
     }
 }
 
-/// The per-component spread `σ̂_k` of the seed rows `seeds` of `u` (`d` columns).
+/// The per-component spread `σ̂_k` of the seed rows `seeds` of `u` (`d` columns); 1 (the
+/// unconditional spread) for a single seed, which has none.
 fn seed_spread(u: &[f64], seeds: &[usize], d: usize) -> Vec<f64> {
+    if seeds.len() < 2 {
+        return vec![1.0; d];
+    }
     let n = seeds.len() as f64;
     (0..d)
         .map(|c| {
@@ -877,7 +881,7 @@ fn seed_spread(u: &[f64], seeds: &[usize], d: usize) -> Vec<f64> {
                 .iter()
                 .map(|&i| (u[i * d + c] - mean).powi(2))
                 .sum::<f64>();
-            (ss / (n - 1.0).max(1.0)).sqrt()
+            (ss / (n - 1.0)).sqrt()
         })
         .collect()
 }
