@@ -1,7 +1,7 @@
 //! Which parameters to calibrate better, and which calibration factor does it: Sobol indices of
 //! `w` for the baseline calibration ([`crate::mc::sensitivity`]), then for the top-ranked
 //! parameters the σ that every factor level of the study's own calibrations gave
-//! (docs/METHOD.md §12).
+//! (docs/METHOD.md §13).
 //!
 //! The effect of a level on the top parameters is measured, not guessed: their σ come from the
 //! repeated simulated calibrations the study ran at that level. The summary per level is the
