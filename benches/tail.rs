@@ -4,12 +4,14 @@
 //!
 //! `cargo bench --bench tail` runs (1) the TX60 with only θ1 uncertain (σ = 0.01°, 20 test
 //! points), whose exact P_f(L) = 2Φ(−2 asin(L/2ρ_max)/σ) gives the threshold of P_f = 1e-9, and
-//! (2) the default TX60 (50 points) at the threshold of its ninth subset level (≈ 1e-9), each
-//! for `BENCH_REPS` seeds (default 3), and prints every run and the medians.
+//! (2) the default TX60 (50 points) at the threshold of its ninth subset level (≈ 1e-9), and
+//! (3) the same with modified Metropolis and its summed coefficient of variation (the proposal
+//! before adaptive conditional sampling), each for `BENCH_REPS` seeds (default 3), and prints
+//! every run and the medians.
 
 use gpu_amcs::engine::{CpuEvaluator, Problem, Reference};
 use gpu_amcs::kinematics::{tx60, RobotModel, Uncertainty, N_PARAMS};
-use gpu_amcs::mc::tail::{normal_quantile, run_tail, TailOptions, TailResult};
+use gpu_amcs::mc::tail::{normal_quantile, run_tail, ChainProposal, TailOptions, TailResult};
 
 const SIGMA_DEG: f64 = 0.01;
 
@@ -19,10 +21,21 @@ fn problem(m: RobotModel, points: usize, seed: u64) -> Problem {
 }
 
 fn run(pb: &Problem, thresholds: Vec<f64>, target: f64, cap: u64) -> TailResult {
+    run_with(pb, thresholds, target, cap, ChainProposal::default())
+}
+
+fn run_with(
+    pb: &Problem,
+    thresholds: Vec<f64>,
+    target: f64,
+    cap: u64,
+    proposal: ChainProposal,
+) -> TailResult {
     let opts = TailOptions {
         thresholds,
         target_cov: target,
         max_evaluations: cap,
+        proposal,
         ..TailOptions::default()
     };
     run_tail(&mut CpuEvaluator::new(pb.clone()), &pb.sampler, &opts, None).unwrap()
@@ -79,13 +92,24 @@ fn main() {
         })
         .collect();
     report("theta1-only, P_f = 1e-9", &theta1);
-    let default: Vec<TailResult> = (0..reps)
-        .map(|seed| {
-            let pb = problem(tx60(), 50, 200 + seed);
-            let probe = run(&pb, vec![10.0], 0.99, 9_000);
-            let l = probe.runs[0].levels[8].next.unwrap();
-            run(&pb, vec![l], 0.15, 10_000_000)
-        })
-        .collect();
-    report("default TX60, level-9 threshold", &default);
+    for (label, proposal) in [
+        (
+            "default TX60, level-9 threshold",
+            ChainProposal::AdaptiveConditional,
+        ),
+        (
+            "default TX60, level-9 threshold, modified Metropolis",
+            ChainProposal::ModifiedMetropolis,
+        ),
+    ] {
+        let runs: Vec<TailResult> = (0..reps)
+            .map(|seed| {
+                let pb = problem(tx60(), 50, 200 + seed);
+                let probe = run(&pb, vec![10.0], 0.99, 9_000);
+                let l = probe.runs[0].levels[8].next.unwrap();
+                run_with(&pb, vec![l], 0.15, 10_000_000, proposal)
+            })
+            .collect();
+        report(label, &runs);
+    }
 }

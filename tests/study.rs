@@ -85,6 +85,83 @@ fn quick_study_writes_tables_figures_and_shows_the_directions() {
     assert!(m1.windows(2).all(|w| w[1] < w[0]), "{m1:?}");
     let md = std::fs::read_to_string(out.join("STUDY.md")).unwrap();
     assert!(md.contains("Correlated parameters") && md.contains("22.9 %"));
+    check_ranking(&json, &md);
+    assert!(out.join("ranking.md").is_file() && out.join("ranking.csv").is_file());
+}
+
+/// The ranking section recomputed from the study's own JSON: the parameters come by decreasing
+/// total index; each level's σ ratios are that level's σ over the baseline level's (the level
+/// whose factors are the baseline's); `r` is the total-index-weighted mean of the squared
+/// ratios; the recommended factor has the smallest best `r`, below 1, and STUDY.md names it.
+fn check_ranking(json: &serde_json::Value, md: &str) {
+    let r = &json["ranking"];
+    let params = r["parameters"].as_array().unwrap();
+    assert!(params.len() >= 3, "{params:?}");
+    let totals: Vec<f64> = params
+        .iter()
+        .map(|p| p["total"].as_f64().unwrap())
+        .collect();
+    assert!(totals.windows(2).all(|w| w[0] >= w[1]), "{totals:?}");
+    let top: Vec<&str> = r["top"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|n| n.as_str().unwrap())
+        .collect();
+    assert_eq!(top.len(), 3);
+    let index = |name: &str| {
+        (0..N_PARAMS)
+            .find(|&i| format!("{}{}", ParamKind::ALL[i % 5].name(), i / 5 + 1) == name)
+            .unwrap_or_else(|| panic!("{name}"))
+    };
+    let levels = json["levels"].as_array().unwrap();
+    let baseline = &json["settings"]["baseline"];
+    let base = levels
+        .iter()
+        .find(|l| &l["factors"] == baseline)
+        .expect("a baseline level");
+    let sigma = |l: &serde_json::Value, i: usize| l["sigma"][i].as_f64().unwrap();
+    let weight: Vec<f64> = top
+        .iter()
+        .map(|n| {
+            params.iter().find(|p| p["name"] == *n).unwrap()["total"]
+                .as_f64()
+                .unwrap()
+                .max(0.0)
+        })
+        .collect();
+    let mut best: Option<(f64, String)> = None;
+    for f in r["factors"].as_array().unwrap() {
+        let name = f["factor"].as_str().unwrap();
+        let mine: Vec<&serde_json::Value> = levels.iter().filter(|l| l["factor"] == name).collect();
+        let effects = f["levels"].as_array().unwrap();
+        assert_eq!(effects.len(), mine.len());
+        for (e, l) in effects.iter().zip(&mine) {
+            let mut num = 0.0;
+            for (k, n) in top.iter().enumerate() {
+                let i = index(n);
+                let q = sigma(l, i) / sigma(base, i);
+                // Same arithmetic on the same f64 values: equal to rounding.
+                assert!((e["sigma_ratios"][k].as_f64().unwrap() - q).abs() < 1e-12);
+                num += weight[k] * q * q;
+            }
+            let rr = num / weight.iter().sum::<f64>();
+            assert!((e["variance_ratio"].as_f64().unwrap() - rr).abs() < 1e-12);
+            if best.as_ref().is_none_or(|b| rr < b.0) {
+                best = Some((rr, name.to_string()));
+            }
+        }
+    }
+    let (r_best, f_best) = best.unwrap();
+    assert!(
+        r_best < 1.0,
+        "no factor reduces the top parameters: {r_best}"
+    );
+    assert_eq!(r["recommended"].as_str().unwrap(), f_best);
+    assert!(
+        md.contains(&format!("The {f_best} factor reduces them most")),
+        "{md}"
+    );
 }
 
 #[test]

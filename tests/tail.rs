@@ -11,8 +11,8 @@ use gpu_amcs::engine::gpu::{GpuEvaluator, GpuOptions};
 use gpu_amcs::engine::{CpuEvaluator, Evaluator, Problem, Reference};
 use gpu_amcs::kinematics::{tx60, RobotModel, Uncertainty, N_PARAMS};
 use gpu_amcs::mc::tail::{
-    normal_quantile, run_tail, TailError, TailMethod, TailOptions, TailOutcome, TailResult,
-    TailSetting,
+    normal_quantile, run_tail, ChainProposal, TailError, TailMethod, TailOptions, TailOutcome,
+    TailResult, TailSetting,
 };
 
 /// `1 − Φ(x)` for x ≥ 0 by composite Simpson integration of the density over [x, x + 12]
@@ -134,8 +134,18 @@ fn theta1_closed_form_down_to_1e_9() {
 /// Over 200 seeds (one run each), the spread of the estimates equals the mean reported
 /// coefficient of variation within a factor 1.5: the standard deviation of a sample standard
 /// deviation of 200 is about 5 % (more for the skewed subset estimator), far inside the factor.
+/// For both proposals, each with its own combination of the levels' δ_j.
 #[test]
 fn reported_cov_is_honest() {
+    for proposal in [
+        ChainProposal::AdaptiveConditional,
+        ChainProposal::ModifiedMetropolis,
+    ] {
+        cov_is_honest(proposal);
+    }
+}
+
+fn cov_is_honest(proposal: ChainProposal) {
     let (_, r_max) = theta1_problem(0);
     let ls = vec![theta1_threshold(1e-4, r_max), theta1_threshold(1e-6, r_max)];
     let seeds = 200;
@@ -145,7 +155,11 @@ fn reported_cov_is_honest() {
     for seed in 0..seeds {
         let (pb, _) = theta1_problem(1000 + seed);
         // A cap that leaves room for the pilot run only.
-        let res = run_cpu(&pb, &subset(ls.clone(), 500, 0.99, 3_200));
+        let opts = TailOptions {
+            proposal,
+            ..subset(ls.clone(), 500, 0.99, 3_200)
+        };
+        let res = run_cpu(&pb, &opts);
         assert_eq!(res.runs.len(), 1);
         assert!(res.runs[0].complete);
         for (i, e) in res.estimates.iter().enumerate() {
@@ -162,10 +176,13 @@ fn reported_cov_is_honest() {
         let empirical = sd / exact;
         let ratio = empirical / cov[i];
         eprintln!(
-            "P_f {exact:.3e}: mean estimate {mean:.3e}, empirical cov {empirical:.3}, mean reported {:.3} (independent levels {:.3})",
+            "{proposal:?}, P_f {exact:.3e}: mean estimate {mean:.3e}, empirical cov {empirical:.3}, mean reported {:.3} (independent levels {:.3})",
             cov[i], cov_ind[i]
         );
-        assert!((1.0 / 1.5..=1.5).contains(&ratio), "ratio {ratio}");
+        assert!(
+            (1.0 / 1.5..=1.5).contains(&ratio),
+            "{proposal:?}: ratio {ratio}"
+        );
         // The mean of 200 estimates is unbiased within 4 of its standard errors.
         assert!(
             (mean - exact).abs() <= 4.0 * sd / n.sqrt(),
@@ -174,30 +191,66 @@ fn reported_cov_is_honest() {
     }
 }
 
-#[test]
-fn default_tx60_agrees_with_crude_monte_carlo() {
-    // A threshold with P_f ≈ 1e-4 from the 20th largest of 2·10^5 draws of another seed.
-    let pick = problem(tx60(), 20, 7);
+/// The default TX60 at `points` test points: a threshold with P_f ≈ 1e-4 (the 20th largest of
+/// 2·10^5 draws of another seed), then subset simulation (pilot N = 1000, `target`) and crude
+/// Monte Carlo (to `mc_target`, `mc_draws` at most) on seed 8. Checks that they agree within 3 combined standard
+/// deviations (each side's own reported CoV; a normal difference exceeds 3σ with probability
+/// 0.3 %) and that subset simulation reached its target; returns both.
+fn against_crude_mc(
+    points: usize,
+    target: f64,
+    mc_target: f64,
+    mc_draws: u64,
+) -> (TailResult, TailResult) {
+    let pick = problem(tx60(), points, 7);
     let mut w = vec![0.0; 200_000];
     CpuEvaluator::new(pick).evaluate(0, &mut w, None).unwrap();
     w.sort_by(|a, b| b.total_cmp(a));
     let l = w[19];
-    let pb = problem(tx60(), 20, 8);
-    let ss = run_cpu(&pb, &subset(vec![l], 1000, 0.1, 500_000));
+    let pb = problem(tx60(), points, 8);
+    let ss = run_cpu(&pb, &subset(vec![l], 1000, target, 2_000_000));
     let mc_opts = TailOptions {
         method: TailMethod::MonteCarlo,
-        ..subset(vec![l], 1000, 0.1, 1_000_000)
+        ..subset(vec![l], 1000, mc_target, mc_draws)
     };
     let mc = run_cpu(&pb, &mc_opts);
     let (a, b) = (&ss.estimates[0], &mc.estimates[0]);
     let (da, db) = (a.cov.unwrap() * a.p_f, b.cov.unwrap() * b.p_f);
     eprintln!(
-        "TX60 l = {l:.4} mm: subset {:.3e} ± {da:.1e} ({} evaluations), MC {:.3e} ± {db:.1e} ({} draws)",
-        a.p_f, ss.evaluations, b.p_f, mc.evaluations
+        "TX60 {points} points, l = {l:.4} mm: subset {:.4e} ± {da:.1e} (CoV {:.3}, {} evaluations, {:.1} s), \
+         crude MC {:.4e} ± {db:.1e} (CoV {:.3}, {} draws, {:.1} s), difference {:.2} combined σ",
+        a.p_f,
+        a.cov.unwrap(),
+        ss.evaluations,
+        ss.seconds,
+        b.p_f,
+        b.cov.unwrap(),
+        mc.evaluations,
+        mc.seconds,
+        (a.p_f - b.p_f).abs() / da.hypot(db)
     );
     assert!((a.p_f - b.p_f).abs() <= 3.0 * da.hypot(db));
     assert_eq!(ss.outcome, TailOutcome::TargetReached);
+    (ss, mc)
+}
+
+#[test]
+fn default_tx60_agrees_with_crude_monte_carlo() {
+    // 20 points, both at a target of 0.1: crude MC stops near 10^6 draws.
+    let (ss, mc) = against_crude_mc(20, 0.1, 0.1, 1_000_000);
     assert!(ss.evaluations < mc.evaluations);
+}
+
+/// The issue's comparison at full size (run with `--ignored --nocapture`; some 10 s of CPU,
+/// too slow for every test run, so `default_tx60_agrees_with_crude_monte_carlo` above is the
+/// always-run version at 10^6 draws): the default TX60 at its 50 default test points,
+/// `P_f ≈ 1e-4`, subset simulation at a target of 0.05 against crude Monte Carlo with all
+/// 10^7 draws (target 0.001 is out of reach: about 10^3 failures, CoV ≈ 0.03).
+#[test]
+#[ignore]
+fn default_tx60_against_crude_monte_carlo_1e7() {
+    let (_, mc) = against_crude_mc(50, 0.05, 0.001, 10_000_000);
+    assert_eq!(mc.evaluations, 10_000_000);
 }
 
 #[test]

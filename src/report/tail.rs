@@ -1,7 +1,7 @@
 //! Reports of a tail-probability run ([`TailResult`]): a table for the terminal, the estimates
 //! as CSV, and JSON (the result's own serde form).
 
-use crate::mc::tail::{TailMethod, TailOutcome, TailResult};
+use crate::mc::tail::{ChainProposal, TailMethod, TailOutcome, TailResult};
 use std::fmt::Write;
 
 fn opt(x: Option<f64>, f: impl Fn(f64) -> String) -> String {
@@ -12,9 +12,14 @@ fn opt(x: Option<f64>, f: impl Fn(f64) -> String) -> String {
 /// the last subset-simulation run.
 pub fn render_text(r: &TailResult) -> String {
     let mut s = String::new();
-    let method = match r.method {
-        TailMethod::Subset => "subset simulation (modified Metropolis; CoV after Au & Beck)",
-        TailMethod::MonteCarlo => "crude Monte Carlo",
+    let method = match (r.method, r.subset.as_ref().map(|s| s.proposal)) {
+        (TailMethod::Subset, Some(ChainProposal::ModifiedMetropolis)) => {
+            "subset simulation (modified Metropolis; CoV after Au & Beck, levels summed)"
+        }
+        (TailMethod::Subset, _) => {
+            "subset simulation (adaptive conditional sampling; CoV after Au & Beck, adjacent levels correlated)"
+        }
+        (TailMethod::MonteCarlo, _) => "crude Monte Carlo",
     };
     let _ = writeln!(s, "Tail probability P_f = Pr[w ≥ L], {method}");
     let outcome = match r.outcome {

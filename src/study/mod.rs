@@ -4,7 +4,9 @@
 //!
 //! [`settings`] holds the factors, levels and effort; [`runner`] runs the study; [`tables`]
 //! writes Tables 1 and 2 (and the correlation and accuracy tables) beside the paper's; [`figures`]
-//! draws Figs. 4–9 as SVG; [`findings`] turns the numbers into the `STUDY.md` text.
+//! draws Figs. 4–9 as SVG; [`findings`] turns the numbers into the `STUDY.md` text; [`ranking`]
+//! ranks the parameters by their Sobol indices at the baseline calibration and measures which
+//! factor reduces the top ones' σ.
 //! [`write_outputs`] writes everything into a directory.
 //!
 //! ```no_run
@@ -15,6 +17,7 @@
 
 pub mod figures;
 pub mod findings;
+pub mod ranking;
 pub mod runner;
 pub mod settings;
 pub mod tables;
@@ -35,6 +38,8 @@ pub fn output_files(s: &StudyResult) -> Vec<(String, String)> {
         ("correlation.csv".into(), csv(&correlation_rows(s))),
         ("accuracy.md".into(), markdown(&accuracy_rows(s))),
         ("accuracy.csv".into(), csv(&accuracy_rows(s))),
+        ("ranking.md".into(), ranking_markdown(&s.ranking)),
+        ("ranking.csv".into(), csv(&ranking::rows(&s.ranking))),
         (
             "paper_tables.md".into(),
             format!(
@@ -56,4 +61,16 @@ pub fn output_files(s: &StudyResult) -> Vec<(String, String)> {
 pub fn write_outputs(s: &StudyResult, dir: &std::path::Path) -> Result<(), StudyError> {
     crate::report::write_files(dir, &output_files(s))?;
     Ok(())
+}
+
+/// `ranking.md`: the parameters by total index, then the factor levels' effect on the top ones.
+fn ranking_markdown(r: &ranking::ParameterRanking) -> String {
+    format!(
+        "Parameters by total Sobol index of w (baseline calibration, N = {}, {} evaluations)\n\n{}\n\
+         σ of the top parameters at each factor level, over the baseline (best level in bold)\n\n{}",
+        r.sensitivity.analysis.draws,
+        r.sensitivity.analysis.evaluations,
+        tables::markdown(&ranking::parameter_rows(r)),
+        tables::markdown(&ranking::rows(r))
+    )
 }

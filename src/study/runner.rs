@@ -3,10 +3,12 @@
 //! of test points MCS, AMCS at every δ with independent σ (the paper's assumption) and AMCS at the
 //! first δ with the full covariance of the identified parameters (what the paper could not show).
 
+use super::ranking::{rank, ParameterRanking};
 use super::settings::{Factor, StudySettings};
 use crate::engine::backend::make_evaluator;
 use crate::engine::{Problem, Reference};
 use crate::kinematics::{param_kind, RobotModel, N_PARAMS};
+use crate::mc::sensitivity::{run_sensitivity, SensitivityOptions};
 use crate::mc::stats::{ecdf_grid, histogram};
 use crate::mc::{
     run_amcs, run_mcs, AmcsOptions, BatchTrace, McResult, McsOptions, RunSettings, Tolerance,
@@ -40,6 +42,9 @@ pub enum StudyError {
     /// A Monte Carlo run failed.
     #[error(transparent)]
     Mc(#[from] crate::mc::McError),
+    /// The Sobol indices of the baseline calibration failed.
+    #[error(transparent)]
+    Sensitivity(#[from] crate::mc::sensitivity::SensitivityError),
     /// Writing the outputs failed.
     #[error(transparent)]
     Report(#[from] crate::report::ReportError),
@@ -142,6 +147,9 @@ pub struct StudyResult {
     pub notes: Vec<String>,
     /// One entry per level, factors in order.
     pub levels: Vec<LevelResult>,
+    /// The parameters ranked by their Sobol indices at the baseline calibration, and what each
+    /// factor's levels did to the top ones' σ.
+    pub ranking: ParameterRanking,
     /// Total wall time, seconds.
     pub seconds: f64,
 }
@@ -190,7 +198,7 @@ pub fn run_study_on(
         f.check()?;
     }
     let per_level = 1 + settings.point_counts.len() as u64 * (2 + settings.deltas.len() as u64);
-    let total = levels.len() as u64 * per_level;
+    let total = levels.len() as u64 * per_level + 1;
     let mut done = 0u64;
     let tick = |done: &mut u64, msg: &str| {
         if let Some(p) = progress {
@@ -210,10 +218,14 @@ pub fn run_study_on(
     };
     let mut notes = Vec::new();
     let mut out = Vec::with_capacity(levels.len());
+    let mut baseline = None;
     for (factor, label, f) in levels {
         let name = format!("{} {label}", factor.name());
         tick(&mut done, &format!("{name}: calibrating ({} runs)", f.runs));
         let cal = calibrate(exp, &f, settings.calibration_seed)?;
+        if f == settings.baseline && baseline.is_none() {
+            baseline = Some(cal.independent.clone());
+        }
         let acc = accuracy_check(
             exp,
             &cal.independent,
@@ -302,6 +314,13 @@ pub fn run_study_on(
             points: results,
         });
     }
+    tick(&mut done, "baseline: Sobol indices");
+    let baseline = match baseline {
+        Some(m) => m,
+        // No level is the baseline (e.g. only the runs factor, at other counts): calibrate it.
+        None => calibrate(exp, &settings.baseline, settings.calibration_seed)?.independent,
+    };
+    let ranking = baseline_ranking(settings, &baseline, &point_sets, &out)?;
     if let Some(p) = progress {
         p(total, total, "done");
     }
@@ -310,6 +329,41 @@ pub fn run_study_on(
         robot: exp.truth.name.clone(),
         notes,
         levels: out,
+        ranking,
         seconds: t0.elapsed().as_secs_f64(),
     })
+}
+
+/// Sobol indices of `w` for the baseline calibration at the largest point set, and the
+/// factor levels' effect on the top parameters ([`super::ranking`]).
+fn baseline_ranking(
+    settings: &StudySettings,
+    model: &RobotModel,
+    point_sets: &[Vec<[f64; crate::kinematics::JOINTS]>],
+    levels: &[LevelResult],
+) -> Result<ParameterRanking, StudyError> {
+    let pts = point_sets
+        .iter()
+        .max_by_key(|p| p.len())
+        .map_or(&[][..], |p| &p[..]);
+    let problem = Problem::new(model.clone(), pts, &Reference::Calibrated, settings.mc_seed)
+        .map_err(|source| StudyError::Problem {
+            context: "baseline ranking".into(),
+            source,
+        })?;
+    let (mut ev, _) = make_evaluator(
+        problem.clone(),
+        settings.backend,
+        settings.adapter.as_deref(),
+    )?;
+    let opts = SensitivityOptions {
+        draws: settings.sensitivity_draws,
+        ..SensitivityOptions::default()
+    };
+    let sens = run_sensitivity(&problem, ev.as_mut(), &opts)?;
+    let sig = model.uncertainty.sigmas();
+    let sigma: Vec<f64> = (0..N_PARAMS)
+        .map(|i| sig[i] / param_kind(i).to_internal())
+        .collect();
+    Ok(rank(sens, &sigma, levels))
 }

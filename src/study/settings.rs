@@ -4,7 +4,8 @@
 //! ([`Factors::default`]: 20 runs, 50 % range, 2° step, 25 % speed, negative→positive):
 //! repeatability 10, 20, 30, 40, 50 runs; range 10, 25, 50, 75, 100 %; step 1–5°; speed 10, 25,
 //! 50, 75, 100 %; start negative→positive and positive→negative. [`StudySettings::quick`] keeps
-//! two or three levels per factor, 10 runs per calibration and 10^5 MCS draws.
+//! two or three levels per factor, 10 runs per calibration, 10^5 MCS draws and 2^10 base samples
+//! for the parameter ranking (2^12 in the full study).
 
 use crate::engine::backend::BackendChoice;
 use crate::points::WorkspaceBox;
@@ -147,6 +148,9 @@ pub struct StudySettings {
     pub workspace: WorkspaceBox,
     /// Test points of the before/after accuracy check.
     pub accuracy_points: usize,
+    /// Base samples N of the Sobol indices of the baseline calibration (the parameter
+    /// ranking), a power of 2.
+    pub sensitivity_draws: usize,
     /// Evaluation backend.
     #[serde(skip)]
     pub backend: BackendChoice,
@@ -172,6 +176,7 @@ impl Default for StudySettings {
             thresholds: (1..=8).map(|i| i as f64 / 10.0).collect(),
             workspace: WorkspaceBox::default(),
             accuracy_points: 50,
+            sensitivity_draws: 1 << 12,
             backend: BackendChoice::Auto,
             adapter: None,
         }
@@ -188,6 +193,7 @@ impl StudySettings {
                 ..Factors::default()
             },
             mcs_draws: 100_000,
+            sensitivity_draws: 1 << 10,
             ..Self::default()
         }
     }
