@@ -264,6 +264,7 @@ pub fn identify_run(
         fixed: chain.fixed,
         limits_deg: nominal.limits_deg,
         tool: chain.tool,
+        tool_sigma: [0.0; 3],
         uncertainty: Uncertainty::Independent([0.0; N_PARAMS]),
     };
     let to_file = |p: &[f64; N_PARAMS], j: usize| -> [f64; 5] {

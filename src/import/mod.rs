@@ -293,6 +293,7 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         fixed: c.fixed,
         limits_deg: std::array::from_fn(|j| chain.joints[j].limits_deg),
         tool: c.tool,
+        tool_sigma: [0.0; 3],
         uncertainty: Uncertainty::Independent([0.0; N_PARAMS]),
     };
     let (max_deviation_mm, configurations) = prove(chain, &model, path)?;

@@ -84,6 +84,7 @@ pub fn tx60() -> RobotModel {
             (-270.0, 270.0),
         ],
         tool: [0.0, 0.0, 0.0],
+        tool_sigma: [0.0; 3],
         uncertainty: Uncertainty::Independent(sigma),
     }
 }
