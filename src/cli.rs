@@ -176,23 +176,19 @@ pub struct ModelArgs {
 /// The workspace box of generated test points.
 #[derive(Args, Debug, Clone)]
 pub struct BoxArgs {
-    /// Workspace box centre for generated points, mm: x,y,z.
+    /// Workspace box centre for generated points, mm: x,y,z [default: from the robot's reach;
+    /// 250,0,200 for the TX60].
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "250,0,200",
         value_name = "X,Y,Z",
         allow_hyphen_values = true
     )]
-    pub box_center: Vec<f64>,
-    /// Workspace box edge lengths for generated points, mm: x,y,z.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "900,1200,800",
-        value_name = "X,Y,Z"
-    )]
-    pub box_size: Vec<f64>,
+    pub box_center: Option<Vec<f64>>,
+    /// Workspace box edge lengths for generated points, mm: x,y,z [default: from the robot's
+    /// reach; 900,1200,800 for the TX60].
+    #[arg(long, value_delimiter = ',', value_name = "X,Y,Z")]
+    pub box_size: Option<Vec<f64>>,
 }
 
 /// Evaluation backend and GPU adapter.

@@ -55,18 +55,30 @@ pub fn load_model(file: Option<&Path>, name: &str) -> Result<RobotModel> {
 }
 
 impl BoxArgs {
-    /// The workspace box.
-    pub fn workspace(&self) -> Result<WorkspaceBox> {
-        let three = |v: &[f64], flag: &str| -> Result<[f64; 3]> {
-            match v {
-                [x, y, z] => Ok([*x, *y, *z]),
-                _ => bail!("{flag} needs three numbers x,y,z (mm), got {}", v.len()),
-            }
-        };
+    /// The workspace box for `model`: each of centre and size as given, else the robot's
+    /// default ([`WorkspaceBox::for_robot`]).
+    pub fn workspace(&self, model: &RobotModel) -> Result<WorkspaceBox> {
+        let default = WorkspaceBox::for_robot(model);
         Ok(WorkspaceBox {
-            center: three(&self.box_center, "--box-center")?,
-            size: three(&self.box_size, "--box-size")?,
+            center: three(self.box_center.as_deref(), "--box-center")?.unwrap_or(default.center),
+            size: three(self.box_size.as_deref(), "--box-size")?.unwrap_or(default.size),
         })
+    }
+
+    /// Checks the given flags' shapes (three numbers each).
+    pub fn check(&self) -> Result<()> {
+        three(self.box_center.as_deref(), "--box-center")?;
+        three(self.box_size.as_deref(), "--box-size")?;
+        Ok(())
+    }
+}
+
+/// A flag of three numbers x,y,z (mm), when given.
+fn three(v: Option<&[f64]>, flag: &str) -> Result<Option<[f64; 3]>> {
+    match v {
+        None => Ok(None),
+        Some([x, y, z]) => Ok(Some([*x, *y, *z])),
+        Some(v) => bail!("{flag} needs three numbers x,y,z (mm), got {}", v.len()),
     }
 }
 
@@ -159,7 +171,7 @@ impl ProblemArgs {
             bail!("--nominal is used only with --reference nominal");
         }
         if self.points_file.is_none() {
-            self.workspace.workspace()?;
+            self.workspace.check()?;
             if self.points > gpu_amcs::points::MAX_POINTS {
                 return Err(anyhow::Error::new(gpu_amcs::points::PointsError::TooMany(
                     self.points,
@@ -201,7 +213,7 @@ impl ProblemArgs {
             None => points::generate(
                 &model,
                 self.points,
-                &self.workspace.workspace()?,
+                &self.workspace.workspace(&model)?,
                 self.points_seed,
             )
             .context("--points")?,

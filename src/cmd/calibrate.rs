@@ -47,7 +47,7 @@ impl Run for CalibrateArgs {
             &exp,
             &cal.independent,
             a.accuracy_points,
-            &WorkspaceBox::default(),
+            &WorkspaceBox::for_robot(&exp.nominal),
             a.factors.seed ^ 0x5eed,
         )?;
         // Everything printed is built first and the model file is written before any of it is
