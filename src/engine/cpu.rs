@@ -352,6 +352,50 @@ mod tests {
         Problem::new(tx60(), &pts, &Reference::Calibrated, 42).unwrap()
     }
 
+    /// A base transform moves both the analysed and the reference positions rigidly, so the
+    /// errors the evaluator computes in the base frame equal those of the positions in the
+    /// description's frame (KUKA KR 6 with its base Rx(180°); f64 rounding of 1000 mm values
+    /// through one rotation, 1e-9 mm).
+    #[test]
+    fn errors_are_invariant_to_the_base_transform() {
+        let mut m = crate::kinematics::kr6r700sixx();
+        assert!(m.base.is_some());
+        let mut s = [0.0; N_PARAMS];
+        for (i, v) in s.iter_mut().enumerate() {
+            if m.fixed[i / 5].kind() != crate::kinematics::param_kind(i) {
+                *v = if crate::kinematics::param_kind(i).is_angle() {
+                    1e-4
+                } else {
+                    0.02
+                };
+            }
+        }
+        m.uncertainty = crate::kinematics::Uncertainty::Independent(s);
+        m.tool_sigma = [0.01; 3];
+        let pts = [[10.0, -20.0, 30.0, 40.0, 50.0, 60.0], [0.0; 6]];
+        let pb = Problem::new(m.clone(), &pts, &Reference::Calibrated, 3).unwrap();
+        let mut ev = CpuEvaluator::new(pb.clone());
+        let (mut w, mut e) = (vec![0.0; 9], vec![0.0; 18]);
+        ev.evaluate(0, &mut w, Some(&mut e)).unwrap();
+        for k in 0..9 {
+            let mut drawn = m.clone();
+            drawn.params = pb.sampler.draw(k as u64);
+            let t = pb.sampler.tool_deltas(k as u64);
+            drawn.tool = std::array::from_fn(|c| m.tool[c] + t[c]);
+            for (j, q) in pb.points.iter().enumerate() {
+                let (a, b) = (drawn.world_position(q), m.world_position(q));
+                let d =
+                    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+                assert!(
+                    (d - e[k * 2 + j]).abs() < 1e-9,
+                    "{k} {j}: {d} vs {}",
+                    e[k * 2 + j]
+                );
+                assert!(d > 1e-3);
+            }
+        }
+    }
+
     /// A tool spread: every draw's errors equal direct forward kinematics of the drawn
     /// parameters with the drawn tool point (f64 throughout; 1e-10 mm covers the series and
     /// summation order), and the tool's offset changes them.

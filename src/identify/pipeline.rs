@@ -265,6 +265,7 @@ pub fn identify_run(
         limits_deg: nominal.limits_deg,
         tool: chain.tool,
         tool_sigma: [0.0; 3],
+        base: None,
         uncertainty: Uncertainty::Independent([0.0; N_PARAMS]),
     };
     let to_file = |p: &[f64; N_PARAMS], j: usize| -> [f64; 5] {

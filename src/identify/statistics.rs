@@ -116,6 +116,7 @@ pub fn parameter_statistics(models: &[RobotModel]) -> Option<RobotModel> {
         tool: std::array::from_fn(|k| mean[N_PARAMS + k]),
         tool_sigma: std::array::from_fn(|k| sigma[N_PARAMS + k]),
         uncertainty: Uncertainty::Independent(std::array::from_fn(|i| sigma[i])),
+        base: first.base,
     })
 }
 

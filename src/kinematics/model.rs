@@ -190,6 +190,36 @@ impl Uncertainty {
     }
 }
 
+/// A rigid placement of the model's base frame in the frame a description uses (a cell or
+/// world frame): `p_world = Trans(xyz) · Rz(yaw) · Ry(pitch) · Rx(roll) · p_base`, as a URDF
+/// `<origin>`. It lets a robot whose first axis is not the base +z axis (ROS-Industrial's KUKA KR 6
+/// has joint A1 about −z) keep its own frame. Positions and errors are invariant to it: `w` and
+/// every `e_j` compare two positions moved by the same rigid transform, so the evaluators ignore
+/// it; forward kinematics (`fk`), import and export apply it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BaseTransform {
+    /// Translation, mm.
+    pub xyz: [f64; 3],
+    /// Roll, pitch, yaw, radians (the file writes degrees).
+    pub rpy: [f64; 3],
+}
+
+impl BaseTransform {
+    /// The transform as an isometry (mm).
+    pub fn isometry(&self) -> nalgebra::Isometry3<f64> {
+        nalgebra::Isometry3::from_parts(
+            nalgebra::Translation3::new(self.xyz[0], self.xyz[1], self.xyz[2]),
+            nalgebra::UnitQuaternion::from_euler_angles(self.rpy[0], self.rpy[1], self.rpy[2]),
+        )
+    }
+
+    /// `p` (base frame, mm) in the outer frame.
+    pub fn apply(&self, p: [f64; 3]) -> [f64; 3] {
+        let v = self.isometry() * nalgebra::Point3::from(p);
+        [v.x, v.y, v.z]
+    }
+}
+
 /// A robot model: parameter values (the calibrated means), structure, limits, tool and spread.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RobotModel {
@@ -209,6 +239,8 @@ pub struct RobotModel {
     pub tool_sigma: [f64; 3],
     /// Parameter uncertainty.
     pub uncertainty: Uncertainty,
+    /// Placement of the base frame in the description's frame; `None` = identity.
+    pub base: Option<BaseTransform>,
 }
 
 /// Largest magnitude of a length in a model (`d`, `a`, the tool's coordinates), mm: 100 m, far
@@ -299,8 +331,17 @@ struct CovarianceFile {
 
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+struct BaseFile {
+    xyz: Vec<f64>,
+    rpy: Vec<f64>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct ModelFile {
     name: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    base: Option<BaseFile>,
     tool: Vec<f64>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     tool_sigma: Option<Vec<f64>>,
@@ -363,6 +404,25 @@ impl RobotModel {
                 )
             })?),
         };
+        let base = match &file.base {
+            None => None,
+            Some(b) => {
+                let three = |v: &[f64], field: &str, unit: &str| -> Result<[f64; 3], ModelError> {
+                    v.try_into().map_err(|_| {
+                        bad(
+                            field,
+                            format!("must be exactly 3 numbers ({unit}), found {}", v.len()),
+                        )
+                    })
+                };
+                let xyz = three(&b.xyz, "base.xyz", "mm")?;
+                let rpy = three(&b.rpy, "base.rpy", "roll, pitch, yaw in deg")?;
+                Some(BaseTransform {
+                    xyz,
+                    rpy: rpy.map(f64::to_radians),
+                })
+            }
+        };
         let mut params = [0.0; N_PARAMS];
         let mut sigma = [0.0; N_PARAMS];
         let mut fixed = [FixedParam::Beta; JOINTS];
@@ -408,6 +468,7 @@ impl RobotModel {
             tool,
             tool_sigma: tool_sigma_file.unwrap_or([0.0; 3]),
             uncertainty,
+            base,
         };
         // A 33 × 33 covariance carries the tool's spread; `tool_sigma`, when given, must repeat
         // its diagonal.
@@ -459,6 +520,13 @@ impl RobotModel {
             check_magnitude(&format!("tool[{k}]"), v, MAX_LENGTH_MM, "mm")?;
         }
         check_tool_sigma(&self.tool_sigma)?;
+        if let Some(b) = &self.base {
+            for k in 0..3 {
+                check_magnitude(&format!("base.xyz[{k}]"), b.xyz[k], MAX_LENGTH_MM, "mm")?;
+                let deg = b.rpy[k].to_degrees();
+                check_magnitude(&format!("base.rpy[{k}]"), deg, MAX_ANGLE_DEG, "deg")?;
+            }
+        }
         for j in 0..JOINTS {
             for kind in ParamKind::ALL {
                 let v = self.params[param_index(j, kind)] / kind.to_internal();
@@ -508,6 +576,16 @@ impl RobotModel {
                 let free: Vec<usize> = self.free_inputs().into_iter().filter(|&i| i < n).collect();
                 check_positive_definite(c, n, &free)
             }
+        }
+    }
+
+    /// Tool-point position (mm) at joint angles `q` (radians) in the description's frame: the
+    /// MDH chain's [`super::position`], then the [`RobotModel::base`] transform.
+    pub fn world_position(&self, q: &[f64; JOINTS]) -> [f64; 3] {
+        let p = super::position(&self.params, &self.tool, q);
+        match &self.base {
+            None => p,
+            Some(b) => b.apply(p),
         }
     }
 
@@ -586,6 +664,23 @@ impl RobotModel {
             "# sigma: standard deviation of each parameter (0 = exactly known)."
         );
         let _ = writeln!(s, "name = {}", toml_string(&self.name));
+        if let Some(b) = &self.base {
+            let _ = writeln!(
+                s,
+                "# base frame in the description's frame: Trans(xyz, mm) Rz(yaw) Ry(pitch) Rx(roll), deg"
+            );
+            let r = b.rpy.map(f64::to_degrees);
+            let _ = writeln!(
+                s,
+                "base = {{ xyz = [{}, {}, {}], rpy = [{}, {}, {}] }}",
+                fnum(b.xyz[0]),
+                fnum(b.xyz[1]),
+                fnum(b.xyz[2]),
+                fnum(r[0]),
+                fnum(r[1]),
+                fnum(r[2])
+            );
+        }
         let _ = writeln!(s, "# tracker target in the flange frame, mm");
         let _ = writeln!(
             s,
