@@ -122,10 +122,14 @@ pub struct FactorArgs {
     /// Start position: sweep direction of every joint.
     #[arg(long, value_enum, default_value_t = StartArg::NegToPos)]
     pub start: StartArg,
-    /// Seed of the simulated true robot (the nominal TX60 with 0.3 mm / 0.03° class errors).
+    /// Seed of the simulated true robot (the nominal robot with 0.3 mm / 0.03° class errors).
     #[arg(long, default_value_t = 2025, value_name = "SEED")]
     pub robot_seed: u64,
-    /// The true robot as a model file instead (same structure as the TX60; its tool is the target).
+    /// The nominal robot (its design geometry): a model file or a preset.
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// The true robot as a model file instead (same structure as the nominal robot; its tool is
+    /// the target).
     #[arg(long, value_name = "FILE")]
     pub truth: Option<PathBuf>,
     /// Seed of the measurement noise (run r uses a seed derived from it and r).

@@ -286,15 +286,16 @@ impl FactorArgs {
     pub fn experiment(&self) -> Result<(Experiment, Factors)> {
         let f = self.factors();
         f.check().map_err(simulate_setting)?;
+        let mut nominal = self.model.load()?;
         let exp = match &self.truth {
-            None => Experiment::tx60(self.robot_seed),
+            None => Experiment::for_robot(nominal, self.robot_seed),
             Some(p) => {
                 let truth = RobotModel::from_file(p).context("--truth")?;
-                let mut nominal = preset("tx60")?;
                 if truth.fixed != nominal.fixed {
                     bail!(
-                        "--truth {}: its fixed d/β pattern differs from the TX60's",
-                        p.display()
+                        "--truth {}: its fixed d/β pattern differs from the nominal model's ({})",
+                        p.display(),
+                        nominal.name
                     );
                 }
                 nominal.tool = truth.tool;
@@ -302,6 +303,17 @@ impl FactorArgs {
             }
         };
         Ok((exp, f))
+    }
+
+    /// The files these flags read (`--truth`, `--model`), which no output may overwrite.
+    pub fn inputs(&self) -> Vec<(&'static str, &Path)> {
+        [
+            ("--truth", self.truth.as_deref()),
+            ("--model", self.model.model.as_deref()),
+        ]
+        .into_iter()
+        .filter_map(|(f, p)| p.map(|p| (f, p)))
+        .collect()
     }
 
     /// The factor levels.
