@@ -517,6 +517,12 @@ fn every_command_runs_on_every_preset() {
             text.contains("tool_sigma"),
             "{preset}: the tool's spread is estimated"
         );
+        // The KR 6's base transform carries over to the calibrated model.
+        assert_eq!(
+            text.contains("base = {"),
+            preset == "kr6r700sixx",
+            "{preset}"
+        );
         let pts = ok(&["points", "5", "--model", m]);
         assert_eq!(pts.lines().count(), 6, "{preset}: {pts}");
         let q = p("q.csv");
