@@ -12,7 +12,7 @@
 //! only the source of the offsets δ differs (drawn or read from the matrix), so a row equal to
 //! [`crate::sampling::ParamSampler::deltas`] of draw `k` gives the bits of draw `k`.
 //!
-//! The tool point's offset (the last three inputs of a draw, docs/METHOD.md §11) moves the
+//! The tool point's offset (the last three inputs of a draw, docs/METHOD.md §14) moves the
 //! point the chain starts from: `p_7 = p_tool + δ_tool` in the flange frame. With no tool spread
 //! `δ_tool = 0` and `p_tool + 0 = p_tool` exactly, so the results keep their bits.
 

@@ -17,7 +17,7 @@ pub const N_PARAMS: usize = JOINTS * PARAMS_PER_JOINT;
 pub const TOOL_COORDS: usize = 3;
 /// Number of uncertain inputs of a draw: the [`N_PARAMS`] parameters, then the tool point's x,
 /// y, z ([`tool_index`]). Offset vectors, offset-matrix rows and a full covariance have this
-/// length (docs/METHOD.md §11).
+/// length (docs/METHOD.md §14).
 pub const N_UNCERTAIN: usize = N_PARAMS + TOOL_COORDS;
 
 /// Index of tool coordinate `k` (0 = x, 1 = y, 2 = z) among the [`N_UNCERTAIN`] inputs.

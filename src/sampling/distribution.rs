@@ -5,7 +5,7 @@
 //! Parameter `i` always uses standard normal number `i` of its draw, so a diagonal covariance and
 //! the equivalent σ list give bit-identical draws.
 //!
-//! # Stream and slot layout (docs/METHOD.md §6 and §11)
+//! # Stream and slot layout (docs/METHOD.md §6 and §14)
 //!
 //! Draw `k` of a run keyed by the seed is the Philox-4×32-10 counter
 //! `(k mod 2³², k div 2³², b, PARAM_STREAM)` for blocks `b = 0 … 8`; block `b` gives the four
