@@ -2,12 +2,14 @@
 // Composed after philox.wgsl. One invocation per parameter vector, two entry points that share
 // the kinematics (point_errors):
 //   max_point_error: counter draws first + i,
-//     1. normals of the draw (Philox blocks the free parameters use, Box–Muller),
-//     2. parameter offsets δ: independent δ_i = σ_i z_i, or correlated
+//     1. normals of the draw (Philox blocks 0–8 the free inputs use, Box–Muller; input i uses
+//        normal i: parameters 0–29, tool x, y, z 30–32),
+//     2. offsets δ of the 33 inputs: independent δ_i = σ_i z_i, or correlated
 //        δ_free[a] = Σ_{b<=a} L[a][b] z[free[b]];
-//   max_point_error_offsets: δ read from row i of the offset matrix (N_PARAMS f32 per row);
+//   max_point_error_offsets: δ read from row i of the offset matrix (N_INPUTS f32 per row);
 // then at every test point the deviation Δ of the end position from the mean-parameter chain,
-// propagated from the tool to the base (see src/engine/deviation.rs for the formulation and its
+// propagated from the tool to the base, starting from the tool point's own offset
+// Δ_7 = δ_tool = (δ_30, δ_31, δ_32) (see src/engine/deviation.rs for the formulation and its
 // error budget), e_j = |Δ_1 + o_j|, w = max_j e_j.
 // Only small quantities (offsets, rotation differences, deviations) are formed in f32; the
 // ~1000 mm nominal positions enter only multiplied by small rotation differences.
@@ -15,7 +17,7 @@
 struct Config {
     key: vec2<u32>,
     m: u32,
-    // 0: independent (spread = σ[30]); 1: correlated (spread = L, nfree × nfree row-major)
+    // 0: independent (spread = σ[33]); 1: correlated (spread = L, nfree × nfree row-major)
     mode: u32,
     nfree: u32,
     // bit b set: Philox block b feeds some free parameter
@@ -43,11 +45,13 @@ struct Chunk {
 @group(0) @binding(5) var<storage, read> pts: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read_write> w_out: array<f32>;
 @group(0) @binding(7) var<storage, read_write> e_out: array<f32>;
-// offset path: row i = δ of parameter vector i, N_PARAMS entries (mm, rad)
+// offset path: row i = δ of parameter vector i, N_INPUTS entries (mm, rad; tool last)
 @group(0) @binding(8) var<storage, read> offsets_in: array<f32>;
 
 const WORDS_PER_POINT: u32 = 13u;
-const N_PARAMS: u32 = 30u;
+const N_INPUTS: u32 = 33u;
+// Philox blocks of 4 normals per draw: 9 cover the 33 inputs
+const N_BLOCKS: u32 = 9u;
 const WORKGROUP_SIZE: u32 = 64u;
 
 // Offsets of one joint's rotations for a draw: α' and β' as (cos', sin', cos' − cos,
@@ -112,9 +116,9 @@ fn joint_step(dv: vec3<f32>, A: vec4<f32>, B: vec4<f32>, tr: vec4<f32>, o: Joint
 }
 
 // Offsets δ of counter draw `draw` (the CPU sampler's definition, in f32).
-fn draw_offsets(draw: vec2<u32>) -> array<f32, 30> {
-    var z: array<f32, 32>;
-    for (var b = 0u; b < 8u; b++) {
+fn draw_offsets(draw: vec2<u32>) -> array<f32, 33> {
+    var z: array<f32, 36>;
+    for (var b = 0u; b < N_BLOCKS; b++) {
         if ((cfg.block_mask & (1u << b)) != 0u) {
             let v = normals_block(draw, b, 0u, cfg.key);
             z[4u * b] = v.x;
@@ -129,13 +133,13 @@ fn draw_offsets(draw: vec2<u32>) -> array<f32, 30> {
         }
     }
 
-    var d: array<f32, 30>;
+    var d: array<f32, 33>;
     if (cfg.mode == 0u) {
-        for (var p = 0u; p < N_PARAMS; p++) {
+        for (var p = 0u; p < N_INPUTS; p++) {
             d[p] = spread[p] * z[p];
         }
     } else {
-        for (var p = 0u; p < N_PARAMS; p++) {
+        for (var p = 0u; p < N_INPUTS; p++) {
             d[p] = 0.0;
         }
         let n = cfg.nfree;
@@ -152,7 +156,7 @@ fn draw_offsets(draw: vec2<u32>) -> array<f32, 30> {
 
 // Errors of the parameter vector mean + d at every test point: e_out row i (if asked for) and
 // w_out[i] = max_j e_j.
-fn point_errors(i: u32, d: array<f32, 30>) {
+fn point_errors(i: u32, d: array<f32, 33>) {
     // Per joint: α' and β' as (cos', sin', cos' − cos, sin' − sin); θ as (sin h, cos h) with
     // h = δθ/2; and (δa, δd). Constant indices throughout, so these stay in registers.
     let j0 = joint_offsets(0u, d[0], d[1], d[2], d[3], d[4]);
@@ -172,7 +176,8 @@ fn point_errors(i: u32, d: array<f32, 30>) {
     var w = 0.0;
     for (var pj = 0u; pj < m; pj++) {
         let base = pj * WORDS_PER_POINT;
-        var dv = vec3<f32>(0.0, 0.0, 0.0);
+        // Δ_7: the tool point's offset in the flange frame
+        var dv = vec3<f32>(d[30], d[31], d[32]);
         dv = joint_step(dv, pts[base + 10u], pts[base + 11u], t5, j5);
         dv = joint_step(dv, pts[base + 8u], pts[base + 9u], t4, j4);
         dv = joint_step(dv, pts[base + 6u], pts[base + 7u], t3, j3);
@@ -212,9 +217,9 @@ fn max_point_error_offsets(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= chunk.count) {
         return;
     }
-    var d: array<f32, 30>;
-    for (var p = 0u; p < N_PARAMS; p++) {
-        d[p] = offsets_in[i * N_PARAMS + p];
+    var d: array<f32, 33>;
+    for (var p = 0u; p < N_INPUTS; p++) {
+        d[p] = offsets_in[i * N_INPUTS + p];
     }
     point_errors(i, d);
 }

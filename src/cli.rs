@@ -122,10 +122,14 @@ pub struct FactorArgs {
     /// Start position: sweep direction of every joint.
     #[arg(long, value_enum, default_value_t = StartArg::NegToPos)]
     pub start: StartArg,
-    /// Seed of the simulated true robot (the nominal TX60 with 0.3 mm / 0.03° class errors).
+    /// Seed of the simulated true robot (the nominal robot with 0.3 mm / 0.03° class errors).
     #[arg(long, default_value_t = 2025, value_name = "SEED")]
     pub robot_seed: u64,
-    /// The true robot as a model file instead (same structure as the TX60; its tool is the target).
+    /// The nominal robot (its design geometry): a model file or a preset.
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// The true robot as a model file instead (same structure as the nominal robot; its tool is
+    /// the target).
     #[arg(long, value_name = "FILE")]
     pub truth: Option<PathBuf>,
     /// Seed of the measurement noise (run r uses a seed derived from it and r).
@@ -176,23 +180,19 @@ pub struct ModelArgs {
 /// The workspace box of generated test points.
 #[derive(Args, Debug, Clone)]
 pub struct BoxArgs {
-    /// Workspace box centre for generated points, mm: x,y,z.
+    /// Workspace box centre for generated points, mm: x,y,z [default: from the robot's reach;
+    /// 250,0,200 for the TX60].
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "250,0,200",
         value_name = "X,Y,Z",
         allow_hyphen_values = true
     )]
-    pub box_center: Vec<f64>,
-    /// Workspace box edge lengths for generated points, mm: x,y,z.
-    #[arg(
-        long,
-        value_delimiter = ',',
-        default_value = "900,1200,800",
-        value_name = "X,Y,Z"
-    )]
-    pub box_size: Vec<f64>,
+    pub box_center: Option<Vec<f64>>,
+    /// Workspace box edge lengths for generated points, mm: x,y,z [default: from the robot's
+    /// reach; 900,1200,800 for the TX60].
+    #[arg(long, value_delimiter = ',', value_name = "X,Y,Z")]
+    pub box_size: Option<Vec<f64>>,
 }
 
 /// Evaluation backend and GPU adapter.

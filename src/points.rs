@@ -1,11 +1,12 @@
 //! Test points: joint configurations at which the positioning error is evaluated.
 //!
 //! Generated sets are seeded: configurations uniform within the joint limits, kept when the tool
-//! point lies in the workspace box (the paper's 900 × 1200 × 800 mm box centred at
-//! (250, 0, 200) mm in the base frame by default, docs/METHOD.md §5). Sets can also be read from and
+//! point lies in the workspace box (docs/METHOD.md §5). The default box is the robot's own
+//! ([`WorkspaceBox::for_robot`]): the paper's 900 × 1200 × 800 mm box centred at (250, 0, 200) mm
+//! for the TX60, scaled with the arm's reach for any other robot. Sets can also be read from and
 //! written to CSV (`q1..q6` in degrees, one configuration per row).
 
-use crate::kinematics::{position_deg, RobotModel, JOINTS};
+use crate::kinematics::{param_index, position_deg, ParamKind, RobotModel, JOINTS};
 use rand::{Rng, SeedableRng};
 
 /// An axis-aligned box in the base frame, mm.
@@ -26,7 +27,53 @@ impl Default for WorkspaceBox {
     }
 }
 
+/// Reach of the Stäubli TX60 by [`reach_mm`], mm: the links after joint 1 are 290 (a2),
+/// 20 (d3), 310 (d4) and 70 (d6) mm long.
+pub const TX60_REACH_MM: f64 = 690.0;
+/// The paper's box for the TX60 (centre, then size, mm), scaled by [`WorkspaceBox::for_robot`].
+const PAPER_BOX: ([f64; 3], [f64; 3]) = ([250.0, 0.0, 200.0], [900.0, 1200.0, 800.0]);
+/// Height of the TX60's shoulder (d1), mm: the paper's box centre lies 175 mm below it.
+const TX60_SHOULDER_MM: f64 = 375.0;
+/// The default box is rounded to this grid, mm, so a calibrated model (parameters moved by
+/// micrometres) gets the same box as its nominal robot.
+const BOX_GRID_MM: f64 = 50.0;
+
+/// The arm's reach beyond joint 1, mm: `Σ_{i=2..6} √(a_i² + d_i²)`, the sum of the link
+/// translations after the first joint, which bounds the distance of the flange from the
+/// shoulder (frame 1's origin) by the triangle inequality. The tracker target is left out: it
+/// is small and differs between calibrations of one robot.
+pub fn reach_mm(model: &RobotModel) -> f64 {
+    (1..JOINTS)
+        .map(|j| {
+            let a = model.params[param_index(j, ParamKind::A)];
+            let d = model.params[param_index(j, ParamKind::D)];
+            a.hypot(d)
+        })
+        .sum()
+}
+
 impl WorkspaceBox {
+    /// The default box of `model`: the paper's TX60 box (900 × 1200 × 800 mm centred at
+    /// (250, 0, 200) mm) scaled by the ratio of [`reach_mm`] to the TX60's 690 mm, its centre
+    /// placed in x by the same ratio and in z at the same scaled depth below the shoulder
+    /// (`d1`), rounded to 50 mm. For the TX60 it is the paper's box; for a larger arm it grows
+    /// with the reach, so the generated points spread over the same share of the reachable
+    /// shell.
+    pub fn for_robot(model: &RobotModel) -> WorkspaceBox {
+        let s = reach_mm(model) / TX60_REACH_MM;
+        let round = |v: f64| (v / BOX_GRID_MM).round() * BOX_GRID_MM + 0.0;
+        let shoulder = model.params[param_index(0, ParamKind::D)];
+        let (c, size) = PAPER_BOX;
+        WorkspaceBox {
+            center: [
+                round(c[0] * s),
+                round(c[1] * s),
+                round(shoulder - (TX60_SHOULDER_MM - c[2]) * s),
+            ],
+            size: size.map(|v| round(v * s)),
+        }
+    }
+
     /// Whether `p` lies inside.
     pub fn contains(&self, p: &[f64; 3]) -> bool {
         (0..3).all(|k| (p[k] - self.center[k]).abs() <= 0.5 * self.size[k])
@@ -207,6 +254,29 @@ mod tests {
         for q in &a {
             assert!(m.check_limits(q).is_ok());
             assert!(bx.contains(&position_deg(&m.params, &m.tool, q)));
+        }
+    }
+
+    /// The TX60's own box is the paper's; a calibrated TX60 gets the same; every preset's box
+    /// holds generated points (a box mostly out of reach would fail), and the box grows with
+    /// the reach.
+    #[test]
+    fn default_box_follows_the_robot() {
+        let m = tx60();
+        assert_eq!(reach_mm(&m), TX60_REACH_MM);
+        assert_eq!(WorkspaceBox::for_robot(&m), WorkspaceBox::default());
+        let mut cal = m.clone();
+        cal.params[7] += 0.3;
+        cal.params[16] -= 0.2;
+        assert_eq!(WorkspaceBox::for_robot(&cal), WorkspaceBox::default());
+        for name in crate::kinematics::PRESETS {
+            let r = crate::kinematics::preset(name).unwrap();
+            let bx = WorkspaceBox::for_robot(&r);
+            eprintln!("{name}: reach {:.1} mm, box {bx:?}", reach_mm(&r));
+            let pts = generate(&r, 200, &bx, 3).unwrap_or_else(|e| panic!("{name}: {e}"));
+            assert_eq!(pts.len(), 200);
+            let ratio = bx.size[0] / reach_mm(&r);
+            assert!((ratio - 900.0 / 690.0).abs() < 0.1, "{name}: {bx:?}");
         }
     }
 

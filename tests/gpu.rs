@@ -17,7 +17,7 @@ use gpu_amcs::engine::{
     deviation, make_evaluator, BackendChoice, CpuEvaluator, EngineError, Evaluator, Problem,
     Reference,
 };
-use gpu_amcs::kinematics::{tx60, RobotModel, Uncertainty, N_PARAMS};
+use gpu_amcs::kinematics::{tx60, RobotModel, Uncertainty, N_PARAMS, N_UNCERTAIN};
 use gpu_amcs::mc::Moments;
 use gpu_amcs::sampling::{normals_block, philox4x32_10, Philox};
 
@@ -114,6 +114,37 @@ fn correlated_tx60() -> RobotModel {
     m
 }
 
+/// The TX60 with a tracker target 150 mm out and its spread in a 33 × 33 covariance: tool σ
+/// (3, 5, 2) µm, tool x correlated with a2 (ρ = 0.5) and tool z with d4 (ρ = −0.4), on top of
+/// the correlations of [`correlated_tx60`].
+fn tool_covariance_tx60() -> RobotModel {
+    let mut m = correlated_tx60();
+    let Uncertainty::Covariance(c30) = &m.uncertainty else {
+        unreachable!()
+    };
+    let n = N_UNCERTAIN;
+    let mut c = vec![0.0; n * n];
+    for i in 0..N_PARAMS {
+        for k in 0..N_PARAMS {
+            c[i * n + k] = c30[i * N_PARAMS + k];
+        }
+    }
+    let ts = [0.003, 0.005, 0.002];
+    for (k, s) in ts.iter().enumerate() {
+        c[(N_PARAMS + k) * (n + 1)] = s * s;
+    }
+    let s = m.uncertainty.sigmas();
+    for (t, p, rho) in [(N_PARAMS, 7, 0.5), (N_PARAMS + 2, 16, -0.4)] {
+        c[t * n + p] = rho * ts[t - N_PARAMS] * s[p];
+        c[p * n + t] = c[t * n + p];
+    }
+    m.uncertainty = Uncertainty::Covariance(c);
+    m.tool = [20.0, -35.0, 150.0];
+    m.tool_sigma = ts;
+    m.check().expect("valid 33 × 33 model");
+    m
+}
+
 fn parse_and_validate(name: &str, src: &str) -> naga::Module {
     let module = naga::front::wgsl::parse_str(src)
         .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(src)));
@@ -199,7 +230,11 @@ fn shaders_validate_with_naga() {
             ref e => panic!("{name}: {e:?}"),
         }
     };
-    assert_eq!(constant("N_PARAMS") as usize, N_PARAMS);
+    assert_eq!(constant("N_INPUTS") as usize, N_UNCERTAIN);
+    assert_eq!(
+        constant("N_BLOCKS") as usize * 4,
+        gpu_amcs::sampling::MAX_NORMALS
+    );
     assert_eq!(
         constant("WORDS_PER_POINT") as usize,
         deviation::WORDS_PER_POINT
@@ -270,6 +305,113 @@ fn gpu_matches_cpu_correlated() {
     let pts = points(&m, 30);
     let pb = Problem::new(m, &pts, &Reference::Calibrated, 7).expect("problem");
     compare(pb, 123_456, 40_000, "correlated");
+}
+
+/// The tool point's spread, independent (`tool_sigma` with σ for the parameters) and in a
+/// 33 × 33 covariance: GPU and CPU agree sample by sample (same bound as without a tool).
+#[test]
+fn gpu_matches_cpu_with_tool_sigma() {
+    if !have_adapter("gpu_matches_cpu_with_tool_sigma") {
+        return;
+    }
+    let mut m = tx60();
+    m.tool = [0.0, 40.0, 120.0];
+    m.tool_sigma = [0.004, 0.002, 0.006];
+    let pts = points(&m, 30);
+    let pb = Problem::new(m, &pts, &Reference::Calibrated, 31).expect("problem");
+    compare(pb, (1u64 << 32) - 10_000, 30_000, "independent with tool σ");
+    let m = tool_covariance_tx60();
+    let pts = points(&m, 30);
+    let pb = Problem::new(m, &pts, &Reference::Calibrated, 32).expect("problem");
+    compare(pb, 5_000, 30_000, "33 × 33 covariance with the tool");
+}
+
+/// `erf(x)` for x ≥ 0 by the series of positive terms
+/// `erf x = (2x/√π) e^{−x²} Σ_n (2x²)^n / (1·3·5⋯(2n+1))` (Abramowitz & Stegun 7.1.6), summed
+/// until the terms fall below 1e-17 of the sum: no cancellation, so f64 accuracy.
+fn erf(x: f64) -> f64 {
+    let (mut term, mut sum, mut n) = (1.0, 1.0, 0.0);
+    while term > 1e-17 * sum {
+        n += 1.0;
+        term *= 2.0 * x * x / (2.0 * n + 1.0);
+        sum += term;
+    }
+    2.0 * x / std::f64::consts::PI.sqrt() * (-x * x).exp() * sum
+}
+
+/// CDF of the chi distribution with 3 degrees of freedom at `x` (the length of a standard
+/// normal 3-vector): `erf(x/√2) − √(2/π) x e^{−x²/2}`.
+fn chi3_cdf(x: f64) -> f64 {
+    erf(x / std::f64::consts::SQRT_2)
+        - (2.0 / std::f64::consts::PI).sqrt() * x * (-x * x / 2.0).exp()
+}
+
+/// Known answer: with only the tool point uncertain (isotropic σ = s), every test point sees
+/// the same flange-frame offset δ rotated by its flange orientation R_j, so
+/// `e_j = |R_j δ| = |δ|` and `w = |δ|`, which is s·chi(3). Per draw, w equals |δ| (CPU: f64
+/// rounding of ~10 operations per joint on 1000 mm values, 1e-9 mm; GPU: the f32 budget of
+/// `engine::deviation`, 1e-6·|δ| + 1e-7 mm, asserted at 1e-5·s); and the empirical reliability
+/// R(l) = P(w ≤ l) at l = s·{0.5, 1, 1.5, 2, 3} matches the chi(3) CDF within 5 binomial
+/// standard errors √(R(1−R)/n), as does the Kolmogorov–Smirnov distance (1.95/√n is its 0.1 %
+/// critical value).
+#[test]
+fn tool_only_uncertainty_gives_chi3() {
+    let s = 0.005;
+    let mut m = tx60();
+    m.uncertainty = Uncertainty::Independent([0.0; N_PARAMS]);
+    m.tool = [10.0, -20.0, 80.0];
+    m.tool_sigma = [s; 3];
+    let pts = points(&m, 20);
+    let pb = Problem::new(m, &pts, &Reference::Calibrated, 4242).expect("problem");
+    let mut evs: Vec<(Box<dyn Evaluator>, f64)> =
+        vec![(Box::new(CpuEvaluator::new(pb.clone())), 1e-9)];
+    if have_adapter("tool_only_uncertainty_gives_chi3") {
+        evs.push((Box::new(gpu_without_prefetch(pb.clone())), 1e-5 * s));
+    }
+    let n = 40_000;
+    for (ev, tol) in &mut evs {
+        let name = ev.info().backend;
+        let (w, e) = evaluate(ev.as_mut(), 0, n);
+        let mut worst: f64 = 0.0;
+        for (i, wi) in w.iter().enumerate() {
+            let d = pb.sampler.tool_deltas(i as u64);
+            let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+            worst = worst.max((wi - len).abs());
+            for ej in &e[i * 20..(i + 1) * 20] {
+                worst = worst.max((ej - len).abs());
+            }
+        }
+        eprintln!("{name}: max |e_j − |δ|| = {worst:.3e} mm");
+        assert!(worst <= *tol, "{name}: {worst}");
+        let mut sorted = w.clone();
+        sorted.sort_by(f64::total_cmp);
+        let nf = n as f64;
+        for l in [0.5, 1.0, 1.5, 2.0, 3.0] {
+            let r = sorted.partition_point(|&v| v <= l * s) as f64 / nf;
+            let want = chi3_cdf(l);
+            let se = (want * (1.0 - want) / nf).sqrt();
+            eprintln!("{name}: R({l} s) = {r:.5}, chi(3) CDF {want:.5}");
+            assert!(
+                (r - want).abs() <= 5.0 * se,
+                "{name}: R({l} s) {r} vs {want}"
+            );
+        }
+        let ks = sorted
+            .iter()
+            .enumerate()
+            .map(|(i, &v)| {
+                let f = chi3_cdf(v / s);
+                (f - i as f64 / nf)
+                    .abs()
+                    .max(((i + 1) as f64 / nf - f).abs())
+            })
+            .fold(0.0, f64::max);
+        eprintln!("{name}: Kolmogorov–Smirnov distance {ks:.2e}");
+        // the series itself: erf(1) and the chi(3) median from tables
+        assert!((erf(1.0) - 0.842_700_792_949_714_9).abs() < 1e-15);
+        assert!((chi3_cdf(1.538_172_254_455_052) - 0.5).abs() < 1e-9);
+        assert!(ks <= 1.95 / nf.sqrt(), "{name}: KS {ks}");
+    }
 }
 
 #[test]
@@ -479,9 +621,9 @@ fn main_job_gpu_report_equals_cpu_report() {
 
 /// Rows of the sampler's own offsets δ for draws `first … first + n − 1`.
 fn draw_rows(problem: &Problem, first: u64, n: usize) -> Vec<f64> {
-    let mut rows = vec![0.0; n * N_PARAMS];
-    for (i, row) in rows.chunks_exact_mut(N_PARAMS).enumerate() {
-        let mut d = [0.0; N_PARAMS];
+    let mut rows = vec![0.0; n * N_UNCERTAIN];
+    for (i, row) in rows.chunks_exact_mut(N_UNCERTAIN).enumerate() {
+        let mut d = [0.0; N_UNCERTAIN];
         problem.sampler.deltas(first + i as u64, &mut d);
         row.copy_from_slice(&d);
     }
@@ -489,7 +631,7 @@ fn draw_rows(problem: &Problem, first: u64, n: usize) -> Vec<f64> {
 }
 
 fn evaluate_offsets(ev: &mut dyn Evaluator, rows: &[f64]) -> (Vec<f64>, Vec<f64>) {
-    let n = rows.len() / N_PARAMS;
+    let n = rows.len() / N_UNCERTAIN;
     let mut w = vec![0.0; n];
     let mut e = vec![0.0; n * ev.n_points()];
     ev.evaluate_offsets(rows, &mut w, Some(&mut e))
@@ -513,6 +655,11 @@ fn offsets_match_draws_and_cpu() {
             "correlated, nominal reference",
             correlated_tx60(),
             Reference::Nominal(Box::new(tx60())),
+        ),
+        (
+            "tool σ in a 33 × 33 covariance",
+            tool_covariance_tx60(),
+            Reference::Calibrated,
         ),
     ] {
         let pts = points(&model, 25);
@@ -547,8 +694,8 @@ fn offsets_match_draws_and_cpu() {
         let wide: Vec<f64> = rows.iter().map(|v| 3.0 * v).collect();
         let other = draw_rows(&pb, 7, n);
         let mixed: Vec<f64> = rows
-            .chunks_exact(N_PARAMS)
-            .zip(other.chunks_exact(N_PARAMS))
+            .chunks_exact(N_UNCERTAIN)
+            .zip(other.chunks_exact(N_UNCERTAIN))
             .flat_map(|(a, b)| a[..15].iter().chain(&b[15..]).copied().collect::<Vec<_>>())
             .collect();
         for (kind, r) in [("3× spread", &wide), ("pick-freeze", &mixed)] {
@@ -611,20 +758,20 @@ fn offset_errors_are_typed() {
     for ev in &mut evs {
         let name = ev.info().backend;
         let mut w = vec![0.0; 3];
-        let r = ev.evaluate_offsets(&[0.0; 2 * N_PARAMS], &mut w, None);
+        let r = ev.evaluate_offsets(&[0.0; 2 * N_UNCERTAIN], &mut w, None);
         assert!(
             matches!(
                 r,
                 Err(EngineError::OffsetsShape {
                     rows: 3,
-                    expected: 90,
-                    got: 60
+                    expected: 99,
+                    got: 66
                 })
             ),
             "{name}: {r:?}"
         );
-        let mut rows = vec![0.0; 3 * N_PARAMS];
-        rows[2 * N_PARAMS + 16] = f64::NAN; // row 2, d4
+        let mut rows = vec![0.0; 3 * N_UNCERTAIN];
+        rows[2 * N_UNCERTAIN + 16] = f64::NAN; // row 2, d4
         let r = ev.evaluate_offsets(&rows, &mut w, None);
         match &r {
             Err(e @ EngineError::BadOffset { row: 2, param, .. }) if param == "d4" => {
@@ -632,18 +779,24 @@ fn offset_errors_are_typed() {
             }
             _ => panic!("{name}: {r:?}"),
         }
-        rows[2 * N_PARAMS + 16] = 0.0;
-        rows[N_PARAMS] = f64::NEG_INFINITY;
+        rows[2 * N_UNCERTAIN + 16] = 0.0;
+        rows[N_UNCERTAIN + N_PARAMS + 1] = f64::NEG_INFINITY; // row 1, tool y
+        match &ev.evaluate_offsets(&rows, &mut w, None) {
+            Err(EngineError::BadOffset { row: 1, param, .. }) if param == "tool_y" => {}
+            r => panic!("{name}: {r:?}"),
+        }
+        rows[N_UNCERTAIN + N_PARAMS + 1] = 0.0;
+        rows[N_UNCERTAIN] = f64::NEG_INFINITY;
         assert!(matches!(
             ev.evaluate_offsets(&rows, &mut w, None),
             Err(EngineError::BadOffset { row: 1, .. })
         ));
-        rows[N_PARAMS] = 2.0; // θ1 beyond a quarter turn
+        rows[N_UNCERTAIN] = 2.0; // θ1 beyond a quarter turn
         assert!(matches!(
             ev.evaluate_offsets(&rows, &mut w, None),
             Err(EngineError::BadOffset { row: 1, .. })
         ));
-        rows[N_PARAMS] = 0.0;
+        rows[N_UNCERTAIN] = 0.0;
         let mut e = vec![0.0; 5];
         assert!(matches!(
             ev.evaluate_offsets(&rows, &mut w, Some(&mut e)),

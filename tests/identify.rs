@@ -85,6 +85,27 @@ fn noise_free_sweeps_reproduce_the_true_robot() {
     eprintln!("noise-free: worst held-out error {worst:e} mm");
 }
 
+/// Any robot: a perturbed UR5e (three parallel axes, β on J2 and J3) and IRB 2400 (J1 offset
+/// from J2, β on J2), noise-free sweeps from their own home pose, identified against their own
+/// nominal model, meet the TX60's held-out accuracy (≤ 1e-6 mm at 100 configurations).
+#[test]
+fn noise_free_sweeps_reproduce_other_robots() {
+    for (name, nominal) in [
+        ("ur5e", gpu_amcs::kinematics::ur5e()),
+        ("irb2400", gpu_amcs::kinematics::irb2400()),
+    ] {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let truth = perturbed_model(&nominal, &ParameterErrors::default(), TOOL, &mut rng);
+        let configs = random_configurations(&nominal.limits_deg, 100, &mut rng);
+        let data = simulate_sweeps(&truth, &SweepPlan::default(), 0.0, 1, 5);
+        let id = identify(&data, &nominal, &IdentifyOptions::default())
+            .unwrap_or_else(|e| panic!("{name}: {e}"));
+        let e = max_error(&id[0].model, &truth, &configs);
+        eprintln!("{name}: noise-free held-out max error {e:e} mm");
+        assert!(e < 1e-6, "{name}: max held-out error {e} mm");
+    }
+}
+
 #[test]
 fn short_sweeps_still_exact_without_noise() {
     let (truth, configs) = robot(9);

@@ -478,3 +478,103 @@ fn undefined_moments_are_reported_as_undefined_on_every_backend() {
         assert_eq!(a[2], 0.0, "MRE {a}");
     }
 }
+
+/// Every command on every robot: for each preset other than the TX60, `calibrate --preset`
+/// gives a model with σ (tool included); `points`, `fk`, `amcs`, `mcs`, `sensitivity`, `tail`,
+/// `export` run on it; `simulate --preset` writes sweeps that `identify --nominal` reads back.
+/// Each must succeed with finite numbers; small settings keep it fast (CPU backend).
+#[test]
+fn every_command_runs_on_every_preset() {
+    let dir = tmpdir("every-preset");
+    let ok = |args: &[&str]| -> String {
+        let o = run(args);
+        assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+        let out = stdout(&o);
+        assert!(
+            !out.contains("NaN") && !out.contains("inf"),
+            "{args:?}: {out}"
+        );
+        out
+    };
+    for preset in ["ur5e", "ur10e", "irb2400", "kr6r700sixx"] {
+        let p = |name: &str| dir.join(format!("{preset}-{name}"));
+        let model = p("model.toml");
+        let m = model.to_str().unwrap();
+        let cal = ok(&[
+            "calibrate",
+            "--preset",
+            preset,
+            "--runs",
+            "3",
+            "--step",
+            "10",
+            "-o",
+            m,
+        ]);
+        assert!(cal.contains("wrote"), "{preset}: {cal}");
+        let text = std::fs::read_to_string(&model).unwrap();
+        assert!(
+            text.contains("tool_sigma"),
+            "{preset}: the tool's spread is estimated"
+        );
+        // The KR 6's base transform carries over to the calibrated model.
+        assert_eq!(
+            text.contains("base = {"),
+            preset == "kr6r700sixx",
+            "{preset}"
+        );
+        let pts = ok(&["points", "5", "--model", m]);
+        assert_eq!(pts.lines().count(), 6, "{preset}: {pts}");
+        let q = p("q.csv");
+        std::fs::write(&q, &pts).unwrap();
+        let fk = ok(&["fk", "--model", m, "--points-file", q.to_str().unwrap()]);
+        assert_eq!(fk.lines().count(), 6, "{preset}: {fk}");
+        let common = ["--model", m, "--points", "10", "--backend", "cpu"];
+        let amcs = ok(&[&["amcs", "--delta", "0.05"][..], &common].concat());
+        assert!(amcs.contains("draws"), "{preset}: {amcs}");
+        ok(&[&["mcs", "--draws", "20000"][..], &common].concat());
+        let sens = ok(&[
+            &["sensitivity", "--draws", "256", "--bootstrap", "100"][..],
+            &common,
+        ]
+        .concat());
+        assert!(
+            sens.contains("tool"),
+            "{preset}: tool inputs ranked: {sens}"
+        );
+        ok(&[
+            &["tail", "--threshold", "0.5", "--samples-per-level", "500"][..],
+            &common,
+        ]
+        .concat());
+        let urdf = p("out.urdf");
+        ok(&["export", "--model", m, "--urdf", urdf.to_str().unwrap()]);
+        let sweeps = p("sweeps.csv");
+        ok(&[
+            "simulate",
+            "--preset",
+            preset,
+            "--runs",
+            "2",
+            "--step",
+            "10",
+            "-o",
+            sweeps.to_str().unwrap(),
+        ]);
+        let nominal = p("nominal.toml");
+        std::fs::write(&nominal, ok(&["model", "--preset", preset])).unwrap();
+        let id = p("identified.toml");
+        ok(&[
+            "identify",
+            sweeps.to_str().unwrap(),
+            "--nominal",
+            nominal.to_str().unwrap(),
+            "-o",
+            id.to_str().unwrap(),
+        ]);
+        assert!(
+            std::fs::read_to_string(&id).unwrap().contains("tool_sigma"),
+            "{preset}"
+        );
+    }
+}

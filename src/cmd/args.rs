@@ -55,18 +55,30 @@ pub fn load_model(file: Option<&Path>, name: &str) -> Result<RobotModel> {
 }
 
 impl BoxArgs {
-    /// The workspace box.
-    pub fn workspace(&self) -> Result<WorkspaceBox> {
-        let three = |v: &[f64], flag: &str| -> Result<[f64; 3]> {
-            match v {
-                [x, y, z] => Ok([*x, *y, *z]),
-                _ => bail!("{flag} needs three numbers x,y,z (mm), got {}", v.len()),
-            }
-        };
+    /// The workspace box for `model`: each of centre and size as given, else the robot's
+    /// default ([`WorkspaceBox::for_robot`]).
+    pub fn workspace(&self, model: &RobotModel) -> Result<WorkspaceBox> {
+        let default = WorkspaceBox::for_robot(model);
         Ok(WorkspaceBox {
-            center: three(&self.box_center, "--box-center")?,
-            size: three(&self.box_size, "--box-size")?,
+            center: three(self.box_center.as_deref(), "--box-center")?.unwrap_or(default.center),
+            size: three(self.box_size.as_deref(), "--box-size")?.unwrap_or(default.size),
         })
+    }
+
+    /// Checks the given flags' shapes (three numbers each).
+    pub fn check(&self) -> Result<()> {
+        three(self.box_center.as_deref(), "--box-center")?;
+        three(self.box_size.as_deref(), "--box-size")?;
+        Ok(())
+    }
+}
+
+/// A flag of three numbers x,y,z (mm), when given.
+fn three(v: Option<&[f64]>, flag: &str) -> Result<Option<[f64; 3]>> {
+    match v {
+        None => Ok(None),
+        Some([x, y, z]) => Ok(Some([*x, *y, *z])),
+        Some(v) => bail!("{flag} needs three numbers x,y,z (mm), got {}", v.len()),
     }
 }
 
@@ -159,7 +171,7 @@ impl ProblemArgs {
             bail!("--nominal is used only with --reference nominal");
         }
         if self.points_file.is_none() {
-            self.workspace.workspace()?;
+            self.workspace.check()?;
             if self.points > gpu_amcs::points::MAX_POINTS {
                 return Err(anyhow::Error::new(gpu_amcs::points::PointsError::TooMany(
                     self.points,
@@ -201,7 +213,7 @@ impl ProblemArgs {
             None => points::generate(
                 &model,
                 self.points,
-                &self.workspace.workspace()?,
+                &self.workspace.workspace(&model)?,
                 self.points_seed,
             )
             .context("--points")?,
@@ -274,15 +286,16 @@ impl FactorArgs {
     pub fn experiment(&self) -> Result<(Experiment, Factors)> {
         let f = self.factors();
         f.check().map_err(simulate_setting)?;
+        let mut nominal = self.model.load()?;
         let exp = match &self.truth {
-            None => Experiment::tx60(self.robot_seed),
+            None => Experiment::for_robot(nominal, self.robot_seed),
             Some(p) => {
                 let truth = RobotModel::from_file(p).context("--truth")?;
-                let mut nominal = preset("tx60")?;
                 if truth.fixed != nominal.fixed {
                     bail!(
-                        "--truth {}: its fixed d/β pattern differs from the TX60's",
-                        p.display()
+                        "--truth {}: its fixed d/β pattern differs from the nominal model's ({})",
+                        p.display(),
+                        nominal.name
                     );
                 }
                 nominal.tool = truth.tool;
@@ -290,6 +303,17 @@ impl FactorArgs {
             }
         };
         Ok((exp, f))
+    }
+
+    /// The files these flags read (`--truth`, `--model`), which no output may overwrite.
+    pub fn inputs(&self) -> Vec<(&'static str, &Path)> {
+        [
+            ("--truth", self.truth.as_deref()),
+            ("--model", self.model.model.as_deref()),
+        ]
+        .into_iter()
+        .filter_map(|(f, p)| p.map(|p| (f, p)))
+        .collect()
     }
 
     /// The factor levels.

@@ -32,7 +32,7 @@ pub struct CalibrateArgs {
 impl Run for CalibrateArgs {
     fn run(self) -> Result<()> {
         let a = self;
-        let mut outputs = Outputs::new(a.factors.truth.as_deref().map(|t| ("--truth", t)));
+        let mut outputs = Outputs::new(a.factors.inputs());
         outputs.file("--out", a.out.as_deref())?;
         if a.accuracy_points == 0 {
             bail!("--accuracy-points must be at least 1");
@@ -47,7 +47,7 @@ impl Run for CalibrateArgs {
             &exp,
             &cal.independent,
             a.accuracy_points,
-            &WorkspaceBox::default(),
+            &WorkspaceBox::for_robot(&exp.nominal),
             a.factors.seed ^ 0x5eed,
         )?;
         // Everything printed is built first and the model file is written before any of it is

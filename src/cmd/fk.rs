@@ -4,7 +4,6 @@ use super::Run;
 use crate::cli::ModelArgs;
 use anyhow::Result;
 use clap::Args;
-use gpu_amcs::kinematics::position_deg;
 use gpu_amcs::points;
 use std::path::PathBuf;
 
@@ -24,7 +23,7 @@ impl Run for FkArgs {
         let pts = points::read_csv(&self.points_file)?;
         let mut s = String::from("q1,q2,q3,q4,q5,q6,x,y,z\n");
         for q in &pts {
-            let p = position_deg(&model.params, &model.tool, q);
+            let p = model.world_position(&q.map(f64::to_radians));
             let qs: Vec<String> = q.iter().map(|v| format!("{v}")).collect();
             // Shortest representation that reads back to the same f64: full precision.
             s.push_str(&format!("{},{},{},{}\n", qs.join(","), p[0], p[1], p[2]));

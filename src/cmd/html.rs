@@ -8,6 +8,7 @@ use crate::cli::{HtmlArgs, ProblemArgs};
 use anyhow::Result;
 use gpu_amcs::engine::Problem;
 use gpu_amcs::kinematics::Uncertainty;
+use gpu_amcs::points::WorkspaceBox;
 use std::path::Path;
 
 /// The flag of the report directory.
@@ -80,6 +81,12 @@ pub fn problem_rows(args: &ProblemArgs, problem: &Problem) -> Vec<(String, Strin
     let points = match &args.points_file {
         Some(p) => format!("{} from {}", problem.n_points(), p.display()),
         None => {
+            // The box the points were generated in: the flags where given, else the robot's
+            // default (already checked when the problem was built).
+            let b = args
+                .workspace
+                .workspace(&problem.model)
+                .unwrap_or_else(|_| WorkspaceBox::for_robot(&problem.model));
             let v = |x: &[f64]| {
                 x.iter()
                     .map(|v| v.to_string())
@@ -89,8 +96,8 @@ pub fn problem_rows(args: &ProblemArgs, problem: &Problem) -> Vec<(String, Strin
             format!(
                 "{} generated in the box centred at ({}) mm with edges ({}) mm, seed {}",
                 problem.n_points(),
-                v(&args.workspace.box_center),
-                v(&args.workspace.box_size),
+                v(&b.center),
+                v(&b.size),
                 args.points_seed
             )
         }

@@ -36,7 +36,7 @@ impl Run for PointsArgs {
     fn run(self) -> Result<()> {
         let mut outputs = Outputs::new(self.model.model.as_deref().map(|m| ("--model", m)));
         outputs.file("--out", self.out.as_deref())?;
-        let bx = self.workspace.workspace()?;
+        self.workspace.check()?;
         if self.n > points::MAX_POINTS {
             return Err(anyhow::Error::new(points::PointsError::TooMany(self.n)).context("N"));
         }
@@ -48,6 +48,7 @@ impl Run for PointsArgs {
             .plus(&[self.n as u64, BYTES_PER_POINT]),
         )?;
         let model = self.model.load()?;
+        let bx = self.workspace.workspace(&model)?;
         let pts = points::generate(&model, self.n, &bx, self.points_seed)?;
         outputs.write_or_print("--out", points::to_csv(&pts))
     }

@@ -26,7 +26,7 @@ pub struct SimulateArgs {
 impl Run for SimulateArgs {
     fn run(self) -> Result<()> {
         let a = self;
-        let mut outputs = Outputs::new(a.factors.truth.as_deref().map(|t| ("--truth", t)));
+        let mut outputs = Outputs::new(a.factors.inputs());
         outputs.file("--out", a.out.as_deref())?;
         outputs.file("--truth-out", a.truth_out.as_deref())?;
         let (exp, f) = a.factors.experiment()?;

@@ -11,9 +11,13 @@
 //! Explicit offset matrices ([`Evaluator::evaluate_offsets`]) go through the same lane kernel:
 //! only the source of the offsets δ differs (drawn or read from the matrix), so a row equal to
 //! [`crate::sampling::ParamSampler::deltas`] of draw `k` gives the bits of draw `k`.
+//!
+//! The tool point's offset (the last three inputs of a draw, docs/METHOD.md §14) moves the
+//! point the chain starts from: `p_7 = p_tool + δ_tool` in the flange frame. With no tool spread
+//! `δ_tool = 0` and `p_tool + 0 = p_tool` exactly, so the results keep their bits.
 
 use super::{BackendInfo, EngineError, Evaluator, Problem};
-use crate::kinematics::{param_index, ParamKind, JOINTS, N_PARAMS};
+use crate::kinematics::{param_index, ParamKind, JOINTS, N_PARAMS, N_UNCERTAIN};
 use rayon::prelude::*;
 
 /// Draws per vector block.
@@ -37,7 +41,7 @@ type JointLanes = [[[f64; LANES]; 8]; JOINTS];
 enum Source<'a> {
     /// Counter draws from this index on.
     Draws(u64),
-    /// Rows of an `n × N_PARAMS` offset matrix, from the first row on.
+    /// Rows of an `n × N_UNCERTAIN` offset matrix, from the first row on.
     Offsets(&'a [f64]),
 }
 
@@ -47,20 +51,20 @@ impl<'a> Source<'a> {
     fn skip(self, n: usize) -> Source<'a> {
         match self {
             Source::Draws(k) => Source::Draws(k + n as u64),
-            Source::Offsets(rows) => Source::Offsets(&rows[(n * N_PARAMS).min(rows.len())..]),
+            Source::Offsets(rows) => Source::Offsets(&rows[(n * N_UNCERTAIN).min(rows.len())..]),
         }
     }
 
     /// Offsets of the first [`LANES`] evaluations, lane-wise (lanes past the end of an offset
     /// matrix are zero; past the end of a request they are computed and then discarded).
     #[inline(always)]
-    fn lanes(self, sampler: &crate::sampling::ParamSampler, d: &mut [[f64; LANES]; N_PARAMS]) {
+    fn lanes(self, sampler: &crate::sampling::ParamSampler, d: &mut [[f64; LANES]; N_UNCERTAIN]) {
         match self {
             Source::Draws(k) => sampler.deltas_lanes::<LANES>(k, d),
             Source::Offsets(rows) => {
-                *d = [[0.0; LANES]; N_PARAMS];
-                for (l, row) in rows.chunks_exact(N_PARAMS).take(LANES).enumerate() {
-                    for i in 0..N_PARAMS {
+                *d = [[0.0; LANES]; N_UNCERTAIN];
+                for (l, row) in rows.chunks_exact(N_UNCERTAIN).take(LANES).enumerate() {
+                    for i in 0..N_UNCERTAIN {
                         d[i][l] = row[i];
                     }
                 }
@@ -144,7 +148,7 @@ impl CpuEvaluator {
 
     /// Joint constants of the [`LANES`] parameter vectors `mean + d[..][l]`.
     #[inline(always)]
-    fn fill_lanes(&self, d: &[[f64; LANES]; N_PARAMS], jl: &mut JointLanes) {
+    fn fill_lanes(&self, d: &[[f64; LANES]; N_UNCERTAIN], jl: &mut JointLanes) {
         let mean = &self.problem.sampler.mean;
         for (j, lanes) in jl.iter_mut().enumerate() {
             let t = &self.mean_trig[j];
@@ -197,18 +201,21 @@ impl CpuEvaluator {
     fn eval_chunk_impl(&self, src: Source, w: &mut [f64], mut e: Option<&mut [f64]>) {
         let m = self.points.len();
         let mut jl: JointLanes = [[[0.0; LANES]; 8]; JOINTS];
-        let mut d = [[0.0; LANES]; N_PARAMS];
+        let mut d = [[0.0; LANES]; N_UNCERTAIN];
         let mut e_lanes = vec![0.0; if e.is_some() { LANES * m } else { 0 }];
         for (b, wb) in w.chunks_mut(LANES).enumerate() {
             src.skip(b * LANES).lanes(&self.problem.sampler, &mut d);
             self.fill_lanes(&d, &mut jl);
+            let tool = &self.problem.model.tool;
+            let tl: [[f64; LANES]; 3] =
+                std::array::from_fn(|k| std::array::from_fn(|l| tool[k] + d[N_PARAMS + k][l]));
             let mut w2 = [0.0f64; LANES];
             let el = if e.is_some() {
                 Some(e_lanes.as_mut_slice())
             } else {
                 None
             };
-            self.run_block(&jl, &mut w2, el);
+            self.run_block(&jl, &tl, &mut w2, el);
             for (l, v) in wb.iter_mut().enumerate() {
                 *v = w2[l].sqrt();
             }
@@ -220,25 +227,32 @@ impl CpuEvaluator {
     }
 
     #[inline(always)]
-    fn run_block(&self, jl: &JointLanes, w2: &mut [f64; LANES], e: Option<&mut [f64]>) {
-        block_kernel(jl, &self.problem.model.tool, &self.points, w2, e);
+    fn run_block(
+        &self,
+        jl: &JointLanes,
+        tool: &[[f64; LANES]; 3],
+        w2: &mut [f64; LANES],
+        e: Option<&mut [f64]>,
+    ) {
+        block_kernel(jl, tool, &self.points, w2, e);
     }
 }
 
-/// Squared maximum point error of `LANES` draws (and per-point errors, lane-major).
+/// Squared maximum point error of `LANES` draws (and per-point errors, lane-major); `tool` is
+/// each lane's tool point in the flange frame.
 #[inline(always)]
 fn block_kernel(
     jl: &JointLanes,
-    tool: &[f64; 3],
+    tool: &[[f64; LANES]; 3],
     pts: &[PointPre],
     w2: &mut [f64; LANES],
     mut e: Option<&mut [f64]>,
 ) {
     let m = pts.len();
     for (pj, p) in pts.iter().enumerate() {
-        let mut x = [tool[0]; LANES];
-        let mut y = [tool[1]; LANES];
-        let mut z = [tool[2]; LANES];
+        let mut x = tool[0];
+        let mut y = tool[1];
+        let mut z = tool[2];
         for i in (0..JOINTS).rev() {
             let [ct, st, ca, sa, cb, sb, a, d] = &jl[i];
             let (cq, sq) = (p.cq[i], p.sq[i]);
@@ -338,6 +352,76 @@ mod tests {
         Problem::new(tx60(), &pts, &Reference::Calibrated, 42).unwrap()
     }
 
+    /// A base transform moves both the analysed and the reference positions rigidly, so the
+    /// errors the evaluator computes in the base frame equal those of the positions in the
+    /// description's frame (KUKA KR 6 with its base Rx(180°); f64 rounding of 1000 mm values
+    /// through one rotation, 1e-9 mm).
+    #[test]
+    fn errors_are_invariant_to_the_base_transform() {
+        let mut m = crate::kinematics::kr6r700sixx();
+        assert!(m.base.is_some());
+        let mut s = [0.0; N_PARAMS];
+        for (i, v) in s.iter_mut().enumerate() {
+            if m.fixed[i / 5].kind() != crate::kinematics::param_kind(i) {
+                *v = if crate::kinematics::param_kind(i).is_angle() {
+                    1e-4
+                } else {
+                    0.02
+                };
+            }
+        }
+        m.uncertainty = crate::kinematics::Uncertainty::Independent(s);
+        m.tool_sigma = [0.01; 3];
+        let pts = [[10.0, -20.0, 30.0, 40.0, 50.0, 60.0], [0.0; 6]];
+        let pb = Problem::new(m.clone(), &pts, &Reference::Calibrated, 3).unwrap();
+        let mut ev = CpuEvaluator::new(pb.clone());
+        let (mut w, mut e) = (vec![0.0; 9], vec![0.0; 18]);
+        ev.evaluate(0, &mut w, Some(&mut e)).unwrap();
+        for k in 0..9 {
+            let mut drawn = m.clone();
+            drawn.params = pb.sampler.draw(k as u64);
+            let t = pb.sampler.tool_deltas(k as u64);
+            drawn.tool = std::array::from_fn(|c| m.tool[c] + t[c]);
+            for (j, q) in pb.points.iter().enumerate() {
+                let (a, b) = (drawn.world_position(q), m.world_position(q));
+                let d =
+                    ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+                assert!(
+                    (d - e[k * 2 + j]).abs() < 1e-9,
+                    "{k} {j}: {d} vs {}",
+                    e[k * 2 + j]
+                );
+                assert!(d > 1e-3);
+            }
+        }
+    }
+
+    /// A tool spread: every draw's errors equal direct forward kinematics of the drawn
+    /// parameters with the drawn tool point (f64 throughout; 1e-10 mm covers the series and
+    /// summation order), and the tool's offset changes them.
+    #[test]
+    fn tool_spread_matches_direct_forward_kinematics() {
+        let mut m = tx60();
+        m.tool = [40.0, -10.0, 120.0];
+        m.tool_sigma = [0.01, 0.02, 0.005];
+        let pts = [[10.0, -20.0, 30.0, 40.0, 50.0, 60.0], [0.0; 6]];
+        let pb = Problem::new(m, &pts, &Reference::Calibrated, 9).unwrap();
+        let mut ev = CpuEvaluator::new(pb.clone());
+        let n = 21;
+        let (mut w, mut e) = (vec![0.0; n], vec![0.0; 2 * n]);
+        ev.evaluate(77, &mut w, Some(&mut e)).unwrap();
+        for i in 0..n {
+            let k = 77 + i as u64;
+            let (params, tool) = (pb.sampler.draw(k), pb.sampler.tool_deltas(k));
+            let direct = pb.point_errors_at(&params, &tool);
+            let without = pb.point_errors(&params);
+            for j in 0..2 {
+                assert!((direct[j] - e[i * 2 + j]).abs() < 1e-10, "{i} {j}");
+                assert!((without[j] - e[i * 2 + j]).abs() > 1e-6, "{i} {j}");
+            }
+        }
+    }
+
     #[test]
     fn matches_direct_forward_kinematics() {
         let pb = problem();
@@ -380,9 +464,9 @@ mod tests {
         let pb = problem();
         let mut ev = CpuEvaluator::new(pb.clone());
         let (first, n, m) = (5_000u64, 2 * CHUNK + 13, 3);
-        let mut rows = vec![0.0; n * N_PARAMS];
-        for (i, row) in rows.chunks_exact_mut(N_PARAMS).enumerate() {
-            let mut d = [0.0; N_PARAMS];
+        let mut rows = vec![0.0; n * N_UNCERTAIN];
+        for (i, row) in rows.chunks_exact_mut(N_UNCERTAIN).enumerate() {
+            let mut d = [0.0; N_UNCERTAIN];
             pb.sampler.deltas(first + i as u64, &mut d);
             row.copy_from_slice(&d);
         }
@@ -402,15 +486,17 @@ mod tests {
     fn large_offsets_match_direct_forward_kinematics() {
         let pb = problem();
         let mut ev = CpuEvaluator::new(pb.clone());
-        let mut rows = vec![0.0; 2 * N_PARAMS];
+        let mut rows = vec![0.0; 2 * N_UNCERTAIN];
         rows[5] = 0.3; // θ2, rad
-        rows[N_PARAMS + 13] = -0.02; // α3, rad
-        rows[N_PARAMS + 7] = 1.5; // a2, mm
+        rows[N_UNCERTAIN + 13] = -0.02; // α3, rad
+        rows[N_UNCERTAIN + 7] = 1.5; // a2, mm
+        rows[N_UNCERTAIN + N_PARAMS + 1] = -0.7; // tool y, mm
         let (mut w, mut e) = (vec![0.0; 2], vec![0.0; 6]);
         ev.evaluate_offsets(&rows, &mut w, Some(&mut e)).unwrap();
-        for (i, row) in rows.chunks_exact(N_PARAMS).enumerate() {
+        for (i, row) in rows.chunks_exact(N_UNCERTAIN).enumerate() {
             let params: [f64; N_PARAMS] = std::array::from_fn(|p| pb.sampler.mean[p] + row[p]);
-            let direct = pb.point_errors(&params);
+            let tool = std::array::from_fn(|k| row[N_PARAMS + k]);
+            let direct = pb.point_errors_at(&params, &tool);
             for j in 0..3 {
                 assert!((direct[j] - e[i * 3 + j]).abs() < 1e-9, "{i} {j}");
             }

@@ -11,7 +11,7 @@
 //! points of each test point (computed here in f64 once, stored as f32 by [`point_constants`]):
 //!
 //! ```text
-//! Δ_7  = 0
+//! Δ_7  = δ_tool   (the tool point's offset in the flange frame; 0 without a tool spread)
 //! Δu_i = Rx(α')Ry(β') Δ_{i+1} + (Rx(α')Ry(β') − Rx(α)Ry(β)) p0_{i+1} + (δa, 0, δd)
 //! Δ_i  = Rz(φ') Δu_i + (Rz(φ') − Rz(φ)) u0_i,          φ = θ + q, φ' = φ + δθ
 //! e_j  = |Δ_1 + o_j|,  o_j = P(mean, q_j) − P_ref,j (f64; 0 for the calibrated reference)
@@ -45,7 +45,7 @@
 //! relative; the normals to 1.1e-7·(1+|z|). The tests assert 1e-5 mm per sample.
 
 use super::Problem;
-use crate::kinematics::{param_index, ParamKind, JOINTS, N_PARAMS};
+use crate::kinematics::{param_index, ParamKind, JOINTS, N_UNCERTAIN};
 
 /// Vec4 words per test point in [`point_constants`].
 pub const WORDS_PER_POINT: usize = 13;
@@ -102,15 +102,17 @@ pub fn joint_trig(problem: &Problem) -> [[f32; 4]; JOINTS] {
 /// packed for f32.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpreadPacking {
-    /// `false`: independent, `δ_i = spread[i]·z_i` ([`N_PARAMS`] entries); `true`: correlated,
+    /// `false`: independent, `δ_i = spread[i]·z_i` ([`N_UNCERTAIN`] entries: the parameters,
+    /// then the tool's x, y, z); `true`: correlated,
     /// `δ_free[a] = Σ_{b≤a} spread[a·n + b]·z_free[b]` with `n` = `free.len()` (row-major lower
     /// Cholesky factor).
     pub correlated: bool,
     /// σ per parameter, or the Cholesky factor of the free parameters.
     pub spread: Vec<f32>,
-    /// Free-parameter indices (correlated); `[0]` otherwise, so the buffer is never empty.
+    /// Free-input indices of the [`N_UNCERTAIN`] inputs (correlated); `[0]` otherwise, so the
+    /// buffer is never empty.
     pub free: Vec<u32>,
-    /// Bit `b` set: Philox block `b` (normals `4b … 4b+3`) feeds some free parameter.
+    /// Bit `b` set: Philox block `b` (normals `4b … 4b+3`, `b ≤ 8`) feeds some free input.
     pub block_mask: u32,
 }
 
@@ -146,7 +148,7 @@ impl SpreadPacking {
             }
             (None, None) => SpreadPacking {
                 correlated: false,
-                spread: vec![0.0; N_PARAMS],
+                spread: vec![0.0; N_UNCERTAIN],
                 free: vec![0],
                 block_mask,
             },
@@ -214,12 +216,13 @@ mod tests {
     fn independent_spread_packs_sigmas_and_blocks() {
         let pb = problem(Reference::Calibrated);
         let p = SpreadPacking::new(&pb);
-        let s = pb.model.uncertainty.sigmas();
+        let s = pb.model.input_sigmas();
         assert!(!p.correlated);
         assert_eq!(p.n_free(), 0);
         assert_eq!(p.spread, s.map(|v| v as f32).to_vec());
-        for b in 0..8 {
-            let used = (4 * b..(4 * b + 4).min(N_PARAMS)).any(|i| s[i] != 0.0);
+        assert_eq!(p.block_mask & (1 << 8), 0, "no tool spread, no block 8");
+        for b in 0..9 {
+            let used = (4 * b..(4 * b + 4).min(N_UNCERTAIN)).any(|i| s[i] != 0.0);
             assert_eq!(p.block_mask & (1 << b) != 0, used, "block {b}");
         }
     }

@@ -31,7 +31,7 @@
 //! and the Monte Carlo drivers ask for consecutive batches, so the next batch is already
 //! computing while the caller sorts this one ([`GpuOptions::prefetch`]). Memory is per chunk,
 //! never per request: an MCS of 10^8 draws needs the caller's output slice and two chunks of GPU
-//! buffers; an offset request of n rows uploads `N_PARAMS` f32 per row, one chunk at a time.
+//! buffers; an offset request of n rows uploads `N_UNCERTAIN` f32 per row, one chunk at a time.
 
 mod context;
 mod device;
@@ -40,7 +40,7 @@ pub use context::{devices_opened, GpuContext};
 
 use super::deviation::{self, SpreadPacking};
 use super::{BackendInfo, EngineError, Evaluator, Problem};
-use crate::kinematics::N_PARAMS;
+use crate::kinematics::N_UNCERTAIN;
 use device::{BindGroup, Buffer, Gpu, Timer};
 use std::collections::VecDeque;
 use std::sync::Arc;
@@ -81,7 +81,7 @@ pub mod binding {
     pub const W: u32 = 6;
     /// Output: e_j per parameter vector and point (`e_out`).
     pub const E: u32 = 7;
-    /// Input of the offset path: `N_PARAMS` offsets per row (`offsets_in`).
+    /// Input of the offset path: `N_UNCERTAIN` offsets per row (`offsets_in`).
     pub const OFFSETS: u32 = 8;
 }
 
@@ -331,7 +331,7 @@ impl Slot {
 enum Rows<'a> {
     /// Counter draws from this index on.
     Draws(u64),
-    /// An offset matrix, `N_PARAMS` per row, from its first row on.
+    /// An offset matrix, `N_UNCERTAIN` per row, from its first row on.
     Offsets(&'a [f64]),
 }
 
@@ -340,7 +340,7 @@ impl<'a> Rows<'a> {
     fn skip(self, n: usize) -> Rows<'a> {
         match self {
             Rows::Draws(k) => Rows::Draws(k.wrapping_add(n as u64)),
-            Rows::Offsets(o) => Rows::Offsets(&o[(n * N_PARAMS).min(o.len())..]),
+            Rows::Offsets(o) => Rows::Offsets(&o[(n * N_UNCERTAIN).min(o.len())..]),
         }
     }
 }
@@ -394,7 +394,7 @@ impl GpuEvaluator {
         let gpu = &ctx.gpu;
         let chunk = opts.chunk.max(1).min(ctx.max_chunk()).max(1);
         let by_bytes = ctx.max_binding_words();
-        let chunk_o = chunk.min((by_bytes / N_PARAMS).max(1));
+        let chunk_o = chunk.min((by_bytes / N_UNCERTAIN).max(1));
         let problem_bufs = ProblemBuffers::new(gpu, problem);
         let timestamps = opts.timestamps && gpu.timestamps;
         let slots: Vec<Slot> = (0..2)
@@ -492,7 +492,7 @@ impl GpuEvaluator {
         if self.offsets_ready {
             return;
         }
-        let bytes = 4 * (self.chunk_o * N_PARAMS) as u64;
+        let bytes = 4 * (self.chunk_o * N_UNCERTAIN) as u64;
         for slot in &mut self.slots {
             slot.offsets = self.ctx.gpu.storage("offsets", bytes);
             slot.rebind(&self.ctx, &self.problem);
@@ -566,7 +566,7 @@ impl GpuEvaluator {
             Rows::Offsets(o) => {
                 self.staging_f32.clear();
                 self.staging_f32
-                    .extend(o[..count * N_PARAMS].iter().map(|&v| v as f32));
+                    .extend(o[..count * N_UNCERTAIN].iter().map(|&v| v as f32));
                 gpu.write(&slot.offsets, bytemuck::cast_slice(&self.staging_f32));
                 ([0, 0], &self.ctx.offsets)
             }

@@ -23,11 +23,11 @@
 //! * **Counter draws** ([`Evaluator::evaluate`]): draws `first … first + n − 1` of the run's
 //!   Philox stream (`docs/METHOD.md §6`), generated inside the
 //!   backend, so a batch costs no host-to-device traffic. This is what AMCS and MCS use.
-//! * **Explicit offsets** ([`Evaluator::evaluate_offsets`]): an `n × N_PARAMS` row-major matrix
-//!   of parameter deviations `δ = μ − μ̄` from the model's values, in internal units (mm,
-//!   radians). This is the extension point for methods whose parameter vectors are not i.i.d.
+//! * **Explicit offsets** ([`Evaluator::evaluate_offsets`]): an `n × N_UNCERTAIN` row-major
+//!   matrix of deviations `δ = μ − μ̄` from the model's values, in internal units (mm,
+//!   radians): the 30 parameters, then the tool point's x, y, z in the flange frame (mm). This is the extension point for methods whose parameter vectors are not i.i.d.
 //!   draws: pick-freeze matrices for Sobol indices, MCMC states for subset simulation, extra
-//!   uncertainty sources such as the tool. Row `i` equal to
+//!   uncertainty sources. Row `i` equal to
 //!   [`ParamSampler::deltas`](crate::sampling::ParamSampler::deltas) of draw `k` gives what
 //!   `evaluate` gives for draw `k`. The provided method checks the matrix (shape, finite
 //!   entries, angular offsets within [`MAX_ANGLE_OFFSET`]) and calls the backend's
@@ -47,7 +47,7 @@ pub use cpu::CpuEvaluator;
 pub use gpu::{GpuContext, GpuEvaluator, GpuOptions, GpuTimings};
 pub use problem::{Problem, ProblemError, Reference};
 
-use crate::kinematics::{ParamKind, N_PARAMS, PARAMS_PER_JOINT};
+use crate::kinematics::{input_name, param_kind, N_PARAMS, N_UNCERTAIN};
 use crate::sampling::Philox;
 
 /// Largest accepted angular offset (θ, α, β) in an offset matrix, radians: a quarter turn.
@@ -78,10 +78,11 @@ pub enum EngineError {
         /// Entries given.
         got: usize,
     },
-    /// An offset matrix whose length is not `rows × N_PARAMS` for the requested rows.
+    /// An offset matrix whose length is not `rows × N_UNCERTAIN` for the requested rows.
     #[error(
-        "offset matrix has {got} entries, expected {expected} ({rows} rows of {} parameters)",
-        N_PARAMS
+        "offset matrix has {got} entries, expected {expected} ({rows} rows of {} parameters and \
+         tool coordinates)",
+        N_UNCERTAIN
     )]
     OffsetsShape {
         /// Rows requested (the length of the output `w`).
@@ -96,7 +97,7 @@ pub enum EngineError {
     BadOffset {
         /// 0-based row.
         row: usize,
-        /// Parameter name, e.g. `theta2` (1-based joint).
+        /// Input name, e.g. `theta2` (1-based joint) or `tool_x`.
         param: String,
         /// What is wrong.
         message: String,
@@ -132,7 +133,7 @@ pub trait Evaluator: Send {
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError>;
 
-    /// Backend part of [`Evaluator::evaluate_offsets`]: `offsets` has `w.len() · N_PARAMS`
+    /// Backend part of [`Evaluator::evaluate_offsets`]: `offsets` has `w.len() · N_UNCERTAIN`
     /// finite entries with angular offsets within [`MAX_ANGLE_OFFSET`], and `per_point`, when
     /// given, `w.len() · m`. The default: [`EngineError::OffsetsUnsupported`].
     fn eval_offsets(
@@ -159,8 +160,9 @@ pub trait Evaluator: Send {
         self.eval_draws(first, w, per_point)
     }
 
-    /// Fills `w[i]` with `w` of the parameter vector `μ̄ + offsets[i·N_PARAMS ..][..N_PARAMS]`
-    /// (μ̄ the model's values; mm and radians) and, if given, `per_point[i·m + j]` with its
+    /// Fills `w[i]` with `w` of the parameter vector and tool point
+    /// `μ̄ + offsets[i·N_UNCERTAIN ..][..N_UNCERTAIN]` (μ̄ the model's values; mm and radians;
+    /// the last three entries move the tool point in the flange frame) and, if given, `per_point[i·m + j]` with its
     /// `e_j`. Errors: a matrix of the wrong length, a non-finite entry or an angular offset
     /// beyond [`MAX_ANGLE_OFFSET`], output buffers of the wrong length, or an evaluator without
     /// an offset path.
@@ -189,7 +191,7 @@ fn check_buffers(m: usize, w: &[f64], per_point: Option<&[f64]>) -> Result<(), E
 
 /// Checks an offset matrix of `rows` rows: its length, finiteness, and the angle bound.
 fn check_offsets(offsets: &[f64], rows: usize) -> Result<(), EngineError> {
-    let expected = rows * N_PARAMS;
+    let expected = rows * N_UNCERTAIN;
     if offsets.len() != expected {
         return Err(EngineError::OffsetsShape {
             rows,
@@ -198,18 +200,18 @@ fn check_offsets(offsets: &[f64], rows: usize) -> Result<(), EngineError> {
         });
     }
     for (x, &v) in offsets.iter().enumerate() {
-        let (row, p) = (x / N_PARAMS, x % N_PARAMS);
-        let kind = ParamKind::ALL[p % PARAMS_PER_JOINT];
+        let (row, p) = (x / N_UNCERTAIN, x % N_UNCERTAIN);
+        let angle = p < N_PARAMS && param_kind(p).is_angle();
         let message = if !v.is_finite() {
             format!("{v} is not finite")
-        } else if kind.is_angle() && v.abs() > MAX_ANGLE_OFFSET {
+        } else if angle && v.abs() > MAX_ANGLE_OFFSET {
             format!("angular offset {v} rad exceeds {MAX_ANGLE_OFFSET:.4} rad (a quarter turn)")
         } else {
             continue;
         };
         return Err(EngineError::BadOffset {
             row,
-            param: format!("{}{}", kind.name(), p / PARAMS_PER_JOINT + 1),
+            param: input_name(p),
             message,
         });
     }
@@ -292,7 +294,7 @@ mod tests {
     fn scalar_evaluator_has_no_offset_path() {
         let mut ev = scalar();
         let mut w = vec![0.0; 2];
-        let r = ev.evaluate_offsets(&[0.0; 2 * N_PARAMS], &mut w, None);
+        let r = ev.evaluate_offsets(&[0.0; 2 * N_UNCERTAIN], &mut w, None);
         assert!(
             matches!(r, Err(EngineError::OffsetsUnsupported { .. })),
             "{r:?}"
@@ -301,24 +303,32 @@ mod tests {
 
     #[test]
     fn offset_matrices_are_checked() {
-        assert!(check_offsets(&[0.0; 3 * N_PARAMS], 3).is_ok());
-        match check_offsets(&[0.0; 3 * N_PARAMS - 1], 3) {
+        assert!(check_offsets(&[0.0; 3 * N_UNCERTAIN], 3).is_ok());
+        match check_offsets(&[0.0; 3 * N_UNCERTAIN - 1], 3) {
             Err(EngineError::OffsetsShape {
                 rows,
                 expected,
                 got,
-            }) => assert_eq!((rows, expected, got), (3, 90, 89)),
+            }) => assert_eq!((rows, expected, got), (3, 99, 98)),
             r => panic!("{r:?}"),
         }
-        let mut m = vec![0.0; 2 * N_PARAMS];
-        m[N_PARAMS + 7] = f64::NAN; // row 1, a of joint 2
+        let mut m = vec![0.0; 2 * N_UNCERTAIN];
+        m[N_UNCERTAIN + N_PARAMS + 2] = f64::NAN; // row 1, tool z
+        match check_offsets(&m, 2) {
+            Err(EngineError::BadOffset { row, param, .. }) => {
+                assert_eq!((row, param.as_str()), (1, "tool_z"))
+            }
+            r => panic!("{r:?}"),
+        }
+        m[N_UNCERTAIN + N_PARAMS + 2] = 2.0; // a tool offset is a length: no angle bound
+        m[N_UNCERTAIN + 7] = f64::NAN; // row 1, a of joint 2
         match check_offsets(&m, 2) {
             Err(EngineError::BadOffset { row, param, .. }) => {
                 assert_eq!((row, param.as_str()), (1, "a2"))
             }
             r => panic!("{r:?}"),
         }
-        m[N_PARAMS + 7] = 1e3; // lengths have no bound
+        m[N_UNCERTAIN + 7] = 1e3; // lengths have no bound
         assert!(check_offsets(&m, 2).is_ok());
         m[3] = -2.0; // α1 beyond a quarter turn
         match check_offsets(&m, 2) {

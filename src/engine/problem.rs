@@ -137,11 +137,21 @@ impl Problem {
     /// Per-point errors `e_j` of one parameter vector, straight from [`position`] (slow; for
     /// tests and spot checks).
     pub fn point_errors(&self, params: &[f64; crate::kinematics::N_PARAMS]) -> Vec<f64> {
+        self.point_errors_at(params, &[0.0; 3])
+    }
+
+    /// [`Self::point_errors`] with the tool point moved by `tool_offset` (mm, flange frame).
+    pub fn point_errors_at(
+        &self,
+        params: &[f64; crate::kinematics::N_PARAMS],
+        tool_offset: &[f64; 3],
+    ) -> Vec<f64> {
+        let tool: [f64; 3] = std::array::from_fn(|k| self.model.tool[k] + tool_offset[k]);
         self.points
             .iter()
             .zip(&self.reference)
             .map(|(q, r)| {
-                let p = position(params, &self.model.tool, q);
+                let p = position(params, &tool, q);
                 ((p[0] - r[0]).powi(2) + (p[1] - r[1]).powi(2) + (p[2] - r[2]).powi(2)).sqrt()
             })
             .collect()

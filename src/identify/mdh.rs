@@ -258,6 +258,8 @@ pub fn chain_from_zero_pose(
         fixed: [FixedParam::Beta; JOINTS],
         limits_deg: [(-180.0, 180.0); JOINTS],
         tool: [0.0; 3],
+        tool_sigma: [0.0; 3],
+        base: None,
         uncertainty: crate::kinematics::Uncertainty::Independent([0.0; N_PARAMS]),
     };
     let measured = axes.map(|line| MeasuredAxis {

@@ -264,7 +264,12 @@ pub fn identify_run(
         fixed: chain.fixed,
         limits_deg: nominal.limits_deg,
         tool: chain.tool,
+        tool_sigma: [0.0; 3],
         uncertainty: Uncertainty::Independent([0.0; N_PARAMS]),
+        // The chain is expressed in the measurements' frame with J1 along its z, the nominal
+        // model's base frame; the nominal's placement in its description's frame (e.g. the
+        // KUKA KR 6's Rx(180°)) carries over, so `fk` and `export` of the result match it.
+        base: nominal.base,
     };
     let to_file = |p: &[f64; N_PARAMS], j: usize| -> [f64; 5] {
         ParamKind::ALL.map(|kind| p[param_index(j, kind)] / kind.to_internal())

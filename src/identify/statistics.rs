@@ -1,28 +1,46 @@
-//! Statistics over the models of repeated identification runs: mean parameters with their
-//! run-to-run σ ([`parameter_statistics`]) or full sample covariance ([`correlated_statistics`]).
+//! Statistics over the models of repeated identification runs: mean parameters and tool point
+//! with their run-to-run σ ([`parameter_statistics`]) or full sample covariance
+//! ([`correlated_statistics`]).
+//!
+//! The tool point (tracker target) is identified in every run, so it has a run-to-run spread
+//! too: its σ goes into [`RobotModel::tool_sigma`], and the full covariance becomes 33 × 33 (the
+//! 30 parameters, then the tool's x, y, z) when the tool varies between the runs.
 
-use crate::kinematics::{param_index, RobotModel, Uncertainty, N_PARAMS};
+use crate::kinematics::{param_index, RobotModel, Uncertainty, N_PARAMS, N_UNCERTAIN};
 
 /// Relative ridge added to the diagonal of a sample covariance: with R runs of ~24 free
 /// parameters the covariance is singular when R is at most the number of free parameters, and the
 /// ridge gives it a Cholesky factor (draws stay within 10⁻³ σ of the sample covariance's subspace).
 pub const COVARIANCE_RIDGE: f64 = 1e-6;
 
-/// Sample covariance (n − 1) of the parameters of `models`, row-major 30×30, internal units.
+/// The [`N_UNCERTAIN`] inputs of a model: its 30 parameters, then the tool's x, y, z.
+fn inputs(m: &RobotModel) -> [f64; N_UNCERTAIN] {
+    std::array::from_fn(|i| {
+        if i < N_PARAMS {
+            m.params[i]
+        } else {
+            m.tool[i - N_PARAMS]
+        }
+    })
+}
+
+/// Sample covariance (n − 1) of the parameters and tool coordinates of `models`, row-major
+/// 33 × 33 ([`N_UNCERTAIN`]: the 30 parameters, then the tool's x, y, z), internal units.
 pub fn sample_covariance(models: &[RobotModel]) -> Vec<f64> {
     let n = models.len() as f64;
-    let mut mean = [0.0; N_PARAMS];
+    let mut mean = [0.0; N_UNCERTAIN];
     for m in models {
-        for (s, v) in mean.iter_mut().zip(&m.params) {
+        for (s, v) in mean.iter_mut().zip(&inputs(m)) {
             *s += v / n;
         }
     }
-    let mut c = vec![0.0; N_PARAMS * N_PARAMS];
+    let mut c = vec![0.0; N_UNCERTAIN * N_UNCERTAIN];
     for m in models {
-        for i in 0..N_PARAMS {
-            let di = m.params[i] - mean[i];
-            for k in 0..N_PARAMS {
-                c[i * N_PARAMS + k] += di * (m.params[k] - mean[k]) / (n - 1.0);
+        let x = inputs(m);
+        for i in 0..N_UNCERTAIN {
+            let di = x[i] - mean[i];
+            for k in 0..N_UNCERTAIN {
+                c[i * N_UNCERTAIN + k] += di * (x[k] - mean[k]) / (n - 1.0);
             }
         }
     }
@@ -30,47 +48,58 @@ pub fn sample_covariance(models: &[RobotModel]) -> Vec<f64> {
 }
 
 /// [`parameter_statistics`] with the full sample covariance instead of independent σ: rows and
-/// columns of fixed parameters are zero and the diagonal carries the [`COVARIANCE_RIDGE`].
+/// columns of fixed parameters (and of a tool coordinate without spread) are zero and the
+/// diagonal carries the [`COVARIANCE_RIDGE`]. The matrix is 33 × 33 when the tool varies between
+/// the runs, else the parameters' 30 × 30 block (the tool then has σ 0).
 pub fn correlated_statistics(models: &[RobotModel]) -> Option<RobotModel> {
     let mut m = parameter_statistics(models)?;
-    let sig = m.uncertainty.sigmas();
-    let mut cov = sample_covariance(models);
-    for i in 0..N_PARAMS {
-        for k in 0..N_PARAMS {
-            if sig[i] == 0.0 || sig[k] == 0.0 {
-                cov[i * N_PARAMS + k] = 0.0;
+    let sig = m.input_sigmas();
+    let full = sample_covariance(models);
+    let n = if m.tool_uncertain() {
+        N_UNCERTAIN
+    } else {
+        N_PARAMS
+    };
+    let mut cov = vec![0.0; n * n];
+    for i in 0..n {
+        for k in 0..n {
+            if sig[i] != 0.0 && sig[k] != 0.0 {
+                cov[i * n + k] = full[i * N_UNCERTAIN + k];
             }
         }
-        cov[i * N_PARAMS + i] *= 1.0 + COVARIANCE_RIDGE;
+        cov[i * n + i] *= 1.0 + COVARIANCE_RIDGE;
+    }
+    if n == N_UNCERTAIN {
+        for k in 0..3 {
+            let i = N_PARAMS + k;
+            m.tool_sigma[k] = cov[i * n + i].sqrt();
+        }
     }
     m.uncertainty = Uncertainty::Covariance(cov);
     Some(m)
 }
 
-/// Mean parameters and their sample standard deviations over the models of repeated runs
-/// (`n − 1` divisor): a model whose uncertainty is `Independent(σ)`. The first model supplies the
-/// structure, limits and name; `None` for fewer than two models or differing structures.
+/// Mean parameters and tool point and their sample standard deviations over the models of
+/// repeated runs (`n − 1` divisor): a model whose uncertainty is `Independent(σ)` and whose
+/// `tool_sigma` is the tool's run-to-run σ. The first model supplies the structure, limits and
+/// name; `None` for fewer than two models or differing structures.
 pub fn parameter_statistics(models: &[RobotModel]) -> Option<RobotModel> {
     let first = models.first()?;
     if models.len() < 2 || models.iter().any(|m| m.fixed != first.fixed) {
         return None;
     }
     let n = models.len() as f64;
-    let mut mean = [0.0; N_PARAMS];
-    let mut tool = [0.0; 3];
+    let mut mean = [0.0; N_UNCERTAIN];
     for m in models {
-        for (s, v) in mean.iter_mut().zip(&m.params) {
-            *s += v / n;
-        }
-        for (s, v) in tool.iter_mut().zip(&m.tool) {
+        for (s, v) in mean.iter_mut().zip(&inputs(m)) {
             *s += v / n;
         }
     }
-    let mut sigma = [0.0; N_PARAMS];
+    let mut sigma = [0.0; N_UNCERTAIN];
     for (i, s) in sigma.iter_mut().enumerate() {
         let var = models
             .iter()
-            .map(|m| (m.params[i] - mean[i]).powi(2))
+            .map(|m| (inputs(m)[i] - mean[i]).powi(2))
             .sum::<f64>()
             / (n - 1.0);
         *s = var.sqrt();
@@ -81,10 +110,65 @@ pub fn parameter_statistics(models: &[RobotModel]) -> Option<RobotModel> {
     }
     Some(RobotModel {
         name: format!("{} (mean of {} runs)", first.name, models.len()),
-        params: mean,
+        params: std::array::from_fn(|i| mean[i]),
         fixed: first.fixed,
         limits_deg: first.limits_deg,
-        tool,
-        uncertainty: Uncertainty::Independent(sigma),
+        tool: std::array::from_fn(|k| mean[N_PARAMS + k]),
+        tool_sigma: std::array::from_fn(|k| sigma[N_PARAMS + k]),
+        uncertainty: Uncertainty::Independent(std::array::from_fn(|i| sigma[i])),
+        base: first.base,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::tx60;
+
+    /// Three runs whose tool differs: the tool's mean and σ are those of the three values
+    /// (closed form), the covariance is 33 × 33 with the tool's variance on its diagonal, and
+    /// the model passes its own checks.
+    #[test]
+    fn tool_spread_over_runs() {
+        let runs: Vec<RobotModel> = [-1.0, 0.0, 2.0]
+            .iter()
+            .map(|&t| {
+                let mut m = tx60();
+                m.tool = [100.0 + 0.003 * t, 5.0, -0.002 * t];
+                m.params[2] += 1e-3 * t;
+                m
+            })
+            .collect();
+        let m = parameter_statistics(&runs).unwrap();
+        // values −1, 0, 2: mean 1/3, sample variance ((4/3)² + (1/3)² + (5/3)²)/2 = 7/3
+        let s = (7.0f64 / 3.0).sqrt();
+        assert!((m.tool[0] - (100.0 + 0.001)).abs() < 1e-12);
+        assert!((m.tool_sigma[0] - 0.003 * s).abs() < 1e-12);
+        assert_eq!(m.tool_sigma[1], 0.0);
+        assert!((m.tool_sigma[2] - 0.002 * s).abs() < 1e-12);
+        m.check().unwrap();
+        let c = correlated_statistics(&runs).unwrap();
+        assert_eq!(c.uncertainty.dim(), N_UNCERTAIN);
+        let (x, z) = (N_PARAMS, N_PARAMS + 2);
+        let ridge = 1.0 + COVARIANCE_RIDGE;
+        assert!((c.uncertainty.entry(x, x) - (0.003 * s).powi(2) * ridge).abs() < 1e-15);
+        // tool x and z are perfectly anti-correlated, as are tool x and a1
+        assert!((c.uncertainty.entry(x, z) + 0.003 * 0.002 * s * s).abs() < 1e-15);
+        assert!(c.uncertainty.entry(x, 2) > 0.0);
+        assert!((c.tool_sigma[0] - (0.003 * s) * ridge.sqrt()).abs() < 1e-15);
+        let back = RobotModel::from_toml(&c.to_toml(), "x").unwrap();
+        assert_eq!(back.uncertainty.dim(), N_UNCERTAIN);
+        assert!((back.tool_sigma[2] - c.tool_sigma[2]).abs() < 1e-15);
+        // runs with one tool keep the 30 × 30 matrix and no tool spread
+        let same: Vec<RobotModel> = runs
+            .iter()
+            .map(|r| RobotModel {
+                tool: [1.0, 2.0, 3.0],
+                ..r.clone()
+            })
+            .collect();
+        let c = correlated_statistics(&same).unwrap();
+        assert_eq!(c.uncertainty.dim(), N_PARAMS);
+        assert!(!c.tool_uncertain());
+    }
 }

@@ -47,7 +47,10 @@ fn fixed_part(model: &RobotModel, i: usize) -> Isometry3<f64> {
 pub fn origins(model: &RobotModel) -> ([Isometry3<f64>; JOINTS], Isometry3<f64>) {
     let o = std::array::from_fn(|i| {
         if i == 0 {
-            Isometry3::identity()
+            // The base transform places joint 1 in the description's frame.
+            model
+                .base
+                .map_or_else(Isometry3::identity, |b| b.isometry())
         } else {
             fixed_part(model, i - 1)
         }

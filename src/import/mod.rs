@@ -15,7 +15,12 @@
 //!
 //! What the MDH form cannot hold is an error naming the joint, never an approximation: the
 //! model's first axis is the base z axis through the base origin, pointing up (there are no
-//! parameters before `Rz(θ_1 + q_1)`), and two consecutive axes cannot coincide. Source q = 0 is
+//! parameters before `Rz(θ_1 + q_1)`), and two consecutive axes cannot coincide. A first axis
+//! along base −z through the origin (ROS-Industrial's KUKA arms) is held by the model's base
+//! transform ([`crate::kinematics::BaseTransform`]): the chain is expressed in the base frame
+//! turned half a turn about x, and the model keeps `base = Rx(180°)`, which forward kinematics,
+//! export and the proof apply (errors and `w` are invariant to it). A tilted or offset first
+//! axis is refused naming the joint (choose the arm's own base link). Source q = 0 is
 //! model q = 0 and each joint turns in its source's sense. Only the tip's position is kept (the
 //! model's tool point); its orientation is not part of the model.
 //!
@@ -28,7 +33,7 @@ pub mod urdf;
 
 use crate::identify::mdh::chain_from_zero_pose;
 use crate::identify::{IdentifyError, Line};
-use crate::kinematics::{position, RobotModel, Uncertainty, JOINTS, N_PARAMS};
+use crate::kinematics::{BaseTransform, RobotModel, Uncertainty, JOINTS, N_PARAMS};
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use std::fmt::Write as _;
@@ -274,7 +279,23 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
             dir: frame.rotation * joint.axis.into_inner(),
         };
     }
-    let tip = (frame * chain.tip).translation.vector;
+    let mut tip = (frame * chain.tip).translation.vector;
+    // First axis along −z: express everything in the base frame turned by Rx(π), exactly
+    // (x, y, z) → (x, −y, −z), and keep that turn as the model's base transform.
+    let base = (axes[0].dir.z < 0.0).then_some(BaseTransform {
+        xyz: [0.0; 3],
+        rpy: [std::f64::consts::PI, 0.0, 0.0],
+    });
+    if base.is_some() {
+        let flip = |v: Vector3<f64>| Vector3::new(v.x, -v.y, -v.z);
+        for a in &mut axes {
+            *a = Line {
+                point: flip(a.point),
+                dir: flip(a.dir),
+            };
+        }
+        tip = flip(tip);
+    }
     check_base(&axes[0], &chain.joints[0].name, path)?;
     let c = chain_from_zero_pose(&axes, tip).map_err(|e| match e {
         IdentifyError::Geometry { joint, message } => ImportError::NotRepresentable {
@@ -293,7 +314,9 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         fixed: c.fixed,
         limits_deg: std::array::from_fn(|j| chain.joints[j].limits_deg),
         tool: c.tool,
+        tool_sigma: [0.0; 3],
         uncertainty: Uncertainty::Independent([0.0; N_PARAMS]),
+        base,
     };
     let (max_deviation_mm, configurations) = prove(chain, &model, path)?;
     Ok(Imported {
@@ -309,9 +332,8 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
 fn check_base(axis: &Line, joint: &str, path: &str) -> Result<(), ImportError> {
     let tilt = axis.dir.cross(&Vector3::z()).norm();
     let offset = Vector3::new(axis.point.x, axis.point.y, 0.0).norm();
-    let message = if axis.dir.z < 0.0 {
-        Some("its axis points down (-z of the base frame); the model's first axis is base +z: flip the base frame or the joint's axis sign".to_string())
-    } else if tilt > BASE_TILT_EPS {
+    // An axis along −z has been turned up by the base transform (see `convert`).
+    let message = if tilt > BASE_TILT_EPS {
         Some(format!(
             "its axis is tilted {:e} deg from base z; the model's first axis is base z: express the chain in a base frame whose z is this axis",
             tilt.asin().to_degrees()
@@ -353,7 +375,7 @@ pub fn prove(
         };
         let q = q_deg.map(f64::to_radians);
         let a = chain.position(&q);
-        let b = position(&model.params, &model.tool, &q);
+        let b = model.world_position(&q);
         let dev = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
         // NaN compares false: treat it as the worst.
         if dev > worst.0 || dev.is_nan() {

@@ -17,8 +17,12 @@ mod preset;
 
 pub use fk::{joint_transform, position, position_deg, transform, Mat4};
 pub use model::{
-    param_index, param_joint, param_kind, FixedParam, InvalidField, ModelError, ParamKind,
-    RobotModel, Uncertainty, JOINTS, MAX_ANGLE_DEG, MAX_LENGTH_MM, MAX_LIMIT_DEG, MAX_SIGMA_DEG,
-    MAX_SIGMA_MM, N_PARAMS, PARAMS_PER_JOINT,
+    input_name, input_to_internal, param_index, param_joint, param_kind, tool_index, BaseTransform,
+    FixedParam, InvalidField, ModelError, ParamKind, RobotModel, Uncertainty, JOINTS,
+    MAX_ANGLE_DEG, MAX_LENGTH_MM, MAX_LIMIT_DEG, MAX_SIGMA_DEG, MAX_SIGMA_MM, N_PARAMS,
+    N_UNCERTAIN, PARAMS_PER_JOINT, TOOL_COORDS,
 };
-pub use preset::{irb2400, preset, tx60, ur10e, ur5e, UrdfJointFigures, IRB2400_URDF, PRESETS};
+pub use preset::{
+    irb2400, kr6r700sixx, preset, tx60, ur10e, ur5e, UrdfJointFigures, IRB2400_URDF,
+    KR6R700SIXX_URDF, PRESETS,
+};

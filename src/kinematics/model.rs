@@ -13,6 +13,51 @@ pub const JOINTS: usize = 6;
 pub const PARAMS_PER_JOINT: usize = 5;
 /// Total number of geometric parameters.
 pub const N_PARAMS: usize = JOINTS * PARAMS_PER_JOINT;
+/// Coordinates of the tool point (x, y, z in the flange frame).
+pub const TOOL_COORDS: usize = 3;
+/// Number of uncertain inputs of a draw: the [`N_PARAMS`] parameters, then the tool point's x,
+/// y, z ([`tool_index`]). Offset vectors, offset-matrix rows and a full covariance have this
+/// length (docs/METHOD.md §14).
+pub const N_UNCERTAIN: usize = N_PARAMS + TOOL_COORDS;
+
+/// Index of tool coordinate `k` (0 = x, 1 = y, 2 = z) among the [`N_UNCERTAIN`] inputs.
+pub const fn tool_index(k: usize) -> usize {
+    N_PARAMS + k
+}
+
+/// The name of input `i` of the [`N_UNCERTAIN`] inputs as reports spell it: `theta2`, `d1`, …
+/// (1-based joint), or `tool_x`, `tool_y`, `tool_z`.
+pub fn input_name(i: usize) -> String {
+    if i >= N_PARAMS {
+        format!("tool_{}", ["x", "y", "z"][i - N_PARAMS])
+    } else {
+        format!("{}{}", param_kind(i).name(), param_joint(i) + 1)
+    }
+}
+
+/// Factor from file units to internal units of input `i` (degrees → radians for the angles;
+/// 1 for lengths and the tool coordinates).
+pub fn input_to_internal(i: usize) -> f64 {
+    if i >= N_PARAMS {
+        1.0
+    } else {
+        param_kind(i).to_internal()
+    }
+}
+
+/// The field of input `i` as the model file spells its spread: `joint[2].sigma.d` or
+/// `tool_sigma[1]` (0-based coordinate, as TOML arrays are read).
+fn input_sigma_field(i: usize) -> String {
+    if i >= N_PARAMS {
+        format!("tool_sigma[{}]", i - N_PARAMS)
+    } else {
+        format!(
+            "{}.sigma.{}",
+            joint_field(param_joint(i)),
+            param_kind(i).name()
+        )
+    }
+}
 
 /// One of the five MDH parameters of a joint.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -98,23 +143,80 @@ impl FixedParam {
     }
 }
 
-/// Spread of the parameters about their values (internal units: mm, rad).
+/// Spread of the parameters about their values (internal units: mm, rad). The tool point's
+/// spread is [`RobotModel::tool_sigma`], except with a 33 × 33 covariance, which covers it.
 #[derive(Clone, Debug, PartialEq)]
 #[allow(clippy::large_enum_variant)] // one per model; boxing buys nothing
 pub enum Uncertainty {
     /// Independent normals with these standard deviations (0 = exactly known).
     Independent([f64; N_PARAMS]),
-    /// Full covariance, row-major 30×30.
+    /// Full covariance, row-major, either 30 × 30 (the parameters; the tool's spread is then
+    /// [`RobotModel::tool_sigma`], independent of them) or 33 × 33 ([`N_UNCERTAIN`]: the
+    /// parameters, then the tool's x, y, z in mm).
     Covariance(Vec<f64>),
 }
 
 impl Uncertainty {
+    /// Rows of the covariance: [`N_UNCERTAIN`] for a 33 × 33 matrix, else [`N_PARAMS`] (also
+    /// for independent σ).
+    pub fn dim(&self) -> usize {
+        match self {
+            Self::Covariance(c) if c.len() == N_UNCERTAIN * N_UNCERTAIN => N_UNCERTAIN,
+            _ => N_PARAMS,
+        }
+    }
+
+    /// Covariance entry `(i, k)` of the parameters (`i, k <` [`Self::dim`]); for independent σ
+    /// the diagonal `σ_i²`.
+    pub fn entry(&self, i: usize, k: usize) -> f64 {
+        match self {
+            Self::Independent(s) => {
+                if i == k {
+                    s[i] * s[i]
+                } else {
+                    0.0
+                }
+            }
+            Self::Covariance(c) => c[i * self.dim() + k],
+        }
+    }
+
     /// Standard deviation of each parameter (the covariance's diagonal, square-rooted).
     pub fn sigmas(&self) -> [f64; N_PARAMS] {
         match self {
             Self::Independent(s) => *s,
-            Self::Covariance(c) => std::array::from_fn(|i| c[i * N_PARAMS + i].max(0.0).sqrt()),
+            Self::Covariance(_) => std::array::from_fn(|i| self.entry(i, i).max(0.0).sqrt()),
         }
+    }
+}
+
+/// A rigid placement of the model's base frame in the frame a description uses (a cell or
+/// world frame): `p_world = Trans(xyz) · Rz(yaw) · Ry(pitch) · Rx(roll) · p_base`, as a URDF
+/// `<origin>`. It lets a robot whose first axis is not the base +z axis (ROS-Industrial's KUKA KR 6
+/// has joint A1 about −z) keep its own frame. Positions and errors are invariant to it: `w` and
+/// every `e_j` compare two positions moved by the same rigid transform, so the evaluators ignore
+/// it; forward kinematics (`fk`), import and export apply it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BaseTransform {
+    /// Translation, mm.
+    pub xyz: [f64; 3],
+    /// Roll, pitch, yaw, radians (the file writes degrees).
+    pub rpy: [f64; 3],
+}
+
+impl BaseTransform {
+    /// The transform as an isometry (mm).
+    pub fn isometry(&self) -> nalgebra::Isometry3<f64> {
+        nalgebra::Isometry3::from_parts(
+            nalgebra::Translation3::new(self.xyz[0], self.xyz[1], self.xyz[2]),
+            nalgebra::UnitQuaternion::from_euler_angles(self.rpy[0], self.rpy[1], self.rpy[2]),
+        )
+    }
+
+    /// `p` (base frame, mm) in the outer frame.
+    pub fn apply(&self, p: [f64; 3]) -> [f64; 3] {
+        let v = self.isometry() * nalgebra::Point3::from(p);
+        [v.x, v.y, v.z]
     }
 }
 
@@ -131,8 +233,14 @@ pub struct RobotModel {
     pub limits_deg: [(f64, f64); JOINTS],
     /// Tracker target in the flange frame, mm.
     pub tool: [f64; 3],
+    /// Standard deviation of the tool point's coordinates in the flange frame, mm (0 = exactly
+    /// known), independent of the parameters. With a 33 × 33 covariance it equals the square
+    /// roots of the covariance's last three diagonal entries ([`RobotModel::check`] says so).
+    pub tool_sigma: [f64; 3],
     /// Parameter uncertainty.
     pub uncertainty: Uncertainty,
+    /// Placement of the base frame in the description's frame; `None` = identity.
+    pub base: Option<BaseTransform>,
 }
 
 /// Largest magnitude of a length in a model (`d`, `a`, the tool's coordinates), mm: 100 m, far
@@ -223,9 +331,20 @@ struct CovarianceFile {
 
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
+struct BaseFile {
+    xyz: Vec<f64>,
+    rpy: Vec<f64>,
+}
+
+#[derive(Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 struct ModelFile {
     name: String,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    base: Option<BaseFile>,
     tool: Vec<f64>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    tool_sigma: Option<Vec<f64>>,
     joint: Vec<JointFile>,
     #[serde(skip_serializing_if = "Option::is_none")]
     covariance: Option<CovarianceFile>,
@@ -273,6 +392,37 @@ impl RobotModel {
                 ),
             )
         })?;
+        let tool_sigma_file: Option<[f64; 3]> = match &file.tool_sigma {
+            None => None,
+            Some(v) => Some(v.as_slice().try_into().map_err(|_| {
+                bad(
+                    "tool_sigma",
+                    format!(
+                        "must be exactly 3 numbers [sx, sy, sz] (mm), found {}",
+                        v.len()
+                    ),
+                )
+            })?),
+        };
+        let base = match &file.base {
+            None => None,
+            Some(b) => {
+                let three = |v: &[f64], field: &str, unit: &str| -> Result<[f64; 3], ModelError> {
+                    v.try_into().map_err(|_| {
+                        bad(
+                            field,
+                            format!("must be exactly 3 numbers ({unit}), found {}", v.len()),
+                        )
+                    })
+                };
+                let xyz = three(&b.xyz, "base.xyz", "mm")?;
+                let rpy = three(&b.rpy, "base.rpy", "roll, pitch, yaw in deg")?;
+                Some(BaseTransform {
+                    xyz,
+                    rpy: rpy.map(f64::to_radians),
+                })
+            }
+        };
         let mut params = [0.0; N_PARAMS];
         let mut sigma = [0.0; N_PARAMS];
         let mut fixed = [FixedParam::Beta; JOINTS];
@@ -307,28 +457,50 @@ impl RobotModel {
                 Uncertainty::Covariance(covariance_from_file(&c.matrix).map_err(invalid)?)
             }
         };
-        let model = RobotModel {
+        if let Some(ts) = tool_sigma_file {
+            check_tool_sigma(&ts).map_err(invalid)?;
+        }
+        let mut model = RobotModel {
             name: file.name,
             params,
             fixed,
             limits_deg: limits,
             tool,
+            tool_sigma: tool_sigma_file.unwrap_or([0.0; 3]),
             uncertainty,
+            base,
         };
+        // A 33 × 33 covariance carries the tool's spread; `tool_sigma`, when given, must repeat
+        // its diagonal.
+        let full = model.uncertainty.dim() == N_UNCERTAIN;
+        if full {
+            model.tool_sigma = std::array::from_fn(|k| {
+                let i = tool_index(k);
+                model.uncertainty.entry(i, i).max(0.0).sqrt()
+            });
+        }
         model.check().map_err(invalid)?;
-        // The per-joint sigma must agree with the covariance diagonal so a reader of the file is
-        // not misled.
+        // The per-joint sigma (and tool_sigma) must agree with the covariance diagonal so a reader
+        // of the file is not misled.
         if let Uncertainty::Covariance(_) = &model.uncertainty {
-            let diag = model.uncertainty.sigmas();
-            for i in 0..N_PARAMS {
-                if (diag[i] - sigma[i]).abs() > 1e-6 * diag[i].max(sigma[i]).max(1e-300) {
-                    let kind = param_kind(i);
+            let diag = model.input_sigmas();
+            let given: [f64; N_UNCERTAIN] = std::array::from_fn(|i| {
+                if i < N_PARAMS {
+                    sigma[i]
+                } else {
+                    tool_sigma_file.map_or(diag[i], |t| t[i - N_PARAMS])
+                }
+            });
+            let n = if full { N_UNCERTAIN } else { N_PARAMS };
+            for i in 0..n {
+                if (diag[i] - given[i]).abs() > 1e-6 * diag[i].max(given[i]).max(1e-300) {
+                    let f = input_to_internal(i);
                     return Err(bad(
-                        &format!("{}.sigma.{}", joint_field(param_joint(i)), kind.name()),
+                        &input_sigma_field(i),
                         format!(
                             "differs from sqrt of covariance diagonal ({} vs {})",
-                            sigma[i] / kind.to_internal(),
-                            diag[i] / kind.to_internal()
+                            given[i] / f,
+                            diag[i] / f
                         ),
                     ));
                 }
@@ -346,6 +518,14 @@ impl RobotModel {
     pub fn check(&self) -> Result<(), InvalidField> {
         for (k, &v) in self.tool.iter().enumerate() {
             check_magnitude(&format!("tool[{k}]"), v, MAX_LENGTH_MM, "mm")?;
+        }
+        check_tool_sigma(&self.tool_sigma)?;
+        if let Some(b) = &self.base {
+            for k in 0..3 {
+                check_magnitude(&format!("base.xyz[{k}]"), b.xyz[k], MAX_LENGTH_MM, "mm")?;
+                let deg = b.rpy[k].to_degrees();
+                check_magnitude(&format!("base.rpy[{k}]"), deg, MAX_ANGLE_DEG, "deg")?;
+            }
         }
         for j in 0..JOINTS {
             for kind in ParamKind::ALL {
@@ -373,7 +553,92 @@ impl RobotModel {
             Uncertainty::Covariance(c) => {
                 check_covariance(c, &self.fixed)?;
                 check_sigmas(&self.uncertainty.sigmas(), &self.fixed)?;
-                check_positive_definite(c, &self.free_params())
+                let n = self.uncertainty.dim();
+                if n == N_UNCERTAIN {
+                    let diag: [f64; 3] = std::array::from_fn(|k| {
+                        let i = tool_index(k);
+                        self.uncertainty.entry(i, i).sqrt()
+                    });
+                    check_tool_sigma(&diag)?;
+                    for k in 0..TOOL_COORDS {
+                        let d = diag[k];
+                        let t = self.tool_sigma[k];
+                        if (d - t).abs() > 1e-6 * d.max(t).max(1e-300) {
+                            return Err(InvalidField {
+                                field: format!("tool_sigma[{k}]"),
+                                message: format!(
+                                    "differs from sqrt of covariance diagonal ({t} vs {d})"
+                                ),
+                            });
+                        }
+                    }
+                }
+                let free: Vec<usize> = self.free_inputs().into_iter().filter(|&i| i < n).collect();
+                check_positive_definite(c, n, &free)
+            }
+        }
+    }
+
+    /// Tool-point position (mm) at joint angles `q` (radians) in the description's frame: the
+    /// MDH chain's [`super::position`], then the [`RobotModel::base`] transform.
+    pub fn world_position(&self, q: &[f64; JOINTS]) -> [f64; 3] {
+        let p = super::position(&self.params, &self.tool, q);
+        match &self.base {
+            None => p,
+            Some(b) => b.apply(p),
+        }
+    }
+
+    /// The tool point's standard deviations, mm ([`RobotModel::tool_sigma`]).
+    pub fn tool_sigmas(&self) -> [f64; 3] {
+        self.tool_sigma
+    }
+
+    /// Whether the tool point is uncertain (some tool σ > 0).
+    pub fn tool_uncertain(&self) -> bool {
+        self.tool_sigma.iter().any(|&s| s > 0.0)
+    }
+
+    /// Standard deviations of all [`N_UNCERTAIN`] inputs: the 30 parameters, then the tool.
+    pub fn input_sigmas(&self) -> [f64; N_UNCERTAIN] {
+        let p = self.uncertainty.sigmas();
+        std::array::from_fn(|i| {
+            if i < N_PARAMS {
+                p[i]
+            } else {
+                self.tool_sigma[i - N_PARAMS]
+            }
+        })
+    }
+
+    /// Indices (of the [`N_UNCERTAIN`] inputs) with nonzero spread: [`Self::free_params`],
+    /// then the uncertain tool coordinates.
+    pub fn free_inputs(&self) -> Vec<usize> {
+        let s = self.input_sigmas();
+        (0..N_UNCERTAIN).filter(|&i| s[i] > 0.0).collect()
+    }
+
+    /// The covariance of all [`N_UNCERTAIN`] inputs, row-major 33 × 33, for a correlated model
+    /// (a 30 × 30 matrix is extended by the independent tool variances `tool_sigma²`); `None`
+    /// for independent σ.
+    pub fn full_covariance(&self) -> Option<Vec<f64>> {
+        match &self.uncertainty {
+            Uncertainty::Independent(_) => None,
+            Uncertainty::Covariance(_) => {
+                let n = self.uncertainty.dim();
+                let mut c = vec![0.0; N_UNCERTAIN * N_UNCERTAIN];
+                for i in 0..N_UNCERTAIN {
+                    for k in 0..N_UNCERTAIN {
+                        c[i * N_UNCERTAIN + k] = if i < n && k < n {
+                            self.uncertainty.entry(i, k)
+                        } else if i == k {
+                            self.tool_sigma[i - N_PARAMS].powi(2)
+                        } else {
+                            0.0
+                        };
+                    }
+                }
+                Some(c)
             }
         }
     }
@@ -399,6 +664,23 @@ impl RobotModel {
             "# sigma: standard deviation of each parameter (0 = exactly known)."
         );
         let _ = writeln!(s, "name = {}", toml_string(&self.name));
+        if let Some(b) = &self.base {
+            let _ = writeln!(
+                s,
+                "# base frame in the description's frame: Trans(xyz, mm) Rz(yaw) Ry(pitch) Rx(roll), deg"
+            );
+            let r = b.rpy.map(f64::to_degrees);
+            let _ = writeln!(
+                s,
+                "base = {{ xyz = [{}, {}, {}], rpy = [{}, {}, {}] }}",
+                fnum(b.xyz[0]),
+                fnum(b.xyz[1]),
+                fnum(b.xyz[2]),
+                fnum(r[0]),
+                fnum(r[1]),
+                fnum(r[2])
+            );
+        }
         let _ = writeln!(s, "# tracker target in the flange frame, mm");
         let _ = writeln!(
             s,
@@ -407,6 +689,19 @@ impl RobotModel {
             fnum(self.tool[1]),
             fnum(self.tool[2])
         );
+        if self.tool_uncertain() {
+            let _ = writeln!(
+                s,
+                "# standard deviation of the tracker target's coordinates in the flange frame, mm"
+            );
+            let _ = writeln!(
+                s,
+                "tool_sigma = [{}, {}, {}]",
+                fnum(self.tool_sigma[0]),
+                fnum(self.tool_sigma[1]),
+                fnum(self.tool_sigma[2])
+            );
+        }
         for j in 0..JOINTS {
             let v = |k: ParamKind| self.params[param_index(j, k)] / k.to_internal();
             let sv = |k: ParamKind| sig[param_index(j, k)] / k.to_internal();
@@ -429,17 +724,21 @@ impl RobotModel {
             );
         }
         if let Uncertainty::Covariance(c) = &self.uncertainty {
+            let n = self.uncertainty.dim();
             let _ = writeln!(
                 s,
                 "\n# Full covariance of the 30 parameters, joint-major [theta, d, a, alpha, beta],"
             );
+            if n == N_UNCERTAIN {
+                let _ = writeln!(s, "# then the tool's x, y, z,");
+            }
             let _ = writeln!(s, "# in file units (mm, deg and their products).");
             let _ = writeln!(s, "[covariance]\nmatrix = [");
-            for i in 0..N_PARAMS {
-                let row: Vec<String> = (0..N_PARAMS)
+            for i in 0..n {
+                let row: Vec<String> = (0..n)
                     .map(|k| {
-                        let f = param_kind(i).to_internal() * param_kind(k).to_internal();
-                        fnum(c[i * N_PARAMS + k] / f)
+                        let f = input_to_internal(i) * input_to_internal(k);
+                        fnum(c[i * n + k] / f)
                     })
                     .collect();
                 let _ = writeln!(s, "  [{}],", row.join(", "));
@@ -483,6 +782,15 @@ fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
             format!("line {line}, column {column}: {message}")
         }
         None => message,
+    }
+}
+
+/// Input `i` as the file names it: `joint[2].d` or `tool[0]`.
+fn input_field(i: usize) -> String {
+    if i >= N_PARAMS {
+        format!("tool[{}]", i - N_PARAMS)
+    } else {
+        format!("{}.{}", joint_field(param_joint(i)), param_kind(i).name())
     }
 }
 
@@ -579,58 +887,92 @@ fn check_sigmas(s: &[f64; N_PARAMS], fixed: &[FixedParam; JOINTS]) -> Result<(),
     Ok(())
 }
 
-/// The covariance matrix of the file (30 rows of 30, file units) in internal units.
+/// The covariance matrix of the file (30 rows of 30, or 33 of 33 with the tool; file units) in
+/// internal units.
 fn covariance_from_file(m: &[Vec<f64>]) -> Result<Vec<f64>, InvalidField> {
-    if m.len() != N_PARAMS {
+    let n = m.len();
+    if n != N_PARAMS && n != N_UNCERTAIN {
         return Err(InvalidField {
             field: "covariance.matrix".into(),
-            message: format!("must have {N_PARAMS} rows, found {}", m.len()),
+            message: format!(
+                "must have {N_PARAMS} rows (the parameters) or {N_UNCERTAIN} (the parameters, \
+                 then the tool's x, y, z), found {n}"
+            ),
         });
     }
-    let mut c = vec![0.0; N_PARAMS * N_PARAMS];
+    let mut c = vec![0.0; n * n];
     for (i, row) in m.iter().enumerate() {
-        if row.len() != N_PARAMS {
+        if row.len() != n {
             return Err(InvalidField {
                 field: format!("covariance.matrix[{}]", i + 1),
-                message: format!("must have {N_PARAMS} entries, found {}", row.len()),
+                message: format!("must have {n} entries, found {}", row.len()),
             });
         }
         for (k, &v) in row.iter().enumerate() {
-            let f = param_kind(i).to_internal() * param_kind(k).to_internal();
-            c[i * N_PARAMS + k] = v * f;
+            c[i * n + k] = v * input_to_internal(i) * input_to_internal(k);
         }
     }
     Ok(c)
 }
 
+/// Tool standard deviations (mm): finite, ≥ 0, at most [`MAX_SIGMA_MM`].
+fn check_tool_sigma(s: &[f64; 3]) -> Result<(), InvalidField> {
+    for (k, &v) in s.iter().enumerate() {
+        let field = format!("tool_sigma[{k}]");
+        if !v.is_finite() || v < 0.0 {
+            return Err(InvalidField {
+                field,
+                message: format!("must be a finite number ≥ 0, got {}", show(v)),
+            });
+        }
+        if exceeds(v, MAX_SIGMA_MM) {
+            return Err(InvalidField {
+                field,
+                message: format!(
+                    "{} mm is too large: a standard deviation must be at most {MAX_SIGMA_MM} mm \
+                     (a spread this large is a unit mistake, not a calibration uncertainty)",
+                    show(v)
+                ),
+            });
+        }
+    }
+    Ok(())
+}
+
 /// A covariance in internal units: finite, symmetric, variances ≥ 0, fixed parameters' rows 0.
 fn check_covariance(c: &[f64], fixed: &[FixedParam; JOINTS]) -> Result<(), InvalidField> {
     let cell = |i: usize, k: usize| format!("covariance.matrix[{}][{}]", i + 1, k + 1);
-    if c.len() != N_PARAMS * N_PARAMS {
+    let n = if c.len() == N_UNCERTAIN * N_UNCERTAIN {
+        N_UNCERTAIN
+    } else {
+        N_PARAMS
+    };
+    if c.len() != n * n {
         return Err(InvalidField {
             field: "covariance.matrix".into(),
             message: format!(
-                "must have {} entries, found {}",
+                "must have {} or {} entries, found {}",
                 N_PARAMS * N_PARAMS,
+                N_UNCERTAIN * N_UNCERTAIN,
                 c.len()
             ),
         });
     }
     if let Some(x) = c.iter().position(|v| !v.is_finite()) {
         return Err(InvalidField {
-            field: cell(x / N_PARAMS, x % N_PARAMS),
+            field: cell(x / n, x % n),
             message: format!("must be finite, got {}", c[x]),
         });
     }
-    for i in 0..N_PARAMS {
-        if c[i * N_PARAMS + i] < 0.0 {
+    for i in 0..n {
+        if c[i * n + i] < 0.0 {
             return Err(InvalidField {
                 field: cell(i, i),
                 message: "variance must be ≥ 0".into(),
             });
         }
         for k in 0..i {
-            let (a, b) = (c[i * N_PARAMS + k], c[k * N_PARAMS + i]);
+            let (a, b) = (c[i * n + k], c[k * n + i]);
             if (a - b).abs() > 1e-9 * a.abs().max(b.abs()).max(1e-300) {
                 return Err(InvalidField {
                     field: cell(i, k),
@@ -646,7 +988,7 @@ fn check_covariance(c: &[f64], fixed: &[FixedParam; JOINTS]) -> Result<(), Inval
             ParamKind::Beta
         };
         let i = param_index(j, kind);
-        if (0..N_PARAMS).any(|k| c[i * N_PARAMS + k] != 0.0) {
+        if (0..n).any(|k| c[i * n + k] != 0.0) {
             return Err(InvalidField {
                 field: format!("covariance.matrix[{}]", i + 1),
                 message: format!(
@@ -662,9 +1004,9 @@ fn check_covariance(c: &[f64], fixed: &[FixedParam; JOINTS]) -> Result<(), Inval
 
 /// The covariance restricted to the `free` parameters has a Cholesky factor (the same test the
 /// sampler makes); otherwise names the first row where the factorisation fails.
-fn check_positive_definite(c: &[f64], free: &[usize]) -> Result<(), InvalidField> {
+fn check_positive_definite(c: &[f64], n: usize, free: &[usize]) -> Result<(), InvalidField> {
     let factors = |k: usize| {
-        let sub = nalgebra::DMatrix::from_fn(k, k, |a, b| c[free[a] * N_PARAMS + free[b]]);
+        let sub = nalgebra::DMatrix::from_fn(k, k, |a, b| c[free[a] * n + free[b]]);
         nalgebra::linalg::Cholesky::new(sub).is_some()
     };
     if factors(free.len()) {
@@ -680,11 +1022,10 @@ fn check_positive_definite(c: &[f64], free: &[usize]) -> Result<(), InvalidField
         field: "covariance.matrix".into(),
         message: format!(
             "not positive definite on the parameters with nonzero variance: the Cholesky \
-             factorisation fails at row {} ({}.{}), which the rows before it (with nonzero \
+             factorisation fails at row {} ({}), which the rows before it (with nonzero \
              variance) make dependent or indefinite",
             i + 1,
-            joint_field(param_joint(i)),
-            param_kind(i).name()
+            input_field(i)
         ),
     })
 }
@@ -792,6 +1133,76 @@ mod tests {
         s[2] *= 1.000_001;
         past.uncertainty = Uncertainty::Independent(s);
         assert_eq!(past.check().unwrap_err().field, "joint[1].sigma.a");
+    }
+
+    /// `tool_sigma` is optional (absent: the file and the model are as before), round-trips,
+    /// and a bad value is named; a 33 × 33 covariance carries the tool and must agree with a
+    /// given `tool_sigma`.
+    #[test]
+    fn tool_sigma_in_the_file() {
+        let m = tx60();
+        assert!(!m.to_toml().contains("tool_sigma"));
+        let mut t = m.clone();
+        t.tool_sigma = [0.002, 0.0, 0.0035];
+        let text = t.to_toml();
+        assert!(text.contains("tool_sigma = [0.002, 0.0, 0.0035]"), "{text}");
+        assert_eq!(
+            RobotModel::from_toml(&text, "x").unwrap().tool_sigma,
+            t.tool_sigma
+        );
+        let neg = text.replace("tool_sigma = [0.002,", "tool_sigma = [-0.002,");
+        assert!(err_of(&neg).contains("tool_sigma[0]"), "{}", err_of(&neg));
+        let two = text.replace("tool_sigma = [0.002, 0.0,", "tool_sigma = [0.002,");
+        assert!(
+            err_of(&two).contains("tool_sigma: must be exactly 3"),
+            "{}",
+            err_of(&two)
+        );
+        // 33 × 33: the tool's variances from the matrix
+        let n = N_UNCERTAIN;
+        let s = m.uncertainty.sigmas();
+        let mut c = vec![0.0; n * n];
+        for i in 0..N_PARAMS {
+            c[i * n + i] = s[i] * s[i];
+        }
+        for k in 0..3 {
+            c[tool_index(k) * (n + 1)] = t.tool_sigma[k].powi(2);
+        }
+        c[tool_index(2) * n + 1] = 0.5 * t.tool_sigma[2] * s[1];
+        c[n + tool_index(2)] = c[tool_index(2) * n + 1];
+        t.uncertainty = Uncertainty::Covariance(c);
+        t.check().unwrap();
+        let text = t.to_toml();
+        assert!(text.contains("then the tool's x, y, z"));
+        let back = RobotModel::from_toml(&text, "x").unwrap();
+        assert_eq!(back.uncertainty.dim(), N_UNCERTAIN);
+        for k in 0..3 {
+            assert!((back.tool_sigma[k] - t.tool_sigma[k]).abs() < 1e-15);
+        }
+        assert_eq!(back.full_covariance().unwrap().len(), n * n);
+        let off = text.replace("tool_sigma = [0.002,", "tool_sigma = [0.003,");
+        assert!(
+            err_of(&off).contains("tool_sigma[0]: differs from sqrt of covariance diagonal"),
+            "{}",
+            err_of(&off)
+        );
+        // a 30 × 30 matrix keeps tool_sigma as the tool's independent spread
+        let mut p = m.clone();
+        p.uncertainty = Uncertainty::Covariance(
+            (0..N_PARAMS * N_PARAMS)
+                .map(|x| {
+                    if x % (N_PARAMS + 1) == 0 {
+                        s[x / N_PARAMS].powi(2)
+                    } else {
+                        0.0
+                    }
+                })
+                .collect(),
+        );
+        p.tool_sigma = [0.0, 0.001, 0.0];
+        let full = p.full_covariance().unwrap();
+        assert_eq!(full[tool_index(1) * (n + 1)], 1e-6);
+        assert_eq!(p.free_inputs().last(), Some(&tool_index(1)));
     }
 
     #[test]

@@ -30,7 +30,7 @@ use std::f64::consts::FRAC_PI_2;
 use super::model::{param_index, FixedParam, ParamKind, RobotModel, Uncertainty, JOINTS, N_PARAMS};
 
 /// Names of the built-in presets.
-pub const PRESETS: &[&str] = &["tx60", "ur5e", "ur10e", "irb2400"];
+pub const PRESETS: &[&str] = &["tx60", "ur5e", "ur10e", "irb2400", "kr6r700sixx"];
 
 /// The default σ of every parameter, `[θ (deg), d (mm), a (mm), α (deg), β (deg)]` per joint:
 /// the baseline calibration of the simulator (see the module docs), 4 significant digits.
@@ -84,6 +84,8 @@ pub fn tx60() -> RobotModel {
             (-270.0, 270.0),
         ],
         tool: [0.0, 0.0, 0.0],
+        tool_sigma: [0.0; 3],
+        base: None,
         uncertainty: Uncertainty::Independent(sigma),
     }
 }
@@ -208,9 +210,66 @@ pub const IRB2400_URDF: [UrdfJointFigures; JOINTS] = [
     ),
 ];
 
+/// KUKA KR 6 R700 sixx joint origins, axes and limits of the ROS-Industrial
+/// `kuka_experimental` repository, `kuka_kr6_support/urdf/kr6r700sixx_macro.xacro` (all
+/// revolute `rpy` 0; `joint_a6 → flange` fixed identity, `flange → tool0` fixed rpy (0, 90°, 0),
+/// so `tool0` sits at the flange centre: (785, 0, 435) mm at q = 0). Joint A1 turns about −z:
+/// the model holds that with its base transform Rx(180°) ([`super::BaseTransform`]).
+pub const KR6R700SIXX_URDF: [UrdfJointFigures; JOINTS] = [
+    urdf_joint(
+        "joint_a1",
+        [0.0, 0.0, 0.4],
+        [0.0, 0.0, -1.0],
+        (-170.0 * DEG, 170.0 * DEG),
+    ),
+    urdf_joint(
+        "joint_a2",
+        [0.025, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        (-190.0 * DEG, 45.0 * DEG),
+    ),
+    urdf_joint(
+        "joint_a3",
+        [0.315, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        (-120.0 * DEG, 156.0 * DEG),
+    ),
+    urdf_joint(
+        "joint_a4",
+        [0.0, 0.0, 0.035],
+        [-1.0, 0.0, 0.0],
+        (-185.0 * DEG, 185.0 * DEG),
+    ),
+    urdf_joint(
+        "joint_a5",
+        [0.365, 0.0, 0.0],
+        [0.0, 1.0, 0.0],
+        (-120.0 * DEG, 120.0 * DEG),
+    ),
+    urdf_joint(
+        "joint_a6",
+        [0.080, 0.0, 0.0],
+        [-1.0, 0.0, 0.0],
+        (-350.0 * DEG, 350.0 * DEG),
+    ),
+];
+
+/// Degrees to radians, for the limits the xacro gives in degrees.
+const DEG: f64 = std::f64::consts::PI / 180.0;
+
+/// KUKA KR 6 R700 sixx from [`KR6R700SIXX_URDF`]; tool point at `tool0` (the flange centre).
+pub fn kr6r700sixx() -> RobotModel {
+    urdf_preset("KUKA KR 6 R700 sixx", &KR6R700SIXX_URDF)
+}
+
 /// ABB IRB 2400 from [`IRB2400_URDF`]; tool point at `tool0`.
 pub fn irb2400() -> RobotModel {
-    let joints = IRB2400_URDF
+    urdf_preset("ABB IRB 2400", &IRB2400_URDF)
+}
+
+/// A preset from URDF joint figures (origins with rpy 0), tip at the last joint's frame.
+fn urdf_preset(name: &str, figures: &[UrdfJointFigures; JOINTS]) -> RobotModel {
+    let joints = figures
         .iter()
         .map(|j| SourceJoint {
             name: j.name.into(),
@@ -220,7 +279,7 @@ pub fn irb2400() -> RobotModel {
         })
         .collect();
     converted(&SourceChain {
-        name: "ABB IRB 2400".into(),
+        name: name.into(),
         format: SourceFormat::Urdf,
         joints,
         tip: Isometry3::identity(),
@@ -234,6 +293,7 @@ pub fn preset(name: &str) -> Result<RobotModel, super::ModelError> {
         "ur5e" => Ok(ur5e()),
         "ur10e" => Ok(ur10e()),
         "irb2400" => Ok(irb2400()),
+        "kr6r700sixx" => Ok(kr6r700sixx()),
         _ => Err(super::ModelError::UnknownPreset(name.to_string())),
     }
 }

@@ -113,7 +113,7 @@ use serde::Serialize;
 
 use super::result::Progress;
 use crate::engine::{BackendInfo, EngineError, Evaluator};
-use crate::kinematics::N_PARAMS;
+use crate::kinematics::N_UNCERTAIN;
 use crate::sampling::{box_muller, uniform_open, ParamSampler, Philox};
 
 /// First Philox stream of subset simulation: level 0 uses it, the Markov steps of level `j` use
@@ -536,8 +536,8 @@ impl NormalSpace {
                 diagonal: false,
             }
         } else {
-            let s = sampler.sigmas().copied().unwrap_or([0.0; N_PARAMS]);
-            let free: Vec<usize> = (0..N_PARAMS).filter(|&i| s[i] > 0.0).collect();
+            let s = sampler.sigmas().copied().unwrap_or([0.0; N_UNCERTAIN]);
+            let free: Vec<usize> = (0..N_UNCERTAIN).filter(|&i| s[i] > 0.0).collect();
             NormalSpace {
                 factor: free.iter().map(|&i| s[i]).collect(),
                 free,
@@ -554,7 +554,7 @@ impl NormalSpace {
         self.free.len()
     }
 
-    /// Writes the offsets of `u` (length d) into `out` (length `N_PARAMS`).
+    /// Writes the offsets of `u` (length d) into `out` (length `N_UNCERTAIN`).
     fn offsets(&self, u: &[f64], out: &mut [f64]) {
         out.fill(0.0);
         let d = self.dim();
@@ -586,8 +586,8 @@ impl Model<'_> {
         let d = self.space.dim();
         let mut offsets = Vec::new();
         for (uc, wc) in u.chunks(self.batch * d).zip(w.chunks_mut(self.batch)) {
-            offsets.resize(wc.len() * N_PARAMS, 0.0);
-            for (row, o) in uc.chunks(d).zip(offsets.chunks_mut(N_PARAMS)) {
+            offsets.resize(wc.len() * N_UNCERTAIN, 0.0);
+            for (row, o) in uc.chunks(d).zip(offsets.chunks_mut(N_UNCERTAIN)) {
                 self.space.offsets(row, o);
             }
             self.eval.evaluate_offsets(&offsets, wc, None)?;
@@ -1148,7 +1148,7 @@ pub fn normal_quantile(p: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kinematics::{tx60, Uncertainty};
+    use crate::kinematics::{tx60, Uncertainty, N_PARAMS};
     use crate::sampling::normals_block;
 
     #[test]
@@ -1188,13 +1188,13 @@ mod tests {
             let space = NormalSpace::new(&sampler).unwrap();
             let g = Philox { key: sampler.key() };
             for k in [0u64, 5, 1 << 33] {
-                let z: Vec<f64> = (0..8).flat_map(|b| normals_block(&g, k, b, 0)).collect();
+                let z: Vec<f64> = (0..9).flat_map(|b| normals_block(&g, k, b, 0)).collect();
                 let u: Vec<f64> = space.free.iter().map(|&i| z[i]).collect();
-                let mut mine = [0.0; N_PARAMS];
+                let mut mine = [0.0; N_UNCERTAIN];
                 space.offsets(&u, &mut mine);
-                let mut theirs = [0.0; N_PARAMS];
+                let mut theirs = [0.0; N_UNCERTAIN];
                 sampler.deltas(k, &mut theirs);
-                for i in 0..N_PARAMS {
+                for i in 0..N_UNCERTAIN {
                     assert!((mine[i] - theirs[i]).abs() <= 1e-15 * theirs[i].abs().max(1e-3));
                 }
             }

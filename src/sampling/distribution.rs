@@ -4,13 +4,24 @@
 //!
 //! Parameter `i` always uses standard normal number `i` of its draw, so a diagonal covariance and
 //! the equivalent σ list give bit-identical draws.
+//!
+//! # Stream and slot layout (docs/METHOD.md §6 and §14)
+//!
+//! Draw `k` of a run keyed by the seed is the Philox-4×32-10 counter
+//! `(k mod 2³², k div 2³², b, PARAM_STREAM)` for blocks `b = 0 … 8`; block `b` gives the four
+//! normals `4b … 4b + 3` (Box–Muller of word pairs 0–1 and 2–3). The [`N_UNCERTAIN`] inputs use
+//! normals `0 … 32` one to one: the 30 parameters `0 … 29` (blocks 0–7, as before the tool had
+//! a spread), then the tool's x, y, z `30, 31, 32` (the last two normals of block 7 and the
+//! first of block 8). Only blocks that feed an input with nonzero spread are computed, so a
+//! model whose tool has no spread draws exactly the bits it drew before, and the tool's draws
+//! never shift a parameter's normal.
 
 use super::normal::box_muller;
 use super::philox::{philox4x32_10_lanes, Philox};
-use crate::kinematics::{RobotModel, Uncertainty, N_PARAMS};
+use crate::kinematics::{RobotModel, N_PARAMS, N_UNCERTAIN};
 
-/// Normals available per draw (8 Philox blocks of 4).
-pub const MAX_NORMALS: usize = 32;
+/// Normals available per draw (9 Philox blocks of 4: the [`N_UNCERTAIN`] inputs use the first 33).
+pub const MAX_NORMALS: usize = 36;
 
 /// Errors building a sampler.
 #[derive(Debug, thiserror::Error)]
@@ -21,8 +32,9 @@ pub enum SamplerError {
 }
 
 #[derive(Clone, Debug)]
+#[allow(clippy::large_enum_variant)] // one per run; boxing buys nothing
 enum Form {
-    Independent([f64; N_PARAMS]),
+    Independent([f64; N_UNCERTAIN]),
     Correlated {
         free: Vec<usize>,
         /// Lower-triangular factor, row-major `free.len()²`.
@@ -44,14 +56,16 @@ pub struct ParamSampler {
 pub const PARAM_STREAM: u32 = 0;
 
 impl ParamSampler {
-    /// A sampler for `model`'s values and uncertainty, keyed by `seed`.
+    /// A sampler for `model`'s values and uncertainty (parameters and tool point), keyed by
+    /// `seed`.
     pub fn new(model: &RobotModel, seed: u64) -> Result<Self, SamplerError> {
-        let free = model.free_params();
-        let form = match &model.uncertainty {
-            Uncertainty::Independent(s) => Form::Independent(*s),
-            Uncertainty::Covariance(c) => {
+        let free = model.free_inputs();
+        let form = match model.full_covariance() {
+            None => Form::Independent(model.input_sigmas()),
+            Some(c) => {
                 let n = free.len();
-                let sub = nalgebra::DMatrix::from_fn(n, n, |a, b| c[free[a] * N_PARAMS + free[b]]);
+                let sub =
+                    nalgebra::DMatrix::from_fn(n, n, |a, b| c[free[a] * N_UNCERTAIN + free[b]]);
                 let l = nalgebra::linalg::Cholesky::new(sub)
                     .ok_or(SamplerError::NotPositiveDefinite)?
                     .l();
@@ -77,15 +91,17 @@ impl ParamSampler {
         self.gen.key
     }
 
-    /// Independent standard deviations, or `None` for a correlated sampler.
-    pub fn sigmas(&self) -> Option<&[f64; N_PARAMS]> {
+    /// Independent standard deviations of the [`N_UNCERTAIN`] inputs, or `None` for a
+    /// correlated sampler.
+    pub fn sigmas(&self) -> Option<&[f64; N_UNCERTAIN]> {
         match &self.form {
             Form::Independent(s) => Some(s),
             Form::Correlated { .. } => None,
         }
     }
 
-    /// Free-parameter indices and the row-major lower Cholesky factor, for a correlated sampler.
+    /// Free-input indices (of the [`N_UNCERTAIN`] inputs) and the row-major lower Cholesky
+    /// factor, for a correlated sampler.
     pub fn cholesky(&self) -> Option<(&[usize], &[f64])> {
         match &self.form {
             Form::Independent(_) => None,
@@ -98,10 +114,11 @@ impl ParamSampler {
         &self.blocks
     }
 
-    /// Offsets `δ = μ_k − μ` of draw `k` from the mean (mm, radians).
+    /// Offsets `δ = μ_k − μ` of draw `k` from the mean (mm, radians): the 30 parameters, then
+    /// the tool's x, y, z (mm).
     #[inline]
-    pub fn deltas(&self, k: u64, out: &mut [f64; N_PARAMS]) {
-        let mut lanes = [[0.0; 1]; N_PARAMS];
+    pub fn deltas(&self, k: u64, out: &mut [f64; N_UNCERTAIN]) {
+        let mut lanes = [[0.0; 1]; N_UNCERTAIN];
         self.deltas_lanes::<1>(k, &mut lanes);
         for (o, l) in out.iter_mut().zip(&lanes) {
             *o = l[0];
@@ -112,7 +129,7 @@ impl ParamSampler {
     /// `first + l` (the lane layout vectorises; [`Self::deltas`] is the one-lane case, so both
     /// give the same bits).
     #[inline(always)]
-    pub fn deltas_lanes<const L: usize>(&self, first: u64, out: &mut [[f64; L]; N_PARAMS]) {
+    pub fn deltas_lanes<const L: usize>(&self, first: u64, out: &mut [[f64; L]; N_UNCERTAIN]) {
         let mut z = [[0.0; L]; MAX_NORMALS];
         let lo: [u32; L] = std::array::from_fn(|l| (first + l as u64) as u32);
         let hi: [u32; L] = std::array::from_fn(|l| ((first + l as u64) >> 32) as u32);
@@ -130,14 +147,14 @@ impl ParamSampler {
         }
         match &self.form {
             Form::Independent(s) => {
-                for i in 0..N_PARAMS {
+                for i in 0..N_UNCERTAIN {
                     for l in 0..L {
                         out[i][l] = s[i] * z[i][l];
                     }
                 }
             }
             Form::Correlated { free, chol } => {
-                *out = [[0.0; L]; N_PARAMS];
+                *out = [[0.0; L]; N_UNCERTAIN];
                 let n = free.len();
                 for a in 0..n {
                     let mut acc = [0.0; L];
@@ -153,18 +170,96 @@ impl ParamSampler {
         }
     }
 
-    /// The full parameter vector of draw `k`.
+    /// The full parameter vector of draw `k` (the tool's offsets are
+    /// [`Self::tool_deltas`]).
     pub fn draw(&self, k: u64) -> [f64; N_PARAMS] {
-        let mut d = [0.0; N_PARAMS];
+        let mut d = [0.0; N_UNCERTAIN];
         self.deltas(k, &mut d);
         std::array::from_fn(|i| self.mean[i] + d[i])
+    }
+
+    /// The tool point's offsets (mm, flange frame) of draw `k`.
+    pub fn tool_deltas(&self, k: u64) -> [f64; 3] {
+        let mut d = [0.0; N_UNCERTAIN];
+        self.deltas(k, &mut d);
+        std::array::from_fn(|i| d[N_PARAMS + i])
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kinematics::tx60;
+    use crate::kinematics::{tx60, Uncertainty};
+
+    /// A tool spread adds draws without touching the parameters' bits (existing seeds keep
+    /// their results), and the tool's offsets have the stated σ: 4·10^4 draws, the relative
+    /// standard error of a σ estimate is 1/√(2n) ≈ 3.5e-3, bound 5 standard errors.
+    #[test]
+    fn tool_spread_keeps_parameter_draws_and_has_its_sigma() {
+        let m = tx60();
+        let mut mt = m.clone();
+        mt.tool_sigma = [0.002, 0.0, 0.005];
+        let (a, b) = (
+            ParamSampler::new(&m, 11).unwrap(),
+            ParamSampler::new(&mt, 11).unwrap(),
+        );
+        // tool x and y are the last normals of block 7, tool z the first of block 8
+        assert_eq!(b.blocks()[b.blocks().len() - 2..], [7, 8]);
+        assert!(!a.blocks().contains(&8));
+        let n = 40_000u64;
+        let mut ss = [0.0; 3];
+        let (mut da, mut db) = ([0.0; N_UNCERTAIN], [0.0; N_UNCERTAIN]);
+        for k in 0..n {
+            a.deltas(k, &mut da);
+            b.deltas(k, &mut db);
+            assert_eq!(da[..N_PARAMS], db[..N_PARAMS], "draw {k}");
+            assert_eq!(da[N_PARAMS..], [0.0; 3]);
+            assert_eq!(b.tool_deltas(k), [db[30], db[31], db[32]]);
+            for (s, d) in ss.iter_mut().zip(&db[N_PARAMS..]) {
+                *s += d * d;
+            }
+        }
+        assert_eq!(ss[1], 0.0);
+        for (k, want) in [(0, 0.002), (2, 0.005)] {
+            let got = (ss[k] / n as f64).sqrt();
+            assert!((got / want - 1.0).abs() < 5.0 * 3.5e-3, "{k}: {got}");
+        }
+    }
+
+    /// A 33 × 33 covariance correlates the tool with a parameter (ρ = −0.7; standard error of
+    /// the estimate (1−ρ²)/√n ≈ 2.5e-3 at n = 8·10^4, bound 5 standard errors), and a 30 × 30
+    /// covariance with `tool_sigma` draws the tool independently with that σ.
+    #[test]
+    fn full_covariance_correlates_the_tool() {
+        let mut m = tx60();
+        let s = m.uncertainty.sigmas();
+        let n = N_UNCERTAIN;
+        let mut c = vec![0.0; n * n];
+        for i in 0..N_PARAMS {
+            c[i * n + i] = s[i] * s[i];
+        }
+        let (t, st) = (N_PARAMS + 1, 0.004);
+        c[t * n + t] = st * st;
+        c[t * n + 2] = -0.7 * st * s[2];
+        c[2 * n + t] = c[t * n + 2];
+        m.uncertainty = Uncertainty::Covariance(c);
+        m.tool_sigma = [0.0, st, 0.0];
+        m.check().unwrap();
+        let g = ParamSampler::new(&m, 5).unwrap();
+        let draws = 80_000;
+        let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
+        let mut d = [0.0; N_UNCERTAIN];
+        for k in 0..draws {
+            g.deltas(k, &mut d);
+            sxy += d[t] * d[2];
+            sxx += d[t] * d[t];
+            syy += d[2] * d[2];
+            assert_eq!((d[N_PARAMS], d[N_PARAMS + 2]), (0.0, 0.0));
+        }
+        let rho = sxy / (sxx * syy).sqrt();
+        assert!((rho + 0.7).abs() < 5.0 * 2.5e-3, "rho {rho}");
+        assert!(((sxx / draws as f64).sqrt() / st - 1.0).abs() < 0.02);
+    }
 
     #[test]
     fn diagonal_covariance_equals_sigma_list() {
@@ -204,7 +299,7 @@ mod tests {
         let g = ParamSampler::new(&m, 3).unwrap();
         let n = 200_000;
         let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
-        let mut d = [0.0; N_PARAMS];
+        let mut d = [0.0; N_UNCERTAIN];
         for k in 0..n {
             g.deltas(k, &mut d);
             sxy += d[1] * d[2];

@@ -60,7 +60,12 @@ impl Experiment {
     /// (0.3 mm / 0.03° class) from `robot_seed`, tool [`DESIGN_TOOL_MM`], the AT960 and the TX60
     /// error model.
     pub fn tx60(robot_seed: u64) -> Self {
-        let mut nominal = tx60();
+        Self::for_robot(tx60(), robot_seed)
+    }
+
+    /// The same experiment on any robot: `nominal` with the design tracker target, and a true
+    /// robot perturbed from it by the same error classes, seeded by `robot_seed`.
+    pub fn for_robot(mut nominal: RobotModel, robot_seed: u64) -> Self {
         nominal.tool = DESIGN_TOOL_MM;
         let mut rng = ChaCha8Rng::seed_from_u64(robot_seed);
         let truth = perturbed_model(

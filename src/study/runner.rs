@@ -158,14 +158,15 @@ pub struct StudyResult {
 pub type StudyProgress<'a> = &'a (dyn Fn(u64, u64, &str) + Sync);
 
 fn mean_abs_correlation(m: &RobotModel) -> f64 {
-    let crate::kinematics::Uncertainty::Covariance(c) = &m.uncertainty else {
+    let crate::kinematics::Uncertainty::Covariance(_) = &m.uncertainty else {
         return 0.0;
     };
     let free = m.free_params();
     let (mut s, mut n) = (0.0, 0.0);
     for (a, &i) in free.iter().enumerate() {
         for &k in &free[a + 1..] {
-            let r = c[i * N_PARAMS + k] / (c[i * N_PARAMS + i] * c[k * N_PARAMS + k]).sqrt();
+            let r = m.uncertainty.entry(i, k)
+                / (m.uncertainty.entry(i, i) * m.uncertainty.entry(k, k)).sqrt();
             s += r.abs();
             n += 1.0;
         }

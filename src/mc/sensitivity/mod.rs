@@ -80,7 +80,9 @@ pub use estimator::{
 use serde::{Deserialize, Serialize};
 
 use crate::engine::{BackendInfo, EngineError, Evaluator, Problem};
-use crate::kinematics::{param_joint, param_kind, ParamKind, JOINTS, N_PARAMS};
+use crate::kinematics::{
+    input_name, param_joint, param_kind, ParamKind, JOINTS, N_PARAMS, N_UNCERTAIN,
+};
 
 /// Draw index offset of matrix B: row `k` of B is draw `B_DRAW_OFFSET + k`.
 pub const B_DRAW_OFFSET: u64 = 1 << 63;
@@ -260,9 +262,10 @@ impl SensitivityResult {
     }
 }
 
-/// Report name of parameter `i` of the 30-vector, e.g. `alpha3`.
+/// Report name of input `i` of the 33 inputs, e.g. `alpha3`, or `tool_x` … `tool_z` for the
+/// tool point (indices 30–32).
 pub fn param_name(i: usize) -> String {
-    format!("{}{}", param_kind(i).name(), param_joint(i) + 1)
+    input_name(i)
 }
 
 /// The map `δ_free = M u` between the independent inputs and the free parameters' offsets:
@@ -275,7 +278,7 @@ struct InputMap {
 
 impl InputMap {
     /// `u = M⁻¹ δ_free` by forward substitution.
-    fn inputs(&self, delta: &[f64; N_PARAMS], u: &mut [f64]) {
+    fn inputs(&self, delta: &[f64; N_UNCERTAIN], u: &mut [f64]) {
         let d = self.free.len();
         for a in 0..d {
             let row = &self.m[a * d..a * d + a];
@@ -295,7 +298,8 @@ impl InputMap {
     }
 }
 
-/// The groups of the free parameters `free` (as input columns): per joint, then per kind.
+/// The groups of the free inputs `free` (as input columns): per joint, then per kind, then the
+/// tool point (its uncertain coordinates).
 fn robot_groups(free: &[usize]) -> Vec<InputGroup> {
     let select = |name: String, keep: &dyn Fn(usize) -> bool| InputGroup {
         name,
@@ -308,11 +312,15 @@ fn robot_groups(free: &[usize]) -> Vec<InputGroup> {
         ("twists α/β", &[ParamKind::Alpha, ParamKind::Beta]),
         ("lengths a/d", &[ParamKind::A, ParamKind::D]),
     ];
-    let kinds = kinds
-        .into_iter()
-        .map(|(name, ks)| select(name.to_string(), &move |i| ks.contains(&param_kind(i))));
+    let kinds = kinds.into_iter().map(|(name, ks)| {
+        select(name.to_string(), &move |i| {
+            i < N_PARAMS && ks.contains(&param_kind(i))
+        })
+    });
+    let tool = std::iter::once(select("tool".to_string(), &|i| i >= N_PARAMS));
     joints
         .chain(kinds)
+        .chain(tool)
         .filter(|g| !g.members.is_empty())
         .collect()
 }
@@ -356,8 +364,8 @@ pub fn run_outputs(
         ),
         None => {
             // An independent sampler always has its σ; none would mean no free parameter.
-            let s = sampler.sigmas().copied().unwrap_or([0.0; N_PARAMS]);
-            let free: Vec<usize> = (0..N_PARAMS).filter(|&i| s[i] > 0.0).collect();
+            let s = sampler.sigmas().copied().unwrap_or([0.0; N_UNCERTAIN]);
+            let free: Vec<usize> = (0..N_UNCERTAIN).filter(|&i| s[i] > 0.0).collect();
             let d = free.len();
             let mut m = vec![0.0; d * d];
             for (a, &i) in free.iter().enumerate() {
@@ -377,14 +385,14 @@ pub fn run_outputs(
     };
     let d = map.free.len();
     let draw = |k: u64, u: &mut [f64]| {
-        let mut delta = [0.0; N_PARAMS];
+        let mut delta = [0.0; N_UNCERTAIN];
         sampler.deltas(k, &mut delta);
         map.inputs(&delta, u);
     };
     let model = |rows: &[f64]| {
         let n = rows.len() / d;
-        let mut offsets = vec![0.0; n * N_PARAMS];
-        for (u, delta) in rows.chunks(d).zip(offsets.chunks_mut(N_PARAMS)) {
+        let mut offsets = vec![0.0; n * N_UNCERTAIN];
+        for (u, delta) in rows.chunks(d).zip(offsets.chunks_mut(N_UNCERTAIN)) {
             map.offsets(u, delta);
         }
         let mut w = vec![0.0; n];
@@ -506,7 +514,7 @@ mod tests {
             m: vec![2.0, 0.0, 0.0, 0.5, 1.5, 0.0, -0.3, 0.2, 0.7],
         };
         let u0 = [0.3, -1.2, 2.0];
-        let mut delta = [0.0; N_PARAMS];
+        let mut delta = [0.0; N_UNCERTAIN];
         map.offsets(&u0, &mut delta);
         assert_eq!(delta[1], 0.6);
         assert_eq!(delta[0], 0.0);
@@ -540,5 +548,27 @@ mod tests {
         let per_kind: usize = g[5..].iter().map(|g| g.members.len()).sum();
         assert_eq!((per_joint, per_kind), (free.len(), free.len()));
         assert_eq!(param_name(free[g[1].members[3]]), "beta2");
+    }
+
+    /// With an uncertain tool, its coordinates are inputs of their own group and of no joint
+    /// or kind group.
+    #[test]
+    fn tool_coordinates_form_the_tool_group() {
+        let mut m = tx60();
+        m.tool_sigma = [0.002, 0.0, 0.003];
+        let free = m.free_inputs();
+        assert_eq!(free[free.len() - 2..], [N_PARAMS, N_PARAMS + 2]);
+        let g = robot_groups(&free);
+        let tool = g.last().unwrap();
+        assert_eq!(tool.name, "tool");
+        let names: Vec<String> = tool.members.iter().map(|&c| param_name(free[c])).collect();
+        assert_eq!(names, ["tool_x", "tool_z"]);
+        for other in &g[..g.len() - 1] {
+            assert!(
+                other.members.iter().all(|&c| free[c] < N_PARAMS),
+                "{}",
+                other.name
+            );
+        }
     }
 }
