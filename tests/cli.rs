@@ -417,3 +417,58 @@ fn nominal_reference_adds_the_systematic_error() {
         "calibrated {cal}, nominal {nom}"
     );
 }
+
+/// A model with an uncertain tool point says so in the run's notes (JSON and text), with the
+/// σ from the file; the same model without `tool_sigma` has no such note.
+#[test]
+fn an_uncertain_tool_point_is_named_in_the_report() {
+    let dir = tmpdir("tool-note");
+    let text = String::from_utf8(run(&["model", "--preset", "tx60"]).stdout).unwrap();
+    let plain = dir.join("plain.toml");
+    std::fs::write(&plain, &text).unwrap();
+    let with_tool = dir.join("tool.toml");
+    let tool_text = text.replacen(
+        "tool = [0.0, 0.0, 0.0]",
+        "tool = [0.0, 0.0, 0.0]\ntool_sigma = [0.004, 0.002, 0.006]",
+        1,
+    );
+    assert_ne!(tool_text, text, "the preset's tool line moved");
+    std::fs::write(&with_tool, tool_text).unwrap();
+    let notes = |model: &PathBuf, name: &str| -> Vec<String> {
+        let json = dir.join(name);
+        let out = run(&[
+            "mcs",
+            "--model",
+            model.to_str().unwrap(),
+            "--draws",
+            "2000",
+            "--points",
+            "5",
+            "--backend",
+            "cpu",
+            "--json",
+            json.to_str().unwrap(),
+        ]);
+        assert!(out.status.success(), "{}", stderr(&out));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        let notes: Vec<String> = v["notes"]
+            .as_array()
+            .expect("notes array")
+            .iter()
+            .map(|n| n.as_str().unwrap().to_string())
+            .collect();
+        for n in &notes {
+            assert!(stdout(&out).contains(n.as_str()), "text report lacks {n}");
+        }
+        notes
+    };
+    let tool = notes(&with_tool, "tool.json");
+    assert!(
+        tool.iter()
+            .any(|n| n.contains("tool point uncertain: σ = (0.004, 0.002, 0.006) mm")),
+        "{tool:?}"
+    );
+    let plain = notes(&plain, "plain.json");
+    assert!(!plain.iter().any(|n| n.contains("tool point")), "{plain:?}");
+}

@@ -73,7 +73,7 @@ pub fn problem_rows(args: &ProblemArgs, problem: &Problem) -> Vec<(String, Strin
         Some(p) => format!("model file {}", p.display()),
         None => format!("built-in preset {}", args.model.preset),
     };
-    let free = problem.model.free_params().len();
+    let free = problem.model.free_inputs().len();
     let form = match problem.model.uncertainty {
         Uncertainty::Independent(_) => "independent normal",
         Uncertainty::Covariance(_) => "normal with full covariance",

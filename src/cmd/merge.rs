@@ -304,6 +304,7 @@ pub fn run_summary(
         let max_bins = problem.memory.budget()?.room_left(&fixed(m)) / BYTES_PER_BIN;
         let prov = Provenance::new(&built.problem, &built.reference, draws, first, end);
         let rows = html::problem_rows(problem, &built.problem);
+        let model = super::analysis::model_notes(&built.problem);
         let (mut ev, more) = problem.backend.evaluator(built.problem)?;
         let label = if summary_out.is_some() {
             "MCS shard"
@@ -322,7 +323,11 @@ pub fn run_summary(
             Some(&|done, total| bar.update(done, total)),
         );
         bar.finish();
-        Ok((s.map_err(summary_error)?, [notes, more].concat(), rows))
+        Ok((
+            s.map_err(summary_error)?,
+            [notes, model, more].concat(),
+            rows,
+        ))
     })?;
     outputs.stage_file("--summary-out", s.to_json())?;
     write_reports(outputs, &report_of(&s, notes), &rows, output.quiet)
