@@ -12,6 +12,7 @@ pub mod export;
 pub mod fk;
 pub mod identify;
 pub mod import;
+pub mod map;
 pub mod mcs;
 pub mod merge;
 pub mod model;

@@ -8,6 +8,7 @@
 pub mod csv;
 pub mod identify;
 pub mod json;
+pub mod map;
 pub mod markdown;
 pub mod sensitivity;
 pub mod svg;
