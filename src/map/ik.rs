@@ -106,6 +106,21 @@ fn frames(model: &RobotModel, q: &[f64; JOINTS]) -> Frames {
     }
 }
 
+impl Frames {
+    /// Column `i` of the position Jacobian: `z_i × (p − o_i)`, mm per radian.
+    fn position_column(&self, i: usize) -> [f64; 3] {
+        let o = self.origin[i];
+        cross(
+            self.axis[i],
+            [
+                self.tool[0] - o[0],
+                self.tool[1] - o[1],
+                self.tool[2] - o[2],
+            ],
+        )
+    }
+}
+
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [
         a[1] * b[2] - a[2] * b[1],
@@ -172,12 +187,7 @@ pub fn position_jacobian(model: &RobotModel, q: &[f64; JOINTS]) -> [[f64; JOINTS
     let f = frames(model, q);
     let mut j = [[0.0; JOINTS]; 3];
     for i in 0..JOINTS {
-        let r = [
-            f.tool[0] - f.origin[i][0],
-            f.tool[1] - f.origin[i][1],
-            f.tool[2] - f.origin[i][2],
-        ];
-        let c = cross(f.axis[i], r);
+        let c = f.position_column(i);
         for k in 0..3 {
             j[k][i] = c[k];
         }
@@ -308,12 +318,7 @@ impl<'a> Ik<'a> {
     fn jacobian(&self, target: &IkTarget, f: &Frames) -> Vec<[f64; JOINTS]> {
         let mut rows = vec![[0.0; JOINTS]; if target.rotation.is_some() { 6 } else { 3 }];
         for i in 0..JOINTS {
-            let r = [
-                f.tool[0] - f.origin[i][0],
-                f.tool[1] - f.origin[i][1],
-                f.tool[2] - f.origin[i][2],
-            ];
-            let c = cross(f.axis[i], r);
+            let c = f.position_column(i);
             for k in 0..3 {
                 rows[k][i] = c[k];
                 if target.rotation.is_some() {
