@@ -1,6 +1,6 @@
 //! Command-line definitions (clap): the top-level parser, the subcommand list and the argument
 //! groups several subcommands share (`ModelArgs`, `BoxArgs`, `BackendArgs`, `MemoryArgs`,
-//! `ProblemArgs`, `OutputArgs`). Each subcommand's own arguments and its run live in one file
+//! `ProblemArgs`, `OutputArgs`, `HtmlArgs`). Each subcommand's own arguments and its run live in one file
 //! under `cmd/`; turning arguments into library values is in `cmd/args.rs`. `gpu-amcs` with no
 //! subcommand runs AMCS on the built-in TX60.
 
@@ -301,7 +301,19 @@ pub struct OutputArgs {
     /// Write SVG plots (PDF, reliability curve, convergence) into DIR.
     #[arg(long, value_name = "DIR")]
     pub svg: Option<PathBuf>,
+    #[command(flatten)]
+    pub html: HtmlArgs,
     /// No progress bar and no table on stdout.
     #[arg(long, short)]
     pub quiet: bool,
+}
+
+/// The HTML report (`cmd/html.rs`).
+#[derive(Args, Debug, Clone)]
+pub struct HtmlArgs {
+    /// Write a self-contained HTML report into DIR: index.html (summary, tables, figures, model
+    /// and settings; no scripts, nothing loaded from elsewhere) and the JSON, CSV and SVG files
+    /// it links to.
+    #[arg(long, value_name = "DIR")]
+    pub html: Option<PathBuf>,
 }

@@ -155,6 +155,13 @@ impl MemoryBudget {
         }
     }
 
+    /// Bytes the limit leaves beside `estimate` (0 when it does not fit or overflowed).
+    pub fn room_left(&self, estimate: &Estimate) -> u64 {
+        estimate
+            .bytes
+            .map_or(0, |needed| self.limit.saturating_sub(needed))
+    }
+
     /// Checks an [`Estimate`] against the limit.
     pub fn check(&self, estimate: &Estimate) -> Result<(), MemoryError> {
         match estimate.bytes {
@@ -237,6 +244,9 @@ mod tests {
         assert!(matches!(b.check(&e), Err(MemoryError::Overflow { .. })));
         let e = Estimate::new("a", "b").plus(&[u64::MAX]).plus(&[1]);
         assert_eq!(e.bytes, None);
+        assert_eq!(b.room_left(&e), 0);
+        assert_eq!(b.room_left(&Estimate::new("a", "b").plus(&[300])), 700);
+        assert_eq!(b.room_left(&Estimate::new("a", "b").plus(&[3000])), 0);
     }
 
     #[test]

@@ -29,7 +29,7 @@ fn sharded(pb: &Problem, draws: u64, cuts: &[u64], settings: &RunSettings) -> Su
     for (i, &end) in cuts.iter().enumerate() {
         let mut ev = CpuEvaluator::new(pb.clone());
         let prov = Provenance::new(pb, "calibrated model", draws, 0, draws);
-        let s = summarize(&mut ev, first, end, 65_536, settings, prov, None).unwrap();
+        let s = summarize(&mut ev, first, end, 65_536, u64::MAX, settings, prov, None).unwrap();
         named.push((format!("shard-{i}.json"), s));
         first = end;
     }
@@ -153,7 +153,7 @@ fn histogram_intervals_within_h_of_the_sorted_values() {
             end: draws,
         };
         let mut ev = FnEvaluator::new(5, f);
-        let s = summarize(&mut ev, 0, draws, 10_000, &settings, prov, None).unwrap();
+        let s = summarize(&mut ev, 0, draws, 10_000, u64::MAX, &settings, prov, None).unwrap();
         let mut v = vec![0.0; draws as usize];
         let mut ev = FnEvaluator::new(5, f);
         use gpu_amcs::engine::Evaluator;
@@ -189,6 +189,7 @@ fn shards(seed: u64, cuts: &[u64]) -> Vec<(String, Summary)> {
                 first,
                 end,
                 1000,
+                u64::MAX,
                 &RunSettings::default(),
                 prov,
                 None,
@@ -317,27 +318,12 @@ fn cli_shards_then_merge_equal_the_single_run() {
     let o = run(&[&base[..], &["--json", &p("e.json")]].concat());
     assert!(o.status.success(), "{}", common::stderr(&o));
     let (m, e) = (json(&d.join("m.json")), json(&d.join("e.json")));
-    let (mr, er) = (&m["result"], &e["result"]);
-    for key in [
-        "draws",
-        "reliability",
-        "min",
-        "max",
-        "batch_size",
-        "settings",
-    ] {
-        assert_eq!(mr[key], er[key], "{key}");
-    }
-    for key in ["mean", "variance", "skewness", "kurtosis"] {
-        let (x, y) = (
-            mr["moments"][key].as_f64().unwrap(),
-            er["moments"][key].as_f64().unwrap(),
-        );
-        assert!(rel(x, y) < 1e-12, "{key}: {x} vs {y}");
-    }
+    agree_as_json(&m["result"], &e["result"]);
+    assert_eq!(m["result"]["batch_size"], e["result"]["batch_size"]);
+    // Shards read the same histogram as one summary: here the same ranks, ends within h.
     for key in ["low", "high"] {
-        let x = mr["coverage_interval"][key].as_f64().unwrap();
-        let y = er["coverage_interval"][key].as_f64().unwrap();
+        let x = m["result"]["coverage_interval"][key].as_f64().unwrap();
+        let y = e["result"]["coverage_interval"][key].as_f64().unwrap();
         assert!((x - y).abs() <= BIN_WIDTH, "{key}: {x} vs {y}");
     }
     assert!(m["notes"][0].as_str().unwrap().contains("histogram"));
@@ -365,5 +351,167 @@ fn cli_shards_then_merge_equal_the_single_run() {
     assert_fails_naming(&o, "--shard", "shard 3/3");
     let o = run(&[&base[..], &["--shard", "0/3"]].concat());
     assert_fails_naming(&o, "--summary-out", "--shard alone");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn mcs_over_the_memory_limit_runs_in_summary_mode_and_agrees_with_the_exact_run() {
+    let d = tmpdir("summary-mode");
+    let p = |name: &str| d.join(name).display().to_string();
+    // 10^7 values would need 160 MB (16 bytes a draw): 24 MiB leaves room for one chunk, the
+    // points and the ~2.4·10^5 bins of w (64 bytes each) only. With --per-point, 10^6 values
+    // and the per-point buffers need 32 MB: 28 MiB holds the buffers (16 MB) and the bins;
+    // that case takes the symmetric interval, whose ends are bounded.
+    for (draws, per_point, limit) in [("10000000", false, "24M"), ("1000000", true, "28M")] {
+        let mut base = vec![
+            "mcs",
+            "--points",
+            "10",
+            "--draws",
+            draws,
+            "--backend",
+            "cpu",
+            "-q",
+        ];
+        if per_point {
+            base.extend(["--per-point", "--interval", "symmetric"]);
+        }
+        let o = run(&[&base[..], &["--json", &p("e.json")]].concat());
+        assert!(o.status.success(), "{}", common::stderr(&o));
+        let o = run(&[
+            &base[..],
+            &["--memory-limit", limit, "--json", &p("s.json")],
+        ]
+        .concat());
+        assert!(o.status.success(), "{}", common::stderr(&o));
+        let (s, e) = (json(&d.join("s.json")), json(&d.join("e.json")));
+        assert_eq!(e["notes"].as_array().unwrap().len(), 0, "{}", e["notes"]);
+        let note = s["notes"][0].as_str().unwrap();
+        assert!(
+            note.starts_with("summary mode") && note.contains(" MiB"),
+            "{note}"
+        );
+        assert!(s["notes"][1].as_str().unwrap().contains("within h/2"));
+        agree_as_json(&s["result"], &e["result"]);
+        assert_eq!(
+            s["result"]["per_point_reliability"]
+                .as_array()
+                .map(Vec::len),
+            per_point.then_some(10)
+        );
+        std::fs::remove_file(d.join("s.json")).unwrap();
+        std::fs::remove_file(d.join("e.json")).unwrap();
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// A report from a summary (`sr`) against the exact run's (`er`), as JSON.
+fn agree_as_json(sr: &serde_json::Value, er: &serde_json::Value) {
+    // Counts, hence R(l_c), R_j and their intervals, and min/max: identical.
+    for key in [
+        "draws",
+        "reliability",
+        "per_point_reliability",
+        "min",
+        "max",
+        "settings",
+    ] {
+        assert_eq!(sr[key], er[key], "{key}");
+    }
+    // Moments: the same sums merged chunk by chunk instead of in one pass; 1e-12 relative
+    // is ~10^4 ulps, the rounding of 10^2 Chan/Pébay merges of 10^5-value sums.
+    for key in ["mean", "variance", "skewness", "kurtosis"] {
+        let (x, y) = (
+            sr["moments"][key].as_f64().unwrap(),
+            er["moments"][key].as_f64().unwrap(),
+        );
+        assert!(rel(x, y) < 1e-12, "{key}: {x} vs {y}");
+    }
+    // Interval (module documentation of summary): symmetric, the same ranks read from bins of
+    // h = 1e-6 mm, each end within h/2; shortest, the width within 2h (where two intervals tie
+    // within h the ends can move further).
+    let end = |r: &serde_json::Value, key: &str| r["coverage_interval"][key].as_f64().unwrap();
+    if er["settings"]["interval"] == "symmetric" {
+        for key in ["low", "high"] {
+            let (x, y) = (end(sr, key), end(er, key));
+            assert!((x - y).abs() <= BIN_WIDTH / 2.0, "{key}: {x} vs {y}");
+        }
+    } else {
+        let width = |r| end(r, "high") - end(r, "low");
+        let (x, y) = (width(sr), width(er));
+        assert!((x - y).abs() <= 2.0 * BIN_WIDTH, "width: {x} vs {y}");
+    }
+}
+
+#[test]
+fn summary_mode_refuses_a_limit_too_small_for_its_histogram() {
+    let d = tmpdir("summary-small");
+    let out = d.join("r.json").display().to_string();
+    let base = [
+        "mcs",
+        "--points",
+        "10",
+        "--draws",
+        "1000000",
+        "--backend",
+        "cpu",
+        "-q",
+    ];
+    // The up-front estimate (one chunk, the points, 65 536 reserved bins) does not fit 2 MiB.
+    let args = [&base[..], &["--memory-limit", "2M", "--json", &out]].concat();
+    fails_leaving_nothing(&d, &args, "--memory-limit");
+    // 6 MiB fits the estimate but not the ~1.2·10^5 bins 10^6 draws occupy: refused while
+    // running, naming the histogram and the flag.
+    let args = [&base[..], &["--memory-limit", "6M", "--json", &out]].concat();
+    fails_leaving_nothing(&d, &args, "histogram");
+    let o = run(&args);
+    assert_fails_naming(&o, "--memory-limit", "raise the limit");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn cli_shard_from_an_indexed_job_and_inconsistent_variables() {
+    let d = tmpdir("summary-env");
+    let p = |name: &str| d.join(name).display().to_string();
+    let base = [
+        "mcs",
+        "--points",
+        "5",
+        "--draws",
+        "30000",
+        "--backend",
+        "cpu",
+        "-q",
+    ];
+    let o = run(&[
+        &base[..],
+        &["--shard", "2/3", "--summary-out", &p("flag.json")],
+    ]
+    .concat());
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let o = bin()
+        .args(base)
+        .args(["--shards", "3", "--summary-out", &p("job.json")])
+        .env("JOB_COMPLETION_INDEX", "2")
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let (mut a, mut b) = (json(&d.join("job.json")), json(&d.join("flag.json")));
+    a["seconds"] = 0.into();
+    b["seconds"] = 0.into();
+    assert_eq!(a, b);
+    let o = bin()
+        .args(base)
+        .args(["--summary-out", &p("half.json")])
+        .env("SLURM_ARRAY_TASK_ID", "1")
+        .env_remove("SLURM_ARRAY_TASK_COUNT")
+        .output()
+        .unwrap();
+    assert_fails_naming(
+        &o,
+        "SLURM_ARRAY_TASK_COUNT",
+        "half a Slurm array's variables",
+    );
+    assert!(!d.join("half.json").exists());
     let _ = std::fs::remove_dir_all(&d);
 }

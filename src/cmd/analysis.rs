@@ -2,6 +2,7 @@
 //! evaluator in a thread pool, run a driver under the progress bar, write the reports.
 
 use super::args::{thread_pool, BYTES_PER_DRAW, BYTES_PER_POINT};
+use super::html;
 use super::outputs::{Outputs, CSV_NAMES, SVG_NAMES};
 use super::progress::Progress;
 use super::Flags;
@@ -18,6 +19,7 @@ pub fn outputs(problem: &ProblemArgs, output: &OutputArgs) -> Result<Outputs> {
     o.file("--json", output.json.as_deref())?;
     o.dir("--csv", output.csv.as_deref(), CSV_NAMES)?;
     o.dir("--svg", output.svg.as_deref(), SVG_NAMES)?;
+    output.html.declare(&mut o, html::RUN_NAMES)?;
     Ok(o)
 }
 
@@ -40,7 +42,7 @@ pub struct Plan {
 impl Plan {
     /// `draws` values, `m` test points and, with per-point output, `batch` × m errors in the
     /// driver's buffer and as many in the evaluator's.
-    fn estimate(&self, output: &OutputArgs, m: u64) -> Estimate {
+    pub fn estimate(&self, output: &OutputArgs, m: u64) -> Estimate {
         let e = Estimate::new(self.what.clone(), self.advice)
             .plus(&[self.draws, BYTES_PER_DRAW])
             .plus(&[m, BYTES_PER_POINT]);
@@ -62,14 +64,14 @@ pub fn run_and_report(
     drive: impl FnOnce(&mut dyn Evaluator, mc::Progress) -> Result<McResult, McError> + Send,
 ) -> Result<RunReport> {
     problem.check()?;
-    let mut outputs = outputs(problem, output)?;
+    let outputs = outputs(problem, output)?;
     let generated = match problem.points_file {
         Some(_) => 0,
         None => problem.points as u64,
     };
     problem.memory.check(&plan.estimate(output, generated))?;
     let pool = thread_pool(problem.threads)?;
-    let rep = pool.install(|| -> Result<RunReport> {
+    let (rep, rows) = pool.install(|| -> Result<(RunReport, Vec<(String, String)>)> {
         let built = problem.build()?;
         let m = built.problem.n_points() as u64;
         problem.memory.check(&plan.estimate(output, m))?;
@@ -78,26 +80,43 @@ pub fn run_and_report(
             built.problem.n_points(),
             built.problem.seed,
         );
+        let rows = html::problem_rows(problem, &built.problem);
         let (mut ev, notes) = problem.backend.evaluator(built.problem)?;
         let bar = Progress::new(output.quiet, plan.label, "draws");
         let bar = if plan.capped { bar.capped() } else { bar };
         let result = drive(ev.as_mut(), &|done, total| bar.update(done, total));
         bar.finish();
-        Ok(RunReport {
+        let rep = RunReport {
             model,
             points,
             reference: built.reference,
             seed,
             notes,
             result: result.map_err(|e| flags.error(e))?,
-        })
+        };
+        Ok((rep, rows))
     })?;
-    outputs.stage_file("--json", report::json::render_run(&rep))?;
-    outputs.stage_dir("--csv", report::csv::files(&rep))?;
-    outputs.stage_dir("--svg", report::svg::run_plots(&rep))?;
-    outputs.commit()?;
-    if !output.quiet {
-        print!("{}", report::text::render(&rep));
-    }
+    write_reports(outputs, &rep, &rows, output.quiet)?;
     Ok(rep)
+}
+
+/// Stages the JSON, CSV, SVG and HTML reports of a run (`rows`: its model-and-settings rows
+/// for the HTML page), writes them and prints the text report.
+pub fn write_reports(
+    mut outputs: Outputs,
+    rep: &RunReport,
+    rows: &[(String, String)],
+    quiet: bool,
+) -> Result<()> {
+    outputs.stage_file("--json", report::json::render_run(rep))?;
+    outputs.stage_dir("--csv", report::csv::files(rep))?;
+    outputs.stage_dir("--svg", report::svg::run_plots(rep))?;
+    if outputs.has(html::FLAG) {
+        outputs.stage_dir(html::FLAG, report::html::pages::run_files(rep, rows))?;
+    }
+    outputs.commit()?;
+    if !quiet {
+        print!("{}", report::text::render(rep));
+    }
+    Ok(())
 }

@@ -1,11 +1,12 @@
 //! `compare`: MCS against AMCS at several tolerances, the paper's Table 2 for one model.
 
 use super::args::{thread_pool, BYTES_PER_DRAW};
+use super::html;
 use super::mcs::chunk;
 use super::outputs::Outputs;
 use super::progress::Progress;
 use super::{Flags, Run};
-use crate::cli::{DeltasArgs, ProblemArgs};
+use crate::cli::{DeltasArgs, HtmlArgs, ProblemArgs};
 use anyhow::Result;
 use clap::Args;
 use gpu_amcs::mc::{self, AmcsOptions, McsOptions, RunSettings, Tolerance};
@@ -43,6 +44,8 @@ pub struct CompareArgs {
     /// Write the comparison as a Markdown table to FILE.
     #[arg(long, value_name = "FILE")]
     pub markdown: Option<PathBuf>,
+    #[command(flatten)]
+    pub html: HtmlArgs,
     /// No progress bar.
     #[arg(long, short)]
     pub quiet: bool,
@@ -58,6 +61,7 @@ impl Run for CompareArgs {
         let mut outputs = Outputs::new(a.problem.inputs());
         outputs.file("--json", a.json.as_deref())?;
         outputs.file("--markdown", a.markdown.as_deref())?;
+        a.html.declare(&mut outputs, html::COMPARE_NAMES)?;
         let base = RunSettings {
             coverage_probability: a.coverage,
             ..RunSettings::default()
@@ -89,13 +93,14 @@ impl Run for CompareArgs {
         .plus(&[AMCS_CAP, BYTES_PER_DRAW]);
         a.problem.memory.check(&a.problem.points_estimate(e))?;
         let pool = thread_pool(a.problem.threads)?;
-        let c = pool.install(|| -> Result<Comparison> {
+        let (c, rows) = pool.install(|| -> Result<(Comparison, Vec<(String, String)>)> {
             let built = a.problem.build()?;
             let (model, m, seed) = (
                 built.problem.model.name.clone(),
                 built.problem.n_points(),
                 built.problem.seed,
             );
+            let rows = html::problem_rows(&a.problem, &built.problem);
             let (mut ev, _notes) = a.problem.backend.evaluator(built.problem)?;
             let bar = Progress::new(a.quiet, "MCS", "draws");
             let cb = |done: u64, total: u64| bar.update(done, total);
@@ -118,16 +123,20 @@ impl Run for CompareArgs {
                 amcs.push((*d, r, mre));
             }
             bar.finish();
-            Ok(Comparison {
+            let c = Comparison {
                 model,
                 points: m,
                 seed,
                 mcs,
                 amcs,
-            })
+            };
+            Ok((c, rows))
         })?;
         outputs.stage_file("--json", report::json::render_comparison(&c))?;
         outputs.stage_file("--markdown", report::markdown::render_comparison(&c))?;
+        if outputs.has(html::FLAG) {
+            outputs.stage_dir(html::FLAG, report::html::pages::comparison_files(&c, &rows))?;
+        }
         outputs.commit()?;
         print!("{}", report::text::render_comparison(&c));
         Ok(())

@@ -2,28 +2,23 @@
 //! --summary-out FILE`), and the shard run itself: draws `[K·n/N, (K+1)·n/N)` of the one
 //! stream, summarised without keeping the values.
 
-use super::analysis::outputs;
+use super::analysis::{outputs, write_reports};
 use super::args::{thread_pool, BYTES_PER_POINT};
+use super::html;
 use super::outputs::{Outputs, CSV_NAMES, SVG_NAMES};
 use super::progress::Progress;
 use super::{Flags, Run};
-use crate::cli::{OutputArgs, ProblemArgs};
+use crate::cli::{HtmlArgs, OutputArgs, ProblemArgs};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
-use gpu_amcs::mc::summary::{self, Provenance, Summary};
+use gpu_amcs::mc::summary::{self, Provenance, Summary, SummaryError, BYTES_PER_BIN};
 use gpu_amcs::mc::{min_draws, McError, Setting};
 use gpu_amcs::memory::Estimate;
-use gpu_amcs::report::{self, RunReport};
+use gpu_amcs::report::RunReport;
 use std::path::{Path, PathBuf};
 
 /// Largest summary file read, bytes (a summary holds at most one entry per occupied bin).
 const MAX_SUMMARY_BYTES: u64 = 1 << 30;
-
-/// Histogram bins a shard is sized for: one a draw, up to a 2 mm spread of w at 10^-6 mm a bin.
-const HISTOGRAM_BINS: u64 = 2_000_000;
-
-/// Bytes of one occupied histogram bin (a map entry and its share of the tree).
-const BYTES_PER_BIN: u64 = 64;
 
 /// Merge options.
 #[derive(Args, Debug, Clone)]
@@ -40,6 +35,8 @@ pub struct MergeArgs {
     /// Write SVG plots into this directory.
     #[arg(long, value_name = "DIR")]
     pub svg: Option<PathBuf>,
+    #[command(flatten)]
+    pub html: HtmlArgs,
     /// No text report on stdout.
     #[arg(long, short)]
     pub quiet: bool,
@@ -51,6 +48,7 @@ impl Run for MergeArgs {
         outputs.file("--json", self.json.as_deref())?;
         outputs.dir("--csv", self.csv.as_deref(), CSV_NAMES)?;
         outputs.dir("--svg", self.svg.as_deref(), SVG_NAMES)?;
+        self.html.declare(&mut outputs, html::RUN_NAMES)?;
         let named = self
             .files
             .iter()
@@ -58,7 +56,9 @@ impl Run for MergeArgs {
             .collect::<Result<Vec<_>>>()?;
         let merged = summary::merge(&named)?;
         let rep = report_of(&merged, Vec::new());
-        write_reports(outputs, &rep, self.quiet)
+        let shards: Vec<String> = named.iter().map(|(n, _)| n.clone()).collect();
+        let rows = vec![("shard summaries".to_string(), shards.join(", "))];
+        write_reports(outputs, &rep, &rows, self.quiet)
     }
 }
 
@@ -89,18 +89,6 @@ fn report_of(s: &Summary, mut notes: Vec<String>) -> RunReport {
     }
 }
 
-/// Stages the JSON, CSV and SVG reports, writes them and prints the text report.
-fn write_reports(mut outputs: Outputs, rep: &RunReport, quiet: bool) -> Result<()> {
-    outputs.stage_file("--json", report::json::render_run(rep))?;
-    outputs.stage_dir("--csv", report::csv::files(rep))?;
-    outputs.stage_dir("--svg", report::svg::run_plots(rep))?;
-    outputs.commit()?;
-    if !quiet {
-        print!("{}", report::text::render(rep));
-    }
-    Ok(())
-}
-
 /// Shard K of N (0-based K).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Shard {
@@ -111,6 +99,9 @@ pub struct Shard {
 }
 
 impl Shard {
+    /// The whole run.
+    pub const WHOLE: Shard = Shard { k: 0, n: 1 };
+
     /// Parses `K/N` (`source` names where it came from in errors).
     pub fn parse(text: &str, source: &str) -> Result<Shard> {
         let (k, n) = text
@@ -131,31 +122,85 @@ impl Shard {
         Ok(Shard { k, n })
     }
 
-    /// The shard from `--shard`, else from a Slurm array task (`SLURM_ARRAY_TASK_ID` less
-    /// `SLURM_ARRAY_TASK_MIN`, of `SLURM_ARRAY_TASK_COUNT`), else the whole run.
-    pub fn from_flag_or_env(flag: Option<&str>) -> Result<Shard> {
+    /// The shard from `--shard K/N`; else from a Slurm array task (`SLURM_ARRAY_TASK_ID` less
+    /// `SLURM_ARRAY_TASK_MIN`, over `SLURM_ARRAY_TASK_STEP`, of `SLURM_ARRAY_TASK_COUNT`); else
+    /// from a Kubernetes Indexed Job (`JOB_COMPLETION_INDEX` of `--shards N`); else the whole
+    /// run. `env` reads a variable. Half a scheduler's variables, both schedulers' at once, or
+    /// values that disagree are an error naming the variable.
+    pub fn from_flags_or_env(
+        flag: Option<&str>,
+        shards: Option<u64>,
+        env: impl Fn(&str) -> Option<String>,
+    ) -> Result<Shard> {
         if let Some(text) = flag {
             return Shard::parse(text, "--shard");
         }
-        let var = |name: &str| -> Result<Option<u64>> {
-            match std::env::var(name) {
-                Err(_) => Ok(None),
-                Ok(v) => v
-                    .trim()
-                    .parse()
-                    .map(Some)
-                    .map_err(|_| anyhow!("{name}: expected a whole number, got {v:?}")),
-            }
+        let num = |name: &str| -> Result<Option<u64>> {
+            env(name)
+                .map(|v| {
+                    v.trim()
+                        .parse::<u64>()
+                        .map_err(|_| anyhow!("{name}: expected a whole number, got {v:?}"))
+                })
+                .transpose()
         };
-        match (var("SLURM_ARRAY_TASK_ID")?, var("SLURM_ARRAY_TASK_COUNT")?) {
-            (Some(id), Some(count)) => {
-                let min = var("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
-                let k = id.checked_sub(min).ok_or_else(|| {
+        let slurm = (num("SLURM_ARRAY_TASK_ID")?, num("SLURM_ARRAY_TASK_COUNT")?);
+        match (slurm, num("JOB_COMPLETION_INDEX")?) {
+            ((Some(_), _) | (_, Some(_)), Some(_)) => bail!(
+                "JOB_COMPLETION_INDEX: set together with SLURM_ARRAY_TASK_*; give --shard K/N \
+                 to say which shard this is"
+            ),
+            ((None, None), None) => match shards {
+                Some(n) => bail!(
+                    "--shards {n}: JOB_COMPLETION_INDEX is not set (--shards is for a Kubernetes \
+                     Indexed Job; elsewhere give --shard K/N)"
+                ),
+                None => Ok(Shard::WHOLE),
+            },
+            ((None, None), Some(i)) => match shards {
+                Some(n) => Shard::new(i, n, "JOB_COMPLETION_INDEX"),
+                None => bail!(
+                    "JOB_COMPLETION_INDEX: set ({i}), but --shards N (the Job's completions) \
+                     is not given"
+                ),
+            },
+            ((Some(_), None), None) => {
+                bail!("SLURM_ARRAY_TASK_COUNT: not set, but SLURM_ARRAY_TASK_ID is")
+            }
+            ((None, Some(_)), None) => {
+                bail!("SLURM_ARRAY_TASK_ID: not set, but SLURM_ARRAY_TASK_COUNT is")
+            }
+            ((Some(id), Some(count)), None) => {
+                let min = num("SLURM_ARRAY_TASK_MIN")?.unwrap_or(0);
+                let step = num("SLURM_ARRAY_TASK_STEP")?.unwrap_or(1);
+                if step == 0 {
+                    bail!("SLURM_ARRAY_TASK_STEP: must be at least 1, got 0");
+                }
+                let off = id.checked_sub(min).ok_or_else(|| {
                     anyhow!("SLURM_ARRAY_TASK_ID: {id} is below SLURM_ARRAY_TASK_MIN {min}")
                 })?;
-                Shard::new(k, count, "SLURM_ARRAY_TASK_ID/SLURM_ARRAY_TASK_COUNT")
+                if off % step != 0 {
+                    bail!(
+                        "SLURM_ARRAY_TASK_ID: {id} is not SLURM_ARRAY_TASK_MIN {min} plus a \
+                         multiple of SLURM_ARRAY_TASK_STEP {step}"
+                    );
+                }
+                if let Some(max) = num("SLURM_ARRAY_TASK_MAX")? {
+                    let held = max.checked_sub(min).map(|d| d / step + 1);
+                    if held != Some(count) {
+                        bail!(
+                            "SLURM_ARRAY_TASK_COUNT: {count} tasks, but the array \
+                             {min}-{max}:{step} is not that many evenly spaced tasks; submit a \
+                             range (--array=0-{})",
+                            count.saturating_sub(1)
+                        );
+                    }
+                }
+                if let Some(n) = shards.filter(|&n| n != count) {
+                    bail!("--shards {n}: SLURM_ARRAY_TASK_COUNT is {count}");
+                }
+                Shard::new(off / step, count, "SLURM_ARRAY_TASK_ID")
             }
-            _ => Ok(Shard { k: 0, n: 1 }),
         }
     }
 
@@ -166,15 +211,21 @@ impl Shard {
     }
 }
 
-/// Runs shard `shard` of an MCS run of `draws` draws in chunks of `chunk` and writes its
-/// summary to `summary_out` (with the shard's own reports from the other outputs).
-pub fn run_shard(
+/// Histogram bins a summary reserves up front: w of the TX60 spreads over ~0.25 mm, so about
+/// 2.5·10^5 bins of 10^-6 mm are occupied at 10^6 draws (src/mc/summary.rs); the bins beyond
+/// this reserve are bounded while the run goes, by the memory the limit leaves.
+const RESERVED_BINS: u64 = 1 << 16;
+
+/// Runs shard `shard` of an MCS run of `draws` draws in chunks of `chunk` (`sizes`) without
+/// keeping the values, and writes its summary to `summary_out` when given, with the reports
+/// of the other outputs (from the summary, after `notes`).
+pub fn run_summary(
     problem: &ProblemArgs,
     output: &OutputArgs,
-    draws: u64,
-    chunk: u64,
+    (draws, chunk): (u64, u64),
     shard: Shard,
-    summary_out: &Path,
+    summary_out: Option<&Path>,
+    notes: Vec<String>,
 ) -> Result<()> {
     let settings = output.settings();
     settings.check().map_err(|e| Flags::RUN.error(e))?;
@@ -193,48 +244,168 @@ pub fn run_shard(
     }
     problem.check()?;
     let mut outputs = outputs(problem, output)?;
-    outputs.file("--summary-out", Some(summary_out))?;
+    outputs.file("--summary-out", summary_out)?;
     let (first, end) = shard.range(draws);
-    let estimate = |m: u64| {
+    let fixed = |m: u64| {
         let e = Estimate::new(
             format!("a summary of {} draws in chunks of {chunk}", end - first),
             "use fewer --points or no --per-point, or raise --memory-limit",
         )
         .plus(&[chunk, 8])
-        .plus(&[m, BYTES_PER_POINT])
-        .plus(&[(end - first).min(HISTOGRAM_BINS), BYTES_PER_BIN]);
+        .plus(&[m, BYTES_PER_POINT]);
         if output.per_point {
             e.plus(&[chunk, m, 2 * 8])
         } else {
             e
         }
     };
+    let estimate = |m: u64| fixed(m).plus(&[(end - first).min(RESERVED_BINS), BYTES_PER_BIN]);
     let generated = match problem.points_file {
         Some(_) => 0,
         None => problem.points as u64,
     };
     problem.memory.check(&estimate(generated))?;
     let pool = thread_pool(problem.threads)?;
-    let (s, notes) = pool.install(|| -> Result<(Summary, Vec<String>)> {
+    let (s, notes, rows) = pool.install(|| -> Result<(Summary, Vec<String>, _)> {
         let built = problem.build()?;
-        problem
-            .memory
-            .check(&estimate(built.problem.n_points() as u64))?;
+        let m = built.problem.n_points() as u64;
+        problem.memory.check(&estimate(m))?;
+        let max_bins = problem.memory.budget()?.room_left(&fixed(m)) / BYTES_PER_BIN;
         let prov = Provenance::new(&built.problem, &built.reference, draws, first, end);
-        let (mut ev, notes) = problem.backend.evaluator(built.problem)?;
-        let bar = Progress::new(output.quiet, "MCS shard", "draws");
+        let rows = html::problem_rows(problem, &built.problem);
+        let (mut ev, more) = problem.backend.evaluator(built.problem)?;
+        let label = if summary_out.is_some() {
+            "MCS shard"
+        } else {
+            "MCS (summary)"
+        };
+        let bar = Progress::new(output.quiet, label, "draws");
         let s = summary::summarize(
             ev.as_mut(),
             first,
             end,
             chunk,
+            max_bins,
             &settings,
             prov,
             Some(&|done, total| bar.update(done, total)),
         );
         bar.finish();
-        Ok((s?, notes))
+        Ok((s.map_err(summary_error)?, [notes, more].concat(), rows))
     })?;
     outputs.stage_file("--summary-out", s.to_json())?;
-    write_reports(outputs, &report_of(&s, notes), output.quiet)
+    write_reports(outputs, &report_of(&s, notes), &rows, output.quiet)
+}
+
+/// A summary error for the command line: settings name their flag, a histogram that
+/// outgrew the memory says which flag raises it.
+fn summary_error(e: SummaryError) -> anyhow::Error {
+    match e {
+        SummaryError::Mc(e) => Flags::RUN.error(e),
+        e @ SummaryError::Histogram { .. } => anyhow!("{e}; raise --memory-limit"),
+        e => e.into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Shard;
+
+    fn shard(
+        flag: Option<&str>,
+        shards: Option<u64>,
+        vars: &[(&str, &str)],
+    ) -> Result<Shard, String> {
+        Shard::from_flags_or_env(flag, shards, |name| {
+            vars.iter()
+                .find(|(n, _)| *n == name)
+                .map(|(_, v)| v.to_string())
+        })
+        .map_err(|e| e.to_string())
+    }
+
+    fn fails_naming(r: Result<Shard, String>, what: &str) {
+        match r {
+            Err(e) => assert!(e.contains(what), "{e:?} does not name {what}"),
+            Ok(s) => panic!("accepted as {s:?}, expected an error naming {what}"),
+        }
+    }
+
+    #[test]
+    fn shard_from_flag_slurm_or_indexed_job() {
+        let slurm = [
+            ("SLURM_ARRAY_TASK_ID", "5"),
+            ("SLURM_ARRAY_TASK_MIN", "1"),
+            ("SLURM_ARRAY_TASK_MAX", "7"),
+            ("SLURM_ARRAY_TASK_STEP", "2"),
+            ("SLURM_ARRAY_TASK_COUNT", "4"),
+        ];
+        assert_eq!(shard(None, None, &slurm), Ok(Shard { k: 2, n: 4 }));
+        assert_eq!(shard(None, Some(4), &slurm), Ok(Shard { k: 2, n: 4 }));
+        // The explicit flag wins over the environment.
+        assert_eq!(shard(Some("1/3"), None, &slurm), Ok(Shard { k: 1, n: 3 }));
+        let job = [("JOB_COMPLETION_INDEX", "3")];
+        assert_eq!(shard(None, Some(8), &job), Ok(Shard { k: 3, n: 8 }));
+        assert_eq!(shard(None, None, &[]), Ok(Shard::WHOLE));
+        let plain = [
+            ("SLURM_ARRAY_TASK_ID", "0"),
+            ("SLURM_ARRAY_TASK_COUNT", "2"),
+        ];
+        assert_eq!(shard(None, None, &plain), Ok(Shard { k: 0, n: 2 }));
+    }
+
+    #[test]
+    fn inconsistent_scheduler_variables_name_the_variable() {
+        fails_naming(shard(None, Some(4), &[]), "JOB_COMPLETION_INDEX is not set");
+        fails_naming(
+            shard(None, None, &[("JOB_COMPLETION_INDEX", "1")]),
+            "--shards N",
+        );
+        fails_naming(
+            shard(None, Some(2), &[("JOB_COMPLETION_INDEX", "2")]),
+            "JOB_COMPLETION_INDEX: shard 2 of 2",
+        );
+        fails_naming(
+            shard(None, None, &[("SLURM_ARRAY_TASK_ID", "1")]),
+            "SLURM_ARRAY_TASK_COUNT: not set",
+        );
+        fails_naming(
+            shard(None, None, &[("SLURM_ARRAY_TASK_COUNT", "4")]),
+            "SLURM_ARRAY_TASK_ID: not set",
+        );
+        let task = |id: &'static str, extra: &[(&'static str, &'static str)]| {
+            let mut v = vec![("SLURM_ARRAY_TASK_ID", id), ("SLURM_ARRAY_TASK_COUNT", "4")];
+            v.extend_from_slice(extra);
+            v
+        };
+        fails_naming(
+            shard(None, None, &task("x", &[])),
+            "SLURM_ARRAY_TASK_ID: expected",
+        );
+        fails_naming(
+            shard(None, None, &task("0", &[("SLURM_ARRAY_TASK_MIN", "1")])),
+            "below SLURM_ARRAY_TASK_MIN",
+        );
+        fails_naming(
+            shard(None, None, &task("4", &[])),
+            "SLURM_ARRAY_TASK_ID: shard 4 of 4",
+        );
+        fails_naming(
+            shard(None, None, &task("3", &[("SLURM_ARRAY_TASK_MAX", "9")])),
+            "SLURM_ARRAY_TASK_COUNT: 4 tasks",
+        );
+        fails_naming(
+            shard(None, None, &task("3", &[("SLURM_ARRAY_TASK_STEP", "2")])),
+            "SLURM_ARRAY_TASK_STEP 2",
+        );
+        fails_naming(
+            shard(None, None, &task("1", &[("SLURM_ARRAY_TASK_STEP", "0")])),
+            "SLURM_ARRAY_TASK_STEP: must be",
+        );
+        fails_naming(shard(None, Some(3), &task("1", &[])), "--shards 3");
+        fails_naming(
+            shard(None, Some(4), &task("1", &[("JOB_COMPLETION_INDEX", "1")])),
+            "JOB_COMPLETION_INDEX: set together",
+        );
+    }
 }

@@ -1,9 +1,10 @@
 //! `sensitivity`: first-order and total Sobol indices of w per parameter, joint and kind.
 
 use super::args::thread_pool;
+use super::html;
 use super::outputs::Outputs;
 use super::Run;
-use crate::cli::ProblemArgs;
+use crate::cli::{HtmlArgs, ProblemArgs};
 use anyhow::Result;
 use clap::Args;
 use gpu_amcs::mc::sensitivity::{run_sensitivity, SensitivityError, SensitivityOptions};
@@ -48,6 +49,8 @@ pub struct SensitivityArgs {
     /// Write indices.svg and groups.svg (bar charts of the indices of w) into DIR.
     #[arg(long, value_name = "DIR")]
     pub svg: Option<PathBuf>,
+    #[command(flatten)]
+    pub html: HtmlArgs,
     /// No table on stdout.
     #[arg(long, short)]
     pub quiet: bool,
@@ -85,6 +88,7 @@ impl Run for SensitivityArgs {
         outputs.file("--json", a.json.as_deref())?;
         outputs.dir("--csv", a.csv.as_deref(), CSV_NAMES)?;
         outputs.dir("--svg", a.svg.as_deref(), SVG_NAMES)?;
+        a.html.declare(&mut outputs, html::SENSITIVITY_NAMES)?;
         // Kept: w and every pick-freeze output (at most 2 + 30 parameters + 8 groups matrices)
         // for the bootstrap, and one chunk of offset rows and outputs.
         let matrices = 40u64;
@@ -102,8 +106,9 @@ impl Run for SensitivityArgs {
         );
         a.problem.memory.check(&estimate)?;
         let pool = thread_pool(a.problem.threads)?;
-        let result = pool.install(|| -> Result<_> {
+        let (result, rows) = pool.install(|| -> Result<_> {
             let built = a.problem.build()?;
+            let rows = html::problem_rows(&a.problem, &built.problem);
             let problem = built.problem.clone();
             let (mut ev, notes) = a.problem.backend.evaluator(built.problem)?;
             if !a.quiet {
@@ -111,7 +116,10 @@ impl Run for SensitivityArgs {
                     eprintln!("note: {n}");
                 }
             }
-            run_sensitivity(&problem, ev.as_mut(), &opts).map_err(with_flag)
+            Ok((
+                run_sensitivity(&problem, ev.as_mut(), &opts).map_err(with_flag)?,
+                rows,
+            ))
         })?;
         outputs.stage_file("--json", report::render_json(&result))?;
         outputs.stage_dir(
@@ -119,6 +127,12 @@ impl Run for SensitivityArgs {
             vec![("indices.csv".to_string(), report::render_csv(&result))],
         )?;
         outputs.stage_dir("--svg", report::render_svg(&result))?;
+        if outputs.has(html::FLAG) {
+            outputs.stage_dir(
+                html::FLAG,
+                gpu_amcs::report::html::pages::sensitivity_files(&result, &rows),
+            )?;
+        }
         outputs.commit()?;
         if !a.quiet {
             print!("{}", report::render_text(&result));

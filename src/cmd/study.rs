@@ -1,10 +1,11 @@
 //! `study`: the paper's factor study on a virtual TX60, written all or nothing into a directory.
 
 use super::args::{sweeps_estimate, BYTES_PER_DRAW};
+use super::html;
 use super::outputs::Outputs;
 use super::progress::Progress;
 use super::Run;
-use crate::cli::{BackendArgs, DeltasArgs, MemoryArgs};
+use crate::cli::{BackendArgs, DeltasArgs, HtmlArgs, MemoryArgs};
 use anyhow::Result;
 use clap::Args;
 use gpu_amcs::memory::Estimate;
@@ -46,6 +47,9 @@ pub struct StudyArgs {
     pub seed: u64,
     #[command(flatten)]
     pub backend: BackendArgs,
+    // --html DIR: index.html and, unless DIR is the --out directory, copies of its files.
+    #[command(flatten)]
+    pub html: HtmlArgs,
     /// No progress bar and no summary on stdout.
     #[arg(long, short)]
     pub quiet: bool,
@@ -58,6 +62,13 @@ impl Run for StudyArgs {
         let a = self;
         let mut outputs = Outputs::new([]);
         outputs.dir("--out", Some(&a.out), &[])?;
+        // Any file of the study (the names depend on the factors), like --out.
+        a.html.declare(&mut outputs, &[])?;
+        let html_beside_out = a
+            .html
+            .html
+            .as_deref()
+            .is_some_and(|h| html::same_dir(h, &a.out));
         use gpu_amcs::study::{self, Factor, StudySettings};
         let mut s = if a.quick {
             StudySettings::quick()
@@ -109,7 +120,19 @@ impl Run for StudyArgs {
         };
         let result = study::run_study(&s, Some(&cb))?;
         bar.finish();
-        outputs.stage_dir("--out", study::output_files(&result))?;
+        let files = study::output_files(&result);
+        if outputs.has(html::FLAG) {
+            let page = gpu_amcs::report::html::pages::study_page(&result, &files);
+            let index = (gpu_amcs::report::html::pages::INDEX.to_string(), page);
+            let mut html_files = if html_beside_out {
+                Vec::new()
+            } else {
+                files.clone()
+            };
+            html_files.push(index);
+            outputs.stage_dir(html::FLAG, html_files)?;
+        }
+        outputs.stage_dir("--out", files)?;
         outputs.commit()?;
         if !a.quiet {
             println!(

@@ -1,10 +1,11 @@
 //! `tail`: the probability that w reaches a threshold, down to 1e-9, by subset simulation.
 
 use super::args::thread_pool;
+use super::html;
 use super::outputs::Outputs;
 use super::progress::Progress;
 use super::Run;
-use crate::cli::ProblemArgs;
+use crate::cli::{HtmlArgs, ProblemArgs};
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 use gpu_amcs::mc::tail::{run_tail, TailError, TailMethod, TailOptions, TailSetting};
@@ -75,6 +76,8 @@ pub struct TailArgs {
     /// Write tail.svg (P_f against L on a log axis) into DIR.
     #[arg(long, value_name = "DIR")]
     pub svg: Option<PathBuf>,
+    #[command(flatten)]
+    pub html: HtmlArgs,
     /// No progress bar and no table on stdout.
     #[arg(long, short)]
     pub quiet: bool,
@@ -119,6 +122,7 @@ impl Run for TailArgs {
         outputs.file("--json", a.json.as_deref())?;
         outputs.dir("--csv", a.csv.as_deref(), CSV_NAMES)?;
         outputs.dir("--svg", a.svg.as_deref(), SVG_NAMES)?;
+        a.html.declare(&mut outputs, html::TAIL_NAMES)?;
         // Kept: two levels of states (30 normals and w each), their offsets, one batch of rows.
         let states = (a.samples_per_level as u64).max(opts.batch_size as u64);
         a.problem.memory.check(
@@ -134,8 +138,9 @@ impl Run for TailArgs {
             ),
         )?;
         let pool = thread_pool(a.problem.threads)?;
-        let result = pool.install(|| -> Result<_> {
+        let (result, rows) = pool.install(|| -> Result<_> {
             let built = a.problem.build()?;
+            let rows = html::problem_rows(&a.problem, &built.problem);
             let sampler = built.problem.sampler.clone();
             let (mut ev, notes) = a.problem.backend.evaluator(built.problem)?;
             if !a.quiet {
@@ -152,7 +157,7 @@ impl Run for TailArgs {
             )
             .map_err(with_flag);
             bar.finish();
-            r
+            Ok((r?, rows))
         })?;
         outputs.stage_file("--json", report::render_json(&result))?;
         outputs.stage_dir(
@@ -160,6 +165,12 @@ impl Run for TailArgs {
             vec![("tail.csv".to_string(), report::render_csv(&result))],
         )?;
         outputs.stage_dir("--svg", report::render_svg(&result))?;
+        if outputs.has(html::FLAG) {
+            outputs.stage_dir(
+                html::FLAG,
+                gpu_amcs::report::html::pages::tail_files(&result, &rows),
+            )?;
+        }
         outputs.commit()?;
         if !a.quiet {
             print!("{}", report::render_text(&result));

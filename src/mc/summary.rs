@@ -28,6 +28,10 @@ fn bin_of(w: f64) -> u64 {
     (w / BIN_WIDTH) as u64
 }
 
+/// Bytes one occupied histogram bin is budgeted at: a B-tree entry (two u64) and its share of
+/// the node (up to eleven entries a node, at least half full, plus the node header).
+pub const BYTES_PER_BIN: u64 = 64;
+
 /// Number of groups of the batch-means standard errors of M1–M4 (as in an MCS run).
 pub const GROUPS: u64 = 20;
 
@@ -232,6 +236,19 @@ pub enum SummaryError {
     /// No summaries were given.
     #[error("no summaries to merge")]
     Empty,
+    /// The histogram outgrew the bins it was allowed.
+    #[error(
+        "the histogram of w needs more than {max_bins} occupied bins of width {BIN_WIDTH:e} mm \
+         (w spreads over {min} … {max} mm), more than the memory left for it"
+    )]
+    Histogram {
+        /// Bins allowed.
+        max_bins: u64,
+        /// Smallest w so far, mm.
+        min: f64,
+        /// Largest w so far, mm.
+        max: f64,
+    },
 }
 
 /// Serde's view of [`IntervalKind`] for reading summaries.
@@ -594,13 +611,15 @@ impl Summary {
 }
 
 /// Evaluates draws `[first, end)` on `ev` in chunks of `chunk` and summarises them without
-/// keeping the values (memory: one chunk and the occupied bins). `provenance` gives the run;
-/// its range is set to `[first, end)`.
+/// keeping the values (memory: one chunk and the occupied bins, at most `max_bins` of them, else
+/// [`SummaryError::Histogram`]). `provenance` gives the run; its range is set to `[first, end)`.
+#[allow(clippy::too_many_arguments)]
 pub fn summarize(
     ev: &mut dyn Evaluator,
     first: u64,
     end: u64,
     chunk: u64,
+    max_bins: u64,
     settings: &RunSettings,
     mut provenance: Provenance,
     progress: Option<Progress>,
@@ -662,6 +681,13 @@ pub fn summarize(
             .into());
         }
         s.add(k, &w);
+        if s.bins.len() as u64 > max_bins {
+            return Err(SummaryError::Histogram {
+                max_bins,
+                min: s.min,
+                max: s.max,
+            });
+        }
         s.chunks += 1;
         k += n as u64;
         if let Some(cb) = progress {

@@ -19,8 +19,20 @@ pub fn table(header: &[&str], rows: &[Vec<String>]) -> String {
     s
 }
 
-/// The comparison as the paper's Table 2 row block.
-pub fn render_comparison(c: &Comparison) -> String {
+/// The column headers of the comparison table.
+pub const COMPARISON_HEADER: [&str; 8] = [
+    "method",
+    "M1 (mm)",
+    "M2 (mm²)",
+    "M3",
+    "M4",
+    "MRE (%)",
+    "draws",
+    "time (s)",
+];
+
+/// The rows of the comparison table: MCS, then AMCS at each δ.
+pub fn comparison_rows(c: &Comparison) -> Vec<Vec<String>> {
     let mut rows = vec![row("MCS", &c.mcs, None)];
     for (d, r, _) in &c.amcs {
         rows.push(row(
@@ -29,24 +41,17 @@ pub fn render_comparison(c: &Comparison) -> String {
             Some(max_relative_error(r, &c.mcs)),
         ));
     }
+    rows
+}
+
+/// The comparison as the paper's Table 2 row block.
+pub fn render_comparison(c: &Comparison) -> String {
     format!(
         "### {} — {} test points (seed {})\n\n{}",
         c.model,
         c.points,
         c.seed,
-        table(
-            &[
-                "method",
-                "M1 (mm)",
-                "M2 (mm²)",
-                "M3",
-                "M4",
-                "MRE (%)",
-                "draws",
-                "time (s)"
-            ],
-            &rows
-        )
+        table(&COMPARISON_HEADER, &comparison_rows(c))
     )
 }
 

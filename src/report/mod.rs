@@ -1,11 +1,13 @@
 //! Reports of a run: a readable table for the terminal, JSON with stable field names, CSV files
 //! of the curves, Markdown tables and SVG plots of the curves the paper draws (PDF of w, the
-//! reliability curve, the convergence of the four fluctuation indices).
+//! reliability curve, the convergence of the four fluctuation indices), and one self-contained
+//! HTML page that holds them all ([`html`]).
 //!
 //! One file per format; every writer goes through [`write_atomic`], so an interrupted or failed
 //! run never leaves a half-written file behind.
 
 pub mod csv;
+pub mod html;
 pub mod identify;
 pub mod json;
 pub mod map;

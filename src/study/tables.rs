@@ -131,20 +131,11 @@ fn summary_row(l: &LevelResult, r: &RunSummary) -> Vec<String> {
 
 /// Table 2 rows: factor, level, method, M1–M4, MRE %, draws, time.
 pub fn table2_rows(s: &StudyResult) -> (Vec<String>, Vec<Vec<String>>) {
-    let header = [
-        "factor",
-        "level",
-        "method",
-        "M1 (mm)",
-        "M2 (mm²)",
-        "M3",
-        "M4",
-        "MRE (%)",
-        "draws",
-        "time (s)",
-    ]
-    .map(String::from)
-    .to_vec();
+    let header = ["factor", "level"]
+        .into_iter()
+        .chain(crate::report::markdown::COMPARISON_HEADER)
+        .map(String::from)
+        .collect();
     let mut rows = Vec::new();
     for l in &s.levels {
         if let Some(p) = table2_points(l) {
