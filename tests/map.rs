@@ -344,6 +344,45 @@ fn command_writes_the_map() {
             assert!(s.contains(part), "{name} lacks {part}");
         }
     }
+    // The HTML report: one self-contained page with both heat maps inline, each titled and
+    // described, tables with headers, and links to the files beside it.
+    let html = arg(&d, "html");
+    let o = run(&[
+        "map",
+        "--plane",
+        "xy",
+        "--at",
+        "300",
+        "--cells",
+        "8,8",
+        "--draws",
+        "300",
+        "--backend",
+        "cpu",
+        "-q",
+        "--html",
+        &html,
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let page = std::fs::read_to_string(d.join("html/index.html")).unwrap();
+    for bad in ["<script", "http://", "https://", "NaN"] {
+        assert!(!page.contains(bad), "page contains {bad}");
+    }
+    assert_eq!(page.matches("<figure ").count(), 2);
+    assert_eq!(page.matches("<desc id=\"fig").count(), 2);
+    assert_eq!(
+        page.matches("<desc").count(),
+        2,
+        "one text alternative per figure"
+    );
+    assert_eq!(
+        page.matches("<table").count(),
+        page.matches("<thead><tr><th scope=\"col\">").count()
+    );
+    for f in ["map.json", "map.csv", "map_e95.svg", "map_r.svg"] {
+        assert!(d.join("html").join(f).is_file(), "{f}");
+        assert!(page.contains(&format!("href=\"./{f}\"")), "{f} not linked");
+    }
     // A 3-D grid writes the heat maps per z layer.
     let d3 = tmpdir("map-volume");
     let svg3 = arg(&d3, "svg");

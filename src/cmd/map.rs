@@ -5,7 +5,7 @@ use super::args::thread_pool;
 use super::outputs::Outputs;
 use super::progress::Progress;
 use super::Run;
-use crate::cli::{BackendArgs, BoxArgs, MemoryArgs, ModelArgs};
+use crate::cli::{BackendArgs, BoxArgs, HtmlArgs, MemoryArgs, ModelArgs};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use gpu_amcs::engine::{Problem, Reference};
@@ -103,6 +103,8 @@ pub struct MapArgs {
     /// into DIR.
     #[arg(long, value_name = "DIR")]
     pub svg: Option<PathBuf>,
+    #[command(flatten)]
+    pub html: HtmlArgs,
     /// No progress bar and no summary on stdout.
     #[arg(long, short)]
     pub quiet: bool,
@@ -205,15 +207,18 @@ impl Run for MapArgs {
         let mut outputs = Outputs::new(a.model.model.as_deref().map(|p| ("--model", p)));
         outputs.file("--json", a.json.as_deref())?;
         outputs.dir("--csv", a.csv.as_deref(), &[report::CSV_NAME])?;
-        // The heat maps' names depend on the layer count; the list lives for the whole run.
-        let svg_names: &'static [&'static str] = Box::leak(
-            report::svg_names(n[2])
-                .into_iter()
-                .map(|s| &*Box::leak(s.into_boxed_str()))
-                .collect::<Vec<_>>()
-                .into_boxed_slice(),
-        );
-        outputs.dir("--svg", a.svg.as_deref(), svg_names)?;
+        // The heat maps' names depend on the layer count; the lists live for the whole run.
+        let leak = |v: Vec<String>| -> &'static [&'static str] {
+            Box::leak(
+                v.into_iter()
+                    .map(|s| &*Box::leak(s.into_boxed_str()))
+                    .collect::<Vec<_>>()
+                    .into_boxed_slice(),
+            )
+        };
+        outputs.dir("--svg", a.svg.as_deref(), leak(report::svg_names(n[2])))?;
+        a.html
+            .declare(&mut outputs, leak(report::html_names(n[2])))?;
         let cells = spec.n_cells();
         let batch = map::batch_size(cells, a.draws);
         a.memory
@@ -265,6 +270,18 @@ impl Run for MapArgs {
             vec![(report::CSV_NAME.to_string(), report::render_csv(&result))],
         )?;
         outputs.stage_dir("--svg", report::render_svgs(&result))?;
+        if outputs.has(super::html::FLAG) {
+            let source = match &a.model.model {
+                Some(p) => format!("model file {}", p.display()),
+                None => format!("built-in preset {}", a.model.preset),
+            };
+            let threads = a.threads.map_or("all cores".to_string(), |t| t.to_string());
+            let rows = [
+                ("model source".to_string(), source),
+                ("CPU threads".to_string(), threads),
+            ];
+            outputs.stage_dir(super::html::FLAG, report::html_files(&result, &rows))?;
+        }
         outputs.commit()?;
         if !a.quiet {
             print!("{}", report::render_text(&result));

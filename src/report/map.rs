@@ -401,9 +401,9 @@ fn heat_map(
     }
     let _ = write!(
         desc,
-        " The robot base (its first joint axis) is {}.",
+        " The origin of the robot's base frame is {}.",
         if base_in {
-            "marked by a cross in a circle"
+            "marked by a cross in a circle labelled base"
         } else {
             "outside this plane's extent"
         }
@@ -412,10 +412,14 @@ fn heat_map(
     let _ = writeln!(s, r#"<?xml version="1.0" encoding="UTF-8"?>"#);
     let _ = writeln!(
         s,
-        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0}" height="{height:.0}" viewBox="0 0 {width:.0} {height:.0}" font-family="sans-serif" font-size="12" role="img" aria-labelledby="title desc">"#
+        r#"<svg xmlns="http://www.w3.org/2000/svg" width="{width:.0}" height="{height:.0}" viewBox="0 0 {width:.0} {height:.0}" font-family="sans-serif" font-size="12">"#
     );
-    let _ = writeln!(s, r#"<title id="title">{}</title>"#, esc(&title));
-    let _ = writeln!(s, r#"<desc id="desc">{}</desc>"#, esc(&desc));
+    let _ = writeln!(
+        s,
+        "<title>{}</title><desc>{}</desc>",
+        esc(&title),
+        esc(&desc)
+    );
     let _ = writeln!(
         s,
         r##"<defs><pattern id="hatch" width="6" height="6" patternUnits="userSpaceOnUse" patternTransform="rotate(45)"><rect width="6" height="6" fill="#eeeeee"/><line x1="0" y1="0" x2="0" y2="6" stroke="#888888" stroke-width="2"/></pattern></defs>"##
@@ -571,6 +575,157 @@ fn heat_map(
     );
     let _ = writeln!(s, "</svg>");
     s
+}
+
+/// The name of the JSON file in an HTML report directory.
+pub const HTML_JSON: &str = "map.json";
+
+/// Every file of the `--html DIR` report of a map with `layers` layers, `index.html` last.
+pub fn html_names(layers: usize) -> Vec<String> {
+    let mut v = vec![HTML_JSON.to_string(), CSV_NAME.to_string()];
+    v.extend(svg_names(layers));
+    v.push(super::html::pages::INDEX.to_string());
+    v
+}
+
+/// A heat map's `<title>` and `<desc>` (as [`render_svgs`] writes them): the description, and
+/// the document without them, for a page that gives the figure its own.
+fn split_text_alternative(svg: &str) -> (String, String) {
+    match (svg.find("<title>"), svg.find("<desc>"), svg.find("</desc>")) {
+        (Some(t), Some(d), Some(e)) if t < d && d < e => {
+            let desc = svg[d + "<desc>".len()..e]
+                .replace("&lt;", "<")
+                .replace("&gt;", ">")
+                .replace("&amp;", "&");
+            (
+                desc,
+                format!("{}{}", &svg[..t], &svg[e + "</desc>".len()..]),
+            )
+        }
+        _ => (String::new(), svg.to_string()),
+    }
+}
+
+/// The `--html DIR` report: the JSON and CSV of every cell, the heat maps, and the page (the
+/// summary, the multi-point and single-point reliability tables, the heat maps inline, the
+/// model and settings); `settings` are rows only the caller knows (where the model came from).
+pub fn html_files(r: &MapResult, settings: &[(String, String)]) -> Vec<(String, String)> {
+    use super::html::{Figure, Page, Table};
+    let svgs = render_svgs(r);
+    let mut files = vec![
+        (HTML_JSON.to_string(), render_json(r)),
+        (CSV_NAME.to_string(), render_csv(r)),
+    ];
+    files.extend(svgs.iter().cloned());
+    let mut page = Page::new(&format!("Workspace reliability map of {}", r.model));
+    page.summary("grid", &grid_label(r))
+        .summary("task", &r.spec.task())
+        .summary(
+            "cells reached",
+            &format!("{} of {}", r.reached, r.cells.len()),
+        )
+        .summary("draws", &r.draws.to_string())
+        .summary(
+            "mean of w over the reached cells",
+            &format!("{} mm", fmt_g(r.w_mean_mm)),
+        )
+        .summary("95 % quantile of w", &format!("{} mm", fmt_g(r.w_q95_mm)))
+        .summary(
+            "run time",
+            &format!(
+                "inverse kinematics {:.2} s, evaluation {:.2} s",
+                r.timings.ik_seconds, r.timings.eval_seconds
+            ),
+        );
+    page.paragraph(
+        "Each cell is a target position; inverse kinematics on the model gives the configuration \
+         nearest the reference configuration, and all reached cells are evaluated on the same \
+         parameter draws. Hatched cells cannot be reached with the task's orientation within the \
+         joint limits.",
+    );
+    page.heading("Reliability over all reached cells");
+    page.table(Table::new(
+        "Multi-point reliability R(l_c) = Pr[w < l_c], w = max_j e_j over the reached cells, with the 95 % Wilson interval",
+        &["l_c (mm)", "R (1)", "95 % interval low (1)", "95 % interval high (1)"],
+        r.multi_point
+            .iter()
+            .map(|x| {
+                vec![
+                    fmt_g(x.threshold),
+                    format!("{:.6}", x.r),
+                    format!("{:.6}", x.ci_low),
+                    format!("{:.6}", x.ci_high),
+                ]
+            })
+            .collect(),
+    ));
+    page.table(Table::new(
+        "Single-point reliability R_j(l_c) = Pr[e_j < l_c] across the reached cells (paper eq. 14)",
+        &[
+            "l_c (mm)",
+            "least R_j (1)",
+            "median R_j (1)",
+            "cells with R_j ≥ 0.99 (count)",
+        ],
+        r.thresholds
+            .iter()
+            .enumerate()
+            .map(|(t, l)| {
+                let mut v: Vec<f64> = reached(r)
+                    .filter_map(|c| c.stats.as_ref().map(|s| s.reliability[t].r))
+                    .collect();
+                v.sort_by(f64::total_cmp);
+                vec![
+                    fmt_g(*l),
+                    format!("{:.6}", v.first().copied().unwrap_or(0.0)),
+                    format!("{:.6}", v.get(v.len() / 2).copied().unwrap_or(0.0)),
+                    format!(
+                        "{} of {}",
+                        v.iter().filter(|&&x| x >= 0.99).count(),
+                        v.len()
+                    ),
+                ]
+            })
+            .collect(),
+    ));
+    page.heading("Heat maps");
+    for (name, svg) in &svgs {
+        let (desc, body) = split_text_alternative(svg);
+        let mut f = Figure::from_svg(name, &body, &desc);
+        f.svg = body;
+        page.figure(f);
+    }
+    for (n, v) in settings {
+        page.setting(n, v);
+    }
+    let q = r.spec.reference_q_deg.map(fmt_g).join(", ");
+    page.setting("seed", &r.seed.to_string())
+        .setting(
+            "thresholds",
+            &format!(
+                "{} mm",
+                r.thresholds
+                    .iter()
+                    .map(|l| fmt_g(*l))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+        )
+        .setting("reference configuration", &format!("{q} deg"))
+        .setting("inverse-kinematics seeds", &r.spec.ik_seeds.to_string())
+        .setting(
+            "workspace box",
+            &format!(
+                "centre ({}) mm, edges ({}) mm",
+                r.spec.workspace.center.map(fmt_g).join(", "),
+                r.spec.workspace.size.map(fmt_g).join(", ")
+            ),
+        );
+    page.backend(&r.backend);
+    page.link(HTML_JSON, "every cell and the settings as JSON");
+    page.link(CSV_NAME, "one row per cell as CSV");
+    files.push((super::html::pages::INDEX.to_string(), page.render()));
+    files
 }
 
 #[cfg(test)]
