@@ -1,4 +1,4 @@
-//! Numerical inverse kinematics on the model's own MDH chain (docs/METHOD.md §12.1).
+//! Numerical inverse kinematics on the model's own MDH chain (docs/METHOD.md §13.1).
 //!
 //! Damped least squares (Levenberg–Marquardt): with the task error `e` (tool-point position, mm,
 //! and, when the orientation is fixed, the flange orientation error scaled by a length so both

@@ -1,4 +1,4 @@
-//! Workspace reliability maps (docs/METHOD.md §12): where in the workspace is the robot
+//! Workspace reliability maps (docs/METHOD.md §13): where in the workspace is the robot
 //! reliable?
 //!
 //! A grid of target positions (a plane slice or a 3-D grid in the workspace box) is turned into

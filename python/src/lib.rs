@@ -1,0 +1,38 @@
+//! Python bindings of gpu-amcs (the `gpu_amcs` package, README "From Python").
+//!
+//! Thin by design: every number comes from the `gpu_amcs` library (the same evaluators,
+//! drivers and JSON report as the command line). This crate converts NumPy arrays, names the
+//! Python argument in errors (where the command line names its flag), and releases the GIL
+//! while the engine runs.
+
+mod arrays;
+mod errors;
+mod model;
+mod run;
+
+use pyo3::prelude::*;
+
+/// GPU adapters wgpu can see, one line each (name, backend, device type, driver).
+#[pyfunction]
+fn adapters(py: Python<'_>) -> Vec<String> {
+    py.detach(gpu_amcs::engine::list_adapters)
+}
+
+/// Names of the built-in models (`Model.preset`).
+#[pyfunction]
+fn presets() -> Vec<&'static str> {
+    gpu_amcs::kinematics::PRESETS.to_vec()
+}
+
+/// The extension module `gpu_amcs._gpu_amcs`; the package `gpu_amcs` re-exports it.
+#[pymodule]
+fn _gpu_amcs(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    m.add_class::<model::PyModel>()?;
+    m.add_class::<run::RunResult>()?;
+    m.add_function(wrap_pyfunction!(run::mcs, m)?)?;
+    m.add_function(wrap_pyfunction!(run::amcs, m)?)?;
+    m.add_function(wrap_pyfunction!(adapters, m)?)?;
+    m.add_function(wrap_pyfunction!(presets, m)?)?;
+    Ok(())
+}

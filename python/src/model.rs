@@ -1,0 +1,451 @@
+//! `gpu_amcs.Model`: a robot model (preset, model file, TOML text or imported description) with
+//! forward kinematics, the maximum point error of caller-chosen parameter rows, and the run's
+//! own parameter draws. Python sees the model file's units: mm and degrees.
+
+use crate::arrays;
+use crate::errors::{arg_error, lib_error, value_error};
+use gpu_amcs::engine::{
+    make_evaluator, BackendChoice, Problem, ProblemError, Reference, MAX_ANGLE_OFFSET,
+};
+use gpu_amcs::kinematics::{
+    param_kind, position_deg, preset, RobotModel, Uncertainty, JOINTS, N_PARAMS, PARAMS_PER_JOINT,
+};
+use gpu_amcs::memory::{Estimate, MemoryBudget};
+use gpu_amcs::sampling::ParamSampler;
+use numpy::ndarray::{Array1, Array2};
+use numpy::{IntoPyArray, PyArray1, PyArray2};
+use pyo3::prelude::*;
+use rayon::prelude::*;
+use std::path::PathBuf;
+
+/// Rows of `params` converted and evaluated at a time: bounds the offset buffer (8 MiB per
+/// 2^15 rows) whatever N is, and is large enough that the per-call overhead of an evaluator
+/// call is negligible.
+const ROWS_PER_CALL: usize = 1 << 15;
+
+/// The preset a nominal reference defaults to when the model did not come from a preset: the
+/// command line's default `--preset`.
+const DEFAULT_PRESET: &str = "tx60";
+
+/// Name of parameter `i` of the 30-vector: `theta1` … `beta6` (1-based joint).
+pub fn param_name(i: usize) -> String {
+    format!("{}{}", param_kind(i).name(), i / PARAMS_PER_JOINT + 1)
+}
+
+/// Factor from file units (mm, degrees) to internal units (mm, radians) of parameter `i`.
+fn unit(i: usize) -> f64 {
+    param_kind(i).to_internal()
+}
+
+/// A robot model: 30 MDH parameters `[θ, d, a, α, β]` per joint (mm, degrees), joint limits,
+/// the tool (tracker target) and the parameter uncertainty.
+#[pyclass(module = "gpu_amcs", name = "Model", frozen)]
+#[derive(Clone)]
+pub struct PyModel {
+    /// The library's model (internal units).
+    pub model: RobotModel,
+    /// The preset it was made from, if any: the default nominal model.
+    pub preset: Option<String>,
+}
+
+impl PyModel {
+    /// The nominal model a `reference="nominal"` analysis of this model uses when none is given:
+    /// the preset it came from, else the command line's default preset.
+    pub fn default_nominal(&self, preset_name: Option<&str>) -> PyResult<RobotModel> {
+        let name = preset_name
+            .or(self.preset.as_deref())
+            .unwrap_or(DEFAULT_PRESET);
+        preset(name).map_err(|e| arg_error("preset", e))
+    }
+}
+
+/// What the errors are measured against, from `reference` and `nominal`.
+pub fn reference(
+    kind: &str,
+    nominal: Option<&PyModel>,
+    default_nominal: impl FnOnce() -> PyResult<RobotModel>,
+) -> PyResult<Reference> {
+    match (kind, nominal) {
+        ("calibrated", None) => Ok(Reference::Calibrated),
+        ("calibrated", Some(_)) => Err(value_error(
+            "nominal is used only with reference=\"nominal\"",
+        )),
+        ("nominal", Some(n)) => Ok(Reference::Nominal(Box::new(n.model.clone()))),
+        ("nominal", None) => Ok(Reference::Nominal(Box::new(default_nominal()?))),
+        (other, _) => Err(value_error(format!(
+            "reference: unknown reference '{other}' (expected \"calibrated\" or \"nominal\")"
+        ))),
+    }
+}
+
+/// The backend choice from its name.
+pub fn backend(name: &str) -> PyResult<BackendChoice> {
+    name.parse()
+        .map_err(|e: String| value_error(format!("backend: {e}")))
+}
+
+/// Builds the problem; errors about the points name `points_arg`.
+pub fn problem(
+    model: RobotModel,
+    points_deg: &[[f64; JOINTS]],
+    reference: &Reference,
+    seed: u64,
+    points_arg: &str,
+) -> PyResult<Problem> {
+    Problem::new(model, points_deg, reference, seed).map_err(|e| match e {
+        ProblemError::NoPoints | ProblemError::BadPoint { .. } => arg_error(points_arg, e),
+        other => lib_error(other),
+    })
+}
+
+/// Checks that `bytes` products fit the memory budget (80 % of the available memory).
+pub fn check_memory(what: String, advice: &str, terms: &[&[u64]]) -> PyResult<()> {
+    let e = terms
+        .iter()
+        .fold(Estimate::new(what, advice), |e, t| e.plus(t));
+    MemoryBudget::new(None).check(&e).map_err(lib_error)
+}
+
+/// Which of the 30 parameters the columns of a `params` matrix hold: indices or names.
+fn columns(cols: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<usize>> {
+    let Some(cols) = cols else {
+        return Ok((0..N_PARAMS).collect());
+    };
+    let mut out = Vec::new();
+    for (c, item) in cols.try_iter()?.enumerate() {
+        let item = item?;
+        let i = if let Ok(i) = item.extract::<usize>() {
+            i
+        } else if let Ok(s) = item.extract::<String>() {
+            (0..N_PARAMS).find(|&i| param_name(i) == s).ok_or_else(|| {
+                value_error(format!(
+                    "columns[{c}]: unknown parameter '{s}' (expected theta1 … beta6)"
+                ))
+            })?
+        } else {
+            return Err(value_error(format!(
+                "columns[{c}]: expected a parameter index 0…29 or a name such as 'theta1'"
+            )));
+        };
+        if i >= N_PARAMS {
+            return Err(value_error(format!(
+                "columns[{c}]: parameter index {i} is out of range 0…29"
+            )));
+        }
+        if out.contains(&i) {
+            return Err(value_error(format!(
+                "columns[{c}]: parameter {} appears twice",
+                param_name(i)
+            )));
+        }
+        out.push(i);
+    }
+    if out.is_empty() {
+        return Err(value_error("columns: at least one parameter is needed"));
+    }
+    Ok(out)
+}
+
+/// Fills `buf` (`rows × 30`, internal units) with the offsets from the mean of rows
+/// `first .. first + rows` of `params`; entries of parameters not in `cols` are 0. Rows are
+/// converted in parallel; an error names the first bad row.
+fn offsets_of(
+    params: &numpy::ndarray::ArrayView2<'_, f64>,
+    cols: &[usize],
+    mean_file: &[f64; N_PARAMS],
+    are_offsets: bool,
+    first: usize,
+    buf: &mut [f64],
+) -> Result<(), String> {
+    let row = |r: usize, out: &mut [f64]| -> Result<(), String> {
+        out.fill(0.0);
+        let row = params.row(first + r);
+        for (c, &p) in cols.iter().enumerate() {
+            let v = row[c];
+            let here = || format!("params: row {}, column {c} ({})", first + r, param_name(p));
+            if !v.is_finite() {
+                return Err(format!("{}: {v} is not a finite number", here()));
+            }
+            let off = if are_offsets { v } else { v - mean_file[p] };
+            if param_kind(p).is_angle() && off.abs() > MAX_ANGLE_OFFSET.to_degrees() {
+                return Err(format!(
+                    "{}: {v} deg is {off:.4} deg from the model's value {}; the evaluator \
+                     accepts angular offsets up to {:.0} deg",
+                    here(),
+                    mean_file[p],
+                    MAX_ANGLE_OFFSET.to_degrees()
+                ));
+            }
+            out[p] = off * unit(p);
+        }
+        Ok(())
+    };
+    let parallel = buf
+        .par_chunks_exact_mut(N_PARAMS)
+        .enumerate()
+        .try_for_each(|(r, out)| row(r, out));
+    match parallel {
+        Ok(()) => Ok(()),
+        // Another thread may have stopped at a later bad row: name the first one.
+        Err(_) => buf
+            .chunks_exact_mut(N_PARAMS)
+            .enumerate()
+            .try_for_each(|(r, out)| row(r, out)),
+    }
+}
+
+#[pymethods]
+impl PyModel {
+    /// A built-in model by name (`gpu_amcs.presets()`): tx60, ur5e, ur10e, irb2400.
+    #[staticmethod]
+    fn preset(name: &str) -> PyResult<Self> {
+        Ok(PyModel {
+            model: preset(name).map_err(lib_error)?,
+            preset: Some(name.to_ascii_lowercase()),
+        })
+    }
+
+    /// A model file (TOML, mm and degrees; README "Model file").
+    #[staticmethod]
+    fn from_file(path: PathBuf) -> PyResult<Self> {
+        Ok(PyModel {
+            model: RobotModel::from_file(&path).map_err(lib_error)?,
+            preset: None,
+        })
+    }
+
+    /// A model from the text of a model file; `origin` names it in errors.
+    #[staticmethod]
+    #[pyo3(signature = (text, origin = "<string>"))]
+    fn from_toml(text: &str, origin: &str) -> PyResult<Self> {
+        Ok(PyModel {
+            model: RobotModel::from_toml(text, origin).map_err(lib_error)?,
+            preset: None,
+        })
+    }
+
+    /// Imports a robot description (URDF; also a DH table .csv/.toml or a UR calibration
+    /// .yaml, chosen by extension) as `gpu-amcs import` does, with the proof that the model
+    /// reproduces it. `base`/`tip` pick the URDF chain. The model has zero uncertainty.
+    #[staticmethod]
+    #[pyo3(signature = (path, base = None, tip = None, name = None))]
+    fn from_urdf(
+        path: PathBuf,
+        base: Option<String>,
+        tip: Option<String>,
+        name: Option<String>,
+    ) -> PyResult<Self> {
+        let opts = gpu_amcs::import::ImportOptions { base, tip, name };
+        let imported = gpu_amcs::import::import_file(&path, &opts).map_err(lib_error)?;
+        Ok(PyModel {
+            model: imported.model,
+            preset: None,
+        })
+    }
+
+    /// The model file text (TOML, mm and degrees).
+    fn to_toml(&self) -> String {
+        self.model.to_toml()
+    }
+
+    /// The model's name.
+    #[getter]
+    fn name(&self) -> &str {
+        &self.model.name
+    }
+
+    /// Parameter names in order: theta1, d1, a1, alpha1, beta1, …, beta6.
+    #[getter]
+    fn param_names(&self) -> Vec<String> {
+        (0..N_PARAMS).map(param_name).collect()
+    }
+
+    /// The 30 parameter values (mm, degrees).
+    #[getter]
+    fn params<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let v: Vec<f64> = (0..N_PARAMS)
+            .map(|i| self.model.params[i] / unit(i))
+            .collect();
+        v.into_pyarray(py)
+    }
+
+    /// Standard deviations of the 30 parameters (mm, degrees; 0 = exactly known).
+    #[getter]
+    fn sigma<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let s = self.model.uncertainty.sigmas();
+        let v: Vec<f64> = (0..N_PARAMS).map(|i| s[i] / unit(i)).collect();
+        v.into_pyarray(py)
+    }
+
+    /// The 30 × 30 covariance (mm², mm·deg, deg²) of a correlated model, else `None`.
+    #[getter]
+    fn covariance<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        match &self.model.uncertainty {
+            Uncertainty::Independent(_) => None,
+            Uncertainty::Covariance(c) => {
+                let a = Array2::from_shape_fn((N_PARAMS, N_PARAMS), |(i, k)| {
+                    c[i * N_PARAMS + k] / (unit(i) * unit(k))
+                });
+                Some(a.into_pyarray(py))
+            }
+        }
+    }
+
+    /// Indices of the parameters with nonzero spread (the ones a sampler varies).
+    #[getter]
+    fn free(&self) -> Vec<usize> {
+        self.model.free_params()
+    }
+
+    /// Tool (tracker target) in the flange frame, mm.
+    #[getter]
+    fn tool<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        self.model.tool.to_vec().into_pyarray(py)
+    }
+
+    /// Joint limits, degrees: 6 × 2 (min, max).
+    #[getter]
+    fn limits<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
+        let l = &self.model.limits_deg;
+        Array2::from_shape_fn((JOINTS, 2), |(j, k)| if k == 0 { l[j].0 } else { l[j].1 })
+            .into_pyarray(py)
+    }
+
+    /// Tool positions (mm) at joint configurations `q_deg` (m × 6, degrees): m × 3.
+    fn fk<'py>(
+        &self,
+        py: Python<'py>,
+        q_deg: &Bound<'py, PyAny>,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let q = arrays::joint_rows(q_deg, "q_deg")?;
+        let (params, tool) = (&self.model.params, &self.model.tool);
+        let out = py.detach(|| {
+            let mut out = Array2::zeros((q.len(), 3));
+            for (mut row, qj) in out.rows_mut().into_iter().zip(&q) {
+                let p = position_deg(params, tool, qj);
+                row.assign(&Array1::from(p.to_vec()));
+            }
+            out
+        });
+        Ok(out.into_pyarray(py))
+    }
+
+    /// The maximum point error `w = max_j ‖P(params_i, q_j) − P_ref,j‖` (mm) of each row of
+    /// `params` (N × D, mm and degrees: absolute values, or offsets from the model's values
+    /// with `offsets=True`) at the configurations `q_deg` (m × 6): an array of N, or N × m
+    /// per-point errors with `per_point=True`. The columns are the 30 parameters in order, or
+    /// those named by `columns` (indices or names; the others stay at the model's values).
+    /// `reference`: "calibrated" (the model's own prediction) or "nominal" (`nominal`, by
+    /// default the preset the model came from, else tx60). Runs on `backend` ("auto", "cpu",
+    /// "gpu") without the GIL.
+    #[pyo3(signature = (params, q_deg, *, reference = "calibrated", nominal = None,
+        per_point = false, backend = "auto", columns = None, offsets = false))]
+    #[allow(clippy::too_many_arguments)]
+    fn max_error<'py>(
+        &self,
+        py: Python<'py>,
+        params: &Bound<'py, PyAny>,
+        q_deg: &Bound<'py, PyAny>,
+        reference: &str,
+        nominal: Option<PyRef<'py, PyModel>>,
+        per_point: bool,
+        backend: &str,
+        columns: Option<&Bound<'py, PyAny>>,
+        offsets: bool,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let cols = self::columns(columns)?;
+        let shape = format!("(N, {})", cols.len());
+        let matrix = arrays::read(params, "params", Some(cols.len()), &shape)?;
+        let q = arrays::joint_rows(q_deg, "q_deg")?;
+        let choice = self::backend(backend)?;
+        let reference =
+            self::reference(reference, nominal.as_deref(), || self.default_nominal(None))?;
+        let problem = self::problem(self.model.clone(), &q, &reference, 0, "q_deg")?;
+        let view = matrix.view();
+        let (n, m) = (view.nrows(), q.len());
+        check_memory(
+            format!("max_error of {n} rows at {m} points"),
+            "pass fewer rows per call, fewer points or per_point=False",
+            &[
+                &[n as u64, 8],
+                &[n as u64, if per_point { m as u64 } else { 0 }, 8],
+                &[ROWS_PER_CALL as u64, N_PARAMS as u64, 8],
+            ],
+        )?;
+        let mean_file: [f64; N_PARAMS] = std::array::from_fn(|i| self.model.params[i] / unit(i));
+        let (w, e) = py
+            .detach(|| -> Result<(Vec<f64>, Vec<f64>), String> {
+                let mut w = vec![0.0; n];
+                let mut e = vec![0.0; if per_point { n * m } else { 0 }];
+                if n == 0 {
+                    return Ok((w, e));
+                }
+                let (mut ev, _) =
+                    make_evaluator(problem, choice, None).map_err(|e| format!("backend: {e}"))?;
+                let mut buf = vec![0.0; ROWS_PER_CALL.min(n) * N_PARAMS];
+                for first in (0..n).step_by(ROWS_PER_CALL) {
+                    let rows = ROWS_PER_CALL.min(n - first);
+                    let buf = &mut buf[..rows * N_PARAMS];
+                    offsets_of(&view, &cols, &mean_file, offsets, first, buf)?;
+                    let pp = per_point.then(|| &mut e[first * m..(first + rows) * m]);
+                    ev.evaluate_offsets(buf, &mut w[first..first + rows], pp)
+                        .map_err(|e| crate::errors::one_line(&e))?;
+                }
+                Ok((w, e))
+            })
+            .map_err(value_error)?;
+        Ok(if per_point {
+            Array2::from_shape_vec((n, m), e)
+                .expect("n × m values")
+                .into_pyarray(py)
+                .into_any()
+        } else {
+            w.into_pyarray(py).into_any()
+        })
+    }
+
+    /// The parameter vectors (N × 30, mm and degrees) of draws `first … first + n − 1` of a run
+    /// with `seed`: the draws `mcs`/`amcs` evaluate (a draw is a function of the seed and its
+    /// index, the same on every backend).
+    #[pyo3(signature = (n, *, seed = 2025, first = 0))]
+    fn draws<'py>(
+        &self,
+        py: Python<'py>,
+        n: usize,
+        seed: u64,
+        first: u64,
+    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        check_memory(
+            format!("{n} parameter draws"),
+            "ask for fewer draws at a time (use first)",
+            &[&[n as u64, N_PARAMS as u64, 8]],
+        )?;
+        if first.checked_add(n as u64).is_none() {
+            return Err(value_error("first: first + n exceeds the draw index range"));
+        }
+        let sampler = ParamSampler::new(&self.model, seed).map_err(lib_error)?;
+        let out = py.detach(|| {
+            let mut out = Array2::zeros((n, N_PARAMS));
+            for (k, mut row) in out.rows_mut().into_iter().enumerate() {
+                let d = sampler.draw(first + k as u64);
+                for i in 0..N_PARAMS {
+                    row[i] = d[i] / unit(i);
+                }
+            }
+            out
+        });
+        Ok(out.into_pyarray(py))
+    }
+
+    fn __repr__(&self) -> String {
+        let form = match self.model.uncertainty {
+            Uncertainty::Independent(_) => "independent σ",
+            Uncertainty::Covariance(_) => "covariance",
+        };
+        format!(
+            "gpu_amcs.Model('{}', {} free parameters, {form})",
+            self.model.name,
+            self.model.free_params().len()
+        )
+    }
+}

@@ -1,0 +1,118 @@
+"""mcs/amcs from Python against the command line: the same JSON document for the same
+arguments (timing fields aside), and the same one-line error messages."""
+
+import json
+
+import numpy as np
+import pytest
+
+import gpu_amcs
+from conftest import without_timing
+
+
+def cli_json(cli, tmp_path, *args):
+    out = tmp_path / "cli.json"
+    r = cli(*args, "--json", out, "--quiet")
+    assert r.returncode == 0, r.stderr
+    return json.loads(out.read_text())
+
+
+def test_mcs_equals_cli(cli, tmp_path):
+    doc = cli_json(cli, tmp_path, "mcs", "--draws", 20000, "--points", 12, "--backend", "cpu",
+                   "--seed", 7)
+    res = gpu_amcs.mcs(draws=20000, points=12, backend="cpu", seed=7)
+    assert without_timing(res.to_dict()) == without_timing(doc)
+    assert len(res.values) == 20000 and np.all(np.diff(res.values) >= 0)
+    assert res.estimate == doc["result"]["estimate"]
+    assert res.values.mean() == pytest.approx(res.estimate, rel=1e-12)
+
+
+def test_amcs_equals_cli_with_options(cli, tmp_path):
+    args = ["--delta", 0.05, "--points", 9, "--points-seed", 3, "--backend", "cpu",
+            "--per-point", "--coverage", 0.9, "--interval", "symmetric", "--thresholds",
+            "0.2,0.4", "--batch", 5000, "--preset", "ur5e", "--reference", "nominal"]
+    doc = cli_json(cli, tmp_path, "amcs", *args)
+    res = gpu_amcs.amcs(delta=0.05, points=9, points_seed=3, backend="cpu", per_point=True,
+                        coverage=0.9, interval="symmetric", thresholds=[0.2, 0.4], batch=5000,
+                        preset="ur5e", reference="nominal")
+    assert without_timing(res.to_dict()) == without_timing(doc)
+    # The same with the model given as an object.
+    res2 = gpu_amcs.amcs(gpu_amcs.Model.preset("ur5e"), delta=0.05, points=9, points_seed=3,
+                         backend="cpu", per_point=True, coverage=0.9, interval="symmetric",
+                         thresholds=[0.2, 0.4], batch=5000, reference="nominal")
+    assert without_timing(res2.to_dict()) == without_timing(doc)
+
+
+def test_default_amcs_equals_cli(cli, tmp_path):
+    doc = cli_json(cli, tmp_path, "--points", 10, "--delta", 0.02, "--backend", "cpu")
+    res = gpu_amcs.amcs(points=10, delta=0.02, backend="cpu")
+    assert without_timing(res.to_dict()) == without_timing(doc)
+    assert res.converged and res.draws == len(res.values)
+
+
+def test_points_as_array_equal_points_file(cli, tmp_path):
+    m = gpu_amcs.Model.preset("tx60")
+    rng = np.random.default_rng(1)
+    q = rng.uniform(m.limits[:, 0] * 0.5, m.limits[:, 1] * 0.5, size=(7, 6)).round(3)
+    csv = tmp_path / "points.csv"
+    csv.write_text("q1,q2,q3,q4,q5,q6\n" + "\n".join(",".join(map(str, r)) for r in q) + "\n")
+    model_file = tmp_path / "model.toml"
+    model_file.write_text(m.to_toml())
+    doc = cli_json(cli, tmp_path, "mcs", "--draws", 5000, "--points-file", csv, "--model",
+                   model_file, "--backend", "cpu")
+    by_array = gpu_amcs.mcs(gpu_amcs.Model.from_file(model_file), draws=5000, q_deg=q,
+                            backend="cpu")
+    by_file = gpu_amcs.mcs(gpu_amcs.Model.from_file(model_file), draws=5000, points_file=csv,
+                           backend="cpu")
+    assert without_timing(by_array.to_dict()) == without_timing(doc)
+    assert without_timing(by_file.to_dict()) == without_timing(doc)
+
+
+def cli_error(cli, *args):
+    r = cli(*args)
+    assert r.returncode == 2, r.stderr
+    line = r.stderr.strip()
+    assert line.startswith("error: ") and "\n" not in line
+    return line[len("error: "):]
+
+
+def test_model_file_error_is_the_cli_line(cli, tmp_path):
+    m = gpu_amcs.Model.preset("tx60").to_toml()
+    bad = tmp_path / "bad.toml"
+    # A σ of a length beyond the 100 mm bound (a unit mistake).
+    bad.write_text(m.replace("d = 0.005056", "d = 5000.0", 1))
+    assert bad.read_text() != m
+    want = cli_error(cli, "mcs", "--model", bad, "--draws", 1000, "--backend", "cpu")
+    with pytest.raises(ValueError) as e:
+        gpu_amcs.mcs(gpu_amcs.Model.from_file(bad), draws=1000, backend="cpu")
+    assert str(e.value) == want
+    with pytest.raises(ValueError) as e:
+        gpu_amcs.Model.from_file(tmp_path / "missing.toml")
+    assert str(e.value) == cli_error(cli, "mcs", "--model", tmp_path / "missing.toml")
+
+
+def test_setting_errors_name_the_keyword(cli):
+    want = cli_error(cli, "mcs", "--coverage", 1.5, "--draws", 1000)
+    with pytest.raises(ValueError) as e:
+        gpu_amcs.mcs(coverage=1.5, draws=1000)
+    # The same message with the keyword where the command line names its flag.
+    assert str(e.value) == want.replace("--coverage", "coverage")
+    want = cli_error(cli, "amcs", "--delta", -1)
+    with pytest.raises(ValueError) as e:
+        gpu_amcs.amcs(delta=-1)
+    assert str(e.value) == want.replace("--delta", "delta")
+    with pytest.raises(ValueError, match="delta and ndig exclude each other"):
+        gpu_amcs.amcs(delta=0.1, ndig=2)
+    with pytest.raises(ValueError, match="preset: unknown"):
+        gpu_amcs.mcs(preset="tx90", draws=1000)
+    with pytest.raises(ValueError, match="interval: unknown interval 'widest'"):
+        gpu_amcs.mcs(interval="widest", draws=1000)
+    with pytest.raises(ValueError, match="q_deg and points_file exclude each other"):
+        gpu_amcs.mcs(q_deg=np.zeros((1, 6)), points_file="x.csv", draws=1000)
+
+
+def test_runaway_draws_are_refused_before_any_work():
+    with pytest.raises(ValueError, match=r"MCS with 1000000000000000 draws"):
+        gpu_amcs.mcs(draws=10**15, backend="cpu")
+    with pytest.raises(ValueError, match=r"parameter draws"):
+        gpu_amcs.Model.preset("tx60").draws(10**13)
