@@ -69,6 +69,9 @@ subcommands! {
     /// Tail probability P_f = Pr[w ≥ L] and β down to 1e-9 (subset simulation).
     #[command(allow_negative_numbers = true)]
     Tail(cmd::tail::TailArgs),
+    /// Workspace reliability map: R_j, e_j and the Jacobian condition per cell of a plane or grid.
+    #[command(allow_negative_numbers = true)]
+    Map(cmd::map::MapArgs),
     /// Print a built-in model as a model file (TOML) to start from.
     Model(cmd::model::ModelCmdArgs),
     /// Generate test points and write them as CSV (q1..q6 in degrees).

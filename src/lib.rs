@@ -40,6 +40,7 @@ pub mod identify;
 pub mod import;
 pub mod input;
 pub mod kinematics;
+pub mod map;
 pub mod mc;
 pub mod memory;
 pub mod points;

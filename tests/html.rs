@@ -352,3 +352,18 @@ fn html_on_a_file_or_an_unwritable_place_is_refused_before_any_work() {
         "--points-file",
     );
 }
+
+#[test]
+fn map_report_shows_both_heat_maps_and_renders() {
+    let d = tmpdir("map");
+    let args = [
+        "map", "--plane", "xz", "--at", "0", "--cells", "12,10", "--draws", "300",
+    ];
+    let (out, html) = report(&d, "m", &args);
+    assert!(html.contains("Workspace reliability map of Staubli TX60"));
+    assert!(
+        html.contains("R(l_c) = Pr[w &lt; l_c]"),
+        "multi-point table"
+    );
+    check_report(&out, 2, 2, "map");
+}

@@ -13,6 +13,7 @@ pub mod fk;
 pub mod html;
 pub mod identify;
 pub mod import;
+pub mod map;
 pub mod mcs;
 pub mod merge;
 pub mod model;

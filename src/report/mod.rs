@@ -10,6 +10,7 @@ pub mod csv;
 pub mod html;
 pub mod identify;
 pub mod json;
+pub mod map;
 pub mod markdown;
 pub mod sensitivity;
 pub mod svg;

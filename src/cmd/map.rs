@@ -1,0 +1,291 @@
+//! `map`: a workspace reliability map over a plane slice or a 3-D grid (inverse kinematics per
+//! cell, one per-point evaluation of all reached cells).
+
+use super::args::thread_pool;
+use super::outputs::Outputs;
+use super::progress::Progress;
+use super::Run;
+use crate::cli::{BackendArgs, BoxArgs, HtmlArgs, MemoryArgs, ModelArgs};
+use anyhow::{bail, Context, Result};
+use clap::{Args, ValueEnum};
+use gpu_amcs::engine::{Problem, Reference};
+use gpu_amcs::map::{
+    self, default_reference_deg, tool_down_rpy_deg, Grid, MapError, MapResult, MapSetting, MapSpec,
+    Plane, Timings,
+};
+use gpu_amcs::report::map as report;
+use std::path::PathBuf;
+
+/// Plane of a slice.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlaneArg {
+    /// Horizontal plane at z = --at.
+    Xy,
+    /// Vertical plane at y = --at.
+    Xz,
+    /// Vertical plane at x = --at.
+    Yz,
+}
+
+/// `map` options.
+#[derive(Args, Debug, Clone)]
+pub struct MapArgs {
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// The box the grid spans (the same flags as the generated test points).
+    #[command(flatten)]
+    pub workspace: BoxArgs,
+    /// A plane slice through the box (with --at); without it, a 3-D grid fills the box.
+    #[arg(long, value_enum)]
+    pub plane: Option<PlaneArg>,
+    /// Position of the plane along its normal, mm (z for xy, y for xz, x for yz).
+    #[arg(long, value_name = "MM", allow_hyphen_values = true)]
+    pub at: Option<f64>,
+    /// Cells: NX,NY of a plane (along its two axes) or NX,NY,NZ of a 3-D grid
+    /// (default 50,50 or 10,10,10).
+    #[arg(long, value_delimiter = ',', value_name = "N,N[,N]")]
+    pub cells: Option<Vec<usize>>,
+    /// Flange orientation as roll,pitch,yaw in degrees about the fixed x, y, z axes
+    /// (default: the tool pointing down, 180,0,0 for most robots; targets and orientation are in the world frame).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "R,P,Y",
+        allow_hyphen_values = true,
+        conflicts_with = "free_orientation"
+    )]
+    pub orientation: Option<Vec<f64>>,
+    /// Position only (3-DOF task): any flange orientation.
+    #[arg(long)]
+    pub free_orientation: bool,
+    /// Reference configuration q1..q6 (degrees): each cell takes the solution nearest it
+    /// (default: mid-range, joints 2, 3 and 5 turned 30°).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "Q1,...,Q6",
+        allow_hyphen_values = true
+    )]
+    pub reference_q: Option<Vec<f64>>,
+    /// Inverse kinematics: seeds spread over the joint ranges, besides the reference and the
+    /// solved neighbours.
+    #[arg(long, default_value_t = 8, value_name = "N")]
+    pub ik_seeds: usize,
+    /// Parameter draws (one stream shared by all cells).
+    #[arg(long, default_value_t = 10_000, value_name = "N")]
+    pub draws: u64,
+    /// Thresholds l_c (mm) for the reliabilities.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0.1,0.2,0.3,0.4,0.5,0.6,0.7,0.8",
+        value_name = "MM,...",
+        allow_hyphen_values = true
+    )]
+    pub thresholds: Vec<f64>,
+    /// Seed of the parameter draws.
+    #[arg(long, default_value_t = 2025, value_name = "SEED")]
+    pub seed: u64,
+    #[command(flatten)]
+    pub backend: BackendArgs,
+    /// CPU threads (default: all cores). Results do not depend on it.
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    #[command(flatten)]
+    pub memory: MemoryArgs,
+    /// Write every cell as JSON to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write map.csv (one row per cell) into DIR.
+    #[arg(long, value_name = "DIR")]
+    pub csv: Option<PathBuf>,
+    /// Write the heat maps (95 % quantile of e_j and R_j at the first threshold, per plane)
+    /// into DIR.
+    #[arg(long, value_name = "DIR")]
+    pub svg: Option<PathBuf>,
+    #[command(flatten)]
+    pub html: HtmlArgs,
+    /// No progress bar and no summary on stdout.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
+
+/// A map error with the flag that sets its field.
+fn with_flag(e: MapError) -> anyhow::Error {
+    match e {
+        MapError::Setting { field, message } => {
+            let flag = match field {
+                MapSetting::Cells => "--cells",
+                MapSetting::PlanePosition => "--at",
+                MapSetting::Workspace => "--box-center/--box-size",
+                MapSetting::Orientation => "--orientation",
+                MapSetting::ReferenceConfiguration => "--reference-q",
+                MapSetting::IkSeeds => "--ik-seeds",
+                MapSetting::Thresholds => "--thresholds",
+                MapSetting::Draws => "--draws",
+            };
+            anyhow::anyhow!("{field} ({flag}): {message}")
+        }
+        other => other.into(),
+    }
+}
+
+/// `v` as `N` numbers, or an error naming `flag` and `what` they are.
+fn exactly<const N: usize>(v: &[f64], flag: &str, what: &str) -> Result<[f64; N]> {
+    <[f64; N]>::try_from(v)
+        .map_err(|_| anyhow::anyhow!("{flag} needs {N} numbers ({what}), got {}", v.len()))
+}
+
+impl MapArgs {
+    /// The map's specification from the flags (the model gives the default reference).
+    fn spec(&self, model: &gpu_amcs::kinematics::RobotModel) -> Result<MapSpec> {
+        let grid = match (self.plane, self.at) {
+            (Some(p), Some(at)) => {
+                let cells = self.cells.clone().unwrap_or_else(|| vec![50, 50]);
+                let [nx, ny] = <[usize; 2]>::try_from(cells.as_slice()).map_err(|_| {
+                    anyhow::anyhow!(
+                        "--cells needs two counts NX,NY for a plane, got {}",
+                        cells.len()
+                    )
+                })?;
+                Grid::Plane {
+                    plane: match p {
+                        PlaneArg::Xy => Plane::Xy,
+                        PlaneArg::Xz => Plane::Xz,
+                        PlaneArg::Yz => Plane::Yz,
+                    },
+                    at,
+                    cells: [nx, ny],
+                }
+            }
+            (Some(_), None) => {
+                bail!("--plane needs --at MM (the plane's position along its normal)")
+            }
+            (None, Some(_)) => bail!("--at needs --plane xy|xz|yz"),
+            (None, None) => {
+                let cells = self.cells.clone().unwrap_or_else(|| vec![10, 10, 10]);
+                let c = <[usize; 3]>::try_from(cells.as_slice()).map_err(|_| {
+                    anyhow::anyhow!(
+                        "--cells needs three counts NX,NY,NZ for a 3-D grid (or give --plane), got {}",
+                        cells.len()
+                    )
+                })?;
+                Grid::Volume { cells: c }
+            }
+        };
+        let orientation = match (&self.orientation, self.free_orientation) {
+            (_, true) => None,
+            (Some(o), false) => Some(exactly::<3>(
+                o,
+                "--orientation",
+                "roll,pitch,yaw in degrees",
+            )?),
+            (None, false) => Some(tool_down_rpy_deg(model)),
+        };
+        let reference_q_deg = match &self.reference_q {
+            Some(q) => exactly::<6>(q, "--reference-q", "q1..q6 in degrees")?,
+            None => default_reference_deg(model),
+        };
+        Ok(MapSpec {
+            grid,
+            workspace: self.workspace.workspace(model)?,
+            orientation_rpy_deg: orientation,
+            reference_q_deg,
+            ik_seeds: self.ik_seeds,
+        })
+    }
+}
+
+impl Run for MapArgs {
+    fn run(self) -> Result<()> {
+        let a = self;
+        map::check_run(&a.thresholds, a.draws).map_err(with_flag)?;
+        let model = a.model.load()?;
+        let spec = a.spec(&model)?;
+        spec.check(&model).map_err(with_flag)?;
+        let (_, n, _) = spec.layout();
+        let mut outputs = Outputs::new(a.model.model.as_deref().map(|p| ("--model", p)));
+        outputs.file("--json", a.json.as_deref())?;
+        outputs.dir("--csv", a.csv.as_deref(), &[report::CSV_NAME])?;
+        // The heat maps' names depend on the layer count; the lists live for the whole run.
+        let leak = |v: Vec<String>| -> &'static [&'static str] {
+            Box::leak(
+                v.into_iter()
+                    .map(|s| &*Box::leak(s.into_boxed_str()))
+                    .collect::<Vec<_>>()
+                    .into_boxed_slice(),
+            )
+        };
+        outputs.dir("--svg", a.svg.as_deref(), leak(report::svg_names(n[2])))?;
+        a.html
+            .declare(&mut outputs, leak(report::html_names(n[2])))?;
+        let cells = spec.n_cells();
+        let batch = map::batch_size(cells, a.draws);
+        a.memory
+            .check(&map::memory_estimate(cells, a.draws, batch))
+            .context("--draws, --cells")?;
+        a.backend.choice()?;
+        let pool = thread_pool(a.threads)?;
+        let result = pool.install(|| -> Result<MapResult> {
+            let t0 = std::time::Instant::now();
+            let solutions = spec.solve(&model).map_err(with_flag)?;
+            let ik_seconds = t0.elapsed().as_secs_f64();
+            let points = map::test_points(&solutions);
+            let problem = Problem::new(model.clone(), &points, &Reference::Calibrated, a.seed)
+                .context("reached configurations")?;
+            let (mut ev, notes) = a.backend.evaluator(problem)?;
+            if !a.quiet {
+                for n in &notes {
+                    eprintln!("note: {n}");
+                }
+            }
+            let bar = Progress::new(a.quiet, "map", "draws");
+            let t1 = std::time::Instant::now();
+            let eval = map::evaluate(
+                ev.as_mut(),
+                a.draws,
+                map::batch_size(points.len(), a.draws),
+                &a.thresholds,
+                Some(&|done, total| bar.update(done, total)),
+            );
+            bar.finish();
+            let eval = eval.map_err(with_flag)?;
+            let timings = Timings {
+                ik_seconds,
+                eval_seconds: t1.elapsed().as_secs_f64(),
+            };
+            Ok(MapResult::new(
+                &model.name,
+                &spec,
+                a.seed,
+                solutions,
+                eval,
+                ev.info(),
+                timings,
+            ))
+        })?;
+        outputs.stage_file("--json", report::render_json(&result))?;
+        outputs.stage_dir(
+            "--csv",
+            vec![(report::CSV_NAME.to_string(), report::render_csv(&result))],
+        )?;
+        outputs.stage_dir("--svg", report::render_svgs(&result))?;
+        if outputs.has(super::html::FLAG) {
+            let source = match &a.model.model {
+                Some(p) => format!("model file {}", p.display()),
+                None => format!("built-in preset {}", a.model.preset),
+            };
+            let threads = a.threads.map_or("all cores".to_string(), |t| t.to_string());
+            let rows = [
+                ("model source".to_string(), source),
+                ("CPU threads".to_string(), threads),
+            ];
+            outputs.stage_dir(super::html::FLAG, report::html_files(&result, &rows))?;
+        }
+        outputs.commit()?;
+        if !a.quiet {
+            print!("{}", report::render_text(&result));
+        }
+        Ok(())
+    }
+}
