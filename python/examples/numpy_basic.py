@@ -14,8 +14,10 @@ rng = np.random.default_rng(1)
 lo, hi = model.limits[:, 0], model.limits[:, 1]
 q = rng.uniform(0.5 * lo, 0.5 * hi, size=(50, 6))  # 50 test configurations, degrees
 
-# 100 000 parameter vectors drawn by NumPy from the model's independent normals (mm, degrees).
-params = model.params + model.sigma * rng.standard_normal((100_000, 30))
+# 100 000 input vectors drawn by NumPy from the model's independent normals: the 33 inputs are
+# the 30 MDH parameters (mm, degrees), then the tool point's x, y, z (mm; σ from the model
+# file's tool_sigma, 0 for the presets).
+params = model.params + model.sigma * rng.standard_normal((100_000, gpu_amcs.N_UNCERTAIN))
 t = time.perf_counter()
 w = model.max_error(params, q)  # (100000,) mm, the GIL released while it runs
 print(f"max_error of {len(w)} rows at {len(q)} points: {time.perf_counter() - t:.3f} s")
