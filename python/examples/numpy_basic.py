@@ -30,3 +30,14 @@ print(res)
 print("coverage interval (mm):", res.coverage_interval)
 doc = res.to_dict()  # the command line's --json document
 print("R(0.1 mm) =", doc["result"]["reliability"][0]["r"])
+
+# A tool point (tracker target) with a spread: the model file's tool_sigma (mm, flange frame;
+# docs/METHOD.md §14). Its draws vary the last three of the 33 columns; 30-column rows keep the
+# tool at the model's value, so the two show what the tool's spread adds to w.
+text = model.to_toml().replace("\ntool = [", "\ntool_sigma = [0.004, 0.002, 0.006]\ntool = [", 1)
+tooled = gpu_amcs.Model.from_toml(text)
+print("uncertain tool inputs:", [tooled.param_names[i] for i in tooled.free if i >= 30])
+X = tooled.draws(100_000, seed=7)  # N × 33, the run's own draws
+w_tool, w_fixed = tooled.max_error(X, q), tooled.max_error(X[:, :30], q)
+print(f"mean w with the tool's spread {w_tool.mean():.5f} mm, with the tool fixed "
+      f"{w_fixed.mean():.5f} mm")
