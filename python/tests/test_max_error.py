@@ -44,6 +44,15 @@ def rows(model, n, seed=3, scale=3.0):
     return model.params + scale * model.sigma * rng.standard_normal((n, gpu_amcs.N_UNCERTAIN))
 
 
+def correlated_tool(tx60):
+    """The TX60 with a 33 × 33 covariance: the parameters' σ², the tool's (4, 2, 6 µm)², and
+    tool_x correlated with theta1 (ρ = 0.5)."""
+    s = tx60.sigma[:30]
+    full = np.diag(np.concatenate([s**2, [0.004**2, 0.002**2, 0.006**2]]))
+    full[30, 0] = full[0, 30] = 0.5 * 0.004 * s[0]
+    return with_tool_sigma(tx60, [0.004, 0.002, 0.006], covariance=full), full
+
+
 def test_inputs_are_the_parameters_then_the_tool(tx60, tooled):
     assert gpu_amcs.N_PARAMS == 30 and gpu_amcs.N_UNCERTAIN == 33
     for m in (tx60, tooled):
@@ -71,9 +80,7 @@ def test_covariance_covers_the_tool(tx60):
     np.testing.assert_allclose(np.diag(c), m30.sigma**2, rtol=1e-12)
     np.testing.assert_allclose(c[30:, 30:], np.diag([0.004, 0.002, 0.006]) ** 2, rtol=1e-12)
     assert np.count_nonzero(c - np.diag(np.diag(c))) == 0
-    full = np.diag(np.concatenate([s**2, [0.004**2, 0.002**2, 0.006**2]]))
-    full[30, 0] = full[0, 30] = 0.5 * 0.004 * s[0]  # tool_x correlated with theta1, ρ = 0.5
-    m33 = with_tool_sigma(tx60, [0.004, 0.002, 0.006], covariance=full)
+    m33, full = correlated_tool(tx60)
     np.testing.assert_allclose(m33.covariance, full, rtol=1e-12, atol=0)
     assert tx60.covariance is None
 
@@ -351,11 +358,12 @@ def test_gil_is_released(tx60, q):
     assert gap < 0.5 * call, f"main thread stalled {gap:.3f} s of a {call:.3f} s call"
 
 
-@pytest.mark.parametrize("which", ["tx60", "tooled"])
+@pytest.mark.parametrize("which", ["tx60", "tooled", "correlated"])
 def test_draws_are_the_runs_draws(tx60, tooled, q, which):
     """model.draws(n, seed) through max_error gives the w values an MCS run of that seed keeps,
-    with and without a tool spread."""
-    m = {"tx60": tx60, "tooled": tooled}[which]
+    with and without a tool spread, independent or correlated with a parameter."""
+    models = {"tx60": tx60, "tooled": tooled}
+    m = correlated_tool(tx60)[0] if which == "correlated" else models[which]
     res = gpu_amcs.mcs(m, draws=3000, q_deg=q, seed=99, backend="cpu")
     d = m.draws(3000, seed=99)
     assert d.shape == (3000, 33)
@@ -376,6 +384,11 @@ def test_draws_are_the_runs_draws(tx60, tooled, q, which):
         np.testing.assert_array_equal(d[:, :30], tx60.draws(3000, seed=99)[:, :30])
         w_fixed = np.sort(m.max_error(d[:, :30], q, backend="cpu"))
         assert np.abs(w_fixed - w).max() > 1e-3
+    if which == "correlated":
+        # The stated correlation of tool_x and theta1: the sample ρ of 3000 draws has standard
+        # error (1 − ρ²)/√n ≈ 0.014; 5 standard errors.
+        r = np.corrcoef(d[:, 0], d[:, 30])[0, 1]
+        assert abs(r - 0.5) < 0.07, r
 
 
 # Largest allowed |w_gpu − w_cpu| per row, mm: the f32 deviation form's error budget at spreads
