@@ -30,28 +30,43 @@ def joint_transform(theta, d, a, alpha, beta, q):
     return rz @ tr @ rx @ ry
 
 
-ANGLE = np.array([True, False, False, True, True] * 6)
+# The 33 inputs of a row: 30 MDH parameters joint-major [θ, d, a, α, β] (angles in degrees),
+# then the tool point's x, y, z in the flange frame (mm), as gpu_amcs.Model.params orders them.
+N_PARAMS = 30
+N_UNCERTAIN = 33
+ANGLE = np.array([True, False, False, True, True] * 6 + [False] * 3)
 
 
-def fk(params_deg, tool, q_deg):
-    """Tool positions (mm) for parameter rows params_deg (N × 30, mm and degrees) at q_deg
-    (m × 6): N × m × 3, by 4×4 matrix products (independent of the library's point form)."""
-    p = np.where(ANGLE, np.radians(params_deg), params_deg)[:, None, :]  # N × 1 × 30
+def inputs(params_deg, tool):
+    """Rows of the 33 inputs from rows of the 30 parameters (N × 30) and one tool point (3,)."""
+    params_deg = np.atleast_2d(np.asarray(params_deg, dtype=float))
+    return np.hstack([params_deg, np.broadcast_to(np.asarray(tool, float), (len(params_deg), 3))])
+
+
+def fk(inputs_deg, q_deg):
+    """Tool positions (mm) for input rows inputs_deg (N × 33: the 30 parameters in mm and
+    degrees, then each row's own tool point x, y, z in mm) at q_deg (m × 6, degrees): N × m × 3,
+    by 4×4 matrix products (independent of the library's point form). The base frame: the
+    model's own (a model's base transform is not applied; errors do not depend on it)."""
+    inputs_deg = np.asarray(inputs_deg, dtype=float)
+    if inputs_deg.ndim != 2 or inputs_deg.shape[1] != N_UNCERTAIN:
+        raise ValueError(f"inputs_deg: expected shape (N, {N_UNCERTAIN}), got {inputs_deg.shape}")
+    p = np.where(ANGLE, np.radians(inputs_deg), inputs_deg)[:, None, :]  # N × 1 × 33
     q = np.radians(q_deg)[None, :, :]  # 1 × m × 6
     t = np.broadcast_to(np.eye(4), np.broadcast(p[..., 0], q[..., 0]).shape + (4, 4))
     for j in range(6):
         th, d, a, al, be = (p[..., 5 * j + k] for k in range(5))
         t = t @ joint_transform(th, d, a, al, be, q[..., j])
-    tool_h = np.append(np.asarray(tool, float), 1.0)
-    return (t @ tool_h)[..., :3]
+    tool_h = np.concatenate([p[..., N_PARAMS:], np.ones(p.shape[:-1] + (1,))], axis=-1)
+    return (t @ tool_h[..., None])[..., :3, 0]
 
 
-def max_error(params_deg, tool, q_deg, reference, rows=4096):
-    """w of each parameter row: max over the m points of ‖P(params, q_j) − reference_j‖ (mm);
+def max_error(inputs_deg, q_deg, reference, rows=4096):
+    """w of each input row (N × 33): max over the m points of ‖P(row, q_j) − reference_j‖ (mm);
     ``reference`` is m × 3. Evaluated ``rows`` rows at a time to bound the memory."""
-    params_deg = np.asarray(params_deg, dtype=float)
-    out = np.empty(len(params_deg))
-    for s in range(0, len(params_deg), rows):
-        p = params_deg[s:s + rows]
-        out[s:s + rows] = np.linalg.norm(fk(p, tool, q_deg) - reference, axis=-1).max(axis=1)
+    inputs_deg = np.asarray(inputs_deg, dtype=float)
+    out = np.empty(len(inputs_deg))
+    for s in range(0, len(inputs_deg), rows):
+        p = inputs_deg[s:s + rows]
+        out[s:s + rows] = np.linalg.norm(fk(p, q_deg) - reference, axis=-1).max(axis=1)
     return out

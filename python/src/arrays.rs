@@ -25,12 +25,13 @@ impl<'py> Matrix<'py> {
     }
 }
 
-/// Reads `obj` as a 2-D array of numbers with `cols` columns when given; `what` describes a
-/// row for the shape message (e.g. "(m, 6) joint angles in degrees").
+/// Reads `obj` as a 2-D array of numbers whose column count is one of `cols` (any count when
+/// `cols` is empty); `what` describes the expected shape for the message (e.g. "(m, 6) joint
+/// angles in degrees").
 pub fn read<'py>(
     obj: &Bound<'py, PyAny>,
     name: &str,
-    cols: Option<usize>,
+    cols: &[usize],
     what: &str,
 ) -> PyResult<Matrix<'py>> {
     let py = obj.py();
@@ -44,7 +45,7 @@ pub fn read<'py>(
         .cast_into::<PyArrayDyn<f64>>()
         .map_err(|e| value_error(format!("{name}: not an array of numbers ({e})")))?;
     let shape = arr.shape().to_vec();
-    let shape_ok = shape.len() == 2 && cols.is_none_or(|c| shape[1] == c);
+    let shape_ok = shape.len() == 2 && (cols.is_empty() || cols.contains(&shape[1]));
     if !shape_ok {
         let dims: Vec<String> = shape.iter().map(|d| d.to_string()).collect();
         return Err(value_error(format!(
@@ -77,7 +78,7 @@ pub fn check_finite(
 
 /// Joint configurations `q_deg` (m × 6, degrees), finite, as rows.
 pub fn joint_rows(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<[f64; 6]>> {
-    let m = read(obj, name, Some(6), "(m, 6) joint angles in degrees")?;
+    let m = read(obj, name, &[6], "(m, 6) joint angles in degrees")?;
     let v = m.view();
     check_finite(&v, name, |c| format!("q{}", c + 1))?;
     Ok(v.rows()

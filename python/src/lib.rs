@@ -28,6 +28,9 @@ fn presets() -> Vec<&'static str> {
 #[pymodule]
 fn _gpu_amcs(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
+    // Widths of a parameter row: the 30 MDH parameters, and all 33 inputs (then the tool).
+    m.add("N_PARAMS", gpu_amcs::kinematics::N_PARAMS)?;
+    m.add("N_UNCERTAIN", gpu_amcs::kinematics::N_UNCERTAIN)?;
     m.add_class::<model::PyModel>()?;
     m.add_class::<run::RunResult>()?;
     m.add_function(wrap_pyfunction!(run::mcs, m)?)?;

@@ -1,6 +1,11 @@
 //! `gpu_amcs.Model`: a robot model (preset, model file, TOML text or imported description) with
 //! forward kinematics, the maximum point error of caller-chosen parameter rows, and the run's
 //! own parameter draws. Python sees the model file's units: mm and degrees.
+//!
+//! A draw has [`N_UNCERTAIN`] = 33 uncertain inputs (docs/METHOD.md §14): the 30 MDH
+//! parameters, then the tool point's x, y, z (mm, flange frame). Every per-input array here
+//! (`param_names`, `params`, `sigma`, `covariance`, `free`, `draws`, the columns of
+//! `max_error`) follows that order.
 
 use crate::arrays;
 use crate::errors::{arg_error, lib_error, value_error};
@@ -8,7 +13,8 @@ use gpu_amcs::engine::{
     make_evaluator, BackendChoice, Problem, ProblemError, Reference, MAX_ANGLE_OFFSET,
 };
 use gpu_amcs::kinematics::{
-    param_kind, position_deg, preset, RobotModel, Uncertainty, JOINTS, N_PARAMS, PARAMS_PER_JOINT,
+    input_name, input_to_internal, param_kind, preset, RobotModel, Uncertainty, JOINTS, N_PARAMS,
+    N_UNCERTAIN,
 };
 use gpu_amcs::memory::{Estimate, MemoryBudget};
 use gpu_amcs::sampling::ParamSampler;
@@ -18,8 +24,8 @@ use pyo3::prelude::*;
 use rayon::prelude::*;
 use std::path::PathBuf;
 
-/// Rows of `params` converted and evaluated at a time: bounds the offset buffer (8 MiB per
-/// 2^15 rows) whatever N is, and is large enough that the per-call overhead of an evaluator
+/// Rows of `params` converted and evaluated at a time: bounds the offset buffer (8.25 MiB per
+/// 2^15 rows of 33) whatever N is, and is large enough that the per-call overhead of an evaluator
 /// call is negligible.
 const ROWS_PER_CALL: usize = 1 << 15;
 
@@ -27,18 +33,20 @@ const ROWS_PER_CALL: usize = 1 << 15;
 /// command line's default `--preset`.
 const DEFAULT_PRESET: &str = "tx60";
 
-/// Name of parameter `i` of the 30-vector: `theta1` … `beta6` (1-based joint).
-pub fn param_name(i: usize) -> String {
-    format!("{}{}", param_kind(i).name(), i / PARAMS_PER_JOINT + 1)
+/// Factor from file units (mm, degrees) to internal units (mm, radians) of input `i` (of the
+/// [`N_UNCERTAIN`]).
+fn unit(i: usize) -> f64 {
+    input_to_internal(i)
 }
 
-/// Factor from file units (mm, degrees) to internal units (mm, radians) of parameter `i`.
-fn unit(i: usize) -> f64 {
-    param_kind(i).to_internal()
+/// Whether input `i` is an angle (θ, α, β; the tool coordinates are lengths).
+fn is_angle(i: usize) -> bool {
+    i < N_PARAMS && param_kind(i).is_angle()
 }
 
 /// A robot model: 30 MDH parameters `[θ, d, a, α, β]` per joint (mm, degrees), joint limits,
-/// the tool (tracker target) and the parameter uncertainty.
+/// the tool (tracker target) and the uncertainty of the 33 inputs (the parameters, then the
+/// tool's x, y, z).
 #[pyclass(module = "gpu_amcs", name = "Model", frozen)]
 #[derive(Clone)]
 pub struct PyModel {
@@ -49,6 +57,18 @@ pub struct PyModel {
 }
 
 impl PyModel {
+    /// The model's values of the [`N_UNCERTAIN`] inputs in file units (mm, degrees): the 30
+    /// parameters, then the tool point.
+    fn input_values(&self) -> [f64; N_UNCERTAIN] {
+        std::array::from_fn(|i| {
+            if i < N_PARAMS {
+                self.model.params[i] / unit(i)
+            } else {
+                self.model.tool[i - N_PARAMS]
+            }
+        })
+    }
+
     /// The nominal model a `reference="nominal"` analysis of this model uses when none is given:
     /// the preset it came from, else the command line's default preset.
     pub fn default_nominal(&self, preset_name: Option<&str>) -> PyResult<RobotModel> {
@@ -106,10 +126,12 @@ pub fn check_memory(what: String, advice: &str, terms: &[&[u64]]) -> PyResult<()
     MemoryBudget::new(None).check(&e).map_err(lib_error)
 }
 
-/// Which of the 30 parameters the columns of a `params` matrix hold: indices or names.
-fn columns(cols: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<usize>> {
+/// Which of the [`N_UNCERTAIN`] inputs the columns of a `params` matrix hold, as `cols` names
+/// them (indices or names); `None` when not given (the matrix's width then decides: all 33 in
+/// order, or the 30 parameters with the tool at the model's value).
+fn columns(cols: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<usize>>> {
     let Some(cols) = cols else {
-        return Ok((0..N_PARAMS).collect());
+        return Ok(None);
     };
     let mut out = Vec::new();
     for (c, item) in cols.try_iter()?.enumerate() {
@@ -117,42 +139,48 @@ fn columns(cols: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<usize>> {
         let i = if let Ok(i) = item.extract::<usize>() {
             i
         } else if let Ok(s) = item.extract::<String>() {
-            (0..N_PARAMS).find(|&i| param_name(i) == s).ok_or_else(|| {
-                value_error(format!(
-                    "columns[{c}]: unknown parameter '{s}' (expected theta1 … beta6)"
-                ))
-            })?
+            (0..N_UNCERTAIN)
+                .find(|&i| input_name(i) == s)
+                .ok_or_else(|| {
+                    value_error(format!(
+                        "columns[{c}]: unknown input '{s}' (expected theta1 … beta6, tool_x, \
+                     tool_y or tool_z)"
+                    ))
+                })?
         } else {
             return Err(value_error(format!(
-                "columns[{c}]: expected a parameter index 0…29 or a name such as 'theta1'"
+                "columns[{c}]: expected an input index 0…{} or a name such as 'theta1' or \
+                 'tool_x'",
+                N_UNCERTAIN - 1
             )));
         };
-        if i >= N_PARAMS {
+        if i >= N_UNCERTAIN {
             return Err(value_error(format!(
-                "columns[{c}]: parameter index {i} is out of range 0…29"
+                "columns[{c}]: input index {i} is out of range 0…{}",
+                N_UNCERTAIN - 1
             )));
         }
         if out.contains(&i) {
             return Err(value_error(format!(
-                "columns[{c}]: parameter {} appears twice",
-                param_name(i)
+                "columns[{c}]: input {} appears twice",
+                input_name(i)
             )));
         }
         out.push(i);
     }
     if out.is_empty() {
-        return Err(value_error("columns: at least one parameter is needed"));
+        return Err(value_error("columns: at least one input is needed"));
     }
-    Ok(out)
+    Ok(Some(out))
 }
 
-/// Fills `buf` (`rows × 30`, internal units) with the offsets from the mean of rows
-/// `first .. first + rows` of `params`; entries of parameters not in `cols` are 0. Rows are
+/// Fills `buf` (`rows × 33`, internal units) with the offsets from the mean of rows
+/// `first .. first + rows` of `params`; entries of inputs not in `cols` are 0. Rows are
 /// converted in parallel; an error names the first bad row.
 fn offsets_of(
     params: &numpy::ndarray::ArrayView2<'_, f64>,
     cols: &[usize],
-    mean_file: &[f64; N_PARAMS],
+    mean_file: &[f64; N_UNCERTAIN],
     are_offsets: bool,
     first: usize,
     buf: &mut [f64],
@@ -162,12 +190,12 @@ fn offsets_of(
         let row = params.row(first + r);
         for (c, &p) in cols.iter().enumerate() {
             let v = row[c];
-            let here = || format!("params: row {}, column {c} ({})", first + r, param_name(p));
+            let here = || format!("params: row {}, column {c} ({})", first + r, input_name(p));
             if !v.is_finite() {
                 return Err(format!("{}: {v} is not a finite number", here()));
             }
             let off = if are_offsets { v } else { v - mean_file[p] };
-            if param_kind(p).is_angle() && off.abs() > MAX_ANGLE_OFFSET.to_degrees() {
+            if is_angle(p) && off.abs() > MAX_ANGLE_OFFSET.to_degrees() {
                 return Err(format!(
                     "{}: {v} deg is {off:.4} deg from the model's value {}; the evaluator \
                      accepts angular offsets up to {:.0} deg",
@@ -181,14 +209,14 @@ fn offsets_of(
         Ok(())
     };
     let parallel = buf
-        .par_chunks_exact_mut(N_PARAMS)
+        .par_chunks_exact_mut(N_UNCERTAIN)
         .enumerate()
         .try_for_each(|(r, out)| row(r, out));
     match parallel {
         Ok(()) => Ok(()),
         // Another thread may have stopped at a later bad row: name the first one.
         Err(_) => buf
-            .chunks_exact_mut(N_PARAMS)
+            .chunks_exact_mut(N_UNCERTAIN)
             .enumerate()
             .try_for_each(|(r, out)| row(r, out)),
     }
@@ -254,47 +282,46 @@ impl PyModel {
         &self.model.name
     }
 
-    /// Parameter names in order: theta1, d1, a1, alpha1, beta1, …, beta6.
+    /// Input names in order: theta1, d1, a1, alpha1, beta1, …, beta6, then tool_x, tool_y,
+    /// tool_z (33).
     #[getter]
     fn param_names(&self) -> Vec<String> {
-        (0..N_PARAMS).map(param_name).collect()
+        (0..N_UNCERTAIN).map(input_name).collect()
     }
 
-    /// The 30 parameter values (mm, degrees).
+    /// The values of the 33 inputs (mm, degrees): the 30 parameters, then the tool point
+    /// (`params[30:]` equals `tool`).
     #[getter]
     fn params<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let v: Vec<f64> = (0..N_PARAMS)
-            .map(|i| self.model.params[i] / unit(i))
-            .collect();
-        v.into_pyarray(py)
+        self.input_values().to_vec().into_pyarray(py)
     }
 
-    /// Standard deviations of the 30 parameters (mm, degrees; 0 = exactly known).
+    /// Standard deviations of the 33 inputs (mm, degrees; 0 = exactly known): the parameters,
+    /// then the tool's x, y, z (the model file's `tool_sigma`).
     #[getter]
     fn sigma<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let s = self.model.uncertainty.sigmas();
-        let v: Vec<f64> = (0..N_PARAMS).map(|i| s[i] / unit(i)).collect();
+        let s = self.model.input_sigmas();
+        let v: Vec<f64> = (0..N_UNCERTAIN).map(|i| s[i] / unit(i)).collect();
         v.into_pyarray(py)
     }
 
-    /// The 30 × 30 covariance (mm², mm·deg, deg²) of a correlated model, else `None`.
+    /// The 33 × 33 covariance (mm², mm·deg, deg²) of the inputs of a correlated model (a
+    /// 30 × 30 file matrix extended by the independent tool variances `tool_sigma²`), else
+    /// `None`.
     #[getter]
     fn covariance<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
-        match &self.model.uncertainty {
-            Uncertainty::Independent(_) => None,
-            Uncertainty::Covariance(c) => {
-                let a = Array2::from_shape_fn((N_PARAMS, N_PARAMS), |(i, k)| {
-                    c[i * N_PARAMS + k] / (unit(i) * unit(k))
-                });
-                Some(a.into_pyarray(py))
-            }
-        }
+        let c = self.model.full_covariance()?;
+        let a = Array2::from_shape_fn((N_UNCERTAIN, N_UNCERTAIN), |(i, k)| {
+            c[i * N_UNCERTAIN + k] / (unit(i) * unit(k))
+        });
+        Some(a.into_pyarray(py))
     }
 
-    /// Indices of the parameters with nonzero spread (the ones a sampler varies).
+    /// Indices (of the 33 inputs) with nonzero spread: the ones a sampler varies; 30, 31, 32
+    /// are the tool's x, y, z.
     #[getter]
     fn free(&self) -> Vec<usize> {
-        self.model.free_params()
+        self.model.free_inputs()
     }
 
     /// Tool (tracker target) in the flange frame, mm.
@@ -311,18 +338,19 @@ impl PyModel {
             .into_pyarray(py)
     }
 
-    /// Tool positions (mm) at joint configurations `q_deg` (m × 6, degrees): m × 3.
+    /// Tool positions (mm) at joint configurations `q_deg` (m × 6, degrees): m × 3, in the
+    /// description's frame (the model's base transform applied, as `gpu-amcs fk` does).
     fn fk<'py>(
         &self,
         py: Python<'py>,
         q_deg: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let q = arrays::joint_rows(q_deg, "q_deg")?;
-        let (params, tool) = (&self.model.params, &self.model.tool);
+        let model = &self.model;
         let out = py.detach(|| {
             let mut out = Array2::zeros((q.len(), 3));
             for (mut row, qj) in out.rows_mut().into_iter().zip(&q) {
-                let p = position_deg(params, tool, qj);
+                let p = model.world_position(&qj.map(f64::to_radians));
                 row.assign(&Array1::from(p.to_vec()));
             }
             out
@@ -333,8 +361,11 @@ impl PyModel {
     /// The maximum point error `w = max_j ‖P(params_i, q_j) − P_ref,j‖` (mm) of each row of
     /// `params` (N × D, mm and degrees: absolute values, or offsets from the model's values
     /// with `offsets=True`) at the configurations `q_deg` (m × 6): an array of N, or N × m
-    /// per-point errors with `per_point=True`. The columns are the 30 parameters in order, or
-    /// those named by `columns` (indices or names; the others stay at the model's values).
+    /// per-point errors with `per_point=True`. The columns are the 33 inputs in order (the 30
+    /// parameters, then the tool point's x, y, z in the flange frame, mm), or the 30 parameters
+    /// alone (a 30-column matrix: the tool stays at the model's tool), or those named by
+    /// `columns` (indices 0…32 or names such as "theta1", "tool_x"; the others stay at the
+    /// model's values).
     /// `reference`: "calibrated" (the model's own prediction) or "nominal" (`nominal`, by
     /// default the preset the model came from, else tx60). Runs on `backend` ("auto", "cpu",
     /// "gpu") without the GIL.
@@ -353,15 +384,22 @@ impl PyModel {
         columns: Option<&Bound<'py, PyAny>>,
         offsets: bool,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let cols = self::columns(columns)?;
-        let shape = format!("(N, {})", cols.len());
-        let matrix = arrays::read(params, "params", Some(cols.len()), &shape)?;
+        let named = self::columns(columns)?;
+        let (widths, shape) = match &named {
+            Some(c) => (vec![c.len()], format!("(N, {})", c.len())),
+            None => (
+                vec![N_UNCERTAIN, N_PARAMS],
+                format!("(N, {N_UNCERTAIN}) or (N, {N_PARAMS})"),
+            ),
+        };
+        let matrix = arrays::read(params, "params", &widths, &shape)?;
         let q = arrays::joint_rows(q_deg, "q_deg")?;
         let choice = self::backend(backend)?;
         let reference =
             self::reference(reference, nominal.as_deref(), || self.default_nominal(None))?;
         let problem = self::problem(self.model.clone(), &q, &reference, 0, "q_deg")?;
         let view = matrix.view();
+        let cols = named.unwrap_or_else(|| (0..view.ncols()).collect());
         let (n, m) = (view.nrows(), q.len());
         check_memory(
             format!("max_error of {n} rows at {m} points"),
@@ -369,10 +407,10 @@ impl PyModel {
             &[
                 &[n as u64, 8],
                 &[n as u64, if per_point { m as u64 } else { 0 }, 8],
-                &[ROWS_PER_CALL as u64, N_PARAMS as u64, 8],
+                &[ROWS_PER_CALL as u64, N_UNCERTAIN as u64, 8],
             ],
         )?;
-        let mean_file: [f64; N_PARAMS] = std::array::from_fn(|i| self.model.params[i] / unit(i));
+        let mean_file = self.input_values();
         let (w, e) = py
             .detach(|| -> Result<(Vec<f64>, Vec<f64>), String> {
                 let mut w = vec![0.0; n];
@@ -382,10 +420,10 @@ impl PyModel {
                 }
                 let (mut ev, _) =
                     make_evaluator(problem, choice, None).map_err(|e| format!("backend: {e}"))?;
-                let mut buf = vec![0.0; ROWS_PER_CALL.min(n) * N_PARAMS];
+                let mut buf = vec![0.0; ROWS_PER_CALL.min(n) * N_UNCERTAIN];
                 for first in (0..n).step_by(ROWS_PER_CALL) {
                     let rows = ROWS_PER_CALL.min(n - first);
-                    let buf = &mut buf[..rows * N_PARAMS];
+                    let buf = &mut buf[..rows * N_UNCERTAIN];
                     offsets_of(&view, &cols, &mean_file, offsets, first, buf)?;
                     let pp = per_point.then(|| &mut e[first * m..(first + rows) * m]);
                     ev.evaluate_offsets(buf, &mut w[first..first + rows], pp)
@@ -404,9 +442,9 @@ impl PyModel {
         })
     }
 
-    /// The parameter vectors (N × 30, mm and degrees) of draws `first … first + n − 1` of a run
-    /// with `seed`: the draws `mcs`/`amcs` evaluate (a draw is a function of the seed and its
-    /// index, the same on every backend).
+    /// The input vectors (N × 33, mm and degrees: the 30 parameters, then the tool point) of
+    /// draws `first … first + n − 1` of a run with `seed`: the draws `mcs`/`amcs` evaluate (a
+    /// draw is a function of the seed and its index, the same on every backend).
     #[pyo3(signature = (n, *, seed = 2025, first = 0))]
     fn draws<'py>(
         &self,
@@ -418,18 +456,20 @@ impl PyModel {
         check_memory(
             format!("{n} parameter draws"),
             "ask for fewer draws at a time (use first)",
-            &[&[n as u64, N_PARAMS as u64, 8]],
+            &[&[n as u64, N_UNCERTAIN as u64, 8]],
         )?;
         if first.checked_add(n as u64).is_none() {
             return Err(value_error("first: first + n exceeds the draw index range"));
         }
         let sampler = ParamSampler::new(&self.model, seed).map_err(lib_error)?;
+        let mean = self.input_values();
         let out = py.detach(|| {
-            let mut out = Array2::zeros((n, N_PARAMS));
+            let mut out = Array2::zeros((n, N_UNCERTAIN));
+            let mut d = [0.0; N_UNCERTAIN];
             for (k, mut row) in out.rows_mut().into_iter().enumerate() {
-                let d = sampler.draw(first + k as u64);
-                for i in 0..N_PARAMS {
-                    row[i] = d[i] / unit(i);
+                sampler.deltas(first + k as u64, &mut d);
+                for i in 0..N_UNCERTAIN {
+                    row[i] = mean[i] + d[i] / unit(i);
                 }
             }
             out
@@ -443,9 +483,9 @@ impl PyModel {
             Uncertainty::Covariance(_) => "covariance",
         };
         format!(
-            "gpu_amcs.Model('{}', {} free parameters, {form})",
+            "gpu_amcs.Model('{}', {} free inputs of {N_UNCERTAIN}, {form})",
             self.model.name,
-            self.model.free_params().len()
+            self.model.free_inputs().len()
         )
     }
 }

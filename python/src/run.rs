@@ -106,8 +106,8 @@ struct Common<'py> {
     q_deg: Option<Bound<'py, PyAny>>,
     points_file: Option<PathBuf>,
     points_seed: u64,
-    box_center: [f64; 3],
-    box_size: [f64; 3],
+    box_center: Option<[f64; 3]>,
+    box_size: Option<[f64; 3]>,
     seed: u64,
     reference: String,
     nominal: Option<PyRef<'py, PyModel>>,
@@ -195,9 +195,12 @@ impl Common<'_> {
             (Some(q), _) => arrays::joint_rows(q, "q_deg")?,
             (None, Some(f)) => points::read_csv(f).map_err(lib_error)?,
             (None, None) => {
+                // Each of centre and size as given, else the robot's own box (as the command
+                // line's --box-center/--box-size).
+                let default = WorkspaceBox::for_robot(&robot);
                 let bx = WorkspaceBox {
-                    center: self.box_center,
-                    size: self.box_size,
+                    center: self.box_center.unwrap_or(default.center),
+                    size: self.box_size.unwrap_or(default.size),
                 };
                 points::generate(&robot, self.points, &bx, self.points_seed)
                     .map_err(|e| arg_error("points", e))?
@@ -292,7 +295,7 @@ macro_rules! run_function {
         #[pyfunction]
         #[pyo3(signature = (model = None, *, $($arg = $default,)* preset = None, points = 50,
             q_deg = None, points_file = None, points_seed = 1,
-            box_center = [250.0, 0.0, 200.0], box_size = [900.0, 1200.0, 800.0], seed = 2025,
+            box_center = None, box_size = None, seed = 2025,
             reference = "calibrated".to_string(), nominal = None,
             backend = "auto".to_string(), adapter = None, coverage = 0.95,
             interval = "shortest".to_string(),
@@ -307,8 +310,8 @@ macro_rules! run_function {
             q_deg: Option<Bound<'py, PyAny>>,
             points_file: Option<PathBuf>,
             points_seed: u64,
-            box_center: [f64; 3],
-            box_size: [f64; 3],
+            box_center: Option<[f64; 3]>,
+            box_size: Option<[f64; 3]>,
             seed: u64,
             reference: String,
             nominal: Option<PyRef<'py, PyModel>>,
@@ -347,7 +350,8 @@ run_function! {
     /// Classic Monte Carlo with `draws` draws (`gpu-amcs mcs`). The model is `model` (a
     /// `Model`) or the preset `preset` (default tx60); the test points are `q_deg` (m × 6
     /// degrees), the CSV `points_file`, or `points` generated with `points_seed` in the box
-    /// `box_center`/`box_size` (mm). Returns a `RunResult`; errors are `ValueError` naming the
+    /// `box_center`/`box_size` (mm; by default the robot's own box, scaled with its reach as
+    /// the command line's). Returns a `RunResult`; errors are `ValueError` naming the
     /// argument.
     fn mcs(draws: u64 = 1_000_000) |py, common| {
         let chunk = mcs_chunk(draws);

@@ -7,6 +7,8 @@ import subprocess
 
 import pytest
 
+import gpu_amcs
+
 REPO = pathlib.Path(__file__).resolve().parents[2]
 
 
@@ -45,3 +47,19 @@ def without_timing(doc):
     if isinstance(doc, list):
         return [without_timing(v) for v in doc]
     return doc
+
+
+def with_tool_sigma(model, tool_sigma, covariance=None):
+    """``model`` with the model file's ``tool_sigma`` (mm) set, and optionally a
+    ``[covariance]`` matrix (file units; 30 × 30 or 33 × 33), through the model file text, so
+    the model is exactly what ``gpu-amcs --model`` reads from that text."""
+    text = model.to_toml()
+    lines = text.splitlines()
+    at = next(i for i, line in enumerate(lines) if line.startswith("tool = ["))
+    lines.insert(at + 1, "tool_sigma = [" + ", ".join(repr(float(s)) for s in tool_sigma) + "]")
+    if covariance is not None:
+        lines.append("[covariance]")
+        lines.append("matrix = [")
+        lines += ["  [" + ", ".join(repr(float(v)) for v in row) + "]," for row in covariance]
+        lines.append("]")
+    return gpu_amcs.Model.from_toml("\n".join(lines) + "\n", "tool-sigma model")

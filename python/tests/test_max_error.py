@@ -8,7 +8,9 @@ import numpy as np
 import pytest
 
 import gpu_amcs
+from conftest import with_tool_sigma
 from gpu_amcs.numpy_fk import fk as fk_numpy
+from gpu_amcs.numpy_fk import inputs
 
 # Tolerance of the CPU evaluator (f64) against the NumPy matrix-product FK: both evaluate the
 # same chain in double precision; the positions are ~1e3 mm and each of the six joints adds a
@@ -23,6 +25,13 @@ def tx60():
 
 
 @pytest.fixture(scope="module")
+def tooled(tx60):
+    """The TX60 with an uncertain tool point (σ of 4, 2, 6 µm: the run-to-run spread the
+    identification gives at the paper's settings, docs/METHOD.md §14)."""
+    return with_tool_sigma(tx60, [0.004, 0.002, 0.006])
+
+
+@pytest.fixture(scope="module")
 def q(tx60):
     rng = np.random.default_rng(7)
     lo, hi = tx60.limits[:, 0], tx60.limits[:, 1]
@@ -30,13 +39,54 @@ def q(tx60):
 
 
 def rows(model, n, seed=3, scale=3.0):
-    """n parameter rows around the model's values, a few σ apart (mm, degrees)."""
+    """n rows of the 33 inputs around the model's values, a few σ apart (mm, degrees)."""
     rng = np.random.default_rng(seed)
-    return model.params + scale * model.sigma * rng.standard_normal((n, 30))
+    return model.params + scale * model.sigma * rng.standard_normal((n, gpu_amcs.N_UNCERTAIN))
+
+
+def correlated_tool(tx60):
+    """The TX60 with a 33 × 33 covariance: the parameters' σ², the tool's (4, 2, 6 µm)², and
+    tool_x correlated with theta1 (ρ = 0.5)."""
+    s = tx60.sigma[:30]
+    full = np.diag(np.concatenate([s**2, [0.004**2, 0.002**2, 0.006**2]]))
+    full[30, 0] = full[0, 30] = 0.5 * 0.004 * s[0]
+    return with_tool_sigma(tx60, [0.004, 0.002, 0.006], covariance=full), full
+
+
+def test_inputs_are_the_parameters_then_the_tool(tx60, tooled):
+    assert gpu_amcs.N_PARAMS == 30 and gpu_amcs.N_UNCERTAIN == 33
+    for m in (tx60, tooled):
+        assert m.params.shape == (33,) and m.sigma.shape == (33,)
+        assert m.param_names[:5] == ["theta1", "d1", "a1", "alpha1", "beta1"]
+        assert m.param_names[29] == "beta6"
+        assert m.param_names[30:] == ["tool_x", "tool_y", "tool_z"]
+        np.testing.assert_array_equal(m.params[30:], m.tool)
+    np.testing.assert_array_equal(tooled.params, tx60.params)
+    np.testing.assert_array_equal(tx60.sigma[30:], [0, 0, 0])
+    np.testing.assert_array_equal(tooled.sigma[30:], [0.004, 0.002, 0.006])
+    np.testing.assert_array_equal(tooled.sigma[:30], tx60.sigma[:30])
+    assert tooled.free == tx60.free + [30, 31, 32]
+    assert all(i < 30 for i in tx60.free)
+    assert "free inputs of 33" in repr(tooled)
+
+
+def test_covariance_covers_the_tool(tx60):
+    # A 30 × 30 file matrix (here diagonal, the σ² of the parameters) is extended by the tool's
+    # independent variances; a 33 × 33 one is returned as given, with its tool correlations.
+    s = tx60.sigma[:30]
+    m30 = with_tool_sigma(tx60, [0.004, 0.002, 0.006], covariance=np.diag(s**2))
+    c = m30.covariance
+    assert c.shape == (33, 33)
+    np.testing.assert_allclose(np.diag(c), m30.sigma**2, rtol=1e-12)
+    np.testing.assert_allclose(c[30:, 30:], np.diag([0.004, 0.002, 0.006]) ** 2, rtol=1e-12)
+    assert np.count_nonzero(c - np.diag(np.diag(c))) == 0
+    m33, full = correlated_tool(tx60)
+    np.testing.assert_allclose(m33.covariance, full, rtol=1e-12, atol=0)
+    assert tx60.covariance is None
 
 
 def test_fk_matches_numpy(tx60, q):
-    want = fk_numpy(tx60.params[None, :], tx60.tool, q)[0]
+    want = fk_numpy(tx60.params[None, :], q)[0]
     got = tx60.fk(q)
     assert got.shape == (len(q), 3)
     np.testing.assert_allclose(got, want, rtol=0, atol=TOL_MM)
@@ -47,14 +97,14 @@ def test_fk_tx60_flange_at_zero():
     # mm column, 20 mm shoulder offset), a closed form independent of any FK code.
     m = gpu_amcs.Model.from_toml(gpu_amcs.Model.preset("tx60").to_toml())
     np.testing.assert_allclose(
-        fk_numpy(m.params[None, :], [0, 0, 0], np.zeros((1, 6)))[0, 0], [0, 20, 1045],
+        fk_numpy(inputs(m.params[None, :30], [0, 0, 0]), np.zeros((1, 6)))[0, 0], [0, 20, 1045],
         atol=1e-9)
 
 
 def test_max_error_equals_numpy_difference(tx60, q):
     p = rows(tx60, 40)
-    ref = fk_numpy(tx60.params[None, :], tx60.tool, q)[0]
-    e = np.linalg.norm(fk_numpy(p, tx60.tool, q) - ref, axis=-1)
+    ref = fk_numpy(tx60.params[None, :], q)[0]
+    e = np.linalg.norm(fk_numpy(p, q) - ref, axis=-1)
     np.testing.assert_allclose(tx60.max_error(p, q, backend="cpu"), e.max(axis=1), atol=TOL_MM)
     pp = tx60.max_error(p, q, backend="cpu", per_point=True)
     assert pp.shape == (40, len(q))
@@ -69,13 +119,13 @@ def test_max_error_nominal_reference(tx60, q):
     # against an explicit nominal model; the reference uses the nominal's joint parameters with
     # the analysed model's tool (docs/METHOD.md §3).
     p = rows(tx60, 10, seed=5)
-    ref = fk_numpy(tx60.params[None, :], tx60.tool, q)[0]
-    want = np.linalg.norm(fk_numpy(p, tx60.tool, q) - ref, axis=-1).max(axis=1)
+    ref = fk_numpy(tx60.params[None, :], q)[0]
+    want = np.linalg.norm(fk_numpy(p, q) - ref, axis=-1).max(axis=1)
     got = tx60.max_error(p, q, reference="nominal", backend="cpu")
     np.testing.assert_allclose(got, want, atol=TOL_MM)
     qu = np.clip(q, ur.limits[:, 0], ur.limits[:, 1])
-    ref_u = fk_numpy(ur.params[None, :], tx60.tool, qu)[0]
-    want_u = np.linalg.norm(fk_numpy(p, tx60.tool, qu) - ref_u, axis=-1).max(axis=1)
+    ref_u = fk_numpy(inputs(ur.params[None, :30], tx60.tool), qu)[0]
+    want_u = np.linalg.norm(fk_numpy(p, qu) - ref_u, axis=-1).max(axis=1)
     got_u = tx60.max_error(p, qu, reference="nominal", nominal=ur, backend="cpu")
     np.testing.assert_allclose(got_u, want_u, atol=TOL_MM)
     assert got_u.min() > 10  # a different robot is centimetres away
@@ -95,11 +145,75 @@ def test_columns_and_offsets_agree_with_full_rows(tx60, q):
         tx60.max_error(p - tx60.params, q, offsets=True, backend="cpu"), full, atol=TOL_MM)
 
 
+def test_max_error_with_tool_columns_equals_numpy(tooled, q):
+    """Rows that move the parameters and the tool point: the engine against the NumPy chain
+    with each row's own tool point, on the model with an uncertain tool."""
+    p = rows(tooled, 40, seed=17)
+    # The tool moves by a few σ (µm), as much as the parameters' own effect is small: scale it
+    # up to tenths of a mm so a tool ignored or mis-signed would show far above TOL_MM.
+    p[:, 30:] = tooled.tool + 50 * tooled.sigma[30:] * np.random.default_rng(4).standard_normal(
+        (40, 3))
+    ref = fk_numpy(tooled.params[None, :], q)[0]
+    e = np.linalg.norm(fk_numpy(p, q) - ref, axis=-1)
+    got = tooled.max_error(p, q, backend="cpu", per_point=True)
+    np.testing.assert_allclose(got, e, rtol=0, atol=TOL_MM)
+    # The tool columns matter: the same rows with the tool at the model's tool differ.
+    fixed = tooled.max_error(p[:, :30], q, backend="cpu", per_point=True)
+    assert np.abs(fixed - got).max() > 0.05
+    # By name and by offset, only the tool columns and a few parameters.
+    cols = ["theta2", "a3", "tool_x", "tool_y", "tool_z"]
+    idx = [tooled.param_names.index(c) for c in cols]
+    sub = np.tile(tooled.params, (40, 1))
+    sub[:, idx] = p[:, idx]
+    want = np.linalg.norm(fk_numpy(sub, q) - ref, axis=-1).max(axis=1)
+    np.testing.assert_allclose(tooled.max_error(p[:, idx], q, columns=cols, backend="cpu"), want,
+                               rtol=0, atol=TOL_MM)
+    np.testing.assert_allclose(
+        tooled.max_error(p[:, idx] - tooled.params[idx], q, columns=idx, offsets=True,
+                         backend="cpu"), want, rtol=0, atol=TOL_MM)
+
+
+def test_thirty_columns_keep_the_tool_at_the_model(tooled, q):
+    """A 30-column matrix is the 30 parameters; the tool stays at the model's tool (its σ is
+    not sampled: the rows are the caller's)."""
+    p = rows(tooled, 25, seed=19)
+    at_mean = p.copy()
+    at_mean[:, 30:] = tooled.tool
+    np.testing.assert_array_equal(tooled.max_error(p[:, :30], q, backend="cpu"),
+                                  tooled.max_error(at_mean, q, backend="cpu"))
+    np.testing.assert_array_equal(
+        tooled.max_error(p[:, :30], q, backend="cpu"),
+        tooled.max_error(p[:, :30], q, columns=list(range(30)), backend="cpu"))
+    np.testing.assert_array_equal(
+        tooled.max_error(p[:, :30] - tooled.params[:30], q, offsets=True, backend="cpu"),
+        tooled.max_error(at_mean - tooled.params, q, offsets=True, backend="cpu"))
+
+
+def test_tool_only_rows_give_the_length_of_the_tool_offset(tooled, q):
+    """Rows that move only the tool point by δ (flange frame): every point's error is R_j δ
+    for its flange rotation R_j, so e_j = |δ| at every point and w = |δ| (docs/METHOD.md §14's
+    known answer). Offsets of a few µm to a mm; the CPU path's rounding is ~1e-13 mm."""
+    rng = np.random.default_rng(23)
+    delta = rng.standard_normal((30, 3)) * np.logspace(-3, 0, 30)[:, None]
+    off = np.zeros((30, 33))
+    off[:, 30:] = delta
+    length = np.linalg.norm(delta, axis=1)
+    e = tooled.max_error(off, q, offsets=True, per_point=True, backend="cpu")
+    np.testing.assert_allclose(e, np.broadcast_to(length[:, None], e.shape), rtol=0, atol=TOL_MM)
+    w = tooled.max_error(tooled.params + off, q, backend="cpu")
+    np.testing.assert_allclose(w, length, rtol=0, atol=TOL_MM)
+    w3 = tooled.max_error(delta, q, columns=["tool_x", "tool_y", "tool_z"], offsets=True,
+                          backend="cpu")
+    np.testing.assert_allclose(w3, length, rtol=0, atol=TOL_MM)
+
+
 def test_the_mean_row_has_zero_error(tx60, q):
     # Zero up to the evaluator's rounding (its kernel and the reference positions take
     # different f64 operation orders: ~1e-13 mm).
     w = tx60.max_error(np.tile(tx60.params, (3, 1)), q, backend="cpu")
     assert w.shape == (3,) and np.all(w < TOL_MM)
+    w30 = tx60.max_error(np.tile(tx60.params[:30], (3, 1)), q, backend="cpu")
+    assert w30.shape == (3,) and np.all(w30 < TOL_MM)
 
 
 def test_dtypes_orders_and_views(tx60, q):
@@ -116,8 +230,8 @@ def test_dtypes_orders_and_views(tx60, q):
         tx60.max_error(p32.astype(np.float64), q32.astype(np.float64), backend="cpu"))
     # Non-contiguous views: every other row, and columns picked out of a wider array.
     big = np.zeros((60, 45))
-    big[::2, 5:35] = p
-    view = big[::2, 5:35]
+    big[::2, 5:38] = p
+    view = big[::2, 5:38]
     assert not view.flags.c_contiguous and not view.flags.f_contiguous
     np.testing.assert_array_equal(tx60.max_error(view, q, backend="cpu"), want)
     qbig = np.zeros((len(q), 12))
@@ -131,14 +245,17 @@ def test_dtypes_orders_and_views(tx60, q):
 
 
 def test_empty_params_give_empty_result(tx60, q):
+    assert tx60.max_error(np.zeros((0, 33)), q).shape == (0,)
     assert tx60.max_error(np.zeros((0, 30)), q).shape == (0,)
 
 
 @pytest.mark.parametrize(
     "params_shape, needle",
-    [((5, 29), "params: expected a 2-D array of shape (N, 30), got shape (5, 29)"),
-     ((30,), "params: expected a 2-D array of shape (N, 30), got shape (30,)"),
-     ((2, 3, 30), "params: expected a 2-D array of shape (N, 30), got shape (2, 3, 30)")])
+    [((5, 29), "params: expected a 2-D array of shape (N, 33) or (N, 30), got shape (5, 29)"),
+     ((5, 31), "params: expected a 2-D array of shape (N, 33) or (N, 30), got shape (5, 31)"),
+     ((33,), "params: expected a 2-D array of shape (N, 33) or (N, 30), got shape (33,)"),
+     ((2, 3, 33),
+      "params: expected a 2-D array of shape (N, 33) or (N, 30), got shape (2, 3, 33)")])
 def test_wrong_param_shapes(tx60, q, params_shape, needle):
     with pytest.raises(ValueError) as e:
         tx60.max_error(np.zeros(params_shape), q)
@@ -173,7 +290,15 @@ def test_nan_and_far_params_name_row_and_column(tx60, q):
     with pytest.raises(ValueError, match=r"params: row 1, column 0 \(theta1\).*up to 90 deg"):
         tx60.max_error(p, q)
     with pytest.raises(ValueError, match="params: not an array of numbers"):
-        tx60.max_error([["a"] * 30], q)
+        tx60.max_error([["a"] * 33], q)
+    p = rows(tx60, 5)
+    p[2, 31] = np.nan
+    with pytest.raises(ValueError, match=r"params: row 2, column 31 \(tool_y\): NaN is not"):
+        tx60.max_error(p, q)
+    # The tool coordinates are lengths: no angle bound (a 200 mm move is still evaluated).
+    p = np.tile(tx60.params, (2, 1))
+    p[0, 32] += 200.0
+    np.testing.assert_allclose(tx60.max_error(p, q, backend="cpu"), [200.0, 0.0], atol=TOL_MM)
 
 
 def test_bad_options(tx60, q):
@@ -182,12 +307,16 @@ def test_bad_options(tx60, q):
         tx60.max_error(p, q, backend="fast")
     with pytest.raises(ValueError, match="reference: unknown reference 'design'"):
         tx60.max_error(p, q, reference="design")
-    with pytest.raises(ValueError, match=r"columns\[1\]: unknown parameter 'gamma2'"):
+    with pytest.raises(ValueError, match=r"columns\[1\]: unknown input 'gamma2'.*tool_x"):
         tx60.max_error(p[:, :2], q, columns=["theta1", "gamma2"])
-    with pytest.raises(ValueError, match=r"columns\[1\]: parameter theta1 appears twice"):
+    with pytest.raises(ValueError, match=r"columns\[1\]: input theta1 appears twice"):
         tx60.max_error(p[:, :2], q, columns=[0, "theta1"])
-    with pytest.raises(ValueError, match=r"columns\[0\]: parameter index 30 is out of range"):
-        tx60.max_error(p[:, :1], q, columns=[30])
+    with pytest.raises(ValueError, match=r"columns\[1\]: input tool_z appears twice"):
+        tx60.max_error(p[:, :2], q, columns=["tool_z", 32])
+    with pytest.raises(ValueError, match=r"columns\[0\]: input index 33 is out of range 0…32"):
+        tx60.max_error(p[:, :1], q, columns=[33])
+    with pytest.raises(ValueError, match=r"expected a 2-D array of shape \(N, 2\)"):
+        tx60.max_error(p, q, columns=["tool_x", "tool_y"])
     with pytest.raises(ValueError, match=r"nominal is used only with reference=\"nominal\""):
         tx60.max_error(p, q, nominal=tx60)
 
@@ -229,22 +358,37 @@ def test_gil_is_released(tx60, q):
     assert gap < 0.5 * call, f"main thread stalled {gap:.3f} s of a {call:.3f} s call"
 
 
-def test_draws_are_the_runs_draws(tx60, q):
-    """model.draws(n, seed) through max_error gives the w values an MCS run of that seed keeps."""
-    res = gpu_amcs.mcs(tx60, draws=3000, q_deg=q, seed=99, backend="cpu")
-    d = tx60.draws(3000, seed=99)
-    assert d.shape == (3000, 30)
-    w = np.sort(tx60.max_error(d, q, backend="cpu"))
-    # Same draws: the offset path gets the same f64 parameters up to one degree↔radian round
-    # trip (≈1e-16 relative), far below 1e-9 mm.
+@pytest.mark.parametrize("which", ["tx60", "tooled", "correlated"])
+def test_draws_are_the_runs_draws(tx60, tooled, q, which):
+    """model.draws(n, seed) through max_error gives the w values an MCS run of that seed keeps,
+    with and without a tool spread, independent or correlated with a parameter."""
+    models = {"tx60": tx60, "tooled": tooled}
+    m = correlated_tool(tx60)[0] if which == "correlated" else models[which]
+    res = gpu_amcs.mcs(m, draws=3000, q_deg=q, seed=99, backend="cpu")
+    d = m.draws(3000, seed=99)
+    assert d.shape == (3000, 33)
+    w = np.sort(m.max_error(d, q, backend="cpu"))
+    # Same draws: the offset path gets the same f64 inputs up to one degree↔radian round trip
+    # and one subtraction of the mean (≈1e-16 relative of values ≤ 1e3), far below 1e-9 mm.
     np.testing.assert_allclose(w, res.values, rtol=0, atol=TOL_MM)
-    np.testing.assert_allclose(d[1000:1010], tx60.draws(10, seed=99, first=1000), rtol=0, atol=0)
-    # Different seeds, different draws; fixed parameters do not move.
-    assert not np.allclose(d, tx60.draws(3000, seed=100))
-    fixed = np.setdiff1d(np.arange(30), tx60.free)
-    np.testing.assert_array_equal(d[:, fixed], np.broadcast_to(tx60.params[fixed], (3000, len(fixed))))
+    np.testing.assert_allclose(d[1000:1010], m.draws(10, seed=99, first=1000), rtol=0, atol=0)
+    # Different seeds, different draws; fixed inputs do not move.
+    assert not np.allclose(d, m.draws(3000, seed=100))
+    fixed = np.setdiff1d(np.arange(33), m.free)
+    np.testing.assert_array_equal(d[:, fixed], np.broadcast_to(m.params[fixed], (3000, len(fixed))))
     # Their spread is the model's σ (3000 draws: the sample σ is within 4 × σ/√(2·3000) ≈ 5 %).
-    np.testing.assert_allclose(d[:, tx60.free].std(axis=0), tx60.sigma[tx60.free], rtol=0.05)
+    np.testing.assert_allclose(d[:, m.free].std(axis=0), m.sigma[m.free], rtol=0.05)
+    if which == "tooled":
+        # A tool spread does not move the parameters' draws (docs/METHOD.md §14: the tool uses
+        # normals 30–32), and it changes w: the run's values are not those of the fixed tool.
+        np.testing.assert_array_equal(d[:, :30], tx60.draws(3000, seed=99)[:, :30])
+        w_fixed = np.sort(m.max_error(d[:, :30], q, backend="cpu"))
+        assert np.abs(w_fixed - w).max() > 1e-3
+    if which == "correlated":
+        # The stated correlation of tool_x and theta1: the sample ρ of 3000 draws has standard
+        # error (1 − ρ²)/√n ≈ 0.014; 5 standard errors.
+        r = np.corrcoef(d[:, 0], d[:, 30])[0, 1]
+        assert abs(r - 0.5) < 0.07, r
 
 
 # Largest allowed |w_gpu − w_cpu| per row, mm: the f32 deviation form's error budget at spreads
@@ -252,13 +396,25 @@ def test_draws_are_the_runs_draws(tx60, q):
 GPU_TOL_MM = 1e-5
 
 
-def test_gpu_backend_agrees_with_cpu(tx60, q):
+@pytest.mark.parametrize("which", ["tx60", "tooled"])
+def test_gpu_backend_agrees_with_cpu(tx60, tooled, q, which):
     if not gpu_amcs.adapters():
         if os.environ.get("CI") == "true":
             pytest.fail("no GPU adapter and CI=true (install mesa-vulkan-drivers for lavapipe)")
         pytest.skip("no GPU adapter")
-    p = rows(tx60, 3000, seed=21)
-    cpu = tx60.max_error(p, q, backend="cpu", per_point=True)
-    gpu = tx60.max_error(p, q, backend="gpu", per_point=True)
+    # Parameters (and for "tooled" the tool point: the GPU's f32 deviation form starts at
+    # Δ_7 = δ_tool, docs/METHOD.md §14, with the same budget) a few σ from the model.
+    m = {"tx60": tx60, "tooled": tooled}[which]
+    p = rows(m, 3000, seed=21)
+    cpu = m.max_error(p, q, backend="cpu", per_point=True)
+    gpu = m.max_error(p, q, backend="gpu", per_point=True)
     assert np.abs(gpu - cpu).max() < GPU_TOL_MM
     assert cpu.max() > 0.05  # the comparison is on errors of tenths of a mm, not zeros
+    if which == "tooled":
+        # Tool-only rows: |δ| at every point on the GPU too.
+        off = np.zeros((200, 33))
+        off[:, 30:] = 3 * m.sigma[30:] * np.random.default_rng(6).standard_normal((200, 3))
+        e = m.max_error(off, q, offsets=True, per_point=True, backend="gpu")
+        length = np.linalg.norm(off[:, 30:], axis=1)
+        np.testing.assert_allclose(e, np.broadcast_to(length[:, None], e.shape), rtol=0,
+                                   atol=GPU_TOL_MM)

@@ -4,22 +4,22 @@ import numpy as np
 import pytest
 
 import gpu_amcs
-from conftest import REPO
+from conftest import REPO, with_tool_sigma
 from gpu_amcs.numpy_fk import fk as fk_numpy
 
 
 def test_presets_and_units():
-    assert gpu_amcs.presets() == ["tx60", "ur5e", "ur10e", "irb2400"]
+    assert gpu_amcs.presets() == ["tx60", "ur5e", "ur10e", "irb2400", "kr6r700sixx"]
     m = gpu_amcs.Model.preset("tx60")
     assert m.name == "Staubli TX60"
-    assert m.params.shape == (30,) and m.sigma.shape == (30,)
+    assert m.params.shape == (33,) and m.sigma.shape == (33,)
     assert m.param_names[:5] == ["theta1", "d1", "a1", "alpha1", "beta1"]
     # File units: J1 alpha = -90 deg, J1 d = 375 mm, J2 a = 290 mm (the model file's values).
     assert m.params[3] == -90.0 and m.params[1] == 375.0 and m.params[7] == 290.0
     assert m.sigma[0] == pytest.approx(0.003216, rel=1e-12)  # deg, as the file states
     assert m.covariance is None
     assert m.limits.shape == (6, 2) and tuple(m.limits[1]) == (-127.5, 127.5)
-    assert np.all(m.sigma[np.setdiff1d(np.arange(30), m.free)] == 0)
+    assert np.all(m.sigma[np.setdiff1d(np.arange(33), m.free)] == 0)
     assert "Staubli TX60" in repr(m)
     with pytest.raises(ValueError, match="tx90"):
         gpu_amcs.Model.preset("tx90")
@@ -31,6 +31,11 @@ def test_toml_round_trip(tmp_path):
     back = gpu_amcs.Model.from_toml(text)
     np.testing.assert_array_equal(back.params, m.params)
     np.testing.assert_array_equal(back.sigma, m.sigma)
+    # The tool's spread survives the round trip too (the model file's tool_sigma).
+    t = with_tool_sigma(m, [0.003, 0.0, 0.005])
+    back = gpu_amcs.Model.from_toml(t.to_toml())
+    np.testing.assert_array_equal(back.sigma[30:], [0.003, 0.0, 0.005])
+    assert back.free == m.free + [30, 32]
     f = tmp_path / "m.toml"
     f.write_text(text)
     np.testing.assert_array_equal(gpu_amcs.Model.from_file(f).params, m.params)
@@ -54,8 +59,7 @@ def test_from_urdf_reproduces_the_preset():
     lim = np.minimum(np.abs(preset.limits), 170) * np.sign(preset.limits)
     q = rng.uniform(lim[:, 0] * 0.9, lim[:, 1] * 0.9, size=(20, 6))
     np.testing.assert_allclose(imported.fk(q), preset.fk(q), atol=1e-6)
-    np.testing.assert_allclose(imported.fk(q), fk_numpy(imported.params[None], imported.tool, q)[0],
-                               atol=1e-9)
+    np.testing.assert_allclose(imported.fk(q), fk_numpy(imported.params[None], q)[0], atol=1e-9)
     assert np.all(imported.sigma == 0)
     with pytest.raises(ValueError, match="nothing.urdf"):
         gpu_amcs.Model.from_urdf(REPO / "nothing.urdf")

@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 import gpu_amcs
-from conftest import without_timing
+from conftest import with_tool_sigma, without_timing
 
 
 def cli_json(cli, tmp_path, *args):
@@ -66,6 +66,49 @@ def test_points_as_array_equal_points_file(cli, tmp_path):
                            backend="cpu")
     assert without_timing(by_array.to_dict()) == without_timing(doc)
     assert without_timing(by_file.to_dict()) == without_timing(doc)
+
+
+@pytest.mark.parametrize("run", ["mcs", "amcs"])
+def test_tool_sigma_model_equals_cli(cli, tmp_path, run):
+    """A model file with tool_sigma (docs/METHOD.md §14): the same document from Python and
+    from `gpu-amcs --model`, and the tool's spread is in it (w differs from the fixed tool)."""
+    tx60 = gpu_amcs.Model.preset("tx60")
+    m = with_tool_sigma(tx60, [0.004, 0.002, 0.006])
+    model_file = tmp_path / "tool.toml"
+    model_file.write_text(m.to_toml())
+    assert "tool_sigma = [0.004, 0.002, 0.006]" in model_file.read_text()
+    kw = dict(points=12, backend="cpu", seed=5)
+    if run == "mcs":
+        doc = cli_json(cli, tmp_path, "mcs", "--model", model_file, "--draws", 20000, "--points",
+                       12, "--backend", "cpu", "--seed", 5)
+        res = gpu_amcs.mcs(gpu_amcs.Model.from_file(model_file), draws=20000, **kw)
+        fixed = gpu_amcs.mcs(tx60, draws=20000, **kw)
+    else:
+        doc = cli_json(cli, tmp_path, "amcs", "--model", model_file, "--delta", 0.02,
+                       "--points", 12, "--backend", "cpu", "--seed", 5)
+        res = gpu_amcs.amcs(gpu_amcs.Model.from_file(model_file), delta=0.02, **kw)
+        fixed = gpu_amcs.amcs(tx60, delta=0.02, **kw)
+    assert without_timing(res.to_dict()) == without_timing(doc)
+    # The object built from text is the same model as the one read from the file.
+    same = gpu_amcs.mcs(m, draws=20000, **kw) if run == "mcs" else gpu_amcs.amcs(m, delta=0.02,
+                                                                                 **kw)
+    assert without_timing(same.to_dict()) == without_timing(doc)
+    assert res.estimate != fixed.estimate
+
+
+def test_fk_equals_cli_fk_with_a_base_transform(cli, tmp_path):
+    """The KR 6 R700 sixx preset has a base transform (Rx(180°)): fk gives positions in the
+    description's frame, as `gpu-amcs fk` prints them."""
+    m = gpu_amcs.Model.preset("kr6r700sixx")
+    rng = np.random.default_rng(3)
+    q = rng.uniform(0.5 * m.limits[:, 0], 0.5 * m.limits[:, 1], size=(6, 6))
+    csv = tmp_path / "q.csv"
+    rows = "\n".join(",".join(repr(float(v)) for v in r) for r in q)
+    csv.write_text("q1,q2,q3,q4,q5,q6\n" + rows + "\n")
+    r = cli("fk", "--preset", "kr6r700sixx", "--points-file", csv)
+    assert r.returncode == 0, r.stderr
+    want = np.loadtxt(r.stdout.splitlines()[1:], delimiter=",")[:, 6:]
+    np.testing.assert_array_equal(m.fk(q), want)
 
 
 def cli_error(cli, *args):
