@@ -172,7 +172,8 @@ pub enum IntervalArg {
 /// The model: a file or a built-in preset.
 #[derive(Args, Debug, Clone)]
 pub struct ModelArgs {
-    /// Model file (TOML, mm and degrees); default: the built-in preset.
+    /// Model file (TOML, mm and degrees) or a robot description imported on the fly (.urdf,
+    /// DH table .csv, UR calibration .yaml); default: the built-in preset.
     #[arg(long, value_name = "FILE")]
     pub model: Option<PathBuf>,
     /// Built-in model used when --model is not given.

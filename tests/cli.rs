@@ -472,3 +472,98 @@ fn an_uncertain_tool_point_is_named_in_the_report() {
     let plain = notes(&plain, "plain.json");
     assert!(!plain.iter().any(|n| n.contains("tool point")), "{plain:?}");
 }
+
+/// Drops every `seconds` field (timing) from a JSON report, recursively.
+fn without_timing(v: &mut serde_json::Value) {
+    match v {
+        serde_json::Value::Object(m) => {
+            m.remove("seconds");
+            m.values_mut().for_each(without_timing);
+        }
+        serde_json::Value::Array(a) => a.iter_mut().for_each(without_timing),
+        _ => {}
+    }
+}
+
+/// A robot description is a model wherever a model file is: `mcs --model robot.urdf` gives the
+/// report of the model `import` writes from it, `identify --nominal robot.urdf` identifies on
+/// it, and `study --preset ur5e` studies the UR5e (its own box, its own name).
+#[test]
+fn descriptions_and_presets_work_where_model_files_do() {
+    let dir = tmpdir("descriptions");
+    let p = |n: &str| dir.join(n).to_str().unwrap().to_string();
+    let ok = |args: &[&str]| {
+        let out = run(args);
+        assert!(out.status.success(), "{args:?}: {}", stderr(&out));
+        out
+    };
+    ok(&["model", "--preset", "ur5e"]);
+    std::fs::write(p("ur5e.toml"), run(&["model", "--preset", "ur5e"]).stdout).unwrap();
+    ok(&[
+        "export",
+        "--model",
+        &p("ur5e.toml"),
+        "--urdf",
+        &p("ur5e.urdf"),
+    ]);
+    ok(&["import", &p("ur5e.urdf"), "--out", &p("imported.toml")]);
+    let report = |model: &str, json: &str| {
+        ok(&[
+            "mcs",
+            "--model",
+            model,
+            "--draws",
+            "3000",
+            "--points",
+            "8",
+            "--backend",
+            "cpu",
+            "--json",
+            json,
+        ]);
+        let mut v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
+        without_timing(&mut v);
+        v
+    };
+    assert_eq!(
+        report(&p("ur5e.urdf"), &p("from-urdf.json")),
+        report(&p("imported.toml"), &p("from-toml.json"))
+    );
+    ok(&[
+        "simulate",
+        "--preset",
+        "ur5e",
+        "--runs",
+        "2",
+        "--out",
+        &p("sweeps.csv"),
+    ]);
+    ok(&[
+        "identify",
+        &p("sweeps.csv"),
+        "--nominal",
+        &p("ur5e.urdf"),
+        "--out",
+        &p("id.toml"),
+    ]);
+    let id = std::fs::read_to_string(p("id.toml")).unwrap();
+    assert!(id.contains("UR5e") || id.contains("ur5e"), "{id}");
+    ok(&[
+        "study",
+        "--quick",
+        "--preset",
+        "ur5e",
+        "--factors",
+        "range",
+        "--backend",
+        "cpu",
+        "-q",
+        "--out",
+        &p("study"),
+    ]);
+    let md = std::fs::read_to_string(dir.join("study/STUDY.md")).unwrap();
+    assert!(md.contains("UR5e"), "{md}");
+    // The UR5e's own box (from its reach), not the TX60's.
+    assert!(md.contains("[1500.0, 2000.0, 1350.0] mm box"), "{md}");
+}

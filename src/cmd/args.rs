@@ -46,12 +46,30 @@ impl ModelArgs {
     }
 }
 
-/// A model file, or the preset `name` when there is none.
+/// A model file, or the preset `name` when there is none. A robot description (URDF `.urdf`/
+/// `.xml`, DH table `.csv`, UR calibration `.yaml`/`.yml`) is imported on the fly, with the
+/// same proof as `import` (a `.toml` is always read as a model file: write a DH table in TOML
+/// through `import` first).
 pub fn load_model(file: Option<&Path>, name: &str) -> Result<RobotModel> {
     Ok(match file {
+        Some(p) if is_description(p) => {
+            gpu_amcs::import::import_file(p, &gpu_amcs::import::ImportOptions::default())?.model
+        }
         Some(p) => RobotModel::from_file(p)?,
         None => preset(name)?,
     })
+}
+
+/// Whether `path` names a robot description to import rather than a model file.
+fn is_description(path: &Path) -> bool {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    matches!(
+        ext.as_deref(),
+        Some("urdf" | "xml" | "yaml" | "yml" | "csv" | "xacro")
+    )
 }
 
 impl BoxArgs {

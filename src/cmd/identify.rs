@@ -26,7 +26,8 @@ pub struct IdentifyArgs {
     /// Write the identified model (TOML) to FILE.
     #[arg(long, short, value_name = "FILE")]
     pub out: Option<PathBuf>,
-    /// Nominal model giving the structure and conventions (default: the preset).
+    /// Nominal model giving the structure and conventions (default: the preset): a model file
+    /// or a robot description (.urdf, DH table .csv, UR calibration .yaml).
     #[arg(long, value_name = "FILE")]
     pub nominal: Option<PathBuf>,
     /// Built-in nominal model used when --nominal is not given.

@@ -5,7 +5,7 @@ use super::html;
 use super::outputs::Outputs;
 use super::progress::Progress;
 use super::Run;
-use crate::cli::{BackendArgs, DeltasArgs, HtmlArgs, MemoryArgs};
+use crate::cli::{BackendArgs, DeltasArgs, HtmlArgs, MemoryArgs, ModelArgs};
 use anyhow::Result;
 use clap::Args;
 use gpu_amcs::memory::Estimate;
@@ -55,12 +55,16 @@ pub struct StudyArgs {
     pub quiet: bool,
     #[command(flatten)]
     pub memory: MemoryArgs,
+    /// The robot studied (its nominal model; the simulator perturbs it).
+    #[command(flatten)]
+    pub model: ModelArgs,
 }
 
 impl Run for StudyArgs {
     fn run(self) -> Result<()> {
         let a = self;
-        let mut outputs = Outputs::new([]);
+        let model = a.model.load()?;
+        let mut outputs = Outputs::new(a.model.model.as_deref().map(|p| ("--model", p)));
         outputs.dir("--out", Some(&a.out), &[])?;
         // Any file of the study (the names depend on the factors), like --out.
         a.html.declare(&mut outputs, &[])?;
@@ -99,6 +103,7 @@ impl Run for StudyArgs {
         s.point_counts = a.points.clone();
         s.deltas = a.deltas.deltas.clone();
         s.robot_seed = a.robot_seed;
+        s.workspace = gpu_amcs::points::WorkspaceBox::for_robot(&model);
         s.calibration_seed = a.seed;
         let (backend, adapter) = a.backend.choice()?;
         s.backend = backend;
@@ -118,7 +123,8 @@ impl Run for StudyArgs {
             bar.update(done, total);
             bar.set_message(msg);
         };
-        let result = study::run_study(&s, Some(&cb))?;
+        let exp = gpu_amcs::simulate::Experiment::for_robot(model, s.robot_seed);
+        let result = study::run_study_on(&exp, &s, Some(&cb))?;
         bar.finish();
         let files = study::output_files(&result);
         if outputs.has(html::FLAG) {

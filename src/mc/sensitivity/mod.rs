@@ -409,7 +409,8 @@ pub fn run_outputs(
 pub struct Design {
     /// What the inputs are.
     pub input_kind: InputKind,
-    /// Indices of the free parameters in the 30-vector, in input order.
+    /// Indices of the free inputs among the 33 (30 parameters, then the tool point), in input
+    /// order.
     pub free: Vec<usize>,
 }
 
@@ -424,11 +425,11 @@ impl Design {
         out: &Outputs,
         opts: &SensitivityOptions,
     ) -> Result<SensitivityResult, SensitivityError> {
-        if self.free.is_empty() || self.free.iter().any(|&i| i >= N_PARAMS) {
+        if self.free.is_empty() || self.free.iter().any(|&i| i >= N_UNCERTAIN) {
             return Err(SensitivityError::Design(format!(
-                "free parameters {:?} must be a non-empty set of 0 … {}",
+                "free inputs {:?} must be a non-empty set of 0 … {}",
                 self.free,
-                N_PARAMS - 1
+                N_UNCERTAIN - 1
             )));
         }
         let names: Vec<String> = self.free.iter().map(|&i| param_name(i)).collect();
