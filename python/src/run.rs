@@ -250,6 +250,8 @@ impl Built {
             self.problem.seed,
         );
         let settings = self.settings;
+        // The CLI's notes first: what the report says about the model (an uncertain tool).
+        let model_notes = gpu_amcs::report::model_notes(&self.problem.model);
         let (choice, adapter, problem) = (self.choice, self.adapter, self.problem);
         let (result, notes) = py.detach(|| -> PyResult<(McResult, Vec<String>)> {
             let (mut ev, note) =
@@ -264,7 +266,7 @@ impl Built {
                     )
                 })?;
             let result = drive(ev.as_mut(), settings).map_err(driver_error)?;
-            Ok((result, note.into_iter().collect()))
+            Ok((result, model_notes.into_iter().chain(note).collect()))
         })?;
         Ok(RunResult {
             report: RunReport {

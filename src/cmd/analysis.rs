@@ -8,8 +8,7 @@ use super::progress::Progress;
 use super::Flags;
 use crate::cli::{OutputArgs, ProblemArgs};
 use anyhow::Result;
-use gpu_amcs::engine::{Evaluator, Problem};
-use gpu_amcs::kinematics::{N_PARAMS, N_UNCERTAIN};
+use gpu_amcs::engine::Evaluator;
 use gpu_amcs::mc::{self, McError, McResult};
 use gpu_amcs::memory::Estimate;
 use gpu_amcs::report::{self, RunReport};
@@ -82,7 +81,7 @@ pub fn run_and_report(
             built.problem.seed,
         );
         let rows = html::problem_rows(problem, &built.problem);
-        let model_notes = model_notes(&built.problem);
+        let model_notes = report::model_notes(&built.problem.model);
         let (mut ev, notes) = problem.backend.evaluator(built.problem)?;
         let notes = [model_notes, notes].concat();
         let bar = Progress::new(output.quiet, plan.label, "draws");
@@ -101,28 +100,6 @@ pub fn run_and_report(
     })?;
     write_reports(outputs, &rep, &rows, output.quiet)?;
     Ok(rep)
-}
-
-/// What a report should say about the analysed model beyond its name: an uncertain tool point
-/// (its σ enters every draw, docs/METHOD.md §14).
-pub fn model_notes(problem: &Problem) -> Vec<String> {
-    let m = &problem.model;
-    if !m.tool_uncertain() {
-        return Vec::new();
-    }
-    let s = m.input_sigmas();
-    let t = &s[N_PARAMS..];
-    vec![format!(
-        "tool point uncertain: σ = ({}, {}, {}) mm{}",
-        t[0],
-        t[1],
-        t[2],
-        if m.uncertainty.dim() == N_UNCERTAIN {
-            ", correlated with the parameters (33 × 33 covariance)"
-        } else {
-            ""
-        }
-    )]
 }
 
 /// Stages the JSON, CSV, SVG and HTML reports of a run (`rows`: its model-and-settings rows

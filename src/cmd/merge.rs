@@ -304,7 +304,7 @@ pub fn run_summary(
         let max_bins = problem.memory.budget()?.room_left(&fixed(m)) / BYTES_PER_BIN;
         let prov = Provenance::new(&built.problem, &built.reference, draws, first, end);
         let rows = html::problem_rows(problem, &built.problem);
-        let model = super::analysis::model_notes(&built.problem);
+        let model = gpu_amcs::report::model_notes(&built.problem.model);
         let (mut ev, more) = problem.backend.evaluator(built.problem)?;
         let label = if summary_out.is_some() {
             "MCS shard"

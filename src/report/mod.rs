@@ -17,6 +17,7 @@ pub mod svg;
 pub mod tail;
 pub mod text;
 
+use crate::kinematics::{RobotModel, N_PARAMS, N_UNCERTAIN};
 use crate::mc::McResult;
 use serde::Serialize;
 use std::path::Path;
@@ -106,4 +107,26 @@ pub fn write_files(dir: &Path, files: &[(String, String)]) -> Result<(), ReportE
         write_atomic(&dir.join(name), contents)?;
     }
     Ok(())
+}
+
+/// What a report should say about the analysed model beyond its name: an uncertain tool point
+/// (its σ enters every draw, docs/METHOD.md §14). The command line and the
+/// Python package put these first among a run report's notes.
+pub fn model_notes(m: &RobotModel) -> Vec<String> {
+    if !m.tool_uncertain() {
+        return Vec::new();
+    }
+    let s = m.input_sigmas();
+    let t = &s[N_PARAMS..];
+    vec![format!(
+        "tool point uncertain: σ = ({}, {}, {}) mm{}",
+        t[0],
+        t[1],
+        t[2],
+        if m.uncertainty.dim() == N_UNCERTAIN {
+            ", correlated with the parameters (33 × 33 covariance)"
+        } else {
+            ""
+        }
+    )]
 }
