@@ -1,5 +1,5 @@
 // Maximum point error of MDH parameter vectors (docs/METHOD.md §3, paper eqs. 12 and 17).
-// Composed after philox.wgsl. One invocation per parameter vector, two entry points that share
+// Composed after philox.wgsl. One invocation per parameter vector, three entry points that share
 // the kinematics (point_errors):
 //   max_point_error: counter draws first + i,
 //     1. normals of the draw (Philox blocks 0–8 the free inputs use, Box–Muller; input i uses
@@ -7,6 +7,9 @@
 //     2. offsets δ of the 33 inputs: independent δ_i = σ_i z_i, or correlated
 //        δ_free[a] = Σ_{b<=a} L[a][b] z[free[b]];
 //   max_point_error_offsets: δ read from row i of the offset matrix (N_INPUTS f32 per row);
+//   max_point_error_pick_freeze: row r of matrix s of a Sobol pick-freeze design: normal n from
+//     draw b_first + r where bit n of masks[s] is set, from draw first + r elsewhere, then the
+//     offsets of step 2 (so the rows of A, B and A_B are generated here, never uploaded);
 // then at every test point the deviation Δ of the end position from the mean-parameter chain,
 // propagated from the tool to the base, starting from the tool point's own offset
 // Δ_7 = δ_tool = (δ_30, δ_31, δ_32) (see src/engine/deviation.rs for the formulation and its
@@ -27,11 +30,16 @@ struct Config {
 }
 
 struct Chunk {
-    // first draw of the chunk, (lo, hi) words
+    // first draw of the chunk, (lo, hi) words (pick-freeze: the draw of row 0 of matrix A)
     first: vec2<u32>,
     count: u32,
     // 1: write per-point errors
     want_e: u32,
+    // pick-freeze only: draw of row 0 of matrix B, rows per matrix, and the request's row of
+    // this chunk's invocation 0
+    b_first: vec2<u32>,
+    per_matrix: u32,
+    row0: u32,
 }
 
 @group(0) @binding(0) var<uniform> cfg: Config;
@@ -47,6 +55,8 @@ struct Chunk {
 @group(0) @binding(7) var<storage, read_write> e_out: array<f32>;
 // offset path: row i = δ of parameter vector i, N_INPUTS entries (mm, rad; tool last)
 @group(0) @binding(8) var<storage, read> offsets_in: array<f32>;
+// pick-freeze path: per matrix, the 36-bit mask of normals taken from the B draw, (lo, hi) words
+@group(0) @binding(9) var<storage, read> masks: array<vec2<u32>>;
 
 const WORDS_PER_POINT: u32 = 13u;
 const N_INPUTS: u32 = 33u;
@@ -115,11 +125,12 @@ fn joint_step(dv: vec3<f32>, A: vec4<f32>, B: vec4<f32>, tr: vec4<f32>, o: Joint
     );
 }
 
-// Offsets δ of counter draw `draw` (the CPU sampler's definition, in f32).
-fn draw_offsets(draw: vec2<u32>) -> array<f32, 33> {
+// Standard normals of draw `draw` from the Philox blocks whose bit is set in `blocks` (zero
+// elsewhere; the CPU sampler's definition, in f32).
+fn draw_normals(draw: vec2<u32>, blocks: u32) -> array<f32, 36> {
     var z: array<f32, 36>;
     for (var b = 0u; b < N_BLOCKS; b++) {
-        if ((cfg.block_mask & (1u << b)) != 0u) {
+        if ((blocks & (1u << b)) != 0u) {
             let v = normals_block(draw, b, 0u, cfg.key);
             z[4u * b] = v.x;
             z[4u * b + 1u] = v.y;
@@ -132,7 +143,12 @@ fn draw_offsets(draw: vec2<u32>) -> array<f32, 33> {
             z[4u * b + 3u] = 0.0;
         }
     }
+    return z;
+}
 
+// Offsets δ of the 33 inputs from standard normals: independent δ_i = σ_i z_i, or correlated
+// δ_free[a] = Σ_{b<=a} L[a][b] z[free[b]].
+fn spread_offsets(z: array<f32, 36>) -> array<f32, 33> {
     var d: array<f32, 33>;
     if (cfg.mode == 0u) {
         for (var p = 0u; p < N_INPUTS; p++) {
@@ -152,6 +168,53 @@ fn draw_offsets(draw: vec2<u32>) -> array<f32, 33> {
         }
     }
     return d;
+}
+
+// Offsets δ of counter draw `draw`.
+fn draw_offsets(draw: vec2<u32>) -> array<f32, 33> {
+    return spread_offsets(draw_normals(draw, cfg.block_mask));
+}
+
+// 64-bit draw index `base + r`, with carry.
+fn draw_plus(base: vec2<u32>, r: u32) -> vec2<u32> {
+    let lo = base.x + r;
+    return vec2<u32>(lo, base.y + select(0u, 1u, lo < base.x));
+}
+
+// Standard normals of a pick-freeze row: per Philox block, the four normals of draw `a`, with
+// those whose bit is set in `mask` (36 bits, (lo, hi) words) taken from draw `b`. A block is
+// computed for a draw only when some of its normals come from that draw; a row with mask 0
+// does exactly what draw_normals(a, cfg.block_mask) does.
+fn pick_freeze_normals(a: vec2<u32>, b: vec2<u32>, mask: vec2<u32>) -> array<f32, 36> {
+    var z: array<f32, 36>;
+    for (var blk = 0u; blk < N_BLOCKS; blk++) {
+        var v = vec4<f32>(0.0);
+        if ((cfg.block_mask & (1u << blk)) != 0u) {
+            var nib: u32;
+            if (blk < 8u) {
+                nib = (mask.x >> (4u * blk)) & 15u;
+            } else {
+                nib = (mask.y >> (4u * (blk - 8u))) & 15u;
+            }
+            if (nib != 15u) {
+                v = normals_block(a, blk, 0u, cfg.key);
+            }
+            if (nib != 0u) {
+                let take = vec4<bool>(
+                    (nib & 1u) != 0u,
+                    (nib & 2u) != 0u,
+                    (nib & 4u) != 0u,
+                    (nib & 8u) != 0u,
+                );
+                v = select(v, normals_block(b, blk, 0u, cfg.key), take);
+            }
+        }
+        z[4u * blk] = v.x;
+        z[4u * blk + 1u] = v.y;
+        z[4u * blk + 2u] = v.z;
+        z[4u * blk + 3u] = v.w;
+    }
+    return z;
 }
 
 // Errors of the parameter vector mean + d at every test point: e_out row i (if asked for) and
@@ -204,10 +267,7 @@ fn max_point_error(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= chunk.count) {
         return;
     }
-    // 64-bit draw index = first + i, with carry.
-    let lo = chunk.first.x + i;
-    let hi = chunk.first.y + select(0u, 1u, lo < chunk.first.x);
-    point_errors(i, draw_offsets(vec2<u32>(lo, hi)));
+    point_errors(i, draw_offsets(draw_plus(chunk.first, i)));
 }
 
 // Explicit offsets: row i of offsets_in (chunk.first is unused).
@@ -222,4 +282,22 @@ fn max_point_error_offsets(@builtin(global_invocation_id) gid: vec3<u32>) {
         d[p] = offsets_in[i * N_INPUTS + p];
     }
     point_errors(i, d);
+}
+
+// Pick-freeze rows: invocation i is row row0 + i of the request, row r of matrix s.
+@compute @workgroup_size(WORKGROUP_SIZE)
+fn max_point_error_pick_freeze(@builtin(global_invocation_id) gid: vec3<u32>) {
+    let i = gid.x;
+    if (i >= chunk.count) {
+        return;
+    }
+    let row = chunk.row0 + i;
+    let s = row / chunk.per_matrix;
+    let r = row - s * chunk.per_matrix;
+    let z = pick_freeze_normals(
+        draw_plus(chunk.first, r),
+        draw_plus(chunk.b_first, r),
+        masks[s],
+    );
+    point_errors(i, spread_offsets(z));
 }

@@ -10,13 +10,15 @@
 //!
 //! Explicit offset matrices ([`Evaluator::evaluate_offsets`]) go through the same lane kernel:
 //! only the source of the offsets δ differs (drawn or read from the matrix), so a row equal to
-//! [`crate::sampling::ParamSampler::deltas`] of draw `k` gives the bits of draw `k`.
+//! [`crate::sampling::ParamSampler::deltas`] of draw `k` gives the bits of draw `k`; so do
+//! pick-freeze rows ([`Evaluator::evaluate_pick_freeze`]), whose offsets come from
+//! [`crate::sampling::ParamSampler::pick_freeze_lanes`] lane by lane.
 //!
 //! The tool point's offset (the last three inputs of a draw, docs/METHOD.md §14) moves the
 //! point the chain starts from: `p_7 = p_tool + δ_tool` in the flange frame. With no tool spread
 //! `δ_tool = 0` and `p_tool + 0 = p_tool` exactly, so the results keep their bits.
 
-use super::{BackendInfo, EngineError, Evaluator, Problem};
+use super::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
 use crate::kinematics::{param_index, ParamKind, JOINTS, N_PARAMS, N_UNCERTAIN};
 use rayon::prelude::*;
 
@@ -43,6 +45,8 @@ enum Source<'a> {
     Draws(u64),
     /// Rows of an `n × N_UNCERTAIN` offset matrix, from the first row on.
     Offsets(&'a [f64]),
+    /// Rows of a pick-freeze request from this row on.
+    PickFreeze(PickFreeze<'a>, usize),
 }
 
 impl<'a> Source<'a> {
@@ -52,6 +56,7 @@ impl<'a> Source<'a> {
         match self {
             Source::Draws(k) => Source::Draws(k + n as u64),
             Source::Offsets(rows) => Source::Offsets(&rows[(n * N_UNCERTAIN).min(rows.len())..]),
+            Source::PickFreeze(pf, row) => Source::PickFreeze(pf, row + n),
         }
     }
 
@@ -68,6 +73,15 @@ impl<'a> Source<'a> {
                         d[i][l] = row[i];
                     }
                 }
+            }
+            Source::PickFreeze(pf, row) => {
+                let (mut a, mut b, mut m) = ([0; LANES], [0; LANES], [0; LANES]);
+                for l in 0..LANES {
+                    if row + l < pf.rows() {
+                        (a[l], b[l], m[l]) = pf.row(row + l);
+                    }
+                }
+                sampler.pick_freeze_lanes::<LANES>(&a, &b, &m, d);
             }
         }
     }
@@ -318,6 +332,11 @@ impl Evaluator for CpuEvaluator {
         self.run(Source::Offsets(offsets), w, per_point);
         Ok(())
     }
+
+    fn eval_pick_freeze(&mut self, request: &PickFreeze, w: &mut [f64]) -> Result<(), EngineError> {
+        self.run(Source::PickFreeze(*request, 0), w, None);
+        Ok(())
+    }
 }
 
 impl CpuEvaluator {
@@ -479,6 +498,41 @@ mod tests {
         let mut w3 = vec![0.0; n];
         ev.evaluate_offsets(&rows, &mut w3, None).unwrap();
         assert_eq!(w1, w3);
+    }
+
+    /// Pick-freeze rows equal the offset rows of the sampler's pick-freeze offsets, to the
+    /// bit, for matrices that straddle lane blocks and tasks; mask 0 gives the draws.
+    #[test]
+    fn pick_freeze_rows_equal_their_offset_rows() {
+        use crate::engine::PickFreeze;
+        use crate::sampling::ALL_NORMALS;
+        let pb = problem();
+        let mut ev = CpuEvaluator::new(pb.clone());
+        let masks = [0, ALL_NORMALS, 1 << 5, (1 << 12) | (1 << 17), 0xff_0000];
+        let request = PickFreeze {
+            first: (1 << 32) - 100, // the draw index carries into the high word
+            b_first: (1 << 63) + (1 << 32) - 100,
+            count: CHUNK + 5,
+            masks: &masks,
+        };
+        let n = request.rows();
+        let mut rows = vec![0.0; n * N_UNCERTAIN];
+        for (r, row) in rows.chunks_exact_mut(N_UNCERTAIN).enumerate() {
+            let (a, b, m) = request.row(r);
+            let mut d = [0.0; N_UNCERTAIN];
+            pb.sampler.pick_freeze_deltas(a, b, m, &mut d);
+            row.copy_from_slice(&d);
+        }
+        let (mut w1, mut w2) = (vec![0.0; n], vec![0.0; n]);
+        ev.evaluate_pick_freeze(&request, &mut w1).unwrap();
+        ev.evaluate_offsets(&rows, &mut w2, None).unwrap();
+        assert_eq!(w1, w2);
+        let mut wa = vec![0.0; request.count];
+        ev.evaluate(request.first, &mut wa, None).unwrap();
+        assert_eq!(w1[..request.count], wa[..]);
+        ev.evaluate(request.b_first, &mut wa, None).unwrap();
+        assert_eq!(w1[request.count..2 * request.count], wa[..]);
+        assert_ne!(w1[2 * request.count..3 * request.count], wa[..]);
     }
 
     /// A large angular offset (beyond the series range) against direct forward kinematics.

@@ -8,7 +8,10 @@
 //! [`crate::sampling::box_muller`], independent `δ_i = σ_i z_i` or correlated `δ = L z` on the
 //! free parameters), so draw `k` is the same parameter vector on both backends. The entry point
 //! [`OFFSETS_ENTRY_POINT`] reads δ from an uploaded offset matrix instead (rows converted to
-//! f32 chunk by chunk); both call the same WGSL kinematics. The kinematics is the f32
+//! f32 chunk by chunk), and [`PICK_FREEZE_ENTRY_POINT`] generates the rows of a Sobol
+//! pick-freeze design from two counter draws and a per-matrix mask of normals
+//! ([`crate::engine::PickFreeze`]; only the masks are uploaded); all call the same WGSL
+//! kinematics. The kinematics is the f32
 //! deviation form of [`super::deviation`], whose module docs give the error budget.
 //!
 //! # One device per process
@@ -39,7 +42,7 @@ mod device;
 pub use context::{devices_opened, GpuContext};
 
 use super::deviation::{self, SpreadPacking};
-use super::{BackendInfo, EngineError, Evaluator, Problem};
+use super::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
 use crate::kinematics::N_UNCERTAIN;
 use device::{BindGroup, Buffer, Gpu, Timer};
 use std::collections::VecDeque;
@@ -58,6 +61,8 @@ pub const PHILOX_KAT_WGSL: &str = include_str!("../../shaders/philox_kat.wgsl");
 pub const ENTRY_POINT: &str = "max_point_error";
 /// Entry point of the evaluator kernel for explicit offset rows.
 pub const OFFSETS_ENTRY_POINT: &str = "max_point_error_offsets";
+/// Entry point of the evaluator kernel for pick-freeze rows.
+pub const PICK_FREEZE_ENTRY_POINT: &str = "max_point_error_pick_freeze";
 /// Workgroup size of the kernel (must match `@workgroup_size` in the shader).
 pub const WORKGROUP: usize = 64;
 /// Default draws per dispatch.
@@ -83,6 +88,8 @@ pub mod binding {
     pub const E: u32 = 7;
     /// Input of the offset path: `N_UNCERTAIN` offsets per row (`offsets_in`).
     pub const OFFSETS: u32 = 8;
+    /// Input of the pick-freeze path: one mask of normals per matrix, (lo, hi) words (`masks`).
+    pub const MASKS: u32 = 9;
 }
 
 /// The evaluator shader: [`PHILOX_WGSL`] followed by [`MDH_WGSL`].
@@ -197,12 +204,24 @@ pub struct ConfigUniform {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ChunkUniform {
-    /// First draw of the chunk, (lo, hi) words (unused by the offset path).
+    /// First draw of the chunk, (lo, hi) words (unused by the offset path; the draw of row 0
+    /// of matrix A on the pick-freeze path).
     pub first: [u32; 2],
     /// Parameter vectors in the chunk.
     pub count: u32,
     /// 1: write per-point errors.
     pub want_e: u32,
+    /// Pick-freeze path: the draw of row 0 of matrix B, (lo, hi) words.
+    pub b_first: [u32; 2],
+    /// Pick-freeze path: rows per matrix.
+    pub per_matrix: u32,
+    /// Pick-freeze path: the request's row computed by the chunk's invocation 0.
+    pub row0: u32,
+}
+
+/// The (lo, hi) words of a 64-bit draw index or mask.
+fn words(x: u64) -> [u32; 2] {
+    [x as u32, (x >> 32) as u32]
 }
 
 /// The buffers of one problem (see [`GpuEvaluator::set_problem`]).
@@ -260,6 +279,7 @@ struct SlotBuffers<'a> {
     w: &'a Buffer,
     e: &'a Buffer,
     offsets: &'a Buffer,
+    masks: &'a Buffer,
 }
 
 /// The bind group of a slot over `problem`'s buffers, every binding by name.
@@ -276,13 +296,20 @@ fn bind_slot(ctx: &GpuContext, problem: &ProblemBuffers, s: SlotBuffers) -> Bind
             (binding::W, s.w),
             (binding::E, s.e),
             (binding::OFFSETS, s.offsets),
+            (binding::MASKS, s.masks),
         ],
     )
 }
 
 impl Slot {
     /// A slot of `chunk` outputs; per-point and offset buffers are placeholders until needed.
-    fn new(ctx: &GpuContext, problem: &ProblemBuffers, chunk: usize, timer: bool) -> Self {
+    fn new(
+        ctx: &GpuContext,
+        problem: &ProblemBuffers,
+        masks: &Buffer,
+        chunk: usize,
+        timer: bool,
+    ) -> Self {
         let gpu = &ctx.gpu;
         let w_bytes = 4 * chunk as u64;
         let chunk = gpu.uniform("chunk", std::mem::size_of::<ChunkUniform>() as u64);
@@ -297,6 +324,7 @@ impl Slot {
                 w: &w,
                 e: &e,
                 offsets: &offsets,
+                masks,
             },
         );
         Slot {
@@ -312,7 +340,7 @@ impl Slot {
     }
 
     /// Rebuilds the bind group after a buffer changed.
-    fn rebind(&mut self, ctx: &GpuContext, problem: &ProblemBuffers) {
+    fn rebind(&mut self, ctx: &GpuContext, problem: &ProblemBuffers, masks: &Buffer) {
         self.bind = bind_slot(
             ctx,
             problem,
@@ -321,6 +349,7 @@ impl Slot {
                 w: &self.w,
                 e: &self.e,
                 offsets: &self.offsets,
+                masks,
             },
         );
     }
@@ -333,6 +362,8 @@ enum Rows<'a> {
     Draws(u64),
     /// An offset matrix, `N_UNCERTAIN` per row, from its first row on.
     Offsets(&'a [f64]),
+    /// The rows of a pick-freeze request from this row on (its masks already uploaded).
+    PickFreeze(PickFreeze<'a>, usize),
 }
 
 impl<'a> Rows<'a> {
@@ -341,6 +372,7 @@ impl<'a> Rows<'a> {
         match self {
             Rows::Draws(k) => Rows::Draws(k.wrapping_add(n as u64)),
             Rows::Offsets(o) => Rows::Offsets(&o[(n * N_UNCERTAIN).min(o.len())..]),
+            Rows::PickFreeze(pf, row) => Rows::PickFreeze(pf, row + n),
         }
     }
 }
@@ -360,6 +392,9 @@ pub struct GpuEvaluator {
     ctx: Arc<GpuContext>,
     problem: ProblemBuffers,
     slots: Vec<Slot>,
+    /// Masks of the last pick-freeze request (shared by both slots), and its capacity.
+    masks: Buffer,
+    masks_capacity: usize,
     chunk: usize,
     chunk_e: usize,
     chunk_o: usize,
@@ -397,8 +432,9 @@ impl GpuEvaluator {
         let chunk_o = chunk.min((by_bytes / N_UNCERTAIN).max(1));
         let problem_bufs = ProblemBuffers::new(gpu, problem);
         let timestamps = opts.timestamps && gpu.timestamps;
+        let masks = gpu.storage("masks (unused)", 8);
         let slots: Vec<Slot> = (0..2)
-            .map(|_| Slot::new(&ctx, &problem_bufs, chunk, timestamps))
+            .map(|_| Slot::new(&ctx, &problem_bufs, &masks, chunk, timestamps))
             .collect();
         if let Some(e) = gpu.take_error() {
             return Err(EngineError::Gpu(e));
@@ -408,6 +444,8 @@ impl GpuEvaluator {
             ctx,
             problem: problem_bufs,
             slots,
+            masks,
+            masks_capacity: 0,
             chunk,
             chunk_e,
             chunk_o,
@@ -447,7 +485,7 @@ impl GpuEvaluator {
             }
         }
         for slot in &mut self.slots {
-            slot.rebind(&self.ctx, &self.problem);
+            slot.rebind(&self.ctx, &self.problem, &self.masks);
         }
         match self.ctx.gpu.take_error() {
             Some(e) => self.guard(|_| Err(EngineError::Gpu(e))),
@@ -483,7 +521,7 @@ impl GpuEvaluator {
         for slot in &mut self.slots {
             slot.e = self.ctx.gpu.storage("e", bytes);
             slot.e_stage = self.ctx.gpu.staging("e staging", bytes);
-            slot.rebind(&self.ctx, &self.problem);
+            slot.rebind(&self.ctx, &self.problem, &self.masks);
         }
         self.e_ready = true;
     }
@@ -495,9 +533,24 @@ impl GpuEvaluator {
         let bytes = 4 * (self.chunk_o * N_UNCERTAIN) as u64;
         for slot in &mut self.slots {
             slot.offsets = self.ctx.gpu.storage("offsets", bytes);
-            slot.rebind(&self.ctx, &self.problem);
+            slot.rebind(&self.ctx, &self.problem, &self.masks);
         }
         self.offsets_ready = true;
+    }
+
+    /// Uploads the masks of a pick-freeze request (growing the buffer, and rebinding the
+    /// slots, when it is too small). Every earlier dispatch has finished when a request starts,
+    /// so the one buffer can be overwritten.
+    fn upload_masks(&mut self, masks: &[u64]) {
+        if masks.len() > self.masks_capacity {
+            self.masks = self.ctx.gpu.storage("masks", 8 * masks.len() as u64);
+            self.masks_capacity = masks.len();
+            for slot in &mut self.slots {
+                slot.rebind(&self.ctx, &self.problem, &self.masks);
+            }
+        }
+        let w: Vec<u32> = masks.iter().flat_map(|&m| words(m)).collect();
+        self.ctx.gpu.write(&self.masks, bytemuck::cast_slice(&w));
     }
 
     /// Copies `n` mapped f32 results of `stage` into `out` as f64.
@@ -561,20 +614,34 @@ impl GpuEvaluator {
         let t0 = Instant::now();
         let gpu = &self.ctx.gpu;
         let slot = &self.slots[slot_i];
-        let (first, pipeline) = match rows {
-            Rows::Draws(k0) => ([k0 as u32, (k0 >> 32) as u32], &self.ctx.draws),
+        let mut cu = ChunkUniform {
+            first: [0, 0],
+            count: count as u32,
+            want_e: u32::from(want_e),
+            b_first: [0, 0],
+            per_matrix: 0,
+            row0: 0,
+        };
+        let pipeline = match rows {
+            Rows::Draws(k0) => {
+                cu.first = words(k0);
+                &self.ctx.draws
+            }
             Rows::Offsets(o) => {
                 self.staging_f32.clear();
                 self.staging_f32
                     .extend(o[..count * N_UNCERTAIN].iter().map(|&v| v as f32));
                 gpu.write(&slot.offsets, bytemuck::cast_slice(&self.staging_f32));
-                ([0, 0], &self.ctx.offsets)
+                &self.ctx.offsets
             }
-        };
-        let cu = ChunkUniform {
-            first,
-            count: count as u32,
-            want_e: u32::from(want_e),
+            Rows::PickFreeze(pf, row) => {
+                // `run` checked that rows and the matrix length fit in u32.
+                cu.first = words(pf.first);
+                cu.b_first = words(pf.b_first);
+                cu.per_matrix = pf.count as u32;
+                cu.row0 = row as u32;
+                &self.ctx.pick_freeze
+            }
         };
         gpu.write(&slot.chunk, bytemuck::bytes_of(&cu));
         let w_bytes = 4 * count as u64;
@@ -636,9 +703,21 @@ impl GpuEvaluator {
             self.ensure_e_buffers();
         }
         let mut c = if want_e { self.chunk_e } else { self.chunk };
-        if let Rows::Offsets(_) = rows {
-            self.ensure_offset_buffers();
-            c = c.min(self.chunk_o);
+        match rows {
+            Rows::Offsets(_) => {
+                self.ensure_offset_buffers();
+                c = c.min(self.chunk_o);
+            }
+            Rows::PickFreeze(pf, _) => {
+                if u32::try_from(pf.rows()).is_err() {
+                    return Err(EngineError::PickFreezeRequest(format!(
+                        "{} rows in one request; the GPU path takes at most 2^32 − 1",
+                        pf.rows()
+                    )));
+                }
+                self.upload_masks(pf.masks);
+            }
+            Rows::Draws(_) => {}
         }
         let n = w.len();
         let nslots = self.slots.len();
@@ -750,6 +829,10 @@ impl Evaluator for GpuEvaluator {
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
         self.request(Rows::Offsets(offsets), w, per_point)
+    }
+
+    fn eval_pick_freeze(&mut self, request: &PickFreeze, w: &mut [f64]) -> Result<(), EngineError> {
+        self.request(Rows::PickFreeze(*request, 0), w, None)
     }
 }
 

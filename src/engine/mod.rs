@@ -35,6 +35,16 @@
 //!   and in WGSL); only the source of `δ` differs. A backend without offset support (the
 //!   scalar [`FnEvaluator`], whose model has no parameter vector) keeps the default, which
 //!   returns [`EngineError::OffsetsUnsupported`].
+//! * **Pick-freeze rows** ([`Evaluator::evaluate_pick_freeze`]): the matrices A, B and
+//!   A_B^(S) of a Sobol design ([`crate::mc::sensitivity`]) described by a [`PickFreeze`]
+//!   request: base samples `first … first + count − 1` and one mask of standard normals per
+//!   matrix. Row `r` of a matrix takes normal `i` from draw `b_first + r` where the mask has bit
+//!   `i`, from draw `first + r` elsewhere
+//!   ([`ParamSampler::pick_freeze_deltas`](crate::sampling::ParamSampler::pick_freeze_deltas)),
+//!   so the rows are generated inside the backend from the counter streams like draws are:
+//!   nothing of size rows × inputs is built on the host or uploaded to a device. Mask 0 gives
+//!   what `evaluate` gives for draw `first + r`. Backends without it (the scalar
+//!   [`FnEvaluator`]) return [`EngineError::PickFreezeUnsupported`].
 
 pub mod backend;
 pub mod cpu;
@@ -48,7 +58,7 @@ pub use gpu::{GpuContext, GpuEvaluator, GpuOptions, GpuTimings};
 pub use problem::{Problem, ProblemError, Reference};
 
 use crate::kinematics::{input_name, param_kind, N_PARAMS, N_UNCERTAIN};
-use crate::sampling::Philox;
+use crate::sampling::{Philox, ALL_NORMALS, MAX_NORMALS};
 
 /// Largest accepted angular offset (θ, α, β) in an offset matrix, radians: a quarter turn.
 /// Offsets are deviations of a calibrated model, orders of magnitude smaller; the bound keeps
@@ -108,6 +118,15 @@ pub enum EngineError {
         /// Which evaluator.
         evaluator: String,
     },
+    /// The evaluator cannot generate pick-freeze rows.
+    #[error("the {evaluator} evaluator cannot generate pick-freeze rows")]
+    PickFreezeUnsupported {
+        /// Which evaluator.
+        evaluator: String,
+    },
+    /// A pick-freeze request that does not describe valid rows.
+    #[error("pick-freeze request: {0}")]
+    PickFreezeRequest(String),
     /// The GPU backend failed.
     #[error("GPU evaluator: {0}")]
     Gpu(String),
@@ -148,6 +167,33 @@ pub trait Evaluator: Send {
         })
     }
 
+    /// Backend part of [`Evaluator::evaluate_pick_freeze`]: `request` is checked and `w` has
+    /// [`PickFreeze::rows`] entries. The default: [`EngineError::PickFreezeUnsupported`].
+    fn eval_pick_freeze(&mut self, request: &PickFreeze, w: &mut [f64]) -> Result<(), EngineError> {
+        let _ = (request, w);
+        Err(EngineError::PickFreezeUnsupported {
+            evaluator: self.info().adapter,
+        })
+    }
+
+    /// Fills `w[s · count + r]` with `w` of row `r` of matrix `s` of a pick-freeze request (see
+    /// [`PickFreeze`]). Errors: masks with bits beyond the draw's normals, draw indices past
+    /// 2⁶⁴, `w` of the wrong length, or an evaluator without pick-freeze rows.
+    fn evaluate_pick_freeze(
+        &mut self,
+        request: &PickFreeze,
+        w: &mut [f64],
+    ) -> Result<(), EngineError> {
+        request.check()?;
+        if w.len() != request.rows() {
+            return Err(EngineError::BufferSize {
+                expected: request.rows(),
+                got: w.len(),
+            });
+        }
+        self.eval_pick_freeze(request, w)
+    }
+
     /// Fills `w[i]` with `w` of draw `first + i` (mm) and, if given, `per_point[i·m + j]` with
     /// `e_j` of that draw.
     fn evaluate(
@@ -175,6 +221,67 @@ pub trait Evaluator: Send {
         check_offsets(offsets, w.len())?;
         check_buffers(self.n_points(), w, per_point.as_deref())?;
         self.eval_offsets(offsets, w, per_point)
+    }
+}
+
+/// The rows of the matrices of a pick-freeze design (Sobol indices, `docs/METHOD.md §9`):
+/// matrix `s` has `count` rows, and its row `r` is the parameter vector whose standard normal
+/// `i` is normal `i` of draw `b_first + r` if bit `i` of `masks[s]` is set, and of draw
+/// `first + r` otherwise. Matrix A is mask 0 (draw `first + r` itself), B is [`ALL_NORMALS`]
+/// (draw `b_first + r`), and `A_B^(S)` has the bits of the inputs in `S`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PickFreeze<'a> {
+    /// Draw of row 0 of A (the base sample index).
+    pub first: u64,
+    /// Draw of row 0 of B.
+    pub b_first: u64,
+    /// Rows per matrix.
+    pub count: usize,
+    /// One mask of standard normals per matrix (bits `0 … MAX_NORMALS − 1`).
+    pub masks: &'a [u64],
+}
+
+impl PickFreeze<'_> {
+    /// Rows of the request: `count · masks.len()`.
+    pub fn rows(&self) -> usize {
+        self.count * self.masks.len()
+    }
+
+    /// Row `row` of the request (matrix-major): draws `(a, b)` and the mask.
+    #[inline]
+    pub fn row(&self, row: usize) -> (u64, u64, u64) {
+        let (s, r) = (row / self.count, (row % self.count) as u64);
+        (self.first + r, self.b_first + r, self.masks[s])
+    }
+
+    /// Checks masks and draw ranges.
+    pub fn check(&self) -> Result<(), EngineError> {
+        let bad = |m: String| Err(EngineError::PickFreezeRequest(m));
+        if let Some((s, m)) = self
+            .masks
+            .iter()
+            .enumerate()
+            .find(|(_, &m)| m & !ALL_NORMALS != 0)
+        {
+            return bad(format!(
+                "mask of matrix {s} is {m:#x}: a draw has {MAX_NORMALS} normals"
+            ));
+        }
+        if self.count.checked_mul(self.masks.len()).is_none() {
+            return bad(format!(
+                "{} matrices of {} rows are too many",
+                self.masks.len(),
+                self.count
+            ));
+        }
+        for (name, d) in [("A", self.first), ("B", self.b_first)] {
+            if d.checked_add(self.count as u64).is_none() {
+                return bad(format!(
+                    "rows of {name} from draw {d} on pass the last draw index 2^64 − 1"
+                ));
+            }
+        }
+        Ok(())
     }
 }
 
@@ -299,6 +406,49 @@ mod tests {
             matches!(r, Err(EngineError::OffsetsUnsupported { .. })),
             "{r:?}"
         );
+    }
+
+    #[test]
+    fn pick_freeze_requests_are_checked() {
+        let masks = [0, ALL_NORMALS, 1 << 3];
+        let ok = PickFreeze {
+            first: 10,
+            b_first: 1 << 63,
+            count: 4,
+            masks: &masks,
+        };
+        assert_eq!(ok.rows(), 12);
+        assert_eq!(ok.row(9), (11, (1 << 63) + 1, 1 << 3));
+        assert!(ok.check().is_ok());
+        let wide = [1u64 << MAX_NORMALS];
+        let r = PickFreeze { masks: &wide, ..ok }.check();
+        assert!(
+            matches!(&r, Err(EngineError::PickFreezeRequest(m)) if m.contains("matrix 0")),
+            "{r:?}"
+        );
+        let r = PickFreeze {
+            b_first: u64::MAX - 2,
+            ..ok
+        }
+        .check();
+        assert!(
+            matches!(&r, Err(EngineError::PickFreezeRequest(m)) if m.contains("rows of B")),
+            "{r:?}"
+        );
+        let mut ev = scalar();
+        let mut w = vec![0.0; 11];
+        assert!(matches!(
+            ev.evaluate_pick_freeze(&ok, &mut w),
+            Err(EngineError::BufferSize {
+                expected: 12,
+                got: 11
+            })
+        ));
+        let mut w = vec![0.0; 12];
+        assert!(matches!(
+            ev.evaluate_pick_freeze(&ok, &mut w),
+            Err(EngineError::PickFreezeUnsupported { .. })
+        ));
     }
 
     #[test]

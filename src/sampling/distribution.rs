@@ -23,6 +23,9 @@ use crate::kinematics::{RobotModel, N_PARAMS, N_UNCERTAIN};
 /// Normals available per draw (9 Philox blocks of 4: the [`N_UNCERTAIN`] inputs use the first 33).
 pub const MAX_NORMALS: usize = 36;
 
+/// A pick-freeze mask that takes every normal from the second draw (bits `0 … MAX_NORMALS − 1`).
+pub const ALL_NORMALS: u64 = (1 << MAX_NORMALS) - 1;
+
 /// Errors building a sampler.
 #[derive(Debug, thiserror::Error)]
 pub enum SamplerError {
@@ -130,10 +133,61 @@ impl ParamSampler {
     /// give the same bits).
     #[inline(always)]
     pub fn deltas_lanes<const L: usize>(&self, first: u64, out: &mut [[f64; L]; N_UNCERTAIN]) {
+        let draws: [u64; L] = std::array::from_fn(|l| first + l as u64);
         let mut z = [[0.0; L]; MAX_NORMALS];
-        let lo: [u32; L] = std::array::from_fn(|l| (first + l as u64) as u32);
-        let hi: [u32; L] = std::array::from_fn(|l| ((first + l as u64) >> 32) as u32);
-        for &b in &self.blocks {
+        self.normals_lanes(&draws, |_| true, &mut z);
+        self.spread_lanes(&z, out);
+    }
+
+    /// Offsets of one pick-freeze row: standard normal `i` is normal `i` of draw `b` where bit
+    /// `i` of `mask` is set and of draw `a` elsewhere, then mapped like a draw (`σ_i z_i`, or
+    /// `L z` on the free inputs). `mask = 0` gives [`Self::deltas`] of `a` and a mask with every
+    /// free input's bit (e.g. [`ALL_NORMALS`]) that of `b`, to the bit.
+    pub fn pick_freeze_deltas(&self, a: u64, b: u64, mask: u64, out: &mut [f64; N_UNCERTAIN]) {
+        let mut lanes = [[0.0; 1]; N_UNCERTAIN];
+        self.pick_freeze_lanes::<1>(&[a], &[b], &[mask], &mut lanes);
+        for (o, l) in out.iter_mut().zip(&lanes) {
+            *o = l[0];
+        }
+    }
+
+    /// [`Self::pick_freeze_deltas`] of `L` rows at once (lane `l`: draws `a[l]`, `b[l]`, mask
+    /// `masks[l]`). A Philox block is computed for `a` (or `b`) only when some lane takes one
+    /// of its four normals from it.
+    #[inline(always)]
+    pub fn pick_freeze_lanes<const L: usize>(
+        &self,
+        a: &[u64; L],
+        b: &[u64; L],
+        masks: &[u64; L],
+        out: &mut [[f64; L]; N_UNCERTAIN],
+    ) {
+        let nibble = |m: u64, block: u32| (m >> (4 * block)) & 0xf;
+        let (mut za, mut zb) = ([[0.0; L]; MAX_NORMALS], [[0.0; L]; MAX_NORMALS]);
+        self.normals_lanes(a, |k| masks.iter().any(|&m| nibble(m, k) != 0xf), &mut za);
+        self.normals_lanes(b, |k| masks.iter().any(|&m| nibble(m, k) != 0), &mut zb);
+        for (i, (za, zb)) in za.iter_mut().zip(&zb).enumerate() {
+            for l in 0..L {
+                if (masks[l] >> i) & 1 == 1 {
+                    za[l] = zb[l];
+                }
+            }
+        }
+        self.spread_lanes(&za, out);
+    }
+
+    /// The standard normals of draws `draws[l]` in the Philox blocks this sampler uses and
+    /// `wanted` accepts (the other entries of `z` are left as they are).
+    #[inline(always)]
+    fn normals_lanes<const L: usize>(
+        &self,
+        draws: &[u64; L],
+        wanted: impl Fn(u32) -> bool,
+        z: &mut [[f64; L]; MAX_NORMALS],
+    ) {
+        let lo: [u32; L] = std::array::from_fn(|l| draws[l] as u32);
+        let hi: [u32; L] = std::array::from_fn(|l| (draws[l] >> 32) as u32);
+        for &b in self.blocks.iter().filter(|&&b| wanted(b)) {
             let w = philox4x32_10_lanes([lo, hi, [b; L], [PARAM_STREAM; L]], self.gen.key);
             let base = 4 * b as usize;
             for l in 0..L {
@@ -145,6 +199,15 @@ impl ParamSampler {
                 z[base + 3][l] = d;
             }
         }
+    }
+
+    /// Offsets from standard normals: `σ_i z_i`, or `L z` on the free inputs.
+    #[inline(always)]
+    fn spread_lanes<const L: usize>(
+        &self,
+        z: &[[f64; L]; MAX_NORMALS],
+        out: &mut [[f64; L]; N_UNCERTAIN],
+    ) {
         match &self.form {
             Form::Independent(s) => {
                 for i in 0..N_UNCERTAIN {
@@ -259,6 +322,74 @@ mod tests {
         let rho = sxy / (sxx * syy).sqrt();
         assert!((rho + 0.7).abs() < 5.0 * 2.5e-3, "rho {rho}");
         assert!(((sxx / draws as f64).sqrt() / st - 1.0).abs() < 0.02);
+    }
+
+    /// Pick-freeze rows: mask 0 is draw `a` and a full mask draw `b`, to the bit; a mask
+    /// takes exactly its normals from `b` (independent: δ_i = σ_i z_i of the draw it names;
+    /// correlated: `L` times the mixed normals, recomputed here from the Philox blocks).
+    #[test]
+    fn pick_freeze_rows_mix_two_draws_by_mask() {
+        let mut mc = tx60();
+        let s = mc.uncertainty.sigmas();
+        let mut c = vec![0.0; N_PARAMS * N_PARAMS];
+        for i in 0..N_PARAMS {
+            c[i * N_PARAMS + i] = s[i] * s[i];
+        }
+        c[N_PARAMS + 7] = 0.5 * s[1] * s[7];
+        c[7 * N_PARAMS + 1] = c[N_PARAMS + 7];
+        mc.uncertainty = Uncertainty::Covariance(c);
+        mc.tool_sigma = [0.002, 0.0, 0.003];
+        let mut mi = tx60();
+        mi.tool_sigma = [0.002, 0.0, 0.003];
+        let (a, b) = (12_345u64, (1u64 << 63) + 12_345);
+        for model in [mi, mc] {
+            let g = ParamSampler::new(&model, 9).unwrap();
+            let (mut da, mut db, mut d) = ([0.0; N_UNCERTAIN], [0.0; N_UNCERTAIN], [0.0; 33]);
+            g.deltas(a, &mut da);
+            g.deltas(b, &mut db);
+            g.pick_freeze_deltas(a, b, 0, &mut d);
+            assert_eq!(d, da);
+            g.pick_freeze_deltas(a, b, ALL_NORMALS, &mut d);
+            assert_eq!(d, db);
+            let normals = |k: u64| -> Vec<f64> {
+                (0..9u32)
+                    .flat_map(|blk| crate::sampling::normals_block(&g.gen, k, blk, PARAM_STREAM))
+                    .collect()
+            };
+            let (za, zb) = (normals(a), normals(b));
+            for mask in [1u64 << 7, (1 << 1) | (1 << 31) | (1 << 32), 0x5_5555_5555] {
+                g.pick_freeze_deltas(a, b, mask, &mut d);
+                let z: Vec<f64> = (0..MAX_NORMALS)
+                    .map(|i| if mask >> i & 1 == 1 { zb[i] } else { za[i] })
+                    .collect();
+                let want: Vec<f64> = match g.cholesky() {
+                    None => (0..N_UNCERTAIN)
+                        .map(|i| g.sigmas().unwrap()[i] * z[i])
+                        .collect(),
+                    Some((free, l)) => {
+                        let n = free.len();
+                        let mut out = vec![0.0; N_UNCERTAIN];
+                        for r in 0..n {
+                            out[free[r]] = (0..=r).map(|q| l[r * n + q] * z[free[q]]).sum();
+                        }
+                        out
+                    }
+                };
+                for i in 0..N_UNCERTAIN {
+                    assert!(
+                        (d[i] - want[i]).abs() <= 1e-15 * want[i].abs().max(1e-3),
+                        "{i}"
+                    );
+                }
+                if g.cholesky().is_none() {
+                    // one normal, one input: its offset is the B draw's, the others A's
+                    for i in 0..N_UNCERTAIN {
+                        let from = if mask >> i & 1 == 1 { db[i] } else { da[i] };
+                        assert_eq!(d[i], from, "input {i}, mask {mask:#x}");
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -10,6 +10,6 @@ mod distribution;
 mod normal;
 mod philox;
 
-pub use distribution::{ParamSampler, SamplerError, MAX_NORMALS};
+pub use distribution::{ParamSampler, SamplerError, ALL_NORMALS, MAX_NORMALS};
 pub use normal::{box_muller, normals_block, uniform_open};
 pub use philox::{philox4x32_10, Philox};

@@ -1,4 +1,4 @@
-//! The long-lived GPU context: one device, queue, bind-group layout and pair of pipelines per
+//! The long-lived GPU context: one device, queue, bind-group layout and set of pipelines (one per entry point) per
 //! adapter and process, shared by every [`super::GpuEvaluator`] on that adapter (the pattern of
 //! wgpu's `repeated_compute` example: device and pipelines once, per-problem buffers replaced).
 //!
@@ -9,7 +9,10 @@
 //! share its error sink (an error surfaces in whichever evaluator waits next).
 
 use super::device::{self, BindGroupLayout, BindingKind, ComputePipeline, Gpu};
-use super::{binding, gpu_err, shader_source, ENTRY_POINT, OFFSETS_ENTRY_POINT, WORKGROUP};
+use super::{
+    binding, gpu_err, shader_source, ENTRY_POINT, OFFSETS_ENTRY_POINT, PICK_FREEZE_ENTRY_POINT,
+    WORKGROUP,
+};
 use crate::engine::EngineError;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
@@ -32,11 +35,13 @@ pub struct GpuContext {
     pub(super) draws: ComputePipeline,
     /// Entry point [`OFFSETS_ENTRY_POINT`]: explicit offset rows.
     pub(super) offsets: ComputePipeline,
+    /// Entry point [`PICK_FREEZE_ENTRY_POINT`]: pick-freeze rows.
+    pub(super) pick_freeze: ComputePipeline,
     failed: AtomicBool,
 }
 
 /// The evaluator shader's bind group 0, by name.
-const LAYOUT: [(u32, BindingKind); 9] = [
+const LAYOUT: [(u32, BindingKind); 10] = [
     (binding::CONFIG, BindingKind::Uniform),
     (binding::CHUNK, BindingKind::Uniform),
     (binding::JOINT_TRIG, BindingKind::StorageRead),
@@ -46,6 +51,7 @@ const LAYOUT: [(u32, BindingKind); 9] = [
     (binding::W, BindingKind::StorageReadWrite),
     (binding::E, BindingKind::StorageReadWrite),
     (binding::OFFSETS, BindingKind::StorageRead),
+    (binding::MASKS, BindingKind::StorageRead),
 ];
 
 impl GpuContext {
@@ -83,12 +89,12 @@ impl GpuContext {
         let mut p = gpu
             .pipelines(
                 &shader_source(),
-                &[ENTRY_POINT, OFFSETS_ENTRY_POINT],
+                &[ENTRY_POINT, OFFSETS_ENTRY_POINT, PICK_FREEZE_ENTRY_POINT],
                 &layout,
             )
             .map_err(gpu_err)?;
-        let (offsets, draws) = match (p.pop(), p.pop()) {
-            (Some(o), Some(d)) => (o, d),
+        let (pick_freeze, offsets, draws) = match (p.pop(), p.pop(), p.pop()) {
+            (Some(f), Some(o), Some(d)) => (f, o, d),
             _ => return Err(gpu_err("the evaluator shader gave no pipelines")),
         };
         Ok(GpuContext {
@@ -96,6 +102,7 @@ impl GpuContext {
             layout,
             draws,
             offsets,
+            pick_freeze,
             failed: AtomicBool::new(false),
         })
     }

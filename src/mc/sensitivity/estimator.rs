@@ -205,6 +205,43 @@ where
     S: Fn(u64, &mut [f64]) + Sync,
     F: FnMut(&[f64]) -> Result<Vec<f64>, SensitivityError>,
 {
+    let model_rows = |k0: usize, c: usize, sets: &[Vec<usize>]| {
+        let mut rows = vec![0.0; (2 + sets.len()) * c * dim];
+        let (ab, picks) = rows.split_at_mut(2 * c * dim);
+        ab.par_chunks_mut(dim).enumerate().for_each(|(r, row)| {
+            let k = (k0 + r % c) as u64;
+            draw(if r < c { k } else { B_DRAW_OFFSET + k }, row)
+        });
+        let (a, b) = ab.split_at(c * dim);
+        for (set, block) in sets.iter().zip(picks.chunks_mut(c * dim)) {
+            block.copy_from_slice(a);
+            for r in 0..c {
+                for &i in set {
+                    block[r * dim + i] = b[r * dim + i];
+                }
+            }
+        }
+        model(&rows)
+    };
+    pick_freeze_chunks(dim, groups, model_rows, opts, range)
+}
+
+/// The outputs of base samples `range` of a pick-freeze design whose rows the caller generates
+/// itself (the robot's evaluators do, from the counter streams): `eval(k0, c, sets)` returns
+/// the outputs of base samples `k0 … k0 + c − 1` on A, then B, then `A_B^(S)` for each column
+/// set `S` of `sets` (inputs first, then the groups' sets not already among them), `c` values
+/// each. Called with at most `opts.chunk` base samples at a time; the outputs are checked
+/// (count, finiteness) and gathered as [`pick_freeze_outputs`] gathers them.
+pub fn pick_freeze_chunks<F>(
+    dim: usize,
+    groups: &[InputGroup],
+    mut eval: F,
+    opts: &SensitivityOptions,
+    range: std::ops::Range<usize>,
+) -> Result<Outputs, SensitivityError>
+where
+    F: FnMut(usize, usize, &[Vec<usize>]) -> Result<Vec<f64>, SensitivityError>,
+{
     opts.check()?;
     if dim == 0 {
         return Err(SensitivityError::Design("no inputs".into()));
@@ -227,22 +264,7 @@ where
     let mut k0 = range.start;
     while k0 < n {
         let c = opts.chunk.min(n - k0);
-        let mut rows = vec![0.0; blocks * c * dim];
-        let (ab, picks) = rows.split_at_mut(2 * c * dim);
-        ab.par_chunks_mut(dim).enumerate().for_each(|(r, row)| {
-            let k = (k0 + r % c) as u64;
-            draw(if r < c { k } else { B_DRAW_OFFSET + k }, row)
-        });
-        let (a, b) = ab.split_at(c * dim);
-        for (set, block) in plan.sets.iter().zip(picks.chunks_mut(c * dim)) {
-            block.copy_from_slice(a);
-            for r in 0..c {
-                for &i in set {
-                    block[r * dim + i] = b[r * dim + i];
-                }
-            }
-        }
-        let y = model(&rows)?;
+        let y = eval(k0, c, &plan.sets)?;
         if y.len() != blocks * c {
             return Err(SensitivityError::ModelOutput {
                 expected: blocks * c,

@@ -35,18 +35,22 @@
 //!
 //! Row `k` of A is draw `k` of the run (the draw AMCS uses, [`ParamSampler::deltas`]); row `k`
 //! of B is draw `2⁶³ + k` ([`B_DRAW_OFFSET`]) of the same counter-based stream, independent of
-//! row `k` of A and of every other draw for any N the run can reach. `A_B^(S)` rows are
-//! assembled from the two rows chunk by chunk ([`SensitivityOptions::chunk`] base samples, one
-//! evaluator call of `chunk · (2 + S)` rows), so no input matrix of size `N × D` is stored;
-//! only the `N · (2 + S)` outputs are kept (for the bootstrap), S the pick-freeze matrices.
+//! row `k` of A and of every other draw for any N the run can reach. Row `k` of `A_B^(S)` takes
+//! the standard normals of the inputs in `S` from B's draw and the others from A's
+//! ([`ParamSampler::pick_freeze_deltas`]). The evaluator generates these rows itself from the
+//! two counter streams ([`Evaluator::evaluate_pick_freeze`], on the CPU and in the GPU shader
+//! alike), chunk by chunk ([`SensitivityOptions::chunk`] base samples, one call of
+//! `chunk · (2 + S)` rows, S the pick-freeze matrices): the only input a call carries is one
+//! 36-bit mask per matrix, so no input matrix of size `N × D` is built, stored or uploaded, and
+//! only the `N · (2 + S)` outputs are kept (for the bootstrap).
 //!
 //! # Inputs, and correlated parameters
 //!
 //! Sobol indices are defined for independent inputs. The inputs here are the independent
-//! standard normals `u` behind each draw, mapped to parameter offsets by `δ = M u` on the free
-//! parameters (σ > 0, in index order), with `M` the diagonal of the σ for a model with
-//! independent parameters and the lower Cholesky factor `L` of the covariance of the free
-//! parameters for a correlated model (`docs/METHOD.md §6`).
+//! standard normals `u` behind each draw (normal `i` of the draw for free input `i`, in index
+//! order), mapped to parameter offsets by `δ = M u` on the free parameters (σ > 0), with `M`
+//! the diagonal of the σ for a model with independent parameters and the lower Cholesky factor
+//! `L` of the covariance of the free parameters for a correlated model (`docs/METHOD.md §6`).
 //!
 //! * Independent parameters: `u_i = δ_i / σ_i`, so the index of `u_i` is that of parameter i
 //!   ([`InputKind::IndependentParameters`]).
@@ -69,20 +73,23 @@
 //! is left out.
 //!
 //! [`ParamSampler::deltas`]: crate::sampling::ParamSampler::deltas
+//! [`ParamSampler::pick_freeze_deltas`]: crate::sampling::ParamSampler::pick_freeze_deltas
 
 mod estimator;
 
 pub use estimator::{
-    analyse_outputs, pick_freeze, pick_freeze_outputs, rank, Estimate, InputGroup, Outputs,
-    Quantity, QuantityIndices, SobolAnalysis, SobolIndex, CONFIDENCE, MIN_EVENTS,
+    analyse_outputs, pick_freeze, pick_freeze_chunks, pick_freeze_outputs, rank, Estimate,
+    InputGroup, Outputs, Quantity, QuantityIndices, SobolAnalysis, SobolIndex, CONFIDENCE,
+    MIN_EVENTS,
 };
 
 use serde::{Deserialize, Serialize};
 
-use crate::engine::{BackendInfo, EngineError, Evaluator, Problem};
+use crate::engine::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
 use crate::kinematics::{
     input_name, param_joint, param_kind, ParamKind, JOINTS, N_PARAMS, N_UNCERTAIN,
 };
+use crate::sampling::ALL_NORMALS;
 
 /// Draw index offset of matrix B: row `k` of B is draw `B_DRAW_OFFSET + k`.
 pub const B_DRAW_OFFSET: u64 = 1 << 63;
@@ -96,8 +103,8 @@ pub const MAX_DRAWS: usize = 1 << 20;
 pub const MIN_BOOTSTRAP: usize = 100;
 /// Most bootstrap resamples.
 pub const MAX_BOOTSTRAP: usize = 100_000;
-/// Most base samples per chunk: a chunk holds `chunk · (2 + S)` rows of inputs and of the 30
-/// parameter offsets (2¹⁴ · 30 rows of 50 values are 200 MB).
+/// Most base samples per chunk: a chunk evaluates `chunk · (2 + S)` rows (2¹⁴ · 40 rows, with
+/// the generic [`pick_freeze`]'s inputs at D = 40, are 200 MB).
 pub const MAX_CHUNK: usize = 1 << 14;
 
 /// Settings of a sensitivity analysis.
@@ -268,36 +275,6 @@ pub fn param_name(i: usize) -> String {
     input_name(i)
 }
 
-/// The map `δ_free = M u` between the independent inputs and the free parameters' offsets:
-/// `M` lower triangular over the free parameters (diagonal σ, or the Cholesky factor).
-struct InputMap {
-    free: Vec<usize>,
-    /// Row-major `free.len()²`.
-    m: Vec<f64>,
-}
-
-impl InputMap {
-    /// `u = M⁻¹ δ_free` by forward substitution.
-    fn inputs(&self, delta: &[f64; N_UNCERTAIN], u: &mut [f64]) {
-        let d = self.free.len();
-        for a in 0..d {
-            let row = &self.m[a * d..a * d + a];
-            let s: f64 = row.iter().zip(&u[..a]).map(|(l, x)| l * x).sum();
-            u[a] = (delta[self.free[a]] - s) / self.m[a * d + a];
-        }
-    }
-
-    /// `δ = M u` on the free parameters, 0 elsewhere.
-    fn offsets(&self, u: &[f64], delta: &mut [f64]) {
-        let d = self.free.len();
-        delta.fill(0.0);
-        for a in 0..d {
-            let row = &self.m[a * d..=a * d + a];
-            delta[self.free[a]] = row.iter().zip(&u[..=a]).map(|(l, x)| l * x).sum();
-        }
-    }
-}
-
 /// The groups of the free inputs `free` (as input columns): per joint, then per kind, then the
 /// tool point (its uncertain coordinates).
 fn robot_groups(free: &[usize]) -> Vec<InputGroup> {
@@ -354,53 +331,43 @@ pub fn run_outputs(
         });
     }
     let sampler = &problem.sampler;
-    let (map, input_kind) = match sampler.cholesky() {
-        Some((free, chol)) => (
-            InputMap {
-                free: free.to_vec(),
-                m: chol.to_vec(),
-            },
-            InputKind::CholeskyInnovations,
-        ),
+    let (free, input_kind) = match sampler.cholesky() {
+        Some((free, _)) => (free.to_vec(), InputKind::CholeskyInnovations),
         None => {
             // An independent sampler always has its σ; none would mean no free parameter.
             let s = sampler.sigmas().copied().unwrap_or([0.0; N_UNCERTAIN]);
-            let free: Vec<usize> = (0..N_UNCERTAIN).filter(|&i| s[i] > 0.0).collect();
-            let d = free.len();
-            let mut m = vec![0.0; d * d];
-            for (a, &i) in free.iter().enumerate() {
-                m[a * d + a] = s[i];
-            }
-            (InputMap { free, m }, InputKind::IndependentParameters)
+            let free = (0..N_UNCERTAIN).filter(|&i| s[i] > 0.0).collect();
+            (free, InputKind::IndependentParameters)
         }
     };
-    if map.free.is_empty() {
+    if free.is_empty() {
         return Err(SensitivityError::NoFreeParameter {
             model: problem.model.name.clone(),
         });
     }
-    let design = Design {
-        input_kind,
-        free: map.free.clone(),
-    };
-    let d = map.free.len();
-    let draw = |k: u64, u: &mut [f64]| {
-        let mut delta = [0.0; N_UNCERTAIN];
-        sampler.deltas(k, &mut delta);
-        map.inputs(&delta, u);
-    };
-    let model = |rows: &[f64]| {
-        let n = rows.len() / d;
-        let mut offsets = vec![0.0; n * N_UNCERTAIN];
-        for (u, delta) in rows.chunks(d).zip(offsets.chunks_mut(N_UNCERTAIN)) {
-            map.offsets(u, delta);
-        }
-        let mut w = vec![0.0; n];
-        ev.evaluate_offsets(&offsets, &mut w, None)?;
+    let groups = robot_groups(&free);
+    // Input column c is the standard normal free[c] of a draw: A takes none from the B draw,
+    // B all, A_B^(S) those of the columns in S.
+    let eval = |k0: usize, c: usize, sets: &[Vec<usize>]| {
+        let masks: Vec<u64> = [0, ALL_NORMALS]
+            .into_iter()
+            .chain(
+                sets.iter()
+                    .map(|set| set.iter().fold(0u64, |m, &col| m | 1 << free[col])),
+            )
+            .collect();
+        let request = PickFreeze {
+            first: k0 as u64,
+            b_first: B_DRAW_OFFSET + k0 as u64,
+            count: c,
+            masks: &masks,
+        };
+        let mut w = vec![0.0; request.rows()];
+        ev.evaluate_pick_freeze(&request, &mut w)?;
         Ok(w)
     };
-    let out = pick_freeze_outputs(d, &robot_groups(&map.free), draw, model, opts, range)?;
-    Ok((out, design))
+    let out = pick_freeze_chunks(free.len(), &groups, eval, opts, range)?;
+    Ok((out, Design { input_kind, free }))
 }
 
 /// What the analysis of a robot's outputs needs besides the outputs: the inputs (free
@@ -505,24 +472,6 @@ mod tests {
                 ..o.clone()
             };
             assert_eq!(field(t), "thresholds");
-        }
-    }
-
-    #[test]
-    fn input_map_round_trips_a_cholesky_factor() {
-        let map = InputMap {
-            free: vec![1, 4, 7],
-            m: vec![2.0, 0.0, 0.0, 0.5, 1.5, 0.0, -0.3, 0.2, 0.7],
-        };
-        let u0 = [0.3, -1.2, 2.0];
-        let mut delta = [0.0; N_UNCERTAIN];
-        map.offsets(&u0, &mut delta);
-        assert_eq!(delta[1], 0.6);
-        assert_eq!(delta[0], 0.0);
-        let mut u = [0.0; 3];
-        map.inputs(&delta, &mut u);
-        for (a, b) in u.iter().zip(&u0) {
-            assert!((a - b).abs() < 1e-15, "{u:?}");
         }
     }
 
