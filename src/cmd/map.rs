@@ -320,8 +320,8 @@ impl Run for MapArgs {
         if budget.check(&needed).is_err() && shard.is_none() {
             if let Some(k) = fewest_shards(cells, |e| budget.check(&estimate(e)).is_ok()) {
                 needed.advice = format!(
-                    "{}, or split it into {k} shards (--shard K/{k} --summary-out FILE, then \
-                     gpu-amcs merge)",
+                    "split it into {k} or more shards (--shard K/{k} --summary-out FILE, then \
+                     gpu-amcs merge), or {}",
                     needed.advice
                 );
             }
