@@ -9,12 +9,12 @@ use super::Run;
 use crate::cli::{BackendArgs, BoxArgs, HtmlArgs, MemoryArgs, ModelArgs};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
-use gpu_amcs::engine::{Problem, Reference};
+use gpu_amcs::engine::{BackendInfo, Problem, Reference};
 use gpu_amcs::kinematics::RobotModel;
 use gpu_amcs::map::shard::MapShard;
 use gpu_amcs::map::{
-    self, default_reference_deg, tool_down_rpy_deg, Grid, MapError, MapResult, MapSetting, MapSpec,
-    Plane, Timings,
+    self, default_reference_deg, tool_down_rpy_deg, CellErrors, CellIk, Evaluation, Grid, MapError,
+    MapResult, MapSetting, MapSpec, Plane, Timings,
 };
 use gpu_amcs::mc::summary::Provenance;
 use gpu_amcs::report::map as report;
@@ -349,41 +349,16 @@ impl Run for MapArgs {
             return Ok(());
         }
         let result = pool.install(|| -> Result<MapResult> {
-            let t0 = std::time::Instant::now();
-            let solutions = spec.solve(&model).map_err(with_flag)?;
-            let ik_seconds = t0.elapsed().as_secs_f64();
-            let points = map::test_points(&solutions);
-            let problem = Problem::new(model.clone(), &points, &Reference::Calibrated, a.seed)
-                .context("reached configurations")?;
-            let (mut ev, notes) = a.backend.evaluator(problem)?;
-            if !a.quiet {
-                for n in &notes {
-                    eprintln!("note: {n}");
-                }
-            }
-            let bar = Progress::new(a.quiet, "map", "draws");
-            let t1 = std::time::Instant::now();
-            let eval = map::evaluate(
-                ev.as_mut(),
-                a.draws,
-                map::batch_size(points.len(), a.draws),
-                &a.thresholds,
-                Some(&|done, total| bar.update(done, total)),
-            );
-            bar.finish();
-            let eval = eval.map_err(with_flag)?;
-            let timings = Timings {
-                ik_seconds,
-                eval_seconds: t1.elapsed().as_secs_f64(),
-            };
+            let run = solve_and_evaluate(&a, &model, &spec, Shard::WHOLE)?;
+            let eval = Evaluation::new(run.errors.cells, run.errors.w, &a.thresholds);
             Ok(MapResult::new(
                 &model.name,
                 &spec,
                 a.seed,
-                solutions,
+                run.solutions,
                 eval,
-                ev.info(),
-                timings,
+                run.backend,
+                run.timings,
             ))
         })?;
         let source = match &a.model.model {
@@ -399,9 +374,28 @@ impl Run for MapArgs {
     }
 }
 
-/// Shard `shard` of the map: the inverse kinematics of the whole grid, then the evaluation of
-/// the shard's part of the reached cells at every draw.
-fn run_shard(a: &MapArgs, model: &RobotModel, spec: &MapSpec, shard: Shard) -> Result<MapShard> {
+/// What one process computes of a map: the inverse kinematics of the whole grid, then the
+/// evaluation of shard `shard` of the reached cells (all of them for [`Shard::WHOLE`]) at every
+/// draw.
+struct Evaluated {
+    /// Every cell's configuration, `None` where unreachable.
+    solutions: Vec<Option<CellIk>>,
+    /// The evaluated part of the reached cells.
+    range: (usize, usize),
+    /// Their statistics and w over them.
+    errors: CellErrors,
+    /// The evaluator.
+    backend: BackendInfo,
+    /// The two stages' wall-clock seconds.
+    timings: Timings,
+}
+
+fn solve_and_evaluate(
+    a: &MapArgs,
+    model: &RobotModel,
+    spec: &MapSpec,
+    shard: Shard,
+) -> Result<Evaluated> {
     let t0 = std::time::Instant::now();
     let solutions = spec.solve(model).map_err(with_flag)?;
     let ik_seconds = t0.elapsed().as_secs_f64();
@@ -415,19 +409,25 @@ fn run_shard(a: &MapArgs, model: &RobotModel, spec: &MapSpec, shard: Shard) -> R
     }
     let (first, end) = shard.range(r);
     let (first, end) = (first as usize, end as usize);
-    let reference = Reference::Calibrated;
-    let all = Problem::new(model.clone(), &points, &reference, a.seed)
-        .context("reached configurations")?;
-    let provenance = Provenance::new(&all, &reference.label(model), a.draws, 0, a.draws);
-    let part = Problem::new(model.clone(), &points[first..end], &reference, a.seed)
-        .context("reached configurations")?;
-    let (mut ev, notes) = a.backend.evaluator(part)?;
+    let problem = Problem::new(
+        model.clone(),
+        &points[first..end],
+        &Reference::Calibrated,
+        a.seed,
+    )
+    .context("reached configurations")?;
+    let (mut ev, notes) = a.backend.evaluator(problem)?;
     if !a.quiet {
         for n in &notes {
             eprintln!("note: {n}");
         }
     }
-    let bar = Progress::new(a.quiet, "map shard", "draws");
+    let label = if shard == Shard::WHOLE {
+        "map"
+    } else {
+        "map shard"
+    };
+    let bar = Progress::new(a.quiet, label, "draws");
     let t1 = std::time::Instant::now();
     let errors = map::evaluate_cells(
         ev.as_mut(),
@@ -437,20 +437,35 @@ fn run_shard(a: &MapArgs, model: &RobotModel, spec: &MapSpec, shard: Shard) -> R
         Some(&|done, total| bar.update(done, total)),
     );
     bar.finish();
-    let errors = errors.map_err(with_flag)?;
-    let timings = Timings {
-        ik_seconds,
-        eval_seconds: t1.elapsed().as_secs_f64(),
-    };
+    Ok(Evaluated {
+        solutions,
+        range: (first, end),
+        errors: errors.map_err(with_flag)?,
+        backend: ev.info(),
+        timings: Timings {
+            ik_seconds,
+            eval_seconds: t1.elapsed().as_secs_f64(),
+        },
+    })
+}
+
+/// Shard `shard` of the map, with the provenance of the problem of all its reached cells.
+fn run_shard(a: &MapArgs, model: &RobotModel, spec: &MapSpec, shard: Shard) -> Result<MapShard> {
+    let e = solve_and_evaluate(a, model, spec, shard)?;
+    let points = map::test_points(&e.solutions);
+    let reference = Reference::Calibrated;
+    let all = Problem::new(model.clone(), &points, &reference, a.seed)
+        .context("reached configurations")?;
+    let provenance = Provenance::new(&all, &reference.label(model), a.draws, 0, a.draws);
     Ok(MapShard::new(
         provenance,
         [shard.k, shard.n],
         spec,
         &a.thresholds,
-        &solutions,
-        (first, end),
-        errors,
-        ev.info(),
-        timings,
+        &e.solutions,
+        e.range,
+        e.errors,
+        e.backend,
+        e.timings,
     ))
 }

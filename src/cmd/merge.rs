@@ -1,6 +1,6 @@
 //! `merge`: the report of a run from the summaries of its shards (`mcs --shard K/N
-//! --summary-out FILE`), and the shard run itself: draws `[K·n/N, (K+1)·n/N)` of the one
-//! stream, summarised without keeping the values.
+//! --summary-out FILE`; sensitivity and map shards too), and the shard run itself: draws
+//! `[K·n/N, (K+1)·n/N)` of the one stream, summarised without keeping the values.
 
 use super::analysis::{outputs, write_reports};
 use super::args::{thread_pool, BYTES_PER_POINT};
@@ -28,7 +28,8 @@ const MAX_SUMMARY_BYTES: u64 = 1 << 30;
 /// Merge options.
 #[derive(Args, Debug, Clone)]
 pub struct MergeArgs {
-    /// Summaries written by `mcs --summary-out`, together covering every draw of one run once.
+    /// Summaries written by `mcs --summary-out` (or `sensitivity`, `map`), together covering
+    /// every draw (a map: every reached cell) of one run once.
     #[arg(required = true, value_name = "FILE")]
     pub files: Vec<PathBuf>,
     /// Write the JSON report here.
