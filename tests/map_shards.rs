@@ -150,12 +150,14 @@ fn merge_refuses_foreign_missing_duplicated_corrupt_and_mixed_files() {
     let digit = if &text[at..at + 1] == "9" { "1" } else { "9" };
     edited.replace_range(at..at + 1, digit);
     std::fs::write(p("edited.json"), edited).unwrap();
-    // A w bit pattern that is not a finite non-negative error.
-    let w_at = text.find("\"w_bits\":[").unwrap() + "\"w_bits\":[".len();
-    let end = w_at + text[w_at..].find(',').unwrap();
+    // A w bit pattern that is not a finite non-negative error, and one digit too few.
+    let w_at = text.find("\"w_bits\":\"").unwrap() + "\"w_bits\":\"".len();
     let mut bad_w = text.clone();
-    bad_w.replace_range(w_at..end, &f64::NAN.to_bits().to_string());
+    bad_w.replace_range(w_at..w_at + 16, &format!("{:016x}", f64::NAN.to_bits()));
     std::fs::write(p("nan.json"), bad_w).unwrap();
+    let mut short_w = text.clone();
+    short_w.remove(w_at);
+    std::fs::write(p("short.json"), short_w).unwrap();
     let out = p("out.json");
     let cases: &[(&[&str], &str)] = &[
         (
@@ -185,6 +187,10 @@ fn merge_refuses_foreign_missing_duplicated_corrupt_and_mixed_files() {
         (
             &["s0.json", "nan.json", "s2.json"],
             "nan.json: not a summary: field `w_bits`",
+        ),
+        (
+            &["s0.json", "short.json", "s2.json"],
+            "short.json: not a summary: not 16 hex digits",
         ),
         (
             &["s0.json", "mcs.json", "s2.json"],

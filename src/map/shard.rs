@@ -12,13 +12,11 @@
 //! A shard file is JSON whose floats are written twice: as numbers (readable) and as the IEEE-754
 //! bits of every float in the order they appear (`float_bits`), because a JSON number need not
 //! read back to the same f64; the reader restores each float from its bits and refuses a file
-//! whose numbers and bits disagree. `w` is stored as bits only (`w_bits`).
+//! whose numbers and bits disagree. `w` is stored as bits only (`w_bits`, one hex string).
 
 use super::{CellErrors, CellIk, CellStats, Evaluation, MapResult, MapSpec, Timings, MAX_CELLS};
 use crate::engine::BackendInfo;
-use crate::mc::summary::{
-    from_bits, in_range_order, provenance_fields, to_bits, Fnv, Provenance, SummaryError,
-};
+use crate::mc::summary::{in_range_order, provenance_fields, Fnv, Provenance, SummaryError};
 use serde::{Deserialize, Serialize};
 use serde_json::{Number, Value};
 
@@ -61,8 +59,43 @@ pub struct MapShard {
     pub timings: Timings,
     /// This shard's cells, in grid order.
     pub cells: Vec<ShardCell>,
-    /// `w = max_j e_j` over this shard's cells of every draw, as the bits of each f64.
-    pub w_bits: Vec<u64>,
+    /// `w = max_j e_j` over this shard's cells of every draw, written as one string of the
+    /// IEEE-754 bits of each value (16 hex digits a draw).
+    #[serde(with = "hex_bits")]
+    pub w_bits: Vec<f64>,
+}
+
+/// Values as one string of 16 hex digits (the IEEE-754 bits) each: exact, and a single JSON
+/// value however many draws, so reading and writing hold no JSON node per draw.
+mod hex_bits {
+    use serde::de::Error;
+    use serde::{Deserialize, Deserializer, Serializer};
+    use std::fmt::Write as _;
+
+    pub fn serialize<S: Serializer>(v: &[f64], s: S) -> Result<S::Ok, S::Error> {
+        let mut t = String::with_capacity(16 * v.len());
+        for x in v {
+            let _ = write!(t, "{:016x}", x.to_bits());
+        }
+        s.serialize_str(&t)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+        let t = String::deserialize(d)?;
+        if t.len() % 16 != 0 || !t.is_ascii() {
+            return Err(D::Error::custom("not 16 hex digits a value"));
+        }
+        t.as_bytes()
+            .chunks(16)
+            .map(|c| {
+                std::str::from_utf8(c)
+                    .ok()
+                    .and_then(|h| u64::from_str_radix(h, 16).ok())
+                    .map(f64::from_bits)
+                    .ok_or_else(|| D::Error::custom("not 16 hex digits a value"))
+            })
+            .collect()
+    }
 }
 
 /// The grid indices of the reached cells and their fingerprint.
@@ -115,7 +148,7 @@ impl MapShard {
             backend: [backend.backend, backend.adapter, backend.driver],
             timings,
             cells,
-            w_bits: to_bits(&errors.w),
+            w_bits: errors.w,
         }
     }
 
@@ -172,9 +205,7 @@ impl MapShard {
         let s: MapShard = serde_json::from_value(v).map_err(|e| corrupt(e.to_string()))?;
         let p = &s.provenance;
         let t = s.thresholds.len();
-        let w_ok = from_bits(s.w_bits.clone())
-            .iter()
-            .all(|w| w.is_finite() && *w >= 0.0);
+        let w_ok = s.w_bits.iter().all(|w| w.is_finite() && *w >= 0.0);
         let checks = [
             (s.kind == Self::KIND, "kind"),
             (s.shard[0] < s.shard[1], "shard"),
@@ -260,7 +291,7 @@ pub fn merge(named: &[(String, MapShard)]) -> Result<MapResult, SummaryError> {
     }
     let mut solutions = vec![None; first.spec.n_cells()];
     let mut stats = Vec::with_capacity(first.provenance.points);
-    let mut w = from_bits(first.w_bits.clone());
+    let mut w = first.w_bits.clone();
     let mut timings = Timings::default();
     for (_, s) in &order {
         for c in &s.cells {
@@ -268,7 +299,7 @@ pub fn merge(named: &[(String, MapShard)]) -> Result<MapResult, SummaryError> {
             stats.push(c.stats.clone());
         }
         for (a, b) in w.iter_mut().zip(&s.w_bits) {
-            *a = a.max(f64::from_bits(*b));
+            *a = a.max(*b);
         }
         timings.ik_seconds = timings.ik_seconds.max(s.timings.ik_seconds);
         timings.eval_seconds += s.timings.eval_seconds;

@@ -113,17 +113,6 @@ impl Fnv {
     }
 }
 
-/// The IEEE-754 bits of each value: a JSON number need not read back to the same f64, its bits
-/// do, so shards written this way merge exactly.
-pub fn to_bits(v: &[f64]) -> Vec<u64> {
-    v.iter().map(|x| x.to_bits()).collect()
-}
-
-/// The values of [`to_bits`]' bits.
-pub fn from_bits(v: Vec<u64>) -> Vec<f64> {
-    v.into_iter().map(f64::from_bits).collect()
-}
-
 /// Count, mean and the central moment sums `M_k = Σ (x − mean)^k`, k = 2…4.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct MomentSums {
@@ -868,7 +857,7 @@ pub struct SensitivityShard {
 
 /// [`Outputs`] as the IEEE-754 bits of its values.
 mod output_bits {
-    use super::{from_bits, to_bits, Outputs};
+    use super::Outputs;
     use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
     #[derive(Serialize, Deserialize)]
@@ -876,6 +865,14 @@ mod output_bits {
         a: Vec<u64>,
         b: Vec<u64>,
         sets: Vec<Vec<u64>>,
+    }
+
+    fn to_bits(v: &[f64]) -> Vec<u64> {
+        v.iter().map(|x| x.to_bits()).collect()
+    }
+
+    fn from_bits(v: Vec<u64>) -> Vec<f64> {
+        v.into_iter().map(f64::from_bits).collect()
     }
 
     pub fn serialize<S: Serializer>(o: &Outputs, s: S) -> Result<S::Ok, S::Error> {
