@@ -58,7 +58,8 @@ subcommands! {
     /// Classic Monte Carlo with a fixed number of draws.
     #[command(allow_negative_numbers = true)]
     Mcs(cmd::mcs::McsArgs),
-    /// Merge shard summaries (`mcs --shard K/N --summary-out FILE`) into the run's reports.
+    /// Merge shard summaries (`mcs`, `sensitivity` or `map` with `--shard K/N --summary-out
+    /// FILE`) into the run's reports.
     Merge(cmd::merge::MergeArgs),
     /// MCS against AMCS at two tolerances: the paper's Table 2 for one model.
     #[command(allow_negative_numbers = true)]

@@ -10,7 +10,7 @@ use crate::kinematics::{param_index, position_deg, ParamKind, RobotModel, JOINTS
 use rand::{Rng, SeedableRng};
 
 /// An axis-aligned box in the base frame, mm.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WorkspaceBox {
     /// Centre (x, y, z).
     pub center: [f64; 3],

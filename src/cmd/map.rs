@@ -2,19 +2,23 @@
 //! cell, one per-point evaluation of all reached cells).
 
 use super::args::thread_pool;
+use super::merge::Shard;
 use super::outputs::Outputs;
 use super::progress::Progress;
 use super::Run;
 use crate::cli::{BackendArgs, BoxArgs, HtmlArgs, MemoryArgs, ModelArgs};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
-use gpu_amcs::engine::{Problem, Reference};
+use gpu_amcs::engine::{BackendInfo, Problem, Reference};
+use gpu_amcs::kinematics::RobotModel;
+use gpu_amcs::map::shard::MapShard;
 use gpu_amcs::map::{
-    self, default_reference_deg, tool_down_rpy_deg, Grid, MapError, MapResult, MapSetting, MapSpec,
-    Plane, Timings,
+    self, default_reference_deg, tool_down_rpy_deg, CellErrors, CellIk, Evaluation, Grid, MapError,
+    MapResult, MapSetting, MapSpec, Plane, Timings,
 };
+use gpu_amcs::mc::summary::Provenance;
 use gpu_amcs::report::map as report;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Plane of a slice.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -108,6 +112,24 @@ pub struct MapArgs {
     /// No progress bar and no summary on stdout.
     #[arg(long, short)]
     pub quiet: bool,
+    /// Evaluate only shard K of N (K from 0): reached cells [K·r/N, (K+1)·r/N) of the r the
+    /// grid reaches, at every draw (each shard solves the whole grid's inverse kinematics).
+    /// Without it, with --summary-out, K and N come from SLURM_ARRAY_TASK_ID and
+    /// SLURM_ARRAY_TASK_COUNT, or from JOB_COMPLETION_INDEX and --shards, when set.
+    #[arg(long, value_name = "K/N", requires = "summary_out")]
+    pub shard: Option<String>,
+    /// Number of shards N of a Kubernetes Indexed Job (its completions): this shard is
+    /// JOB_COMPLETION_INDEX of N.
+    #[arg(
+        long,
+        value_name = "N",
+        requires = "summary_out",
+        conflicts_with = "shard"
+    )]
+    pub shards: Option<u64>,
+    /// Write the shard's cells (JSON) for `gpu-amcs merge`, which writes the map's reports.
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["json", "csv", "svg", "html"])]
+    pub summary_out: Option<PathBuf>,
 }
 
 /// A map error with the flag that sets its field.
@@ -196,6 +218,70 @@ impl MapArgs {
     }
 }
 
+/// Declares the report outputs of a map with `layers` layers: `--json`, `--csv`, `--svg`, `--html`.
+pub fn declare_reports(
+    outputs: &mut Outputs,
+    (json, csv, svg): (Option<&Path>, Option<&Path>, Option<&Path>),
+    html: &HtmlArgs,
+    layers: usize,
+) -> Result<()> {
+    outputs.file("--json", json)?;
+    outputs.dir("--csv", csv, &[report::CSV_NAME])?;
+    // The heat maps' names depend on the layer count; the lists live for the whole run.
+    let leak = |v: Vec<String>| -> &'static [&'static str] {
+        Box::leak(
+            v.into_iter()
+                .map(|s| &*Box::leak(s.into_boxed_str()))
+                .collect::<Vec<_>>()
+                .into_boxed_slice(),
+        )
+    };
+    outputs.dir("--svg", svg, leak(report::svg_names(layers)))?;
+    html.declare(outputs, leak(report::html_names(layers)))
+}
+
+/// Writes the reports of `result` to the declared outputs (`rows` go to the HTML page's
+/// settings) and, unless `quiet`, the summary to stdout.
+pub fn write_reports(
+    mut outputs: Outputs,
+    result: &MapResult,
+    rows: &[(String, String)],
+    quiet: bool,
+) -> Result<()> {
+    outputs.stage_file("--json", report::render_json(result))?;
+    outputs.stage_dir(
+        "--csv",
+        vec![(report::CSV_NAME.to_string(), report::render_csv(result))],
+    )?;
+    outputs.stage_dir("--svg", report::render_svgs(result))?;
+    if outputs.has(super::html::FLAG) {
+        outputs.stage_dir(super::html::FLAG, report::html_files(result, rows))?;
+    }
+    outputs.commit()?;
+    if !quiet {
+        print!("{}", report::render_text(result));
+    }
+    Ok(())
+}
+
+/// The fewest shards `n ≥ 2` of `cells` cells that each fit (`fits` of at most ⌈cells/n⌉
+/// evaluated cells), if any does.
+fn fewest_shards(cells: usize, fits: impl Fn(usize) -> bool) -> Option<usize> {
+    if cells < 2 || !fits(1) {
+        return None;
+    }
+    let (mut lo, mut hi) = (2, cells);
+    while lo < hi {
+        let mid = lo + (hi - lo) / 2;
+        if fits(cells.div_ceil(mid)) {
+            hi = mid;
+        } else {
+            lo = mid + 1;
+        }
+    }
+    Some(lo)
+}
+
 impl Run for MapArgs {
     fn run(self) -> Result<()> {
         let a = self;
@@ -204,88 +290,182 @@ impl Run for MapArgs {
         let spec = a.spec(&model)?;
         spec.check(&model).map_err(with_flag)?;
         let (_, n, _) = spec.layout();
-        let mut outputs = Outputs::new(a.model.model.as_deref().map(|p| ("--model", p)));
-        outputs.file("--json", a.json.as_deref())?;
-        outputs.dir("--csv", a.csv.as_deref(), &[report::CSV_NAME])?;
-        // The heat maps' names depend on the layer count; the lists live for the whole run.
-        let leak = |v: Vec<String>| -> &'static [&'static str] {
-            Box::leak(
-                v.into_iter()
-                    .map(|s| &*Box::leak(s.into_boxed_str()))
-                    .collect::<Vec<_>>()
-                    .into_boxed_slice(),
-            )
+        let shard = match &a.summary_out {
+            Some(_) => Some(Shard::from_flags_or_env(
+                a.shard.as_deref(),
+                a.shards,
+                |v| std::env::var(v).ok(),
+            )?),
+            None => None,
         };
-        outputs.dir("--svg", a.svg.as_deref(), leak(report::svg_names(n[2])))?;
-        a.html
-            .declare(&mut outputs, leak(report::html_names(n[2])))?;
+        let mut outputs = Outputs::new(a.model.model.as_deref().map(|p| ("--model", p)));
+        match &a.summary_out {
+            Some(out) => outputs.file("--summary-out", Some(out))?,
+            None => declare_reports(
+                &mut outputs,
+                (a.json.as_deref(), a.csv.as_deref(), a.svg.as_deref()),
+                &a.html,
+                n[2],
+            )?,
+        }
+        // A shard evaluates at most ⌈cells/N⌉ cells (its share of the reached ones).
         let cells = spec.n_cells();
-        let batch = map::batch_size(cells, a.draws);
-        a.memory
-            .check(&map::memory_estimate(cells, a.draws, batch))
-            .context("--draws, --cells")?;
+        let evaluated = cells.div_ceil(shard.map_or(1, |s| s.n.min(cells as u64) as usize));
+        let estimate = |evaluated: usize| {
+            let batch = map::batch_size(evaluated, a.draws);
+            map::memory_estimate(cells, evaluated, a.draws, batch)
+        };
+        let budget = a.memory.budget()?;
+        let mut needed = estimate(evaluated);
+        if budget.check(&needed).is_err() && shard.is_none() {
+            if let Some(k) = fewest_shards(cells, |e| budget.check(&estimate(e)).is_ok()) {
+                needed.advice = format!(
+                    "split it into {k} or more shards (--shard K/{k} --summary-out FILE, then \
+                     gpu-amcs merge), or {}",
+                    needed.advice
+                );
+            }
+        }
+        budget.check(&needed).context("--draws, --cells")?;
         a.backend.choice()?;
         let pool = thread_pool(a.threads)?;
-        let result = pool.install(|| -> Result<MapResult> {
-            let t0 = std::time::Instant::now();
-            let solutions = spec.solve(&model).map_err(with_flag)?;
-            let ik_seconds = t0.elapsed().as_secs_f64();
-            let points = map::test_points(&solutions);
-            let problem = Problem::new(model.clone(), &points, &Reference::Calibrated, a.seed)
-                .context("reached configurations")?;
-            let (mut ev, notes) = a.backend.evaluator(problem)?;
+        if let (Some(shard), Some(out)) = (shard, &a.summary_out) {
+            let s = pool.install(|| run_shard(&a, &model, &spec, shard))?;
+            outputs.stage_file("--summary-out", s.to_json())?;
+            outputs.commit()?;
             if !a.quiet {
-                for n in &notes {
-                    eprintln!("note: {n}");
-                }
+                println!(
+                    "map shard {}/{}: reached cells [{}, {}) of {} evaluated at {} draws; \
+                     written to {}",
+                    shard.k,
+                    shard.n,
+                    s.first,
+                    s.end,
+                    s.provenance.points,
+                    a.draws,
+                    out.display()
+                );
             }
-            let bar = Progress::new(a.quiet, "map", "draws");
-            let t1 = std::time::Instant::now();
-            let eval = map::evaluate(
-                ev.as_mut(),
-                a.draws,
-                map::batch_size(points.len(), a.draws),
-                &a.thresholds,
-                Some(&|done, total| bar.update(done, total)),
-            );
-            bar.finish();
-            let eval = eval.map_err(with_flag)?;
-            let timings = Timings {
-                ik_seconds,
-                eval_seconds: t1.elapsed().as_secs_f64(),
-            };
+            return Ok(());
+        }
+        let result = pool.install(|| -> Result<MapResult> {
+            let run = solve_and_evaluate(&a, &model, &spec, Shard::WHOLE)?;
+            let eval = Evaluation::new(run.errors.cells, run.errors.w, &a.thresholds);
             Ok(MapResult::new(
                 &model.name,
                 &spec,
                 a.seed,
-                solutions,
+                run.solutions,
                 eval,
-                ev.info(),
-                timings,
+                run.backend,
+                run.timings,
             ))
         })?;
-        outputs.stage_file("--json", report::render_json(&result))?;
-        outputs.stage_dir(
-            "--csv",
-            vec![(report::CSV_NAME.to_string(), report::render_csv(&result))],
-        )?;
-        outputs.stage_dir("--svg", report::render_svgs(&result))?;
-        if outputs.has(super::html::FLAG) {
-            let source = match &a.model.model {
-                Some(p) => format!("model file {}", p.display()),
-                None => format!("built-in preset {}", a.model.preset),
-            };
-            let threads = a.threads.map_or("all cores".to_string(), |t| t.to_string());
-            let rows = [
-                ("model source".to_string(), source),
-                ("CPU threads".to_string(), threads),
-            ];
-            outputs.stage_dir(super::html::FLAG, report::html_files(&result, &rows))?;
-        }
-        outputs.commit()?;
-        if !a.quiet {
-            print!("{}", report::render_text(&result));
-        }
-        Ok(())
+        let source = match &a.model.model {
+            Some(p) => format!("model file {}", p.display()),
+            None => format!("built-in preset {}", a.model.preset),
+        };
+        let threads = a.threads.map_or("all cores".to_string(), |t| t.to_string());
+        let rows = [
+            ("model source".to_string(), source),
+            ("CPU threads".to_string(), threads),
+        ];
+        write_reports(outputs, &result, &rows, a.quiet)
     }
+}
+
+/// What one process computes of a map: the inverse kinematics of the whole grid, then the
+/// evaluation of shard `shard` of the reached cells (all of them for [`Shard::WHOLE`]) at every
+/// draw.
+struct Evaluated {
+    /// Every cell's configuration, `None` where unreachable.
+    solutions: Vec<Option<CellIk>>,
+    /// The evaluated part of the reached cells.
+    range: (usize, usize),
+    /// Their statistics and w over them.
+    errors: CellErrors,
+    /// The evaluator.
+    backend: BackendInfo,
+    /// The two stages' wall-clock seconds.
+    timings: Timings,
+}
+
+fn solve_and_evaluate(
+    a: &MapArgs,
+    model: &RobotModel,
+    spec: &MapSpec,
+    shard: Shard,
+) -> Result<Evaluated> {
+    let t0 = std::time::Instant::now();
+    let solutions = spec.solve(model).map_err(with_flag)?;
+    let ik_seconds = t0.elapsed().as_secs_f64();
+    let points = map::test_points(&solutions);
+    let r = points.len() as u64;
+    if shard.n > r {
+        bail!(
+            "--shard: {} shards of the {r} reached cells leave some empty",
+            shard.n
+        );
+    }
+    let (first, end) = shard.range(r);
+    let (first, end) = (first as usize, end as usize);
+    let problem = Problem::new(
+        model.clone(),
+        &points[first..end],
+        &Reference::Calibrated,
+        a.seed,
+    )
+    .context("reached configurations")?;
+    let (mut ev, notes) = a.backend.evaluator(problem)?;
+    if !a.quiet {
+        for n in &notes {
+            eprintln!("note: {n}");
+        }
+    }
+    let label = if shard == Shard::WHOLE {
+        "map"
+    } else {
+        "map shard"
+    };
+    let bar = Progress::new(a.quiet, label, "draws");
+    let t1 = std::time::Instant::now();
+    let errors = map::evaluate_cells(
+        ev.as_mut(),
+        a.draws,
+        map::batch_size(end - first, a.draws),
+        &a.thresholds,
+        Some(&|done, total| bar.update(done, total)),
+    );
+    bar.finish();
+    Ok(Evaluated {
+        solutions,
+        range: (first, end),
+        errors: errors.map_err(with_flag)?,
+        backend: ev.info(),
+        timings: Timings {
+            ik_seconds,
+            eval_seconds: t1.elapsed().as_secs_f64(),
+        },
+    })
+}
+
+/// Shard `shard` of the map, with the provenance of the problem of all its reached cells.
+fn run_shard(a: &MapArgs, model: &RobotModel, spec: &MapSpec, shard: Shard) -> Result<MapShard> {
+    let e = solve_and_evaluate(a, model, spec, shard)?;
+    let points = map::test_points(&e.solutions);
+    let reference = Reference::Calibrated;
+    let all = Problem::new(model.clone(), &points, &reference, a.seed)
+        .context("reached configurations")?;
+    let provenance = Provenance::new(&all, &reference.label(model), a.draws, 0, a.draws);
+    Ok(MapShard::new(
+        provenance,
+        [shard.k, shard.n],
+        spec,
+        &a.thresholds,
+        &e.solutions,
+        e.range,
+        e.errors,
+        e.backend,
+        e.timings,
+    ))
 }

@@ -1,6 +1,6 @@
 //! `merge`: the report of a run from the summaries of its shards (`mcs --shard K/N
-//! --summary-out FILE`), and the shard run itself: draws `[K·n/N, (K+1)·n/N)` of the one
-//! stream, summarised without keeping the values.
+//! --summary-out FILE`; sensitivity and map shards too), and the shard run itself: draws
+//! `[K·n/N, (K+1)·n/N)` of the one stream, summarised without keeping the values.
 
 use super::analysis::{outputs, write_reports};
 use super::args::{thread_pool, BYTES_PER_POINT};
@@ -12,6 +12,7 @@ use super::{Flags, Run};
 use crate::cli::{HtmlArgs, OutputArgs, ProblemArgs};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
+use gpu_amcs::map::shard::{self as map_shard, MapShard};
 use gpu_amcs::mc::sensitivity::SensitivityOptions;
 use gpu_amcs::mc::summary::{
     self, Provenance, SensitivityShard, Summary, SummaryError, BYTES_PER_BIN,
@@ -27,7 +28,8 @@ const MAX_SUMMARY_BYTES: u64 = 1 << 30;
 /// Merge options.
 #[derive(Args, Debug, Clone)]
 pub struct MergeArgs {
-    /// Summaries written by `mcs --summary-out`, together covering every draw of one run once.
+    /// Summaries written by `mcs --summary-out` (or `sensitivity`, `map`), together covering
+    /// every draw (a map: every reached cell) of one run once.
     #[arg(required = true, value_name = "FILE")]
     pub files: Vec<PathBuf>,
     /// Write the JSON report here.
@@ -53,23 +55,35 @@ impl Run for MergeArgs {
             .iter()
             .map(|f| read_text(f).map(|t| (f.display().to_string(), t)))
             .collect::<Result<Vec<_>>>()?;
-        let sensitivity = match texts.first() {
-            Some((_, t)) => serde_json::from_str::<Kind>(t)
-                .is_ok_and(|k| k.kind.as_deref() == Some(SensitivityShard::KIND)),
-            None => false,
-        };
+        let kind = check_kinds(&texts)?;
+        let files: Vec<String> = texts.iter().map(|(n, _)| n.clone()).collect();
+        let rows = vec![("shard summaries".to_string(), files.join(", "))];
+        let mut outputs = Outputs::new(self.files.iter().map(|f| ("FILE", f.as_path())));
+        if kind.as_deref() == Some(MapShard::KIND) {
+            let named = texts
+                .iter()
+                .map(|(f, t)| Ok((f.clone(), MapShard::from_json(t, f)?)))
+                .collect::<Result<Vec<_>>>()?;
+            let result = map_shard::merge(&named)?;
+            let (_, n, _) = result.spec.layout();
+            let paths = (
+                self.json.as_deref(),
+                self.csv.as_deref(),
+                self.svg.as_deref(),
+            );
+            super::map::declare_reports(&mut outputs, paths, &self.html, n[2])?;
+            return super::map::write_reports(outputs, &result, &rows, self.quiet);
+        }
+        let sensitivity = kind.as_deref() == Some(SensitivityShard::KIND);
         let (csv, svg, pages) = if sensitivity {
             (SENS_CSV, SENS_SVG, html::SENSITIVITY_NAMES)
         } else {
             (CSV_NAMES, SVG_NAMES, html::RUN_NAMES)
         };
-        let mut outputs = Outputs::new(self.files.iter().map(|f| ("FILE", f.as_path())));
         outputs.file("--json", self.json.as_deref())?;
         outputs.dir("--csv", self.csv.as_deref(), csv)?;
         outputs.dir("--svg", self.svg.as_deref(), svg)?;
         self.html.declare(&mut outputs, pages)?;
-        let files: Vec<String> = texts.iter().map(|(n, _)| n.clone()).collect();
-        let rows = vec![("shard summaries".to_string(), files.join(", "))];
         if sensitivity {
             let named = texts
                 .iter()
@@ -92,6 +106,37 @@ impl Run for MergeArgs {
 #[derive(serde::Deserialize)]
 struct Kind {
     kind: Option<String>,
+}
+
+/// What a file of `kind` holds, in words.
+fn kind_words(kind: Option<&str>) -> String {
+    match kind {
+        None => "an mcs summary".to_string(),
+        Some(k) if k == SensitivityShard::KIND => "a sensitivity shard".to_string(),
+        Some(k) if k == MapShard::KIND => "a map shard".to_string(),
+        Some(k) => format!("of kind {k:?}"),
+    }
+}
+
+/// The kind of the first file, after checking that every file that tells its kind is of the
+/// same (a file that is not JSON is refused by its own reader, naming it).
+fn check_kinds(texts: &[(String, String)]) -> Result<Option<String>> {
+    let kinds: Vec<Option<Option<String>>> = texts
+        .iter()
+        .map(|(_, t)| serde_json::from_str::<Kind>(t).ok().map(|k| k.kind))
+        .collect();
+    let first = kinds.first().cloned().flatten().flatten();
+    for ((file, _), kind) in texts.iter().zip(&kinds).skip(1) {
+        if let Some(k) = kind.as_ref().filter(|k| **k != first) {
+            bail!(
+                "{file}: {}, but {} is {}; merge the files of one run",
+                kind_words(k.as_deref()),
+                texts[0].0,
+                kind_words(first.as_deref())
+            );
+        }
+    }
+    Ok(first)
 }
 
 /// Reads one shard file, naming it in every error.

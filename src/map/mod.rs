@@ -11,6 +11,7 @@
 //! `w = max_j e_j` (paper eq. 17). Unreachable cells are kept, marked, and take no part in `w`.
 
 pub mod ik;
+pub mod shard;
 
 use crate::engine::{BackendInfo, EngineError, Evaluator, ProblemError};
 use crate::kinematics::{position, RobotModel, JOINTS};
@@ -18,14 +19,14 @@ use crate::mc::Reliability;
 use crate::memory::Estimate;
 use crate::points::WorkspaceBox;
 use ik::{Ik, IkTarget};
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// Most cells a map may have (a 500 × 500 plane): every cell costs an inverse-kinematics solve
 /// and `draws × 8` bytes of kept errors.
 pub const MAX_CELLS: usize = 250_000;
 
 /// The plane of a slice, named by the two axes it spans.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Plane {
     /// Horizontal plane at a given z.
@@ -48,7 +49,7 @@ impl Plane {
 }
 
 /// Which targets a map covers.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Grid {
     /// A plane slice through the workspace box at `at` mm along the plane's normal, with
@@ -140,7 +141,7 @@ fn setting(field: MapSetting, message: impl Into<String>) -> MapError {
 }
 
 /// What a map asks for (everything but the draws).
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MapSpec {
     /// The grid.
     pub grid: Grid,
@@ -191,7 +192,7 @@ pub fn default_reference_deg(model: &RobotModel) -> [f64; JOINTS] {
 }
 
 /// A cell's target.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CellTarget {
     /// Grid index: (horizontal, vertical, layer) for a plane (layer 0), (x, y, z) for a volume.
     pub index: [usize; 3],
@@ -200,7 +201,7 @@ pub struct CellTarget {
 }
 
 /// The configuration that reaches a cell.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CellIk {
     /// Joint angles, degrees (the test point of the evaluation).
     pub q_deg: [f64; JOINTS],
@@ -448,18 +449,22 @@ impl MapSpec {
 /// Bytes kept per cell besides its errors: target, configuration, statistics.
 pub const BYTES_PER_CELL: u64 = 512;
 
-/// Memory a map evaluation keeps: the errors of every reached cell and draw (8 bytes each, kept
-/// for the exact 95 % quantile), one batch of per-point errors in the driver and as much in the
-/// evaluator, the multi-point w of every draw, and the cells themselves.
-pub fn memory_estimate(cells: usize, draws: u64, batch: u64) -> Estimate {
-    Estimate::new(
-        format!("a map of {cells} cells with {draws} draws"),
-        "use fewer cells or draws, or raise the memory limit",
-    )
-    .plus(&[cells as u64, draws, 8])
-    .plus(&[batch, cells as u64, 2 * 8])
-    .plus(&[draws, 8])
-    .plus(&[cells as u64, BYTES_PER_CELL])
+/// Memory a map evaluation keeps: the errors of every evaluated cell and draw (8 bytes each,
+/// kept for the exact 95 % quantile), one batch of per-point errors in the driver and as much in
+/// the evaluator, the multi-point w of every draw, and the cells of the whole grid. A map split
+/// into shards ([`shard`]) evaluates only a shard's cells in each, so `evaluated` may be fewer
+/// than the grid's `cells`.
+pub fn memory_estimate(cells: usize, evaluated: usize, draws: u64, batch: u64) -> Estimate {
+    let what = if evaluated < cells {
+        format!("a shard of {evaluated} of the {cells} cells of a map with {draws} draws")
+    } else {
+        format!("a map of {cells} cells with {draws} draws")
+    };
+    Estimate::new(what, "use fewer cells or draws, or raise the memory limit")
+        .plus(&[evaluated as u64, draws, 8])
+        .plus(&[batch, evaluated as u64, 2 * 8])
+        .plus(&[draws, 8])
+        .plus(&[cells as u64, BYTES_PER_CELL])
 }
 
 /// Draws evaluated at a time for `cells` reached cells: about 4·10^6 errors (32 MB) a batch.
@@ -468,7 +473,7 @@ pub fn batch_size(cells: usize, draws: u64) -> u64 {
 }
 
 /// The statistics of one reached cell over the draws.
-#[derive(Clone, Debug, PartialEq, Serialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CellStats {
     /// Mean of the point error e_j, mm.
     pub mean_mm: f64,
@@ -516,28 +521,55 @@ fn quantile(v: &mut [f64], p: f64) -> f64 {
     *v.select_nth_unstable_by(k, f64::total_cmp).1
 }
 
-/// Evaluates draws `0 … draws − 1` at every test point of `ev` (the reached cells) in batches of
-/// `batch`, keeping each cell's errors for its statistics; `progress` gets (done, total).
-pub fn evaluate(
+/// The statistics of one set of errors over the draws, in draw order: a cell's `e_j` or the
+/// multi-point `w` (reorders `v`, which must not be empty).
+pub fn statistics(v: &mut [f64], thresholds: &[f64]) -> CellStats {
+    let n = v.len() as u64;
+    let mean_mm = v.iter().sum::<f64>() / n as f64;
+    let reliability = thresholds
+        .iter()
+        .map(|&l| Reliability::from_count(l, v.iter().filter(|&&e| e < l).count() as u64, n))
+        .collect();
+    CellStats {
+        mean_mm,
+        q95_mm: quantile(v, 0.95),
+        reliability,
+    }
+}
+
+/// The evaluated cells' statistics and the multi-point `w = max_j e_j` over them of every draw,
+/// before its statistics: the part of an evaluation a shard of a map keeps ([`shard`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct CellErrors {
+    /// Per evaluated cell, in the order of the evaluator's test points.
+    pub cells: Vec<CellStats>,
+    /// `w` of draws `0 … draws − 1`, mm.
+    pub w: Vec<f64>,
+}
+
+/// Evaluates draws `0 … draws − 1` at every test point of `ev` (the reached cells, or a shard's
+/// part of them) in batches of `batch`, keeping each cell's errors for its statistics;
+/// `progress` gets (done, total).
+pub fn evaluate_cells(
     ev: &mut dyn Evaluator,
     draws: u64,
     batch: u64,
     thresholds: &[f64],
     progress: Option<&(dyn Fn(u64, u64) + Sync)>,
-) -> Result<Evaluation, MapError> {
+) -> Result<CellErrors, MapError> {
     check_run(thresholds, draws)?;
     let m = ev.n_points();
     let n = draws as usize;
     let batch = batch.clamp(1, draws) as usize;
     // Cell-major: errors of cell j are values[j·n .. (j+1)·n], in draw order.
     let mut values = vec![0.0f64; m * n];
-    let mut w_all = vec![0.0f64; n];
+    let mut w = vec![0.0f64; n];
     let mut buf = vec![0.0f64; batch * m];
     let mut first = 0usize;
     while first < n {
         let len = batch.min(n - first);
         let e = &mut buf[..len * m];
-        ev.evaluate(first as u64, &mut w_all[first..first + len], Some(e))?;
+        ev.evaluate(first as u64, &mut w[first..first + len], Some(e))?;
         for (i, row) in e.chunks(m).enumerate() {
             for (j, v) in row.iter().enumerate() {
                 values[j * n + first + i] = *v;
@@ -548,35 +580,40 @@ pub fn evaluate(
             p(first as u64, draws);
         }
     }
-    let stats = |v: &mut [f64]| -> (f64, f64, Vec<Reliability>) {
-        let mean = v.iter().sum::<f64>() / n as f64;
-        let rel = thresholds
-            .iter()
-            .map(|&l| {
-                Reliability::from_count(l, v.iter().filter(|&&e| e < l).count() as u64, draws)
-            })
-            .collect();
-        (mean, quantile(v, 0.95), rel)
-    };
     let cells = values
         .chunks_mut(n)
-        .map(|v| {
-            let (mean_mm, q95_mm, reliability) = stats(v);
-            CellStats {
-                mean_mm,
-                q95_mm,
-                reliability,
-            }
-        })
+        .map(|v| statistics(v, thresholds))
         .collect();
-    let (w_mean_mm, w_q95_mm, multi_point) = stats(&mut w_all);
-    Ok(Evaluation {
-        draws,
-        cells,
-        multi_point,
-        w_mean_mm,
-        w_q95_mm,
-    })
+    Ok(CellErrors { cells, w })
+}
+
+impl Evaluation {
+    /// The evaluation of the reached cells from their statistics and `w` of every draw (one
+    /// run's, or the elementwise maximum of its shards'): the multi-point statistics are those
+    /// of `w` ([`statistics`]).
+    pub fn new(cells: Vec<CellStats>, mut w: Vec<f64>, thresholds: &[f64]) -> Evaluation {
+        let multi = statistics(&mut w, thresholds);
+        Evaluation {
+            draws: w.len() as u64,
+            cells,
+            multi_point: multi.reliability,
+            w_mean_mm: multi.mean_mm,
+            w_q95_mm: multi.q95_mm,
+        }
+    }
+}
+
+/// Evaluates draws `0 … draws − 1` at every test point of `ev` (the reached cells) in batches of
+/// `batch` ([`evaluate_cells`]) and adds the multi-point statistics.
+pub fn evaluate(
+    ev: &mut dyn Evaluator,
+    draws: u64,
+    batch: u64,
+    thresholds: &[f64],
+    progress: Option<&(dyn Fn(u64, u64) + Sync)>,
+) -> Result<Evaluation, MapError> {
+    let e = evaluate_cells(ev, draws, batch, thresholds, progress)?;
+    Ok(Evaluation::new(e.cells, e.w, thresholds))
 }
 
 /// One cell of a finished map.
@@ -626,7 +663,7 @@ pub fn test_points(solutions: &[Option<CellIk>]) -> Vec<[f64; JOINTS]> {
 }
 
 /// Wall-clock seconds of the two stages.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Timings {
     /// Inverse kinematics of every cell.
     pub ik_seconds: f64,

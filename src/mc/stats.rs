@@ -1,7 +1,7 @@
 //! Statistics of Monte Carlo output: moments, coverage intervals (GUM S1 §7.7), reliability with
 //! a binomial confidence interval, the empirical CDF and a histogram (the PDF estimate).
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 /// How the coverage interval is chosen (GUM S1 §7.7).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
@@ -166,7 +166,7 @@ pub fn moment_standard_errors(values_in_draw_order: &[f64], groups: usize) -> [f
 }
 
 /// Reliability `R = Pr[w < l_c]` at one threshold with its 95 % Wilson score interval.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Reliability {
     /// Threshold l_c, mm.
     pub threshold: f64,

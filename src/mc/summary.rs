@@ -83,10 +83,10 @@ impl Provenance {
         Provenance {
             version: env!("CARGO_PKG_VERSION").to_string(),
             model: problem.model.name.clone(),
-            model_hash: format!("{:016x}", mh.0),
+            model_hash: mh.hex(),
             reference: reference.to_string(),
             points: problem.n_points(),
-            points_hash: format!("{:016x}", h.0),
+            points_hash: h.hex(),
             seed: problem.seed,
             draws,
             first,
@@ -95,17 +95,21 @@ impl Provenance {
     }
 }
 
-/// 64-bit FNV-1a.
-struct Fnv(u64);
+/// 64-bit FNV-1a: the fingerprints of a provenance.
+pub(crate) struct Fnv(u64);
 
 impl Fnv {
-    fn new() -> Self {
+    pub(crate) fn new() -> Self {
         Fnv(0xcbf2_9ce4_8422_2325)
     }
-    fn write(&mut self, bytes: &[u8]) {
+    pub(crate) fn write(&mut self, bytes: &[u8]) {
         for b in bytes {
             self.0 = (self.0 ^ u64::from(*b)).wrapping_mul(0x0100_0000_01b3);
         }
+    }
+    /// The hash as 16 hex digits.
+    pub(crate) fn hex(&self) -> String {
+        format!("{:016x}", self.0)
     }
 }
 
@@ -224,12 +228,14 @@ pub enum SummaryError {
         /// Its value in the first file.
         expected: String,
     },
-    /// The draw ranges overlap or leave a gap.
-    #[error("{file}: draws [{first}, {end}) {problem}")]
+    /// The ranges (of draws, or of a map's reached cells) overlap or leave a gap.
+    #[error("{file}: {unit} [{first}, {end}) {problem}")]
     Range {
         /// The file.
         file: String,
-        /// First draw of that file.
+        /// What the range counts: "draws" or "reached cells".
+        unit: &'static str,
+        /// First draw (or cell) of that file.
         first: u64,
         /// End of that file's range.
         end: u64,
@@ -732,25 +738,51 @@ fn in_draw_order<T>(
     provenance: impl Fn(&T) -> &Provenance,
     settings: impl Fn(&T) -> Vec<(&'static str, String)>,
 ) -> Result<Vec<(&str, &T)>, SummaryError> {
+    in_range_order(
+        named,
+        "draws",
+        |s| {
+            let p = provenance(s);
+            (p.first, p.end, p.draws)
+        },
+        |s| {
+            let mut v = provenance_fields(provenance(s));
+            v.extend(settings(s));
+            v
+        },
+    )
+}
+
+/// The fields of a provenance that every part of one run shares, by name (all but the range).
+pub(crate) fn provenance_fields(p: &Provenance) -> Vec<(&'static str, String)> {
+    vec![
+        ("version", p.version.clone()),
+        ("model", p.model.clone()),
+        ("model_hash", p.model_hash.clone()),
+        ("reference", p.reference.clone()),
+        ("points", p.points.to_string()),
+        ("points_hash", p.points_hash.clone()),
+        ("seed", p.seed.to_string()),
+        ("draws", p.draws.to_string()),
+    ]
+}
+
+/// `named` in the order of their ranges, after checking that they are parts of one run:
+/// `fields` agree with the first's, and the ranges (`range` gives first, end and the total, in
+/// `unit`s) tile `[0, total)`.
+pub(crate) fn in_range_order<'a, T>(
+    named: &'a [(String, T)],
+    unit: &'static str,
+    range: impl Fn(&T) -> (u64, u64, u64),
+    fields: impl Fn(&T) -> Vec<(&'static str, String)>,
+) -> Result<Vec<(&'a str, &'a T)>, SummaryError> {
     let mut order: Vec<(&str, &T)> = named.iter().map(|(f, s)| (f.as_str(), s)).collect();
-    order.sort_by_key(|(_, s)| (provenance(s).first, provenance(s).end));
+    order.sort_by_key(|(_, s)| {
+        let (a, b, _) = range(s);
+        (a, b)
+    });
     let Some(&(first_file, first)) = order.first() else {
         return Err(SummaryError::Empty);
-    };
-    let fields = |s: &T| {
-        let p = provenance(s);
-        let mut v = vec![
-            ("version", p.version.clone()),
-            ("model", p.model.clone()),
-            ("model_hash", p.model_hash.clone()),
-            ("reference", p.reference.clone()),
-            ("points", p.points.to_string()),
-            ("points_hash", p.points_hash.clone()),
-            ("seed", p.seed.to_string()),
-            ("draws", p.draws.to_string()),
-        ];
-        v.extend(settings(s));
-        v
     };
     let expected = fields(first);
     let mut covered = 0;
@@ -765,15 +797,16 @@ fn in_draw_order<T>(
                 expected: want.clone(),
             });
         }
-        let (a, b) = (provenance(s).first, provenance(s).end);
+        let (a, b, _) = range(s);
         if a != covered {
             let problem = if a < covered {
-                format!("overlap draws before {covered} of another summary")
+                format!("overlap {unit} before {covered} of another summary")
             } else {
-                format!("leave draws [{covered}, {a}) missing")
+                format!("leave {unit} [{covered}, {a}) missing")
             };
             return Err(SummaryError::Range {
                 file: file.to_string(),
+                unit,
                 first: a,
                 end: b,
                 problem,
@@ -781,14 +814,16 @@ fn in_draw_order<T>(
         }
         covered = b;
     }
-    let draws = provenance(first).draws;
-    if covered != draws {
+    let (_, _, total) = range(first);
+    if covered != total {
         let (file, s) = order[order.len() - 1];
+        let (a, b, _) = range(s);
         return Err(SummaryError::Range {
             file: file.to_string(),
-            first: provenance(s).first,
-            end: provenance(s).end,
-            problem: format!("leave draws [{covered}, {draws}) missing"),
+            unit,
+            first: a,
+            end: b,
+            problem: format!("leave {unit} [{covered}, {total}) missing"),
         });
     }
     Ok(order)
