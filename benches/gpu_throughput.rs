@@ -7,8 +7,8 @@
 //! draws (slow on a software adapter such as lavapipe); `GPU_BENCH_REPS=N` sets the repetitions;
 //! `GPU_BENCH_ADAPTER=NAME` picks an adapter by name substring.
 
-use gpu_amcs::engine::gpu::{self, GpuEvaluator, GpuOptions, GpuTimings};
 use gpu_amcs::engine::{CpuEvaluator, Evaluator, Problem, Reference};
+use gpu_amcs::gpu::{self, GpuEvaluator, GpuOptions, GpuTimings};
 use gpu_amcs::kinematics::tx60;
 use std::time::Instant;
 

@@ -9,8 +9,8 @@
 //! evaluator, `BENCH_REPS` times (default 5), and prints the medians, their ratio and the bytes
 //! each call carries to the evaluator. Both paths evaluate the same rows (checked).
 
-use gpu_amcs::engine::gpu::{GpuEvaluator, GpuOptions};
 use gpu_amcs::engine::{CpuEvaluator, Evaluator, PickFreeze, Problem, Reference};
+use gpu_amcs::gpu::{GpuEvaluator, GpuOptions};
 use gpu_amcs::kinematics::{tx60, N_UNCERTAIN};
 use gpu_amcs::mc::sensitivity::B_DRAW_OFFSET;
 use gpu_amcs::sampling::ALL_NORMALS;

@@ -68,7 +68,7 @@ fn main() {
     // adapter exists) on the GPU backend.
     let exe = env!("CARGO_BIN_EXE_gpu-amcs");
     let mut backends = vec!["cpu"];
-    if !gpu_amcs::engine::list_adapters().is_empty() {
+    if !gpu_amcs::backends().list_adapters().is_empty() {
         backends.push("gpu");
     }
     for backend in backends {

@@ -1,50 +1,41 @@
 //! # gpu-amcs
 //!
-//! How reliably does a calibrated industrial robot hit its targets? gpu-amcs estimates the
-//! probability that the end-effector's position error stays under a threshold at every one of m
-//! test points (the *positioning-accuracy reliability* of Wen et al., after GUM Supplement 1):
-//! the robot's 30 geometric (MDH) parameters are drawn from their calibrated distribution, the
-//! forward kinematics is evaluated at every test point, and the maximum point error
-//! `w = max_j ‖P(μ, q_j) − P_ref,j‖` is summarised by classic or adaptive Monte Carlo.
+//! How reliably does a calibrated industrial robot hit its targets? This facade gathers the
+//! workspace's libraries under one name: everything of [`gpu_amcs_core`] (model, sampling, the
+//! CPU evaluator, the Monte Carlo drivers, identification, import/export, reports) at the top
+//! level, the wgpu evaluator as [`gpu`] when the `gpu` feature (on by default) is enabled, and
+//! [`backends`], the evaluator factory this build has.
 //!
-//! ## Data flow
-//! ```text
-//! model (TOML) ─┐
-//! test points ──┼─▶ engine::Problem ─▶ Evaluator (CPU rayon f64 | GPU WGSL f32) ─▶ w_k
-//! seed ─────────┘        draws are Philox(seed, k): the same on every backend
-//!                                                   │ batches of H
-//!                                                   ▼
-//!                             mc::run_amcs / mc::run_mcs ─▶ McResult ─▶ report::{text,json,csv,svg}
 //! ```
-//!
-//! ## Example
-//! ```
-//! use gpu_amcs::engine::{CpuEvaluator, Problem, Reference};
+//! use gpu_amcs::engine::{BackendChoice, Problem, Reference};
 //! use gpu_amcs::mc::{run_amcs, AmcsOptions};
 //!
 //! let model = gpu_amcs::kinematics::tx60();
 //! let points = gpu_amcs::points::generate(&model, 10, &Default::default(), 1).unwrap();
 //! let problem = Problem::new(model, &points, &Reference::Calibrated, 2025).unwrap();
-//! let result = run_amcs(&mut CpuEvaluator::new(problem), &AmcsOptions::default(), None).unwrap();
+//! let (mut ev, _note) = gpu_amcs::backends()
+//!     .make_evaluator(problem, BackendChoice::Cpu, None)
+//!     .unwrap();
+//! let result = run_amcs(ev.as_mut(), &AmcsOptions::default(), None).unwrap();
 //! assert!(result.converged);
-//! println!("R(0.2 mm) = {:.4}", result.reliability[1].r);
 //! ```
-//!
-//! Lane kernels index several structure-of-arrays buffers with one loop variable, which is what
-//! vectorises, hence the crate-wide `needless_range_loop` allowance.
 #![warn(missing_docs)]
-#![allow(clippy::needless_range_loop)]
 
-pub mod engine;
-pub mod identify;
-pub mod import;
-pub mod input;
-pub mod kinematics;
-pub mod map;
-pub mod mc;
-pub mod memory;
-pub mod points;
-pub mod report;
-pub mod sampling;
-pub mod simulate;
-pub mod study;
+pub use gpu_amcs_core::*;
+
+/// The wgpu evaluator (the `gpu-amcs-gpu` crate).
+#[cfg(feature = "gpu")]
+pub use gpu_amcs_gpu as gpu;
+
+/// The evaluator factory of this build: the CPU and the wgpu evaluator with the `gpu` feature,
+/// the CPU alone without it.
+pub fn backends() -> &'static dyn engine::Backends {
+    #[cfg(feature = "gpu")]
+    {
+        &gpu_amcs_gpu::WgpuBackends
+    }
+    #[cfg(not(feature = "gpu"))]
+    {
+        &engine::CpuOnly
+    }
+}

@@ -1,7 +1,7 @@
 //! Errors as Python exceptions: one line, the Python argument named where the command line
 //! names its flag.
 
-use gpu_amcs::mc::{McError, Setting};
+use gpu_amcs_core::mc::{McError, Setting};
 use pyo3::exceptions::PyValueError;
 use pyo3::PyErr;
 

@@ -12,16 +12,29 @@ mod run;
 
 use pyo3::prelude::*;
 
+/// The evaluator factory of this build: the CPU and the wgpu evaluator with the `gpu` feature
+/// (on by default), the CPU alone without it.
+pub(crate) fn backends() -> &'static dyn gpu_amcs_core::engine::Backends {
+    #[cfg(feature = "gpu")]
+    {
+        &gpu_amcs_gpu::WgpuBackends
+    }
+    #[cfg(not(feature = "gpu"))]
+    {
+        &gpu_amcs_core::engine::CpuOnly
+    }
+}
+
 /// GPU adapters wgpu can see, one line each (name, backend, device type, driver).
 #[pyfunction]
 fn adapters(py: Python<'_>) -> Vec<String> {
-    py.detach(gpu_amcs::engine::list_adapters)
+    py.detach(|| crate::backends().list_adapters())
 }
 
 /// Names of the built-in models (`Model.preset`).
 #[pyfunction]
 fn presets() -> Vec<&'static str> {
-    gpu_amcs::kinematics::PRESETS.to_vec()
+    gpu_amcs_core::kinematics::PRESETS.to_vec()
 }
 
 /// The extension module `gpu_amcs._gpu_amcs`; the package `gpu_amcs` re-exports it.
@@ -29,8 +42,8 @@ fn presets() -> Vec<&'static str> {
 fn _gpu_amcs(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
     // Widths of a parameter row: the 30 MDH parameters, and all 33 inputs (then the tool).
-    m.add("N_PARAMS", gpu_amcs::kinematics::N_PARAMS)?;
-    m.add("N_UNCERTAIN", gpu_amcs::kinematics::N_UNCERTAIN)?;
+    m.add("N_PARAMS", gpu_amcs_core::kinematics::N_PARAMS)?;
+    m.add("N_UNCERTAIN", gpu_amcs_core::kinematics::N_UNCERTAIN)?;
     m.add_class::<model::PyModel>()?;
     m.add_class::<run::RunResult>()?;
     m.add_function(wrap_pyfunction!(run::mcs, m)?)?;

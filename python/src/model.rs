@@ -9,15 +9,13 @@
 
 use crate::arrays;
 use crate::errors::{arg_error, lib_error, value_error};
-use gpu_amcs::engine::{
-    make_evaluator, BackendChoice, Problem, ProblemError, Reference, MAX_ANGLE_OFFSET,
-};
-use gpu_amcs::kinematics::{
+use gpu_amcs_core::engine::{BackendChoice, Problem, ProblemError, Reference, MAX_ANGLE_OFFSET};
+use gpu_amcs_core::kinematics::{
     input_name, input_to_internal, param_kind, preset, RobotModel, Uncertainty, JOINTS, N_PARAMS,
     N_UNCERTAIN,
 };
-use gpu_amcs::memory::{Estimate, MemoryBudget};
-use gpu_amcs::sampling::ParamSampler;
+use gpu_amcs_core::memory::{Estimate, MemoryBudget};
+use gpu_amcs_core::sampling::ParamSampler;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
@@ -263,8 +261,8 @@ impl PyModel {
         tip: Option<String>,
         name: Option<String>,
     ) -> PyResult<Self> {
-        let opts = gpu_amcs::import::ImportOptions { base, tip, name };
-        let imported = gpu_amcs::import::import_file(&path, &opts).map_err(lib_error)?;
+        let opts = gpu_amcs_core::import::ImportOptions { base, tip, name };
+        let imported = gpu_amcs_core::import::import_file(&path, &opts).map_err(lib_error)?;
         Ok(PyModel {
             model: imported.model,
             preset: None,
@@ -418,8 +416,9 @@ impl PyModel {
                 if n == 0 {
                     return Ok((w, e));
                 }
-                let (mut ev, _) =
-                    make_evaluator(problem, choice, None).map_err(|e| format!("backend: {e}"))?;
+                let (mut ev, _) = crate::backends()
+                    .make_evaluator(problem, choice, None)
+                    .map_err(|e| format!("backend: {e}"))?;
                 let mut buf = vec![0.0; ROWS_PER_CALL.min(n) * N_UNCERTAIN];
                 for first in (0..n).step_by(ROWS_PER_CALL) {
                     let rows = ROWS_PER_CALL.min(n - first);

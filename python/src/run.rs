@@ -5,11 +5,12 @@
 use crate::arrays;
 use crate::errors::{arg_error, driver_error, lib_error, value_error};
 use crate::model::{self, PyModel};
-use gpu_amcs::engine::make_evaluator;
-use gpu_amcs::kinematics::{preset, JOINTS};
-use gpu_amcs::mc::{self, AmcsOptions, IntervalKind, McResult, McsOptions, RunSettings, Tolerance};
-use gpu_amcs::points::{self, WorkspaceBox};
-use gpu_amcs::report::{self, RunReport};
+use gpu_amcs_core::kinematics::{preset, JOINTS};
+use gpu_amcs_core::mc::{
+    self, AmcsOptions, IntervalKind, McResult, McsOptions, RunSettings, Tolerance,
+};
+use gpu_amcs_core::points::{self, WorkspaceBox};
+use gpu_amcs_core::report::{self, RunReport};
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 use std::path::PathBuf;
@@ -121,9 +122,9 @@ struct Common<'py> {
 
 /// A built run: the problem's pieces and the evaluator's choice, ready to drive.
 struct Built {
-    problem: gpu_amcs::engine::Problem,
+    problem: gpu_amcs_core::engine::Problem,
     reference: String,
-    choice: gpu_amcs::engine::BackendChoice,
+    choice: gpu_amcs_core::engine::BackendChoice,
     adapter: Option<String>,
     settings: RunSettings,
 }
@@ -150,13 +151,13 @@ impl Common<'_> {
         settings.check().map_err(driver_error)?;
         let choice = model::backend(&self.backend)?;
         let choice = match (choice, &self.adapter) {
-            (gpu_amcs::engine::BackendChoice::Cpu, Some(a)) => {
+            (gpu_amcs_core::engine::BackendChoice::Cpu, Some(a)) => {
                 return Err(value_error(format!(
                 "adapter '{a}' needs backend=\"gpu\" or \"auto\": the CPU backend uses no adapter"
             )))
             }
-            (gpu_amcs::engine::BackendChoice::Auto, Some(_)) => {
-                gpu_amcs::engine::BackendChoice::Gpu
+            (gpu_amcs_core::engine::BackendChoice::Auto, Some(_)) => {
+                gpu_amcs_core::engine::BackendChoice::Gpu
             }
             (c, _) => c,
         };
@@ -239,7 +240,7 @@ impl Built {
         self,
         py: Python<'_>,
         drive: impl FnOnce(
-                &mut dyn gpu_amcs::engine::Evaluator,
+                &mut dyn gpu_amcs_core::engine::Evaluator,
                 RunSettings,
             ) -> Result<McResult, mc::McError>
             + Send,
@@ -251,11 +252,12 @@ impl Built {
         );
         let settings = self.settings;
         // The CLI's notes first: what the report says about the model (an uncertain tool).
-        let model_notes = gpu_amcs::report::model_notes(&self.problem.model);
+        let model_notes = gpu_amcs_core::report::model_notes(&self.problem.model);
         let (choice, adapter, problem) = (self.choice, self.adapter, self.problem);
         let (result, notes) = py.detach(|| -> PyResult<(McResult, Vec<String>)> {
-            let (mut ev, note) =
-                make_evaluator(problem, choice, adapter.as_deref()).map_err(|e| {
+            let (mut ev, note) = crate::backends()
+                .make_evaluator(problem, choice, adapter.as_deref())
+                .map_err(|e| {
                     arg_error(
                         if adapter.is_some() {
                             "adapter"

@@ -4,7 +4,7 @@
 
 use crate::cli::*;
 use anyhow::{bail, Context, Result};
-use gpu_amcs::engine::backend::{make_evaluator, BackendChoice};
+use gpu_amcs::engine::backend::BackendChoice;
 use gpu_amcs::engine::{Evaluator, Problem, ProblemError, Reference};
 use gpu_amcs::kinematics::{preset, RobotModel};
 use gpu_amcs::mc::{IntervalKind, RunSettings};
@@ -122,7 +122,9 @@ impl BackendArgs {
         } else {
             "--backend"
         };
-        let (ev, note) = make_evaluator(problem, choice, adapter).context(flag)?;
+        let (ev, note) = gpu_amcs::backends()
+            .make_evaluator(problem, choice, adapter)
+            .context(flag)?;
         Ok((ev, note.into_iter().collect()))
     }
 }

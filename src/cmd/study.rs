@@ -124,7 +124,7 @@ impl Run for StudyArgs {
             bar.set_message(msg);
         };
         let exp = gpu_amcs::simulate::Experiment::for_robot(model, s.robot_seed);
-        let result = study::run_study_on(&exp, &s, Some(&cb))?;
+        let result = study::run_study_on(&exp, &s, gpu_amcs::backends(), Some(&cb))?;
         bar.finish();
         let files = study::output_files(&result);
         if outputs.has(html::FLAG) {

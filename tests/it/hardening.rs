@@ -1,0 +1,344 @@
+//! Bad requests get one line and exit code 2 before any work, and outputs are all-or-nothing:
+//! oversized runs are refused up front, thread pools that cannot start are named, output paths
+//! are checked before the computation, and a write that fails midway or a termination leaves
+//! neither outputs nor temporary files.
+
+use crate::common;
+
+use common::*;
+use std::time::{Duration, Instant};
+
+const CPU: [&str; 3] = ["-q", "--backend", "cpu"];
+
+fn with_cpu<'a>(args: &[&'a str]) -> Vec<&'a str> {
+    let mut v = args.to_vec();
+    v.extend(CPU);
+    v
+}
+
+#[test]
+fn threads_that_cannot_start_are_named() {
+    fails_naming(&with_cpu(&["--threads", "0"]), "--threads");
+    fails_naming(&with_cpu(&["--threads", "100000"]), "--threads");
+    // 4000 threads reserve about 8 GB of stacks: over a 1 GB address-space limit the pool
+    // cannot start (this holds for root too, unlike a process-count limit).
+    let d = tmpdir("threads");
+    let o = sh(
+        &d,
+        "ulimit -v 1000000 && exec \"$BIN\" -q --backend cpu --points 5 --threads 4000",
+    );
+    assert_fails_naming(&o, "--threads", "--threads 4000 under ulimit -v");
+}
+
+#[test]
+fn oversized_runs_are_refused_before_allocating() {
+    let max = u64::MAX.to_string();
+    for (args, what) in [
+        (vec!["--batch", &max, "--max-draws", &max], "--max-draws"),
+        (
+            vec!["--batch", "4000000000", "--max-draws", "8000000000"],
+            "--max-draws",
+        ),
+        (
+            vec![
+                "mcs",
+                "--points",
+                "50000",
+                "--per-point",
+                "--draws",
+                "100000",
+            ],
+            "--per-point",
+        ),
+        // 10^12 values would not fit, so mcs summarises (bounded memory); under 1 MiB not even
+        // one chunk and the histogram's reserve fit.
+        (
+            vec!["mcs", "--draws", "1000000000000", "--memory-limit", "1M"],
+            "--memory-limit",
+        ),
+        (
+            vec!["--points", "100000", "--memory-limit", "1M"],
+            "--points",
+        ),
+        (vec!["--memory-limit", "lots"], "--memory-limit"),
+    ] {
+        let start = Instant::now();
+        fails_naming(&with_cpu(&args), what);
+        assert!(
+            start.elapsed() < Duration::from_secs(5),
+            "{args:?}: refused only after {:?}",
+            start.elapsed()
+        );
+    }
+    let d = tmpdir("oversized");
+    // The number of points of a points file is known once it is read: checked then.
+    let pts = arg(&d, "p2000.csv");
+    let o = run(&["points", "2000", "-o", &pts]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    fails_leaving_nothing(
+        &d,
+        &with_cpu(&[
+            "mcs",
+            "--per-point",
+            "--points-file",
+            &pts,
+            "--memory-limit",
+            "1G",
+            "--json",
+            &arg(&d, "r.json"),
+        ]),
+        "--per-point",
+    );
+    fails_leaving_nothing(
+        &d,
+        &["points", "4000000000", "-o", &arg(&d, "p.csv")],
+        "points",
+    );
+    fails_leaving_nothing(
+        &d,
+        &["simulate", "--step", "0.000001", "-o", &arg(&d, "s.csv")],
+        "--step",
+    );
+    fails_leaving_nothing(
+        &d,
+        &["simulate", "--runs", "100000000", "-o", &arg(&d, "s.csv")],
+        "--runs",
+    );
+    fails_leaving_nothing(
+        &d,
+        &["calibrate", "--runs", "100000000", "-o", &arg(&d, "m.toml")],
+        "--runs",
+    );
+    fails_leaving_nothing(
+        &d,
+        &["study", "--mcs-draws", "1000000000000", "-o", &arg(&d, "s")],
+        "--mcs-draws",
+    );
+}
+
+/// An output that exists and is not a regular file (a FIFO here, `/dev/null` in use) is written
+/// in place, not replaced by a regular file through a rename.
+#[test]
+fn special_file_outputs_are_written_in_place() {
+    let d = tmpdir("fifo");
+    let o = sh(
+        &d,
+        "mkfifo p && { cat p > got & } && \"$BIN\" points 3 -o p; s=$?; wait; \
+         test -p p && echo fifo-kept; exit $s",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("fifo-kept"), "the FIFO was replaced");
+    let got = std::fs::read_to_string(d.join("got")).unwrap();
+    assert_eq!(got.lines().count(), 4, "{got}");
+}
+
+#[test]
+fn output_paths_are_checked_before_the_computation() {
+    let d = tmpdir("early");
+    std::fs::write(d.join("f"), "a file").unwrap();
+    let ok = arg(&d, "ok.json");
+    let under_file = arg(&d, "f/svgd");
+    let start = Instant::now();
+    fails_leaving_nothing(
+        &d,
+        &with_cpu(&["--json", &ok, "--svg", &under_file]),
+        "--svg",
+    );
+    fails_leaving_nothing(
+        &d,
+        &with_cpu(&["mcs", "--draws", "10000000", "--json", &arg(&d, "f/x.json")]),
+        "--json",
+    );
+    fails_leaving_nothing(&d, &["study", "--quick", "--out", &arg(&d, "f")], "--out");
+    assert!(
+        start.elapsed() < Duration::from_secs(5),
+        "refused only after {:?}",
+        start.elapsed()
+    );
+    let same = arg(&d, "out/same");
+    fails_leaving_nothing(
+        &d,
+        &with_cpu(&["--json", &same, "--csv", &same]),
+        "same file",
+    );
+    let s = arg(&d, "s.csv");
+    fails_leaving_nothing(
+        &d,
+        &["simulate", "--out", &s, "--truth-out", &s],
+        "--truth-out",
+    );
+    let c = arg(&d, "c.md");
+    fails_leaving_nothing(
+        &d,
+        &with_cpu(&["compare", "--json", &c, "--markdown", &c]),
+        "--markdown",
+    );
+    // A JSON report where the CSV directory will write its CDF.
+    fails_leaving_nothing(
+        &d,
+        &with_cpu(&["--json", &arg(&d, "c/cdf.csv"), "--csv", &arg(&d, "c")]),
+        "same file",
+    );
+}
+
+#[test]
+fn inputs_inside_an_output_directory_are_protected() {
+    let d = tmpdir("inside");
+    let p = d.join("out/p");
+    std::fs::create_dir_all(&p).unwrap();
+    let input = p.join("cdf.csv");
+    let o = run(&["points", "5", "-o", input.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let before = std::fs::read_to_string(&input).unwrap();
+    fails_leaving_nothing(
+        &d,
+        &with_cpu(&[
+            "--points-file",
+            input.to_str().unwrap(),
+            "--csv",
+            p.to_str().unwrap(),
+        ]),
+        "--points-file",
+    );
+    assert_eq!(std::fs::read_to_string(&input).unwrap(), before);
+}
+
+#[test]
+fn a_write_failing_midway_leaves_no_output_and_no_temp_file() {
+    // A file size limit of 4 blocks: the JSON and the small CSVs fit, the SVG plots do not.
+    let d = tmpdir("efbig");
+    let o = sh(
+        &d,
+        "ulimit -f 4 && exec \"$BIN\" -q --backend cpu --points 10 \
+         --json r.json --csv csv --svg svg",
+    );
+    assert_fails_naming(&o, "cannot write", "write over ulimit -f");
+    assert_eq!(tree(&d), Vec::<String>::new(), "left behind");
+}
+
+/// A long run says how long up front, and SIGTERM during it leaves no file (exit 128 + 15).
+#[test]
+fn long_runs_say_so_and_termination_leaves_nothing() {
+    use std::io::{BufRead, BufReader};
+    let d = tmpdir("term");
+    // 2·10^6 draws × 5000 points: minutes on any machine, 32 MB of values.
+    let mut child = bin()
+        .args([
+            "mcs",
+            "--backend",
+            "cpu",
+            "--points",
+            "5000",
+            "--draws",
+            "2000000",
+            "--json",
+            &arg(&d, "x.json"),
+            "--csv",
+            &arg(&d, "csv"),
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
+    let first = lines.next().expect("no estimate line").unwrap();
+    assert!(first.contains("estimated ~"), "{first}");
+    let status = signal(&mut child, "TERM");
+    assert_eq!(status.code(), Some(143), "{status:?}");
+    assert_eq!(tree(&d), Vec::<String>::new());
+}
+
+#[test]
+fn flags_that_would_be_ignored_are_errors() {
+    fails_naming(&with_cpu(&["--adapter", "no-such-gpu"]), "--adapter");
+    fails_naming(
+        &["-q", "--backend", "auto", "--adapter", "no-such-gpu"],
+        "--adapter",
+    );
+    fails_naming(
+        &with_cpu(&["--nominal", "/nonexistent/nominal.toml"]),
+        "--reference nominal",
+    );
+}
+
+#[test]
+fn messages_name_the_right_flag_and_number() {
+    fails_naming(&with_cpu(&["compare", "--deltas=-1"]), "--deltas");
+    let o = run(&with_cpu(&["--coverage", "0.9999"]));
+    assert_fails_naming(&o, "--batch", "--coverage 0.9999");
+    assert!(stderr(&o).contains("= 1000000 "), "{}", stderr(&o));
+    fails_naming(&with_cpu(&["--coverage", "abc"]), "--coverage");
+    fails_naming(&["validate"], "--model");
+    let help = stdout(&run(&["--help"]));
+    // The box's default comes from the robot's reach; the help shows the TX60's.
+    for default in ["250,0,200 for the TX60]", "900,1200,800 for the TX60]"] {
+        assert!(help.contains(default), "help lacks {default}");
+    }
+    // What the help shows as the default is accepted as written.
+    let o = run(&["points", "2", "--box-center", "250,0,200"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// A cause the message already holds is printed once.
+#[test]
+fn causes_are_not_repeated() {
+    for args in [
+        vec!["--model", "/nonexistent/m.toml"],
+        vec!["identify", "/nonexistent/s.csv"],
+        vec!["fk", "--points-file", "/nonexistent/p.csv"],
+        vec!["simulate", "--truth", "/nonexistent/t.toml"],
+    ] {
+        let o = run(&args);
+        assert_fails_naming(&o, "/nonexistent/", &format!("{args:?}"));
+        let e = stderr(&o);
+        assert_eq!(e.matches("os error").count(), 1, "{args:?}: {e}");
+    }
+}
+
+/// A study stopped before it finishes leaves no output directory (its files are written at the
+/// end, all or none).
+#[test]
+fn interrupted_study_leaves_nothing() {
+    let d = tmpdir("study-int");
+    let mut child = bin()
+        .args([
+            "study",
+            "--quick",
+            "--quiet",
+            "--backend",
+            "cpu",
+            "--out",
+            &arg(&d, "s"),
+        ])
+        .spawn()
+        .unwrap();
+    std::thread::sleep(Duration::from_millis(1500));
+    let status = signal(&mut child, "INT");
+    assert_eq!(status.code(), Some(130), "{status:?}");
+    assert_eq!(tree(&d), Vec::<String>::new());
+}
+
+/// A reader that stops early (`| head -1`) ends the run quietly, as with any command-line tool:
+/// no panic message, and the files the run wrote before printing are complete.
+#[test]
+fn a_closed_stdout_is_not_a_panic() {
+    let d = tmpdir("sigpipe");
+    let o = sh(
+        &d,
+        "\"$BIN\" calibrate --runs 3 -o cal.toml | head -1 >/dev/null; \
+         \"$BIN\" simulate --runs 2 -o s.csv 2>/dev/null; \
+         \"$BIN\" identify s.csv -o id.toml --verbose | head -1 >/dev/null; \
+         \"$BIN\" model | head -1 >/dev/null",
+    );
+    let err = stderr(&o);
+    assert!(!err.contains("panicked"), "{err}");
+    assert!(!err.contains("Broken pipe"), "{err}");
+    let written = std::fs::read_to_string(d.join("cal.toml")).unwrap();
+    assert!(gpu_amcs::kinematics::RobotModel::from_toml(&written, "cal.toml").is_ok());
+    let written = std::fs::read_to_string(d.join("id.toml")).unwrap();
+    assert!(gpu_amcs::kinematics::RobotModel::from_toml(&written, "id.toml").is_ok());
+    assert_eq!(
+        tree(&d),
+        vec!["cal.toml".to_string(), "id.toml".into(), "s.csv".into()]
+    );
+}

@@ -1,0 +1,24 @@
+//! The integration tests: one test binary (one link of the workspace's crates instead of one per
+//! file), one module per area. Modules that drive the wgpu evaluator directly need the `gpu`
+//! feature (on by default).
+#![allow(clippy::needless_range_loop)]
+
+mod common;
+
+mod amcs_vs_mcs;
+mod cli;
+mod fuzz;
+#[cfg(feature = "gpu")]
+mod gpu;
+mod hardening;
+mod html;
+mod identify;
+mod import;
+mod inputs;
+mod map;
+mod map_shards;
+mod mc_known_answers;
+mod sensitivity;
+mod study;
+mod summary;
+mod tail;
