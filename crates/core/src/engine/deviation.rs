@@ -1,6 +1,6 @@
 //! The f32 deviation form: the constants an f32 evaluator needs so that it only ever handles
 //! small quantities (`docs/METHOD.md §7`). Used by the WGSL
-//! evaluator ([`super::gpu`]); a SIMD-f32 CPU or a CUDA evaluator would upload the same words.
+//! evaluator (the `gpu-amcs-gpu` crate); a SIMD-f32 CPU or a CUDA evaluator would upload the same words.
 //!
 //! # Formulation (why f32 is enough)
 //!
