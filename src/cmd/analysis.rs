@@ -114,7 +114,7 @@ pub fn write_reports(
     outputs.stage_dir("--csv", report::csv::files(rep))?;
     outputs.stage_dir("--svg", report::svg::run_plots(rep))?;
     if outputs.has(html::FLAG) {
-        outputs.stage_dir(html::FLAG, report::html::pages::run_files(rep, rows))?;
+        outputs.stage_dir(html::FLAG, gpu_amcs::report::Report::html(rep, rows))?;
     }
     outputs.commit()?;
     if !quiet {

@@ -135,7 +135,7 @@ impl Run for CompareArgs {
         outputs.stage_file("--json", report::json::render_comparison(&c))?;
         outputs.stage_file("--markdown", report::markdown::render_comparison(&c))?;
         if outputs.has(html::FLAG) {
-            outputs.stage_dir(html::FLAG, report::html::pages::comparison_files(&c, &rows))?;
+            outputs.stage_dir(html::FLAG, gpu_amcs::report::Report::html(&c, &rows))?;
         }
         outputs.commit()?;
         print!("{}", report::text::render_comparison(&c));

@@ -237,7 +237,7 @@ pub fn declare_reports(
         )
     };
     outputs.dir("--svg", svg, leak(report::svg_names(layers)))?;
-    html.declare(outputs, leak(report::html_names(layers)))
+    html.declare(outputs, leak(MapResult::planned_layout(layers).html()))
 }
 
 /// Writes the reports of `result` to the declared outputs (`rows` go to the HTML page's
@@ -255,7 +255,10 @@ pub fn write_reports(
     )?;
     outputs.stage_dir("--svg", report::render_svgs(result))?;
     if outputs.has(super::html::FLAG) {
-        outputs.stage_dir(super::html::FLAG, report::html_files(result, rows))?;
+        outputs.stage_dir(
+            super::html::FLAG,
+            gpu_amcs::report::Report::html(result, rows),
+        )?;
     }
     outputs.commit()?;
     if !quiet {

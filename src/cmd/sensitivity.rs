@@ -153,10 +153,7 @@ pub fn write_reports(
     )?;
     outputs.stage_dir("--svg", report::render_svg(result))?;
     if outputs.has(html::FLAG) {
-        outputs.stage_dir(
-            html::FLAG,
-            gpu_amcs::report::html::pages::sensitivity_files(result, rows),
-        )?;
+        outputs.stage_dir(html::FLAG, gpu_amcs::report::Report::html(result, rows))?;
     }
     outputs.commit()?;
     if !quiet {

@@ -128,8 +128,8 @@ impl Run for StudyArgs {
         bar.finish();
         let files = study::output_files(&result);
         if outputs.has(html::FLAG) {
-            let page = gpu_amcs::report::html::pages::study_page(&result, &files);
-            let index = (gpu_amcs::report::html::pages::INDEX.to_string(), page);
+            let page = gpu_amcs::report::Report::page(&result, &[], &files);
+            let index = (gpu_amcs::report::INDEX.to_string(), page);
             let mut html_files = if html_beside_out {
                 Vec::new()
             } else {

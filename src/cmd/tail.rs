@@ -166,10 +166,7 @@ impl Run for TailArgs {
         )?;
         outputs.stage_dir("--svg", report::render_svg(&result))?;
         if outputs.has(html::FLAG) {
-            outputs.stage_dir(
-                html::FLAG,
-                gpu_amcs::report::html::pages::tail_files(&result, &rows),
-            )?;
+            outputs.stage_dir(html::FLAG, gpu_amcs::report::Report::html(&result, &rows))?;
         }
         outputs.commit()?;
         if !a.quiet {

@@ -19,8 +19,8 @@
 //! One algorithm per file: `sweeps` (CSV), `circle` (circle fits), `lm` (the Levenberg–Marquardt
 //! solver of the fits and the refinement), `lines` and `mdh` (axes → parameters), `refine`,
 //! `pipeline` (one run end to end), `quality` (plausibility), `statistics` (over runs),
-//! `validate` (accuracy against measurements), `error`; the terminal renderers are in
-//! [`crate::report::identify`].
+//! `validate` (accuracy against measurements), `error`, `report` (the terminal renderings and
+//! [`IdentifyReports`], the runs as a [`Report`](crate::report::Report)).
 //!
 //! Held-out RMS error on simulated TX60s (perturbed by 0.3 mm / 0.03°, tool (30, −20, 80) mm,
 //! σ = 10 µm, 2° steps; `cargo bench --bench identify_range`, 20 robots; nominal model 0.87 mm):
@@ -64,13 +64,11 @@ pub mod mdh;
 mod pipeline;
 mod quality;
 pub mod refine;
+mod report;
 mod statistics;
 pub mod sweeps;
 pub mod validate;
 
-pub use crate::report::identify::{
-    render_identify_report, render_identify_summary, render_validation,
-};
 pub use circle::{fit_circle, AxisPrior, CircleFit, CircleFitError, CircleFitMethod, MIN_ARC_DEG};
 pub use error::IdentifyError;
 pub use lines::{common_normal, CommonNormal, Line, LineRelation};
@@ -83,6 +81,9 @@ pub use pipeline::{
 pub use quality::{
     quality_warnings, IdentifyWarning, QualityLimits, MAX_ANGLE_CHANGE_DEG, MAX_LENGTH_CHANGE_MM,
     MAX_RMS_RESIDUAL_MM,
+};
+pub use report::{
+    render_identify_report, render_identify_summary, render_validation, IdentifyReports,
 };
 pub use statistics::{
     correlated_statistics, parameter_statistics, sample_covariance, COVARIANCE_RIDGE,

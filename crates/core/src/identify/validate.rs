@@ -208,8 +208,8 @@ pub fn validate(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::identify::render_validation;
     use crate::kinematics::tx60;
-    use crate::report::identify::render_validation;
 
     #[test]
     fn round_trip_and_stats() {

@@ -11,6 +11,34 @@ pub const CDF_POINTS: usize = 1001;
 /// Bins of the histogram.
 pub const PDF_BINS: usize = 200;
 
+const CDF: &str = "cdf.csv";
+const PDF: &str = "pdf.csv";
+const RELIABILITY: &str = "reliability.csv";
+const TRACE: &str = "trace.csv";
+const PER_POINT: &str = "per_point.csv";
+
+/// The files of a run, in the order [`files`] writes them: the CDF, the PDF, the reliability at
+/// the thresholds, the AMCS trace (AMCS only) and the single-point reliabilities (when asked for).
+pub const NAMES: [&str; 5] = [CDF, PDF, RELIABILITY, TRACE, PER_POINT];
+
+/// CSV of a header and rows (cells quoted when needed).
+pub fn table(header: &[String], rows: &[Vec<String>]) -> String {
+    let q = |c: &String| {
+        if c.contains([',', '"', '\n']) {
+            format!("\"{}\"", c.replace('"', "\"\""))
+        } else {
+            c.clone()
+        }
+    };
+    let mut s = header.iter().map(q).collect::<Vec<_>>().join(",");
+    s.push('\n');
+    for r in rows {
+        s.push_str(&r.iter().map(q).collect::<Vec<_>>().join(","));
+        s.push('\n');
+    }
+    s
+}
+
 /// `(file name, contents)` for every CSV of a run.
 pub fn files(rep: &RunReport) -> Vec<(String, String)> {
     let r = &rep.result;
@@ -19,12 +47,12 @@ pub fn files(rep: &RunReport) -> Vec<(String, String)> {
     for (x, f) in ecdf_grid(&r.sorted_values, CDF_POINTS) {
         let _ = writeln!(s, "{x:.9},{f:.9}");
     }
-    out.push(("cdf.csv".to_string(), s));
+    out.push((CDF.to_string(), s));
     let mut s = String::from("w_mm,density_per_mm\n");
     for (x, d) in histogram(&r.sorted_values, PDF_BINS) {
         let _ = writeln!(s, "{x:.9},{d:.9}");
     }
-    out.push(("pdf.csv".to_string(), s));
+    out.push((PDF.to_string(), s));
     let mut s = String::from("threshold_mm,reliability,ci_low,ci_high\n");
     for x in &r.reliability {
         let _ = writeln!(
@@ -33,7 +61,7 @@ pub fn files(rep: &RunReport) -> Vec<(String, String)> {
             x.threshold, x.r, x.ci_low, x.ci_high
         );
     }
-    out.push(("reliability.csv".to_string(), s));
+    out.push((RELIABILITY.to_string(), s));
     if !r.trace.is_empty() {
         let mut s = String::from(
             "h,draws,mean,std_uncertainty,low,high,two_s_mean,two_s_u,two_s_low,two_s_high,delta\n",
@@ -62,7 +90,7 @@ pub fn files(rep: &RunReport) -> Vec<(String, String)> {
                 t.delta
             );
         }
-        out.push(("trace.csv".to_string(), s));
+        out.push((TRACE.to_string(), s));
     }
     if let Some(pp) = &r.per_point_reliability {
         let mut s = String::from("point,threshold_mm,reliability,ci_low,ci_high\n");
@@ -79,7 +107,7 @@ pub fn files(rep: &RunReport) -> Vec<(String, String)> {
                 );
             }
         }
-        out.push(("per_point.csv".to_string(), s));
+        out.push((PER_POINT.to_string(), s));
     }
     out
 }

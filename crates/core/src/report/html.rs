@@ -8,7 +8,8 @@
 //! `<desc>`, and every table has column headers (with the units in them).
 //!
 //! [`Page`] is the builder any report uses (a heat map is just one more [`Figure`]); [`pages`]
-//! holds the pages of the run, comparison, study, sensitivity and tail reports.
+//! holds what the pages share, [`run`], [`comparison`], [`sensitivity`] and [`tail`] the pages of
+//! those reports (the map's, the study's and the identification's live with their reports).
 //!
 //! ```
 //! use gpu_amcs_core::report::html::{Figure, Page, Table};
@@ -22,7 +23,11 @@
 //! assert!(html.contains("<th scope=\"col\">l_c (mm)</th>") && !html.contains("<script"));
 //! ```
 
+pub mod comparison;
 pub mod pages;
+pub mod run;
+pub mod sensitivity;
+pub mod tail;
 
 use crate::engine::BackendInfo;
 use std::fmt::Write as _;

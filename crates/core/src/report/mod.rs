@@ -3,19 +3,28 @@
 //! reliability curve, the convergence of the four fluctuation indices), and one self-contained
 //! HTML page that holds them all ([`html`]).
 //!
-//! One file per format; every writer goes through [`write_atomic`], so an interrupted or failed
-//! run never leaves a half-written file behind.
+//! Every analysis says once what it writes by implementing [`Report`] ([`outputs`]): a run and a
+//! comparison here ([`run`]), sensitivity indices, tail probabilities and maps in their files
+//! below; the identification and the factor study, which build on this module, in theirs
+//! (`identify::IdentifyReports`, `study::StudyResult`). This module depends on the result types
+//! of `mc`, `engine`, `map` and `kinematics` only; nothing it uses depends on it.
+//!
+//! One file per format; [`write_atomic`] writes a file so that an interrupted or failed run never
+//! leaves a half-written file behind.
 
 pub mod csv;
 pub mod html;
-pub mod identify;
 pub mod json;
 pub mod map;
 pub mod markdown;
+pub mod outputs;
+pub mod run;
 pub mod sensitivity;
 pub mod svg;
 pub mod tail;
 pub mod text;
+
+pub use outputs::{Layout, Report, INDEX};
 
 use crate::kinematics::{RobotModel, N_PARAMS, N_UNCERTAIN};
 use crate::mc::McResult;
@@ -74,6 +83,11 @@ pub enum ReportError {
 }
 
 /// Writes `contents` to `path` through a temporary file in the same directory and a rename.
+///
+/// # Errors
+///
+/// [`ReportError::Io`] when the temporary file cannot be written or renamed (no such directory,
+/// no permission, disk full); the temporary file is removed.
 pub fn write_atomic(path: &Path, contents: &str) -> Result<(), ReportError> {
     let err = |source| ReportError::Io {
         path: path.display().to_string(),
@@ -98,6 +112,11 @@ pub fn write_atomic(path: &Path, contents: &str) -> Result<(), ReportError> {
 }
 
 /// Creates `dir` (and parents) and writes each `(file name, contents)` into it atomically.
+///
+/// # Errors
+///
+/// [`ReportError::Io`] when `dir` cannot be created or a file cannot be written
+/// ([`write_atomic`]); the files written before stay.
 pub fn write_files(dir: &Path, files: &[(String, String)]) -> Result<(), ReportError> {
     std::fs::create_dir_all(dir).map_err(|source| ReportError::Io {
         path: dir.display().to_string(),

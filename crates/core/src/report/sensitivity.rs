@@ -1,8 +1,53 @@
 //! Reports of a Sobol sensitivity analysis ([`SensitivityResult`]): a ranked table for the
-//! terminal, the indices as CSV, and JSON (the result's own serde form).
+//! terminal, the indices as CSV, JSON (the result's own serde form) and bar charts; with the
+//! page ([`super::html::sensitivity`]) the result is a [`Report`].
 
+use super::html::sensitivity::sensitivity_page;
+use super::{Layout, Report};
 use crate::mc::sensitivity::{Estimate, Quantity, QuantityIndices, SensitivityResult, SobolIndex};
 use std::fmt::Write;
+
+/// The JSON document in a report directory.
+const JSON: &str = "sensitivity.json";
+/// The indices as CSV.
+const CSV: &str = "indices.csv";
+/// The bar chart of the parameters.
+const INDICES_SVG: &str = "indices.svg";
+/// The bar chart of the groups.
+pub(crate) const GROUPS_SVG: &str = "groups.svg";
+
+impl SensitivityResult {
+    /// The files of a sensitivity report, before it runs.
+    pub fn planned_layout() -> Layout {
+        Layout::new(JSON, &[CSV], &[INDICES_SVG, GROUPS_SVG], &[])
+    }
+}
+
+impl Report for SensitivityResult {
+    fn layout(&self) -> Layout {
+        Self::planned_layout()
+    }
+
+    fn text(&self) -> String {
+        render_text(self)
+    }
+
+    fn json(&self) -> String {
+        render_json(self)
+    }
+
+    fn csv(&self) -> Vec<(String, String)> {
+        vec![(CSV.to_string(), render_csv(self))]
+    }
+
+    fn svg(&self) -> Vec<(String, String)> {
+        render_svg(self)
+    }
+
+    fn page(&self, settings: &[(String, String)], files: &[(String, String)]) -> String {
+        sensitivity_page(self, settings, files).render()
+    }
+}
 
 /// `0.123 [0.101, 0.145]`, or the value alone when the bootstrap gave no interval.
 fn with_ci(e: &Estimate) -> String {
@@ -355,7 +400,7 @@ pub fn render_svg(r: &SensitivityResult) -> Vec<(String, String)> {
     let tail = format!("{}, {} points, N = {}", r.model, r.points, r.analysis.draws);
     vec![
         (
-            "indices.svg".to_string(),
+            INDICES_SVG.to_string(),
             bar_chart(
                 &format!("Sobol indices of {what} per parameter — {tail}"),
                 "parameter",
@@ -364,7 +409,7 @@ pub fn render_svg(r: &SensitivityResult) -> Vec<(String, String)> {
             ),
         ),
         (
-            "groups.svg".to_string(),
+            GROUPS_SVG.to_string(),
             bar_chart(
                 &format!("Sobol indices of {what} per group — {tail}"),
                 "group",

@@ -293,6 +293,19 @@ impl LinePlot {
     }
 }
 
+/// The PDF of w.
+pub(crate) const PDF_SVG: &str = "pdf.svg";
+/// The reliability curve.
+pub(crate) const RELIABILITY_SVG: &str = "reliability.svg";
+/// The AMCS convergence.
+const CONVERGENCE_SVG: &str = "convergence.svg";
+
+/// The plots of a run, in the order [`run_plots`] draws them (convergence for AMCS only).
+pub const RUN_PLOTS: [&str; 3] = [PDF_SVG, RELIABILITY_SVG, CONVERGENCE_SVG];
+
+/// The plots of a comparison: PDF and reliability of MCS and each AMCS run, overlaid.
+pub const COMPARISON_PLOTS: [&str; 2] = [PDF_SVG, RELIABILITY_SVG];
+
 /// PDF, reliability curve and (AMCS) convergence plots of one run: `(file name, svg)`.
 pub fn run_plots(rep: &super::RunReport) -> Vec<(String, String)> {
     use crate::mc::stats::{ecdf_grid, histogram};
@@ -300,7 +313,7 @@ pub fn run_plots(rep: &super::RunReport) -> Vec<(String, String)> {
     let label = format!("{} points", rep.points);
     let mut out = vec![
         (
-            "pdf.svg".to_string(),
+            PDF_SVG.to_string(),
             LinePlot {
                 title: format!("PDF of the maximum position error w — {}", rep.model),
                 x_label: "w (mm)".into(),
@@ -315,7 +328,7 @@ pub fn run_plots(rep: &super::RunReport) -> Vec<(String, String)> {
             .render(),
         ),
         (
-            "reliability.svg".to_string(),
+            RELIABILITY_SVG.to_string(),
             LinePlot {
                 title: format!("Positioning accuracy reliability R(l_c) — {}", rep.model),
                 x_label: "threshold l_c (mm)".into(),
@@ -332,7 +345,7 @@ pub fn run_plots(rep: &super::RunReport) -> Vec<(String, String)> {
     ];
     if !r.trace.is_empty() {
         out.push((
-            "convergence.svg".to_string(),
+            CONVERGENCE_SVG.to_string(),
             convergence_plot(&format!("AMCS convergence — {}", rep.model), &r.trace).render(),
         ));
     }

@@ -1,8 +1,51 @@
 //! Reports of a tail-probability run ([`TailResult`]): a table for the terminal, the estimates
-//! as CSV, and JSON (the result's own serde form).
+//! as CSV, JSON (the result's own serde form) and the figure; with the page
+//! ([`super::html::tail`]) the result is a [`Report`].
 
+use super::html::tail::tail_page;
+use super::{Layout, Report};
 use crate::mc::tail::{ChainProposal, TailMethod, TailOutcome, TailResult};
 use std::fmt::Write;
+
+/// The JSON document in a report directory.
+const JSON: &str = "tail.json";
+/// The estimates as CSV.
+const CSV: &str = "tail.csv";
+/// `P_f` against the threshold.
+const SVG: &str = "tail.svg";
+
+impl TailResult {
+    /// The files of a tail report, before it runs.
+    pub fn planned_layout() -> Layout {
+        Layout::new(JSON, &[CSV], &[SVG], &[])
+    }
+}
+
+impl Report for TailResult {
+    fn layout(&self) -> Layout {
+        Self::planned_layout()
+    }
+
+    fn text(&self) -> String {
+        render_text(self)
+    }
+
+    fn json(&self) -> String {
+        render_json(self)
+    }
+
+    fn csv(&self) -> Vec<(String, String)> {
+        vec![(CSV.to_string(), render_csv(self))]
+    }
+
+    fn svg(&self) -> Vec<(String, String)> {
+        render_svg(self)
+    }
+
+    fn page(&self, settings: &[(String, String)], files: &[(String, String)]) -> String {
+        tail_page(self, settings, files).render()
+    }
+}
 
 fn opt(x: Option<f64>, f: impl Fn(f64) -> String) -> String {
     x.map(f).unwrap_or_else(|| "n/a".into())
@@ -381,5 +424,5 @@ pub fn render_svg(r: &TailResult) -> Vec<(String, String)> {
         );
     }
     let _ = writeln!(s, "</svg>");
-    vec![("tail.svg".to_string(), s)]
+    vec![(SVG.to_string(), s)]
 }

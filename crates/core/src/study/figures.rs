@@ -5,9 +5,38 @@
 //! to the baseline).
 
 use super::runner::StudyResult;
-use super::settings::Factor;
+use super::settings::{Factor, StudySettings};
 use super::tables::table2_points;
 use crate::report::svg::{convergence_plot, LinePlot, Series};
+
+/// Fig. 4 of factor `f`: the PDF of w per level.
+fn pdf_name(f: Factor) -> String {
+    format!("fig4_pdf_{}.svg", f.name())
+}
+
+/// Fig. 5 of factor `f`: the reliability curve per level.
+fn reliability_name(f: Factor) -> String {
+    format!("fig5_reliability_{}.svg", f.name())
+}
+
+/// Figs. 6–9 of factor `f` at tolerance `delta`: the AMCS convergence at the baseline level.
+fn convergence_name(f: Factor, delta: f64) -> String {
+    format!("fig6-9_convergence_{}_delta{delta}.svg", f.name())
+}
+
+/// The figures a study with `settings` may draw, before it runs (as [`figures`] names them).
+pub fn names(settings: &StudySettings) -> Vec<String> {
+    let mut out = Vec::new();
+    for f in Factor::ALL {
+        if !settings.factors.contains(&f) {
+            continue;
+        }
+        out.push(pdf_name(f));
+        out.push(reliability_name(f));
+        out.extend(settings.deltas.iter().map(|&d| convergence_name(f, d)));
+    }
+    out
+}
 
 /// All figures: `(file name, svg)`.
 pub fn figures(s: &StudyResult) -> Vec<(String, String)> {
@@ -31,7 +60,7 @@ pub fn figures(s: &StudyResult) -> Vec<(String, String)> {
                 .collect::<Vec<_>>()
         };
         out.push((
-            format!("fig4_pdf_{}.svg", f.name()),
+            pdf_name(f),
             LinePlot {
                 title: format!("PDF of w, {m} points, AMCS-1 — factor: {}", f.name()),
                 x_label: "w (mm)".into(),
@@ -42,7 +71,7 @@ pub fn figures(s: &StudyResult) -> Vec<(String, String)> {
             .render(),
         ));
         out.push((
-            format!("fig5_reliability_{}.svg", f.name()),
+            reliability_name(f),
             LinePlot {
                 title: format!(
                     "Reliability R_c(l_c), {m} points, AMCS-1 — factor: {}",
@@ -63,7 +92,7 @@ pub fn figures(s: &StudyResult) -> Vec<(String, String)> {
             for a in &p.amcs {
                 let d = a.delta.unwrap_or(0.0);
                 out.push((
-                    format!("fig6-9_convergence_{}_delta{d}.svg", f.name()),
+                    convergence_name(f, d),
                     convergence_plot(
                         &format!(
                             "AMCS convergence, δ = {d} mm, {} points — {} {}",

@@ -237,20 +237,7 @@ pub fn markdown((h, rows): &(Vec<String>, Vec<Vec<String>>)) -> String {
 
 /// CSV of a header and rows (cells quoted when needed).
 pub fn csv((h, rows): &(Vec<String>, Vec<Vec<String>>)) -> String {
-    let q = |c: &String| {
-        if c.contains([',', '"', '\n']) {
-            format!("\"{}\"", c.replace('"', "\"\""))
-        } else {
-            c.clone()
-        }
-    };
-    let mut s = h.iter().map(q).collect::<Vec<_>>().join(",");
-    s.push('\n');
-    for r in rows {
-        s.push_str(&r.iter().map(q).collect::<Vec<_>>().join(","));
-        s.push('\n');
-    }
-    s
+    crate::report::csv::table(h, rows)
 }
 
 /// The paper's Table 1 as Markdown.
