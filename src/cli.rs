@@ -1,8 +1,9 @@
 //! Command-line definitions (clap): the top-level parser, the subcommand list and the argument
 //! groups several subcommands share (`ModelArgs`, `BoxArgs`, `BackendArgs`, `MemoryArgs`,
-//! `ProblemArgs`, `OutputArgs`, `HtmlArgs`). Each subcommand's own arguments and its run live in one file
-//! under `cmd/`; turning arguments into library values is in `cmd/args.rs`. `gpu-amcs` with no
-//! subcommand runs AMCS on the built-in TX60.
+//! `ProblemArgs`, `OutputArgs`, `ReportFlags`). Each subcommand's own arguments and its run live
+//! in one file under `cmd/`; turning arguments into library values is in `cmd/args.rs`, writing
+//! the reports in `cmd/reports.rs`, the flag of each library setting in `cmd/flags.rs`.
+//! `gpu-amcs` with no subcommand runs AMCS on the built-in TX60.
 
 use crate::cmd::{self, amcs::AmcsArgs};
 use clap::{Args, Parser, Subcommand, ValueEnum};
@@ -268,7 +269,7 @@ pub struct DeltasArgs {
     pub deltas: Vec<f64>,
 }
 
-/// Reporting options.
+/// Reporting options of a run: its settings and where its reports go.
 #[derive(Args, Debug, Clone)]
 pub struct OutputArgs {
     /// Thresholds l_c (mm) for the reliability R(l_c).
@@ -294,6 +295,16 @@ pub struct OutputArgs {
     /// Also report the single-point reliabilities R_j (paper eq. 14).
     #[arg(long)]
     pub per_point: bool,
+    #[command(flatten)]
+    pub reports: ReportFlags,
+}
+
+/// Where the reports of an analysis go: the one group of report flags every subcommand that
+/// writes reports flattens (`cmd/reports.rs` declares and writes them for any
+/// `gpu_amcs::report::Report`). The help texts are a run's; a subcommand whose reports are
+/// other files gives its own with `#[command(mut_arg(...))]` on its arguments.
+#[derive(Args, Debug, Clone, Default)]
+pub struct ReportFlags {
     /// Write the report as JSON to FILE.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
@@ -303,19 +314,12 @@ pub struct OutputArgs {
     /// Write SVG plots (PDF, reliability curve, convergence) into DIR.
     #[arg(long, value_name = "DIR")]
     pub svg: Option<PathBuf>,
-    #[command(flatten)]
-    pub html: HtmlArgs,
-    /// No progress bar and no table on stdout.
-    #[arg(long, short)]
-    pub quiet: bool,
-}
-
-/// The HTML report (`cmd/html.rs`).
-#[derive(Args, Debug, Clone)]
-pub struct HtmlArgs {
     /// Write a self-contained HTML report into DIR: index.html (summary, tables, figures, model
     /// and settings; no scripts, nothing loaded from elsewhere) and the JSON, CSV and SVG files
     /// it links to.
     #[arg(long, value_name = "DIR")]
     pub html: Option<PathBuf>,
+    /// No progress bar and no table on stdout.
+    #[arg(long, short)]
+    pub quiet: bool,
 }

@@ -1,7 +1,8 @@
 //! `amcs` (and the default run): adaptive Monte Carlo, GUM S1 §7.9.
 
 use super::analysis::{run_and_report, Plan};
-use super::{Flags, Run};
+use super::flags::Driver;
+use super::Run;
 use crate::cli::{OutputArgs, ProblemArgs};
 use anyhow::Result;
 use clap::Args;
@@ -51,7 +52,7 @@ impl AmcsArgs {
 impl Run for AmcsArgs {
     fn run(self) -> Result<()> {
         let opts = self.options();
-        opts.check().map_err(|e| Flags::RUN.error(e))?;
+        opts.check().map_err(|e| Driver::Run.error(e))?;
         let plan = Plan {
             label: "AMCS",
             capped: true,
@@ -61,7 +62,7 @@ impl Run for AmcsArgs {
             advice: "lower --max-draws or --batch, use fewer --points or no --per-point, \
                      or raise --memory-limit",
         };
-        let rep = run_and_report(&self.problem, &self.output, plan, Flags::RUN, |ev, cb| {
+        let rep = run_and_report(&self.problem, &self.output, plan, Driver::Run, |ev, cb| {
             mc::run_amcs(ev, &opts, Some(cb))
         })?;
         if !rep.result.converged {

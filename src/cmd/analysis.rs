@@ -2,10 +2,10 @@
 //! evaluator in a thread pool, run a driver under the progress bar, write the reports.
 
 use super::args::{thread_pool, BYTES_PER_DRAW, BYTES_PER_POINT};
-use super::html;
-use super::outputs::{Outputs, CSV_NAMES, SVG_NAMES};
+use super::flags::Driver;
+use super::outputs::Outputs;
 use super::progress::Progress;
-use super::Flags;
+use super::reports::{problem_rows, write_reports};
 use crate::cli::{OutputArgs, ProblemArgs};
 use anyhow::Result;
 use gpu_amcs::engine::Evaluator;
@@ -16,10 +16,9 @@ use gpu_amcs::report::{self, RunReport};
 /// The outputs of a run, checked.
 pub fn outputs(problem: &ProblemArgs, output: &OutputArgs) -> Result<Outputs> {
     let mut o = Outputs::new(problem.inputs());
-    o.file("--json", output.json.as_deref())?;
-    o.dir("--csv", output.csv.as_deref(), CSV_NAMES)?;
-    o.dir("--svg", output.svg.as_deref(), SVG_NAMES)?;
-    output.html.declare(&mut o, html::RUN_NAMES)?;
+    output
+        .reports
+        .declare(&mut o, &RunReport::planned_layout())?;
     Ok(o)
 }
 
@@ -60,7 +59,7 @@ pub fn run_and_report(
     problem: &ProblemArgs,
     output: &OutputArgs,
     plan: Plan,
-    flags: Flags,
+    driver: Driver,
     drive: impl FnOnce(&mut dyn Evaluator, mc::Progress) -> Result<McResult, McError> + Send,
 ) -> Result<RunReport> {
     problem.check()?;
@@ -80,11 +79,11 @@ pub fn run_and_report(
             built.problem.n_points(),
             built.problem.seed,
         );
-        let rows = html::problem_rows(problem, &built.problem);
+        let rows = problem_rows(problem, &built.problem);
         let model_notes = report::model_notes(&built.problem.model);
         let (mut ev, notes) = problem.backend.evaluator(built.problem)?;
         let notes = [model_notes, notes].concat();
-        let bar = Progress::new(output.quiet, plan.label, "draws");
+        let bar = Progress::new(output.reports.quiet, plan.label, "draws");
         let bar = if plan.capped { bar.capped() } else { bar };
         let result = drive(ev.as_mut(), &|done, total| bar.update(done, total));
         bar.finish();
@@ -94,31 +93,10 @@ pub fn run_and_report(
             reference: built.reference,
             seed,
             notes,
-            result: result.map_err(|e| flags.error(e))?,
+            result: result.map_err(|e| driver.error(e))?,
         };
         Ok((rep, rows))
     })?;
-    write_reports(outputs, &rep, &rows, output.quiet)?;
+    write_reports(outputs, &rep, &output.reports, &rows)?;
     Ok(rep)
-}
-
-/// Stages the JSON, CSV, SVG and HTML reports of a run (`rows`: its model-and-settings rows
-/// for the HTML page), writes them and prints the text report.
-pub fn write_reports(
-    mut outputs: Outputs,
-    rep: &RunReport,
-    rows: &[(String, String)],
-    quiet: bool,
-) -> Result<()> {
-    outputs.stage_file("--json", report::json::render_run(rep))?;
-    outputs.stage_dir("--csv", report::csv::files(rep))?;
-    outputs.stage_dir("--svg", report::svg::run_plots(rep))?;
-    if outputs.has(html::FLAG) {
-        outputs.stage_dir(html::FLAG, gpu_amcs::report::Report::html(rep, rows))?;
-    }
-    outputs.commit()?;
-    if !quiet {
-        print!("{}", report::text::render(rep));
-    }
-    Ok(())
 }

@@ -275,28 +275,6 @@ impl OutputArgs {
     }
 }
 
-/// A simulation or study setting error with the flag that sets it added.
-pub fn simulate_setting(e: gpu_amcs::simulate::SimulateError) -> anyhow::Error {
-    use gpu_amcs::simulate::SimulateError;
-    match e {
-        SimulateError::Setting { field, message } => {
-            let flag = match field {
-                "runs" => "--runs",
-                "range" => "--range",
-                "step" => "--step",
-                "speed" => "--speed",
-                "point counts" => "--points",
-                "MCS draws" => "--mcs-draws",
-                "tolerances" => "--deltas",
-                "factors" => "--factors",
-                _ => return anyhow::anyhow!("{field}: {message}"),
-            };
-            anyhow::anyhow!("{field} ({flag}): {message}")
-        }
-        other => other.into(),
-    }
-}
-
 /// Bytes per simulated sweep point: the point itself, its CSV line as text and while it is
 /// built, and the identification's work on it.
 pub const BYTES_PER_SWEEP_POINT: u64 = 512;
@@ -305,7 +283,7 @@ impl FactorArgs {
     /// The experiment (the virtual robot) and the factor levels, checked.
     pub fn experiment(&self) -> Result<(Experiment, Factors)> {
         let f = self.factors();
-        f.check().map_err(simulate_setting)?;
+        f.check().map_err(super::flags::simulate_error)?;
         let mut nominal = self.model.load()?;
         let exp = match &self.truth {
             None => Experiment::for_robot(nominal, self.robot_seed),

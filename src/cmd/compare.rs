@@ -1,12 +1,13 @@
 //! `compare`: MCS against AMCS at several tolerances, the paper's Table 2 for one model.
 
 use super::args::{thread_pool, BYTES_PER_DRAW};
-use super::html;
+use super::flags::Driver;
 use super::mcs::chunk;
 use super::outputs::Outputs;
 use super::progress::Progress;
-use super::{Flags, Run};
-use crate::cli::{DeltasArgs, HtmlArgs, ProblemArgs};
+use super::reports::{problem_rows, write_reports};
+use super::Run;
+use crate::cli::{DeltasArgs, ProblemArgs, ReportFlags};
 use anyhow::Result;
 use clap::Args;
 use gpu_amcs::mc::{self, AmcsOptions, McsOptions, RunSettings, Tolerance};
@@ -19,6 +20,12 @@ const AMCS_CAP: u64 = 100_000_000;
 
 /// Comparison options.
 #[derive(Args, Debug, Clone)]
+#[command(
+    mut_arg("json", |a| a.help("Write the comparison as JSON to FILE")),
+    mut_arg("csv", |a| a.help("Write comparison.csv (the table) into DIR")),
+    mut_arg("svg", |a| a.help("Write pdf.svg and reliability.svg (MCS and AMCS overlaid) into DIR")),
+    mut_arg("quiet", |a| a.help("No progress bar"))
+)]
 pub struct CompareArgs {
     #[command(flatten)]
     pub problem: ProblemArgs,
@@ -38,30 +45,20 @@ pub struct CompareArgs {
         allow_hyphen_values = true
     )]
     pub coverage: f64,
-    /// Write the comparison as JSON to FILE.
-    #[arg(long, value_name = "FILE")]
-    pub json: Option<PathBuf>,
+    #[command(flatten)]
+    pub reports: ReportFlags,
     /// Write the comparison as a Markdown table to FILE.
     #[arg(long, value_name = "FILE")]
     pub markdown: Option<PathBuf>,
-    #[command(flatten)]
-    pub html: HtmlArgs,
-    /// No progress bar.
-    #[arg(long, short)]
-    pub quiet: bool,
 }
-
-const FLAGS: Flags = Flags {
-    tolerance: "--deltas",
-};
 
 impl Run for CompareArgs {
     fn run(self) -> Result<()> {
         let a = self;
         let mut outputs = Outputs::new(a.problem.inputs());
-        outputs.file("--json", a.json.as_deref())?;
+        a.reports
+            .declare(&mut outputs, &Comparison::planned_layout())?;
         outputs.file("--markdown", a.markdown.as_deref())?;
-        a.html.declare(&mut outputs, html::COMPARE_NAMES)?;
         let base = RunSettings {
             coverage_probability: a.coverage,
             ..RunSettings::default()
@@ -78,7 +75,7 @@ impl Run for CompareArgs {
             })
             .collect();
         for o in &amcs_opts {
-            o.check().map_err(|e| FLAGS.error(e))?;
+            o.check().map_err(|e| Driver::Compare.error(e))?;
         }
         a.problem.check()?;
         // The MCS values are kept while each AMCS run grows up to its cap.
@@ -100,9 +97,9 @@ impl Run for CompareArgs {
                 built.problem.n_points(),
                 built.problem.seed,
             );
-            let rows = html::problem_rows(&a.problem, &built.problem);
+            let rows = problem_rows(&a.problem, &built.problem);
             let (mut ev, _notes) = a.problem.backend.evaluator(built.problem)?;
-            let bar = Progress::new(a.quiet, "MCS", "draws");
+            let bar = Progress::new(a.reports.quiet, "MCS", "draws");
             let cb = |done: u64, total: u64| bar.update(done, total);
             let mcs = mc::run_mcs(
                 ev.as_mut(),
@@ -113,12 +110,13 @@ impl Run for CompareArgs {
                 },
                 Some(&cb),
             )
-            .map_err(|e| FLAGS.error(e))?;
+            .map_err(|e| Driver::Compare.error(e))?;
             let mut amcs = Vec::new();
             for (d, o) in a.deltas.deltas.iter().zip(&amcs_opts) {
                 bar.set_label(format!("AMCS δ={d}"));
                 bar.restart(true);
-                let r = mc::run_amcs(ev.as_mut(), o, Some(&cb)).map_err(|e| FLAGS.error(e))?;
+                let r = mc::run_amcs(ev.as_mut(), o, Some(&cb))
+                    .map_err(|e| Driver::Compare.error(e))?;
                 let mre = report::max_relative_error(&r, &mcs);
                 amcs.push((*d, r, mre));
             }
@@ -132,13 +130,12 @@ impl Run for CompareArgs {
             };
             Ok((c, rows))
         })?;
-        outputs.stage_file("--json", report::json::render_comparison(&c))?;
         outputs.stage_file("--markdown", report::markdown::render_comparison(&c))?;
-        if outputs.has(html::FLAG) {
-            outputs.stage_dir(html::FLAG, gpu_amcs::report::Report::html(&c, &rows))?;
-        }
-        outputs.commit()?;
-        print!("{}", report::text::render_comparison(&c));
-        Ok(())
+        // -q silences the progress bar only: the table is the comparison's result.
+        let print = ReportFlags {
+            quiet: false,
+            ..a.reports.clone()
+        };
+        write_reports(outputs, &c, &print, &rows)
     }
 }

@@ -2,10 +2,14 @@
 
 use super::args::load_model;
 use super::outputs::Outputs;
+use super::reports::stage_reports;
 use super::Run;
+use crate::cli::ReportFlags;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
+use gpu_amcs::identify::IdentifyReports;
 use gpu_amcs::kinematics::RobotModel;
+use gpu_amcs::report::Report;
 use std::path::PathBuf;
 
 /// Circle model of the identification.
@@ -19,6 +23,18 @@ pub enum FitArg {
 
 /// `identify` options.
 #[derive(Args, Debug, Clone)]
+#[command(
+    mut_arg("json", |a| a.help(
+        "Write every run's identification (circle fits, parameters, tool point, warnings) as \
+         JSON to FILE"
+    )),
+    mut_arg("csv", |a| a.help(
+        "Write joints.csv (per run and joint: circle fit and parameters) and runs.csv (per run: \
+         tool point, J1 axis, warnings) into DIR"
+    )),
+    mut_arg("svg", |a| a.help("Write residuals.svg (circle-fit RMS residual per joint) into DIR")),
+    mut_arg("quiet", |a| a.help("Print only warnings and errors"))
+)]
 pub struct IdentifyArgs {
     /// Sweeps CSV: joint,q1..q6,x,y,z (optionally a run column); degrees and mm.
     #[arg(value_name = "SWEEPS.csv")]
@@ -53,9 +69,8 @@ pub struct IdentifyArgs {
     /// Print every run's per-joint fit and parameter tables instead of a summary.
     #[arg(long, short, conflicts_with = "quiet")]
     pub verbose: bool,
-    /// Print only warnings and errors.
-    #[arg(long, short)]
-    pub quiet: bool,
+    #[command(flatten)]
+    pub reports: ReportFlags,
 }
 
 impl Run for IdentifyArgs {
@@ -66,6 +81,8 @@ impl Run for IdentifyArgs {
         inputs.extend(a.nominal.as_deref().map(|n| ("--nominal", n)));
         let mut outputs = Outputs::new(inputs);
         outputs.file("--out", a.out.as_deref())?;
+        a.reports
+            .declare(&mut outputs, &IdentifyReports::planned_layout())?;
         let nominal = load_model(a.nominal.as_deref(), &a.preset).context("--nominal")?;
         let data = identify::read_sweeps(&a.sweeps)?;
         let opts = IdentifyOptions {
@@ -77,18 +94,18 @@ impl Run for IdentifyArgs {
             refine: !a.no_refine,
         };
         let ids = identify::identify(&data, &nominal, &opts)?;
+        let reports = IdentifyReports::new(&nominal.name, &ids);
         // stdout is built first and printed after the model file is written, so a reader that
         // stops early (`| head`) cannot cost the file.
+        let quiet = a.reports.quiet;
         let mut text = String::new();
         if a.verbose {
             for id in &ids {
                 text.push_str(&identify::render_identify_report(&id.report));
                 text.push('\n');
             }
-        } else if !a.quiet {
-            text.push_str(&identify::render_identify_summary(
-                ids.iter().map(|i| &i.report),
-            ));
+        } else if !quiet {
+            text.push_str(&reports.text());
         }
         let warnings = identify_warnings(&ids);
         for w in &warnings {
@@ -101,7 +118,7 @@ impl Run for IdentifyArgs {
             );
         }
         let mut say = |line: String| {
-            if !a.quiet {
+            if !quiet {
                 text.push_str(&line);
                 text.push('\n');
             }
@@ -129,9 +146,19 @@ impl Run for IdentifyArgs {
             stats.context("parameter statistics of the runs")?
         };
         model.name = format!("{} (identified from {})", nominal.name, a.sweeps.display());
+        outputs.stage_file("--out", model.to_toml())?;
+        let yes_no = |b: bool| if b { "yes" } else { "no" }.to_string();
+        let rows = [
+            ("sweeps file".to_string(), a.sweeps.display().to_string()),
+            (
+                "prior towards the nominal geometry".to_string(),
+                yes_no(!a.no_prior),
+            ),
+            ("whole-chain refinement".to_string(), yes_no(!a.no_refine)),
+        ];
+        stage_reports(&mut outputs, &reports, &rows)?;
+        outputs.commit()?;
         if let Some(o) = &a.out {
-            outputs.stage_file("--out", model.to_toml())?;
-            outputs.commit()?;
             say(format!("wrote {}", o.display()));
         }
         print!("{text}");

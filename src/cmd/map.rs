@@ -2,23 +2,24 @@
 //! cell, one per-point evaluation of all reached cells).
 
 use super::args::thread_pool;
+use super::flags::map_error;
 use super::merge::Shard;
 use super::outputs::Outputs;
 use super::progress::Progress;
+use super::reports::{model_source, threads_row, write_reports};
 use super::Run;
-use crate::cli::{BackendArgs, BoxArgs, HtmlArgs, MemoryArgs, ModelArgs};
+use crate::cli::{BackendArgs, BoxArgs, MemoryArgs, ModelArgs, ReportFlags};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use gpu_amcs::engine::{BackendInfo, Problem, Reference};
 use gpu_amcs::kinematics::RobotModel;
 use gpu_amcs::map::shard::MapShard;
 use gpu_amcs::map::{
-    self, default_reference_deg, tool_down_rpy_deg, CellErrors, CellIk, Evaluation, Grid, MapError,
-    MapResult, MapSetting, MapSpec, Plane, Timings,
+    self, default_reference_deg, tool_down_rpy_deg, CellErrors, CellIk, Evaluation, Grid,
+    MapResult, MapSpec, Plane, Timings,
 };
 use gpu_amcs::mc::summary::Provenance;
-use gpu_amcs::report::map as report;
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 /// Plane of a slice.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -33,6 +34,15 @@ pub enum PlaneArg {
 
 /// `map` options.
 #[derive(Args, Debug, Clone)]
+#[command(
+    mut_arg("json", |a| a.help("Write every cell as JSON to FILE")),
+    mut_arg("csv", |a| a.help("Write map.csv (one row per cell) into DIR")),
+    mut_arg("svg", |a| a.help(
+        "Write the heat maps (95 % quantile of e_j and R_j at the first threshold, per plane) \
+         into DIR"
+    )),
+    mut_arg("quiet", |a| a.help("No progress bar and no summary on stdout"))
+)]
 pub struct MapArgs {
     #[command(flatten)]
     pub model: ModelArgs,
@@ -97,21 +107,8 @@ pub struct MapArgs {
     pub threads: Option<usize>,
     #[command(flatten)]
     pub memory: MemoryArgs,
-    /// Write every cell as JSON to FILE.
-    #[arg(long, value_name = "FILE")]
-    pub json: Option<PathBuf>,
-    /// Write map.csv (one row per cell) into DIR.
-    #[arg(long, value_name = "DIR")]
-    pub csv: Option<PathBuf>,
-    /// Write the heat maps (95 % quantile of e_j and R_j at the first threshold, per plane)
-    /// into DIR.
-    #[arg(long, value_name = "DIR")]
-    pub svg: Option<PathBuf>,
     #[command(flatten)]
-    pub html: HtmlArgs,
-    /// No progress bar and no summary on stdout.
-    #[arg(long, short)]
-    pub quiet: bool,
+    pub reports: ReportFlags,
     /// Evaluate only shard K of N (K from 0): reached cells [K·r/N, (K+1)·r/N) of the r the
     /// grid reaches, at every draw (each shard solves the whole grid's inverse kinematics).
     /// Without it, with --summary-out, K and N come from SLURM_ARRAY_TASK_ID and
@@ -130,26 +127,6 @@ pub struct MapArgs {
     /// Write the shard's cells (JSON) for `gpu-amcs merge`, which writes the map's reports.
     #[arg(long, value_name = "FILE", conflicts_with_all = ["json", "csv", "svg", "html"])]
     pub summary_out: Option<PathBuf>,
-}
-
-/// A map error with the flag that sets its field.
-fn with_flag(e: MapError) -> anyhow::Error {
-    match e {
-        MapError::Setting { field, message } => {
-            let flag = match field {
-                MapSetting::Cells => "--cells",
-                MapSetting::PlanePosition => "--at",
-                MapSetting::Workspace => "--box-center/--box-size",
-                MapSetting::Orientation => "--orientation",
-                MapSetting::ReferenceConfiguration => "--reference-q",
-                MapSetting::IkSeeds => "--ik-seeds",
-                MapSetting::Thresholds => "--thresholds",
-                MapSetting::Draws => "--draws",
-            };
-            anyhow::anyhow!("{field} ({flag}): {message}")
-        }
-        other => other.into(),
-    }
 }
 
 /// `v` as `N` numbers, or an error naming `flag` and `what` they are.
@@ -218,55 +195,6 @@ impl MapArgs {
     }
 }
 
-/// Declares the report outputs of a map with `layers` layers: `--json`, `--csv`, `--svg`, `--html`.
-pub fn declare_reports(
-    outputs: &mut Outputs,
-    (json, csv, svg): (Option<&Path>, Option<&Path>, Option<&Path>),
-    html: &HtmlArgs,
-    layers: usize,
-) -> Result<()> {
-    outputs.file("--json", json)?;
-    outputs.dir("--csv", csv, &[report::CSV_NAME])?;
-    // The heat maps' names depend on the layer count; the lists live for the whole run.
-    let leak = |v: Vec<String>| -> &'static [&'static str] {
-        Box::leak(
-            v.into_iter()
-                .map(|s| &*Box::leak(s.into_boxed_str()))
-                .collect::<Vec<_>>()
-                .into_boxed_slice(),
-        )
-    };
-    outputs.dir("--svg", svg, leak(report::svg_names(layers)))?;
-    html.declare(outputs, leak(MapResult::planned_layout(layers).html()))
-}
-
-/// Writes the reports of `result` to the declared outputs (`rows` go to the HTML page's
-/// settings) and, unless `quiet`, the summary to stdout.
-pub fn write_reports(
-    mut outputs: Outputs,
-    result: &MapResult,
-    rows: &[(String, String)],
-    quiet: bool,
-) -> Result<()> {
-    outputs.stage_file("--json", report::render_json(result))?;
-    outputs.stage_dir(
-        "--csv",
-        vec![(report::CSV_NAME.to_string(), report::render_csv(result))],
-    )?;
-    outputs.stage_dir("--svg", report::render_svgs(result))?;
-    if outputs.has(super::html::FLAG) {
-        outputs.stage_dir(
-            super::html::FLAG,
-            gpu_amcs::report::Report::html(result, rows),
-        )?;
-    }
-    outputs.commit()?;
-    if !quiet {
-        print!("{}", report::render_text(result));
-    }
-    Ok(())
-}
-
 /// The fewest shards `n ≥ 2` of `cells` cells that each fit (`fits` of at most ⌈cells/n⌉
 /// evaluated cells), if any does.
 fn fewest_shards(cells: usize, fits: impl Fn(usize) -> bool) -> Option<usize> {
@@ -288,10 +216,10 @@ fn fewest_shards(cells: usize, fits: impl Fn(usize) -> bool) -> Option<usize> {
 impl Run for MapArgs {
     fn run(self) -> Result<()> {
         let a = self;
-        map::check_run(&a.thresholds, a.draws).map_err(with_flag)?;
+        map::check_run(&a.thresholds, a.draws).map_err(map_error)?;
         let model = a.model.load()?;
         let spec = a.spec(&model)?;
-        spec.check(&model).map_err(with_flag)?;
+        spec.check(&model).map_err(map_error)?;
         let (_, n, _) = spec.layout();
         let shard = match &a.summary_out {
             Some(_) => Some(Shard::from_flags_or_env(
@@ -304,12 +232,9 @@ impl Run for MapArgs {
         let mut outputs = Outputs::new(a.model.model.as_deref().map(|p| ("--model", p)));
         match &a.summary_out {
             Some(out) => outputs.file("--summary-out", Some(out))?,
-            None => declare_reports(
-                &mut outputs,
-                (a.json.as_deref(), a.csv.as_deref(), a.svg.as_deref()),
-                &a.html,
-                n[2],
-            )?,
+            None => a
+                .reports
+                .declare(&mut outputs, &MapResult::planned_layout(n[2]))?,
         }
         // A shard evaluates at most ⌈cells/N⌉ cells (its share of the reached ones).
         let cells = spec.n_cells();
@@ -336,7 +261,7 @@ impl Run for MapArgs {
             let s = pool.install(|| run_shard(&a, &model, &spec, shard))?;
             outputs.stage_file("--summary-out", s.to_json())?;
             outputs.commit()?;
-            if !a.quiet {
+            if !a.reports.quiet {
                 println!(
                     "map shard {}/{}: reached cells [{}, {}) of {} evaluated at {} draws; \
                      written to {}",
@@ -364,16 +289,11 @@ impl Run for MapArgs {
                 run.timings,
             ))
         })?;
-        let source = match &a.model.model {
-            Some(p) => format!("model file {}", p.display()),
-            None => format!("built-in preset {}", a.model.preset),
-        };
-        let threads = a.threads.map_or("all cores".to_string(), |t| t.to_string());
         let rows = [
-            ("model source".to_string(), source),
-            ("CPU threads".to_string(), threads),
+            ("model source".to_string(), model_source(&a.model)),
+            threads_row(a.threads),
         ];
-        write_reports(outputs, &result, &rows, a.quiet)
+        write_reports(outputs, &result, &a.reports, &rows)
     }
 }
 
@@ -400,7 +320,7 @@ fn solve_and_evaluate(
     shard: Shard,
 ) -> Result<Evaluated> {
     let t0 = std::time::Instant::now();
-    let solutions = spec.solve(model).map_err(with_flag)?;
+    let solutions = spec.solve(model).map_err(map_error)?;
     let ik_seconds = t0.elapsed().as_secs_f64();
     let points = map::test_points(&solutions);
     let r = points.len() as u64;
@@ -420,7 +340,7 @@ fn solve_and_evaluate(
     )
     .context("reached configurations")?;
     let (mut ev, notes) = a.backend.evaluator(problem)?;
-    if !a.quiet {
+    if !a.reports.quiet {
         for n in &notes {
             eprintln!("note: {n}");
         }
@@ -430,7 +350,7 @@ fn solve_and_evaluate(
     } else {
         "map shard"
     };
-    let bar = Progress::new(a.quiet, label, "draws");
+    let bar = Progress::new(a.reports.quiet, label, "draws");
     let t1 = std::time::Instant::now();
     let errors = map::evaluate_cells(
         ev.as_mut(),
@@ -443,7 +363,7 @@ fn solve_and_evaluate(
     Ok(Evaluated {
         solutions,
         range: (first, end),
-        errors: errors.map_err(with_flag)?,
+        errors: errors.map_err(map_error)?,
         backend: ev.info(),
         timings: Timings {
             ik_seconds,

@@ -3,8 +3,9 @@
 //! summarised chunk by chunk, never all kept.
 
 use super::analysis::{run_and_report, Plan};
+use super::flags::Driver;
 use super::merge::{run_summary, Shard};
-use super::{Flags, Run};
+use super::Run;
 use crate::cli::{OutputArgs, ProblemArgs};
 use anyhow::Result;
 use clap::Args;
@@ -68,7 +69,7 @@ impl Run for McsArgs {
             chunk,
             settings: self.output.settings(),
         };
-        opts.settings.check().map_err(|e| Flags::RUN.error(e))?;
+        opts.settings.check().map_err(|e| Driver::Run.error(e))?;
         let plan = Plan {
             label: "MCS",
             capped: false,
@@ -107,7 +108,7 @@ impl Run for McsArgs {
                 vec![note],
             );
         }
-        run_and_report(&self.problem, &self.output, plan, Flags::RUN, |ev, cb| {
+        run_and_report(&self.problem, &self.output, plan, Driver::Run, |ev, cb| {
             mc::run_mcs(ev, &opts, Some(cb))
         })?;
         Ok(())

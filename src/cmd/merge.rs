@@ -2,24 +2,24 @@
 //! --summary-out FILE`; sensitivity and map shards too), and the shard run itself: draws
 //! `[K·n/N, (K+1)·n/N)` of the one stream, summarised without keeping the values.
 
-use super::analysis::{outputs, write_reports};
+use super::analysis::outputs;
 use super::args::{thread_pool, BYTES_PER_POINT};
-use super::html;
-use super::outputs::{Outputs, CSV_NAMES, SVG_NAMES};
+use super::flags::{sensitivity_error, Driver};
+use super::outputs::Outputs;
 use super::progress::Progress;
-use super::sensitivity::{CSV_NAMES as SENS_CSV, SVG_NAMES as SENS_SVG};
-use super::{Flags, Run};
-use crate::cli::{HtmlArgs, OutputArgs, ProblemArgs};
+use super::reports::{problem_rows, write_reports};
+use super::Run;
+use crate::cli::{OutputArgs, ProblemArgs, ReportFlags};
 use anyhow::{anyhow, bail, Context, Result};
 use clap::Args;
 use gpu_amcs::map::shard::{self as map_shard, MapShard};
-use gpu_amcs::mc::sensitivity::SensitivityOptions;
+use gpu_amcs::mc::sensitivity::{SensitivityOptions, SensitivityResult};
 use gpu_amcs::mc::summary::{
     self, Provenance, SensitivityShard, Summary, SummaryError, BYTES_PER_BIN,
 };
 use gpu_amcs::mc::{min_draws, McError, Setting};
 use gpu_amcs::memory::Estimate;
-use gpu_amcs::report::RunReport;
+use gpu_amcs::report::{Report, RunReport};
 use std::path::{Path, PathBuf};
 
 /// Largest summary file read, bytes (a summary holds at most one entry per occupied bin).
@@ -27,25 +27,19 @@ const MAX_SUMMARY_BYTES: u64 = 1 << 30;
 
 /// Merge options.
 #[derive(Args, Debug, Clone)]
+#[command(
+    mut_arg("json", |a| a.help("Write the JSON report here")),
+    mut_arg("csv", |a| a.help("Write CSV reports (summary, reliability, PDF, CDF) into this directory")),
+    mut_arg("svg", |a| a.help("Write SVG plots into this directory")),
+    mut_arg("quiet", |a| a.help("No text report on stdout"))
+)]
 pub struct MergeArgs {
     /// Summaries written by `mcs --summary-out` (or `sensitivity`, `map`), together covering
     /// every draw (a map: every reached cell) of one run once.
     #[arg(required = true, value_name = "FILE")]
     pub files: Vec<PathBuf>,
-    /// Write the JSON report here.
-    #[arg(long, value_name = "FILE")]
-    pub json: Option<PathBuf>,
-    /// Write CSV reports (summary, reliability, PDF, CDF) into this directory.
-    #[arg(long, value_name = "DIR")]
-    pub csv: Option<PathBuf>,
-    /// Write SVG plots into this directory.
-    #[arg(long, value_name = "DIR")]
-    pub svg: Option<PathBuf>,
     #[command(flatten)]
-    pub html: HtmlArgs,
-    /// No text report on stdout.
-    #[arg(long, short)]
-    pub quiet: bool,
+    pub reports: ReportFlags,
 }
 
 impl Run for MergeArgs {
@@ -59,46 +53,34 @@ impl Run for MergeArgs {
         let files: Vec<String> = texts.iter().map(|(n, _)| n.clone()).collect();
         let rows = vec![("shard summaries".to_string(), files.join(", "))];
         let mut outputs = Outputs::new(self.files.iter().map(|f| ("FILE", f.as_path())));
+        let flags = &self.reports;
         if kind.as_deref() == Some(MapShard::KIND) {
+            // A map's files depend on its layers, known once its shards are read.
             let named = texts
                 .iter()
                 .map(|(f, t)| Ok((f.clone(), MapShard::from_json(t, f)?)))
                 .collect::<Result<Vec<_>>>()?;
             let result = map_shard::merge(&named)?;
-            let (_, n, _) = result.spec.layout();
-            let paths = (
-                self.json.as_deref(),
-                self.csv.as_deref(),
-                self.svg.as_deref(),
-            );
-            super::map::declare_reports(&mut outputs, paths, &self.html, n[2])?;
-            return super::map::write_reports(outputs, &result, &rows, self.quiet);
+            flags.declare(&mut outputs, &result.layout())?;
+            return write_reports(outputs, &result, flags, &rows);
         }
-        let sensitivity = kind.as_deref() == Some(SensitivityShard::KIND);
-        let (csv, svg, pages) = if sensitivity {
-            (SENS_CSV, SENS_SVG, html::SENSITIVITY_NAMES)
-        } else {
-            (CSV_NAMES, SVG_NAMES, html::RUN_NAMES)
-        };
-        outputs.file("--json", self.json.as_deref())?;
-        outputs.dir("--csv", self.csv.as_deref(), csv)?;
-        outputs.dir("--svg", self.svg.as_deref(), svg)?;
-        self.html.declare(&mut outputs, pages)?;
-        if sensitivity {
+        if kind.as_deref() == Some(SensitivityShard::KIND) {
+            flags.declare(&mut outputs, &SensitivityResult::planned_layout())?;
             let named = texts
                 .iter()
                 .map(|(f, t)| Ok((f.clone(), SensitivityShard::from_json(t, f)?)))
                 .collect::<Result<Vec<_>>>()?;
             let result = summary::merge_sensitivity(&named)?;
-            return super::sensitivity::write_reports(outputs, &result, &rows, self.quiet);
+            return write_reports(outputs, &result, flags, &rows);
         }
+        flags.declare(&mut outputs, &RunReport::planned_layout())?;
         let named = texts
             .iter()
             .map(|(f, t)| Ok((f.clone(), Summary::from_json(t, f)?)))
             .collect::<Result<Vec<_>>>()?;
         let merged = summary::merge(&named)?;
         let rep = report_of(&merged, Vec::new());
-        write_reports(outputs, &rep, &rows, self.quiet)
+        write_reports(outputs, &rep, flags, &rows)
     }
 }
 
@@ -304,10 +286,10 @@ pub fn run_summary(
     notes: Vec<String>,
 ) -> Result<()> {
     let settings = output.settings();
-    settings.check().map_err(|e| Flags::RUN.error(e))?;
+    settings.check().map_err(|e| Driver::Run.error(e))?;
     let min = min_draws(settings.coverage_probability);
     if draws < min {
-        return Err(Flags::RUN.error(McError::Setting {
+        return Err(Driver::Run.error(McError::Setting {
             field: Setting::Draws,
             message: format!("must be at least 100/(1 − p) = {min}, got {draws}"),
         }));
@@ -348,7 +330,7 @@ pub fn run_summary(
         problem.memory.check(&estimate(m))?;
         let max_bins = problem.memory.budget()?.room_left(&fixed(m)) / BYTES_PER_BIN;
         let prov = Provenance::new(&built.problem, &built.reference, draws, first, end);
-        let rows = html::problem_rows(problem, &built.problem);
+        let rows = problem_rows(problem, &built.problem);
         let model = gpu_amcs::report::model_notes(&built.problem.model);
         let (mut ev, more) = problem.backend.evaluator(built.problem)?;
         let label = if summary_out.is_some() {
@@ -356,7 +338,7 @@ pub fn run_summary(
         } else {
             "MCS (summary)"
         };
-        let bar = Progress::new(output.quiet, label, "draws");
+        let bar = Progress::new(output.reports.quiet, label, "draws");
         let s = summary::summarize(
             ev.as_mut(),
             first,
@@ -375,7 +357,7 @@ pub fn run_summary(
         ))
     })?;
     outputs.stage_file("--summary-out", s.to_json())?;
-    write_reports(outputs, &report_of(&s, notes), &rows, output.quiet)
+    write_reports(outputs, &report_of(&s, notes), &output.reports, &rows)
 }
 
 /// Evaluates the shard of a sensitivity analysis that `--shard` or the scheduler's variables
@@ -408,7 +390,7 @@ pub fn run_sensitivity_shard(
         let prov = Provenance::new(&built.problem, &built.reference, n, first, end);
         let pb = built.problem.clone();
         let (mut ev, _) = problem.backend.evaluator(built.problem)?;
-        SensitivityShard::run(&pb, ev.as_mut(), opts, prov).map_err(super::sensitivity::with_flag)
+        SensitivityShard::run(&pb, ev.as_mut(), opts, prov).map_err(sensitivity_error)
     })?;
     outputs.stage_file("--summary-out", s.to_json())?;
     outputs.commit()?;
@@ -419,7 +401,7 @@ pub fn run_sensitivity_shard(
 /// outgrew the memory says which flag raises it.
 fn summary_error(e: SummaryError) -> anyhow::Error {
     match e {
-        SummaryError::Mc(e) => Flags::RUN.error(e),
+        SummaryError::Mc(e) => Driver::Run.error(e),
         e @ SummaryError::Histogram { .. } => anyhow!("{e}; raise --memory-limit"),
         e => e.into(),
     }

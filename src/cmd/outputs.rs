@@ -4,7 +4,9 @@
 //! nearest existing ancestor is a writable directory, an existing file is not a directory (or a
 //! directory output not a file), no two outputs are the same file and no output is a file the
 //! run reads (inputs inside an output directory included, by the names it will write). After the
-//! computation, [`Outputs::commit`] writes every file to a temporary file beside it
+//! computation, the contents are staged (a directory only the names it declared; the same file
+//! staged twice with the same contents, as a report directory that is also another output's,
+//! is written once), and [`Outputs::commit`] writes every file to a temporary file beside it
 //! (`.NAME.tmpPID`), and only when all are written renames them into place. On any error, and
 //! on SIGINT, SIGTERM or SIGHUP (see [`install_signal_cleanup`]), the temporary files and the
 //! directories the commit created are removed.
@@ -68,8 +70,8 @@ enum Kind {
     /// An existing file that is not a regular file (`/dev/null`, a FIFO): written in place, at
     /// the end, never replaced by a rename.
     Special,
-    /// A directory of files; the names it may write.
-    Dir(&'static [&'static str]),
+    /// A directory of files; the names it may write (any name when empty).
+    Dir(Vec<String>),
 }
 
 #[derive(Clone, Debug)]
@@ -182,12 +184,13 @@ impl Outputs {
         })
     }
 
-    /// Adds and checks a directory output given by `flag` that may write files named `names`.
+    /// Adds and checks a directory output given by `flag` that may write files named `names`
+    /// (any names when empty: they are then checked as they are staged).
     pub fn dir(
         &mut self,
         flag: &'static str,
         path: Option<&Path>,
-        names: &'static [&'static str],
+        names: Vec<String>,
     ) -> Result<()> {
         let Some(path) = path else { return Ok(()) };
         if path.exists() && !path.is_dir() {
@@ -205,7 +208,7 @@ impl Outputs {
 
     /// The files `t` may write: as given and resolved.
     fn files_of(t: &Target) -> Vec<(PathBuf, PathBuf)> {
-        match t.kind {
+        match &t.kind {
             Kind::File | Kind::Special => vec![(t.path.clone(), t.resolved.clone())],
             Kind::Dir(names) => names
                 .iter()
@@ -260,6 +263,19 @@ impl Outputs {
         self.targets.iter().any(|t| t.flag == flag)
     }
 
+    /// Whether `path` is staged already: `Ok(true)` with the same contents (it is written
+    /// once), an error naming both outputs with other contents.
+    fn staged_already(&self, flag: &str, path: &Path, contents: &str) -> Result<bool> {
+        match self.staged.iter().find(|(_, p, _)| p == path) {
+            Some((_, _, c)) if c == contents => Ok(true),
+            Some((other, _, _)) => bail!(
+                "{flag} and {other} would both write {}: give different paths",
+                path.display()
+            ),
+            None => Ok(false),
+        }
+    }
+
     /// Stages the contents of the file output `flag` (nothing when it was not given).
     pub fn stage_file(&mut self, flag: &'static str, contents: String) -> Result<()> {
         if !self.has(flag) {
@@ -268,6 +284,9 @@ impl Outputs {
         let t = self.target(flag)?;
         let special = matches!(t.kind, Kind::Special);
         let path = t.resolved.clone();
+        if self.staged_already(flag, &path, &contents)? {
+            return Ok(());
+        }
         self.staged.push((flag, path, contents));
         if special {
             self.special.push(self.staged.len() - 1);
@@ -285,13 +304,15 @@ impl Outputs {
             if Path::new(&name).components().count() != 1 {
                 bail!("internal: output file name {name} is not a plain name");
             }
+            if let Kind::Dir(names) = &t.kind {
+                if !names.is_empty() && !names.contains(&name) {
+                    bail!("internal: {flag} writes {name}, which it did not declare");
+                }
+            }
             let path = t.resolved.join(&name);
             self.check_not_input(t.flag, &t.path.join(&name), &path)?;
-            if let Some((other, _, _)) = self.staged.iter().find(|(_, p, _)| *p == path) {
-                bail!(
-                    "{flag} and {other} would both write {}: give different paths",
-                    path.display()
-                );
+            if self.staged_already(flag, &path, &contents)? {
+                continue;
             }
             self.staged.push((flag, path, contents));
         }
@@ -380,18 +401,6 @@ fn create_dirs(flag: &str, dir: &Path) -> Result<()> {
     Ok(())
 }
 
-/// The file names `--csv` may write (report::csv).
-pub const CSV_NAMES: &[&str] = &[
-    "cdf.csv",
-    "pdf.csv",
-    "reliability.csv",
-    "trace.csv",
-    "per_point.csv",
-];
-
-/// The file names `--svg` may write (report::svg).
-pub const SVG_NAMES: &[&str] = &["pdf.svg", "reliability.svg", "convergence.svg"];
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -404,6 +413,13 @@ mod tests {
         d
     }
 
+    fn names(v: &[&str]) -> Vec<String> {
+        v.iter().map(|s| s.to_string()).collect()
+    }
+
+    const CSV_NAMES: &[&str] = &["cdf.csv", "pdf.csv"];
+    const SVG_NAMES: &[&str] = &["pdf.svg"];
+
     #[test]
     fn same_file_twice_and_inputs_are_refused() {
         let d = tmp("same");
@@ -411,14 +427,55 @@ mod tests {
         std::fs::create_dir_all(input.parent().unwrap()).unwrap();
         std::fs::write(&input, "q1\n").unwrap();
         let mut o = Outputs::new([("--points-file", input.as_path())]);
-        let e = o.dir("--csv", Some(&d.join("p")), CSV_NAMES).unwrap_err();
+        let e = o
+            .dir("--csv", Some(&d.join("p")), names(CSV_NAMES))
+            .unwrap_err();
         assert!(e.to_string().contains("--points-file"), "{e}");
         let mut o = Outputs::new([]);
         o.file("--json", Some(&d.join("x"))).unwrap();
-        let e = o.dir("--csv", Some(&d.join("./x")), CSV_NAMES).unwrap_err();
+        let e = o
+            .dir("--csv", Some(&d.join("./x")), names(CSV_NAMES))
+            .unwrap_err();
         assert!(e.to_string().contains("same file"), "{e}");
-        o.dir("--svg", Some(&d.join("s")), SVG_NAMES).unwrap();
-        o.dir("--csv", Some(&d.join("s")), CSV_NAMES).unwrap();
+        o.dir("--svg", Some(&d.join("s")), names(SVG_NAMES))
+            .unwrap();
+        o.dir("--csv", Some(&d.join("s")), names(CSV_NAMES))
+            .unwrap();
+    }
+
+    #[test]
+    fn a_file_staged_twice_is_written_once_unless_it_differs() {
+        let d = tmp("twice");
+        let mut o = Outputs::new([]);
+        o.dir("--out", Some(&d.join("s")), Vec::new()).unwrap();
+        o.dir(
+            "--html",
+            Some(&d.join("s")),
+            names(&["a.csv", "index.html"]),
+        )
+        .unwrap();
+        o.stage_dir("--out", vec![("a.csv".into(), "x".into())])
+            .unwrap();
+        let page = vec![
+            ("a.csv".into(), "x".into()),
+            ("index.html".into(), "p".into()),
+        ];
+        o.stage_dir("--html", page).unwrap();
+        // A name the directory did not declare is a bug of the caller.
+        let e = o
+            .stage_dir("--html", vec![("b.csv".into(), "y".into())])
+            .unwrap_err();
+        assert!(e.to_string().contains("did not declare"), "{e}");
+        assert_eq!(o.commit().unwrap().len(), 2);
+        let mut o = Outputs::new([]);
+        o.dir("--out", Some(&d.join("t")), Vec::new()).unwrap();
+        o.dir("--html", Some(&d.join("t")), Vec::new()).unwrap();
+        o.stage_dir("--out", vec![("a.csv".into(), "x".into())])
+            .unwrap();
+        let e = o
+            .stage_dir("--html", vec![("a.csv".into(), "other".into())])
+            .unwrap_err();
+        assert!(e.to_string().contains("would both write"), "{e}");
     }
 
     #[test]
@@ -426,7 +483,8 @@ mod tests {
         let d = tmp("commit");
         let mut o = Outputs::new([]);
         o.file("--json", Some(&d.join("a.json"))).unwrap();
-        o.dir("--csv", Some(&d.join("new/csv")), CSV_NAMES).unwrap();
+        o.dir("--csv", Some(&d.join("new/csv")), names(CSV_NAMES))
+            .unwrap();
         o.stage_file("--json", "{}".into()).unwrap();
         o.stage_dir("--csv", vec![("cdf.csv".into(), "x".into())])
             .unwrap();
@@ -440,7 +498,7 @@ mod tests {
         // The second file's directory is taken by a file after the check: nothing is left.
         let mut o = Outputs::new([]);
         o.file("--json", Some(&d.join("b.json"))).unwrap();
-        o.dir("--csv", Some(&d.join("late/csv")), CSV_NAMES)
+        o.dir("--csv", Some(&d.join("late/csv")), names(CSV_NAMES))
             .unwrap();
         std::fs::write(d.join("late"), "in the way").unwrap();
         o.stage_file("--json", "{}".into()).unwrap();

@@ -1,26 +1,25 @@
 //! `sensitivity`: first-order and total Sobol indices of w per parameter, joint and kind.
 
 use super::args::thread_pool;
-use super::html;
+use super::flags::sensitivity_error;
 use super::outputs::Outputs;
+use super::reports::{problem_rows, write_reports};
 use super::Run;
-use crate::cli::{HtmlArgs, ProblemArgs};
+use crate::cli::{ProblemArgs, ReportFlags};
 use anyhow::Result;
 use clap::Args;
-use gpu_amcs::mc::sensitivity::{
-    run_sensitivity, SensitivityError, SensitivityOptions, SensitivityResult,
-};
+use gpu_amcs::mc::sensitivity::{run_sensitivity, SensitivityOptions, SensitivityResult};
 use gpu_amcs::memory::Estimate;
-use gpu_amcs::report::sensitivity as report;
 use std::path::PathBuf;
-
-/// Files `--csv DIR` may write.
-pub const CSV_NAMES: &[&str] = &["indices.csv"];
-/// Files `--svg DIR` may write.
-pub const SVG_NAMES: &[&str] = &["indices.svg", "groups.svg"];
 
 /// `sensitivity` options.
 #[derive(Args, Debug, Clone)]
+#[command(
+    mut_arg("json", |a| a.help("Write the indices as JSON to FILE")),
+    mut_arg("csv", |a| a.help("Write indices.csv into DIR")),
+    mut_arg("svg", |a| a.help("Write indices.svg and groups.svg (bar charts of the indices of w) into DIR")),
+    mut_arg("quiet", |a| a.help("No table on stdout"))
+)]
 pub struct SensitivityArgs {
     #[command(flatten)]
     pub problem: ProblemArgs,
@@ -42,44 +41,16 @@ pub struct SensitivityArgs {
         allow_hyphen_values = true
     )]
     pub thresholds: Vec<f64>,
-    /// Write the indices as JSON to FILE.
-    #[arg(long, value_name = "FILE")]
-    pub json: Option<PathBuf>,
-    /// Write indices.csv into DIR.
-    #[arg(long, value_name = "DIR")]
-    pub csv: Option<PathBuf>,
-    /// Write indices.svg and groups.svg (bar charts of the indices of w) into DIR.
-    #[arg(long, value_name = "DIR")]
-    pub svg: Option<PathBuf>,
     #[command(flatten)]
-    pub html: HtmlArgs,
-    /// No table on stdout.
-    #[arg(long, short)]
-    pub quiet: bool,
+    pub reports: ReportFlags,
     /// Evaluate only shard K of N (K from 0): base samples [K·N_b/N, (K+1)·N_b/N). Without it,
     /// with --summary-out, K and N come from SLURM_ARRAY_TASK_ID and SLURM_ARRAY_TASK_COUNT
     /// when set.
     #[arg(long, value_name = "K/N", requires = "summary_out")]
     pub shard: Option<String>,
     /// Write the shard's model outputs (JSON) for `gpu-amcs merge`, which computes the indices.
-    #[arg(long, value_name = "FILE", conflicts_with_all = ["json", "csv", "svg"])]
+    #[arg(long, value_name = "FILE", conflicts_with_all = ["json", "csv", "svg", "html"])]
     pub summary_out: Option<PathBuf>,
-}
-
-/// A settings error with the flag that sets the field.
-pub fn with_flag(e: SensitivityError) -> anyhow::Error {
-    match e {
-        SensitivityError::Setting { field, message } => {
-            let flag = match field {
-                "draws" => "--draws",
-                "bootstrap" => "--bootstrap",
-                "thresholds" => "--thresholds",
-                _ => return anyhow::anyhow!("{field}: {message}"),
-            };
-            anyhow::anyhow!("{field} ({flag}): {message}")
-        }
-        other => other.into(),
-    }
 }
 
 impl Run for SensitivityArgs {
@@ -92,13 +63,11 @@ impl Run for SensitivityArgs {
             thresholds: a.thresholds.clone(),
             ..SensitivityOptions::default()
         };
-        opts.check().map_err(with_flag)?;
+        opts.check().map_err(sensitivity_error)?;
         a.problem.check()?;
         let mut outputs = Outputs::new(a.problem.inputs());
-        outputs.file("--json", a.json.as_deref())?;
-        outputs.dir("--csv", a.csv.as_deref(), CSV_NAMES)?;
-        outputs.dir("--svg", a.svg.as_deref(), SVG_NAMES)?;
-        a.html.declare(&mut outputs, html::SENSITIVITY_NAMES)?;
+        a.reports
+            .declare(&mut outputs, &SensitivityResult::planned_layout())?;
         // Kept: w and every pick-freeze output (at most 2 + 30 parameters + 8 groups matrices)
         // for the bootstrap, and one chunk of offset rows and outputs.
         let matrices = 40u64;
@@ -121,43 +90,19 @@ impl Run for SensitivityArgs {
         let pool = thread_pool(a.problem.threads)?;
         let (result, rows) = pool.install(|| -> Result<_> {
             let built = a.problem.build()?;
-            let rows = html::problem_rows(&a.problem, &built.problem);
+            let rows = problem_rows(&a.problem, &built.problem);
             let problem = built.problem.clone();
             let (mut ev, notes) = a.problem.backend.evaluator(built.problem)?;
-            if !a.quiet {
+            if !a.reports.quiet {
                 for n in &notes {
                     eprintln!("note: {n}");
                 }
             }
             Ok((
-                run_sensitivity(&problem, ev.as_mut(), &opts).map_err(with_flag)?,
+                run_sensitivity(&problem, ev.as_mut(), &opts).map_err(sensitivity_error)?,
                 rows,
             ))
         })?;
-        write_reports(outputs, &result, &rows, a.quiet)
+        write_reports(outputs, &result, &a.reports, &rows)
     }
-}
-
-/// Stages the JSON, CSV, SVG and HTML reports of `result` (`rows`: the settings shown on the
-/// HTML page), writes them and prints the table.
-pub fn write_reports(
-    mut outputs: Outputs,
-    result: &SensitivityResult,
-    rows: &[(String, String)],
-    quiet: bool,
-) -> Result<()> {
-    outputs.stage_file("--json", report::render_json(result))?;
-    outputs.stage_dir(
-        "--csv",
-        vec![("indices.csv".to_string(), report::render_csv(result))],
-    )?;
-    outputs.stage_dir("--svg", report::render_svg(result))?;
-    if outputs.has(html::FLAG) {
-        outputs.stage_dir(html::FLAG, gpu_amcs::report::Report::html(result, rows))?;
-    }
-    outputs.commit()?;
-    if !quiet {
-        print!("{}", report::render_text(result));
-    }
-    Ok(())
 }

@@ -1,18 +1,27 @@
 //! `study`: the paper's factor study on a virtual TX60, written all or nothing into a directory.
 
 use super::args::{sweeps_estimate, BYTES_PER_DRAW};
-use super::html;
+use super::flags::simulate_error;
 use super::outputs::Outputs;
 use super::progress::Progress;
+use super::reports::{model_source, stage_reports};
 use super::Run;
-use crate::cli::{BackendArgs, DeltasArgs, HtmlArgs, MemoryArgs, ModelArgs};
+use crate::cli::{BackendArgs, DeltasArgs, MemoryArgs, ModelArgs, ReportFlags};
 use anyhow::Result;
 use clap::Args;
 use gpu_amcs::memory::Estimate;
+use gpu_amcs::report::Report;
+use gpu_amcs::study::StudyResult;
 use std::path::PathBuf;
 
 /// `study` options.
 #[derive(Args, Debug, Clone)]
+#[command(
+    mut_arg("json", |a| a.help("Write study.json (every level's results) to FILE")),
+    mut_arg("csv", |a| a.help("Write the tables (Tables 1–2, correlation, accuracy, ranking) as CSV into DIR")),
+    mut_arg("svg", |a| a.help("Write the figures (Figs. 4–9) into DIR")),
+    mut_arg("quiet", |a| a.help("No progress bar and no summary on stdout"))
+)]
 pub struct StudyArgs {
     /// Output directory (tables, figures, STUDY.md, study.json).
     #[arg(long, short, default_value = "study-out", value_name = "DIR")]
@@ -47,12 +56,8 @@ pub struct StudyArgs {
     pub seed: u64,
     #[command(flatten)]
     pub backend: BackendArgs,
-    // --html DIR: index.html and, unless DIR is the --out directory, copies of its files.
     #[command(flatten)]
-    pub html: HtmlArgs,
-    /// No progress bar and no summary on stdout.
-    #[arg(long, short)]
-    pub quiet: bool,
+    pub reports: ReportFlags,
     #[command(flatten)]
     pub memory: MemoryArgs,
     /// The robot studied (its nominal model; the simulator perturbs it).
@@ -65,14 +70,9 @@ impl Run for StudyArgs {
         let a = self;
         let model = a.model.load()?;
         let mut outputs = Outputs::new(a.model.model.as_deref().map(|p| ("--model", p)));
-        outputs.dir("--out", Some(&a.out), &[])?;
-        // Any file of the study (the names depend on the factors), like --out.
-        a.html.declare(&mut outputs, &[])?;
-        let html_beside_out = a
-            .html
-            .html
-            .as_deref()
-            .is_some_and(|h| html::same_dir(h, &a.out));
+        // Every file of the study but the page, under any name: the --html directory may be
+        // this one (its copies of the files are then the same files, written once).
+        outputs.dir("--out", Some(&a.out), Vec::new())?;
         use gpu_amcs::study::{self, Factor, StudySettings};
         let mut s = if a.quick {
             StudySettings::quick()
@@ -108,7 +108,9 @@ impl Run for StudyArgs {
         let (backend, adapter) = a.backend.choice()?;
         s.backend = backend;
         s.adapter = adapter.map(str::to_owned);
-        s.check().map_err(super::args::simulate_setting)?;
+        s.check().map_err(simulate_error)?;
+        a.reports
+            .declare(&mut outputs, &StudyResult::planned_layout(&s))?;
         let e = Estimate::new(
             format!(
                 "a study with {} MCS draws and {} calibration runs",
@@ -118,7 +120,7 @@ impl Run for StudyArgs {
         )
         .plus(&[s.mcs_draws, BYTES_PER_DRAW]);
         a.memory.check(&sweeps_estimate(e, &s.baseline))?;
-        let bar = Progress::new(a.quiet, "study", "steps");
+        let bar = Progress::new(a.reports.quiet, "study", "steps");
         let cb = |done: u64, total: u64, msg: &str| {
             bar.update(done, total);
             bar.set_message(msg);
@@ -126,27 +128,12 @@ impl Run for StudyArgs {
         let exp = gpu_amcs::simulate::Experiment::for_robot(model, s.robot_seed);
         let result = study::run_study_on(&exp, &s, gpu_amcs::backends(), Some(&cb))?;
         bar.finish();
-        let files = study::output_files(&result);
-        if outputs.has(html::FLAG) {
-            let page = gpu_amcs::report::Report::page(&result, &[], &files);
-            let index = (gpu_amcs::report::INDEX.to_string(), page);
-            let mut html_files = if html_beside_out {
-                Vec::new()
-            } else {
-                files.clone()
-            };
-            html_files.push(index);
-            outputs.stage_dir(html::FLAG, html_files)?;
-        }
-        outputs.stage_dir("--out", files)?;
+        outputs.stage_dir("--out", result.files())?;
+        let rows = [("model source".to_string(), model_source(&a.model))];
+        stage_reports(&mut outputs, &result, &rows)?;
         outputs.commit()?;
-        if !a.quiet {
-            println!(
-                "study finished in {:.1} s: {} levels; wrote {}",
-                result.seconds,
-                result.levels.len(),
-                a.out.display()
-            );
+        if !a.reports.quiet {
+            println!("{}; wrote {}", result.text().trim_end(), a.out.display());
         }
         Ok(())
     }

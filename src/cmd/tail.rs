@@ -1,22 +1,16 @@
 //! `tail`: the probability that w reaches a threshold, down to 1e-9, by subset simulation.
 
 use super::args::thread_pool;
-use super::html;
+use super::flags::tail_error;
 use super::outputs::Outputs;
 use super::progress::Progress;
+use super::reports::{problem_rows, write_reports};
 use super::Run;
-use crate::cli::{HtmlArgs, ProblemArgs};
+use crate::cli::{ProblemArgs, ReportFlags};
 use anyhow::Result;
 use clap::{Args, ValueEnum};
-use gpu_amcs::mc::tail::{run_tail, TailError, TailMethod, TailOptions, TailSetting};
+use gpu_amcs::mc::tail::{run_tail, TailMethod, TailOptions, TailResult};
 use gpu_amcs::memory::Estimate;
-use gpu_amcs::report::tail as report;
-use std::path::PathBuf;
-
-/// Files `--csv DIR` may write.
-const CSV_NAMES: &[&str] = &["tail.csv"];
-/// Files `--svg DIR` may write.
-const SVG_NAMES: &[&str] = &["tail.svg"];
 
 /// Estimator of the tail probability.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -29,6 +23,11 @@ pub enum MethodArg {
 
 /// `tail` options.
 #[derive(Args, Debug, Clone)]
+#[command(
+    mut_arg("json", |a| a.help("Write the result as JSON to FILE")),
+    mut_arg("csv", |a| a.help("Write tail.csv into DIR")),
+    mut_arg("svg", |a| a.help("Write tail.svg (P_f against L on a log axis) into DIR"))
+)]
 pub struct TailArgs {
     #[command(flatten)]
     pub problem: ProblemArgs,
@@ -67,38 +66,8 @@ pub struct TailArgs {
         allow_hyphen_values = true
     )]
     pub p0: f64,
-    /// Write the result as JSON to FILE.
-    #[arg(long, value_name = "FILE")]
-    pub json: Option<PathBuf>,
-    /// Write tail.csv into DIR.
-    #[arg(long, value_name = "DIR")]
-    pub csv: Option<PathBuf>,
-    /// Write tail.svg (P_f against L on a log axis) into DIR.
-    #[arg(long, value_name = "DIR")]
-    pub svg: Option<PathBuf>,
     #[command(flatten)]
-    pub html: HtmlArgs,
-    /// No progress bar and no table on stdout.
-    #[arg(long, short)]
-    pub quiet: bool,
-}
-
-/// A settings error with the flag that sets the field.
-fn with_flag(e: TailError) -> anyhow::Error {
-    match e {
-        TailError::Setting { field, message } => {
-            let flag = match field {
-                TailSetting::Thresholds => "--threshold",
-                TailSetting::TargetCov => "--cov",
-                TailSetting::MaxEvaluations => "--max-evaluations",
-                TailSetting::SamplesPerLevel => "--samples-per-level",
-                TailSetting::P0 => "--p0",
-                _ => return anyhow::anyhow!("{field}: {message}"),
-            };
-            anyhow::anyhow!("{field} ({flag}): {message}")
-        }
-        other => other.into(),
-    }
+    pub reports: ReportFlags,
 }
 
 impl Run for TailArgs {
@@ -116,13 +85,11 @@ impl Run for TailArgs {
             p0: a.p0,
             ..TailOptions::default()
         };
-        opts.check().map_err(with_flag)?;
+        opts.check().map_err(tail_error)?;
         a.problem.check()?;
         let mut outputs = Outputs::new(a.problem.inputs());
-        outputs.file("--json", a.json.as_deref())?;
-        outputs.dir("--csv", a.csv.as_deref(), CSV_NAMES)?;
-        outputs.dir("--svg", a.svg.as_deref(), SVG_NAMES)?;
-        a.html.declare(&mut outputs, html::TAIL_NAMES)?;
+        a.reports
+            .declare(&mut outputs, &TailResult::planned_layout())?;
         // Kept: two levels of states (30 normals and w each), their offsets, one batch of rows.
         let states = (a.samples_per_level as u64).max(opts.batch_size as u64);
         a.problem.memory.check(
@@ -140,38 +107,25 @@ impl Run for TailArgs {
         let pool = thread_pool(a.problem.threads)?;
         let (result, rows) = pool.install(|| -> Result<_> {
             let built = a.problem.build()?;
-            let rows = html::problem_rows(&a.problem, &built.problem);
+            let rows = problem_rows(&a.problem, &built.problem);
             let sampler = built.problem.sampler.clone();
             let (mut ev, notes) = a.problem.backend.evaluator(built.problem)?;
-            if !a.quiet {
+            if !a.reports.quiet {
                 for n in &notes {
                     eprintln!("note: {n}");
                 }
             }
-            let bar = Progress::new(a.quiet, "tail", "evaluations").capped();
+            let bar = Progress::new(a.reports.quiet, "tail", "evaluations").capped();
             let r = run_tail(
                 ev.as_mut(),
                 &sampler,
                 &opts,
                 Some(&|done, total| bar.update(done, total)),
             )
-            .map_err(with_flag);
+            .map_err(tail_error);
             bar.finish();
             Ok((r?, rows))
         })?;
-        outputs.stage_file("--json", report::render_json(&result))?;
-        outputs.stage_dir(
-            "--csv",
-            vec![("tail.csv".to_string(), report::render_csv(&result))],
-        )?;
-        outputs.stage_dir("--svg", report::render_svg(&result))?;
-        if outputs.has(html::FLAG) {
-            outputs.stage_dir(html::FLAG, gpu_amcs::report::Report::html(&result, &rows))?;
-        }
-        outputs.commit()?;
-        if !a.quiet {
-            print!("{}", report::render_text(&result));
-        }
-        Ok(())
+        write_reports(outputs, &result, &a.reports, &rows)
     }
 }

@@ -18,7 +18,7 @@ use gpu_amcs::gpu::{GpuEvaluator, GpuOptions};
 use gpu_amcs::kinematics::{param_index, tx60, ParamKind, RobotModel, Uncertainty, N_PARAMS};
 use gpu_amcs::mc::sensitivity::{
     pick_freeze, run_sensitivity, InputGroup, InputKind, Quantity, QuantityIndices,
-    SensitivityError, SensitivityOptions, SobolIndex,
+    SensitivityError, SensitivityOptions, SensitivitySetting, SobolIndex,
 };
 use gpu_amcs::sampling::{normals_block, uniform_open, Philox};
 
@@ -445,13 +445,13 @@ fn bad_input_is_a_typed_error() {
         }
         r => panic!("{:?}", r.map(|_| ())),
     };
-    assert_eq!(field(opts(1000), &mut ev), "draws");
-    assert_eq!(field(opts(16), &mut ev), "draws");
+    assert_eq!(field(opts(1000), &mut ev), SensitivitySetting::Draws);
+    assert_eq!(field(opts(16), &mut ev), SensitivitySetting::Draws);
     let t = SensitivityOptions {
         thresholds: vec![0.0],
         ..opts(64)
     };
-    assert_eq!(field(t, &mut ev), "thresholds");
+    assert_eq!(field(t, &mut ev), SensitivitySetting::Thresholds);
     let mut m = tx60();
     m.uncertainty = Uncertainty::Independent([0.0; N_PARAMS]);
     let pts = gpu_amcs::points::generate(&m, 3, &Default::default(), 1).unwrap();

@@ -106,6 +106,20 @@ pub enum Setting {
     Chunk,
 }
 
+impl Setting {
+    /// Every setting.
+    pub const ALL: [Setting; 8] = [
+        Self::CoverageProbability,
+        Self::Thresholds,
+        Self::Tolerance,
+        Self::SignificantDigits,
+        Self::BatchSize,
+        Self::MaxDraws,
+        Self::Draws,
+        Self::Chunk,
+    ];
+}
+
 impl std::fmt::Display for Setting {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {

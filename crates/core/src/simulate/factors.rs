@@ -74,15 +74,66 @@ impl Default for Factors {
     }
 }
 
+/// The settings [`Factors::check`] and `StudySettings::check` name in their errors
+/// ([`SimulateError::Setting`]); a front end maps each to its own option name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SimulateSetting {
+    /// [`Factors::runs`].
+    Runs,
+    /// [`Factors::range_fraction`] (shown in percent).
+    Range,
+    /// [`Factors::step_deg`].
+    Step,
+    /// [`Factors::speed_fraction`] (shown in percent).
+    Speed,
+    /// `StudySettings::point_counts`.
+    PointCounts,
+    /// `StudySettings::mcs_draws`.
+    McsDraws,
+    /// `StudySettings::deltas`.
+    Tolerances,
+    /// `StudySettings::factors`.
+    Factors,
+}
+
+impl SimulateSetting {
+    /// Every setting.
+    pub const ALL: [SimulateSetting; 8] = [
+        Self::Runs,
+        Self::Range,
+        Self::Step,
+        Self::Speed,
+        Self::PointCounts,
+        Self::McsDraws,
+        Self::Tolerances,
+        Self::Factors,
+    ];
+}
+
+impl std::fmt::Display for SimulateSetting {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Runs => "runs",
+            Self::Range => "range",
+            Self::Step => "step",
+            Self::Speed => "speed",
+            Self::PointCounts => "point counts",
+            Self::McsDraws => "MCS draws",
+            Self::Tolerances => "tolerances",
+            Self::Factors => "factors",
+        })
+    }
+}
+
 /// Errors of the simulation and calibration settings and runs.
 #[derive(Debug, thiserror::Error)]
 pub enum SimulateError {
-    /// A setting is out of range; `field` names the setting (e.g. `range`, see
-    /// [`Factors::check`] and `StudySettings::check`); a command line adds its flag.
+    /// A setting is out of range; `field` names the setting (see [`Factors::check`] and
+    /// `StudySettings::check`).
     #[error("{field}: {message}")]
     Setting {
-        /// The setting, e.g. `range`.
-        field: &'static str,
+        /// The setting.
+        field: SimulateSetting,
         /// What is wrong.
         message: String,
     },
@@ -100,13 +151,17 @@ pub enum SimulateError {
 }
 
 impl Factors {
-    /// Checks every factor; the error names the setting (`runs`, `range` in percent, `step`,
-    /// `speed` in percent).
+    /// Checks every factor.
+    ///
+    /// # Errors
+    ///
+    /// [`SimulateError::Setting`] naming the first setting out of range: fewer than 2 runs, a
+    /// range or speed outside (0, 100] % or a step that is not a positive angle.
     pub fn check(&self) -> Result<(), SimulateError> {
         let bad = |field, message: String| Err(SimulateError::Setting { field, message });
         if self.runs < 2 {
             return bad(
-                "runs",
+                SimulateSetting::Runs,
                 format!(
                     "must be at least 2 (statistics need repeated runs), got {}",
                     self.runs
@@ -118,7 +173,7 @@ impl Factors {
             && self.range_fraction <= 1.0)
         {
             return bad(
-                "range",
+                SimulateSetting::Range,
                 format!(
                     "must be more than 0 and at most 100 (% of the measuring range), got {}",
                     self.range_fraction * 100.0
@@ -127,7 +182,7 @@ impl Factors {
         }
         if !(self.step_deg.is_finite() && self.step_deg > 0.0) {
             return bad(
-                "step",
+                SimulateSetting::Step,
                 format!("must be a positive angle in degrees, got {}", self.step_deg),
             );
         }
@@ -136,7 +191,7 @@ impl Factors {
             && self.speed_fraction <= 1.0)
         {
             return bad(
-                "speed",
+                SimulateSetting::Speed,
                 format!(
                     "must be more than 0 and at most 100 (% of rated speed), got {}",
                     self.speed_fraction * 100.0
@@ -310,7 +365,9 @@ mod tests {
             ),
         ];
         for (f, field) in bad {
-            assert!(f.check().unwrap_err().to_string().starts_with(field));
+            let e = f.check().unwrap_err();
+            assert!(matches!(e, SimulateError::Setting { field: s, .. } if s.to_string() == field));
+            assert!(e.to_string().starts_with(field));
         }
         assert!(Factors::default().check().is_ok());
     }

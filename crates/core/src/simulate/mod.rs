@@ -20,7 +20,7 @@ pub mod tracker;
 
 pub use crate::identify::{write_measurements, write_sweeps};
 pub use calibrate::{accuracy_check, calibrate, run_seed, Calibration, Experiment, DESIGN_TOOL_MM};
-pub use factors::{Factors, RobotErrorModel, SimulateError, SweepDirection};
+pub use factors::{Factors, RobotErrorModel, SimulateError, SimulateSetting, SweepDirection};
 pub use robot::{measure_positions, perturbed_model, random_configurations, ParameterErrors};
 pub use sweep::{
     simulate_sweeps, simulate_sweeps_with, SweepPlan, TX60_HOME_DEG, TX60_MEASURING_RANGES_DEG,

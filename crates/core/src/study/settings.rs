@@ -9,7 +9,7 @@
 
 use crate::engine::backend::BackendChoice;
 use crate::points::WorkspaceBox;
-use crate::simulate::{Factors, SimulateError, SweepDirection};
+use crate::simulate::{Factors, SimulateError, SimulateSetting, SweepDirection};
 
 /// One of the paper's five factors.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
@@ -210,14 +210,19 @@ impl StudySettings {
             .collect()
     }
 
-    /// Checks the settings; errors name the setting (`point counts`, `MCS draws`, `tolerances`,
-    /// `factors`, or a factor of the baseline).
+    /// Checks the settings.
+    ///
+    /// # Errors
+    ///
+    /// [`SimulateError::Setting`] naming the first setting out of range: a baseline factor
+    /// ([`Factors::check`]), no or a zero number of test points, fewer than 2000 MCS draws, no
+    /// or a non-positive tolerance, no factor.
     pub fn check(&self) -> Result<(), SimulateError> {
         self.baseline.check()?;
         let bad = |field, message: String| Err(SimulateError::Setting { field, message });
         if self.point_counts.is_empty() || self.point_counts.contains(&0) {
             return bad(
-                "point counts",
+                SimulateSetting::PointCounts,
                 format!(
                     "needs positive numbers of test points, got {:?}",
                     self.point_counts
@@ -226,18 +231,18 @@ impl StudySettings {
         }
         if self.mcs_draws < 2000 {
             return bad(
-                "MCS draws",
+                SimulateSetting::McsDraws,
                 format!("must be at least 2000, got {}", self.mcs_draws),
             );
         }
         if self.deltas.is_empty() || self.deltas.iter().any(|d| !(d.is_finite() && *d > 0.0)) {
             return bad(
-                "tolerances",
+                SimulateSetting::Tolerances,
                 format!("needs positive tolerances in mm, got {:?}", self.deltas),
             );
         }
         if self.factors.is_empty() {
-            return bad("factors", "needs at least one factor".into());
+            return bad(SimulateSetting::Factors, "needs at least one factor".into());
         }
         Ok(())
     }

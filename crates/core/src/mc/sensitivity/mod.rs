@@ -135,25 +135,62 @@ impl Default for SensitivityOptions {
     }
 }
 
+/// The fields of [`SensitivityOptions`] its check names ([`SensitivityError::Setting`]); a front
+/// end maps each to its own option name.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SensitivitySetting {
+    /// [`SensitivityOptions::draws`].
+    Draws,
+    /// [`SensitivityOptions::bootstrap`].
+    Bootstrap,
+    /// [`SensitivityOptions::chunk`].
+    Chunk,
+    /// [`SensitivityOptions::thresholds`].
+    Thresholds,
+}
+
+impl SensitivitySetting {
+    /// Every setting.
+    pub const ALL: [SensitivitySetting; 4] =
+        [Self::Draws, Self::Bootstrap, Self::Chunk, Self::Thresholds];
+}
+
+impl std::fmt::Display for SensitivitySetting {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::Draws => "draws",
+            Self::Bootstrap => "bootstrap",
+            Self::Chunk => "chunk",
+            Self::Thresholds => "thresholds",
+        })
+    }
+}
+
 impl SensitivityOptions {
-    /// Checks every setting; the error names the field.
+    /// Checks every setting.
+    ///
+    /// # Errors
+    ///
+    /// [`SensitivityError::Setting`] naming the first field out of range: `draws` not a power
+    /// of 2 from [`MIN_DRAWS`] to [`MAX_DRAWS`], `bootstrap` outside [`MIN_BOOTSTRAP`] to
+    /// [`MAX_BOOTSTRAP`], `chunk` outside 1 to [`MAX_CHUNK`], a threshold that is not a finite
+    /// length > 0.
     pub fn check(&self) -> Result<(), SensitivityError> {
-        let bad = |field: &'static str, message: String| {
-            Err(SensitivityError::Setting { field, message })
-        };
+        use SensitivitySetting as S;
+        let bad = |field: S, message: String| Err(SensitivityError::Setting { field, message });
         let n = self.draws;
         if !n.is_power_of_two() {
-            return bad("draws", format!("{n} is not a power of 2"));
+            return bad(S::Draws, format!("{n} is not a power of 2"));
         }
         if !(MIN_DRAWS..=MAX_DRAWS).contains(&n) {
             return bad(
-                "draws",
+                S::Draws,
                 format!("{n} is outside {MIN_DRAWS} to {MAX_DRAWS} (2^6 to 2^20)"),
             );
         }
         if !(MIN_BOOTSTRAP..=MAX_BOOTSTRAP).contains(&self.bootstrap) {
             return bad(
-                "bootstrap",
+                S::Bootstrap,
                 format!(
                     "{} resamples is outside {MIN_BOOTSTRAP} to {MAX_BOOTSTRAP}",
                     self.bootstrap
@@ -162,14 +199,14 @@ impl SensitivityOptions {
         }
         if !(1..=MAX_CHUNK).contains(&self.chunk) {
             return bad(
-                "chunk",
+                S::Chunk,
                 format!("{} is outside 1 to {MAX_CHUNK}", self.chunk),
             );
         }
         for (i, &l) in self.thresholds.iter().enumerate() {
             if !(l.is_finite() && l > 0.0) {
                 return bad(
-                    "thresholds",
+                    S::Thresholds,
                     format!("threshold {} is {l}: it must be a finite length > 0", i + 1),
                 );
             }
@@ -185,7 +222,7 @@ pub enum SensitivityError {
     #[error("{field}: {message}")]
     Setting {
         /// The field.
-        field: &'static str,
+        field: SensitivitySetting,
         /// What is wrong.
         message: String,
     },
@@ -436,42 +473,42 @@ mod tests {
                 draws: 1000,
                 ..o.clone()
             }),
-            "draws"
+            SensitivitySetting::Draws
         );
         assert_eq!(
             field(SensitivityOptions {
                 draws: MAX_DRAWS * 2,
                 ..o.clone()
             }),
-            "draws"
+            SensitivitySetting::Draws
         );
         assert_eq!(
             field(SensitivityOptions {
                 draws: 32,
                 ..o.clone()
             }),
-            "draws"
+            SensitivitySetting::Draws
         );
         assert_eq!(
             field(SensitivityOptions {
                 bootstrap: 10,
                 ..o.clone()
             }),
-            "bootstrap"
+            SensitivitySetting::Bootstrap
         );
         assert_eq!(
             field(SensitivityOptions {
                 chunk: 0,
                 ..o.clone()
             }),
-            "chunk"
+            SensitivitySetting::Chunk
         );
         for l in [0.0, -1.0, f64::NAN] {
             let t = SensitivityOptions {
                 thresholds: vec![0.5, l],
                 ..o.clone()
             };
-            assert_eq!(field(t), "thresholds");
+            assert_eq!(field(t), SensitivitySetting::Thresholds);
         }
     }
 
