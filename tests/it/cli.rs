@@ -314,7 +314,40 @@ fn identify_then_analyse_then_validate() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout);
-    assert!(out.contains("improvement"), "{out}");
+    // The rows are the nominal model, the identified model and the improvement, each ending in
+    // mean, RMS and maximum (mm, or % for the improvement).
+    let identified_name = format!("{} (identified from", nominal.name);
+    let row = |label: &str| -> [f64; 3] {
+        let line = out
+            .lines()
+            .find(|l| {
+                l.starts_with(label) && (label == identified_name || !l.contains("(identified"))
+            })
+            .unwrap_or_else(|| panic!("no row {label}: {out}"));
+        let v: Vec<f64> = line
+            .split_whitespace()
+            .rev()
+            .take(3)
+            .map(|t| t.trim_end_matches('%').parse().unwrap())
+            .collect();
+        [v[2], v[1], v[0]]
+    };
+    let identified = row(&identified_name);
+    let nominal_row = row(&nominal.name);
+    let improvement = row("improvement");
+    // Noise-free sweeps of the true robot identify it: what is left is rounding.
+    assert!(identified[2] < 0.01, "{identified:?} mm: {out}");
+    for k in 0..3 {
+        assert!(
+            identified[k] < 0.2 * nominal_row[k],
+            "identified {identified:?} mm not well below nominal {nominal_row:?} mm: {out}"
+        );
+        let percent = 100.0 * (1.0 - identified[k] / nominal_row[k]);
+        assert!(
+            (improvement[k] - percent).abs() < 0.1,
+            "improvement {improvement:?} % is not (1 − identified/nominal): {out}"
+        );
+    }
     // With --covariance the model file carries the runs' full covariance, and it samples.
     let model_cov = d.join("model_cov.toml");
     let o = run(&[
