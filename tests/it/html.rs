@@ -367,3 +367,117 @@ fn map_report_shows_both_heat_maps_and_renders() {
     );
     check_report(&out, 2, 2, "map");
 }
+
+#[test]
+fn identify_report_renders_and_writes_every_part() {
+    let d = tmpdir("identify");
+    let sweeps = arg(&d, "sweeps.csv");
+    let o = run(&["simulate", "--runs", "3", "--step", "5", "--out", &sweeps]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let (json, csv, svg, html) = (
+        arg(&d, "id.json"),
+        arg(&d, "csv"),
+        arg(&d, "svg"),
+        arg(&d, "h"),
+    );
+    let o = run(&[
+        "identify", &sweeps, "-q", "--json", &json, "--csv", &csv, "--svg", &svg, "--html", &html,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).is_empty(), "-q prints nothing: {}", stdout(&o));
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    assert_eq!(v["identify"]["runs"].as_array().unwrap().len(), 3);
+    // The parts are the files of the report directory.
+    let h = d.join("h");
+    assert_eq!(
+        std::fs::read_to_string(&json).unwrap(),
+        std::fs::read_to_string(h.join("identify.json")).unwrap()
+    );
+    for (dir, name) in [
+        ("csv", "joints.csv"),
+        ("csv", "runs.csv"),
+        ("svg", "residuals.svg"),
+    ] {
+        assert_eq!(
+            std::fs::read_to_string(d.join(dir).join(name)).unwrap(),
+            std::fs::read_to_string(h.join(name)).unwrap(),
+            "{name}"
+        );
+    }
+    let page = std::fs::read_to_string(h.join("index.html")).unwrap();
+    assert!(
+        page.contains("sweeps.csv"),
+        "the sweeps file is a settings row"
+    );
+    check_report(&h, 1, 3, "identify");
+}
+
+#[test]
+fn compare_and_study_write_every_report_flag() {
+    let d = tmpdir("flags");
+    let args = [
+        "compare", "--points", "3", "--draws", "20000", "--deltas", "0.05", "--batch", "2000",
+    ];
+    let more = ["--csv", &arg(&d, "c/csv"), "--svg", &arg(&d, "c/svg")];
+    let (out, _) = report(&d, "c/h", &[&args[..], &more[..]].concat());
+    for (dir, name) in [
+        ("csv", "comparison.csv"),
+        ("svg", "pdf.svg"),
+        ("svg", "reliability.svg"),
+    ] {
+        assert_eq!(
+            std::fs::read_to_string(d.join("c").join(dir).join(name)).unwrap(),
+            std::fs::read_to_string(out.join(name)).unwrap(),
+            "{name}"
+        );
+    }
+    let base = ["study", "--quick", "--factors", "step", "--runs", "3"];
+    let more = [
+        "--mcs-draws",
+        "20000",
+        "--points",
+        "5",
+        "--out",
+        &arg(&d, "s/out"),
+        "--json",
+        &arg(&d, "s/study.json"),
+        "--csv",
+        &arg(&d, "s/csv"),
+        "--svg",
+        &arg(&d, "s/svg"),
+    ];
+    let (out, _) = report(&d, "s/h", &[&base[..], &more[..]].concat());
+    let s = d.join("s");
+    assert_eq!(
+        std::fs::read_to_string(s.join("study.json")).unwrap(),
+        std::fs::read_to_string(s.join("out/study.json")).unwrap()
+    );
+    let listing = |p: &Path| -> Vec<String> {
+        let mut v: Vec<String> = std::fs::read_dir(p)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        v.sort();
+        v
+    };
+    assert_eq!(
+        listing(&s.join("csv")),
+        [
+            "accuracy.csv",
+            "correlation.csv",
+            "ranking.csv",
+            "table1.csv",
+            "table2.csv"
+        ]
+    );
+    // Figs. 4 and 5 of the factor, and one convergence figure per δ.
+    assert_eq!(listing(&s.join("svg")).len(), 4);
+    for f in listing(&s.join("svg")) {
+        assert_eq!(
+            std::fs::read_to_string(s.join("svg").join(&f)).unwrap(),
+            std::fs::read_to_string(out.join(&f)).unwrap(),
+            "{f}"
+        );
+    }
+}

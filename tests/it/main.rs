@@ -18,6 +18,7 @@ mod inputs;
 mod map;
 mod map_shards;
 mod mc_known_answers;
+mod reports;
 mod sensitivity;
 mod study;
 mod summary;
