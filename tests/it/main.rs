@@ -7,6 +7,7 @@ mod common;
 
 mod amcs_vs_mcs;
 mod cli;
+mod docs;
 mod fuzz;
 #[cfg(feature = "gpu")]
 mod gpu;
