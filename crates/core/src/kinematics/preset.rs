@@ -27,7 +27,7 @@ use crate::import::{convert, SourceChain, SourceFormat, SourceJoint};
 use nalgebra::{Isometry3, Unit, Vector3};
 use std::f64::consts::FRAC_PI_2;
 
-use super::model::{param_index, FixedParam, ParamKind, RobotModel, Uncertainty, JOINTS, N_PARAMS};
+use super::{param_index, FixedParam, ParamKind, RobotModel, Uncertainty, JOINTS, N_PARAMS};
 
 /// Names of the built-in presets.
 pub const PRESETS: &[&str] = &["tx60", "ur5e", "ur10e", "irb2400", "kr6r700sixx"];
