@@ -269,8 +269,8 @@ mod tests {
         cal.params[7] += 0.3;
         cal.params[16] -= 0.2;
         assert_eq!(WorkspaceBox::for_robot(&cal), WorkspaceBox::default());
-        for name in crate::kinematics::PRESETS {
-            let r = crate::kinematics::preset(name).unwrap();
+        for name in crate::presets::PRESETS {
+            let r = crate::presets::preset(name).unwrap();
             let bx = WorkspaceBox::for_robot(&r);
             eprintln!("{name}: reach {:.1} mm, box {bx:?}", reach_mm(&r));
             let pts = generate(&r, 200, &bx, 3).unwrap_or_else(|e| panic!("{name}: {e}"));

@@ -36,9 +36,14 @@ pub enum ModelError {
         /// What is wrong.
         message: String,
     },
-    /// Unknown preset name.
-    #[error("unknown preset '{0}' (known: {known})", known = super::PRESETS.join(", "))]
-    UnknownPreset(String),
+    /// Unknown preset name (`crate::presets::preset`).
+    #[error("unknown preset '{name}' (known: {})", .known.join(", "))]
+    UnknownPreset {
+        /// The name given.
+        name: String,
+        /// The names of the built-in presets.
+        known: &'static [&'static str],
+    },
 }
 
 #[derive(Serialize, Deserialize)]

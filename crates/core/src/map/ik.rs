@@ -516,7 +516,7 @@ impl<'a> Ik<'a> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kinematics::{preset, PRESETS};
+    use crate::presets::{preset, PRESETS};
 
     #[test]
     fn rpy_matches_its_definition() {
