@@ -573,7 +573,7 @@ mod tests {
 
     #[test]
     fn commanded_fit_pins_radius_on_short_noisy_arc() {
-        use crate::simulate::standard_normal as gauss;
+        use crate::sampling::standard_normal as gauss;
         use rand::SeedableRng;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
         let axis = Vector3::new(0.2, 0.9, -0.3).normalize();
