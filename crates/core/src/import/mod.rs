@@ -5,9 +5,9 @@
 //! its axis, and the fixed transform from the last joint's frame to the tip. [`convert`] then
 //!
 //! 1. places every joint axis in the base frame at q = 0 and hands the six lines and the tip
-//!    point to the identification's lines → MDH conversion
-//!    ([`crate::identify::mdh::chain_from_zero_pose`]): one conversion for measured and imported
-//!    axes;
+//!    point to the lines → MDH conversion the identification uses too
+//!    ([`crate::kinematics::mdh::chain_from_zero_pose`]): one conversion for measured and
+//!    imported axes;
 //! 2. **proves** the result: the source's own forward kinematics ([`SourceChain::position`],
 //!    composed from its transforms with no MDH code) against the model's at q = 0 and
 //!    [`PROOF_CONFIGURATIONS`] random configurations within the limits; a maximum deviation above
@@ -31,8 +31,8 @@ pub mod export;
 pub mod ur;
 pub mod urdf;
 
-use crate::identify::mdh::chain_from_zero_pose;
-use crate::identify::{IdentifyError, Line};
+use crate::kinematics::lines::Line;
+use crate::kinematics::mdh::{chain_from_zero_pose, GeometryError};
 use crate::kinematics::{BaseTransform, RobotModel, Uncertainty, JOINTS, N_PARAMS};
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
@@ -297,16 +297,12 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         tip = flip(tip);
     }
     check_base(&axes[0], &chain.joints[0].name, path)?;
-    let c = chain_from_zero_pose(&axes, tip).map_err(|e| match e {
-        IdentifyError::Geometry { joint, message } => ImportError::NotRepresentable {
+    let c = chain_from_zero_pose(&axes, tip).map_err(|GeometryError { joint, message }| {
+        ImportError::NotRepresentable {
             path: path.into(),
             joint: chain.joints[joint - 1].name.clone(),
             message,
-        },
-        other => ImportError::Chain {
-            path: path.into(),
-            message: other.to_string(),
-        },
+        }
     })?;
     let model = RobotModel {
         name: chain.name.clone(),

@@ -19,6 +19,8 @@ mod check;
 mod file;
 mod fk;
 mod index;
+pub mod lines;
+pub mod mdh;
 mod model;
 #[cfg(test)]
 mod tests;
