@@ -217,6 +217,10 @@ fn urdf_preset(name: &str, figures: &[UrdfJointFigures; JOINTS]) -> RobotModel {
 }
 
 /// A preset by name.
+///
+/// # Errors
+///
+/// [`ModelError::UnknownPreset`] when `name` (case-insensitive) is none of [`PRESETS`].
 pub fn preset(name: &str) -> Result<RobotModel, ModelError> {
     match name.to_ascii_lowercase().as_str() {
         "tx60" => Ok(tx60()),

@@ -34,6 +34,11 @@ pub struct GpuEvaluator {
 impl GpuEvaluator {
     /// An evaluator for `problem` on the adapter chosen by `opts`, sharing the process's device
     /// on that adapter ([`GpuContext::shared`]; opened, and the shader compiled, on first use).
+    ///
+    /// # Errors
+    ///
+    /// [`EngineError::Gpu`] when the adapter cannot be found or opened ([`GpuContext::shared`]) or
+    /// the buffers cannot be created.
     pub fn new(problem: Problem, opts: &GpuOptions) -> Result<Self, EngineError> {
         let ctx = GpuContext::shared(opts.adapter.as_deref(), opts.hardware_only)?;
         Self::with_context(ctx, &problem, opts)
@@ -41,6 +46,10 @@ impl GpuEvaluator {
 
     /// An evaluator for `problem` on an open context (its adapter-selection options are
     /// ignored): uploads the problem's constants and allocates the chunk slots.
+    ///
+    /// # Errors
+    ///
+    /// [`EngineError::Gpu`] when the device reports an error creating the buffers.
     pub fn with_context(
         ctx: Arc<GpuContext>,
         problem: &Problem,
@@ -87,6 +96,11 @@ impl GpuEvaluator {
     /// Replaces the problem (model, points, reference, seed): new per-problem buffers on the
     /// same device, pipelines and chunk slots. A speculative chunk of the old problem is
     /// dropped.
+    ///
+    /// # Errors
+    ///
+    /// [`EngineError::Gpu`] when the evaluator is unusable after an earlier device error, or the
+    /// device reports an error (which marks it unusable).
     pub fn set_problem(&mut self, problem: &Problem) -> Result<(), EngineError> {
         self.check_usable()?;
         if let Some((_, f)) = self.prefetch.take() {

@@ -10,6 +10,11 @@ pub type PhiloxBlock = ([u32; 4], [f32; 4]);
 /// Runs the Philox test kernel on the adapter chosen by `adapter` (substring, or the most
 /// capable; the process's shared device): for each `(counter, key)` the 4 Philox words and the
 /// 4 normals of that block. For tests of the shader against the Rust generator.
+///
+/// # Errors
+///
+/// [`EngineError::Gpu`] when the adapter cannot be found or opened, the test shader does not
+/// compile, or the dispatch or readback fails.
 pub fn philox_on_gpu(
     adapter: Option<&str>,
     cases: &[([u32; 4], [u32; 2])],

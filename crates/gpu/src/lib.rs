@@ -35,6 +35,7 @@
 //! computing while the caller sorts this one ([`GpuOptions::prefetch`]). Memory is per chunk,
 //! never per request: an MCS of 10^8 draws needs the caller's output slice and two chunks of GPU
 //! buffers; an offset request of n rows uploads `N_UNCERTAIN` f32 per row, one chunk at a time.
+#![warn(clippy::missing_errors_doc)]
 
 mod backend;
 mod buffers;

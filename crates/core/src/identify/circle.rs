@@ -230,6 +230,15 @@ pub fn fit_plane(points: &[Vector3<f64>]) -> (Vector3<f64>, Vector3<f64>, [f64; 
 ///
 /// With a `prior`, the axis direction is also pulled towards [`AxisPrior::direction`] (see
 /// there); without one the fit uses the points and angles alone.
+///
+/// # Errors
+///
+/// [`CircleFitError::LengthMismatch`] when points and angles differ in number,
+/// [`CircleFitError::TooFewPoints`] below [`MIN_POINTS`], [`CircleFitError::NotFinite`] for a NaN
+/// or infinite coordinate or angle, [`CircleFitError::ArcTooShort`] when the commanded angles span
+/// less than [`MIN_ARC_DEG`], [`CircleFitError::Collinear`] when the points lie on a line or
+/// coincide, [`CircleFitError::NoConvergence`] when the fit gives a non-finite result, and
+/// [`CircleFitError::RadiusTooSmall`] below [`MIN_RADIUS_MM`].
 pub fn fit_circle(
     points: &[Vector3<f64>],
     angles_rad: &[f64],

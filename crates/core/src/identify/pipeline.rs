@@ -129,6 +129,13 @@ pub struct Identification {
 
 /// Checks one sweep: enough points and only the swept joint moving. Returns its home pose
 /// (degrees; the swept joint's entry is its first commanded value).
+///
+/// # Errors
+///
+/// [`IdentifyError::MissingJoint`] for a sweep without points, [`IdentifyError::Fit`] (with
+/// [`CircleFitError::TooFewPoints`]) for fewer than [`circle::MIN_POINTS`] points, and
+/// [`IdentifyError::OtherJointMoved`] when a joint other than the swept one leaves the home pose by
+/// more than [`HOME_TOLERANCE_DEG`].
 pub fn check_sweep(sweep: &Sweep, run: Option<&str>) -> Result<[f64; JOINTS], IdentifyError> {
     let label = sweeps::run_label(run);
     let Some(first) = sweep.points.first() else {
@@ -166,6 +173,11 @@ pub fn check_sweep(sweep: &Sweep, run: Option<&str>) -> Result<[f64; JOINTS], Id
 
 /// Identifies one model per run of `data` (see the module docs). `nominal` gives the structure,
 /// the sign conventions, the fixed parameters and the joint limits.
+///
+/// # Errors
+///
+/// [`IdentifyError::NoData`] when `data` has no run; otherwise the first run's error of
+/// [`identify_run`].
 pub fn identify(
     data: &SweepData,
     nominal: &RobotModel,
@@ -181,6 +193,12 @@ pub fn identify(
 }
 
 /// Identifies the model of one run.
+///
+/// # Errors
+///
+/// [`IdentifyError::MissingJoint`] when a joint has no sweep, the errors of [`check_sweep`] for a
+/// bad sweep, [`IdentifyError::Fit`] when a circle fit fails (naming the joint and run), and
+/// [`IdentifyError::Geometry`] when the fitted axes cannot be turned into a joint's parameters.
 pub fn identify_run(
     run: &SweepRun,
     nominal: &RobotModel,

@@ -256,6 +256,13 @@ impl Imported {
 
 /// Converts a source chain to the MDH model and proves the conversion (see the module docs).
 /// `path` names the source in errors and in the header.
+///
+/// # Errors
+///
+/// [`ImportError::Chain`] when the chain does not have six joints,
+/// [`ImportError::NotRepresentable`] naming the joint whose geometry has no exact MDH form (a first
+/// axis off base z, coinciding axes, …), and [`ImportError::Proof`] when the model's forward
+/// kinematics deviates from the source's by more than [`PROOF_TOLERANCE_MM`].
 pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError> {
     if chain.joints.len() != JOINTS {
         return Err(ImportError::Chain {
@@ -352,7 +359,12 @@ fn check_base(axis: &Line, joint: &str, path: &str) -> Result<(), ImportError> {
 }
 
 /// Maximum tool-point deviation source vs model at q = 0 and [`PROOF_CONFIGURATIONS`] uniform
-/// random configurations within the limits; an error above [`PROOF_TOLERANCE_MM`].
+/// random configurations within the limits;
+///
+/// # Errors
+///
+/// [`ImportError::Proof`] naming the configuration where the deviation exceeds
+/// [`PROOF_TOLERANCE_MM`].
 pub fn prove(
     chain: &SourceChain,
     model: &RobotModel,
@@ -411,6 +423,10 @@ pub struct ImportOptions {
 }
 
 /// The reader for `path` by its extension; `.xacro` is refused (run xacro first).
+///
+/// # Errors
+///
+/// [`ImportError::Xacro`] for a `.xacro` file and [`ImportError::Chain`] for an unknown extension.
 pub fn kind_of(path: &std::path::Path) -> Result<FileKind, ImportError> {
     let ext = path
         .extension()
@@ -435,6 +451,12 @@ pub fn kind_of(path: &std::path::Path) -> Result<FileKind, ImportError> {
 
 /// Reads a robot description of any supported format (chosen by [`kind_of`]), converts and
 /// proves it.
+///
+/// # Errors
+///
+/// The errors of [`kind_of`] for the file's type; [`ImportError::Read`] when the file cannot be
+/// read, is too large or is not UTF-8; the reader's errors ([`urdf::parse`], [`dh::parse_csv`],
+/// [`dh::parse_toml`], [`ur::parse`]) for its contents; and those of [`convert`].
 pub fn import_file(path: &std::path::Path, opts: &ImportOptions) -> Result<Imported, ImportError> {
     let kind = kind_of(path)?;
     let p = path.display().to_string();

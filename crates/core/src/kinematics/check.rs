@@ -56,6 +56,11 @@ impl RobotModel {
     /// [`MAX_SIGMA_MM`] / [`MAX_SIGMA_DEG`], zero spread on each joint's fixed parameter, and a
     /// covariance that is symmetric and positive definite on the parameters with nonzero
     /// variance. The error names the field as the file spells it.
+    ///
+    /// # Errors
+    ///
+    /// [`InvalidField`] for the first value that breaks a rule above, naming its field
+    /// (`joint[2].sigma.d`, `tool[0]`, `covariance.matrix[3][1]`, …).
     pub fn check(&self) -> Result<(), InvalidField> {
         for (k, &v) in self.tool.iter().enumerate() {
             check_magnitude(&format!("tool[{k}]"), v, MAX_LENGTH_MM, "mm")?;

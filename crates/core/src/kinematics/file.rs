@@ -98,12 +98,25 @@ struct ModelFile {
 
 impl RobotModel {
     /// Reads and checks a model file (at most [`crate::input::MODEL_FILE_LIMIT`] bytes).
+    ///
+    /// # Errors
+    ///
+    /// [`ModelError::Read`] when the file cannot be read, is too large or is not UTF-8; otherwise
+    /// as [`RobotModel::from_toml`].
     pub fn from_file(path: &std::path::Path) -> Result<Self, ModelError> {
         let text = crate::input::read_text(path, crate::input::MODEL_FILE_LIMIT, "model file")?;
         Self::from_toml(&text, &path.display().to_string())
     }
 
     /// Parses and checks a model from TOML text; `origin` names the source in errors.
+    ///
+    /// # Errors
+    ///
+    /// [`ModelError::Syntax`] for malformed TOML or unknown, missing or mistyped keys (naming line
+    /// and column), and [`ModelError::Invalid`] for a value out of range, a wrong count (6 joints,
+    /// 3 tool coordinates, 2 limits), a covariance that is not symmetric and positive definite, or
+    /// per-joint `sigma` (and `tool_sigma`) that differ from the covariance's diagonal; the error
+    /// names the field.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, ModelError> {
         let file: ModelFile = toml::from_str(text).map_err(|e| ModelError::Syntax {
             path: origin.to_string(),

@@ -71,7 +71,12 @@ fn wrap_near(angle: f64, reference: f64) -> f64 {
 /// Parameters of joint `i` from the next axis `next` expressed in frame `i−1` coordinates (frame
 /// `i−1` is the identity there: joint `i`'s axis is the z axis through the origin), measured with
 /// joint `i` at `q_home` (radians). `nominal` supplies the sign conventions, the fixed `d` and the
-/// structure. Errors are messages (the caller names the joint).
+/// structure.
+///
+/// # Errors
+///
+/// A message when the parallel-axis (`β`) form is needed but the next axis is perpendicular to this
+/// one, or passes through this axis at height `d`.
 pub fn joint_from_next_axis(
     next: &Line,
     q_home: f64,
@@ -180,6 +185,11 @@ pub struct Chain {
 
 /// Builds the chain from the measured axes of joints 1–6 (`axes[0]` is not used, see the module
 /// docs) and the J6 sweep points `(q_deg, position)`.
+///
+/// # Errors
+///
+/// [`GeometryError`] naming the joint when its next axis cannot be turned into parameters
+/// ([`joint_from_next_axis`]), or joint 6 when there are no tool points.
 pub fn axes_to_chain(
     nominal: &RobotModel,
     axes: &[MeasuredAxis; JOINTS],
@@ -257,6 +267,11 @@ pub fn axes_to_chain(
 ///
 /// `axes[0]` must be the base z axis (the model has no parameters before `Rz(θ_1 + q_1)`); the
 /// caller checks that (this function cannot see it: [`axes_to_chain`] does not use `axes[0]`).
+///
+/// # Errors
+///
+/// [`GeometryError`] naming the joint whose next axis cannot be turned into parameters (see
+/// [`axes_to_chain`]).
 pub fn chain_from_zero_pose(
     axes: &[Line; JOINTS],
     tip: Vector3<f64>,

@@ -176,6 +176,10 @@ impl RobotModel {
     }
 
     /// Checks a joint configuration (degrees) against the limits; names the joint if outside.
+    ///
+    /// # Errors
+    ///
+    /// A message naming the first joint whose angle is not finite or lies outside its limits.
     pub fn check_limits(&self, q_deg: &[f64; JOINTS]) -> Result<(), String> {
         for (j, (&q, &(lo, hi))) in q_deg.iter().zip(&self.limits_deg).enumerate() {
             if !q.is_finite() {

@@ -60,6 +60,11 @@ pub struct Evaluation {
 }
 
 /// Checks thresholds and draws.
+///
+/// # Errors
+///
+/// [`MapError::Setting`] for no thresholds, a threshold that is not a positive number of mm, or no
+/// draws.
 pub fn check_run(thresholds: &[f64], draws: u64) -> Result<(), MapError> {
     if thresholds.is_empty() {
         return Err(setting(MapSetting::Thresholds, "at least one is needed"));
@@ -111,6 +116,11 @@ pub struct CellErrors {
 /// Evaluates draws `0 … draws − 1` at every test point of `ev` (the reached cells, or a shard's
 /// part of them) in batches of `batch`, keeping each cell's errors for its statistics;
 /// `progress` gets (done, total).
+///
+/// # Errors
+///
+/// [`MapError::Setting`] for bad thresholds or draws ([`check_run`]), and [`MapError::Engine`] when
+/// the evaluator fails.
 pub fn evaluate_cells(
     ev: &mut dyn Evaluator,
     draws: u64,
@@ -166,6 +176,11 @@ impl Evaluation {
 
 /// Evaluates draws `0 … draws − 1` at every test point of `ev` (the reached cells) in batches of
 /// `batch` ([`evaluate_cells`]) and adds the multi-point statistics.
+///
+/// # Errors
+///
+/// As [`evaluate_cells`]: [`MapError::Setting`] for bad thresholds or draws, [`MapError::Engine`]
+/// when the evaluator fails.
 pub fn evaluate(
     ev: &mut dyn Evaluator,
     draws: u64,

@@ -151,6 +151,13 @@ impl MapSpec {
 
     /// Checks the grid against the model: cell counts, the box, the plane position (inside the
     /// box and within the robot's reach), the orientation, the reference configuration, seeds.
+    ///
+    /// # Errors
+    ///
+    /// [`MapError::Setting`] naming the first setting out of range: a box that is not finite or has
+    /// a non-positive size, a cell count of 0 or more than [`MAX_CELLS`] cells, a plane outside the
+    /// box or beyond the robot's reach, an orientation that is not finite or beyond ±360°, a
+    /// reference configuration outside the joint limits, or more than [`MAX_IK_SEEDS`] seeds.
     pub fn check(&self, model: &RobotModel) -> Result<(), MapError> {
         let b = &self.workspace;
         if !(0..3).all(|k| b.center[k].is_finite() && b.size[k].is_finite() && b.size[k] > 0.0) {
@@ -251,9 +258,13 @@ impl MapSpec {
         }
     }
 
-    /// Inverse kinematics for every cell: visited in serpentine order so that each cell is
-    /// seeded from its solved neighbours; `None` for a cell no seed reaches. Errors when the
-    /// settings are wrong or no cell is reachable.
+    /// Inverse kinematics for every cell: visited in serpentine order so that each cell is seeded
+    /// from its solved neighbours; `None` for a cell no seed reaches.
+    ///
+    /// # Errors
+    ///
+    /// [`MapError::Setting`] when the settings are wrong ([`MapSpec::check`]) and
+    /// [`MapError::NothingReachable`] when no cell is reachable.
     pub fn solve(&self, model: &RobotModel) -> Result<Vec<Option<CellIk>>, MapError> {
         self.check(model)?;
         let targets = self.targets();

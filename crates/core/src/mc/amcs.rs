@@ -48,6 +48,13 @@ impl Default for AmcsOptions {
 
 impl AmcsOptions {
     /// Checks every setting; errors name the setting.
+    ///
+    /// # Errors
+    ///
+    /// [`McError::Setting`] naming the first setting out of range: the coverage probability or
+    /// thresholds ([`RunSettings::check`]), a tolerance that is not a positive number of mm,
+    /// significant digits outside 1–12, a batch size below 100/(1 − p) (GUM S1 §7.9.2), or a draw
+    /// cap below two batches.
     pub fn check(&self) -> Result<(), McError> {
         self.settings.check()?;
         match self.tolerance {
@@ -106,6 +113,12 @@ fn spread(v: &[f64]) -> f64 {
 }
 
 /// Runs the adaptive procedure on `eval`.
+///
+/// # Errors
+///
+/// [`McError::Setting`] for a setting out of range ([`AmcsOptions::check`]), [`McError::Engine`]
+/// when the evaluator fails, and [`McError::NonFinite`] for a draw whose maximum point error is not
+/// finite.
 pub fn run_amcs(
     eval: &mut dyn Evaluator,
     opts: &AmcsOptions,

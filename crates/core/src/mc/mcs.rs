@@ -28,6 +28,13 @@ impl Default for McsOptions {
 }
 
 /// Runs `opts.draws` draws on `eval`.
+///
+/// # Errors
+///
+/// [`McError::Setting`] for a coverage probability or thresholds out of range
+/// ([`RunSettings::check`]), fewer draws than 100/(1 − p), or a chunk of 0; [`McError::Engine`]
+/// when the evaluator fails; [`McError::NonFinite`] for a draw whose maximum point error is not
+/// finite.
 pub fn run_mcs(
     eval: &mut dyn Evaluator,
     opts: &McsOptions,

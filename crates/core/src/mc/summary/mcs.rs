@@ -117,6 +117,12 @@ impl Summary {
     }
 
     /// Reads a summary written by [`Summary::to_json`]; `file` names it in errors.
+    ///
+    /// # Errors
+    ///
+    /// [`SummaryError::Corrupt`] when `text` is not the JSON of a summary, or its fields are
+    /// inconsistent (draw range, counts, bins, groups, min/max, moment sums, coverage probability);
+    /// the message names the field.
     pub fn from_json(text: &str, file: &str) -> Result<Summary, SummaryError> {
         let corrupt = |message: String| SummaryError::Corrupt {
             file: file.to_string(),
@@ -378,6 +384,13 @@ impl Summary {
 /// Evaluates draws `[first, end)` on `ev` in chunks of `chunk` and summarises them without
 /// keeping the values (memory: one chunk and the occupied bins, at most `max_bins` of them, else
 /// [`SummaryError::Histogram`]). `provenance` gives the run; its range is set to `[first, end)`.
+///
+/// # Errors
+///
+/// [`SummaryError::Mc`] for settings out of range ([`RunSettings::check`]), a chunk of 0, an empty
+/// draw range or one beyond the provenance's draws, a failing evaluator, or a draw whose `w` is not
+/// finite or negative; [`SummaryError::Histogram`] when the histogram needs more than `max_bins`
+/// bins.
 #[allow(clippy::too_many_arguments)]
 pub fn summarize(
     ev: &mut dyn Evaluator,
@@ -466,6 +479,12 @@ pub fn summarize(
 /// Merges named summaries of one run: they must agree on provenance (apart from the range) and
 /// settings, and their ranges must cover `[0, draws)` exactly once. The result does not depend
 /// on the order given (summaries are merged in draw order).
+///
+/// # Errors
+///
+/// [`SummaryError::Empty`] for no summaries, [`SummaryError::Mismatch`] naming the first field (of
+/// the provenance or the settings) on which a summary differs from the first, and
+/// [`SummaryError::Range`] when the draw ranges overlap or leave draws of `[0, draws)` missing.
 pub fn merge(named: &[(String, Summary)]) -> Result<Summary, SummaryError> {
     let order = in_draw_order(named, |s| &s.provenance, settings_of)?;
     let mut out = order[0].1.clone();

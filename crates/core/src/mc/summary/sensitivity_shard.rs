@@ -80,6 +80,12 @@ impl SensitivityShard {
 
     /// Evaluates base samples `[provenance.first, provenance.end)` of the analysis of
     /// `problem` with `opts` (`opts.draws` the provenance's draws).
+    ///
+    /// # Errors
+    ///
+    /// As [`sensitivity::run_outputs`]: an option out of range, an evaluator of another problem, no
+    /// free parameter, a base-sample range that is empty or beyond `opts.draws`, a failing
+    /// evaluator, or an output that is not finite.
     pub fn run(
         problem: &Problem,
         ev: &mut dyn Evaluator,
@@ -108,6 +114,11 @@ impl SensitivityShard {
     }
 
     /// Reads a shard written by [`SensitivityShard::to_json`]; `file` names it in errors.
+    ///
+    /// # Errors
+    ///
+    /// [`SummaryError::Corrupt`] when `text` is not the JSON of a sensitivity shard, or its kind,
+    /// draw range or outputs (count, finiteness) are inconsistent; the message names the field.
     pub fn from_json(text: &str, file: &str) -> Result<SensitivityShard, SummaryError> {
         let corrupt = |message: String| SummaryError::Corrupt {
             file: file.to_string(),
@@ -150,6 +161,12 @@ pub enum SensitivityMergeError {
 
 /// The analysis of named sensitivity shards that together hold every base sample of one run
 /// once (checked as [`merge`](super::merge) checks summaries): the same result as one run, to the bit.
+///
+/// # Errors
+///
+/// [`SensitivityMergeError::Shards`] when the shards do not make one analysis (none given, a
+/// differing field, overlapping or missing base samples; see [`merge`](super::merge)), and
+/// [`SensitivityMergeError::Analysis`] when the analysis of the merged outputs fails.
 pub fn merge_sensitivity(
     named: &[(String, SensitivityShard)],
 ) -> Result<SensitivityResult, SensitivityMergeError> {

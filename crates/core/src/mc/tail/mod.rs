@@ -148,6 +148,13 @@ pub const MAX_BATCH: usize = 1 << 22;
 /// Estimates `Pr[w ≥ L]` for each threshold of `opts` on `eval`, whose problem's parameter
 /// distribution is `sampler` (use the sampler of the [`crate::engine::Problem`] the evaluator
 /// was built from: it gives the map `u ↦ L u` and the Philox key). See the module docs.
+///
+/// # Errors
+///
+/// [`TailError::Setting`] for an option out of range ([`TailOptions::check`]),
+/// [`TailError::NoUncertainty`] when no parameter has a nonzero variance, [`TailError::Engine`]
+/// when the evaluator fails, and [`TailError::NonFinite`] when it returns a `w` that is not finite.
+/// Reaching the evaluation cap or [`MAX_LEVELS`] is not an error: see [`TailResult::outcome`].
 pub fn run_tail(
     eval: &mut dyn Evaluator,
     sampler: &ParamSampler,

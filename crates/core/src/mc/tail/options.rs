@@ -137,6 +137,15 @@ fn setting(field: TailSetting, message: String) -> TailError {
 
 impl TailOptions {
     /// Checks every field; the error names the first field out of range.
+    ///
+    /// # Errors
+    ///
+    /// [`TailError::Setting`] naming the first field out of range: no thresholds or one that is not
+    /// a finite positive length, a target coefficient of variation outside (0, 1), a batch size
+    /// outside 1 … [`MAX_BATCH`], an evaluation cap of 0 or below one level, and for subset
+    /// simulation `p0` outside (0, 0.5], a proposal spread that is not finite and positive, or
+    /// samples per level outside 2 … [`MAX_SAMPLES_PER_LEVEL`] or not divisible into `p0 · N`
+    /// chains.
     pub fn check(&self) -> Result<(), TailError> {
         if self.thresholds.is_empty() {
             return Err(setting(
