@@ -178,6 +178,26 @@ pub fn check_sweep(sweep: &Sweep, run: Option<&str>) -> Result<[f64; JOINTS], Id
 ///
 /// [`IdentifyError::NoData`] when `data` has no run; otherwise the first run's error of
 /// [`identify_run`].
+///
+/// # Examples
+///
+/// Identifies a simulated TX60 (true tool point (30, −20, 80) mm, tracker noise 10 µm) from
+/// one run of circle-point sweeps, starting from the nominal model:
+///
+/// ```
+/// use gpu_amcs_core::identify::{identify, IdentifyOptions};
+/// use gpu_amcs_core::kinematics::tx60;
+/// use gpu_amcs_core::simulate::{simulate_sweeps, SweepPlan};
+///
+/// let mut truth = tx60();
+/// truth.tool = [30.0, -20.0, 80.0];
+/// let data = simulate_sweeps(&truth, &SweepPlan::default(), 0.01, 1, 1);
+/// let ids = identify(&data, &tx60(), &IdentifyOptions::default())?;
+/// assert_eq!(ids.len(), 1);
+/// let tool = ids[0].model.tool;
+/// assert!((0..3).all(|k| (tool[k] - truth.tool[k]).abs() < 0.1), "{tool:?}");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn identify(
     data: &SweepData,
     nominal: &RobotModel,

@@ -181,6 +181,41 @@ impl Evaluation {
 ///
 /// As [`evaluate_cells`]: [`MapError::Setting`] for bad thresholds or draws, [`MapError::Engine`]
 /// when the evaluator fails.
+///
+/// # Examples
+///
+/// A whole map, as the `map` command makes it: a 3 × 2 slice of the TX60's workspace in the
+/// plane y = 0, its inverse kinematics, 2000 draws at the reached cells on the CPU evaluator,
+/// and the finished map:
+///
+/// ```
+/// use gpu_amcs_core::engine::{CpuEvaluator, Evaluator, Problem, Reference};
+/// use gpu_amcs_core::map::{self, Grid, MapResult, MapSpec, Plane, Timings};
+///
+/// let model = gpu_amcs_core::kinematics::tx60();
+/// let spec = MapSpec {
+///     grid: Grid::Plane { plane: Plane::Xz, at: 0.0, cells: [3, 2] },
+///     workspace: Default::default(),
+///     orientation_rpy_deg: None,
+///     reference_q_deg: map::default_reference_deg(&model),
+///     ik_seeds: 8,
+/// };
+/// let solutions = spec.solve(&model)?;
+/// let points = map::test_points(&solutions);
+/// let problem = Problem::new(model.clone(), &points, &Reference::Calibrated, 7)?;
+/// let mut ev = CpuEvaluator::new(problem);
+/// let draws = 2000;
+/// let batch = map::batch_size(points.len(), draws);
+/// let eval = map::evaluate(&mut ev, draws, batch, &[0.1, 0.2], None)?;
+/// let (info, timings) = (ev.info(), Timings::default());
+/// let result = MapResult::new(&model.name, &spec, 7, solutions, eval, info, timings);
+/// assert_eq!(result.cells.len(), 6);
+/// assert!(result.reached > 0 && result.reached == points.len());
+/// for cell in result.cells.iter().filter(|c| c.ik.is_some()) {
+///     assert!(map::round_trip_error(&model, cell).unwrap() < 1e-6);
+/// }
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn evaluate(
     ev: &mut dyn Evaluator,
     draws: u64,

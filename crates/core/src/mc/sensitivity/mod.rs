@@ -317,6 +317,32 @@ fn robot_groups(free: &[usize]) -> Vec<InputGroup> {
 ///
 /// As [`run_outputs`]; and [`SensitivityError::Design`] if the design and the outputs disagree
 /// ([`Design::result`]).
+///
+/// # Examples
+///
+/// The smallest analysis (64 base samples, 100 bootstrap resamples) of the TX60 at five test
+/// points on the CPU evaluator:
+///
+/// ```
+/// use gpu_amcs_core::engine::{CpuEvaluator, Problem, Reference};
+/// use gpu_amcs_core::mc::sensitivity::{run_sensitivity, SensitivityOptions};
+///
+/// let model = gpu_amcs_core::kinematics::tx60();
+/// let points = gpu_amcs_core::points::generate(&model, 5, &Default::default(), 1)?;
+/// let problem = Problem::new(model, &points, &Reference::Calibrated, 2025)?;
+/// let mut ev = CpuEvaluator::new(problem.clone());
+/// let opts = SensitivityOptions {
+///     draws: 64,
+///     bootstrap: 100,
+///     ..SensitivityOptions::default()
+/// };
+/// let result = run_sensitivity(&problem, &mut ev, &opts)?;
+/// // One first-order and one total index per free parameter of the model.
+/// assert_eq!(result.w().inputs.len(), result.parameters.len());
+/// let top = result.w().inputs.iter().max_by(|a, b| a.total.value.total_cmp(&b.total.value));
+/// println!("most influential: {}", top.map_or("none", |i| i.name.as_str()));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn run_sensitivity(
     problem: &Problem,
     ev: &mut dyn Evaluator,

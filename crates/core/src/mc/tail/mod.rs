@@ -155,6 +155,33 @@ pub const MAX_BATCH: usize = 1 << 22;
 /// [`TailError::NoUncertainty`] when no parameter has a nonzero variance, [`TailError::Engine`]
 /// when the evaluator fails, and [`TailError::NonFinite`] when it returns a `w` that is not finite.
 /// Reaching the evaluation cap or [`MAX_LEVELS`] is not an error: see [`TailResult::outcome`].
+///
+/// # Examples
+///
+/// `Pr[w ≥ 0.2 mm]` (about 1e-4) of the TX60 at five test points by subset simulation on the
+/// CPU evaluator, with a loose target and a small cap (a few thousand evaluations):
+///
+/// ```
+/// use gpu_amcs_core::engine::{CpuEvaluator, Problem, Reference};
+/// use gpu_amcs_core::mc::tail::{run_tail, TailOptions};
+///
+/// let model = gpu_amcs_core::kinematics::tx60();
+/// let points = gpu_amcs_core::points::generate(&model, 5, &Default::default(), 1)?;
+/// let problem = Problem::new(model, &points, &Reference::Calibrated, 2025)?;
+/// let sampler = problem.sampler.clone();
+/// let opts = TailOptions {
+///     thresholds: vec![0.2],
+///     target_cov: 0.5,
+///     samples_per_level: 200,
+///     max_evaluations: 20_000,
+///     ..TailOptions::default()
+/// };
+/// let result = run_tail(&mut CpuEvaluator::new(problem), &sampler, &opts, None)?;
+/// let e = &result.estimates[0];
+/// assert!(e.p_f > 1e-6 && e.p_f < 1e-2 && result.evaluations <= 20_000);
+/// println!("P_f = {:.2e} (cov {:?}, beta {:?})", e.p_f, e.cov, e.beta);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn run_tail(
     eval: &mut dyn Evaluator,
     sampler: &ParamSampler,
