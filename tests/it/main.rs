@@ -19,6 +19,7 @@ mod inputs;
 mod map;
 mod map_shards;
 mod mc_known_answers;
+mod module_cycles;
 mod sensitivity;
 mod study;
 mod summary;
