@@ -5,11 +5,12 @@
 use crate::arrays;
 use crate::errors::{arg_error, driver_error, lib_error, value_error};
 use crate::model::{self, PyModel};
-use gpu_amcs_core::kinematics::{preset, JOINTS};
+use gpu_amcs_core::kinematics::JOINTS;
 use gpu_amcs_core::mc::{
     self, AmcsOptions, IntervalKind, McResult, McsOptions, RunSettings, Tolerance,
 };
 use gpu_amcs_core::points::{self, WorkspaceBox};
+use gpu_amcs_core::presets::preset;
 use gpu_amcs_core::report::{self, RunReport};
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;

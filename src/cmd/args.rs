@@ -6,10 +6,11 @@ use crate::cli::*;
 use anyhow::{bail, Context, Result};
 use gpu_amcs::engine::backend::BackendChoice;
 use gpu_amcs::engine::{Evaluator, Problem, ProblemError, Reference};
-use gpu_amcs::kinematics::{preset, RobotModel};
+use gpu_amcs::kinematics::RobotModel;
 use gpu_amcs::mc::{IntervalKind, RunSettings};
 use gpu_amcs::memory::{self, Estimate, MemoryBudget};
 use gpu_amcs::points::{self, WorkspaceBox};
+use gpu_amcs::presets::preset;
 use gpu_amcs::simulate::{Experiment, Factors, SweepDirection};
 use std::path::Path;
 

@@ -17,10 +17,12 @@
 //! them. [`validate()`] compares a model's predictions with measured positions.
 //!
 //! One algorithm per file: `sweeps` (CSV), `circle` (circle fits), `lm` (the Levenberg–Marquardt
-//! solver of the fits and the refinement), `lines` and `mdh` (axes → parameters), `refine`,
+//! solver of the fits and the refinement), `refine`,
 //! `pipeline` (one run end to end), `quality` (plausibility), `statistics` (over runs),
 //! `validate` (accuracy against measurements), `error`, `report` (the terminal renderings and
-//! [`IdentifyReports`], the runs as a [`Report`](crate::report::Report)).
+//! [`IdentifyReports`], the runs as a [`Report`](crate::report::Report)). The axes → parameters
+//! conversion ([`lines`], [`mdh`]) lives in `crate::kinematics`, which the importer shares, and is
+//! re-exported here.
 //!
 //! Held-out RMS error on simulated TX60s (perturbed by 0.3 mm / 0.03°, tool (30, −20, 80) mm,
 //! σ = 10 µm, 2° steps; `cargo bench --bench identify_range`, 20 robots; nominal model 0.87 mm):
@@ -58,9 +60,7 @@
 
 pub mod circle;
 mod error;
-pub mod lines;
 mod lm;
-pub mod mdh;
 mod pipeline;
 mod quality;
 pub mod refine;
@@ -69,6 +69,7 @@ mod statistics;
 pub mod sweeps;
 pub mod validate;
 
+pub use crate::kinematics::{lines, mdh};
 pub use circle::{fit_circle, AxisPrior, CircleFit, CircleFitError, CircleFitMethod, MIN_ARC_DEG};
 pub use error::IdentifyError;
 pub use lines::{common_normal, CommonNormal, Line, LineRelation};

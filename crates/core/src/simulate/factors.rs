@@ -151,11 +151,11 @@ pub enum SimulateError {
 }
 
 impl Factors {
-    /// Checks every factor.
+    /// Checks every factor; the error names the setting.
     ///
     /// # Errors
     ///
-    /// [`SimulateError::Setting`] naming the first setting out of range: fewer than 2 runs, a
+    /// [`SimulateError::Setting`] naming the first factor out of range: fewer than 2 runs, a
     /// range or speed outside (0, 100] % or a step that is not a positive angle.
     pub fn check(&self) -> Result<(), SimulateError> {
         let bad = |field, message: String| Err(SimulateError::Setting { field, message });

@@ -40,7 +40,7 @@ pub fn output_files(s: &StudyResult) -> Vec<(String, String)> {
 ///
 /// # Errors
 ///
-/// [`StudyError::Report`] when `dir` cannot be created or a file in it cannot be written.
+/// [`StudyError::Report`] when `dir` cannot be created or a file cannot be written.
 pub fn write_outputs(s: &StudyResult, dir: &std::path::Path) -> Result<(), StudyError> {
     crate::report::write_files(dir, &output_files(s))?;
     Ok(())

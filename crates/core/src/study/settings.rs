@@ -214,9 +214,8 @@ impl StudySettings {
     ///
     /// # Errors
     ///
-    /// [`SimulateError::Setting`] naming the first setting out of range: a baseline factor
-    /// ([`Factors::check`]), no or a zero number of test points, fewer than 2000 MCS draws, no
-    /// or a non-positive tolerance, no factor.
+    /// [`SimulateError::Setting`] naming the first setting out of range (point counts, MCS draws,
+    /// tolerances, factors, or a factor of the baseline).
     pub fn check(&self) -> Result<(), SimulateError> {
         self.baseline.check()?;
         let bad = |field, message: String| Err(SimulateError::Setting { field, message });
