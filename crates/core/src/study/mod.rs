@@ -7,7 +7,7 @@
 //! draws Figs. 4–9 as SVG; [`findings`] turns the numbers into the `STUDY.md` text; [`ranking`]
 //! ranks the parameters by their Sobol indices at the baseline calibration and measures which
 //! factor reduces the top ones' σ.
-//! The study is a [`Report`](crate::report::Report) (`report.rs`: the files by name and the page);
+//! The study is a [`Report`] (`report.rs`: the files by name and the page);
 //! [`write_outputs`] writes everything into a directory.
 //!
 //! ```no_run

@@ -1,7 +1,7 @@
 //! The reports of a workspace reliability map ([`crate::map`]): a summary for the terminal, one
 //! CSV row and one JSON object per cell, SVG heat maps per plane (the 95 % quantile of the
-//! point error and the single-point reliability at the first threshold, [`heatmap`]) and the
-//! page ([`page`]); [`MapResult`] is a [`Report`] of them.
+//! point error and the single-point reliability at the first threshold, `heatmap.rs`) and the
+//! page (`page.rs`); [`MapResult`] is a [`Report`] of them.
 
 mod heatmap;
 mod page;
