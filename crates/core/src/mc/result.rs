@@ -249,6 +249,11 @@ pub(crate) struct Accumulator<'e> {
 }
 
 impl<'e> Accumulator<'e> {
+    /// An empty accumulator of the draws of `eval` under `settings`, room for `capacity` values.
+    ///
+    /// # Errors
+    ///
+    /// [`McError::Setting`] when `settings` are out of range ([`RunSettings::check`]).
     pub fn new(
         eval: &'e mut dyn Evaluator,
         settings: RunSettings,
@@ -277,6 +282,11 @@ impl<'e> Accumulator<'e> {
     }
 
     /// Evaluates draws `[len, len + n)` and appends them; returns the new slice.
+    ///
+    /// # Errors
+    ///
+    /// [`McError::Engine`] when the evaluator fails, [`McError::NonFinite`] when a value is not
+    /// finite.
     pub fn add_batch(&mut self, n: usize) -> Result<&[f64], McError> {
         let first = self.values.len() as u64;
         let old = self.values.len();
