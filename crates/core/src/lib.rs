@@ -33,6 +33,7 @@
 //! Lane kernels index several structure-of-arrays buffers with one loop variable, which is what
 //! vectorises, hence the crate-wide `needless_range_loop` allowance.
 #![warn(missing_docs)]
+#![warn(clippy::missing_errors_doc)]
 #![allow(clippy::needless_range_loop)]
 
 pub mod engine;
