@@ -47,4 +47,5 @@ pub mod points;
 pub mod report;
 pub mod sampling;
 pub mod simulate;
+pub mod spec;
 pub mod study;
