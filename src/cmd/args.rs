@@ -2,15 +2,19 @@
 //! (`ModelArgs::load`, `ProblemArgs::build`, `OutputArgs::settings`, …), naming the flag in its
 //! errors. Nothing here computes or writes.
 
+use super::flags::{spec_error, spec_flag};
 use crate::cli::*;
 use anyhow::{bail, Context, Result};
 use gpu_amcs::engine::backend::BackendChoice;
-use gpu_amcs::engine::{Evaluator, Problem, ProblemError, Reference};
-use gpu_amcs::kinematics::{preset, RobotModel};
+use gpu_amcs::engine::{Evaluator, Problem};
+use gpu_amcs::kinematics::RobotModel;
 use gpu_amcs::mc::{IntervalKind, RunSettings};
 use gpu_amcs::memory::{self, Estimate, MemoryBudget};
-use gpu_amcs::points::{self, WorkspaceBox};
+use gpu_amcs::points::WorkspaceBox;
 use gpu_amcs::simulate::{Experiment, Factors, SweepDirection};
+use gpu_amcs::spec::{
+    self, GeneratedPoints, ModelSource, PointsSource, ProblemSpec, ReferenceSource, SpecField,
+};
 use std::path::Path;
 
 /// Bytes kept per test point: the configuration in degrees and radians, the reference
@@ -51,52 +55,42 @@ impl ModelArgs {
 /// same proof as `import` (a `.toml` is always read as a model file: write a DH table in TOML
 /// through `import` first).
 pub fn load_model(file: Option<&Path>, name: &str) -> Result<RobotModel> {
-    Ok(match file {
-        Some(p) if is_description(p) => {
-            gpu_amcs::import::import_file(p, &gpu_amcs::import::ImportOptions::default())?.model
-        }
-        Some(p) => RobotModel::from_file(p)?,
-        None => preset(name)?,
-    })
-}
-
-/// Whether `path` names a robot description to import rather than a model file.
-fn is_description(path: &Path) -> bool {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    matches!(
-        ext.as_deref(),
-        Some("urdf" | "xml" | "yaml" | "yml" | "csv" | "xacro")
-    )
+    Ok(ModelSource::file_or_preset(file, name).load()?)
 }
 
 impl BoxArgs {
     /// The workspace box for `model`: each of centre and size as given, else the robot's
     /// default ([`WorkspaceBox::for_robot`]).
     pub fn workspace(&self, model: &RobotModel) -> Result<WorkspaceBox> {
-        let default = WorkspaceBox::for_robot(model);
-        Ok(WorkspaceBox {
-            center: three(self.box_center.as_deref(), "--box-center")?.unwrap_or(default.center),
-            size: three(self.box_size.as_deref(), "--box-size")?.unwrap_or(default.size),
-        })
+        Ok(self.generated(0, 0)?.workspace(model))
     }
 
     /// Checks the given flags' shapes (three numbers each).
     pub fn check(&self) -> Result<()> {
-        three(self.box_center.as_deref(), "--box-center")?;
-        three(self.box_size.as_deref(), "--box-size")?;
-        Ok(())
+        self.generated(0, 0).map(|_| ())
+    }
+
+    /// `count` points generated with `seed` in this box.
+    pub fn generated(&self, count: usize, seed: u64) -> Result<GeneratedPoints> {
+        Ok(GeneratedPoints {
+            count,
+            seed,
+            box_center: three(self.box_center.as_deref(), SpecField::BoxCenter)?,
+            box_size: three(self.box_size.as_deref(), SpecField::BoxSize)?,
+        })
     }
 }
 
 /// A flag of three numbers x,y,z (mm), when given.
-fn three(v: Option<&[f64]>, flag: &str) -> Result<Option<[f64; 3]>> {
+fn three(v: Option<&[f64]>, field: SpecField) -> Result<Option<[f64; 3]>> {
     match v {
         None => Ok(None),
         Some([x, y, z]) => Ok(Some([*x, *y, *z])),
-        Some(v) => bail!("{flag} needs three numbers x,y,z (mm), got {}", v.len()),
+        Some(v) => bail!(
+            "{} needs three numbers x,y,z (mm), got {}",
+            spec_flag(field),
+            v.len()
+        ),
     }
 }
 
@@ -104,28 +98,18 @@ impl BackendArgs {
     /// The backend and adapter; an adapter name needs a backend that can use it, and with
     /// `auto` it asks for that GPU (an error when none matches, not a silent CPU fallback).
     pub fn choice(&self) -> Result<(BackendChoice, Option<&str>)> {
-        let adapter = self.adapter.as_deref();
-        match (self.backend, adapter) {
-            (BackendArg::Cpu, Some(a)) => bail!(
-                "--adapter '{a}' needs --backend gpu or auto: the CPU backend uses no adapter"
-            ),
-            (BackendArg::Auto, Some(a)) => Ok((BackendChoice::Gpu, Some(a))),
-            (b, a) => Ok((b.into(), a)),
-        }
+        spec::backend_choice(self.backend.into(), self.adapter.as_deref()).map_err(spec_error)
     }
 
     /// Builds the evaluator; the notes say what was chosen and why.
     pub fn evaluator(&self, problem: Problem) -> Result<(Box<dyn Evaluator>, Vec<String>)> {
-        let (choice, adapter) = self.choice()?;
-        let flag = if adapter.is_some() {
-            "--adapter"
-        } else {
-            "--backend"
-        };
-        let (ev, note) = gpu_amcs::backends()
-            .make_evaluator(problem, choice, adapter)
-            .context(flag)?;
-        Ok((ev, note.into_iter().collect()))
+        spec::make_evaluator(
+            gpu_amcs::backends(),
+            problem,
+            self.backend.into(),
+            self.adapter.as_deref(),
+        )
+        .map_err(spec_error)
     }
 }
 
@@ -184,22 +168,39 @@ pub struct Built {
 }
 
 impl ProblemArgs {
+    /// The library's description of the problem these flags give (the box's shape checked).
+    pub fn spec(&self) -> Result<ProblemSpec> {
+        let points = match &self.points_file {
+            Some(f) => PointsSource::File(f.clone()),
+            None => {
+                PointsSource::Generate(self.workspace.generated(self.points, self.points_seed)?)
+            }
+        };
+        let reference = match self.reference {
+            ReferenceArg::Calibrated => ReferenceSource::Calibrated,
+            // Without --nominal: the preset (--preset, default tx60).
+            ReferenceArg::Nominal => ReferenceSource::Nominal(Some(ModelSource::file_or_preset(
+                self.nominal.as_deref(),
+                &self.model.preset,
+            ))),
+        };
+        Ok(ProblemSpec {
+            model: ModelSource::file_or_preset(self.model.model.as_deref(), &self.model.preset),
+            points,
+            reference,
+            seed: self.seed,
+            backend: self.backend.backend.into(),
+            adapter: self.backend.adapter.clone(),
+        })
+    }
+
     /// Checks the flags that need no file: `--nominal` only with `--reference nominal`, the
-    /// box, the backend and adapter, `--threads`.
+    /// box, the number of points, the backend and adapter, `--threads`.
     pub fn check(&self) -> Result<()> {
         if self.nominal.is_some() && self.reference != ReferenceArg::Nominal {
             bail!("--nominal is used only with --reference nominal");
         }
-        if self.points_file.is_none() {
-            self.workspace.check()?;
-            if self.points > gpu_amcs::points::MAX_POINTS {
-                return Err(anyhow::Error::new(gpu_amcs::points::PointsError::TooMany(
-                    self.points,
-                ))
-                .context("--points"));
-            }
-        }
-        self.backend.choice()?;
+        self.spec()?.check().map_err(spec_error)?;
         check_threads(self.threads)
     }
 
@@ -224,41 +225,13 @@ impl ProblemArgs {
         .collect()
     }
 
-    /// Reads the model and points and builds the problem.
+    /// Reads the model and points and builds the problem ([`ProblemSpec::build_problem`]).
     pub fn build(&self) -> Result<Built> {
         self.check()?;
-        let model = self.model.load()?;
-        let pts = match &self.points_file {
-            Some(f) => points::read_csv(f)?,
-            None => points::generate(
-                &model,
-                self.points,
-                &self.workspace.workspace(&model)?,
-                self.points_seed,
-            )
-            .context("--points")?,
-        };
-        let reference = match self.reference {
-            ReferenceArg::Calibrated => Reference::Calibrated,
-            ReferenceArg::Nominal => Reference::Nominal(Box::new(
-                load_model(self.nominal.as_deref(), &self.model.preset).context("--nominal")?,
-            )),
-        };
-        let label = reference.label(&model);
-        let problem = Problem::new(model, &pts, &reference, self.seed).map_err(|e| {
-            // Only errors about the test points are blamed on where the points came from; the
-            // model's own errors already name the model file and field.
-            let about_points = matches!(e, ProblemError::NoPoints | ProblemError::BadPoint { .. });
-            let e = anyhow::Error::new(e);
-            match (&self.points_file, about_points) {
-                (Some(f), true) => e.context(format!("--points-file {}", f.display())),
-                (None, true) => e.context("test points"),
-                (_, false) => e,
-            }
-        })?;
+        let b = self.spec()?.build_problem().map_err(spec_error)?;
         Ok(Built {
-            problem,
-            reference: label,
+            problem: b.problem,
+            reference: b.reference,
         })
     }
 }

@@ -10,6 +10,7 @@ pub mod calibrate;
 pub mod compare;
 pub mod export;
 pub mod fk;
+pub mod flags;
 pub mod html;
 pub mod identify;
 pub mod import;
