@@ -476,6 +476,40 @@ impl PyModel {
         Ok(out.into_pyarray(py))
     }
 
+    /// SALib's problem dict of the uncertain inputs (`free`, or those named by `inputs`):
+    /// `{"num_vars", "names", "bounds", "dists"}`, each input an independent normal with
+    /// SALib's convention for `"norm"`, `bounds = [mean, standard deviation]` (mm, degrees),
+    /// named as `param_names`. A model with correlated inputs is refused (SALib samples
+    /// independent inputs; `gpu_amcs.sensitivity` handles correlation).
+    #[pyo3(signature = (inputs = None))]
+    fn salib_problem<'py>(
+        slf: PyRef<'py, Self>,
+        inputs: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let py = slf.py();
+        py.import("gpu_amcs._interop")?
+            .call_method1("salib_problem", (slf, inputs))
+    }
+
+    /// An OpenTURNS `Function` of the uncertain inputs (`columns`: names or indices; `free` by
+    /// default; mm, degrees) whose one output `w` is `max_error` of the rows at the
+    /// configurations `q_deg`; a whole sample is evaluated in one call. The other keywords
+    /// (`reference`, `nominal`, `backend`, `offsets`) go to `max_error`. Needs openturns.
+    #[pyo3(signature = (q_deg, columns = None, **kwargs))]
+    fn openturns_function<'py>(
+        slf: PyRef<'py, Self>,
+        q_deg: Bound<'py, PyAny>,
+        columns: Option<Bound<'py, PyAny>>,
+        kwargs: Option<&Bound<'py, pyo3::types::PyDict>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let py = slf.py();
+        py.import("gpu_amcs._interop")?.call_method(
+            "openturns_function",
+            (slf, q_deg, columns),
+            kwargs,
+        )
+    }
+
     fn __repr__(&self) -> String {
         let form = match self.model.uncertainty {
             Uncertainty::Independent(_) => "independent σ",
