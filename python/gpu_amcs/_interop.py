@@ -21,7 +21,9 @@ def frame(csv_text):
     """A CSV document (the command line's ``--csv`` file) as a pandas DataFrame, numbers parsed
     exactly (round trip)."""
     pd = _require("pandas", "pandas")
-    return pd.read_csv(io.StringIO(csv_text), float_precision="round_trip")
+    # Exact parsing is the default from pandas 3 on, and an option before.
+    exact = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
+    return pd.read_csv(io.StringIO(csv_text), **exact)
 
 
 def values_frame(values):
@@ -46,6 +48,8 @@ def _independent(model, inputs):
 def _input_indices(model, inputs):
     names = list(model.param_names)
     if inputs is None:
+        if not model.free:
+            raise ValueError(f"model {model.name} has no uncertain input (every σ is 0)")
         return list(model.free)
     out = []
     for c in inputs:
