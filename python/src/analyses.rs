@@ -15,7 +15,9 @@ use gpu_amcs_core::map::{
 use gpu_amcs_core::mc::sensitivity::{
     run_sensitivity, SensitivityError, SensitivityOptions, SensitivityResult,
 };
-use gpu_amcs_core::mc::tail::{run_tail, TailError, TailMethod, TailOptions, TailResult, TailSetting};
+use gpu_amcs_core::mc::tail::{
+    run_tail, TailError, TailMethod, TailOptions, TailResult, TailSetting,
+};
 use gpu_amcs_core::memory::Estimate;
 use gpu_amcs_core::report;
 use gpu_amcs_core::spec::{self, GeneratedPoints, ModelSource, DEFAULT_PRESET};
@@ -294,7 +296,9 @@ fn numbers(v: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Vec<f64>> {
         Some(v) => match v.extract::<f64>() {
             Ok(x) => Ok(vec![x]),
             Err(_) => v.extract::<Vec<f64>>().map_err(|_| {
-                value_error(format!("{name}: expected a number or a sequence of numbers (mm)"))
+                value_error(format!(
+                    "{name}: expected a number or a sequence of numbers (mm)"
+                ))
             }),
         },
     }
@@ -435,8 +439,12 @@ impl PyMapResult {
 
 /// `v` as `N` numbers, or an error naming `name` and `what` they are.
 fn exactly<const N: usize>(v: &[f64], name: &str, what: &str) -> PyResult<[f64; N]> {
-    <[f64; N]>::try_from(v)
-        .map_err(|_| value_error(format!("{name} needs {N} numbers ({what}), got {}", v.len())))
+    <[f64; N]>::try_from(v).map_err(|_| {
+        value_error(format!(
+            "{name} needs {N} numbers ({what}), got {}",
+            v.len()
+        ))
+    })
 }
 
 /// The map's grid from `plane`, `at` and `cells` (the command line's `--plane`, `--at`,
@@ -536,7 +544,11 @@ pub fn workspace_map<'py>(
             ))
         }
         (None, true) => None,
-        (Some(o), false) => Some(exactly::<3>(&o, "orientation", "roll,pitch,yaw in degrees")?),
+        (Some(o), false) => Some(exactly::<3>(
+            &o,
+            "orientation",
+            "roll,pitch,yaw in degrees",
+        )?),
         (None, false) => Some(tool_down_rpy_deg(&model)),
     };
     let reference_q_deg = match reference_q {

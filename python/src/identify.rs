@@ -5,7 +5,7 @@
 use crate::errors::{arg_error, lib_error, value_error};
 use crate::model::PyModel;
 use gpu_amcs_core::identify::{
-    self as lib, CircleFitMethod, IdentifyOptions, IdentifyWarning, Identification, NominalPrior,
+    self as lib, CircleFitMethod, Identification, IdentifyOptions, IdentifyWarning, NominalPrior,
 };
 use gpu_amcs_core::kinematics::{ParamKind, RobotModel};
 use gpu_amcs_core::spec::{ModelSource, DEFAULT_PRESET};

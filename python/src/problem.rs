@@ -177,11 +177,9 @@ impl ProblemKw<'_> {
                     .unwrap_or_else(|| DEFAULT_PRESET.to_string());
                 ReferenceSource::Nominal(Some(ModelSource::Preset(name)))
             }
-            (other, _) => {
-                return Err(value_error(format!(
-                    "reference: unknown reference '{other}' (expected \"calibrated\" or \"nominal\")"
-                )))
-            }
+            (other, _) => return Err(value_error(format!(
+                "reference: unknown reference '{other}' (expected \"calibrated\" or \"nominal\")"
+            ))),
         };
         Ok(Spec {
             spec: ProblemSpec {
