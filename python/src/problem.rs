@@ -56,6 +56,60 @@ pub struct ProblemKw<'py> {
     pub adapter: Option<String>,
 }
 
+/// The reference from the keywords `reference` and `nominal`; without `nominal`, a nominal
+/// reference is the preset `default_preset` gives (the one asked for, else the one the model
+/// came from), else [`DEFAULT_PRESET`]. The flag: whether the nominal model is that preset.
+pub fn reference_source(
+    kind: &str,
+    nominal: Option<&PyModel>,
+    default_preset: impl FnOnce() -> Option<String>,
+) -> PyResult<(ReferenceSource, bool)> {
+    match (kind, nominal) {
+        ("calibrated", None) => Ok((ReferenceSource::Calibrated, false)),
+        ("calibrated", Some(_)) => Err(value_error(
+            "nominal is used only with reference=\"nominal\"",
+        )),
+        ("nominal", Some(n)) => Ok((
+            ReferenceSource::Nominal(Some(ModelSource::Model(Box::new(n.model.clone())))),
+            false,
+        )),
+        ("nominal", None) => {
+            let name = default_preset().unwrap_or_else(|| DEFAULT_PRESET.to_string());
+            Ok((
+                ReferenceSource::Nominal(Some(ModelSource::Preset(name))),
+                true,
+            ))
+        }
+        (other, _) => Err(value_error(format!(
+            "reference: unknown reference '{other}' (expected \"calibrated\" or \"nominal\")"
+        ))),
+    }
+}
+
+/// The spec of an evaluation of the in-memory `model` at the configurations `q` (degrees) on
+/// `backend`, with seed 0 (`Model.max_error`, which gives its own parameter rows).
+pub fn given_points(
+    model: &PyModel,
+    q: Vec<[f64; gpu_amcs_core::kinematics::JOINTS]>,
+    reference: &str,
+    nominal: Option<&PyModel>,
+    backend: gpu_amcs_core::engine::BackendChoice,
+) -> PyResult<Spec> {
+    let (reference, nominal_from_preset) =
+        reference_source(reference, nominal, || model.preset.clone())?;
+    Ok(Spec {
+        spec: ProblemSpec {
+            model: ModelSource::Model(Box::new(model.model.clone())),
+            points: PointsSource::Given(q),
+            reference,
+            seed: 0,
+            backend,
+            adapter: None,
+        },
+        nominal_from_preset,
+    })
+}
+
 /// A spec from the keywords, and how to name its errors.
 pub struct Spec {
     /// The library's description of the problem.
@@ -156,31 +210,13 @@ impl ProblemKw<'_> {
                     .unwrap_or_else(|| DEFAULT_PRESET.to_string()),
             ),
         };
-        let mut nominal_from_preset = false;
-        let reference = match (self.reference.as_str(), &self.nominal) {
-            ("calibrated", None) => ReferenceSource::Calibrated,
-            ("calibrated", Some(_)) => {
-                return Err(value_error(
-                    "nominal is used only with reference=\"nominal\"",
-                ))
-            }
-            ("nominal", Some(n)) => {
-                ReferenceSource::Nominal(Some(ModelSource::Model(Box::new(n.model.clone()))))
-            }
-            ("nominal", None) => {
-                // The preset given, else the one the model came from, else the default.
-                nominal_from_preset = true;
-                let name = self
-                    .preset
-                    .clone()
-                    .or_else(|| self.model.as_ref().and_then(|m| m.preset.clone()))
-                    .unwrap_or_else(|| DEFAULT_PRESET.to_string());
-                ReferenceSource::Nominal(Some(ModelSource::Preset(name)))
-            }
-            (other, _) => return Err(value_error(format!(
-                "reference: unknown reference '{other}' (expected \"calibrated\" or \"nominal\")"
-            ))),
+        let default_preset = || {
+            self.preset
+                .clone()
+                .or_else(|| self.model.as_ref().and_then(|m| m.preset.clone()))
         };
+        let (reference, nominal_from_preset) =
+            reference_source(&self.reference, self.nominal.as_deref(), default_preset)?;
         Ok(Spec {
             spec: ProblemSpec {
                 model,
