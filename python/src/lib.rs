@@ -37,7 +37,7 @@ fn adapters(py: Python<'_>) -> Vec<String> {
 /// Names of the built-in models (`Model.preset`).
 #[pyfunction]
 fn presets() -> Vec<&'static str> {
-    gpu_amcs_core::kinematics::PRESETS.to_vec()
+    gpu_amcs_core::presets::PRESETS.to_vec()
 }
 
 /// The extension module `gpu_amcs._gpu_amcs`; the package `gpu_amcs` re-exports it.

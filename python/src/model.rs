@@ -11,10 +11,11 @@ use crate::arrays;
 use crate::errors::{lib_error, value_error};
 use gpu_amcs_core::engine::{BackendChoice, MAX_ANGLE_OFFSET};
 use gpu_amcs_core::kinematics::{
-    input_name, input_to_internal, param_kind, preset, RobotModel, Uncertainty, JOINTS, N_PARAMS,
+    input_name, input_to_internal, param_kind, RobotModel, Uncertainty, JOINTS, N_PARAMS,
     N_UNCERTAIN,
 };
 use gpu_amcs_core::memory::{Estimate, MemoryBudget};
+use gpu_amcs_core::presets::preset;
 use gpu_amcs_core::sampling::ParamSampler;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2};

@@ -4,7 +4,7 @@ use super::outputs::Outputs;
 use super::Run;
 use anyhow::Result;
 use clap::Args;
-use gpu_amcs::kinematics::preset;
+use gpu_amcs::presets::preset;
 use std::path::PathBuf;
 
 /// `model` options.
@@ -24,7 +24,7 @@ pub struct ModelCmdArgs {
 impl Run for ModelCmdArgs {
     fn run(self) -> Result<()> {
         if self.list {
-            for name in gpu_amcs::kinematics::PRESETS {
+            for name in gpu_amcs::presets::PRESETS {
                 println!("{name:<10} {}", preset(name)?.name);
             }
             return Ok(());

@@ -91,8 +91,8 @@ fn noise_free_sweeps_reproduce_the_true_robot() {
 #[test]
 fn noise_free_sweeps_reproduce_other_robots() {
     for (name, nominal) in [
-        ("ur5e", gpu_amcs::kinematics::ur5e()),
-        ("irb2400", gpu_amcs::kinematics::irb2400()),
+        ("ur5e", gpu_amcs::presets::ur5e()),
+        ("irb2400", gpu_amcs::presets::irb2400()),
     ] {
         let mut rng = ChaCha8Rng::seed_from_u64(5);
         let truth = perturbed_model(&nominal, &ParameterErrors::default(), TOOL, &mut rng);

@@ -9,6 +9,7 @@ use crate::common;
 use common::{run, tmpdir};
 use gpu_amcs::import::{self, export, ImportError, ImportOptions, SourceFormat};
 use gpu_amcs::kinematics::{self, position, RobotModel, JOINTS};
+use gpu_amcs::presets;
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::path::{Path, PathBuf};
 
@@ -527,7 +528,7 @@ fn urdf_irb2400_matches_its_source_and_the_preset() {
     };
     let imp = import::import_file(&path, &opts).unwrap();
     assert_eq!(imp.model.name, "abb_irb2400");
-    let joints: Vec<_> = kinematics::IRB2400_URDF
+    let joints: Vec<_> = presets::IRB2400_URDF
         .iter()
         .map(|j| (j.xyz.map(|v| v * 1e3), [0.0; 3], j.axis))
         .collect();
@@ -535,7 +536,7 @@ fn urdf_irb2400_matches_its_source_and_the_preset() {
     let p0 = position(&imp.model.params, &imp.model.tool, &[0.0; 6]);
     assert!(dist(p0, [940.0, 0.0, 1455.0]) < 1e-9, "{p0:?}");
     assert!((imp.model.limits_deg[1].0 - (-1.7453f64).to_degrees()).abs() < 1e-12);
-    let preset = kinematics::irb2400();
+    let preset = presets::irb2400();
     let dev = max_dev(&preset, |q| urdf_fk(&joints, &eye(), q));
     eprintln!("preset irb2400: max FK deviation from its URDF figures {dev:.3e} mm");
     assert!(dev < 1e-9);
@@ -602,7 +603,7 @@ fn kr6_first_axis_down_imports_with_a_base_transform() {
     let down = kr6_joints(-1.0);
     let dev = max_dev(&imp.model, |q| urdf_fk(&down, &eye(), q));
     assert!(dev < 1e-9, "{dev}");
-    let preset = kinematics::kr6r700sixx();
+    let preset = presets::kr6r700sixx();
     let dev = max_dev(&preset, |q| urdf_fk(&down, &eye(), q));
     eprintln!("preset kr6r700sixx: max FK deviation from its URDF figures {dev:.3e} mm");
     assert!(dev < 1e-9, "{dev}");
@@ -916,9 +917,9 @@ fn export_import_round_trip() {
     for m in [
         perturbed_tx60(),
         kinematics::tx60(),
-        kinematics::ur5e(),
-        kinematics::irb2400(),
-        kinematics::kr6r700sixx(),
+        presets::ur5e(),
+        presets::irb2400(),
+        presets::kr6r700sixx(),
     ] {
         let urdf = export::to_urdf(&m, None);
         assert!(urdf.contains("does not fit in URDF"));
@@ -932,7 +933,7 @@ fn export_import_round_trip() {
             assert!((back.limits_deg[j].1 - m.limits_deg[j].1).abs() < 1e-9);
         }
     }
-    for m in [kinematics::ur5e(), kinematics::ur10e(), kinematics::tx60()] {
+    for m in [presets::ur5e(), presets::ur10e(), kinematics::tx60()] {
         let yaml = export::to_ur_calibration(&m).unwrap();
         assert!(yaml.contains("does not fit here"));
         let dev = round_trip_dev(&m, &yaml, "m.yaml");
@@ -945,14 +946,14 @@ fn export_import_round_trip() {
 
 #[test]
 fn presets_equal_their_sources() {
-    let ur5e = kinematics::ur5e();
+    let ur5e = presets::ur5e();
     let rows = ur_rows(UR5E_D, UR5E_A);
     let dev = max_dev(&ur5e, |q| dh_standard(&rows, q));
     eprintln!("preset ur5e: max FK deviation from UR's DH table {dev:.3e} mm");
     assert!(dev < 1e-9);
     let p0 = position(&ur5e.params, &ur5e.tool, &[0.0; 6]);
     assert!(dist(p0, UR5E_FLANGE_ZERO) < 1e-9, "{p0:?}");
-    let ur10e = kinematics::ur10e();
+    let ur10e = presets::ur10e();
     let rows = ur_rows(UR10E_D, UR10E_A);
     let dev = max_dev(&ur10e, |q| dh_standard(&rows, q));
     eprintln!("preset ur10e: max FK deviation from UR's DH table {dev:.3e} mm");
@@ -960,8 +961,8 @@ fn presets_equal_their_sources() {
     let p0 = position(&ur10e.params, &ur10e.tool, &[0.0; 6]);
     let want = [-612.7 - 571.55, -(174.15 + 116.55), 180.7 - 119.85];
     assert!(dist(p0, want) < 1e-9, "{p0:?}");
-    for name in kinematics::PRESETS {
-        let m = kinematics::preset(name).unwrap();
+    for name in presets::PRESETS {
+        let m = presets::preset(name).unwrap();
         // Every preset is a valid model file.
         RobotModel::from_toml(&m.to_toml(), name).unwrap();
     }
@@ -1029,7 +1030,7 @@ fn cli_import_export_and_model_list() {
     // Nothing to write is a usage error; a tool off the flange axis cannot go to UR's format.
     assert_eq!(run(&["export", "--preset", "ur5e"]).status.code(), Some(2));
     let list = ok(&run(&["model", "--list"]));
-    for p in kinematics::PRESETS {
+    for p in presets::PRESETS {
         assert!(list.contains(p), "{list}");
     }
     // fk prints full precision: the UR5e flange at q = 0 to the last digit.
@@ -1042,7 +1043,7 @@ fn cli_import_export_and_model_list() {
         .split(',')
         .map(|v| v.parse().unwrap())
         .collect();
-    let m = kinematics::ur5e();
+    let m = presets::ur5e();
     let p = position(&m.params, &m.tool, &[0.0; 6]);
     assert_eq!(&row[6..9], &p, "{text}");
 }

@@ -7,6 +7,7 @@ mod common;
 
 mod amcs_vs_mcs;
 mod cli;
+mod docs;
 mod fuzz;
 #[cfg(feature = "gpu")]
 mod gpu;
@@ -18,6 +19,7 @@ mod inputs;
 mod map;
 mod map_shards;
 mod mc_known_answers;
+mod module_cycles;
 mod sensitivity;
 mod study;
 mod summary;

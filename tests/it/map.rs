@@ -9,12 +9,13 @@ use crate::common;
 
 use common::{arg, check_svg_finite, fails_leaving_nothing, have_adapter, run, stdout, tmpdir};
 use gpu_amcs::engine::{BackendChoice, CpuEvaluator, Evaluator, Problem, Reference};
-use gpu_amcs::kinematics::{preset, tx60, RobotModel, Uncertainty, N_PARAMS, PRESETS};
+use gpu_amcs::kinematics::{tx60, RobotModel, Uncertainty, N_PARAMS};
 use gpu_amcs::map::{
     default_reference_deg, evaluate, ik, round_trip_error, test_points, tool_down_rpy_deg,
     Evaluation, Grid, MapResult, MapSpec, Plane, Timings,
 };
 use gpu_amcs::points::WorkspaceBox;
+use gpu_amcs::presets::{preset, PRESETS};
 
 /// A plane map of `model` over `workspace` (the TX60 default box when `None`).
 fn spec(model: &RobotModel, plane: Plane, at: f64, n: usize, free: bool) -> MapSpec {

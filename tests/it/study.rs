@@ -240,7 +240,7 @@ fn simulated_sweeps_identify_and_calibrate_writes_a_covariance_model() {
 }
 
 /// The baked default σ of the TX60 preset is the simulator's baseline calibration
-/// (robot seed 2025, calibration seed 1, `Factors::default()`); see `kinematics::preset`.
+/// (robot seed 2025, calibration seed 1, `Factors::default()`); see `kinematics::tx60`.
 #[test]
 fn baked_tx60_sigma_matches_the_simulator() {
     let c = calibrate(&Experiment::tx60(2025), &Factors::default(), 1).unwrap();

@@ -66,6 +66,11 @@ fn human_bytes(n: u64) -> String {
 
 /// Reads `path` as UTF-8 text of at most `limit` bytes; `what` names the kind of file in errors
 /// ("model file").
+///
+/// # Errors
+///
+/// [`ReadError::Io`] when the file cannot be opened or read, [`ReadError::TooLarge`] when it has
+/// more than `limit` bytes, and [`ReadError::NotUtf8`] (naming the line) when it is not UTF-8.
 pub fn read_text(path: &Path, limit: u64, what: &'static str) -> Result<String, ReadError> {
     let p = path.display().to_string();
     let io = |source| ReadError::Io {
@@ -100,6 +105,10 @@ pub fn read_text(path: &Path, limit: u64, what: &'static str) -> Result<String, 
 }
 
 /// Reads a CSV file (at most [`CSV_FILE_LIMIT`]) with `\r\n` and lone `\r` line ends made `\n`.
+///
+/// # Errors
+///
+/// As [`read_text`]: the file cannot be read, is larger than [`CSV_FILE_LIMIT`] or is not UTF-8.
 pub fn read_csv_text(path: &Path) -> Result<String, ReadError> {
     let text = read_text(path, CSV_FILE_LIMIT, "CSV file")?;
     Ok(if text.contains('\r') {

@@ -44,6 +44,7 @@ pub mod map;
 pub mod mc;
 pub mod memory;
 pub mod points;
+pub mod presets;
 pub mod report;
 pub mod sampling;
 pub mod simulate;

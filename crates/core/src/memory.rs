@@ -95,6 +95,11 @@ impl fmt::Display for Bytes {
 
 /// Parses `500M`, `2G`, `1.5G`, `4096` (bytes; suffixes K, M, G, T are binary, an optional
 /// trailing `B` or `iB` is accepted).
+///
+/// # Errors
+///
+/// [`MemoryError::BadSize`] when `text` is not a number with an optional K, M, G or T suffix, or
+/// the size is below 1 byte or does not fit in 64 bits.
 pub fn parse_size(text: &str) -> Result<u64, MemoryError> {
     let bad = || MemoryError::BadSize(text.to_string());
     let t = text.trim();
@@ -163,6 +168,11 @@ impl MemoryBudget {
     }
 
     /// Checks an [`Estimate`] against the limit.
+    ///
+    /// # Errors
+    ///
+    /// [`MemoryError::TooLarge`] when the estimate exceeds the limit, [`MemoryError::Overflow`]
+    /// when it overflowed 64 bits; both carry the estimate's advice.
     pub fn check(&self, estimate: &Estimate) -> Result<(), MemoryError> {
         match estimate.bytes {
             None => Err(MemoryError::Overflow {

@@ -121,6 +121,12 @@ pub enum PointsError {
 
 /// `n` seeded configurations (degrees) uniform within the model's joint limits whose tool point
 /// lies in `bx`.
+///
+/// # Errors
+///
+/// [`PointsError::Zero`] for `n = 0`, [`PointsError::TooMany`] above [`MAX_POINTS`],
+/// [`PointsError::BadBox`] for a box that is not finite or has a non-positive size, and
+/// [`PointsError::Unreachable`] when too few configurations put the tool point in the box.
 pub fn generate(
     model: &RobotModel,
     n: usize,
@@ -166,8 +172,13 @@ pub fn generate(
 }
 
 /// Reads configurations from a CSV with header `q1..q6` (degrees), at most
-/// [`crate::input::CSV_FILE_LIMIT`] bytes. Errors name the line as an editor counts it (also for
-/// CRLF files).
+/// [`crate::input::CSV_FILE_LIMIT`] bytes.
+///
+/// # Errors
+///
+/// [`PointsError::Read`] when the file cannot be read, is too large or is not UTF-8, and
+/// [`PointsError::Csv`] (naming the line as an editor counts it, also for CRLF files) for a missing
+/// header, a malformed row, a value that is not a finite number, or no rows.
 pub fn read_csv(path: &std::path::Path) -> Result<Vec<[f64; JOINTS]>, PointsError> {
     let p = path.display().to_string();
     let err = |message: String| PointsError::Csv {
@@ -269,8 +280,8 @@ mod tests {
         cal.params[7] += 0.3;
         cal.params[16] -= 0.2;
         assert_eq!(WorkspaceBox::for_robot(&cal), WorkspaceBox::default());
-        for name in crate::kinematics::PRESETS {
-            let r = crate::kinematics::preset(name).unwrap();
+        for name in crate::presets::PRESETS {
+            let r = crate::presets::preset(name).unwrap();
             let bx = WorkspaceBox::for_robot(&r);
             eprintln!("{name}: reach {:.1} mm, box {bx:?}", reach_mm(&r));
             let pts = generate(&r, 200, &bx, 3).unwrap_or_else(|e| panic!("{name}: {e}"));

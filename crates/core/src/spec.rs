@@ -25,8 +25,9 @@ use crate::engine::{
     BackendChoice, Backends, EngineError, Evaluator, Problem, ProblemError, Reference,
 };
 use crate::import::{self, ImportError, ImportOptions};
-use crate::kinematics::{preset, ModelError, RobotModel, JOINTS};
+use crate::kinematics::{ModelError, RobotModel, JOINTS};
 use crate::points::{self, PointsError, WorkspaceBox, MAX_POINTS};
+use crate::presets::preset;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 

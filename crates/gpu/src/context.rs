@@ -58,6 +58,11 @@ impl GpuContext {
     /// The context of the adapter chosen by `adapter` (case-insensitive substring of its
     /// name) or, without one, the most capable adapter (`hardware_only`: refuse a software
     /// one): the process's existing context for that adapter, or a newly opened one.
+    ///
+    /// # Errors
+    ///
+    /// [`EngineError::Gpu`] when no adapter matches `adapter` (or only a software one does and
+    /// `hardware_only` is set), the device cannot be opened or the shader does not compile.
     pub fn shared(adapter: Option<&str>, hardware_only: bool) -> Result<Arc<Self>, EngineError> {
         let entry = device::pick_adapter(adapter, hardware_only).map_err(gpu_err)?;
         // Held while opening, so two threads asking at once share one device.

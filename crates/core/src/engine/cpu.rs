@@ -377,7 +377,7 @@ mod tests {
     /// through one rotation, 1e-9 mm).
     #[test]
     fn errors_are_invariant_to_the_base_transform() {
-        let mut m = crate::kinematics::kr6r700sixx();
+        let mut m = crate::presets::kr6r700sixx();
         assert!(m.base.is_some());
         let mut s = [0.0; N_PARAMS];
         for (i, v) in s.iter_mut().enumerate() {

@@ -146,6 +146,11 @@ pub trait Evaluator: Send {
 
     /// Backend part of [`Evaluator::evaluate`]: `per_point`, when given, has `w.len() · m`
     /// entries.
+    ///
+    /// # Errors
+    ///
+    /// The backend's failure, e.g. [`EngineError::Gpu`] when the device fails (the CPU evaluator
+    /// does not fail).
     fn eval_draws(
         &mut self,
         first: u64,
@@ -156,6 +161,11 @@ pub trait Evaluator: Send {
     /// Backend part of [`Evaluator::evaluate_offsets`]: `offsets` has `w.len() · N_UNCERTAIN`
     /// finite entries with angular offsets within [`MAX_ANGLE_OFFSET`], and `per_point`, when
     /// given, `w.len() · m`. The default: [`EngineError::OffsetsUnsupported`].
+    ///
+    /// # Errors
+    ///
+    /// [`EngineError::OffsetsUnsupported`] from this default; a backend's own failure, e.g.
+    /// [`EngineError::Gpu`].
     fn eval_offsets(
         &mut self,
         offsets: &[f64],
@@ -170,6 +180,12 @@ pub trait Evaluator: Send {
 
     /// Backend part of [`Evaluator::evaluate_pick_freeze`]: `request` is checked and `w` has
     /// [`PickFreeze::rows`] entries. The default: [`EngineError::PickFreezeUnsupported`].
+    ///
+    /// # Errors
+    ///
+    /// [`EngineError::PickFreezeUnsupported`] from this default; a backend's own failure, e.g.
+    /// [`EngineError::Gpu`] or [`EngineError::PickFreezeRequest`] for a request too large for the
+    /// backend.
     fn eval_pick_freeze(&mut self, request: &PickFreeze, w: &mut [f64]) -> Result<(), EngineError> {
         let _ = (request, w);
         Err(EngineError::PickFreezeUnsupported {
@@ -178,8 +194,14 @@ pub trait Evaluator: Send {
     }
 
     /// Fills `w[s · count + r]` with `w` of row `r` of matrix `s` of a pick-freeze request (see
-    /// [`PickFreeze`]). Errors: masks with bits beyond the draw's normals, draw indices past
-    /// 2⁶⁴, `w` of the wrong length, or an evaluator without pick-freeze rows.
+    /// [`PickFreeze`]).
+    ///
+    /// # Errors
+    ///
+    /// [`EngineError::PickFreezeRequest`] for masks with bits beyond the draw's normals or draw
+    /// indices past 2⁶⁴, [`EngineError::BufferSize`] when `w` does not have [`PickFreeze::rows`]
+    /// entries, [`EngineError::PickFreezeUnsupported`] for an evaluator without pick-freeze rows,
+    /// and the backend's own failure (e.g. [`EngineError::Gpu`]).
     fn evaluate_pick_freeze(
         &mut self,
         request: &PickFreeze,
@@ -197,6 +219,11 @@ pub trait Evaluator: Send {
 
     /// Fills `w[i]` with `w` of draw `first + i` (mm) and, if given, `per_point[i·m + j]` with
     /// `e_j` of that draw.
+    ///
+    /// # Errors
+    ///
+    /// [`EngineError::BufferSize`] when `per_point` is given and does not hold `w.len() · m`
+    /// entries; the backend's own failure, e.g. [`EngineError::Gpu`] when the device fails.
     fn evaluate(
         &mut self,
         first: u64,
@@ -207,12 +234,17 @@ pub trait Evaluator: Send {
         self.eval_draws(first, w, per_point)
     }
 
-    /// Fills `w[i]` with `w` of the parameter vector and tool point
-    /// `μ̄ + offsets[i·N_UNCERTAIN ..][..N_UNCERTAIN]` (μ̄ the model's values; mm and radians;
-    /// the last three entries move the tool point in the flange frame) and, if given, `per_point[i·m + j]` with its
-    /// `e_j`. Errors: a matrix of the wrong length, a non-finite entry or an angular offset
-    /// beyond [`MAX_ANGLE_OFFSET`], output buffers of the wrong length, or an evaluator without
-    /// an offset path.
+    /// Fills `w[i]` with `w` of the parameter vector and tool point `μ̄ + offsets[i·N_UNCERTAIN
+    /// ..][..N_UNCERTAIN]` (μ̄ the model's values; mm and radians; the last three entries move the
+    /// tool point in the flange frame) and, if given, `per_point[i·m + j]` with its `e_j`.
+    ///
+    /// # Errors
+    ///
+    /// [`EngineError::OffsetsShape`] when `offsets` does not hold `w.len() · N_UNCERTAIN` entries,
+    /// [`EngineError::BadOffset`] for a non-finite entry or an angular offset beyond
+    /// [`MAX_ANGLE_OFFSET`], [`EngineError::BufferSize`] for a `per_point` of the wrong length,
+    /// [`EngineError::OffsetsUnsupported`] for an evaluator without an offset path, and the
+    /// backend's own failure (e.g. [`EngineError::Gpu`]).
     fn evaluate_offsets(
         &mut self,
         offsets: &[f64],
@@ -256,6 +288,12 @@ impl PickFreeze<'_> {
     }
 
     /// Checks masks and draw ranges.
+    ///
+    /// # Errors
+    ///
+    /// [`EngineError::PickFreezeRequest`] when a mask has bits beyond the [`MAX_NORMALS`] normals
+    /// of a draw, the rows overflow `usize`, or the rows of A or B pass the last draw index 2⁶⁴ −
+    /// 1.
     pub fn check(&self) -> Result<(), EngineError> {
         let bad = |m: String| Err(EngineError::PickFreezeRequest(m));
         if let Some((s, m)) = self

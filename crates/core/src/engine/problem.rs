@@ -88,6 +88,13 @@ pub struct Problem {
 impl Problem {
     /// Builds a problem from test points in degrees (checked against the model's limits). The
     /// model is checked as a model file is ([`RobotModel::check`]).
+    ///
+    /// # Errors
+    ///
+    /// [`ProblemError::Model`] when the model fails its checks, [`ProblemError::NoPoints`] for no
+    /// test points, [`ProblemError::BadPoint`] for a test point that is not finite or outside the
+    /// joint limits, and [`ProblemError::Sampler`] when the covariance has no Cholesky factor on
+    /// the free parameters.
     pub fn new(
         model: RobotModel,
         points_deg: &[[f64; JOINTS]],

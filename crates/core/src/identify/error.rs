@@ -5,6 +5,7 @@
 //! prints the whole chain (as `anyhow`'s `{:#}` does) shows every cause once.
 
 use super::circle::CircleFitError;
+use crate::kinematics::mdh::GeometryError;
 
 /// Errors reading sweep or measurement data and identifying a model. Every variant about a sweep
 /// names the joint (and the run, when the file has a `run` column).
@@ -102,4 +103,13 @@ pub enum IdentifyError {
     /// Nothing to evaluate.
     #[error("{0}")]
     NoData(String),
+}
+
+impl From<GeometryError> for IdentifyError {
+    fn from(e: GeometryError) -> Self {
+        IdentifyError::Geometry {
+            joint: e.joint,
+            message: e.message,
+        }
+    }
 }

@@ -17,10 +17,11 @@
 //! them. [`validate()`] compares a model's predictions with measured positions.
 //!
 //! One algorithm per file: `sweeps` (CSV), `circle` (circle fits), `lm` (the Levenberg–Marquardt
-//! solver of the fits and the refinement), `lines` and `mdh` (axes → parameters), `refine`,
+//! solver of the fits and the refinement), `refine`,
 //! `pipeline` (one run end to end), `quality` (plausibility), `statistics` (over runs),
 //! `validate` (accuracy against measurements), `error`; the terminal renderers are in
-//! [`crate::report::identify`].
+//! [`crate::report::identify`]. The axes → parameters conversion ([`lines`], [`mdh`]) lives in
+//! `crate::kinematics`, which the importer shares, and is re-exported here.
 //!
 //! Held-out RMS error on simulated TX60s (perturbed by 0.3 mm / 0.03°, tool (30, −20, 80) mm,
 //! σ = 10 µm, 2° steps; `cargo bench --bench identify_range`, 20 robots; nominal model 0.87 mm):
@@ -58,9 +59,7 @@
 
 pub mod circle;
 mod error;
-pub mod lines;
 mod lm;
-pub mod mdh;
 mod pipeline;
 mod quality;
 pub mod refine;
@@ -68,6 +67,7 @@ mod statistics;
 pub mod sweeps;
 pub mod validate;
 
+pub use crate::kinematics::{lines, mdh};
 pub use crate::report::identify::{
     render_identify_report, render_identify_summary, render_validation,
 };

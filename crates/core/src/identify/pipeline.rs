@@ -129,6 +129,13 @@ pub struct Identification {
 
 /// Checks one sweep: enough points and only the swept joint moving. Returns its home pose
 /// (degrees; the swept joint's entry is its first commanded value).
+///
+/// # Errors
+///
+/// [`IdentifyError::MissingJoint`] for a sweep without points, [`IdentifyError::Fit`] (with
+/// [`CircleFitError::TooFewPoints`]) for fewer than [`circle::MIN_POINTS`] points, and
+/// [`IdentifyError::OtherJointMoved`] when a joint other than the swept one leaves the home pose by
+/// more than [`HOME_TOLERANCE_DEG`].
 pub fn check_sweep(sweep: &Sweep, run: Option<&str>) -> Result<[f64; JOINTS], IdentifyError> {
     let label = sweeps::run_label(run);
     let Some(first) = sweep.points.first() else {
@@ -166,6 +173,31 @@ pub fn check_sweep(sweep: &Sweep, run: Option<&str>) -> Result<[f64; JOINTS], Id
 
 /// Identifies one model per run of `data` (see the module docs). `nominal` gives the structure,
 /// the sign conventions, the fixed parameters and the joint limits.
+///
+/// # Errors
+///
+/// [`IdentifyError::NoData`] when `data` has no run; otherwise the first run's error of
+/// [`identify_run`].
+///
+/// # Examples
+///
+/// Identifies a simulated TX60 (true tool point (30, −20, 80) mm, tracker noise 10 µm) from
+/// one run of circle-point sweeps, starting from the nominal model:
+///
+/// ```
+/// use gpu_amcs_core::identify::{identify, IdentifyOptions};
+/// use gpu_amcs_core::kinematics::tx60;
+/// use gpu_amcs_core::simulate::{simulate_sweeps, SweepPlan};
+///
+/// let mut truth = tx60();
+/// truth.tool = [30.0, -20.0, 80.0];
+/// let data = simulate_sweeps(&truth, &SweepPlan::default(), 0.01, 1, 1);
+/// let ids = identify(&data, &tx60(), &IdentifyOptions::default())?;
+/// assert_eq!(ids.len(), 1);
+/// let tool = ids[0].model.tool;
+/// assert!((0..3).all(|k| (tool[k] - truth.tool[k]).abs() < 0.1), "{tool:?}");
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn identify(
     data: &SweepData,
     nominal: &RobotModel,
@@ -181,6 +213,12 @@ pub fn identify(
 }
 
 /// Identifies the model of one run.
+///
+/// # Errors
+///
+/// [`IdentifyError::MissingJoint`] when a joint has no sweep, the errors of [`check_sweep`] for a
+/// bad sweep, [`IdentifyError::Fit`] when a circle fit fails (naming the joint and run), and
+/// [`IdentifyError::Geometry`] when the fitted axes cannot be turned into a joint's parameters.
 pub fn identify_run(
     run: &SweepRun,
     nominal: &RobotModel,

@@ -73,6 +73,11 @@ pub struct SweepData {
 }
 
 /// Reads a sweep CSV file.
+///
+/// # Errors
+///
+/// [`IdentifyError::Io`] when `path` is a directory or cannot be read, [`IdentifyError::Read`] when
+/// the file is too large or not UTF-8; otherwise as [`parse_sweeps`].
 pub fn read_sweeps(path: &Path) -> Result<SweepData, IdentifyError> {
     let (text, origin) = open_input(path)?;
     parse_sweeps(text.as_bytes(), &origin)
@@ -175,6 +180,12 @@ pub(crate) fn csv_error(e: csv::Error, origin: &str) -> IdentifyError {
 }
 
 /// Parses sweep CSV text from a reader; `origin` names the source in errors.
+///
+/// # Errors
+///
+/// [`IdentifyError::Csv`] for a malformed row (wrong number of fields, a field that is not a finite
+/// number, a joint outside 1–6), naming its line; [`IdentifyError::MissingColumn`] when the header
+/// lacks a required column; [`IdentifyError::Empty`] when there are no data rows.
 pub fn parse_sweeps<R: Read>(reader: R, origin: &str) -> Result<SweepData, IdentifyError> {
     let mut rdr = csv_reader(reader);
     let header = rdr.headers().map_err(|e| csv_error(e, origin))?.clone();
@@ -249,6 +260,10 @@ pub fn parse_sweeps<R: Read>(reader: R, origin: &str) -> Result<SweepData, Ident
 
 /// Writes sweep data in the format [`parse_sweeps`] reads; the `run` column is written when any
 /// run has a label.
+///
+/// # Errors
+///
+/// [`IdentifyError::Io`] when writing to `writer` fails.
 pub fn write_sweeps<W: Write>(data: &SweepData, writer: W) -> Result<(), IdentifyError> {
     let io = |e: csv::Error| IdentifyError::Io {
         path: "<sweep output>".into(),

@@ -27,12 +27,23 @@ pub struct Measurement {
 }
 
 /// Reads a measurement CSV file.
+///
+/// # Errors
+///
+/// [`IdentifyError::Io`] when `path` is a directory or cannot be read, [`IdentifyError::Read`] when
+/// the file is too large or not UTF-8; otherwise as [`parse_measurements`].
 pub fn read_measurements(path: &Path) -> Result<Vec<Measurement>, IdentifyError> {
     let (text, origin) = open_input(path)?;
     parse_measurements(text.as_bytes(), &origin)
 }
 
 /// Parses measurement CSV text; `origin` names the source in errors.
+///
+/// # Errors
+///
+/// [`IdentifyError::Csv`] for a malformed row (wrong number of fields, a field that is not a finite
+/// number), naming its line; [`IdentifyError::MissingColumn`] when the header lacks a required
+/// column; [`IdentifyError::Empty`] when there are no data rows.
 pub fn parse_measurements<R: Read>(
     reader: R,
     origin: &str,
@@ -63,6 +74,10 @@ pub fn parse_measurements<R: Read>(
 }
 
 /// Writes measurements in the format [`parse_measurements`] reads.
+///
+/// # Errors
+///
+/// [`IdentifyError::Io`] when writing to `writer` fails.
 pub fn write_measurements<W: Write>(m: &[Measurement], writer: W) -> Result<(), IdentifyError> {
     let io = |e: csv::Error| IdentifyError::Io {
         path: "<measurement output>".into(),
@@ -162,10 +177,14 @@ impl Validation {
     }
 }
 
-/// Validates `model` (and optionally `nominal`) against measurements. Errors if there are none
-/// or a measurement's angles are outside the model's joint limits (naming its line and joint).
-/// The nominal model is evaluated with the model's tool when its own is another target (see
-/// [`SAME_TOOL_MM`] and [`Validation::nominal_tool_replaced`]).
+/// Validates `model` (and optionally `nominal`) against measurements. The nominal model is
+/// evaluated with the model's tool when its own is another target (see [`SAME_TOOL_MM`] and
+/// [`Validation::nominal_tool_replaced`]).
+///
+/// # Errors
+///
+/// [`IdentifyError::NoData`] when there are no measurements, [`IdentifyError::OutsideLimits`] when
+/// a measurement's angles are outside the model's joint limits (naming its line and joint).
 pub fn validate(
     model: &RobotModel,
     measurements: &[Measurement],

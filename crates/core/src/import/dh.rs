@@ -166,6 +166,12 @@ fn row(
 }
 
 /// Parses the CSV form (see the module docs) and returns its chain.
+///
+/// # Errors
+///
+/// [`ImportError::Syntax`] for a line that is not the CSV form (naming it),
+/// [`ImportError::Element`] for a missing or unknown convention or unit, or a value that is not a
+/// finite number or out of range, and [`ImportError::Chain`] when the table does not have six rows.
 pub fn parse_csv(text: &str, path: &str, default_name: &str) -> Result<SourceChain, ImportError> {
     let mut conv = None;
     let mut unit = None;
@@ -289,6 +295,12 @@ struct TomlTable {
 }
 
 /// Parses the TOML form (see the module docs) and returns its chain.
+///
+/// # Errors
+///
+/// [`ImportError::Syntax`] for malformed TOML or unknown keys (naming the line),
+/// [`ImportError::Element`] for an unknown convention or unit or a value that is not a finite
+/// number or out of range, and [`ImportError::Chain`] when the table does not have six joints.
 pub fn parse_toml(text: &str, path: &str, default_name: &str) -> Result<SourceChain, ImportError> {
     let t: TomlTable = toml::from_str(text).map_err(|e| {
         let line = e.span().map_or(1, |s| {

@@ -168,6 +168,11 @@ pub fn to_urdf(model: &RobotModel, name: Option<&str>) -> String {
 /// lie on that axis; its distance along the axis goes into `wrist_3`'s origin (a shift along a
 /// joint's axis commutes with its rotation). The `hash` key (the controller's checksum of its
 /// calibration) is not written: it cannot be computed from the geometry.
+///
+/// # Errors
+///
+/// [`ExportError::ToolOffAxis`] when the tool point lies off the joint-6 axis (a UR calibration
+/// file ends on that axis and cannot hold it).
 pub fn to_ur_calibration(model: &RobotModel) -> Result<String, ExportError> {
     let (mut o, _) = origins(model);
     let p6 = &model.params[25..30];

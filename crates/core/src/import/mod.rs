@@ -5,9 +5,9 @@
 //! its axis, and the fixed transform from the last joint's frame to the tip. [`convert`] then
 //!
 //! 1. places every joint axis in the base frame at q = 0 and hands the six lines and the tip
-//!    point to the identification's lines → MDH conversion
-//!    ([`crate::identify::mdh::chain_from_zero_pose`]): one conversion for measured and imported
-//!    axes;
+//!    point to the lines → MDH conversion the identification uses too
+//!    ([`crate::kinematics::mdh::chain_from_zero_pose`]): one conversion for measured and
+//!    imported axes;
 //! 2. **proves** the result: the source's own forward kinematics ([`SourceChain::position`],
 //!    composed from its transforms with no MDH code) against the model's at q = 0 and
 //!    [`PROOF_CONFIGURATIONS`] random configurations within the limits; a maximum deviation above
@@ -31,8 +31,8 @@ pub mod export;
 pub mod ur;
 pub mod urdf;
 
-use crate::identify::mdh::chain_from_zero_pose;
-use crate::identify::{IdentifyError, Line};
+use crate::kinematics::lines::Line;
+use crate::kinematics::mdh::{chain_from_zero_pose, GeometryError};
 use crate::kinematics::{BaseTransform, RobotModel, Uncertainty, JOINTS, N_PARAMS};
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
@@ -256,6 +256,13 @@ impl Imported {
 
 /// Converts a source chain to the MDH model and proves the conversion (see the module docs).
 /// `path` names the source in errors and in the header.
+///
+/// # Errors
+///
+/// [`ImportError::Chain`] when the chain does not have six joints,
+/// [`ImportError::NotRepresentable`] naming the joint whose geometry has no exact MDH form (a first
+/// axis off base z, coinciding axes, …), and [`ImportError::Proof`] when the model's forward
+/// kinematics deviates from the source's by more than [`PROOF_TOLERANCE_MM`].
 pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError> {
     if chain.joints.len() != JOINTS {
         return Err(ImportError::Chain {
@@ -297,16 +304,12 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         tip = flip(tip);
     }
     check_base(&axes[0], &chain.joints[0].name, path)?;
-    let c = chain_from_zero_pose(&axes, tip).map_err(|e| match e {
-        IdentifyError::Geometry { joint, message } => ImportError::NotRepresentable {
+    let c = chain_from_zero_pose(&axes, tip).map_err(|GeometryError { joint, message }| {
+        ImportError::NotRepresentable {
             path: path.into(),
             joint: chain.joints[joint - 1].name.clone(),
             message,
-        },
-        other => ImportError::Chain {
-            path: path.into(),
-            message: other.to_string(),
-        },
+        }
     })?;
     let model = RobotModel {
         name: chain.name.clone(),
@@ -356,7 +359,12 @@ fn check_base(axis: &Line, joint: &str, path: &str) -> Result<(), ImportError> {
 }
 
 /// Maximum tool-point deviation source vs model at q = 0 and [`PROOF_CONFIGURATIONS`] uniform
-/// random configurations within the limits; an error above [`PROOF_TOLERANCE_MM`].
+/// random configurations within the limits;
+///
+/// # Errors
+///
+/// [`ImportError::Proof`] naming the configuration where the deviation exceeds
+/// [`PROOF_TOLERANCE_MM`].
 pub fn prove(
     chain: &SourceChain,
     model: &RobotModel,
@@ -415,6 +423,10 @@ pub struct ImportOptions {
 }
 
 /// The reader for `path` by its extension; `.xacro` is refused (run xacro first).
+///
+/// # Errors
+///
+/// [`ImportError::Xacro`] for a `.xacro` file and [`ImportError::Chain`] for an unknown extension.
 pub fn kind_of(path: &std::path::Path) -> Result<FileKind, ImportError> {
     let ext = path
         .extension()
@@ -439,6 +451,12 @@ pub fn kind_of(path: &std::path::Path) -> Result<FileKind, ImportError> {
 
 /// Reads a robot description of any supported format (chosen by [`kind_of`]), converts and
 /// proves it.
+///
+/// # Errors
+///
+/// The errors of [`kind_of`] for the file's type; [`ImportError::Read`] when the file cannot be
+/// read, is too large or is not UTF-8; the reader's errors ([`urdf::parse`], [`dh::parse_csv`],
+/// [`dh::parse_toml`], [`ur::parse`]) for its contents; and those of [`convert`].
 pub fn import_file(path: &std::path::Path, opts: &ImportOptions) -> Result<Imported, ImportError> {
     let kind = kind_of(path)?;
     let p = path.display().to_string();

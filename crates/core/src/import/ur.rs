@@ -37,6 +37,11 @@ pub const UR_KEYS: [&str; 6] = ["x", "y", "z", "roll", "pitch", "yaw"];
 pub const UR_LIMITS_DEG: (f64, f64) = (-360.0, 360.0);
 
 /// Parses a UR calibration file and returns its chain (lengths in mm).
+///
+/// # Errors
+///
+/// [`ImportError::Syntax`] for a line that is not the expected YAML (naming it) and
+/// [`ImportError::Element`] for a missing joint or key, or a value that is not a finite number.
 pub fn parse(text: &str, path: &str, name: &str) -> Result<SourceChain, ImportError> {
     let syntax = |line: usize, message: String| ImportError::Syntax {
         path: path.into(),

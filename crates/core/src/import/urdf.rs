@@ -31,6 +31,14 @@ struct JointEl {
 
 /// Parses URDF text into the chain from `base` (default: the root link) to `tip` (default: the
 /// single leaf below the base). `path` names the file in errors.
+///
+/// # Errors
+///
+/// [`ImportError::Syntax`] for XML that is not well-formed, [`ImportError::Xacro`] for unexpanded
+/// xacro macros, [`ImportError::Element`] for a wrong or unsupported element or attribute (naming
+/// it and its line), [`ImportError::Branching`] when the chain branches below the base and no tip
+/// was named, and [`ImportError::Chain`] when base or tip is not in the file, the tip is not below
+/// the base, or the chain between them is not six revolute joints.
 pub fn parse(
     text: &str,
     path: &str,

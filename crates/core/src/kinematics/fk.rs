@@ -5,7 +5,7 @@
 //! `T_1 ⋯ T_6 · p_tool` without forming 4×4 matrices. [`transform`] forms the full homogeneous
 //! transforms for callers that need frames (identification, tests).
 
-use super::model::{JOINTS, N_PARAMS};
+use super::index::{JOINTS, N_PARAMS};
 
 /// Row-major homogeneous 4×4 transform.
 pub type Mat4 = [[f64; 4]; 4];

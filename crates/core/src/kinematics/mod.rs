@@ -10,19 +10,30 @@
 //! Units: every value a person reads or writes is in millimetres and degrees; inside the crate
 //! angles are radians. The 30 parameters are stored joint-major, `[θ, d, a, α, β]` per joint
 //! ([`param_index`]).
+//!
+//! The built-in TX60 is [`tx60`]; the other presets, converted from published tables by the
+//! importer, are in [`crate::presets`]. This module uses nothing else of the crate but
+//! `crate::input` (reading a model file).
 
+mod check;
+mod file;
 mod fk;
+mod index;
+pub mod lines;
+pub mod mdh;
 mod model;
-mod preset;
+#[cfg(test)]
+mod tests;
+mod tx60;
 
+pub use check::{
+    InvalidField, MAX_ANGLE_DEG, MAX_LENGTH_MM, MAX_LIMIT_DEG, MAX_SIGMA_DEG, MAX_SIGMA_MM,
+};
+pub use file::ModelError;
 pub use fk::{joint_transform, position, position_deg, transform, Mat4};
-pub use model::{
-    input_name, input_to_internal, param_index, param_joint, param_kind, tool_index, BaseTransform,
-    FixedParam, InvalidField, ModelError, ParamKind, RobotModel, Uncertainty, JOINTS,
-    MAX_ANGLE_DEG, MAX_LENGTH_MM, MAX_LIMIT_DEG, MAX_SIGMA_DEG, MAX_SIGMA_MM, N_PARAMS,
-    N_UNCERTAIN, PARAMS_PER_JOINT, TOOL_COORDS,
+pub use index::{
+    input_name, input_to_internal, param_index, param_joint, param_kind, tool_index, FixedParam,
+    ParamKind, JOINTS, N_PARAMS, N_UNCERTAIN, PARAMS_PER_JOINT, TOOL_COORDS,
 };
-pub use preset::{
-    irb2400, kr6r700sixx, preset, tx60, ur10e, ur5e, UrdfJointFigures, IRB2400_URDF,
-    KR6R700SIXX_URDF, PRESETS,
-};
+pub use model::{BaseTransform, RobotModel, Uncertainty};
+pub use tx60::tx60;

@@ -168,6 +168,11 @@ impl MapShard {
 
     /// Reads a shard written by [`MapShard::to_json`], its floats from their bits; `file` names
     /// it in errors.
+    ///
+    /// # Errors
+    ///
+    /// [`SummaryError::Corrupt`] when `text` is not a map shard: not JSON of its form, float bits
+    /// that do not match the floats, or fields that are inconsistent with each other.
     pub fn from_json(text: &str, file: &str) -> Result<MapShard, SummaryError> {
         let corrupt = |message: String| SummaryError::Corrupt {
             file: file.to_string(),
@@ -262,6 +267,12 @@ fn visit_floats(v: &mut Value, f: &mut impl FnMut(&mut Value)) {
 /// ranges must tile the reached cells. The result does not depend on the order given and equals
 /// one run's map apart from the timings (the longest shard's inverse kinematics, the sum of the
 /// shards' evaluations) and, where the shards ran elsewhere, the backend (the first shard's).
+///
+/// # Errors
+///
+/// [`SummaryError::Empty`] for no shards, [`SummaryError::Mismatch`] naming the first field on
+/// which a shard differs from the first, and [`SummaryError::Range`] when the shards' ranges of
+/// reached cells overlap or leave cells missing.
 pub fn merge(named: &[(String, MapShard)]) -> Result<MapResult, SummaryError> {
     let order = in_range_order(
         named,

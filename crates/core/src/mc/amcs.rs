@@ -48,6 +48,13 @@ impl Default for AmcsOptions {
 
 impl AmcsOptions {
     /// Checks every setting; errors name the setting.
+    ///
+    /// # Errors
+    ///
+    /// [`McError::Setting`] naming the first setting out of range: the coverage probability or
+    /// thresholds ([`RunSettings::check`]), a tolerance that is not a positive number of mm,
+    /// significant digits outside 1–12, a batch size below 100/(1 − p) (GUM S1 §7.9.2), or a draw
+    /// cap below two batches.
     pub fn check(&self) -> Result<(), McError> {
         self.settings.check()?;
         match self.tolerance {
@@ -106,6 +113,35 @@ fn spread(v: &[f64]) -> f64 {
 }
 
 /// Runs the adaptive procedure on `eval`.
+///
+/// # Errors
+///
+/// [`McError::Setting`] for a setting out of range ([`AmcsOptions::check`]), [`McError::Engine`]
+/// when the evaluator fails, and [`McError::NonFinite`] for a draw whose maximum point error is not
+/// finite.
+///
+/// # Examples
+///
+/// The adaptive procedure on the CPU evaluator, with the TX60 at five test points:
+///
+/// ```
+/// use gpu_amcs_core::engine::{CpuEvaluator, Problem, Reference};
+/// use gpu_amcs_core::mc::{run_amcs, AmcsOptions, Tolerance};
+///
+/// let model = gpu_amcs_core::kinematics::tx60();
+/// let points = gpu_amcs_core::points::generate(&model, 5, &Default::default(), 1)?;
+/// let problem = Problem::new(model, &points, &Reference::Calibrated, 2025)?;
+/// let opts = AmcsOptions {
+///     tolerance: Tolerance::Delta(0.01), // the numerical tolerance δ of GUM S1 §7.9, mm
+///     batch_size: 10_000,
+///     ..AmcsOptions::default()
+/// };
+/// let result = run_amcs(&mut CpuEvaluator::new(problem), &opts, None)?;
+/// assert!(result.converged);
+/// assert_eq!(result.draws % opts.batch_size, 0);
+/// println!("w = {:.4} mm, R(0.2 mm) = {:.4}", result.estimate, result.reliability[1].r);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn run_amcs(
     eval: &mut dyn Evaluator,
     opts: &AmcsOptions,

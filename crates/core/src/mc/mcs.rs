@@ -28,6 +28,40 @@ impl Default for McsOptions {
 }
 
 /// Runs `opts.draws` draws on `eval`.
+///
+/// # Errors
+///
+/// [`McError::Setting`] for a coverage probability or thresholds out of range
+/// ([`RunSettings::check`]), fewer draws than 100/(1 − p), or a chunk of 0; [`McError::Engine`]
+/// when the evaluator fails; [`McError::NonFinite`] for a draw whose maximum point error is not
+/// finite.
+///
+/// # Examples
+///
+/// Ten thousand draws on the CPU evaluator, with the TX60 at five test points:
+///
+/// ```
+/// use gpu_amcs_core::engine::{CpuEvaluator, Problem, Reference};
+/// use gpu_amcs_core::mc::{run_mcs, McsOptions, RunSettings};
+///
+/// let model = gpu_amcs_core::kinematics::tx60();
+/// let points = gpu_amcs_core::points::generate(&model, 5, &Default::default(), 1)?;
+/// let problem = Problem::new(model, &points, &Reference::Calibrated, 2025)?;
+/// let opts = McsOptions {
+///     draws: 10_000,
+///     chunk: 5_000,
+///     settings: RunSettings {
+///         thresholds: vec![0.1, 0.2],
+///         ..RunSettings::default()
+///     },
+/// };
+/// let result = run_mcs(&mut CpuEvaluator::new(problem), &opts, None)?;
+/// assert_eq!(result.draws, 10_000);
+/// let ci = &result.coverage_interval;
+/// assert!(ci.low <= result.estimate && result.estimate <= ci.high);
+/// assert!(result.reliability[0].r <= result.reliability[1].r);
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn run_mcs(
     eval: &mut dyn Evaluator,
     opts: &McsOptions,

@@ -43,6 +43,11 @@ impl Default for RunSettings {
 
 impl RunSettings {
     /// Checks p and the thresholds.
+    ///
+    /// # Errors
+    ///
+    /// [`McError::Setting`] for a coverage probability outside (0, 1), no thresholds, or a
+    /// threshold that is not a positive number of mm.
     pub fn check(&self) -> Result<(), McError> {
         let p = self.coverage_probability;
         if !(p > 0.0 && p < 1.0) {

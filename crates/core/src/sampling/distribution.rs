@@ -61,6 +61,11 @@ pub const PARAM_STREAM: u32 = 0;
 impl ParamSampler {
     /// A sampler for `model`'s values and uncertainty (parameters and tool point), keyed by
     /// `seed`.
+    ///
+    /// # Errors
+    ///
+    /// [`SamplerError::NotPositiveDefinite`] when the model's covariance, restricted to the inputs
+    /// with nonzero variance, has no Cholesky factor.
     pub fn new(model: &RobotModel, seed: u64) -> Result<Self, SamplerError> {
         let free = model.free_inputs();
         let form = match model.full_covariance() {

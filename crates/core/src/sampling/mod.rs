@@ -7,9 +7,11 @@
 //! correlated draws from the Cholesky factor of the covariance (GUM S1 §6.4.8.3).
 
 mod distribution;
+mod gauss;
 mod normal;
 mod philox;
 
 pub use distribution::{ParamSampler, SamplerError, ALL_NORMALS, MAX_NORMALS};
+pub use gauss::standard_normal;
 pub use normal::{box_muller, normals_block, uniform_open};
 pub use philox::{philox4x32_10, Philox};

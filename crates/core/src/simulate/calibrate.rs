@@ -218,6 +218,13 @@ pub struct Calibration {
 }
 
 /// Runs `f.runs` simulated calibrations from `seed` (in parallel) and returns their statistics.
+///
+/// # Errors
+///
+/// [`SimulateError::Setting`] for a factor out of range ([`Factors::check`]),
+/// [`SimulateError::Identify`] naming the run whose identification failed, and
+/// [`SimulateError::Other`] when the runs identified models of different structure or the
+/// covariance statistics fail.
 pub fn calibrate(exp: &Experiment, f: &Factors, seed: u64) -> Result<Calibration, SimulateError> {
     f.check()?;
     let t0 = std::time::Instant::now();
@@ -259,6 +266,11 @@ pub fn calibrate(exp: &Experiment, f: &Factors, seed: u64) -> Result<Calibration
 /// Accuracy before and after calibration (the paper's 22.9 % experiment): `n` random test
 /// configurations whose target lies in `bx`, measured on the true robot, against the calibrated
 /// model and the nominal model.
+///
+/// # Errors
+///
+/// [`SimulateError::Other`] when no `n` test configurations can be generated in `bx` or the
+/// validation fails.
 pub fn accuracy_check(
     exp: &Experiment,
     calibrated: &RobotModel,

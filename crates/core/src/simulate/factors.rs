@@ -102,6 +102,10 @@ pub enum SimulateError {
 impl Factors {
     /// Checks every factor; the error names the setting (`runs`, `range` in percent, `step`,
     /// `speed` in percent).
+    ///
+    /// # Errors
+    ///
+    /// [`SimulateError::Setting`] naming the first factor out of range.
     pub fn check(&self) -> Result<(), SimulateError> {
         let bad = |field, message: String| Err(SimulateError::Setting { field, message });
         if self.runs < 2 {

@@ -27,14 +27,9 @@ pub use sweep::{
 };
 pub use tracker::TrackerModel;
 
-use rand::Rng;
+pub use crate::sampling::standard_normal;
 
-/// One standard normal draw (Box–Muller).
-pub fn standard_normal(rng: &mut impl Rng) -> f64 {
-    let u1: f64 = 1.0 - rng.random::<f64>(); // (0, 1]
-    let u2: f64 = rng.random();
-    (-2.0 * u1.ln()).sqrt() * (std::f64::consts::TAU * u2).cos()
-}
+use rand::Rng;
 
 /// A measured position: the true one plus independent Gaussian noise of `sigma_mm` per
 /// coordinate (an isotropic tracker noise model).

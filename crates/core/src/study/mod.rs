@@ -59,6 +59,10 @@ pub fn output_files(s: &StudyResult) -> Vec<(String, String)> {
 }
 
 /// Writes [`output_files`] into `dir` (created if needed).
+///
+/// # Errors
+///
+/// [`StudyError::Report`] when `dir` cannot be created or a file cannot be written.
 pub fn write_outputs(s: &StudyResult, dir: &std::path::Path) -> Result<(), StudyError> {
     crate::report::write_files(dir, &output_files(s))?;
     Ok(())

@@ -179,6 +179,10 @@ fn mean_abs_correlation(m: &RobotModel) -> f64 {
 }
 
 /// Runs the study on the TX60 experiment of `settings.robot_seed`.
+///
+/// # Errors
+///
+/// As [`run_study_on`].
 pub fn run_study(
     settings: &StudySettings,
     backends: &dyn Backends,
@@ -193,6 +197,14 @@ pub fn run_study(
 }
 
 /// Runs the study on a given experiment (true robot, tracker, error model).
+///
+/// # Errors
+///
+/// [`StudyError::Simulate`] for settings out of range or a failing simulated calibration,
+/// [`StudyError::Points`] when test points cannot be generated, [`StudyError::Problem`] when a
+/// calibrated model and its points do not make a problem, [`StudyError::Engine`] when no evaluator
+/// can be made, and [`StudyError::Mc`] or [`StudyError::Sensitivity`] when a Monte Carlo run or the
+/// sensitivity analysis fails.
 pub fn run_study_on(
     exp: &Experiment,
     settings: &StudySettings,

@@ -210,8 +210,12 @@ impl StudySettings {
             .collect()
     }
 
-    /// Checks the settings; errors name the setting (`point counts`, `MCS draws`, `tolerances`,
-    /// `factors`, or a factor of the baseline).
+    /// Checks the settings.
+    ///
+    /// # Errors
+    ///
+    /// [`SimulateError::Setting`] naming the first setting out of range (point counts, MCS draws,
+    /// tolerances, factors, or a factor of the baseline).
     pub fn check(&self) -> Result<(), SimulateError> {
         self.baseline.check()?;
         let bad = |field, message: String| Err(SimulateError::Setting { field, message });

@@ -175,6 +175,13 @@ impl Quantity {
 /// Rows are built and evaluated `opts.chunk` base samples at a time (`chunk · (2 + S)` rows per
 /// `model` call, S the pick-freeze matrices), so memory holds the inputs of one chunk and the
 /// `N · (2 + S)` outputs. `opts.thresholds` add the exceedance indicators of the output.
+///
+/// # Errors
+///
+/// [`SensitivityError::Setting`] for an option out of range, [`SensitivityError::Design`] for no
+/// inputs or a group that is not a non-empty subset of them, [`SensitivityError::ModelOutput`] when
+/// `model` returns the wrong number of outputs, [`SensitivityError::NonFinite`] for an output that
+/// is not finite, and any error `model` returns.
 pub fn pick_freeze<S, F>(
     names: &[String],
     groups: &[InputGroup],
@@ -193,6 +200,10 @@ where
 /// The outputs of base samples `range` (of `opts.draws`) of the design of [`pick_freeze`] with
 /// `dim` inputs: what a shard of the analysis evaluates. [`analyse_outputs`] takes the
 /// outputs of all base samples, in order.
+///
+/// # Errors
+///
+/// As [`pick_freeze_chunks`]; and any error `model` returns.
 pub fn pick_freeze_outputs<S, F>(
     dim: usize,
     groups: &[InputGroup],
@@ -232,6 +243,14 @@ where
 /// set `S` of `sets` (inputs first, then the groups' sets not already among them), `c` values
 /// each. Called with at most `opts.chunk` base samples at a time; the outputs are checked
 /// (count, finiteness) and gathered as [`pick_freeze_outputs`] gathers them.
+///
+/// # Errors
+///
+/// [`SensitivityError::Setting`] for an option out of range, [`SensitivityError::Design`] for no
+/// inputs, a bad group or a `range` that is empty or beyond `opts.draws`,
+/// [`SensitivityError::ModelOutput`] when `eval` returns the wrong number of outputs,
+/// [`SensitivityError::NonFinite`] naming the base sample and matrix of an output that is not
+/// finite, and any error `eval` returns.
 pub fn pick_freeze_chunks<F>(
     dim: usize,
     groups: &[InputGroup],
@@ -296,6 +315,12 @@ where
 /// The indices from the outputs of all `opts.draws` base samples ([`pick_freeze_outputs`],
 /// concatenated in base-sample order when evaluated in shards): the same analysis, to the bit,
 /// as one [`pick_freeze`] run.
+///
+/// # Errors
+///
+/// [`SensitivityError::Setting`] for an option out of range, [`SensitivityError::Design`] for no
+/// inputs or a bad group, and [`SensitivityError::ModelOutput`] when `out` does not hold the
+/// outputs of `opts.draws` base samples on every matrix.
 pub fn analyse_outputs(
     names: &[String],
     groups: &[InputGroup],

@@ -137,6 +137,13 @@ impl Default for SensitivityOptions {
 
 impl SensitivityOptions {
     /// Checks every setting; the error names the field.
+    ///
+    /// # Errors
+    ///
+    /// [`SensitivityError::Setting`] naming the first field out of range: draws that are not a
+    /// power of 2 within [`MIN_DRAWS`] … [`MAX_DRAWS`], bootstrap resamples outside
+    /// [`MIN_BOOTSTRAP`] … [`MAX_BOOTSTRAP`], a chunk outside 1 … [`MAX_CHUNK`], or a threshold
+    /// that is not a finite length > 0.
     pub fn check(&self) -> Result<(), SensitivityError> {
         let bad = |field: &'static str, message: String| {
             Err(SensitivityError::Setting { field, message })
@@ -305,6 +312,37 @@ fn robot_groups(free: &[usize]) -> Vec<InputGroup> {
 /// Sobol indices of `w` for every free parameter of `problem`, per joint and per kind, with the
 /// evaluator `ev` built for the same problem (CPU or GPU: only its offset path is used).
 /// See the module docs for the estimators, the draw definition and correlated models.
+///
+/// # Errors
+///
+/// As [`run_outputs`]; and [`SensitivityError::Design`] if the design and the outputs disagree
+/// ([`Design::result`]).
+///
+/// # Examples
+///
+/// The smallest analysis (64 base samples, 100 bootstrap resamples) of the TX60 at five test
+/// points on the CPU evaluator:
+///
+/// ```
+/// use gpu_amcs_core::engine::{CpuEvaluator, Problem, Reference};
+/// use gpu_amcs_core::mc::sensitivity::{run_sensitivity, SensitivityOptions};
+///
+/// let model = gpu_amcs_core::kinematics::tx60();
+/// let points = gpu_amcs_core::points::generate(&model, 5, &Default::default(), 1)?;
+/// let problem = Problem::new(model, &points, &Reference::Calibrated, 2025)?;
+/// let mut ev = CpuEvaluator::new(problem.clone());
+/// let opts = SensitivityOptions {
+///     draws: 64,
+///     bootstrap: 100,
+///     ..SensitivityOptions::default()
+/// };
+/// let result = run_sensitivity(&problem, &mut ev, &opts)?;
+/// // One first-order and one total index per free parameter of the model.
+/// assert_eq!(result.w().inputs.len(), result.parameters.len());
+/// let top = result.w().inputs.iter().max_by(|a, b| a.total.value.total_cmp(&b.total.value));
+/// println!("most influential: {}", top.map_or("none", |i| i.name.as_str()));
+/// # Ok::<(), Box<dyn std::error::Error>>(())
+/// ```
 pub fn run_sensitivity(
     problem: &Problem,
     ev: &mut dyn Evaluator,
@@ -317,6 +355,15 @@ pub fn run_sensitivity(
 
 /// The outputs of base samples `range` of the analysis of [`run_sensitivity`] (a shard), and
 /// the design that analyses them once all are gathered.
+///
+/// # Errors
+///
+/// [`SensitivityError::Setting`] for an option out of range,
+/// [`SensitivityError::EvaluatorMismatch`] when `ev` has another number of test points than
+/// `problem`, [`SensitivityError::NoFreeParameter`] when no input has a nonzero standard deviation,
+/// [`SensitivityError::Design`] for a `range` that is empty or beyond `opts.draws`,
+/// [`SensitivityError::Engine`] when the evaluator fails (or cannot generate pick-freeze rows),
+/// and [`SensitivityError::NonFinite`] for an output that is not finite.
 pub fn run_outputs(
     problem: &Problem,
     ev: &mut dyn Evaluator,
@@ -385,6 +432,12 @@ impl Design {
     /// The indices from the outputs of all base samples (`out`, in base-sample order) of the
     /// model named `model` with `points` test points and draw seed `seed`: the model itself is
     /// not needed, so a merge of shards can run anywhere.
+    ///
+    /// # Errors
+    ///
+    /// [`SensitivityError::Design`] when the design's free inputs are not a non-empty set of the
+    /// [`N_UNCERTAIN`] inputs; otherwise as [`analyse_outputs`] (an option out of range, outputs of
+    /// the wrong count).
     pub fn result(
         &self,
         (model, points, seed): (String, usize, u64),

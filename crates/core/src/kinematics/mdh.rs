@@ -1,5 +1,6 @@
-//! From measured joint axes to the MDH (Hayati) parameters and the tool point (docs/METHOD.md §1–2,
-//! paper eqs. 7–11).
+//! From joint axis lines to the MDH (Hayati) parameters and the tool point (docs/METHOD.md §1–2,
+//! paper eqs. 7–11): the conversion of the identification (measured axes, `crate::identify`) and
+//! of the importer (the axes of a kinematic description, `crate::import`).
 //!
 //! Frame `i−1` has its z axis on joint `i`'s axis; `T_i = Rz(θ_i+q_i)·Tz(d_i)·Tx(a_i)·Rx(α_i)·Ry(β_i)`
 //! carries it to frame `i`, whose z axis is joint `i+1`'s axis. Given frame `i−1` and joint
@@ -32,16 +33,24 @@
 //! * A fixed `β` is fixed at 0 (docs/METHOD.md §1); a fixed `d` at its nominal value.
 
 use super::lines::{common_normal, Line};
-use super::IdentifyError;
-use crate::kinematics::{
-    joint_transform, param_index, FixedParam, ParamKind, RobotModel, JOINTS, N_PARAMS,
-};
+use super::{joint_transform, param_index, FixedParam, ParamKind, RobotModel, JOINTS, N_PARAMS};
 use nalgebra::{Matrix3, Vector3};
 
 /// Consecutive axes closer to parallel than this (degrees) are identified with `β` instead of
 /// `d` even when the nominal model fixes `β`: below it the common normal's foot (and so `d`)
 /// slides along the axes and amplifies measurement noise.
 pub const PARALLEL_THRESHOLD_DEG: f64 = 1.0;
+
+/// The axes cannot be turned into a joint's parameters (the identification reports it as
+/// `IdentifyError::Geometry`, the importer as `ImportError::NotRepresentable`).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+#[error("joint {joint}: {message}")]
+pub struct GeometryError {
+    /// 1-based joint.
+    pub joint: usize,
+    /// What is wrong.
+    pub message: String,
+}
 
 /// Parameters of one joint read off from the next axis.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -62,7 +71,12 @@ fn wrap_near(angle: f64, reference: f64) -> f64 {
 /// Parameters of joint `i` from the next axis `next` expressed in frame `i−1` coordinates (frame
 /// `i−1` is the identity there: joint `i`'s axis is the z axis through the origin), measured with
 /// joint `i` at `q_home` (radians). `nominal` supplies the sign conventions, the fixed `d` and the
-/// structure. Errors are messages (the caller names the joint).
+/// structure.
+///
+/// # Errors
+///
+/// A message when the parallel-axis (`β`) form is needed but the next axis is perpendicular to this
+/// one, or passes through this axis at height `d`.
 pub fn joint_from_next_axis(
     next: &Line,
     q_home: f64,
@@ -171,11 +185,16 @@ pub struct Chain {
 
 /// Builds the chain from the measured axes of joints 1–6 (`axes[0]` is not used, see the module
 /// docs) and the J6 sweep points `(q_deg, position)`.
+///
+/// # Errors
+///
+/// [`GeometryError`] naming the joint when its next axis cannot be turned into parameters
+/// ([`joint_from_next_axis`]), or joint 6 when there are no tool points.
 pub fn axes_to_chain(
     nominal: &RobotModel,
     axes: &[MeasuredAxis; JOINTS],
     tool_points: &[([f64; JOINTS], Vector3<f64>)],
-) -> Result<Chain, IdentifyError> {
+) -> Result<Chain, GeometryError> {
     let mut params = nominal.params;
     let mut fixed = nominal.fixed;
     let mut axis_angles_deg = [0.0; JOINTS - 1];
@@ -191,7 +210,7 @@ pub fn axes_to_chain(
         let mut nom = [0.0; 5];
         nom.copy_from_slice(&nominal.params[5 * i..5 * i + 5]);
         let g = joint_from_next_axis(&local, q[i], nom, nominal.fixed[i]).map_err(|message| {
-            IdentifyError::Geometry {
+            GeometryError {
                 joint: i + 1,
                 message,
             }
@@ -205,7 +224,7 @@ pub fn axes_to_chain(
         params[29] = 0.0;
     }
     if tool_points.is_empty() {
-        return Err(IdentifyError::Geometry {
+        return Err(GeometryError {
             joint: 6,
             message: "no points to place the tool".into(),
         });
@@ -248,10 +267,15 @@ pub fn axes_to_chain(
 ///
 /// `axes[0]` must be the base z axis (the model has no parameters before `Rz(θ_1 + q_1)`); the
 /// caller checks that (this function cannot see it: [`axes_to_chain`] does not use `axes[0]`).
+///
+/// # Errors
+///
+/// [`GeometryError`] naming the joint whose next axis cannot be turned into parameters (see
+/// [`axes_to_chain`]).
 pub fn chain_from_zero_pose(
     axes: &[Line; JOINTS],
     tip: Vector3<f64>,
-) -> Result<Chain, IdentifyError> {
+) -> Result<Chain, GeometryError> {
     let reference = RobotModel {
         name: String::new(),
         params: [0.0; N_PARAMS],

@@ -1,94 +1,24 @@
-//! Built-in robot models.
+//! Built-in robot models by name ([`preset`], [`PRESETS`]): the Staubli TX60 of
+//! [`crate::kinematics::tx60`] and published nominal geometries converted by the importer.
 //!
-//! The Staubli TX60 table of docs/METHOD.md §1: it reproduces the public ROS-Industrial TX60 chain
-//! (joint origins 375, 290, 20 lateral, 310, 70 mm), so at q = 0 the flange centre is at
-//! (0, 20, 1045) mm.
-//!
-//! Its default uncertainty ([`TX60_SIGMA`], independent σ per parameter) is the one the
-//! calibration simulator produces at the paper's baseline settings: the virtual TX60 of
-//! `simulate::Experiment::tx60(2025)` (nominal geometry perturbed by 0.3 mm / 0.03° class errors
-//! from seed 2025, tool (30, −20, 80) mm, Leica AT960 tracker with MPE = 2σ at (2000, −600, 400) mm,
-//! TX60 repeatability ±0.02 mm, speed/backlash models of `simulate::factors`), calibrated
-//! `simulate::calibrate` with `Factors::default()` — 20 runs, 50 % of each measuring range,
-//! 2° steps, 25 % speed, negative→positive — and calibration seed 1, σ = the run-to-run standard
-//! deviation of the identified parameters. The numbers are baked in (no calibration at start-up);
-//! the test `baked_tx60_sigma_matches_the_simulator` in `tests/study.rs` re-runs that calibration
-//! and fails if the simulator no longer produces them. J6's θ, d, a, α are zero: the
-//! identification keeps them nominal and lets the tool point absorb them (`identify::mdh`), so the
-//! parameter model carries no spread for them; β is fixed except on J2 (J2 ∥ J3).
-//!
-//! The other presets are published nominal geometries converted by the importer
+//! The presets other than the TX60 are published nominal geometries converted by the importer
 //! (`crate::import`, the same conversion and proof as `gpu-amcs import`); each one's source is
 //! quoted at its function. They carry no uncertainty (every σ is 0): a published table says
 //! nothing about a particular robot's spread; give σ in a model file or calibrate.
+//!
+//! This module sits above `kinematics` and `import`: the kinematics know nothing of the
+//! importer, and the conversion of a built-in table is the importer's own.
 
 use crate::import::dh::{Convention, DhRow, DhTable};
 use crate::import::{convert, SourceChain, SourceFormat, SourceJoint};
+use crate::kinematics::{ModelError, RobotModel, JOINTS};
 use nalgebra::{Isometry3, Unit, Vector3};
 use std::f64::consts::FRAC_PI_2;
 
-use super::model::{param_index, FixedParam, ParamKind, RobotModel, Uncertainty, JOINTS, N_PARAMS};
+pub use crate::kinematics::tx60;
 
 /// Names of the built-in presets.
 pub const PRESETS: &[&str] = &["tx60", "ur5e", "ur10e", "irb2400", "kr6r700sixx"];
-
-/// The default σ of every parameter, `[θ (deg), d (mm), a (mm), α (deg), β (deg)]` per joint:
-/// the baseline calibration of the simulator (see the module docs), 4 significant digits.
-pub const TX60_SIGMA: [[f64; 5]; JOINTS] = [
-    [3.216e-3, 5.056e-3, 7.175e-3, 1.995e-3, 0.0],
-    [1.664e-3, 0.0, 8.480e-3, 4.335e-3, 2.208e-3],
-    [2.176e-3, 1.183e-2, 6.683e-3, 3.526e-3, 0.0],
-    [1.036e-2, 8.317e-3, 6.864e-3, 4.796e-3, 0.0],
-    [3.619e-3, 1.205e-2, 1.038e-2, 1.197e-2, 0.0],
-    [0.0, 0.0, 0.0, 0.0, 0.0],
-];
-
-/// The Staubli TX60 with its default uncertainty; tool point at the flange centre.
-pub fn tx60() -> RobotModel {
-    // θ, d, a, α, β (deg, mm)
-    let table: [[f64; 5]; JOINTS] = [
-        [0.0, 375.0, 0.0, -90.0, 0.0],
-        [-90.0, 0.0, 290.0, 0.0, 0.0],
-        [90.0, 20.0, 0.0, 90.0, 0.0],
-        [0.0, 310.0, 0.0, -90.0, 0.0],
-        [0.0, 0.0, 0.0, 90.0, 0.0],
-        [0.0, 70.0, 0.0, 0.0, 0.0],
-    ];
-    let fixed = [
-        FixedParam::Beta,
-        FixedParam::D, // J2 ∥ J3
-        FixedParam::Beta,
-        FixedParam::Beta,
-        FixedParam::Beta,
-        FixedParam::Beta,
-    ];
-    let mut params = [0.0; N_PARAMS];
-    let mut sigma = [0.0; N_PARAMS];
-    for j in 0..JOINTS {
-        for (k, kind) in ParamKind::ALL.iter().enumerate() {
-            let i = param_index(j, *kind);
-            params[i] = table[j][k] * kind.to_internal();
-            sigma[i] = TX60_SIGMA[j][k] * kind.to_internal();
-        }
-    }
-    RobotModel {
-        name: "Staubli TX60".into(),
-        params,
-        fixed,
-        limits_deg: [
-            (-180.0, 180.0),
-            (-127.5, 127.5),
-            (-142.5, 142.5),
-            (-270.0, 270.0),
-            (-122.5, 132.5),
-            (-270.0, 270.0),
-        ],
-        tool: [0.0, 0.0, 0.0],
-        tool_sigma: [0.0; 3],
-        base: None,
-        uncertainty: Uncertainty::Independent(sigma),
-    }
-}
 
 /// A UR-style standard DH table `(d, a, α)` in metres and radians, θ = 0, limits ±360°.
 fn ur_dh(name: &str, d: [f64; JOINTS], a: [f64; JOINTS], alpha: [f64; JOINTS]) -> RobotModel {
@@ -214,7 +144,7 @@ pub const IRB2400_URDF: [UrdfJointFigures; JOINTS] = [
 /// `kuka_experimental` repository, `kuka_kr6_support/urdf/kr6r700sixx_macro.xacro` (all
 /// revolute `rpy` 0; `joint_a6 → flange` fixed identity, `flange → tool0` fixed rpy (0, 90°, 0),
 /// so `tool0` sits at the flange centre: (785, 0, 435) mm at q = 0). Joint A1 turns about −z:
-/// the model holds that with its base transform Rx(180°) ([`super::BaseTransform`]).
+/// the model holds that with its base transform Rx(180°) ([`crate::kinematics::BaseTransform`]).
 pub const KR6R700SIXX_URDF: [UrdfJointFigures; JOINTS] = [
     urdf_joint(
         "joint_a1",
@@ -287,13 +217,36 @@ fn urdf_preset(name: &str, figures: &[UrdfJointFigures; JOINTS]) -> RobotModel {
 }
 
 /// A preset by name.
-pub fn preset(name: &str) -> Result<RobotModel, super::ModelError> {
+///
+/// # Errors
+///
+/// [`ModelError::UnknownPreset`] when `name` (case-insensitive) is none of [`PRESETS`].
+pub fn preset(name: &str) -> Result<RobotModel, ModelError> {
     match name.to_ascii_lowercase().as_str() {
         "tx60" => Ok(tx60()),
         "ur5e" => Ok(ur5e()),
         "ur10e" => Ok(ur10e()),
         "irb2400" => Ok(irb2400()),
         "kr6r700sixx" => Ok(kr6r700sixx()),
-        _ => Err(super::ModelError::UnknownPreset(name.to_string())),
+        _ => Err(ModelError::UnknownPreset {
+            name: name.to_string(),
+            known: PRESETS,
+        }),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_name_resolves_and_an_unknown_one_lists_them() {
+        for name in PRESETS {
+            assert!(preset(&name.to_ascii_uppercase()).is_ok(), "{name}");
+        }
+        assert_eq!(
+            preset("tx90").unwrap_err().to_string(),
+            "unknown preset 'tx90' (known: tx60, ur5e, ur10e, irb2400, kr6r700sixx)"
+        );
     }
 }

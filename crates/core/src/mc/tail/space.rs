@@ -1,0 +1,165 @@
+//! The standard-normal space of a run: the map `u ↦ δ = L u` to parameter offsets, and the
+//! evaluator with its generator and evaluation count ([`Model`]).
+
+use super::TailError;
+use crate::engine::Evaluator;
+use crate::kinematics::N_UNCERTAIN;
+use crate::mc::result::Progress;
+use crate::sampling::{box_muller, uniform_open, ParamSampler, Philox};
+
+/// The map `u ↦ δ = L u` from the standard-normal space to parameter offsets.
+pub(super) struct NormalSpace {
+    pub(super) free: Vec<usize>,
+    /// Standard deviations of the free parameters (independent), or the row-major lower
+    /// Cholesky factor (`d²` entries).
+    pub(super) factor: Vec<f64>,
+    pub(super) diagonal: bool,
+}
+
+impl NormalSpace {
+    pub(super) fn new(sampler: &ParamSampler) -> Result<Self, TailError> {
+        let space = if let Some((free, chol)) = sampler.cholesky() {
+            NormalSpace {
+                free: free.to_vec(),
+                factor: chol.to_vec(),
+                diagonal: false,
+            }
+        } else {
+            let s = sampler.sigmas().copied().unwrap_or([0.0; N_UNCERTAIN]);
+            let free: Vec<usize> = (0..N_UNCERTAIN).filter(|&i| s[i] > 0.0).collect();
+            NormalSpace {
+                factor: free.iter().map(|&i| s[i]).collect(),
+                free,
+                diagonal: true,
+            }
+        };
+        if space.free.is_empty() {
+            return Err(TailError::NoUncertainty);
+        }
+        Ok(space)
+    }
+
+    pub(super) fn dim(&self) -> usize {
+        self.free.len()
+    }
+
+    /// Writes the offsets of `u` (length d) into `out` (length `N_UNCERTAIN`).
+    pub(super) fn offsets(&self, u: &[f64], out: &mut [f64]) {
+        out.fill(0.0);
+        let d = self.dim();
+        for (a, &p) in self.free.iter().enumerate() {
+            out[p] = if self.diagonal {
+                self.factor[a] * u[a]
+            } else {
+                (0..=a).map(|b| self.factor[a * d + b] * u[b]).sum()
+            };
+        }
+    }
+}
+
+/// The evaluator with its standard-normal map, generator and evaluation count.
+pub(super) struct Model<'a> {
+    pub(super) eval: &'a mut dyn Evaluator,
+    pub(super) space: NormalSpace,
+    pub(super) gen: Philox,
+    pub(super) evaluations: u64,
+    pub(super) batch: usize,
+    pub(super) progress: Option<Progress<'a>>,
+    pub(super) cap: u64,
+}
+
+impl Model<'_> {
+    /// `w` of the rows of `u` (`w.len()` rows of `d`), in evaluator calls of at most `batch`
+    /// rows.
+    pub(super) fn eval_u(&mut self, u: &[f64], w: &mut [f64]) -> Result<(), TailError> {
+        let d = self.space.dim();
+        let mut offsets = Vec::new();
+        for (uc, wc) in u.chunks(self.batch * d).zip(w.chunks_mut(self.batch)) {
+            offsets.resize(wc.len() * N_UNCERTAIN, 0.0);
+            for (row, o) in uc.chunks(d).zip(offsets.chunks_mut(N_UNCERTAIN)) {
+                self.space.offsets(row, o);
+            }
+            self.eval.evaluate_offsets(&offsets, wc, None)?;
+            self.account(wc)?;
+        }
+        Ok(())
+    }
+
+    /// Counts evaluated rows, rejects non-finite values and reports progress.
+    pub(super) fn account(&mut self, w: &[f64]) -> Result<(), TailError> {
+        if let Some(&value) = w.iter().find(|v| !v.is_finite()) {
+            return Err(TailError::NonFinite { value });
+        }
+        self.evaluations += w.len() as u64;
+        if let Some(cb) = self.progress {
+            cb(self.evaluations, self.cap);
+        }
+        Ok(())
+    }
+
+    /// Fills `out` with standard normals of counter `(state, run, block, stream)`, blocks
+    /// from `first_block` on.
+    pub(super) fn normals(&self, state: u64, stream: u32, first_block: u32, out: &mut [f64]) {
+        for (b, chunk) in out.chunks_mut(4).enumerate() {
+            let w = self.block(state, first_block + b as u32, stream);
+            let (a, bb) = box_muller(w[0], w[1]);
+            let (c, dd) = box_muller(w[2], w[3]);
+            for (o, z) in chunk.iter_mut().zip([a, bb, c, dd]) {
+                *o = z;
+            }
+        }
+    }
+
+    /// Fills `out` with uniforms in (0, 1), as [`Self::normals`].
+    pub(super) fn uniforms(&self, state: u64, stream: u32, first_block: u32, out: &mut [f64]) {
+        for (b, chunk) in out.chunks_mut(4).enumerate() {
+            let w = self.block(state, first_block + b as u32, stream);
+            for (o, x) in chunk.iter_mut().zip(w) {
+                *o = uniform_open(x);
+            }
+        }
+    }
+
+    /// `state` carries the state index in its low and the run number in its high word.
+    fn block(&self, state: u64, block: u32, stream: u32) -> [u32; 4] {
+        self.gen.block(state, block, stream)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::{tx60, Uncertainty, N_PARAMS};
+    use crate::sampling::normals_block;
+
+    /// The map `u ↦ L u` reproduces the sampler's draw `k` from that draw's normals, for the
+    /// σ list and for a full covariance with correlations.
+    #[test]
+    fn normal_space_reproduces_the_sampler() {
+        let mut corr = tx60();
+        let s = corr.uncertainty.sigmas();
+        let mut c = vec![0.0; N_PARAMS * N_PARAMS];
+        for i in 0..N_PARAMS {
+            c[i * N_PARAMS + i] = s[i] * s[i];
+        }
+        c[N_PARAMS + 2] = 0.6 * s[1] * s[2];
+        c[2 * N_PARAMS + 1] = c[N_PARAMS + 2];
+        corr.uncertainty = Uncertainty::Covariance(c);
+        for model in [tx60(), corr] {
+            let sampler = ParamSampler::new(&model, 17).unwrap();
+            let space = NormalSpace::new(&sampler).unwrap();
+            let g = Philox { key: sampler.key() };
+            for k in [0u64, 5, 1 << 33] {
+                let z: Vec<f64> = (0..9).flat_map(|b| normals_block(&g, k, b, 0)).collect();
+                let u: Vec<f64> = space.free.iter().map(|&i| z[i]).collect();
+                let mut mine = [0.0; N_UNCERTAIN];
+                space.offsets(&u, &mut mine);
+                let mut theirs = [0.0; N_UNCERTAIN];
+                sampler.deltas(k, &mut theirs);
+                for i in 0..N_UNCERTAIN {
+                    assert!((mine[i] - theirs[i]).abs() <= 1e-15 * theirs[i].abs().max(1e-3));
+                }
+            }
+        }
+    }
+}

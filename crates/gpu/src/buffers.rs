@@ -1,0 +1,215 @@
+//! The evaluator's GPU buffers: the uniforms the shader reads ([`ConfigUniform`],
+//! [`ChunkUniform`]), the per-problem buffers, the alternating chunk slots with their bind
+//! groups, and the bookkeeping of a dispatched chunk.
+
+use crate::device::{self, BindGroup, Buffer, Gpu, Timer};
+use crate::{binding, GpuContext};
+use gpu_amcs_core::engine::deviation::{self, SpreadPacking};
+use gpu_amcs_core::engine::{PickFreeze, Problem};
+use gpu_amcs_core::kinematics::N_UNCERTAIN;
+
+/// The run configuration uniform (`cfg` in the shader; `tests/gpu.rs` checks that its size
+/// equals the WGSL struct's).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ConfigUniform {
+    /// Philox key.
+    pub key: [u32; 2],
+    /// Test points m.
+    pub m: u32,
+    /// 0: independent spread (σ), 1: correlated (Cholesky factor).
+    pub mode: u32,
+    /// Free parameters of a correlated spread.
+    pub nfree: u32,
+    /// Bit b set: Philox block b feeds some free parameter.
+    pub block_mask: u32,
+    /// Padding to the WGSL struct size.
+    pub pad: [u32; 2],
+}
+
+/// The per-chunk uniform (`chunk` in the shader).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]
+pub struct ChunkUniform {
+    /// First draw of the chunk, (lo, hi) words (unused by the offset path; the draw of row 0
+    /// of matrix A on the pick-freeze path).
+    pub first: [u32; 2],
+    /// Parameter vectors in the chunk.
+    pub count: u32,
+    /// 1: write per-point errors.
+    pub want_e: u32,
+    /// Pick-freeze path: the draw of row 0 of matrix B, (lo, hi) words.
+    pub b_first: [u32; 2],
+    /// Pick-freeze path: rows per matrix.
+    pub per_matrix: u32,
+    /// Pick-freeze path: the request's row computed by the chunk's invocation 0.
+    pub row0: u32,
+}
+
+/// The (lo, hi) words of a 64-bit draw index or mask.
+pub(crate) fn words(x: u64) -> [u32; 2] {
+    [x as u32, (x >> 32) as u32]
+}
+
+/// The buffers of one problem (see [`GpuEvaluator::set_problem`]).
+pub(crate) struct ProblemBuffers {
+    pub(crate) config: Buffer,
+    pub(crate) joint_trig: Buffer,
+    pub(crate) spread: Buffer,
+    pub(crate) free: Buffer,
+    pub(crate) points: Buffer,
+    pub(crate) m: usize,
+}
+
+impl ProblemBuffers {
+    pub(crate) fn new(gpu: &Gpu, problem: &Problem) -> Self {
+        let packing = SpreadPacking::new(problem);
+        let m = problem.n_points();
+        let cfg = ConfigUniform {
+            key: problem.sampler.key(),
+            m: m as u32,
+            mode: u32::from(packing.correlated),
+            nfree: packing.n_free() as u32,
+            block_mask: packing.block_mask,
+            pad: [0; 2],
+        };
+        let config = gpu.uniform("config", std::mem::size_of::<ConfigUniform>() as u64);
+        gpu.write(&config, bytemuck::bytes_of(&cfg));
+        let trig = deviation::joint_trig(problem);
+        let pts = deviation::point_constants(problem);
+        ProblemBuffers {
+            config,
+            joint_trig: gpu.storage_init("joint trig", bytemuck::cast_slice(&trig)),
+            spread: gpu.storage_init("spread", bytemuck::cast_slice(&packing.spread)),
+            free: gpu.storage_init("free", bytemuck::cast_slice(&packing.free)),
+            points: gpu.storage_init("points", bytemuck::cast_slice(&pts)),
+            m,
+        }
+    }
+}
+
+/// One of the alternating chunk slots: its uniform, outputs, staging and offset input.
+pub(crate) struct Slot {
+    pub(crate) chunk: Buffer,
+    pub(crate) w: Buffer,
+    pub(crate) w_stage: Buffer,
+    pub(crate) e: Buffer,
+    pub(crate) e_stage: Buffer,
+    pub(crate) offsets: Buffer,
+    pub(crate) bind: BindGroup,
+    pub(crate) timer: Option<Timer>,
+}
+
+/// The buffers a slot binds besides the problem's.
+pub(crate) struct SlotBuffers<'a> {
+    pub(crate) chunk: &'a Buffer,
+    pub(crate) w: &'a Buffer,
+    pub(crate) e: &'a Buffer,
+    pub(crate) offsets: &'a Buffer,
+    pub(crate) masks: &'a Buffer,
+}
+
+/// The bind group of a slot over `problem`'s buffers, every binding by name.
+pub(crate) fn bind_slot(ctx: &GpuContext, problem: &ProblemBuffers, s: SlotBuffers) -> BindGroup {
+    ctx.gpu.bind_group(
+        &ctx.layout,
+        &[
+            (binding::CONFIG, &problem.config),
+            (binding::CHUNK, s.chunk),
+            (binding::JOINT_TRIG, &problem.joint_trig),
+            (binding::SPREAD, &problem.spread),
+            (binding::FREE, &problem.free),
+            (binding::POINTS, &problem.points),
+            (binding::W, s.w),
+            (binding::E, s.e),
+            (binding::OFFSETS, s.offsets),
+            (binding::MASKS, s.masks),
+        ],
+    )
+}
+
+impl Slot {
+    /// A slot of `chunk` outputs; per-point and offset buffers are placeholders until needed.
+    pub(crate) fn new(
+        ctx: &GpuContext,
+        problem: &ProblemBuffers,
+        masks: &Buffer,
+        chunk: usize,
+        timer: bool,
+    ) -> Self {
+        let gpu = &ctx.gpu;
+        let w_bytes = 4 * chunk as u64;
+        let chunk = gpu.uniform("chunk", std::mem::size_of::<ChunkUniform>() as u64);
+        let w = gpu.storage("w", w_bytes);
+        let e = gpu.storage("e (unused)", 4);
+        let offsets = gpu.storage("offsets (unused)", 4);
+        let bind = bind_slot(
+            ctx,
+            problem,
+            SlotBuffers {
+                chunk: &chunk,
+                w: &w,
+                e: &e,
+                offsets: &offsets,
+                masks,
+            },
+        );
+        Slot {
+            chunk,
+            w,
+            w_stage: gpu.staging("w staging", w_bytes),
+            e,
+            e_stage: gpu.staging("e staging (unused)", 4),
+            offsets,
+            bind,
+            timer: if timer { gpu.timer() } else { None },
+        }
+    }
+
+    /// Rebuilds the bind group after a buffer changed.
+    pub(crate) fn rebind(&mut self, ctx: &GpuContext, problem: &ProblemBuffers, masks: &Buffer) {
+        self.bind = bind_slot(
+            ctx,
+            problem,
+            SlotBuffers {
+                chunk: &self.chunk,
+                w: &self.w,
+                e: &self.e,
+                offsets: &self.offsets,
+                masks,
+            },
+        );
+    }
+}
+
+/// Where the parameter offsets of a request come from.
+#[derive(Clone, Copy)]
+pub(crate) enum Rows<'a> {
+    /// Counter draws from this index on.
+    Draws(u64),
+    /// An offset matrix, `N_UNCERTAIN` per row, from its first row on.
+    Offsets(&'a [f64]),
+    /// The rows of a pick-freeze request from this row on (its masks already uploaded).
+    PickFreeze(PickFreeze<'a>, usize),
+}
+
+impl<'a> Rows<'a> {
+    /// The rows from `n` on.
+    pub(crate) fn skip(self, n: usize) -> Rows<'a> {
+        match self {
+            Rows::Draws(k) => Rows::Draws(k.wrapping_add(n as u64)),
+            Rows::Offsets(o) => Rows::Offsets(&o[(n * N_UNCERTAIN).min(o.len())..]),
+            Rows::PickFreeze(pf, row) => Rows::PickFreeze(pf, row + n),
+        }
+    }
+}
+
+pub(crate) struct InFlight {
+    pub(crate) slot: usize,
+    pub(crate) start: usize,
+    pub(crate) count: usize,
+    pub(crate) index: device::SubmissionIndex,
+    pub(crate) pending_w: device::PendingMap,
+    pub(crate) pending_e: Option<device::PendingMap>,
+    pub(crate) pending_t: Option<device::PendingMap>,
+}
