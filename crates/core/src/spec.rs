@@ -39,7 +39,7 @@ pub const DEFAULT_PRESET: &str = "tx60";
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum ModelSource {
-    /// A built-in model by name ([`crate::kinematics::PRESETS`]).
+    /// A built-in model by name ([`crate::presets::PRESETS`]).
     Preset(String),
     /// A model file (TOML, mm and degrees), or a robot description imported on the fly by its
     /// extension (URDF `.urdf`/`.xml`/`.xacro`, DH table `.csv`, UR calibration `.yaml`/`.yml`),
