@@ -12,7 +12,16 @@ NumPy, OpenTURNS and SALib users:
   input rows (N × 33; N × 30 = the parameters with the tool at the model's tool; or the
   inputs named by ``columns``), or (N, m) with ``per_point=True``, without the GIL.
 * ``model.draws(n, seed=...)`` -> the input draws (N × 33) a run evaluates.
-* ``mcs(...)``, ``amcs(...)`` -> ``RunResult``; ``.to_dict()`` is the command line's JSON.
+* ``mcs(...)``, ``amcs(...)`` -> ``RunResult``; ``sensitivity(...)`` -> ``SensitivityResult``,
+  ``tail(...)`` -> ``TailResult``, ``map(...)`` -> ``MapResult``: keyword arguments spelled as
+  the command line's flags, with its defaults; ``.to_dict()`` / ``.to_json()`` are the document
+  ``--json`` writes, ``.to_text()`` the table it prints, ``.to_csv()`` / ``.to_pandas()`` the
+  CSV ``--csv`` writes (pandas needed for the DataFrame).
+* ``identify(sweeps, ...)`` -> ``IdentifyResult``: ``.model`` (``.to_toml()`` is the file
+  ``gpu-amcs identify --out`` writes), ``.warnings``, ``.to_text()``.
+* ``model.salib_problem()`` -> SALib's problem dict (independent normals, ``bounds`` = [mean,
+  sd]); ``model.openturns_function(q_deg)`` -> an ``ot.Function`` of the inputs evaluating whole
+  samples through ``max_error``.
 
 Errors are ``ValueError`` with the command line's one-line message, naming the argument.
 """
@@ -20,14 +29,23 @@ Errors are ``ValueError`` with the command line's one-line message, naming the a
 from ._gpu_amcs import (  # noqa: F401
     N_PARAMS,
     N_UNCERTAIN,
+    IdentifyResult,
+    MapResult,
     Model,
     RunResult,
+    SensitivityResult,
+    TailResult,
     __version__,
     adapters,
     amcs,
+    identify,
+    map,  # noqa: A004 (gpu_amcs.map, the command line's `map`)
     mcs,
     presets,
+    sensitivity,
+    tail,
 )
 
-__all__ = ["Model", "RunResult", "adapters", "amcs", "mcs", "presets", "N_PARAMS", "N_UNCERTAIN",
-           "__version__"]
+__all__ = ["Model", "RunResult", "SensitivityResult", "TailResult", "MapResult",
+           "IdentifyResult", "adapters", "amcs", "mcs", "sensitivity", "tail", "map",
+           "identify", "presets", "N_PARAMS", "N_UNCERTAIN", "__version__"]

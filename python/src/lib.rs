@@ -5,9 +5,12 @@
 //! Python argument in errors (where the command line names its flag), and releases the GIL
 //! while the engine runs.
 
+mod analyses;
 mod arrays;
 mod errors;
+mod identify;
 mod model;
+mod problem;
 mod run;
 
 use pyo3::prelude::*;
@@ -48,6 +51,14 @@ fn _gpu_amcs(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<run::RunResult>()?;
     m.add_function(wrap_pyfunction!(run::mcs, m)?)?;
     m.add_function(wrap_pyfunction!(run::amcs, m)?)?;
+    m.add_class::<analyses::PySensitivityResult>()?;
+    m.add_class::<analyses::PyTailResult>()?;
+    m.add_class::<analyses::PyMapResult>()?;
+    m.add_function(wrap_pyfunction!(analyses::sensitivity, m)?)?;
+    m.add_function(wrap_pyfunction!(analyses::tail, m)?)?;
+    m.add_function(wrap_pyfunction!(analyses::workspace_map, m)?)?;
+    m.add_class::<identify::PyIdentifyResult>()?;
+    m.add_function(wrap_pyfunction!(identify::identify, m)?)?;
     m.add_function(wrap_pyfunction!(adapters, m)?)?;
     m.add_function(wrap_pyfunction!(presets, m)?)?;
     Ok(())

@@ -8,8 +8,8 @@
 //! `max_error`) follows that order.
 
 use crate::arrays;
-use crate::errors::{arg_error, lib_error, value_error};
-use gpu_amcs_core::engine::{BackendChoice, Problem, ProblemError, Reference, MAX_ANGLE_OFFSET};
+use crate::errors::{lib_error, value_error};
+use gpu_amcs_core::engine::{BackendChoice, MAX_ANGLE_OFFSET};
 use gpu_amcs_core::kinematics::{
     input_name, input_to_internal, param_kind, RobotModel, Uncertainty, JOINTS, N_PARAMS,
     N_UNCERTAIN,
@@ -27,10 +27,6 @@ use std::path::PathBuf;
 /// 2^15 rows of 33) whatever N is, and is large enough that the per-call overhead of an evaluator
 /// call is negligible.
 const ROWS_PER_CALL: usize = 1 << 15;
-
-/// The preset a nominal reference defaults to when the model did not come from a preset: the
-/// command line's default `--preset`.
-const DEFAULT_PRESET: &str = "tx60";
 
 /// Factor from file units (mm, degrees) to internal units (mm, radians) of input `i` (of the
 /// [`N_UNCERTAIN`]).
@@ -67,54 +63,12 @@ impl PyModel {
             }
         })
     }
-
-    /// The nominal model a `reference="nominal"` analysis of this model uses when none is given:
-    /// the preset it came from, else the command line's default preset.
-    pub fn default_nominal(&self, preset_name: Option<&str>) -> PyResult<RobotModel> {
-        let name = preset_name
-            .or(self.preset.as_deref())
-            .unwrap_or(DEFAULT_PRESET);
-        preset(name).map_err(|e| arg_error("preset", e))
-    }
-}
-
-/// What the errors are measured against, from `reference` and `nominal`.
-pub fn reference(
-    kind: &str,
-    nominal: Option<&PyModel>,
-    default_nominal: impl FnOnce() -> PyResult<RobotModel>,
-) -> PyResult<Reference> {
-    match (kind, nominal) {
-        ("calibrated", None) => Ok(Reference::Calibrated),
-        ("calibrated", Some(_)) => Err(value_error(
-            "nominal is used only with reference=\"nominal\"",
-        )),
-        ("nominal", Some(n)) => Ok(Reference::Nominal(Box::new(n.model.clone()))),
-        ("nominal", None) => Ok(Reference::Nominal(Box::new(default_nominal()?))),
-        (other, _) => Err(value_error(format!(
-            "reference: unknown reference '{other}' (expected \"calibrated\" or \"nominal\")"
-        ))),
-    }
 }
 
 /// The backend choice from its name.
 pub fn backend(name: &str) -> PyResult<BackendChoice> {
     name.parse()
         .map_err(|e: String| value_error(format!("backend: {e}")))
-}
-
-/// Builds the problem; errors about the points name `points_arg`.
-pub fn problem(
-    model: RobotModel,
-    points_deg: &[[f64; JOINTS]],
-    reference: &Reference,
-    seed: u64,
-    points_arg: &str,
-) -> PyResult<Problem> {
-    Problem::new(model, points_deg, reference, seed).map_err(|e| match e {
-        ProblemError::NoPoints | ProblemError::BadPoint { .. } => arg_error(points_arg, e),
-        other => lib_error(other),
-    })
 }
 
 /// Checks that `bytes` products fit the memory budget (80 % of the available memory).
@@ -393,13 +347,14 @@ impl PyModel {
         };
         let matrix = arrays::read(params, "params", &widths, &shape)?;
         let q = arrays::joint_rows(q_deg, "q_deg")?;
+        let m = q.len();
         let choice = self::backend(backend)?;
-        let reference =
-            self::reference(reference, nominal.as_deref(), || self.default_nominal(None))?;
-        let problem = self::problem(self.model.clone(), &q, &reference, 0, "q_deg")?;
+        let spec = crate::problem::given_points(self, q, reference, nominal.as_deref(), choice)?;
+        let problem = spec.build(&|_| Ok(()))?.problem;
+        let evaluators = spec.evaluators();
         let view = matrix.view();
         let cols = named.unwrap_or_else(|| (0..view.ncols()).collect());
-        let (n, m) = (view.nrows(), q.len());
+        let n = view.nrows();
         check_memory(
             format!("max_error of {n} rows at {m} points"),
             "pass fewer rows per call, fewer points or per_point=False",
@@ -410,28 +365,24 @@ impl PyModel {
             ],
         )?;
         let mean_file = self.input_values();
-        let (w, e) = py
-            .detach(|| -> Result<(Vec<f64>, Vec<f64>), String> {
-                let mut w = vec![0.0; n];
-                let mut e = vec![0.0; if per_point { n * m } else { 0 }];
-                if n == 0 {
-                    return Ok((w, e));
-                }
-                let (mut ev, _) = crate::backends()
-                    .make_evaluator(problem, choice, None)
-                    .map_err(|e| format!("backend: {e}"))?;
-                let mut buf = vec![0.0; ROWS_PER_CALL.min(n) * N_UNCERTAIN];
-                for first in (0..n).step_by(ROWS_PER_CALL) {
-                    let rows = ROWS_PER_CALL.min(n - first);
-                    let buf = &mut buf[..rows * N_UNCERTAIN];
-                    offsets_of(&view, &cols, &mean_file, offsets, first, buf)?;
-                    let pp = per_point.then(|| &mut e[first * m..(first + rows) * m]);
-                    ev.evaluate_offsets(buf, &mut w[first..first + rows], pp)
-                        .map_err(|e| crate::errors::one_line(&e))?;
-                }
-                Ok((w, e))
-            })
-            .map_err(value_error)?;
+        let (w, e) = py.detach(|| -> PyResult<(Vec<f64>, Vec<f64>)> {
+            let mut w = vec![0.0; n];
+            let mut e = vec![0.0; if per_point { n * m } else { 0 }];
+            if n == 0 {
+                return Ok((w, e));
+            }
+            let (mut ev, _) = evaluators.make(problem)?;
+            let mut buf = vec![0.0; ROWS_PER_CALL.min(n) * N_UNCERTAIN];
+            for first in (0..n).step_by(ROWS_PER_CALL) {
+                let rows = ROWS_PER_CALL.min(n - first);
+                let buf = &mut buf[..rows * N_UNCERTAIN];
+                offsets_of(&view, &cols, &mean_file, offsets, first, buf).map_err(value_error)?;
+                let pp = per_point.then(|| &mut e[first * m..(first + rows) * m]);
+                ev.evaluate_offsets(buf, &mut w[first..first + rows], pp)
+                    .map_err(|e| value_error(crate::errors::one_line(&e)))?;
+            }
+            Ok((w, e))
+        })?;
         Ok(if per_point {
             Array2::from_shape_vec((n, m), e)
                 .expect("n × m values")
@@ -475,6 +426,40 @@ impl PyModel {
             out
         });
         Ok(out.into_pyarray(py))
+    }
+
+    /// SALib's problem dict of the uncertain inputs (`free`, or those named by `inputs`):
+    /// `{"num_vars", "names", "bounds", "dists"}`, each input an independent normal with
+    /// SALib's convention for `"norm"`, `bounds = [mean, standard deviation]` (mm, degrees),
+    /// named as `param_names`. A model with correlated inputs is refused (SALib samples
+    /// independent inputs; `gpu_amcs.sensitivity` handles correlation).
+    #[pyo3(signature = (inputs = None))]
+    fn salib_problem<'py>(
+        slf: PyRef<'py, Self>,
+        inputs: Option<Bound<'py, PyAny>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let py = slf.py();
+        py.import("gpu_amcs._interop")?
+            .call_method1("salib_problem", (slf, inputs))
+    }
+
+    /// An OpenTURNS `Function` of the uncertain inputs (`columns`: names or indices; `free` by
+    /// default; mm, degrees) whose one output `w` is `max_error` of the rows at the
+    /// configurations `q_deg`; a whole sample is evaluated in one call. The other keywords
+    /// (`reference`, `nominal`, `backend`, `offsets`) go to `max_error`. Needs openturns.
+    #[pyo3(signature = (q_deg, columns = None, **kwargs))]
+    fn openturns_function<'py>(
+        slf: PyRef<'py, Self>,
+        q_deg: Bound<'py, PyAny>,
+        columns: Option<Bound<'py, PyAny>>,
+        kwargs: Option<&Bound<'py, pyo3::types::PyDict>>,
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let py = slf.py();
+        py.import("gpu_amcs._interop")?.call_method(
+            "openturns_function",
+            (slf, q_deg, columns),
+            kwargs,
+        )
     }
 
     fn __repr__(&self) -> String {

@@ -40,10 +40,15 @@ def cli():
     return run
 
 
+def is_timing(key):
+    """Whether a JSON key is a wall-clock time (`seconds`, `ik_seconds`, …)."""
+    return key == "seconds" or key.endswith("_seconds")
+
+
 def without_timing(doc):
-    """The JSON document with its timing fields (`seconds`) removed, recursively."""
+    """The JSON document with its timing fields (`seconds`, `*_seconds`) removed, recursively."""
     if isinstance(doc, dict):
-        return {k: without_timing(v) for k, v in doc.items() if k != "seconds"}
+        return {k: without_timing(v) for k, v in doc.items() if not is_timing(k)}
     if isinstance(doc, list):
         return [without_timing(v) for v in doc]
     return doc

@@ -3,7 +3,7 @@
 use super::analysis::{run_and_report, Plan};
 use super::flags::Driver;
 use super::Run;
-use crate::cli::{OutputArgs, ProblemArgs};
+use crate::cmd::args::{OutputArgs, ProblemArgs};
 use anyhow::Result;
 use clap::Args;
 use gpu_amcs::mc::{self, AmcsOptions, Tolerance};

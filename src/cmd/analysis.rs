@@ -6,7 +6,7 @@ use super::flags::Driver;
 use super::outputs::Outputs;
 use super::progress::Progress;
 use super::reports::{problem_rows, write_reports};
-use crate::cli::{OutputArgs, ProblemArgs};
+use crate::cmd::args::{OutputArgs, ProblemArgs};
 use anyhow::Result;
 use gpu_amcs::engine::Evaluator;
 use gpu_amcs::mc::{self, McError, McResult};

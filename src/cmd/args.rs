@@ -1,18 +1,222 @@
-//! From arguments to library values: each shared argument group converts itself
-//! (`ModelArgs::load`, `ProblemArgs::build`, `OutputArgs::settings`, …), naming the flag in its
-//! errors. Nothing here computes or writes.
+//! The argument groups several subcommands share (`ModelArgs`, `BoxArgs`, `BackendArgs`,
+//! `MemoryArgs`, `ProblemArgs`, `OutputArgs`, `FactorArgs`, `DeltasArgs`) and their conversion
+//! to library values (`ModelArgs::load`, `ProblemArgs::build`, `OutputArgs::settings`, …),
+//! naming the flag in their errors. Nothing here computes or writes.
 
-use crate::cli::*;
+use super::flags::{spec_error, spec_flag};
+use super::reports::ReportFlags;
 use anyhow::{bail, Context, Result};
+use clap::{Args, ValueEnum};
 use gpu_amcs::engine::backend::BackendChoice;
-use gpu_amcs::engine::{Evaluator, Problem, ProblemError, Reference};
+use gpu_amcs::engine::{Evaluator, Problem};
 use gpu_amcs::kinematics::RobotModel;
 use gpu_amcs::mc::{IntervalKind, RunSettings};
 use gpu_amcs::memory::{self, Estimate, MemoryBudget};
-use gpu_amcs::points::{self, WorkspaceBox};
-use gpu_amcs::presets::preset;
+use gpu_amcs::points::WorkspaceBox;
 use gpu_amcs::simulate::{Experiment, Factors, SweepDirection};
+use gpu_amcs::spec::{
+    self, GeneratedPoints, ModelSource, PointsSource, ProblemSpec, ReferenceSource, SpecField,
+};
 use std::path::Path;
+use std::path::PathBuf;
+
+/// Sweep direction (start position).
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum StartArg {
+    /// From each joint's negative end to its positive end (the paper's baseline).
+    NegToPos,
+    /// From the positive end to the negative end.
+    PosToNeg,
+}
+
+#[derive(Args, Debug, Clone)]
+pub struct FactorArgs {
+    /// Number of repeated calibration runs (at least 2).
+    #[arg(long, default_value_t = 20, value_name = "R")]
+    pub runs: usize,
+    /// Joint range swept, percent of each joint's measuring range (0 < r ≤ 100).
+    #[arg(long, default_value_t = 50.0, value_name = "PERCENT")]
+    pub range: f64,
+    /// Joint step, degrees.
+    #[arg(long, default_value_t = 2.0, value_name = "DEG")]
+    pub step: f64,
+    /// Joint speed, percent of rated (0 < s ≤ 100).
+    #[arg(long, default_value_t = 25.0, value_name = "PERCENT")]
+    pub speed: f64,
+    /// Start position: sweep direction of every joint.
+    #[arg(long, value_enum, default_value_t = StartArg::NegToPos)]
+    pub start: StartArg,
+    /// Seed of the simulated true robot (the nominal robot with 0.3 mm / 0.03° class errors).
+    #[arg(long, default_value_t = 2025, value_name = "SEED")]
+    pub robot_seed: u64,
+    /// The nominal robot (its design geometry): a model file or a preset.
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// The true robot as a model file instead (same structure as the nominal robot; its tool is
+    /// the target).
+    #[arg(long, value_name = "FILE")]
+    pub truth: Option<PathBuf>,
+    /// Seed of the measurement noise (run r uses a seed derived from it and r).
+    #[arg(long, default_value_t = 1, value_name = "SEED")]
+    pub seed: u64,
+}
+
+/// Where the errors are measured from.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ReferenceArg {
+    /// The position the calibrated model itself predicts (what the calibration's spread leaves).
+    Calibrated,
+    /// The nominal (design) model's position (adds the uncalibrated systematic error).
+    Nominal,
+}
+
+/// Evaluation backend.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BackendArg {
+    /// A real GPU when one is present, otherwise the CPU.
+    Auto,
+    /// Any wgpu adapter (Vulkan/Metal/DX12), software ones such as lavapipe included.
+    Gpu,
+    /// The rayon CPU reference path.
+    Cpu,
+}
+
+/// Coverage interval choice.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum IntervalArg {
+    /// Shortest interval (GUM S1 §7.7.2).
+    Shortest,
+    /// Probabilistically symmetric interval (GUM S1 §7.7.1).
+    Symmetric,
+}
+
+/// The model: a file or a built-in preset.
+#[derive(Args, Debug, Clone)]
+pub struct ModelArgs {
+    /// Model file (TOML, mm and degrees) or a robot description imported on the fly (.urdf,
+    /// DH table .csv, UR calibration .yaml); default: the built-in preset.
+    #[arg(long, value_name = "FILE")]
+    pub model: Option<PathBuf>,
+    /// Built-in model used when --model is not given.
+    #[arg(long, default_value = "tx60", value_name = "NAME")]
+    pub preset: String,
+}
+
+/// The workspace box of generated test points.
+#[derive(Args, Debug, Clone)]
+pub struct BoxArgs {
+    /// Workspace box centre for generated points, mm: x,y,z [default: from the robot's reach;
+    /// 250,0,200 for the TX60].
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "X,Y,Z",
+        allow_hyphen_values = true
+    )]
+    pub box_center: Option<Vec<f64>>,
+    /// Workspace box edge lengths for generated points, mm: x,y,z [default: from the robot's
+    /// reach; 900,1200,800 for the TX60].
+    #[arg(long, value_delimiter = ',', value_name = "X,Y,Z")]
+    pub box_size: Option<Vec<f64>>,
+}
+
+/// Evaluation backend and GPU adapter.
+#[derive(Args, Debug, Clone)]
+pub struct BackendArgs {
+    /// Evaluation backend.
+    #[arg(long, value_enum, default_value_t = BackendArg::Auto)]
+    pub backend: BackendArg,
+    /// GPU adapter to use (case-insensitive part of its name); needs --backend gpu or auto.
+    #[arg(long, value_name = "NAME")]
+    pub adapter: Option<String>,
+}
+
+/// The memory a run may plan to use.
+#[derive(Args, Debug, Clone)]
+pub struct MemoryArgs {
+    /// Refuse runs estimated to need more memory than SIZE (e.g. 500M, 2G; mcs summarises its
+    /// draws instead of keeping them); default: 80 % of the available memory.
+    #[arg(long, value_name = "SIZE")]
+    pub memory_limit: Option<String>,
+}
+
+/// Model, test points, reference, seed and backend.
+#[derive(Args, Debug, Clone)]
+pub struct ProblemArgs {
+    #[command(flatten)]
+    pub model: ModelArgs,
+    /// Number of generated test points (ignored with --points-file).
+    #[arg(long, default_value_t = 50, value_name = "N")]
+    pub points: usize,
+    /// Test points from a CSV (header q1..q6, degrees).
+    #[arg(long, value_name = "CSV")]
+    pub points_file: Option<PathBuf>,
+    /// Seed of the generated test points.
+    #[arg(long, default_value_t = 1, value_name = "SEED")]
+    pub points_seed: u64,
+    #[command(flatten)]
+    pub workspace: BoxArgs,
+    /// Seed of the parameter draws.
+    #[arg(long, default_value_t = 2025, value_name = "SEED")]
+    pub seed: u64,
+    /// Reference positions the errors are measured from.
+    #[arg(long, value_enum, default_value_t = ReferenceArg::Calibrated)]
+    pub reference: ReferenceArg,
+    /// Nominal model for --reference nominal (default: the preset).
+    #[arg(long, value_name = "FILE")]
+    pub nominal: Option<PathBuf>,
+    #[command(flatten)]
+    pub backend: BackendArgs,
+    /// CPU threads (default: all cores). Results do not depend on it.
+    #[arg(long, value_name = "N")]
+    pub threads: Option<usize>,
+    #[command(flatten)]
+    pub memory: MemoryArgs,
+}
+
+/// The AMCS tolerances of a comparison.
+#[derive(Args, Debug, Clone)]
+pub struct DeltasArgs {
+    /// AMCS tolerances δ (mm).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0.01,0.02",
+        value_name = "MM,...",
+        allow_hyphen_values = true
+    )]
+    pub deltas: Vec<f64>,
+}
+
+/// Reporting options of a run: its settings and where its reports go.
+#[derive(Args, Debug, Clone)]
+pub struct OutputArgs {
+    /// Thresholds l_c (mm) for the reliability R(l_c).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0.1,0.2,0.3,0.4,0.5,0.6,0.7,0.8",
+        value_name = "MM,...",
+        allow_hyphen_values = true
+    )]
+    pub thresholds: Vec<f64>,
+    /// Coverage probability p.
+    #[arg(
+        long,
+        default_value_t = 0.95,
+        value_name = "P",
+        allow_hyphen_values = true
+    )]
+    pub coverage: f64,
+    /// Coverage interval: shortest or probabilistically symmetric.
+    #[arg(long, value_enum, default_value_t = IntervalArg::Shortest)]
+    pub interval: IntervalArg,
+    /// Also report the single-point reliabilities R_j (paper eq. 14).
+    #[arg(long)]
+    pub per_point: bool,
+    #[command(flatten)]
+    pub reports: ReportFlags,
+}
 
 /// Bytes kept per test point: the configuration in degrees and radians, the reference
 /// position and the problem's bookkeeping, with room to spare.
@@ -52,52 +256,42 @@ impl ModelArgs {
 /// same proof as `import` (a `.toml` is always read as a model file: write a DH table in TOML
 /// through `import` first).
 pub fn load_model(file: Option<&Path>, name: &str) -> Result<RobotModel> {
-    Ok(match file {
-        Some(p) if is_description(p) => {
-            gpu_amcs::import::import_file(p, &gpu_amcs::import::ImportOptions::default())?.model
-        }
-        Some(p) => RobotModel::from_file(p)?,
-        None => preset(name)?,
-    })
-}
-
-/// Whether `path` names a robot description to import rather than a model file.
-fn is_description(path: &Path) -> bool {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .map(str::to_ascii_lowercase);
-    matches!(
-        ext.as_deref(),
-        Some("urdf" | "xml" | "yaml" | "yml" | "csv" | "xacro")
-    )
+    Ok(ModelSource::file_or_preset(file, name).load()?)
 }
 
 impl BoxArgs {
     /// The workspace box for `model`: each of centre and size as given, else the robot's
     /// default ([`WorkspaceBox::for_robot`]).
     pub fn workspace(&self, model: &RobotModel) -> Result<WorkspaceBox> {
-        let default = WorkspaceBox::for_robot(model);
-        Ok(WorkspaceBox {
-            center: three(self.box_center.as_deref(), "--box-center")?.unwrap_or(default.center),
-            size: three(self.box_size.as_deref(), "--box-size")?.unwrap_or(default.size),
-        })
+        Ok(self.generated(0, 0)?.workspace(model))
     }
 
     /// Checks the given flags' shapes (three numbers each).
     pub fn check(&self) -> Result<()> {
-        three(self.box_center.as_deref(), "--box-center")?;
-        three(self.box_size.as_deref(), "--box-size")?;
-        Ok(())
+        self.generated(0, 0).map(|_| ())
+    }
+
+    /// `count` points generated with `seed` in this box.
+    pub fn generated(&self, count: usize, seed: u64) -> Result<GeneratedPoints> {
+        Ok(GeneratedPoints {
+            count,
+            seed,
+            box_center: three(self.box_center.as_deref(), SpecField::BoxCenter)?,
+            box_size: three(self.box_size.as_deref(), SpecField::BoxSize)?,
+        })
     }
 }
 
 /// A flag of three numbers x,y,z (mm), when given.
-fn three(v: Option<&[f64]>, flag: &str) -> Result<Option<[f64; 3]>> {
+fn three(v: Option<&[f64]>, field: SpecField) -> Result<Option<[f64; 3]>> {
     match v {
         None => Ok(None),
         Some([x, y, z]) => Ok(Some([*x, *y, *z])),
-        Some(v) => bail!("{flag} needs three numbers x,y,z (mm), got {}", v.len()),
+        Some(v) => bail!(
+            "{} needs three numbers x,y,z (mm), got {}",
+            spec_flag(field),
+            v.len()
+        ),
     }
 }
 
@@ -105,28 +299,18 @@ impl BackendArgs {
     /// The backend and adapter; an adapter name needs a backend that can use it, and with
     /// `auto` it asks for that GPU (an error when none matches, not a silent CPU fallback).
     pub fn choice(&self) -> Result<(BackendChoice, Option<&str>)> {
-        let adapter = self.adapter.as_deref();
-        match (self.backend, adapter) {
-            (BackendArg::Cpu, Some(a)) => bail!(
-                "--adapter '{a}' needs --backend gpu or auto: the CPU backend uses no adapter"
-            ),
-            (BackendArg::Auto, Some(a)) => Ok((BackendChoice::Gpu, Some(a))),
-            (b, a) => Ok((b.into(), a)),
-        }
+        spec::backend_choice(self.backend.into(), self.adapter.as_deref()).map_err(spec_error)
     }
 
     /// Builds the evaluator; the notes say what was chosen and why.
     pub fn evaluator(&self, problem: Problem) -> Result<(Box<dyn Evaluator>, Vec<String>)> {
-        let (choice, adapter) = self.choice()?;
-        let flag = if adapter.is_some() {
-            "--adapter"
-        } else {
-            "--backend"
-        };
-        let (ev, note) = gpu_amcs::backends()
-            .make_evaluator(problem, choice, adapter)
-            .context(flag)?;
-        Ok((ev, note.into_iter().collect()))
+        spec::make_evaluator(
+            gpu_amcs::backends(),
+            problem,
+            self.backend.into(),
+            self.adapter.as_deref(),
+        )
+        .map_err(spec_error)
     }
 }
 
@@ -185,22 +369,39 @@ pub struct Built {
 }
 
 impl ProblemArgs {
+    /// The library's description of the problem these flags give (the box's shape checked).
+    pub fn spec(&self) -> Result<ProblemSpec> {
+        let points = match &self.points_file {
+            Some(f) => PointsSource::File(f.clone()),
+            None => {
+                PointsSource::Generate(self.workspace.generated(self.points, self.points_seed)?)
+            }
+        };
+        let reference = match self.reference {
+            ReferenceArg::Calibrated => ReferenceSource::Calibrated,
+            // Without --nominal: the preset (--preset, default tx60).
+            ReferenceArg::Nominal => ReferenceSource::Nominal(Some(ModelSource::file_or_preset(
+                self.nominal.as_deref(),
+                &self.model.preset,
+            ))),
+        };
+        Ok(ProblemSpec {
+            model: ModelSource::file_or_preset(self.model.model.as_deref(), &self.model.preset),
+            points,
+            reference,
+            seed: self.seed,
+            backend: self.backend.backend.into(),
+            adapter: self.backend.adapter.clone(),
+        })
+    }
+
     /// Checks the flags that need no file: `--nominal` only with `--reference nominal`, the
-    /// box, the backend and adapter, `--threads`.
+    /// box, the number of points, the backend and adapter, `--threads`.
     pub fn check(&self) -> Result<()> {
         if self.nominal.is_some() && self.reference != ReferenceArg::Nominal {
             bail!("--nominal is used only with --reference nominal");
         }
-        if self.points_file.is_none() {
-            self.workspace.check()?;
-            if self.points > gpu_amcs::points::MAX_POINTS {
-                return Err(anyhow::Error::new(gpu_amcs::points::PointsError::TooMany(
-                    self.points,
-                ))
-                .context("--points"));
-            }
-        }
-        self.backend.choice()?;
+        self.spec()?.check().map_err(spec_error)?;
         check_threads(self.threads)
     }
 
@@ -225,41 +426,13 @@ impl ProblemArgs {
         .collect()
     }
 
-    /// Reads the model and points and builds the problem.
+    /// Reads the model and points and builds the problem ([`ProblemSpec::build_problem`]).
     pub fn build(&self) -> Result<Built> {
         self.check()?;
-        let model = self.model.load()?;
-        let pts = match &self.points_file {
-            Some(f) => points::read_csv(f)?,
-            None => points::generate(
-                &model,
-                self.points,
-                &self.workspace.workspace(&model)?,
-                self.points_seed,
-            )
-            .context("--points")?,
-        };
-        let reference = match self.reference {
-            ReferenceArg::Calibrated => Reference::Calibrated,
-            ReferenceArg::Nominal => Reference::Nominal(Box::new(
-                load_model(self.nominal.as_deref(), &self.model.preset).context("--nominal")?,
-            )),
-        };
-        let label = reference.label(&model);
-        let problem = Problem::new(model, &pts, &reference, self.seed).map_err(|e| {
-            // Only errors about the test points are blamed on where the points came from; the
-            // model's own errors already name the model file and field.
-            let about_points = matches!(e, ProblemError::NoPoints | ProblemError::BadPoint { .. });
-            let e = anyhow::Error::new(e);
-            match (&self.points_file, about_points) {
-                (Some(f), true) => e.context(format!("--points-file {}", f.display())),
-                (None, true) => e.context("test points"),
-                (_, false) => e,
-            }
-        })?;
+        let b = self.spec()?.build_problem().map_err(spec_error)?;
         Ok(Built {
-            problem,
-            reference: label,
+            problem: b.problem,
+            reference: b.reference,
         })
     }
 }

@@ -2,7 +2,7 @@
 
 use super::outputs::Outputs;
 use super::Run;
-use crate::cli::{FactorArgs, MemoryArgs};
+use crate::cmd::args::{FactorArgs, MemoryArgs};
 use anyhow::{bail, Result};
 use clap::Args;
 use gpu_amcs::kinematics::{param_index, ParamKind};

@@ -2,7 +2,7 @@
 
 use super::outputs::Outputs;
 use super::Run;
-use crate::cli::ModelArgs;
+use crate::cmd::args::ModelArgs;
 use anyhow::{Context, Result};
 use clap::Args;
 use gpu_amcs::import::export;

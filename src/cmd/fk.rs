@@ -1,7 +1,7 @@
 //! `fk`: forward kinematics of the configurations in a CSV.
 
 use super::Run;
-use crate::cli::ModelArgs;
+use crate::cmd::args::ModelArgs;
 use anyhow::Result;
 use clap::Args;
 use gpu_amcs::points;

@@ -4,7 +4,7 @@ use super::args::load_model;
 use super::outputs::Outputs;
 use super::reports::stage_reports;
 use super::Run;
-use crate::cli::ReportFlags;
+use crate::cmd::reports::ReportFlags;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use gpu_amcs::identify::IdentifyReports;

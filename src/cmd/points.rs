@@ -2,7 +2,7 @@
 
 use super::outputs::Outputs;
 use super::Run;
-use crate::cli::{BoxArgs, MemoryArgs, ModelArgs};
+use crate::cmd::args::{BoxArgs, MemoryArgs, ModelArgs};
 use anyhow::Result;
 use clap::Args;
 use gpu_amcs::memory::Estimate;

@@ -5,13 +5,40 @@
 //! nothing here names an analysis. Also the model-and-settings rows of a report page that only
 //! the command line knows ([`problem_rows`]).
 
+use super::args::ProblemArgs;
 use super::outputs::Outputs;
-use crate::cli::{ProblemArgs, ReportFlags};
 use anyhow::{bail, Result};
+use clap::Args;
 use gpu_amcs::engine::Problem;
 use gpu_amcs::kinematics::Uncertainty;
 use gpu_amcs::points::WorkspaceBox;
 use gpu_amcs::report::{Layout, Report};
+use std::path::PathBuf;
+
+/// Where the reports of an analysis go: the one group of report flags every subcommand that
+/// writes reports flattens (`cmd/reports.rs` declares and writes them for any
+/// `gpu_amcs::report::Report`). The help texts are a run's; a subcommand whose reports are
+/// other files gives its own with `#[command(mut_arg(...))]` on its arguments.
+#[derive(Args, Debug, Clone, Default)]
+pub struct ReportFlags {
+    /// Write the report as JSON to FILE.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+    /// Write CSV files (CDF, PDF, reliability, convergence trace) into DIR.
+    #[arg(long, value_name = "DIR")]
+    pub csv: Option<PathBuf>,
+    /// Write SVG plots (PDF, reliability curve, convergence) into DIR.
+    #[arg(long, value_name = "DIR")]
+    pub svg: Option<PathBuf>,
+    /// Write a self-contained HTML report into DIR: index.html (summary, tables, figures, model
+    /// and settings; no scripts, nothing loaded from elsewhere) and the JSON, CSV and SVG files
+    /// it links to.
+    #[arg(long, value_name = "DIR")]
+    pub html: Option<PathBuf>,
+    /// No progress bar and no table on stdout.
+    #[arg(long, short)]
+    pub quiet: bool,
+}
 
 /// The flags, as outputs name them.
 const JSON: &str = "--json";
@@ -75,7 +102,7 @@ pub fn write_reports(
 }
 
 /// Where the model came from: a model file or a built-in preset.
-pub fn model_source(model: &crate::cli::ModelArgs) -> String {
+pub fn model_source(model: &super::args::ModelArgs) -> String {
     match &model.model {
         Some(p) => format!("model file {}", p.display()),
         None => format!("built-in preset {}", model.preset),

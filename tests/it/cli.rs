@@ -1,4 +1,6 @@
 //! The binary as a user runs it: the main job, outputs, reproducibility and bad input.
+//!
+//! Over 600 lines: one test per user-visible behaviour of the main job; splitting by line count would scatter them.
 
 use crate::common;
 

@@ -7,6 +7,8 @@
 //!
 //! Without any Vulkan/Metal/DX12 adapter the GPU tests print a skip note and pass, unless the
 //! environment variable `CI` is `true`, where they fail.
+//!
+//! Over 600 lines: every GPU-vs-CPU agreement check shares the lavapipe set-up and its tolerances (from METHOD.md §7).
 
 use crate::common;
 

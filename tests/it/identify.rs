@@ -1,4 +1,6 @@
 //! Behaviour of the circle-point identification on simulated robots (issue 4).
+//!
+//! Over 600 lines: one simulated robot and its sweeps serve every identification check here.
 
 use crate::common;
 use gpu_amcs::identify::{

@@ -3,6 +3,8 @@
 //!
 //! The reference forward kinematics here is written out independently of the crate: plain 4×4
 //! products of the source's own transforms (DH rows, URDF origins with Rodrigues rotations).
+//!
+//! Over 600 lines: every format is checked against published figures with the same FK proof; one file keeps the figures and their sources together.
 
 use crate::common;
 

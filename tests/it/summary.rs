@@ -1,6 +1,8 @@
 //! The mergeable summary: Chan/Pébay merging against a single pass, shards of one run against
 //! the single run (counts identical, moments within 1e-12, interval within the bin width h),
 //! and the merge's refusals.
+//!
+//! Over 600 lines: each shard kind (MCS, sensitivity) needs its fixtures and its refusals beside its merges.
 
 use gpu_amcs::engine::{CpuEvaluator, FnEvaluator, Problem, Reference};
 use gpu_amcs::kinematics::tx60;

@@ -49,4 +49,5 @@ pub mod presets;
 pub mod report;
 pub mod sampling;
 pub mod simulate;
+pub mod spec;
 pub mod study;

@@ -11,10 +11,12 @@
 //! has it), that every flag in the tables exists in clap's definition of their subcommands, and
 //! that every setting an error can name maps to a field of its tables.
 
+mod spec;
 mod tables;
 #[cfg(test)]
 mod tests;
 
+pub use spec::{spec_error, spec_flag};
 pub use tables::*;
 
 use gpu_amcs::map::{MapError, MapSetting};

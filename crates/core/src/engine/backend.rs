@@ -10,8 +10,9 @@
 
 use super::{CpuEvaluator, EngineError, Evaluator, Problem};
 
-/// Which evaluator to build.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// Which evaluator to build (serialized as `"auto"`, `"gpu"`, `"cpu"`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum BackendChoice {
     /// A hardware GPU if present, else the CPU.
     #[default]

@@ -1,0 +1,456 @@
+//! [`ProblemSpec`]: what an analysis runs on, by value: the model, the test points, the
+//! reference the errors are measured from, the seed of the draws, and the backend that
+//! evaluates them. Every front end (the command line, the Python package) fills one and builds
+//! it here, so the [`Problem`] an analysis sees, the evaluator chosen for it and the errors about
+//! either are the same everywhere.
+//!
+//! Errors are [`SpecError`]s naming the [`SpecField`] at fault (never a command-line flag or a
+//! Python keyword); a front end maps each field to its own option name with one exhaustive
+//! match and puts that name before the cause.
+//!
+//! A spec serializes (serde) with the field names of [`SpecField::path`], an in-memory model as
+//! its model-file text:
+//!
+//! ```
+//! use gpu_amcs_core::spec::{ProblemSpec, SpecField};
+//!
+//! let spec = ProblemSpec::default(); // the command line's defaults: tx60, 50 generated points
+//! let built = spec.build_problem().unwrap();
+//! assert_eq!(built.problem.n_points(), 50);
+//! assert_eq!(built.reference, "calibrated model");
+//! assert_eq!(SpecField::at_path("points.generate.box_size"), Some(SpecField::BoxSize));
+//! ```
+
+mod error;
+#[cfg(test)]
+mod tests;
+
+pub use error::{SpecError, SpecErrorKind, SpecField};
+
+use crate::engine::{BackendChoice, Backends, Evaluator, Problem, ProblemError, Reference};
+use crate::import::{self, ImportOptions};
+use crate::kinematics::{RobotModel, JOINTS};
+use crate::points::{self, PointsError, WorkspaceBox, MAX_POINTS};
+use crate::presets::preset;
+use serde::{Deserialize, Serialize};
+use std::path::{Path, PathBuf};
+
+/// The preset a spec uses when none is named: the model of [`ProblemSpec::default`] and the
+/// nominal model of a nominal reference without one.
+pub const DEFAULT_PRESET: &str = "tx60";
+
+/// Where the model comes from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ModelSource {
+    /// A built-in model by name ([`crate::presets::PRESETS`]).
+    Preset(String),
+    /// A model file (TOML, mm and degrees), or a robot description imported on the fly by its
+    /// extension (URDF `.urdf`/`.xml`/`.xacro`, DH table `.csv`, UR calibration `.yaml`/`.yml`),
+    /// with the same proof as [`import::import_file`]. A `.toml` is always a model file.
+    File(PathBuf),
+    /// A model in memory; serialized as its model-file text ([`RobotModel::to_toml`]).
+    #[serde(rename = "toml", with = "model_toml")]
+    Model(Box<RobotModel>),
+}
+
+/// (De)serializes an in-memory model as its model-file text.
+mod model_toml {
+    use crate::kinematics::RobotModel;
+    use serde::{Deserialize, Deserializer, Serializer};
+
+    pub fn serialize<S: Serializer>(m: &RobotModel, s: S) -> Result<S::Ok, S::Error> {
+        s.serialize_str(&m.to_toml())
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Box<RobotModel>, D::Error> {
+        let text = String::deserialize(d)?;
+        RobotModel::from_toml(&text, "the spec's model text")
+            .map(Box::new)
+            .map_err(serde::de::Error::custom)
+    }
+}
+
+/// Whether `path` names a robot description to import rather than a model file (by its
+/// extension: `.urdf`, `.xml`, `.xacro`, `.csv`, `.yaml`, `.yml`).
+pub fn is_description(path: &Path) -> bool {
+    let ext = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .map(str::to_ascii_lowercase);
+    matches!(
+        ext.as_deref(),
+        Some("urdf" | "xml" | "yaml" | "yml" | "csv" | "xacro")
+    )
+}
+
+impl ModelSource {
+    /// The file `file` when given, else the preset `name` (the command line's `--model` and
+    /// `--preset`).
+    pub fn file_or_preset(file: Option<&Path>, name: &str) -> ModelSource {
+        match file {
+            Some(p) => ModelSource::File(p.to_path_buf()),
+            None => ModelSource::Preset(name.to_string()),
+        }
+    }
+
+    /// Reads, imports or copies the model.
+    ///
+    /// # Errors
+    /// [`SpecErrorKind::Model`] for an unknown preset or a model file that cannot be read or is
+    /// invalid, [`SpecErrorKind::Import`] for a robot description that cannot be imported.
+    pub fn load(&self) -> Result<RobotModel, SpecErrorKind> {
+        Ok(match self {
+            ModelSource::Preset(name) => preset(name)?,
+            ModelSource::File(p) if is_description(p) => {
+                import::import_file(p, &ImportOptions::default())?.model
+            }
+            ModelSource::File(p) => RobotModel::from_file(p)?,
+            ModelSource::Model(m) => (**m).clone(),
+        })
+    }
+
+    /// The field that names this source when it is the analysed model: [`SpecField::Preset`]
+    /// for a preset, [`SpecField::Model`] otherwise.
+    pub fn field(&self) -> SpecField {
+        match self {
+            ModelSource::Preset(_) => SpecField::Preset,
+            _ => SpecField::Model,
+        }
+    }
+}
+
+/// Where the test points come from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PointsSource {
+    /// Generated: seeded configurations whose tool point lies in a workspace box.
+    Generate(GeneratedPoints),
+    /// A CSV file with header `q1..q6` (degrees).
+    File(PathBuf),
+    /// Given configurations, degrees.
+    Given(Vec<[f64; JOINTS]>),
+}
+
+/// Generated test points ([`points::generate`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct GeneratedPoints {
+    /// How many, 1 to [`MAX_POINTS`].
+    pub count: usize,
+    /// Seed of the configurations.
+    pub seed: u64,
+    /// Centre of the workspace box, mm; `None`: the robot's ([`WorkspaceBox::for_robot`]).
+    pub box_center: Option<[f64; 3]>,
+    /// Edge lengths of the workspace box, mm; `None`: the robot's.
+    pub box_size: Option<[f64; 3]>,
+}
+
+impl Default for GeneratedPoints {
+    /// 50 points with seed 1 in the robot's own box (the command line's defaults).
+    fn default() -> Self {
+        GeneratedPoints {
+            count: 50,
+            seed: 1,
+            box_center: None,
+            box_size: None,
+        }
+    }
+}
+
+impl GeneratedPoints {
+    /// The workspace box for `model`: each of centre and size as given, else the robot's
+    /// default ([`WorkspaceBox::for_robot`]).
+    pub fn workspace(&self, model: &RobotModel) -> WorkspaceBox {
+        let default = WorkspaceBox::for_robot(model);
+        WorkspaceBox {
+            center: self.box_center.unwrap_or(default.center),
+            size: self.box_size.unwrap_or(default.size),
+        }
+    }
+}
+
+/// What the errors are measured from ([`Reference`]).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ReferenceSource {
+    /// The position the analysed model itself predicts.
+    #[default]
+    Calibrated,
+    /// A nominal (design) model's position; `None`: the preset the analysed model is, else
+    /// [`DEFAULT_PRESET`].
+    Nominal(Option<ModelSource>),
+}
+
+/// Model, test points, reference, seed and backend of an analysis (see the module docs).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(default, deny_unknown_fields)]
+pub struct ProblemSpec {
+    /// The analysed model.
+    pub model: ModelSource,
+    /// The test points.
+    pub points: PointsSource,
+    /// What the errors are measured from.
+    pub reference: ReferenceSource,
+    /// Seed of the parameter draws.
+    pub seed: u64,
+    /// Which evaluator.
+    pub backend: BackendChoice,
+    /// GPU adapter (case-insensitive part of its name); needs the gpu or auto backend, and
+    /// with auto asks for that GPU.
+    pub adapter: Option<String>,
+}
+
+impl Default for ProblemSpec {
+    /// The command line's defaults: the TX60 preset, 50 generated points (seed 1) in its own
+    /// box, the calibrated reference, seed 2025, the auto backend.
+    fn default() -> Self {
+        ProblemSpec {
+            model: ModelSource::Preset(DEFAULT_PRESET.to_string()),
+            points: PointsSource::Generate(GeneratedPoints::default()),
+            reference: ReferenceSource::Calibrated,
+            seed: 2025,
+            backend: BackendChoice::Auto,
+            adapter: None,
+        }
+    }
+}
+
+/// The problem of a spec and how reports name its reference.
+#[derive(Clone, Debug)]
+pub struct BuiltProblem {
+    /// Model, points, reference and seed.
+    pub problem: Problem,
+    /// `"calibrated model"` or `"nominal model (NAME)"` ([`Reference::label`]).
+    pub reference: String,
+}
+
+/// A spec built: the problem, its reference label, and the evaluator for it.
+pub struct Built {
+    /// Model, points, reference and seed (a copy of the evaluator's).
+    pub problem: Problem,
+    /// `"calibrated model"` or `"nominal model (NAME)"`.
+    pub reference: String,
+    /// The evaluator of the problem.
+    pub evaluator: Box<dyn Evaluator>,
+    /// What was chosen and why (a fallback to the CPU, a software adapter), if anything.
+    pub notes: Vec<String>,
+}
+
+/// The backend and adapter to build: an adapter name needs a backend that can use it, and with
+/// `auto` asks for that GPU (an error when none matches, not a silent CPU fallback).
+///
+/// # Errors
+/// [`SpecErrorKind::AdapterWithCpu`] (field [`SpecField::Adapter`]) for an adapter with the CPU
+/// backend.
+pub fn backend_choice(
+    backend: BackendChoice,
+    adapter: Option<&str>,
+) -> Result<(BackendChoice, Option<&str>), SpecError> {
+    match (backend, adapter) {
+        (BackendChoice::Cpu, Some(a)) => Err(SpecError::new(
+            SpecField::Adapter,
+            SpecErrorKind::AdapterWithCpu(a.to_string()),
+        )),
+        (BackendChoice::Auto, Some(a)) => Ok((BackendChoice::Gpu, Some(a))),
+        (b, a) => Ok((b, a)),
+    }
+}
+
+/// Builds the evaluator of `problem` on `backend` (and `adapter`) from `backends`; the notes say
+/// what was chosen and why.
+///
+/// # Errors
+/// Those of [`backend_choice`], and the [`EngineError`] of a backend that cannot be built
+/// (no adapter matches, no GPU backend in this build), naming [`SpecField::Adapter`] when an
+/// adapter was given, else [`SpecField::Backend`].
+pub fn make_evaluator(
+    backends: &dyn Backends,
+    problem: Problem,
+    backend: BackendChoice,
+    adapter: Option<&str>,
+) -> Result<(Box<dyn Evaluator>, Vec<String>), SpecError> {
+    let (choice, adapter) = backend_choice(backend, adapter)?;
+    let field = if adapter.is_some() {
+        SpecField::Adapter
+    } else {
+        SpecField::Backend
+    };
+    let (ev, note) = backends
+        .make_evaluator(problem, choice, adapter)
+        .map_err(|e| SpecError::new(field, e))?;
+    Ok((ev, note.into_iter().collect()))
+}
+
+impl ProblemSpec {
+    /// Checks what needs no file: the number of generated points and the adapter against the
+    /// backend.
+    ///
+    /// # Errors
+    /// [`SpecField::Points`] for more than [`MAX_POINTS`] generated points, and the errors of
+    /// [`backend_choice`].
+    pub fn check(&self) -> Result<(), SpecError> {
+        if let PointsSource::Generate(g) = &self.points {
+            if g.count > MAX_POINTS {
+                return Err(SpecError::new(
+                    SpecField::Points,
+                    PointsError::TooMany(g.count),
+                ));
+            }
+        }
+        self.backend_choice()?;
+        Ok(())
+    }
+
+    /// The backend and adapter to build ([`backend_choice`]).
+    ///
+    /// # Errors
+    /// Those of [`backend_choice`].
+    pub fn backend_choice(&self) -> Result<(BackendChoice, Option<&str>), SpecError> {
+        backend_choice(self.backend, self.adapter.as_deref())
+    }
+
+    /// The number of test points when it is known without reading a file (generated or given).
+    pub fn known_points(&self) -> Option<usize> {
+        match &self.points {
+            PointsSource::Generate(g) => Some(g.count),
+            PointsSource::Given(q) => Some(q.len()),
+            PointsSource::File(_) => None,
+        }
+    }
+
+    /// The analysed model.
+    ///
+    /// # Errors
+    /// Those of [`ModelSource::load`], naming [`SpecField::Preset`] or [`SpecField::Model`].
+    pub fn load_model(&self) -> Result<RobotModel, SpecError> {
+        self.model
+            .load()
+            .map_err(|kind| SpecError::new(self.model.field(), kind))
+    }
+
+    /// The test points (degrees) for `model`: generated in the workspace box for `model`, read
+    /// from the points file, or the given ones.
+    ///
+    /// # Errors
+    /// Generated points: [`SpecField::BoxSize`] or [`SpecField::BoxCenter`] for a box that is
+    /// empty or not finite, [`SpecField::Points`] for a count out of range or a box out of reach.
+    /// A points file: [`SpecField::PointsFile`] when it cannot be read or parsed.
+    pub fn load_points(&self, model: &RobotModel) -> Result<Vec<[f64; JOINTS]>, SpecError> {
+        match &self.points {
+            PointsSource::Generate(g) => {
+                let bx = g.workspace(model);
+                points::generate(model, g.count, &bx, g.seed).map_err(|e| {
+                    let field = match e {
+                        PointsError::BadBox(_)
+                            if !bx.size.iter().all(|s| s.is_finite() && *s > 0.0) =>
+                        {
+                            SpecField::BoxSize
+                        }
+                        PointsError::BadBox(_) => SpecField::BoxCenter,
+                        _ => SpecField::Points,
+                    };
+                    SpecError::new(field, e)
+                })
+            }
+            PointsSource::File(f) => {
+                points::read_csv(f).map_err(|e| SpecError::new(SpecField::PointsFile, e))
+            }
+            PointsSource::Given(q) => Ok(q.clone()),
+        }
+    }
+
+    /// What the errors of an analysis of `model` are measured from.
+    ///
+    /// # Errors
+    /// Those of [`ModelSource::load`] for the nominal model, naming [`SpecField::Nominal`].
+    pub fn load_reference(&self) -> Result<Reference, SpecError> {
+        match &self.reference {
+            ReferenceSource::Calibrated => Ok(Reference::Calibrated),
+            ReferenceSource::Nominal(source) => {
+                let default;
+                let source = match source {
+                    Some(s) => s,
+                    None => {
+                        default = ModelSource::Preset(match &self.model {
+                            ModelSource::Preset(name) => name.clone(),
+                            _ => DEFAULT_PRESET.to_string(),
+                        });
+                        &default
+                    }
+                };
+                let nominal = source
+                    .load()
+                    .map_err(|kind| SpecError::new(SpecField::Nominal, kind))?;
+                Ok(Reference::Nominal(Box::new(nominal)))
+            }
+        }
+    }
+
+    /// Checks the spec, reads the model, the points and the nominal model, and builds the
+    /// problem.
+    ///
+    /// # Errors
+    /// Those of [`check`](Self::check), [`load_model`](Self::load_model),
+    /// [`load_points`](Self::load_points) and [`load_reference`](Self::load_reference), then the
+    /// problem's: [`ProblemError`]s about the test points (none, one outside the joint limits)
+    /// name where the points came from ([`SpecField::Points`], [`SpecField::PointsFile`] with
+    /// the file, [`SpecField::Configurations`]); the model's own (its checks, its covariance)
+    /// name the model.
+    pub fn build_problem(&self) -> Result<BuiltProblem, SpecError> {
+        self.check()?;
+        let model = self.load_model()?;
+        let pts = self.load_points(&model)?;
+        let reference = self.load_reference()?;
+        let label = reference.label(&model);
+        let model_field = self.model.field();
+        let problem = Problem::new(model, &pts, &reference, self.seed).map_err(|e| {
+            let about_points = matches!(e, ProblemError::NoPoints | ProblemError::BadPoint { .. });
+            match (&self.points, about_points) {
+                (PointsSource::File(f), true) => SpecError::new(
+                    SpecField::PointsFile,
+                    SpecErrorKind::PointsFile {
+                        path: f.clone(),
+                        source: e,
+                    },
+                ),
+                (PointsSource::Generate(_), true) => SpecError::new(SpecField::Points, e),
+                (PointsSource::Given(_), true) => SpecError::new(SpecField::Configurations, e),
+                (_, false) => SpecError::new(model_field, e),
+            }
+        })?;
+        Ok(BuiltProblem {
+            problem,
+            reference: label,
+        })
+    }
+
+    /// The evaluator of `problem` (built from this spec) on the spec's backend and adapter
+    /// ([`make_evaluator`]).
+    ///
+    /// # Errors
+    /// Those of [`make_evaluator`].
+    pub fn evaluator(
+        &self,
+        problem: Problem,
+        backends: &dyn Backends,
+    ) -> Result<(Box<dyn Evaluator>, Vec<String>), SpecError> {
+        make_evaluator(backends, problem, self.backend, self.adapter.as_deref())
+    }
+
+    /// [`build_problem`](Self::build_problem), then [`evaluator`](Self::evaluator) on a copy of
+    /// the problem. Front ends that check memory between the two call them in turn.
+    ///
+    /// # Errors
+    /// Those of [`build_problem`](Self::build_problem) and [`evaluator`](Self::evaluator).
+    pub fn build(&self, backends: &dyn Backends) -> Result<Built, SpecError> {
+        let built = self.build_problem()?;
+        let (evaluator, notes) = self.evaluator(built.problem.clone(), backends)?;
+        Ok(Built {
+            problem: built.problem,
+            reference: built.reference,
+            evaluator,
+            notes,
+        })
+    }
+}

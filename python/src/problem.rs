@@ -1,0 +1,285 @@
+//! The problem keywords every analysis on test points shares (`mcs`, `amcs`, `sensitivity`,
+//! `tail`), turned into the library's [`ProblemSpec`] and built by it: the same model, test
+//! points, reference, seed and backend as the command line's flags give, with the same errors,
+//! naming the Python keyword where the command line names its flag.
+
+use crate::arrays;
+use crate::errors::{arg_error, value_error};
+use crate::model::{self, PyModel};
+use gpu_amcs_core::engine::{Evaluator, Problem};
+use gpu_amcs_core::memory::{Estimate, MemoryBudget};
+use gpu_amcs_core::spec::{
+    self, BuiltProblem, GeneratedPoints, ModelSource, PointsSource, ProblemSpec, ReferenceSource,
+    SpecError, SpecField, DEFAULT_PRESET,
+};
+use pyo3::prelude::*;
+use std::path::PathBuf;
+
+/// Bytes kept per test point: configuration in degrees and radians, reference position and
+/// bookkeeping, with room to spare (as the command line estimates).
+pub const BYTES_PER_POINT: u64 = 256;
+
+/// The Python keyword that sets each field of a [`ProblemSpec`] (the command line's flag,
+/// spelled as a keyword; given configurations are `q_deg`).
+pub fn keyword(field: SpecField) -> &'static str {
+    match field {
+        SpecField::Model => "model",
+        SpecField::Preset => "preset",
+        SpecField::Points => "points",
+        SpecField::PointsSeed => "points_seed",
+        SpecField::BoxCenter => "box_center",
+        SpecField::BoxSize => "box_size",
+        SpecField::PointsFile => "points_file",
+        SpecField::Configurations => "q_deg",
+        SpecField::Reference => "reference",
+        SpecField::Nominal => "nominal",
+        SpecField::Seed => "seed",
+        SpecField::Backend => "backend",
+        SpecField::Adapter => "adapter",
+    }
+}
+
+/// The problem keywords, as the functions receive them.
+pub struct ProblemKw<'py> {
+    pub model: Option<PyRef<'py, PyModel>>,
+    pub preset: Option<String>,
+    pub points: usize,
+    pub q_deg: Option<Bound<'py, PyAny>>,
+    pub points_file: Option<PathBuf>,
+    pub points_seed: u64,
+    pub box_center: Option<[f64; 3]>,
+    pub box_size: Option<[f64; 3]>,
+    pub seed: u64,
+    pub reference: String,
+    pub nominal: Option<PyRef<'py, PyModel>>,
+    pub backend: String,
+    pub adapter: Option<String>,
+}
+
+/// The reference from the keywords `reference` and `nominal`; without `nominal`, a nominal
+/// reference is the preset `default_preset` gives (the one asked for, else the one the model
+/// came from), else [`DEFAULT_PRESET`]. The flag: whether the nominal model is that preset.
+pub fn reference_source(
+    kind: &str,
+    nominal: Option<&PyModel>,
+    default_preset: impl FnOnce() -> Option<String>,
+) -> PyResult<(ReferenceSource, bool)> {
+    match (kind, nominal) {
+        ("calibrated", None) => Ok((ReferenceSource::Calibrated, false)),
+        ("calibrated", Some(_)) => Err(value_error(
+            "nominal is used only with reference=\"nominal\"",
+        )),
+        ("nominal", Some(n)) => Ok((
+            ReferenceSource::Nominal(Some(ModelSource::Model(Box::new(n.model.clone())))),
+            false,
+        )),
+        ("nominal", None) => {
+            let name = default_preset().unwrap_or_else(|| DEFAULT_PRESET.to_string());
+            Ok((
+                ReferenceSource::Nominal(Some(ModelSource::Preset(name))),
+                true,
+            ))
+        }
+        (other, _) => Err(value_error(format!(
+            "reference: unknown reference '{other}' (expected \"calibrated\" or \"nominal\")"
+        ))),
+    }
+}
+
+/// The spec of an evaluation of the in-memory `model` at the configurations `q` (degrees) on
+/// `backend`, with seed 0 (`Model.max_error`, which gives its own parameter rows).
+pub fn given_points(
+    model: &PyModel,
+    q: Vec<[f64; gpu_amcs_core::kinematics::JOINTS]>,
+    reference: &str,
+    nominal: Option<&PyModel>,
+    backend: gpu_amcs_core::engine::BackendChoice,
+) -> PyResult<Spec> {
+    let (reference, nominal_from_preset) =
+        reference_source(reference, nominal, || model.preset.clone())?;
+    Ok(Spec {
+        spec: ProblemSpec {
+            model: ModelSource::Model(Box::new(model.model.clone())),
+            points: PointsSource::Given(q),
+            reference,
+            seed: 0,
+            backend,
+            adapter: None,
+        },
+        nominal_from_preset,
+    })
+}
+
+/// A spec from the keywords, and how to name its errors.
+pub struct Spec {
+    /// The library's description of the problem.
+    pub spec: ProblemSpec,
+    /// Whether the nominal model is the default one, from `preset` (its errors name `preset`).
+    nominal_from_preset: bool,
+}
+
+impl Spec {
+    /// A spec error as a `ValueError` naming the keyword.
+    pub fn error(&self, e: SpecError) -> PyErr {
+        spec_error(e, self.nominal_from_preset)
+    }
+
+    /// Checks what needs no file ([`ProblemSpec::check`]) and the memory of the generated or
+    /// given points by `estimate`.
+    pub fn check(&self, estimate: &dyn Fn(u64) -> PyResult<()>) -> PyResult<()> {
+        self.spec.check().map_err(|e| self.error(e))?;
+        estimate(self.spec.known_points().unwrap_or(0) as u64)
+    }
+
+    /// Builds the problem ([`ProblemSpec::build_problem`]) and checks the memory of its points
+    /// by `estimate`.
+    pub fn build(&self, estimate: &dyn Fn(u64) -> PyResult<()>) -> PyResult<BuiltProblem> {
+        let built = self.spec.build_problem().map_err(|e| self.error(e))?;
+        estimate(built.problem.n_points() as u64)?;
+        Ok(built)
+    }
+
+    /// What builds the evaluator without the GIL ([`Evaluators::make`]).
+    pub fn evaluators(&self) -> Evaluators {
+        Evaluators {
+            backend: self.spec.backend,
+            adapter: self.spec.adapter.clone(),
+        }
+    }
+}
+
+/// The backend and adapter of a spec, to build its evaluator where the GIL is released.
+pub struct Evaluators {
+    backend: gpu_amcs_core::engine::BackendChoice,
+    adapter: Option<String>,
+}
+
+impl Evaluators {
+    /// The evaluator of `problem` and the notes on the choice.
+    pub fn make(&self, problem: Problem) -> PyResult<(Box<dyn Evaluator>, Vec<String>)> {
+        spec::make_evaluator(
+            crate::backends(),
+            problem,
+            self.backend,
+            self.adapter.as_deref(),
+        )
+        .map_err(|e| spec_error(e, false))
+    }
+}
+
+/// A spec error as a `ValueError`: `"keyword: cause"`.
+fn spec_error(e: SpecError, nominal_from_preset: bool) -> PyErr {
+    let k = match e.field {
+        SpecField::Nominal if nominal_from_preset => "preset",
+        f => keyword(f),
+    };
+    arg_error(k, e.kind)
+}
+
+/// Checks that an estimate fits the memory budget (80 % of the available memory).
+pub fn check_estimate(e: &Estimate) -> PyResult<()> {
+    MemoryBudget::new(None)
+        .check(e)
+        .map_err(crate::errors::lib_error)
+}
+
+impl ProblemKw<'_> {
+    /// The spec these keywords give.
+    pub fn spec(&self) -> PyResult<Spec> {
+        let backend = model::backend(&self.backend)?;
+        let points = match (&self.q_deg, &self.points_file) {
+            (Some(_), Some(_)) => {
+                return Err(value_error(
+                    "q_deg and points_file exclude each other: give one",
+                ))
+            }
+            (Some(q), None) => PointsSource::Given(arrays::joint_rows(q, "q_deg")?),
+            (None, Some(f)) => PointsSource::File(f.clone()),
+            (None, None) => PointsSource::Generate(GeneratedPoints {
+                count: self.points,
+                seed: self.points_seed,
+                box_center: self.box_center,
+                box_size: self.box_size,
+            }),
+        };
+        let model = match &self.model {
+            Some(m) => ModelSource::Model(Box::new(m.model.clone())),
+            None => ModelSource::Preset(
+                self.preset
+                    .clone()
+                    .unwrap_or_else(|| DEFAULT_PRESET.to_string()),
+            ),
+        };
+        let default_preset = || {
+            self.preset
+                .clone()
+                .or_else(|| self.model.as_ref().and_then(|m| m.preset.clone()))
+        };
+        let (reference, nominal_from_preset) =
+            reference_source(&self.reference, self.nominal.as_deref(), default_preset)?;
+        Ok(Spec {
+            spec: ProblemSpec {
+                model,
+                points,
+                reference,
+                seed: self.seed,
+                backend,
+                adapter: self.adapter.clone(),
+            },
+            nominal_from_preset,
+        })
+    }
+}
+
+/// Defines a function on a problem: its own keyword arguments, then the problem keywords every
+/// such function shares (the command line's flags, spelled as keywords, with their defaults),
+/// gathered into a [`ProblemKw`] for `$body`.
+macro_rules! problem_function {
+    ($(#[$doc:meta])* fn $name:ident($($arg:ident: $ty:ty = $default:expr),*)
+        -> $ret:ty |$py:ident, $problem:ident| $body:block) => {
+        $(#[$doc])*
+        #[pyfunction]
+        #[pyo3(signature = (model = None, *, $($arg = $default,)* preset = None, points = 50,
+            q_deg = None, points_file = None, points_seed = 1,
+            box_center = None, box_size = None, seed = 2025,
+            reference = "calibrated".to_string(), nominal = None,
+            backend = "auto".to_string(), adapter = None))]
+        #[allow(clippy::too_many_arguments)]
+        pub fn $name<'py>(
+            $py: ::pyo3::Python<'py>,
+            model: Option<::pyo3::PyRef<'py, $crate::model::PyModel>>,
+            $($arg: $ty,)*
+            preset: Option<String>,
+            points: usize,
+            q_deg: Option<::pyo3::Bound<'py, ::pyo3::PyAny>>,
+            points_file: Option<::std::path::PathBuf>,
+            points_seed: u64,
+            box_center: Option<[f64; 3]>,
+            box_size: Option<[f64; 3]>,
+            seed: u64,
+            reference: String,
+            nominal: Option<::pyo3::PyRef<'py, $crate::model::PyModel>>,
+            backend: String,
+            adapter: Option<String>,
+        ) -> ::pyo3::PyResult<$ret> {
+            let $problem = $crate::problem::ProblemKw {
+                model,
+                preset,
+                points,
+                q_deg,
+                points_file,
+                points_seed,
+                box_center,
+                box_size,
+                seed,
+                reference,
+                nominal,
+                backend,
+                adapter,
+            };
+            $body
+        }
+    };
+}
+
+pub(crate) use problem_function;

@@ -1,0 +1,248 @@
+"""sensitivity, tail, map and identify from Python against the command line: the same JSON
+document, text and CSV for the same arguments (timing fields aside), and errors naming the
+keyword where the command line names its flag."""
+
+import json
+import re
+
+import numpy as np
+import pytest
+
+import gpu_amcs
+from conftest import without_timing
+
+
+def run_ok(cli, *args):
+    r = cli(*args)
+    assert r.returncode == 0, r.stderr
+    return r
+
+
+def cli_json(cli, tmp_path, *args):
+    """The --json document, --csv directory and stdout of a command-line run."""
+    out, csv = tmp_path / "cli.json", tmp_path / "csv"
+    r = run_ok(cli, *args, "--json", out, "--csv", csv)
+    return json.loads(out.read_text()), csv, r.stdout
+
+
+def cli_error(cli, *args):
+    """The command line's error line (after any warnings)."""
+    r = cli(*args)
+    assert r.returncode == 2, r.stderr
+    line = r.stderr.strip().splitlines()[-1]
+    assert line.startswith("error: ")
+    return line[len("error: "):]
+
+
+def untimed(text):
+    """Text with its wall-clock times (`0.12 s`) masked."""
+    return re.sub(r"\d+\.\d+ s\b", "<t> s", text)
+
+
+def test_sensitivity_equals_cli(cli, tmp_path):
+    args = ["--points", 4, "--draws", 256, "--bootstrap", 100, "--bootstrap-seed", 3,
+            "--thresholds", "0.1,0.15", "--seed", 11, "--backend", "cpu"]
+    doc, csv, stdout = cli_json(cli, tmp_path, "sensitivity", *args)
+    res = gpu_amcs.sensitivity(points=4, draws=256, bootstrap=100, bootstrap_seed=3,
+                               thresholds=[0.1, 0.15], seed=11, backend="cpu")
+    assert res.to_dict() == doc
+    assert res.to_json() == (tmp_path / "cli.json").read_text()
+    assert res.to_text() == stdout
+    assert res.to_csv() == (csv / "indices.csv").read_text()
+    w = doc["sensitivity"]["quantities"][0]
+    assert [n for n, _ in res.first_order] == [i["name"] for i in w["inputs"]]
+    # A different seed gives a different document: the comparison can fail.
+    other = gpu_amcs.sensitivity(points=4, draws=256, bootstrap=100, bootstrap_seed=3,
+                                 thresholds=[0.1, 0.15], seed=12, backend="cpu")
+    assert other.to_dict() != doc
+
+
+def test_sensitivity_with_nominal_reference_and_points_file(cli, tmp_path):
+    m = gpu_amcs.Model.preset("tx60")
+    rng = np.random.default_rng(2)
+    q = rng.uniform(0.4 * m.limits[:, 0], 0.4 * m.limits[:, 1], size=(5, 6)).round(4)
+    pts = tmp_path / "q.csv"
+    pts.write_text("q1,q2,q3,q4,q5,q6\n" + "\n".join(",".join(map(str, r)) for r in q) + "\n")
+    doc, _, _ = cli_json(cli, tmp_path, "sensitivity", "--points-file", pts, "--draws", 128,
+                         "--reference", "nominal", "--backend", "cpu", "-q")
+    by_file = gpu_amcs.sensitivity(points_file=pts, draws=128, reference="nominal",
+                                   backend="cpu")
+    by_array = gpu_amcs.sensitivity(m, q_deg=q, draws=128, reference="nominal", backend="cpu")
+    assert by_file.to_dict() == doc
+    assert by_array.to_dict() == doc
+
+
+@pytest.mark.parametrize("method", ["subset", "mc"])
+def test_tail_equals_cli(cli, tmp_path, method):
+    thresholds = "0.12,0.2" if method == "subset" else "0.1,0.12"
+    args = ["--points", 4, "--threshold", thresholds, "--max-evaluations", 40000,
+            "--samples-per-level", 500, "--p0", 0.2, "--cov", 0.2, "--method", method,
+            "--backend", "cpu", "--seed", 5]
+    doc, csv, stdout = cli_json(cli, tmp_path, "tail", *args)
+    res = gpu_amcs.tail(points=4, threshold=[float(t) for t in thresholds.split(",")],
+                        max_evaluations=40000, samples_per_level=500, p0=0.2, cov=0.2,
+                        method=method, backend="cpu", seed=5)
+    assert without_timing(res.to_dict()) == without_timing(doc)
+    assert "seconds" in doc["tail"]  # the one field left out
+    assert untimed(res.to_text()) == untimed(stdout)
+    assert res.to_csv() == (csv / "tail.csv").read_text()
+    assert res.p_f == [e["p_f"] for e in doc["tail"]["estimates"]]
+    assert res.evaluations == doc["tail"]["evaluations"]
+
+
+def test_tail_takes_one_threshold_as_a_number(cli, tmp_path):
+    doc, _, _ = cli_json(cli, tmp_path, "tail", "--points", 3, "--threshold", 0.15,
+                         "--max-evaluations", 20000, "--backend", "cpu", "-q")
+    res = gpu_amcs.tail(points=3, threshold=0.15, max_evaluations=20000, backend="cpu")
+    assert without_timing(res.to_dict()) == without_timing(doc)
+
+
+@pytest.mark.parametrize("grid", ["plane", "volume"])
+def test_map_equals_cli(cli, tmp_path, grid):
+    if grid == "plane":
+        args = ["--plane", "xz", "--at", 50, "--cells", "5,4", "--box-size", "700,600,600"]
+        kw = dict(plane="xz", at=50, cells=[5, 4], box_size=[700, 600, 600])
+    else:
+        args = ["--cells", "3,3,2", "--free-orientation", "--ik-seeds", 4,
+                "--reference-q", "0,-20,100,0,30,0"]
+        kw = dict(cells=[3, 3, 2], free_orientation=True, ik_seeds=4,
+                  reference_q=[0, -20, 100, 0, 30, 0])
+    doc, csv, stdout = cli_json(cli, tmp_path, "map", *args, "--draws", 400, "--thresholds",
+                                "0.05,0.1", "--seed", 9, "--backend", "cpu")
+    res = gpu_amcs.map(**kw, draws=400, thresholds=[0.05, 0.1], seed=9, backend="cpu")
+    assert without_timing(res.to_dict()) == without_timing(doc)
+    assert res.reached == doc["map"]["reached"] > 0
+    assert untimed(res.to_text()) == untimed(stdout)
+    assert res.to_csv() == (csv / "map.csv").read_text()
+    other = gpu_amcs.map(**kw, draws=400, thresholds=[0.05, 0.1], seed=10, backend="cpu")
+    assert without_timing(other.to_dict()) != without_timing(doc)
+
+
+def test_map_of_a_model_object_with_an_orientation(cli, tmp_path):
+    m = gpu_amcs.Model.preset("ur10e")
+    model_file = tmp_path / "m.toml"
+    model_file.write_text(m.to_toml())
+    doc, _, _ = cli_json(cli, tmp_path, "map", "--model", model_file, "--plane", "xy", "--at",
+                         300, "--cells", "4,4", "--orientation", "180,0,90", "--draws", 200,
+                         "--backend", "cpu", "-q")
+    res = gpu_amcs.map(m, plane="xy", at=300, cells=[4, 4], orientation=[180, 0, 90],
+                       draws=200, backend="cpu")
+    assert without_timing(res.to_dict()) == without_timing(doc)
+
+
+@pytest.fixture(scope="module")
+def sweeps(cli, tmp_path_factory):
+    d = tmp_path_factory.mktemp("sweeps")
+    out = {}
+    for name, args in [("three", ["--runs", 3, "--step", 5]),
+                       ("short", ["--runs", 2, "--range", 5, "--step", 1])]:
+        f = d / f"{name}.csv"
+        run_ok(cli, "simulate", *args, "-o", f)
+        out[name] = f
+    return out
+
+
+@pytest.mark.parametrize("case", [
+    ("three", []),
+    ("three", ["--covariance", "--fit", "point-cloud"]),
+    ("short", ["--no-prior"]),
+    ("short", ["--no-refine", "--preset", "tx60"]),
+])
+def test_identify_equals_cli(cli, tmp_path, sweeps, case):
+    name, args = case
+    f = sweeps[name]
+    out = tmp_path / "m.toml"
+    r = run_ok(cli, "identify", f, *args, "--out", out)
+    kw = dict(covariance="--covariance" in args, no_prior="--no-prior" in args,
+              no_refine="--no-refine" in args,
+              fit="point-cloud" if "point-cloud" in args else "commanded")
+    res = gpu_amcs.identify(f, **kw)
+    assert res.model.to_toml() == out.read_text()
+    assert res.to_toml() == out.read_text()
+    # stdout is the text, then the line naming the file written.
+    assert r.stdout == res.to_text() + f"wrote {out}\n"
+    warnings = [line[len("warning: "):] for line in r.stderr.splitlines()
+                if line.startswith("warning: ")]
+    assert res.warnings == warnings
+    if name == "short" and "--no-prior" in args:
+        assert warnings  # the case meant to warn does
+    verbose = run_ok(cli, "identify", f, *args, "--verbose")
+    assert verbose.stdout == res.to_text(verbose=True)
+    # The --json document, field for field (identification has no timing fields).
+    doc_file = tmp_path / "identify.json"
+    run_ok(cli, "identify", f, *args, "--out", tmp_path / "m2.toml", "--json", doc_file, "-q")
+    cli_doc = json.loads(doc_file.read_text())
+    assert res.to_dict() == without_timing(cli_doc)
+    assert res.to_json() == doc_file.read_text()
+    d = res.to_dict()
+    runs = d["identify"]["runs"]
+    assert len(runs) == len(res.models) == (3 if name == "three" else 2)
+    assert [j["joint"] for j in runs[0]["joints"]] == [1, 2, 3, 4, 5, 6]
+
+
+def test_identify_with_a_nominal_model(cli, tmp_path, sweeps):
+    nominal = gpu_amcs.Model.preset("tx60")
+    nf = tmp_path / "nominal.toml"
+    nf.write_text(nominal.to_toml())
+    out = tmp_path / "m.toml"
+    run_ok(cli, "identify", sweeps["three"], "--nominal", nf, "--out", out)
+    assert gpu_amcs.identify(sweeps["three"], nominal=nominal).to_toml() == out.read_text()
+    assert gpu_amcs.identify(sweeps["three"], nominal=nf).to_toml() == out.read_text()
+
+
+def test_identify_strict_refuses_implausible_results(cli, sweeps):
+    want = cli_error(cli, "identify", sweeps["short"], "--no-prior", "--strict")
+    assert want.startswith("--strict: 2 implausible result(s)")
+    with pytest.raises(ValueError, match=r"^strict: 2 implausible result\(s\): joint 4"):
+        gpu_amcs.identify(sweeps["short"], no_prior=True, strict=True)
+
+
+@pytest.mark.parametrize("cli_args, call, kw", [
+    (["sensitivity", "--draws", 100], gpu_amcs.sensitivity, dict(draws=100)),
+    (["sensitivity", "--bootstrap", 5], gpu_amcs.sensitivity, dict(bootstrap=5)),
+    (["tail", "--threshold", 0.2, "--cov", 2], gpu_amcs.tail, dict(threshold=0.2, cov=2)),
+    (["tail", "--threshold=-1"], gpu_amcs.tail, dict(threshold=-1)),
+    (["tail", "--threshold", 0.2, "--p0", 0.7], gpu_amcs.tail, dict(threshold=0.2, p0=0.7)),
+    (["map", "--draws", 0], gpu_amcs.map, dict(draws=0)),
+    (["map", "--cells", "0,3,3"], gpu_amcs.map, dict(cells=[0, 3, 3])),
+    (["map", "--plane", "xy", "--at", 100, "--cells", "3,3,3"], gpu_amcs.map,
+     dict(plane="xy", at=100, cells=[3, 3, 3])),
+    (["map", "--orientation", "1,2"], gpu_amcs.map, dict(orientation=[1, 2])),
+    (["map", "--reference-q", "1,2,3"], gpu_amcs.map, dict(reference_q=[1, 2, 3])),
+    (["sensitivity", "--points", 0], gpu_amcs.sensitivity, dict(points=0)),
+    (["tail", "--threshold", 0.2, "--preset", "tx90"], gpu_amcs.tail,
+     dict(threshold=0.2, preset="tx90")),
+    (["sensitivity", "--box-size", "0,1,1"], gpu_amcs.sensitivity, dict(box_size=[0, 1, 1])),
+    (["sensitivity", "--backend", "cpu", "--adapter", "x"], gpu_amcs.sensitivity,
+     dict(backend="cpu", adapter="x")),
+])
+def test_errors_are_the_cli_line_with_the_keyword(cli, cli_args, call, kw):
+    """The command line's one-line message, with each flag spelled as the keyword."""
+    want = cli_error(cli, *map(str, cli_args))
+    for flag in sorted(re.findall(r"--[a-z][a-z-]*", want), key=len, reverse=True):
+        want = want.replace(flag, flag[2:].replace("-", "_"))
+    with pytest.raises(ValueError) as e:
+        call(**kw)
+    assert str(e.value) == want
+
+
+def test_problem_errors_name_the_keyword(tmp_path):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("q1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n999,0,0,0,0,0\n")
+    with pytest.raises(ValueError, match=r"^points_file: .*bad.csv: test point 2: q1 = 999"):
+        gpu_amcs.sensitivity(points_file=bad, draws=64)
+    with pytest.raises(ValueError, match=r"^q_deg: test point 1: q1 = 999"):
+        gpu_amcs.tail(q_deg=[[999, 0, 0, 0, 0, 0]], threshold=0.2)
+    with pytest.raises(ValueError, match=r"^preset: unknown preset 'tx90'"):
+        gpu_amcs.mcs(gpu_amcs.Model.preset("tx60"), preset="tx90", reference="nominal",
+                     draws=1000)
+    with pytest.raises(ValueError, match=r"^preset: unknown preset 'tx90'"):
+        gpu_amcs.map(preset="tx90")
+    with pytest.raises(ValueError, match="method: unknown method 'is'"):
+        gpu_amcs.tail(threshold=0.2, method="is")
+    with pytest.raises(ValueError, match="plane: unknown plane 'ab'"):
+        gpu_amcs.map(plane="ab", at=0)
+    with pytest.raises(ValueError, match="orientation and free_orientation exclude"):
+        gpu_amcs.map(orientation=[180, 0, 0], free_orientation=True)
+    with pytest.raises(ValueError, match="fit: unknown fit"):
+        gpu_amcs.identify("x.csv", fit="circle")
