@@ -14,23 +14,23 @@ use std::path::PathBuf;
 pub enum SpecField {
     /// The analysed model, from a file or in memory ([`ProblemSpec::model`](super::ProblemSpec::model)).
     Model,
-    /// The analysed model as a preset ([`ModelSource::Preset`]).
+    /// The analysed model as a preset ([`ModelSource::Preset`](super::ModelSource::Preset)).
     Preset,
-    /// The number of generated test points ([`GeneratedPoints::count`]).
+    /// The number of generated test points ([`GeneratedPoints::count`](super::GeneratedPoints::count)).
     Points,
-    /// The seed of the generated test points ([`GeneratedPoints::seed`]).
+    /// The seed of the generated test points ([`GeneratedPoints::seed`](super::GeneratedPoints::seed)).
     PointsSeed,
-    /// The workspace box centre ([`GeneratedPoints::box_center`]).
+    /// The workspace box centre ([`GeneratedPoints::box_center`](super::GeneratedPoints::box_center)).
     BoxCenter,
-    /// The workspace box size ([`GeneratedPoints::box_size`]).
+    /// The workspace box size ([`GeneratedPoints::box_size`](super::GeneratedPoints::box_size)).
     BoxSize,
-    /// A points file ([`PointsSource::File`]).
+    /// A points file ([`PointsSource::File`](super::PointsSource::File)).
     PointsFile,
-    /// Given configurations ([`PointsSource::Given`]).
+    /// Given configurations ([`PointsSource::Given`](super::PointsSource::Given)).
     Configurations,
     /// The reference ([`ProblemSpec::reference`](super::ProblemSpec::reference)).
     Reference,
-    /// The nominal model of a nominal reference ([`ReferenceSource::Nominal`]).
+    /// The nominal model of a nominal reference ([`ReferenceSource::Nominal`](super::ReferenceSource::Nominal)).
     Nominal,
     /// The seed of the parameter draws ([`ProblemSpec::seed`](super::ProblemSpec::seed)).
     Seed,

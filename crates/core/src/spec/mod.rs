@@ -261,7 +261,7 @@ pub fn backend_choice(
 /// what was chosen and why.
 ///
 /// # Errors
-/// Those of [`backend_choice`], and the [`EngineError`] of a backend that cannot be built
+/// Those of [`backend_choice`], and the [`EngineError`](crate::engine::EngineError) of a backend that cannot be built
 /// (no adapter matches, no GPU backend in this build), naming [`SpecField::Adapter`] when an
 /// adapter was given, else [`SpecField::Backend`].
 pub fn make_evaluator(
