@@ -134,7 +134,7 @@ compare() {
   python3 - run.json one.json <<'PY'
 import json, sys
 m, e = (json.load(open(f))["result"] for f in sys.argv[1:3])
-h = 1e-6  # histogram bin width of a summary, mm (src/mc/summary.rs)
+h = 1e-6  # histogram bin width of a summary, mm (crates/core/src/mc/summary/)
 problems = [k for k in ("draws", "reliability", "min", "max") if m[k] != e[k]]
 for k in ("mean", "variance", "skewness", "kurtosis"):
     x, y = m["moments"][k], e["moments"][k]

@@ -271,7 +271,7 @@ impl Shard {
 }
 
 /// Histogram bins a summary reserves up front: w of the TX60 spreads over ~0.25 mm, so about
-/// 2.5·10^5 bins of 10^-6 mm are occupied at 10^6 draws (src/mc/summary.rs); the bins beyond
+/// 2.5·10^5 bins of 10^-6 mm are occupied at 10^6 draws (crates/core/src/mc/summary/); the bins beyond
 /// this reserve are bounded while the run goes, by the memory the limit leaves.
 const RESERVED_BINS: u64 = 1 << 16;
 

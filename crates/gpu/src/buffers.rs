@@ -8,7 +8,7 @@ use gpu_amcs_core::engine::deviation::{self, SpreadPacking};
 use gpu_amcs_core::engine::{PickFreeze, Problem};
 use gpu_amcs_core::kinematics::N_UNCERTAIN;
 
-/// The run configuration uniform (`cfg` in the shader; `tests/gpu.rs` checks that its size
+/// The run configuration uniform (`cfg` in the shader; `tests/it/gpu.rs` checks that its size
 /// equals the WGSL struct's).
 #[repr(C)]
 #[derive(Clone, Copy, Debug, bytemuck::Pod, bytemuck::Zeroable)]

@@ -21,7 +21,7 @@
 //! ([`GpuContext::shared`]; [`devices_opened`] counts the opens). An evaluator owns only the
 //! per-problem buffers (configuration, joint constants, spread, per-point constants) and its
 //! chunk slots; [`GpuEvaluator::set_problem`] replaces the per-problem buffers and keeps the
-//! rest. Bindings are named ([`binding`]), not positional; `tests/gpu.rs` checks them, the
+//! rest. Bindings are named ([`binding`]), not positional; `tests/it/gpu.rs` checks them, the
 //! workgroup size and the uniform sizes against the shader.
 //!
 //! # Batching

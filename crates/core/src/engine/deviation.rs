@@ -39,7 +39,7 @@
 //! * offsets `o_j` rounded to f32: ≤ u·|o_j| (6e-7 mm for a 10 mm nominal-reference offset).
 //!
 //! Together `|e_f32 − e_f64| ≲ 2e-6·e_j + 1e-6 mm + u·|o_j|`, i.e. well under 1e-5 mm for the
-//! TX60 at the paper's spreads (e ≈ 0.1–1 mm). Measured on lavapipe (`tests/gpu.rs`, 50 test
+//! TX60 at the paper's spreads (e ≈ 0.1–1 mm). Measured on lavapipe (`tests/it/gpu.rs`, 50 test
 //! points, 4–6·10^4 draws): max `|w_gpu − w_cpu|` = 9.6e-8 mm (independent), 6.9e-8 mm
 //! (correlated), 2.0e-7 mm (nominal reference, `|o_j|` ≈ 1.3 mm); moments agree to ≤ 2e-8
 //! relative; the normals to 1.1e-7·(1+|z|). The tests assert 1e-5 mm per sample.

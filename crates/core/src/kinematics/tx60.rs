@@ -13,7 +13,7 @@
 //! `simulate::calibrate` with `Factors::default()` — 20 runs, 50 % of each measuring range,
 //! 2° steps, 25 % speed, negative→positive — and calibration seed 1, σ = the run-to-run standard
 //! deviation of the identified parameters. The numbers are baked in (no calibration at start-up);
-//! the test `baked_tx60_sigma_matches_the_simulator` in `tests/study.rs` re-runs that calibration
+//! the test `baked_tx60_sigma_matches_the_simulator` in `tests/it/study.rs` re-runs that calibration
 //! and fails if the simulator no longer produces them. J6's θ, d, a, α are zero: the
 //! identification keeps them nominal and lets the tool point absorb them (`kinematics::mdh`), so the
 //! parameter model carries no spread for them; β is fixed except on J2 (J2 ∥ J3).
