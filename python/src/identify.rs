@@ -5,9 +5,9 @@
 use crate::errors::{arg_error, lib_error, value_error};
 use crate::model::PyModel;
 use gpu_amcs_core::identify::{
-    self as lib, CircleFitMethod, Identification, IdentifyOptions, IdentifyWarning, NominalPrior,
+    self as lib, CircleFitMethod, Identification, IdentifyOptions, NominalPrior,
 };
-use gpu_amcs_core::kinematics::{ParamKind, RobotModel};
+use gpu_amcs_core::kinematics::RobotModel;
 use gpu_amcs_core::report::Report;
 use gpu_amcs_core::spec::{ModelSource, DEFAULT_PRESET};
 use pyo3::prelude::*;
@@ -24,40 +24,6 @@ pub struct PyIdentifyResult {
     reports: lib::IdentifyReports,
     /// The line after the tables: the single-run note or the statistics of the runs.
     closing: String,
-}
-
-/// The runs' warnings, one line per joint and kind of problem: the first run's message, with
-/// the number of runs that share it (as the command line prints them).
-fn warnings(ids: &[Identification]) -> Vec<String> {
-    type Key = (
-        usize,
-        std::mem::Discriminant<IdentifyWarning>,
-        Option<ParamKind>,
-    );
-    let key = |w: &IdentifyWarning| -> Key {
-        let kind = match w {
-            IdentifyWarning::Parameter { kind, .. } => Some(*kind),
-            _ => None,
-        };
-        (w.joint(), std::mem::discriminant(w), kind)
-    };
-    let mut seen: Vec<(Key, String, usize)> = Vec::new();
-    for w in ids.iter().flat_map(|i| &i.report.warnings) {
-        match seen.iter_mut().find(|(k, _, _)| *k == key(w)) {
-            Some((_, _, n)) => *n += 1,
-            None => seen.push((key(w), w.to_string(), 1)),
-        }
-    }
-    seen.sort_by_key(|s| s.0 .0);
-    seen.into_iter()
-        .map(|(_, text, n)| {
-            if n > 1 {
-                format!("{text} [{n} of {} runs]", ids.len())
-            } else {
-                text
-            }
-        })
-        .collect()
 }
 
 /// A model as a Python `Model` (not from a preset).
@@ -198,7 +164,7 @@ pub fn identify(
         let ids = lib::identify(&data, &nominal, &opts).map_err(lib_error)?;
         Ok((ids, sweeps.display().to_string()))
     })?;
-    let warnings = warnings(&ids);
+    let warnings = lib::grouped_warnings(&ids);
     if strict && !warnings.is_empty() {
         return Err(value_error(format!(
             "strict: {} implausible result(s): {}",

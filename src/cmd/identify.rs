@@ -107,7 +107,7 @@ impl Run for IdentifyArgs {
         } else if !quiet {
             text.push_str(&reports.text());
         }
-        let warnings = identify_warnings(&ids);
+        let warnings = identify::grouped_warnings(&ids);
         for w in &warnings {
             eprintln!("warning: {w}");
         }
@@ -164,40 +164,4 @@ impl Run for IdentifyArgs {
         print!("{text}");
         Ok(())
     }
-}
-
-/// The runs' warnings, one line per joint and kind of problem: the first run's message, with the
-/// number of runs that share it.
-fn identify_warnings(ids: &[gpu_amcs::identify::Identification]) -> Vec<String> {
-    use gpu_amcs::identify::IdentifyWarning;
-    // One line per joint, kind of warning and parameter.
-    let key = |w: &IdentifyWarning| {
-        let kind = match w {
-            IdentifyWarning::Parameter { kind, .. } => Some(*kind),
-            _ => None,
-        };
-        (w.joint(), std::mem::discriminant(w), kind)
-    };
-    type Key = (
-        usize,
-        std::mem::Discriminant<IdentifyWarning>,
-        Option<gpu_amcs::kinematics::ParamKind>,
-    );
-    let mut seen: Vec<(Key, String, usize)> = Vec::new();
-    for w in ids.iter().flat_map(|i| &i.report.warnings) {
-        match seen.iter_mut().find(|(k, _, _)| *k == key(w)) {
-            Some((_, _, n)) => *n += 1,
-            None => seen.push((key(w), w.to_string(), 1)),
-        }
-    }
-    seen.sort_by_key(|s| s.0 .0);
-    seen.into_iter()
-        .map(|(_, text, n)| {
-            if n > 1 {
-                format!("{text} [{n} of {} runs]", ids.len())
-            } else {
-                text
-            }
-        })
-        .collect()
 }

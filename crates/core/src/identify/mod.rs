@@ -80,8 +80,8 @@ pub use pipeline::{
     NOMINAL_LENGTH_SIGMA_MM,
 };
 pub use quality::{
-    quality_warnings, IdentifyWarning, QualityLimits, MAX_ANGLE_CHANGE_DEG, MAX_LENGTH_CHANGE_MM,
-    MAX_RMS_RESIDUAL_MM,
+    grouped_warnings, quality_warnings, IdentifyWarning, QualityLimits, MAX_ANGLE_CHANGE_DEG,
+    MAX_LENGTH_CHANGE_MM, MAX_RMS_RESIDUAL_MM,
 };
 pub use report::{
     render_identify_report, render_identify_summary, render_validation, IdentifyReports,

@@ -14,7 +14,7 @@
 //!   [`MAX_LENGTH_CHANGE_MM`] from it: the data are not in the base frame, or two of the x, y, z
 //!   columns are swapped (which mirrors the robot and turns base z sideways).
 
-use super::pipeline::IdentifyReport;
+use super::pipeline::{Identification, IdentifyReport};
 use crate::kinematics::{ParamKind, JOINTS};
 use std::fmt;
 
@@ -140,6 +140,41 @@ impl fmt::Display for IdentifyWarning {
             ),
         }
     }
+}
+
+/// The warnings of several runs, one line per joint, kind of warning and parameter: the first
+/// run's message, with the number of runs that share it (`… [3 of 5 runs]`), ordered by joint.
+/// This is how the command line and the Python package print an identification's warnings.
+pub fn grouped_warnings(ids: &[Identification]) -> Vec<String> {
+    type Key = (
+        usize,
+        std::mem::Discriminant<IdentifyWarning>,
+        Option<ParamKind>,
+    );
+    let key = |w: &IdentifyWarning| -> Key {
+        let kind = match w {
+            IdentifyWarning::Parameter { kind, .. } => Some(*kind),
+            _ => None,
+        };
+        (w.joint(), std::mem::discriminant(w), kind)
+    };
+    let mut seen: Vec<(Key, String, usize)> = Vec::new();
+    for w in ids.iter().flat_map(|i| &i.report.warnings) {
+        match seen.iter_mut().find(|(k, _, _)| *k == key(w)) {
+            Some((_, _, n)) => *n += 1,
+            None => seen.push((key(w), w.to_string(), 1)),
+        }
+    }
+    seen.sort_by_key(|s| s.0 .0);
+    seen.into_iter()
+        .map(|(_, text, n)| {
+            if n > 1 {
+                format!("{text} [{n} of {} runs]", ids.len())
+            } else {
+                text
+            }
+        })
+        .collect()
 }
 
 /// `value` is above `limit` or not a number.
