@@ -172,32 +172,8 @@ pub fn identify(
             warnings.join("; ")
         )));
     }
-    let (mut model, closing) = if ids.len() == 1 {
-        let mut m = ids[0].model.clone();
-        m.uncertainty = nominal.uncertainty.clone();
-        (
-            m,
-            "note: one run says nothing about the spread: the model file keeps the nominal \
-             model's uncertainty; give several runs (a `run` column) to estimate it"
-                .to_string(),
-        )
-    } else {
-        let models: Vec<RobotModel> = ids.iter().map(|i| i.model.clone()).collect();
-        let (stats, what) = if covariance {
-            (lib::correlated_statistics(&models), "full covariance")
-        } else {
-            (lib::parameter_statistics(&models), "σ")
-        };
-        let closing = format!(
-            "{} runs: the model file holds the mean parameters and their run-to-run {what}",
-            ids.len()
-        );
-        (
-            stats.ok_or_else(|| value_error("parameter statistics of the runs"))?,
-            closing,
-        )
-    };
-    model.name = format!("{} (identified from {data_label})", nominal.name);
+    let (model, closing) =
+        lib::identified_model(&ids, &nominal, covariance, &data_label).map_err(lib_error)?;
     let reports = lib::IdentifyReports::new(&nominal.name, &ids);
     Ok(PyIdentifyResult {
         model,

@@ -8,7 +8,6 @@ use crate::cmd::reports::ReportFlags;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use gpu_amcs::identify::IdentifyReports;
-use gpu_amcs::kinematics::RobotModel;
 use gpu_amcs::report::Report;
 use std::path::PathBuf;
 
@@ -123,29 +122,13 @@ impl Run for IdentifyArgs {
                 text.push('\n');
             }
         };
-        let mut model = if ids.len() == 1 {
-            let mut m = ids[0].model.clone();
-            m.uncertainty = nominal.uncertainty.clone();
-            say(
-                "note: one run says nothing about the spread: the model file keeps the nominal \
-                 model's uncertainty; give several runs (a `run` column) to estimate it"
-                    .into(),
-            );
-            m
-        } else {
-            let models: Vec<RobotModel> = ids.iter().map(|i| i.model.clone()).collect();
-            let (stats, what) = if a.covariance {
-                (identify::correlated_statistics(&models), "full covariance")
-            } else {
-                (identify::parameter_statistics(&models), "σ")
-            };
-            say(format!(
-                "{} runs: the model file holds the mean parameters and their run-to-run {what}",
-                ids.len()
-            ));
-            stats.context("parameter statistics of the runs")?
-        };
-        model.name = format!("{} (identified from {})", nominal.name, a.sweeps.display());
+        let (model, note) = identify::identified_model(
+            &ids,
+            &nominal,
+            a.covariance,
+            &a.sweeps.display().to_string(),
+        )?;
+        say(note);
         outputs.stage_file("--out", model.to_toml())?;
         let yes_no = |b: bool| if b { "yes" } else { "no" }.to_string();
         let rows = [

@@ -87,7 +87,8 @@ pub use report::{
     render_identify_report, render_identify_summary, render_validation, IdentifyReports,
 };
 pub use statistics::{
-    correlated_statistics, parameter_statistics, sample_covariance, COVARIANCE_RIDGE,
+    correlated_statistics, identified_model, parameter_statistics, sample_covariance,
+    COVARIANCE_RIDGE,
 };
 pub use sweeps::{parse_sweeps, read_sweeps, write_sweeps, Sweep, SweepData, SweepPoint, SweepRun};
 pub use validate::{

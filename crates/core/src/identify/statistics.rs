@@ -6,6 +6,7 @@
 //! too: its σ goes into [`RobotModel::tool_sigma`], and the full covariance becomes 33 × 33 (the
 //! 30 parameters, then the tool's x, y, z) when the tool varies between the runs.
 
+use super::{Identification, IdentifyError};
 use crate::kinematics::{param_index, RobotModel, Uncertainty, N_PARAMS, N_UNCERTAIN};
 
 /// Relative ridge added to the diagonal of a sample covariance: with R runs of ~24 free
@@ -118,6 +119,51 @@ pub fn parameter_statistics(models: &[RobotModel]) -> Option<RobotModel> {
         uncertainty: Uncertainty::Independent(std::array::from_fn(|i| sigma[i])),
         base: first.base,
     })
+}
+
+/// The model file of an identification: one run's model with the nominal model's uncertainty
+/// (one run says nothing about the spread), or the mean of several runs with their run-to-run σ
+/// (or, with `covariance`, their full covariance). Its name says what it was identified from
+/// (`source`, e.g. the sweeps file). The note says which of these it is, for the user.
+///
+/// # Errors
+/// [`IdentifyError::NoData`] for no runs, or runs whose models differ in structure.
+pub fn identified_model(
+    ids: &[Identification],
+    nominal: &RobotModel,
+    covariance: bool,
+    source: &str,
+) -> Result<(RobotModel, String), IdentifyError> {
+    let (mut model, note) = match ids {
+        [] => return Err(IdentifyError::NoData("no identified runs".into())),
+        [one] => {
+            let mut m = one.model.clone();
+            m.uncertainty = nominal.uncertainty.clone();
+            (
+                m,
+                "note: one run says nothing about the spread: the model file keeps the nominal \
+                 model's uncertainty; give several runs (a `run` column) to estimate it"
+                    .to_string(),
+            )
+        }
+        many => {
+            let models: Vec<RobotModel> = many.iter().map(|i| i.model.clone()).collect();
+            let (stats, what) = if covariance {
+                (correlated_statistics(&models), "full covariance")
+            } else {
+                (parameter_statistics(&models), "σ")
+            };
+            let stats = stats
+                .ok_or_else(|| IdentifyError::NoData("parameter statistics of the runs".into()))?;
+            let note = format!(
+                "{} runs: the model file holds the mean parameters and their run-to-run {what}",
+                many.len()
+            );
+            (stats, note)
+        }
+    };
+    model.name = format!("{} (identified from {source})", nominal.name);
+    Ok((model, note))
 }
 
 #[cfg(test)]
