@@ -49,8 +49,9 @@ fn main() {
         }
     };
     // Like other command-line tools, end quietly when the reader of stdout goes away
-    // (`gpu-amcs calibrate | head -1`) instead of panicking in `print!`. Reports are written
-    // (renamed into place) before anything goes to stdout, so no temporary file is left.
+    // (`gpu-amcs calibrate | head -1`). Other failed writes to stdout (a full disk) are a
+    // one-line error (`cmd::stdout`). Reports are written (renamed into place) before anything
+    // goes to stdout, so no temporary file is left.
     #[cfg(unix)]
     // SAFETY: restoring the default disposition of SIGPIPE before any thread starts.
     unsafe {

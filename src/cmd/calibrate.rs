@@ -82,7 +82,7 @@ impl Run for CalibrateArgs {
         if let Some(o) = &a.out {
             text.push_str(&format!("wrote {}\n", o.display()));
         }
-        print!("{text}");
+        crate::cmd::stdout::print(&text)?;
         Ok(())
     }
 }

@@ -28,7 +28,7 @@ impl Run for FkArgs {
             // Shortest representation that reads back to the same f64: full precision.
             s.push_str(&format!("{},{},{},{}\n", qs.join(","), p[0], p[1], p[2]));
         }
-        print!("{s}");
+        crate::cmd::stdout::print(&s)?;
         Ok(())
     }
 }

@@ -144,7 +144,7 @@ impl Run for IdentifyArgs {
         if let Some(o) = &a.out {
             say(format!("wrote {}", o.display()));
         }
-        print!("{text}");
+        crate::cmd::stdout::print(&text)?;
         Ok(())
     }
 }

@@ -44,14 +44,14 @@ impl Run for ImportArgs {
         })?;
         outputs.stage_file("--out", imported.to_toml())?;
         outputs.commit()?;
-        println!(
+        crate::cmd::stdout::println(&format!(
             "imported {} ({}) -> {}: max deviation source vs model {:e} mm over {} configurations",
             a.source.display(),
             imported.format.name(),
             a.out.display(),
             imported.max_deviation_mm,
             imported.configurations
-        );
+        ))?;
         Ok(())
     }
 }

@@ -263,7 +263,7 @@ impl Run for MapArgs {
             outputs.stage_file("--summary-out", s.to_json())?;
             outputs.commit()?;
             if !a.reports.quiet {
-                println!(
+                crate::cmd::stdout::println(&format!(
                     "map shard {}/{}: reached cells [{}, {}) of {} evaluated at {} draws; \
                      written to {}",
                     shard.k,
@@ -273,7 +273,7 @@ impl Run for MapArgs {
                     s.provenance.points,
                     a.draws,
                     out.display()
-                );
+                ))?;
             }
             return Ok(());
         }

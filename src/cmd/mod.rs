@@ -24,6 +24,7 @@ pub mod progress;
 pub mod reports;
 pub mod sensitivity;
 pub mod simulate;
+pub mod stdout;
 pub mod study;
 pub mod tail;
 pub mod validate;

@@ -25,7 +25,7 @@ impl Run for ModelCmdArgs {
     fn run(self) -> Result<()> {
         if self.list {
             for name in gpu_amcs::presets::PRESETS {
-                println!("{name:<10} {}", preset(name)?.name);
+                crate::cmd::stdout::println(&format!("{name:<10} {}", preset(name)?.name))?;
             }
             return Ok(());
         }

@@ -326,7 +326,7 @@ impl Outputs {
             self.stage_file(flag, text)?;
             self.commit()?;
         } else {
-            print!("{text}");
+            crate::cmd::stdout::print(&text)?;
         }
         Ok(())
     }

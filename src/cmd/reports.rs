@@ -96,7 +96,7 @@ pub fn write_reports(
     stage_reports(&mut outputs, report, settings)?;
     outputs.commit()?;
     if !flags.quiet {
-        print!("{}", report.text());
+        crate::cmd::stdout::print(&report.text())?;
     }
     Ok(())
 }

@@ -52,7 +52,7 @@ impl Run for SimulateArgs {
             }
             None => {
                 outputs.commit()?;
-                print!("{text}");
+                crate::cmd::stdout::print(&text)?;
             }
         }
         Ok(())

@@ -134,7 +134,11 @@ impl Run for StudyArgs {
         stage_reports(&mut outputs, &result, &rows)?;
         outputs.commit()?;
         if !a.reports.quiet {
-            println!("{}; wrote {}", result.text().trim_end(), a.out.display());
+            crate::cmd::stdout::println(&format!(
+                "{}; wrote {}",
+                result.text().trim_end(),
+                a.out.display()
+            ))?;
         }
         Ok(())
     }

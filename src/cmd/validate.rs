@@ -42,7 +42,7 @@ impl Run for ValidateArgs {
             }
             e => e.into(),
         })?;
-        print!("{}", identify::render_validation(&v));
+        crate::cmd::stdout::print(&identify::render_validation(&v))?;
         Ok(())
     }
 }

@@ -342,3 +342,121 @@ fn a_closed_stdout_is_not_a_panic() {
         vec!["cal.toml".to_string(), "id.toml".into(), "s.csv".into()]
     );
 }
+
+/// stdout on a full disk (`> /dev/full`) is one line, `error: stdout: No space left on device`,
+/// and exit code 2, in every command that prints: no panic (exit 101). Files the command writes
+/// are renamed into place before anything is printed, so they are whole.
+#[test]
+fn stdout_on_a_full_disk_is_one_line_not_a_panic() {
+    if !std::path::Path::new("/dev/full").exists() {
+        eprintln!("stdout_on_a_full_disk_is_one_line_not_a_panic: skipped, no /dev/full");
+        return;
+    }
+    let d = tmpdir("dev-full");
+    let pts = d.join("pts.csv");
+    std::fs::write(&pts, "q1,q2,q3,q4,q5,q6\n0,30,30,0,35,0\n10,20,40,5,30,0\n").unwrap();
+    let pts = pts.to_str().unwrap();
+    let shard = d.join("s0.json");
+    let o = run(&[
+        "mcs",
+        "--draws",
+        "2000",
+        "--points",
+        "3",
+        "--shard",
+        "0/1",
+        "--summary-out",
+        shard.to_str().unwrap(),
+        "-q",
+        "--backend",
+        "cpu",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let urdf = d.join("r.urdf");
+    let o = run(&[
+        "export",
+        "--preset",
+        "ur5e",
+        "--urdf",
+        urdf.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let imported = d.join("r.toml");
+    let commands: Vec<Vec<&str>> = vec![
+        vec!["--points", "3", "--backend", "cpu"],
+        vec![
+            "mcs",
+            "--points",
+            "3",
+            "--draws",
+            "2000",
+            "--backend",
+            "cpu",
+        ],
+        vec![
+            "compare",
+            "--points",
+            "3",
+            "--draws",
+            "2000",
+            "--backend",
+            "cpu",
+        ],
+        vec!["points", "5"],
+        vec!["fk", "--points-file", pts],
+        vec!["model", "--list"],
+        vec!["model", "--preset", "tx60"],
+        vec![
+            "tail",
+            "--points",
+            "3",
+            "--threshold",
+            "0.2",
+            "--backend",
+            "cpu",
+        ],
+        vec![
+            "sensitivity",
+            "--points",
+            "3",
+            "--draws",
+            "1024",
+            "--backend",
+            "cpu",
+        ],
+        vec![
+            "map",
+            "--plane",
+            "xz",
+            "--at",
+            "0",
+            "--cells",
+            "4,4",
+            "--draws",
+            "200",
+            "--backend",
+            "cpu",
+        ],
+        vec!["merge", shard.to_str().unwrap()],
+        vec![
+            "import",
+            urdf.to_str().unwrap(),
+            "--out",
+            imported.to_str().unwrap(),
+        ],
+    ];
+    for args in commands {
+        let _ = std::fs::remove_file(&imported);
+        let full = std::fs::OpenOptions::new()
+            .write(true)
+            .open("/dev/full")
+            .unwrap();
+        let o = bin().args(&args).stdout(full).output().unwrap();
+        assert_eq!(o.status.code(), Some(2), "{args:?}: {}", stderr(&o));
+        assert_eq!(
+            stderr(&o).trim_end(),
+            "error: stdout: No space left on device",
+            "{args:?}"
+        );
+    }
+}
