@@ -222,11 +222,14 @@ fn readme_is_short_and_keeps_the_two_commands() {
 
 #[test]
 fn nothing_points_outside_the_repository() {
+    // The folder beside a checkout where the project's notes live, spelled so that this file
+    // itself names no path outside the repository.
+    let outside = ["..", "shared"].join("/");
     for page in pages() {
         let text = std::fs::read_to_string(&page).unwrap();
         for (i, line) in text.lines().enumerate() {
             assert!(
-                !line.contains("../shared") && !line.contains("/work/"),
+                !line.contains(&outside) && !line.contains("/work/"),
                 "{}:{}: points outside the repository: {line}",
                 page.display(),
                 i + 1
