@@ -58,9 +58,14 @@
 //! println!("{}", gpu_amcs_core::identify::render_identify_report(&ids[0].report));
 //! ```
 
+pub mod chain;
+pub mod chain_fit;
 pub mod circle;
 mod error;
+pub mod identifiability;
 mod lm;
+pub mod measured;
+pub mod noise;
 mod pipeline;
 mod quality;
 pub mod refine;
@@ -70,10 +75,13 @@ pub mod sweeps;
 pub mod validate;
 
 pub use crate::kinematics::{lines, mdh};
+pub use chain::{ChainOptions, ChainReport, MeasuredPoint, Placement, UncertaintyMethod};
 pub use circle::{fit_circle, AxisPrior, CircleFit, CircleFitError, CircleFitMethod, MIN_ARC_DEG};
 pub use error::IdentifyError;
 pub use lines::{common_normal, CommonNormal, Line, LineRelation};
 pub use mdh::PARALLEL_THRESHOLD_DEG;
+pub use measured::{identify_poses, identify_sweeps_chain, placement_from_axes, PoseRunPoints};
+pub use noise::NoiseModel;
 pub use pipeline::{
     check_sweep, identify, identify_run, Identification, IdentifyOptions, IdentifyReport,
     JointReport, NominalPrior, HOME_TOLERANCE_DEG, NOMINAL_ANGLE_SIGMA_DEG,

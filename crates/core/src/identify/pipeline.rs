@@ -116,6 +116,9 @@ pub struct IdentifyReport {
     pub j1_offset_mm: f64,
     /// What looks implausible, under the default [`QualityLimits`] ([`quality_warnings`]).
     pub warnings: Vec<IdentifyWarning>,
+    /// The whole-chain fit with its covariance and identifiability, when the run went through
+    /// it ([`super::measured`]); `None` for the plain circle-point pipeline.
+    pub chain: Option<super::chain::ChainReport>,
 }
 
 /// An identified model and its report.
@@ -339,6 +342,7 @@ pub fn identify_run(
         j1_tilt_deg: j1.angle.to_degrees(),
         j1_offset_mm: j1.distance,
         warnings: Vec::new(),
+        chain: None,
     };
     report.warnings = quality_warnings(&report, &QualityLimits::default());
     Ok(Identification { model, report })

@@ -1,0 +1,376 @@
+//! Can the data identify the parameters? The singular value decomposition of the column-scaled
+//! identification Jacobian at the solution (docs/METHOD.md §2.5).
+//!
+//! Each column of the whitened Jacobian is divided by its norm, so the analysis does not depend
+//! on units (mm against radians) and a parameter's scale is its own effect on the data. Then
+//!
+//! * a singular value below [`RANK_TOLERANCE`] × the largest is a direction the data do not
+//!   determine at all (rank deficiency): the combination of parameters along it is reported by
+//!   name, and the parameter with the largest share in it is fixed at its nominal value
+//!   ([`fix_null_directions`]), one direction at a time, until the rest has full rank;
+//! * the condition number κ = σ_max / σ_min of what remains says how unevenly the data determine
+//!   the rest; above [`CONDITION_LIMIT`] it is a warning naming the weakest combination;
+//! * the observability index O1 = (σ_1⋯σ_p)^{1/p} / √n (Borm and Menq; n measured points) and
+//!   the smallest singular value O3 summarise the design for comparisons;
+//! * every pair of parameters whose correlation (from the covariance) exceeds
+//!   [`CORRELATION_LIMIT`] in magnitude is listed.
+//!
+//! Each warning says what to measure instead, from the joints whose parameters make up the weak
+//! combination and the joint ranges the data actually cover.
+
+use super::chain_fit::{fit_input_joint, fit_input_name, jacobian, ChainState, Observation};
+use crate::kinematics::JOINTS;
+use nalgebra::DMatrix;
+use serde::Serialize;
+
+/// Relative singular value below which a direction counts as not identified at all. A
+/// central-difference Jacobian is accurate to ~1e-8 relative, so an exact redundancy shows up
+/// near 1e-8; anything the data determine at all is far above 1e-6.
+pub const RANK_TOLERANCE: f64 = 1e-6;
+
+/// Condition number of the column-scaled Jacobian above which identification is flagged as
+/// ill-conditioned. The weakest combination's standard uncertainty is κ times that of the best
+/// determined one (in the scaled units): at κ = 1000 a combination determined to 1 µm by the best
+/// direction's standard is only known to 1 mm. Schröer's rule for calibration designs is κ < 100
+/// and robotkinecal accepts a tracker calibration up to 100–1000; 60 random poses of a 6R arm
+/// give κ ≈ 40–300 (measured over the four presets of the tests), so 1000 flags only data that
+/// are much worse than a routine random-pose calibration.
+pub const CONDITION_LIMIT: f64 = 1000.0;
+
+/// Correlation magnitude above which a parameter pair is listed.
+pub const CORRELATION_LIMIT: f64 = 0.9;
+
+/// A combination of parameters the data do not determine.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct NullDirection {
+    /// The combination, e.g. `d2 − 0.98 d3 + 0.21 a2` (coefficients in column-scaled units).
+    pub combination: String,
+    /// Relative singular value of the direction.
+    pub relative_singular_value: f64,
+    /// The parameter fixed at its nominal value because of it.
+    pub fixed: String,
+}
+
+/// A parameter pair with a strong correlation.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Correlation {
+    /// First parameter.
+    pub a: String,
+    /// Second parameter.
+    pub b: String,
+    /// Correlation coefficient.
+    pub rho: f64,
+}
+
+/// The identifiability of a fit.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct Identifiability {
+    /// Number of measured points.
+    pub points: usize,
+    /// Scalar equations (3 per point).
+    pub equations: usize,
+    /// Parameters the fit adjusted (after fixing null directions).
+    pub parameters: usize,
+    /// Numerical rank of the scaled Jacobian of those parameters.
+    pub rank: usize,
+    /// κ = σ_max / σ_min of the scaled Jacobian.
+    pub condition_number: f64,
+    /// Observability index O1 = (σ_1⋯σ_p)^{1/p} / √n.
+    pub o1: f64,
+    /// Smallest singular value of the scaled Jacobian (O3).
+    pub o3: f64,
+    /// Singular values of the scaled Jacobian, largest first.
+    pub singular_values: Vec<f64>,
+    /// The weakest determined combination of the parameters.
+    pub weakest: String,
+    /// Directions the data did not determine, with the parameter fixed for each.
+    pub null_directions: Vec<NullDirection>,
+    /// Parameters the user fixed by name.
+    pub fixed_by_user: Vec<String>,
+    /// Pairs with |ρ| above [`CORRELATION_LIMIT`].
+    pub correlated: Vec<Correlation>,
+    /// Span of each joint's commanded angle in the data, degrees.
+    pub joint_spans_deg: [f64; JOINTS],
+}
+
+/// The SVD of the column-scaled Jacobian: singular values (largest first) and the right singular
+/// vectors as columns in the same order, plus the column norms.
+pub struct ScaledSvd {
+    /// Singular values, largest first.
+    pub values: Vec<f64>,
+    /// Right singular vectors (column k belongs to `values[k]`), in scaled coordinates.
+    pub vectors: DMatrix<f64>,
+    /// Column norms of the unscaled Jacobian.
+    pub norms: Vec<f64>,
+}
+
+/// Column-scales `j` and decomposes it.
+pub fn scaled_svd(j: &DMatrix<f64>) -> ScaledSvd {
+    let norms: Vec<f64> = (0..j.ncols()).map(|c| j.column(c).norm()).collect();
+    let mut s = j.clone();
+    for (c, &n) in norms.iter().enumerate() {
+        if n > 0.0 {
+            s.column_mut(c).scale_mut(1.0 / n);
+        }
+    }
+    // Jᵀ J's eigen-decomposition is enough (p ≤ 39) and avoids an m × p SVD of a tall matrix.
+    let eig = (s.transpose() * &s).symmetric_eigen();
+    let mut order: Vec<usize> = (0..eig.eigenvalues.len()).collect();
+    order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
+    let values = order
+        .iter()
+        .map(|&k| eig.eigenvalues[k].max(0.0).sqrt())
+        .collect();
+    let vectors = DMatrix::from_fn(s.ncols(), order.len(), |r, c| {
+        eig.eigenvectors[(r, order[c])]
+    });
+    ScaledSvd {
+        values,
+        vectors,
+        norms,
+    }
+}
+
+/// A direction (scaled coordinates over `free`) written as a named combination: the terms of at
+/// least a tenth of the largest, largest first, with the largest's coefficient 1.
+pub fn combination(v: &[f64], free: &[usize]) -> String {
+    let max = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+    if max == 0.0 {
+        return String::new();
+    }
+    let mut terms: Vec<(usize, f64)> = v
+        .iter()
+        .enumerate()
+        .filter(|(_, x)| x.abs() >= 0.1 * max)
+        .map(|(k, &x)| (k, x))
+        .collect();
+    terms.sort_by(|a, b| b.1.abs().total_cmp(&a.1.abs()));
+    let sign = terms[0].1.signum();
+    let mut s = String::new();
+    for (n, (k, x)) in terms.iter().enumerate() {
+        let c = sign * x / max;
+        let name = fit_input_name(free[*k]);
+        if n == 0 {
+            s.push_str(&name);
+        } else {
+            let op = if c < 0.0 { '−' } else { '+' };
+            if (c.abs() - 1.0).abs() < 0.005 {
+                s.push_str(&format!(" {op} {name}"));
+            } else {
+                s.push_str(&format!(" {op} {:.2} {name}", c.abs()));
+            }
+        }
+    }
+    s
+}
+
+/// Fixes, one at a time, the parameter with the largest share in each direction the data leave
+/// free (relative singular value below [`RANK_TOLERANCE`]): removes it from `free`, sets it to
+/// `nominal`'s value in `state`, and returns the directions found. Also removes parameters
+/// whose column is zero (the data do not depend on them at all).
+pub fn fix_null_directions(
+    obs: &[Observation],
+    state: &mut ChainState,
+    nominal: &ChainState,
+    free: &mut Vec<usize>,
+) -> Vec<NullDirection> {
+    let mut found = Vec::new();
+    while !free.is_empty() {
+        let j = jacobian(obs, state, free);
+        let svd = scaled_svd(&j);
+        if let Some(c) = svd.norms.iter().position(|&n| n == 0.0) {
+            found.push(NullDirection {
+                combination: fit_input_name(free[c]),
+                relative_singular_value: 0.0,
+                fixed: fit_input_name(free[c]),
+            });
+            state.set(free[c], nominal.get(free[c]));
+            free.remove(c);
+            continue;
+        }
+        let n = svd.values.len();
+        let rel = svd.values[n - 1] / svd.values[0];
+        // More unknowns than equations: the smallest values are exact zeros of Jᵀ J.
+        if rel >= RANK_TOLERANCE && free.len() <= j.nrows() {
+            break;
+        }
+        let v: Vec<f64> = svd.vectors.column(n - 1).iter().copied().collect();
+        let (k, _) = v
+            .iter()
+            .enumerate()
+            .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
+            .unwrap_or((0, &0.0));
+        found.push(NullDirection {
+            combination: combination(&v, free),
+            relative_singular_value: rel,
+            fixed: fit_input_name(free[k]),
+        });
+        state.set(free[k], nominal.get(free[k]));
+        free.remove(k);
+    }
+    found
+}
+
+/// Measures the identifiability of `free` at `state`; `covariance` (over `free`, any units) gives
+/// the correlations.
+pub fn analyse(
+    obs: &[Observation],
+    state: &ChainState,
+    free: &[usize],
+    covariance: &DMatrix<f64>,
+    null_directions: Vec<NullDirection>,
+    fixed_by_user: Vec<String>,
+) -> Identifiability {
+    let j = jacobian(obs, state, free);
+    let svd = scaled_svd(&j);
+    let p = svd.values.len();
+    let max = svd.values.first().copied().unwrap_or(0.0);
+    let min = svd.values.last().copied().unwrap_or(0.0);
+    let rank = svd
+        .values
+        .iter()
+        .filter(|&&s| s > RANK_TOLERANCE * max)
+        .count();
+    let o1 = if p > 0 && min > 0.0 {
+        (svd.values.iter().map(|s| s.ln()).sum::<f64>() / p as f64).exp()
+            / (obs.len() as f64).sqrt()
+    } else {
+        0.0
+    };
+    let weakest = if p > 0 {
+        let v: Vec<f64> = svd.vectors.column(p - 1).iter().copied().collect();
+        combination(&v, free)
+    } else {
+        String::new()
+    };
+    let mut correlated = Vec::new();
+    for a in 0..free.len() {
+        for b in a + 1..free.len() {
+            let d = (covariance[(a, a)] * covariance[(b, b)]).sqrt();
+            if d > 0.0 {
+                let rho = covariance[(a, b)] / d;
+                if rho.abs() > CORRELATION_LIMIT {
+                    correlated.push(Correlation {
+                        a: fit_input_name(free[a]),
+                        b: fit_input_name(free[b]),
+                        rho,
+                    });
+                }
+            }
+        }
+    }
+    correlated.sort_by(|x, y| y.rho.abs().total_cmp(&x.rho.abs()));
+    let mut spans = [0.0; JOINTS];
+    for (j, span) in spans.iter_mut().enumerate() {
+        let (lo, hi) = obs
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), o| {
+                (l.min(o.q[j]), h.max(o.q[j]))
+            });
+        *span = if obs.is_empty() {
+            0.0
+        } else {
+            (hi - lo).to_degrees()
+        };
+    }
+    Identifiability {
+        points: obs.len(),
+        equations: 3 * obs.len(),
+        parameters: p,
+        rank,
+        condition_number: if min > 0.0 { max / min } else { f64::INFINITY },
+        o1,
+        o3: min,
+        singular_values: svd.values,
+        weakest,
+        null_directions,
+        fixed_by_user,
+        correlated,
+        joint_spans_deg: spans,
+    }
+}
+
+/// Joints (1-based) whose parameters appear in a named combination, and whether the placement
+/// does.
+fn joints_in(combination: &str) -> (Vec<usize>, bool) {
+    let mut joints = Vec::new();
+    let mut base = false;
+    for term in combination.split([' ', '+', '−']).filter(|t| !t.is_empty()) {
+        if let Some(i) = super::chain_fit::fit_input_index(term) {
+            match fit_input_joint(i) {
+                Some(j) => {
+                    if !joints.contains(&j) {
+                        joints.push(j);
+                    }
+                }
+                None => base = true,
+            }
+        }
+    }
+    joints.sort_unstable();
+    (joints, base)
+}
+
+/// What to measure instead when `combination` is poorly determined.
+pub fn advice(combination: &str, a: &Identifiability) -> String {
+    if a.equations < a.parameters + null_count(a) {
+        return format!(
+            "measure more poses: {} points give {} equations for {} quantities; 30–60 poses spread over the joint ranges are usual",
+            a.points,
+            a.equations,
+            a.parameters + null_count(a)
+        );
+    }
+    let (joints, base) = joints_in(combination);
+    let narrow: Vec<String> = joints
+        .iter()
+        .filter(|&&j| a.joint_spans_deg[j - 1] < 90.0)
+        .map(|&j| format!("J{j} {:.1}°", a.joint_spans_deg[j - 1]))
+        .collect();
+    let mut s = String::new();
+    if !joints.is_empty() {
+        let list = joints
+            .iter()
+            .map(|j| j.to_string())
+            .collect::<Vec<_>>()
+            .join(", ");
+        s.push_str(&format!("move joint(s) {list} more widely"));
+        if !narrow.is_empty() {
+            s.push_str(&format!(" (ranges in the data: {})", narrow.join(", ")));
+        }
+    }
+    if base {
+        if !s.is_empty() {
+            s.push_str("; ");
+        }
+        s.push_str("spread the poses over more of the workspace, in all three directions");
+    }
+    if s.is_empty() {
+        s.push_str("measure more poses spread over the joint ranges");
+    }
+    s
+}
+
+fn null_count(a: &Identifiability) -> usize {
+    a.null_directions.len()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn combination_names_terms() {
+        // free = d2 (index 6), d3 (11), a2 (7)
+        let s = combination(&[0.7, -0.7, 0.1], &[6, 11, 7]);
+        assert_eq!(s, "d2 − d3 + 0.14 a2");
+        let s = combination(&[-0.5, 0.01, 0.0], &[6, 11, 7]);
+        assert_eq!(s, "d2");
+    }
+
+    #[test]
+    fn joints_of_a_combination() {
+        assert_eq!(joints_in("d2 − d3 + 0.14 tool_x"), (vec![2, 3, 6], false));
+        assert_eq!(joints_in("base_z + 0.3 a1"), (vec![1], true));
+    }
+}

@@ -1,0 +1,154 @@
+//! The measurement noise of tracker data, as the identification weights it
+//! (docs/METHOD.md §2.6): where the standard uncertainty of each measured point comes from, the
+//! whitening matrix `W` with `Wᵀ W = Σ⁻¹` that turns a residual into standard units, and the χ²
+//! consistency of the residuals with a stated noise.
+
+use nalgebra::{Matrix3, Vector3};
+use serde::Serialize;
+
+/// Where the noise of the measured points comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum NoiseModel {
+    /// Unknown: estimated from the residuals, `s² = Σ‖r‖² / (3n − p)`, the same σ for every
+    /// coordinate.
+    FromResiduals,
+    /// The data's own `sx, sy, sz` per point.
+    PerPoint,
+    /// A plain σ per coordinate, mm.
+    Isotropic {
+        /// σ, mm.
+        sigma_mm: f64,
+    },
+    /// A laser tracker at `position_mm` (in the data's frame) with a point MPE of
+    /// `±(constant_um + per_metre_um · L)` across the line of sight and `±radial_um` along it,
+    /// each MPE standing for `mpe_sigmas` σ (the AT960 model of `crate::simulate::tracker`).
+    Tracker {
+        /// Constant part of the transverse MPE, µm.
+        constant_um: f64,
+        /// Distance-proportional part of the transverse MPE, µm per metre.
+        per_metre_um: f64,
+        /// MPE along the line of sight, µm.
+        radial_um: f64,
+        /// σ per MPE.
+        mpe_sigmas: f64,
+        /// Tracker position in the data's frame, mm.
+        position_mm: [f64; 3],
+    },
+}
+
+impl NoiseModel {
+    /// Whether the noise is stated (not estimated from the residuals).
+    pub fn is_stated(&self) -> bool {
+        !matches!(self, NoiseModel::FromResiduals)
+    }
+
+    /// One line saying where σ came from.
+    pub fn describe(&self) -> String {
+        match self {
+            NoiseModel::FromResiduals => "estimated from the residuals".into(),
+            NoiseModel::PerPoint => "the data's sx, sy, sz per point".into(),
+            NoiseModel::Isotropic { sigma_mm } => format!("stated: {sigma_mm} mm per coordinate"),
+            NoiseModel::Tracker {
+                constant_um,
+                per_metre_um,
+                radial_um,
+                mpe_sigmas,
+                ..
+            } => format!(
+                "stated tracker model: MPE ±({constant_um} µm + {per_metre_um} µm/m) across the \
+                 line of sight, ±{radial_um} µm along it, MPE = {mpe_sigmas}σ"
+            ),
+        }
+    }
+
+    /// The whitening matrix of a point measured at `p` (data frame, mm) with the stated
+    /// per-point σ `sigma` (when the data have them); the identity for [`Self::FromResiduals`]
+    /// (scaled later by the estimated σ). `None` when the model needs per-point σ and the point
+    /// has none.
+    pub fn whiten(&self, p: &[f64; 3], sigma: Option<[f64; 3]>) -> Option<Matrix3<f64>> {
+        match self {
+            NoiseModel::FromResiduals => Some(Matrix3::identity()),
+            NoiseModel::PerPoint => sigma
+                .map(|s| Matrix3::from_diagonal(&Vector3::new(1.0 / s[0], 1.0 / s[1], 1.0 / s[2]))),
+            NoiseModel::Isotropic { sigma_mm } => Some(Matrix3::identity() / *sigma_mm),
+            NoiseModel::Tracker {
+                constant_um,
+                per_metre_um,
+                radial_um,
+                mpe_sigmas,
+                position_mm,
+            } => {
+                let d = Vector3::from(*p) - Vector3::from(*position_mm);
+                let l = d.norm();
+                let sigma_t = (constant_um + per_metre_um * l / 1000.0) / 1000.0 / mpe_sigmas;
+                let sigma_r = radial_um / 1000.0 / mpe_sigmas;
+                if l == 0.0 {
+                    return Some(Matrix3::identity() / sigma_t.min(sigma_r));
+                }
+                let u = d / l;
+                let radial = u * u.transpose();
+                Some(radial / sigma_r + (Matrix3::identity() - radial) / sigma_t)
+            }
+        }
+    }
+}
+
+/// Standard normal upper tail `Pr[Z > z]` (complementary error function by a Chebyshev-fitted
+/// rational approximation, relative error below 1.2e-7: Press et al., Numerical Recipes §6.2).
+pub fn normal_upper_tail(z: f64) -> f64 {
+    let x = z / std::f64::consts::SQRT_2;
+    let t = 1.0 / (1.0 + 0.5 * x.abs());
+    let poly = -x * x - 1.265_512_23
+        + t * (1.000_023_68
+            + t * (0.374_091_96
+                + t * (0.096_784_18
+                    + t * (-0.186_288_06
+                        + t * (0.278_868_07
+                            + t * (-1.135_203_98
+                                + t * (1.488_515_87 + t * (-0.822_152_23 + t * 0.170_872_77))))))));
+    let erfc = t * poly.exp();
+    let erfc = if x >= 0.0 { erfc } else { 2.0 - erfc };
+    0.5 * erfc
+}
+
+/// `Pr[χ²_ν > x]` by the Wilson–Hilferty cube-root normal approximation (accurate to a few
+/// 1e-3 in probability for ν ≥ 10, which a calibration always has).
+pub fn chi2_upper_tail(x: f64, dof: usize) -> f64 {
+    let nu = dof.max(1) as f64;
+    let a = 2.0 / (9.0 * nu);
+    let z = ((x / nu).cbrt() - (1.0 - a)) / a.sqrt();
+    normal_upper_tail(z)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn tails_match_tables() {
+        // Φ̄(1.959964) = 0.025, Φ̄(0) = 0.5, Φ̄(−1) = 0.841345
+        assert!((normal_upper_tail(1.959_964) - 0.025).abs() < 1e-7);
+        assert!((normal_upper_tail(0.0) - 0.5).abs() < 1e-7);
+        assert!((normal_upper_tail(-1.0) - 0.841_344_7).abs() < 1e-6);
+        // χ²_100 upper 5 % point 124.342 (tables)
+        assert!((chi2_upper_tail(124.342, 100) - 0.05).abs() < 2e-3);
+        assert!((chi2_upper_tail(100.0, 100) - 0.481).abs() < 3e-3);
+    }
+
+    #[test]
+    fn tracker_whitening_is_radial_and_transverse() {
+        let m = NoiseModel::Tracker {
+            constant_um: 15.0,
+            per_metre_um: 6.0,
+            radial_um: 10.0,
+            mpe_sigmas: 2.0,
+            position_mm: [0.0; 3],
+        };
+        let w = m.whiten(&[2000.0, 0.0, 0.0], None).unwrap();
+        // along x: 1/σ_r = 1/0.005; across: 1/σ_t = 1/0.0135
+        assert!((w[(0, 0)] - 200.0).abs() < 1e-9);
+        assert!((w[(1, 1)] - 1.0 / 0.0135).abs() < 1e-9);
+        assert!(w[(0, 1)].abs() < 1e-12);
+    }
+}
