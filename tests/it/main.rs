@@ -25,3 +25,4 @@ mod sensitivity;
 mod study;
 mod summary;
 mod tail;
+mod tracker_data;

@@ -263,6 +263,7 @@ pub fn identify_chain(
         (None, Placement::Identify) => initial_state(&obs, &nominal.params, &nominal.tool),
         (None, Placement::Known) => ChainState {
             base: [0.0; 6],
+            tool: super::chain_fit::initial_tool(&obs, &nominal.params).unwrap_or(nominal.tool),
             ..nominal_s
         },
     };
@@ -494,27 +495,28 @@ fn chain_warnings(a: &Identifiability, noise: &NoiseReport, rows: &[ParameterRow
             ));
         }
     }
-    for r in rows.iter().filter(|r| r.status == "identified") {
-        if r.name.starts_with("base_") || r.name.starts_with("tool_") {
-            continue;
-        }
-        let limit = if r.unit == "deg" {
-            super::MAX_ANGLE_CHANGE_DEG
-        } else {
-            super::MAX_LENGTH_CHANGE_MM
-        };
-        if (r.value - r.nominal).abs() > limit {
-            w.push(format!(
-                "{} = {:.4} {} is {:.3} {} from nominal ({} {}): check the nominal model and the data's units",
-                r.name,
-                r.value,
-                r.unit,
-                (r.value - r.nominal).abs(),
-                r.unit,
-                r.nominal,
-                r.unit
-            ));
-        }
+    let far: Vec<String> = rows
+        .iter()
+        .filter(|r| r.status == "identified")
+        .filter(|r| !r.name.starts_with("base_") && !r.name.starts_with("tool_"))
+        .filter(|r| {
+            let limit = if r.unit == "deg" {
+                super::MAX_ANGLE_CHANGE_DEG
+            } else {
+                super::MAX_LENGTH_CHANGE_MM
+            };
+            (r.value - r.nominal).abs() > limit
+        })
+        .map(|r| format!("{} {:+.3} {}", r.name, r.value - r.nominal, r.unit))
+        .collect();
+    if !far.is_empty() {
+        w.push(format!(
+            "{} parameter(s) moved further from nominal than a calibration corrects ({} mm / {}°): {}; check the nominal model, the data's units and the warnings above",
+            far.len(),
+            super::MAX_LENGTH_CHANGE_MM,
+            super::MAX_ANGLE_CHANGE_DEG,
+            far.join(", ")
+        ));
     }
     w
 }
@@ -725,35 +727,35 @@ mod tests {
         );
     }
 }
+
 #[cfg(test)]
-mod scratch {
+mod target_tests {
     use super::*;
+    use crate::kinematics::tx60;
+
+    /// A target on the J6 axis leaves its phase invisible: flagged, with the advice to move it.
     #[test]
-    fn print_kappa() {
-        for name in ["tx60", "ur5e", "irb2400", "kr6r700sixx"] {
-            let m = crate::presets::preset(name).unwrap();
-            let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(5);
-            for n in [10usize, 30, 60, 200] {
-                let configs = crate::simulate::random_configurations(&m.limits_deg, n, &mut rng);
-                let mut s = nominal_state(&m);
-                s.tool = [30.0, -20.0, 80.0];
-                let pts: Vec<MeasuredPoint> = configs
-                    .iter()
-                    .enumerate()
-                    .map(|(k, q)| MeasuredPoint {
-                        q_deg: *q,
-                        position_mm: s
-                            .predict(&q.map(f64::to_radians))
-                            .map(|v| v + 0.01 * crate::sampling::standard_normal(&mut rng)),
-                        sigma_mm: None,
-                        line: k as u64,
-                    })
-                    .collect();
-                let t = std::time::Instant::now();
-                let r = identify_chain(&pts, &m, None, None, &ChainOptions::default()).unwrap();
-                let a = &r.report.identifiability;
-                eprintln!("{name} n={n} p={} rank={} kappa={:.1} o1={:.3} nulls={:?} weakest={} rms={:.4} t={:?} corr={}", a.parameters, a.rank, a.condition_number, a.o1, a.null_directions.iter().map(|d| d.combination.clone()).collect::<Vec<_>>(), a.weakest, r.report.rms_residual_mm, t.elapsed(), a.correlated.len());
-            }
-        }
+    fn target_on_the_j6_axis_is_flagged() {
+        let m = tx60();
+        let s = ChainState {
+            params: m.params,
+            tool: [0.0, 0.0, 80.0],
+            base: [2000.0, 0.0, 0.0, 0.0, 0.0, 1.0],
+        };
+        let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(4);
+        let pts: Vec<MeasuredPoint> =
+            crate::simulate::random_configurations(&m.limits_deg, 60, &mut rng)
+                .into_iter()
+                .enumerate()
+                .map(|(k, q)| MeasuredPoint {
+                    q_deg: q,
+                    position_mm: s.predict(&q.map(f64::to_radians)),
+                    sigma_mm: None,
+                    line: k as u64,
+                })
+                .collect();
+        let r = identify_chain(&pts, &m, None, None, &ChainOptions::default()).unwrap();
+        let w = r.report.warnings.join("\n");
+        assert!(w.contains("away from the J6 axis"), "{w}");
     }
 }

@@ -328,6 +328,22 @@ pub fn initial_state(obs: &[Observation], params: &[f64; N_PARAMS], tool: &[f64;
     }
 }
 
+/// The target (flange frame) that best fits base-frame data with the placement known and the
+/// parameters `params`: positions are linear in it (`R_f(q)·t + o_f(q) = p`). `None` when the
+/// data do not determine it (all points at one flange orientation).
+pub fn initial_tool(obs: &[Observation], params: &[f64; N_PARAMS]) -> Option<[f64; 3]> {
+    let mut ata = Matrix3::<f64>::zeros();
+    let mut atb = Vector3::<f64>::zeros();
+    for o in obs {
+        let t = transform(params, &o.q);
+        let r = flange_rotation(&t);
+        ata += r.transpose() * r;
+        atb += r.transpose() * (Vector3::from(o.p) - flange_origin(&t));
+    }
+    let x = ata.cholesky()?.solve(&atb);
+    x.iter().all(|v| v.is_finite()).then(|| [x.x, x.y, x.z])
+}
+
 fn flange_rotation(t: &[[f64; 4]; 4]) -> Matrix3<f64> {
     Matrix3::from_fn(|r, c| t[r][c])
 }

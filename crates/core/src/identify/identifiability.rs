@@ -30,12 +30,14 @@ pub const RANK_TOLERANCE: f64 = 1e-6;
 
 /// Condition number of the column-scaled Jacobian above which identification is flagged as
 /// ill-conditioned. The weakest combination's standard uncertainty is κ times that of the best
-/// determined one (in the scaled units): at κ = 1000 a combination determined to 1 µm by the best
-/// direction's standard is only known to 1 mm. Schröer's rule for calibration designs is κ < 100
-/// and robotkinecal accepts a tracker calibration up to 100–1000; 60 random poses of a 6R arm
-/// give κ ≈ 40–300 (measured over the four presets of the tests), so 1000 flags only data that
-/// are much worse than a routine random-pose calibration.
-pub const CONDITION_LIMIT: f64 = 1000.0;
+/// determined one (in the scaled units), so κ says how much worse than the tracker's own noise the
+/// worst direction is known. Schröer's rule for calibration designs is κ < 100 (robotkinecal's
+/// field procedure accepts 100–1000). Measured here (σ = 10 µm, target 96 mm off the flange
+/// centre, TX60 / UR5e / IRB 2400 / KR 6): random poses within the limits give κ = 16–40 from 30
+/// poses on and 58–514 with 10; a target on the J6 axis gives κ ≈ 10⁵ at any pose count (its
+/// phase about J6 is then invisible). 100 therefore passes every routine random-pose calibration
+/// and flags too few poses, narrow joint ranges and a target on the J6 axis.
+pub const CONDITION_LIMIT: f64 = 100.0;
 
 /// Correlation magnitude above which a parameter pair is listed.
 pub const CORRELATION_LIMIT: f64 = 0.9;
@@ -91,6 +93,8 @@ pub struct Identifiability {
     pub correlated: Vec<Correlation>,
     /// Span of each joint's commanded angle in the data, degrees.
     pub joint_spans_deg: [f64; JOINTS],
+    /// Distance of the target from the J6 axis, mm: near 0 its phase about J6 is invisible.
+    pub target_axis_distance_mm: f64,
 }
 
 /// The SVD of the column-scaled Jacobian: singular values (largest first) and the right singular
@@ -287,7 +291,18 @@ pub fn analyse(
         fixed_by_user,
         correlated,
         joint_spans_deg: spans,
+        target_axis_distance_mm: target_axis_distance(state),
     }
+}
+
+/// Distance of the target from the J6 axis (frame 5's z axis), mm.
+pub fn target_axis_distance(state: &ChainState) -> f64 {
+    let p = &state.params[5 * (JOINTS - 1)..5 * JOINTS];
+    // J6's own transform applied to the target, in frame 5: q6 and θ6 only turn it about z.
+    let t = crate::kinematics::joint_transform(0.0, p[1], p[2], p[3], p[4], 0.0);
+    let v: [f64; 3] =
+        std::array::from_fn(|r| (0..3).map(|c| t[r][c] * state.tool[c]).sum::<f64>() + t[r][3]);
+    (v[0] * v[0] + v[1] * v[1]).sqrt()
 }
 
 /// Joints (1-based) whose parameters appear in a named combination, and whether the placement
@@ -322,6 +337,12 @@ pub fn advice(combination: &str, a: &Identifiability) -> String {
         );
     }
     let (joints, base) = joints_in(combination);
+    if joints.iter().any(|&j| j >= JOINTS - 1) && a.target_axis_distance_mm < 10.0 {
+        return format!(
+            "mount the target away from the J6 axis (it is {:.1} mm from it; at 50 mm or more J6's rotation shows in the data)",
+            a.target_axis_distance_mm
+        );
+    }
     let narrow: Vec<String> = joints
         .iter()
         .filter(|&&j| a.joint_spans_deg[j - 1] < 90.0)

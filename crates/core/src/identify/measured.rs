@@ -19,7 +19,7 @@ use super::circle::{fit_circle, CircleFitMethod};
 use super::lines::{common_normal, Line};
 use super::pipeline::{identify_run, Identification, IdentifyOptions, IdentifyReport};
 use super::sweeps::{SweepData, SweepRun};
-use super::{mdh, IdentifyError};
+use super::{mdh, IdentifyError, IdentifyWarning};
 use crate::kinematics::{param_index, ParamKind, RobotModel, JOINTS};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
@@ -40,6 +40,7 @@ fn pose_report(
     chain: ChainReport,
     tool: [f64; 3],
 ) -> IdentifyReport {
+    let warnings = chain_warnings(run.as_deref(), &chain);
     IdentifyReport {
         run,
         method: CircleFitMethod::CommandedAngles,
@@ -48,7 +49,7 @@ fn pose_report(
         nominal_tool_mm: nominal.tool,
         j1_tilt_deg: 0.0,
         j1_offset_mm: 0.0,
-        warnings: Vec::new(),
+        warnings,
         chain: Some(chain),
     }
 }
@@ -78,6 +79,18 @@ pub fn identify_poses(
             );
             let report = pose_report(r.run.clone(), nominal, result.report, model.tool);
             Ok(Identification { model, report })
+        })
+        .collect()
+}
+
+/// The chain report's warnings as identification warnings.
+fn chain_warnings(run: Option<&str>, chain: &ChainReport) -> Vec<IdentifyWarning> {
+    chain
+        .warnings
+        .iter()
+        .map(|m| IdentifyWarning::Chain {
+            run: super::sweeps::run_label(run),
+            message: m.clone(),
         })
         .collect()
 }
@@ -234,6 +247,9 @@ pub fn identify_sweeps_chain(
             let model = chain_model(nominal, &result, circle.model.name.clone());
             let mut report = circle.report;
             report.tool_mm = model.tool;
+            report
+                .warnings
+                .extend(chain_warnings(run.run.as_deref(), &result.report));
             report.chain = Some(result.report);
             Ok(Identification { model, report })
         })

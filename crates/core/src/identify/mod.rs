@@ -60,6 +60,7 @@
 
 pub mod chain;
 pub mod chain_fit;
+mod chain_text;
 pub mod circle;
 mod error;
 pub mod identifiability;
@@ -76,6 +77,7 @@ pub mod validate;
 
 pub use crate::kinematics::{lines, mdh};
 pub use chain::{ChainOptions, ChainReport, MeasuredPoint, Placement, UncertaintyMethod};
+pub use chain_text::{frame_label, render_chain_report, render_chain_summary};
 pub use circle::{fit_circle, AxisPrior, CircleFit, CircleFitError, CircleFitMethod, MIN_ARC_DEG};
 pub use error::IdentifyError;
 pub use lines::{common_normal, CommonNormal, Line, LineRelation};

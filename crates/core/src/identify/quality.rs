@@ -76,6 +76,14 @@ pub enum IdentifyWarning {
         /// The limit on the change, mm or degrees.
         limit: f64,
     },
+    /// The whole-chain fit found the data unable to identify something, or inconsistent with
+    /// the stated noise ([`super::chain::ChainReport::warnings`]).
+    Chain {
+        /// " (run X)" or "".
+        run: String,
+        /// The warning, with what to measure instead.
+        message: String,
+    },
     /// The measured J1 axis is far from base z.
     BaseAxis {
         /// " (run X)" or "".
@@ -93,6 +101,7 @@ impl IdentifyWarning {
         match self {
             Self::Residual { joint, .. } | Self::Parameter { joint, .. } => *joint,
             Self::BaseAxis { .. } => 1,
+            Self::Chain { .. } => 0,
         }
     }
 }
@@ -100,6 +109,7 @@ impl IdentifyWarning {
 impl fmt::Display for IdentifyWarning {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self {
+            Self::Chain { run, message } => write!(f, "whole-chain fit{run}: {message}"),
             Self::Residual {
                 joint,
                 run,

@@ -15,6 +15,13 @@ use std::fmt::Write as _;
 pub fn render_identify_report(report: &IdentifyReport) -> String {
     let mut s = String::new();
     let run = sweeps::run_label(report.run.as_deref());
+    if report.joints.is_empty() {
+        let _ = writeln!(s, "Identification{run}, pose data");
+        if let Some(c) = &report.chain {
+            s.push_str(&super::render_chain_report(c));
+        }
+        return s;
+    }
     let _ = writeln!(
         s,
         "Identification{run}, {} circle fit",
@@ -84,6 +91,10 @@ pub fn render_identify_report(report: &IdentifyReport) -> String {
         "J1 measured axis vs base z: tilt {:.4} deg, offset {:.4} mm (the model takes base z as J1's axis)",
         report.j1_tilt_deg, report.j1_offset_mm
     );
+    if let Some(c) = &report.chain {
+        let _ = writeln!(s);
+        s.push_str(&super::render_chain_report(c));
+    }
     s
 }
 
@@ -105,12 +116,18 @@ pub fn render_identify_summary<'a>(
     } else {
         format!("{n} runs")
     };
-    let _ = writeln!(s, "Identified {runs}, {} circle fit", first.method.name());
-    let _ = writeln!(
-        s,
-        "{:>3} {:>6} {:>9} {:>13}  worst run",
-        "J", "points", "arc deg", "worst rms mm"
-    );
+    if first.joints.is_empty() {
+        let _ = writeln!(s, "Identified {runs} from pose data");
+    } else {
+        let _ = writeln!(s, "Identified {runs}, {} circle fit", first.method.name());
+    }
+    if !first.joints.is_empty() {
+        let _ = writeln!(
+            s,
+            "{:>3} {:>6} {:>9} {:>13}  worst run",
+            "J", "points", "arc deg", "worst rms mm"
+        );
+    }
     for (j, joint) in first.joints.iter().enumerate() {
         let worst = reports
             .iter()
@@ -145,6 +162,14 @@ pub fn render_identify_summary<'a>(
         tool[1],
         tool[2]
     );
+    for r in &reports {
+        if let Some(c) = &r.chain {
+            if n > 1 {
+                let _ = writeln!(s, "Run {}:", r.run.as_deref().unwrap_or("-"));
+            }
+            s.push_str(&super::render_chain_summary(c));
+        }
+    }
     s
 }
 
@@ -288,7 +313,7 @@ impl Report for IdentifyReports {
                         })
                     })
                     .collect();
-                serde_json::json!({
+                let mut v = serde_json::json!({
                     "run": self.label(i),
                     "method": r.method.name(),
                     "joints": joints,
@@ -297,7 +322,17 @@ impl Report for IdentifyReports {
                     "j1_tilt_deg": r.j1_tilt_deg,
                     "j1_offset_mm": r.j1_offset_mm,
                     "warnings": r.warnings.iter().map(|w| w.to_string()).collect::<Vec<_>>(),
-                })
+                });
+                if let (Some(c), Some(o)) = (&r.chain, v.as_object_mut()) {
+                    if r.joints.is_empty() {
+                        o.insert("method".into(), serde_json::json!("poses"));
+                    }
+                    o.insert(
+                        "chain".into(),
+                        serde_json::to_value(c).unwrap_or(serde_json::Value::Null),
+                    );
+                }
+                v
             })
             .collect();
         let v = serde_json::json!({

@@ -136,6 +136,27 @@ pub fn identified_model(
 ) -> Result<(RobotModel, String), IdentifyError> {
     let (mut model, note) = match ids {
         [] => return Err(IdentifyError::NoData("no identified runs".into())),
+        [one] if one.report.chain.is_some() => {
+            let how = one
+                .report
+                .chain
+                .as_ref()
+                .map(|c| match c.covariance_from {
+                    super::UncertaintyMethod::Linearised => "s²(JᵀWJ)⁻¹".to_string(),
+                    super::UncertaintyMethod::MonteCarlo { draws } => {
+                        format!("the spread of {draws} Monte Carlo re-identifications")
+                    }
+                })
+                .unwrap_or_default();
+            (
+                one.model.clone(),
+                format!(
+                    "one run: the model file holds the covariance its own data produced ({how}, {} × {})",
+                    one.model.uncertainty.dim(),
+                    one.model.uncertainty.dim()
+                ),
+            )
+        }
         [one] => {
             let mut m = one.model.clone();
             m.uncertainty = nominal.uncertainty.clone();
@@ -155,15 +176,72 @@ pub fn identified_model(
             };
             let stats = stats
                 .ok_or_else(|| IdentifyError::NoData("parameter statistics of the runs".into()))?;
-            let note = format!(
+            let mut stats = stats;
+            let mut note = format!(
                 "{} runs: the model file holds the mean parameters and their run-to-run {what}",
                 many.len()
             );
+            if let Some(cmp) = compare_with_single_run(many, &stats) {
+                note.push_str(&cmp);
+            }
+            // Placements identified per run: their mean (the tracker is taken not to move).
+            let bases: Vec<_> = many.iter().filter_map(|i| i.model.base).collect();
+            if many.iter().any(|i| {
+                i.report
+                    .chain
+                    .as_ref()
+                    .is_some_and(|c| c.frame == super::Placement::Identify)
+            }) && bases.len() == many.len()
+            {
+                let n = bases.len() as f64;
+                let mut b = bases[0];
+                for k in 0..3 {
+                    b.xyz[k] = bases.iter().map(|x| x.xyz[k]).sum::<f64>() / n;
+                    b.rpy[k] = bases.iter().map(|x| x.rpy[k]).sum::<f64>() / n;
+                }
+                stats.base = Some(b);
+            }
             (stats, note)
         }
     };
     model.name = format!("{} (identified from {source})", nominal.name);
     Ok((model, note))
+}
+
+/// "; run-to-run σ / single-run σ: median 1.02 over 23 parameters" when the runs carry
+/// single-run covariances.
+fn compare_with_single_run(runs: &[Identification], stats: &RobotModel) -> Option<String> {
+    let spread = stats.input_sigmas();
+    let mut ratios = Vec::new();
+    for i in 0..N_UNCERTAIN {
+        let single: Vec<f64> = runs
+            .iter()
+            .filter_map(|r| match &r.model.uncertainty {
+                Uncertainty::Covariance(_) if r.report.chain.is_some() => {
+                    Some(r.model.uncertainty.entry(i, i).max(0.0).sqrt())
+                }
+                _ => None,
+            })
+            .collect();
+        if single.len() != runs.len() || spread[i] == 0.0 {
+            continue;
+        }
+        let mean = single.iter().sum::<f64>() / single.len() as f64;
+        if mean > 0.0 {
+            ratios.push(spread[i] / mean);
+        }
+    }
+    if ratios.is_empty() {
+        return None;
+    }
+    ratios.sort_by(f64::total_cmp);
+    Some(format!(
+        "; run-to-run σ / single-run σ: median {:.2} (range {:.2}–{:.2}) over {} inputs",
+        ratios[ratios.len() / 2],
+        ratios[0],
+        ratios[ratios.len() - 1],
+        ratios.len()
+    ))
 }
 
 #[cfg(test)]

@@ -1,0 +1,123 @@
+//! The terminal text of a whole-chain fit ([`super::chain::ChainReport`]).
+
+use super::chain::{ChainReport, Placement, UncertaintyMethod};
+use std::fmt::Write;
+
+/// The frame line: which frame the data and the model are in.
+pub fn frame_label(p: Placement) -> &'static str {
+    match p {
+        Placement::Identify => "measurement frame (placement identified)",
+        Placement::Known => "robot base frame (placement known)",
+    }
+}
+
+/// A few lines: points, residuals, noise, identifiability and the covariance's source.
+pub fn render_chain_summary(c: &ChainReport) -> String {
+    let mut s = String::new();
+    let a = &c.identifiability;
+    let _ = writeln!(
+        s,
+        "Whole-chain fit: {} points in the {}, {} quantities identified",
+        c.points,
+        frame_label(c.frame),
+        a.parameters
+    );
+    let _ = writeln!(
+        s,
+        "  residuals: rms {:.4} mm, max {:.4} mm",
+        c.rms_residual_mm, c.max_residual_mm
+    );
+    match (c.noise.sigma_mm, c.noise.p_value) {
+        (Some(sig), _) => {
+            let _ = writeln!(
+                s,
+                "  noise: {}: σ = {:.4} mm per coordinate ({} degrees of freedom)",
+                c.noise.source, sig, c.noise.dof
+            );
+        }
+        (None, Some(p)) => {
+            let verdict = if p < 1e-3 {
+                "residuals too large for it"
+            } else if p > 1.0 - 1e-3 {
+                "residuals too small for it"
+            } else {
+                "consistent"
+            };
+            let _ = writeln!(
+                s,
+                "  noise: {}: χ² = {:.1} for {} degrees of freedom (p = {:.3}): {verdict}",
+                c.noise.source, c.noise.chi2, c.noise.dof, p
+            );
+        }
+        (None, None) => {}
+    }
+    let _ = writeln!(
+        s,
+        "  identifiability: rank {} of {}, condition number {:.1}, O1 {:.4}, O3 {:.4}; weakest: {}",
+        a.rank, a.parameters, a.condition_number, a.o1, a.o3, a.weakest
+    );
+    for n in &a.null_directions {
+        let _ = writeln!(
+            s,
+            "  not identifiable: {} (relative singular value {:.1e}) → fixed {} at nominal",
+            n.combination, n.relative_singular_value, n.fixed
+        );
+    }
+    if !a.fixed_by_user.is_empty() {
+        let _ = writeln!(s, "  fixed by request: {}", a.fixed_by_user.join(", "));
+    }
+    if !a.correlated.is_empty() {
+        let pairs: Vec<String> = a
+            .correlated
+            .iter()
+            .take(8)
+            .map(|c| format!("{}/{} {:+.3}", c.a, c.b, c.rho))
+            .collect();
+        let more = a.correlated.len().saturating_sub(8);
+        let _ = writeln!(
+            s,
+            "  correlated (|ρ| > 0.9): {}{}",
+            pairs.join(", "),
+            if more > 0 {
+                format!(" and {more} more")
+            } else {
+                String::new()
+            }
+        );
+    }
+    if let Some(m) = &c.monte_carlo {
+        let _ = writeln!(
+            s,
+            "  Monte Carlo check ({} re-identifications): σ_MC / σ_linearised min {:.3}, median {:.3}, max {:.3}",
+            m.draws, m.ratio_min, m.ratio_median, m.ratio_max
+        );
+    }
+    let _ = writeln!(
+        s,
+        "  covariance: {}",
+        match c.covariance_from {
+            UncertaintyMethod::Linearised => "s²(JᵀWJ)⁻¹ at the solution".to_string(),
+            UncertaintyMethod::MonteCarlo { draws } =>
+                format!("sample covariance of {draws} Monte Carlo re-identifications"),
+        }
+    );
+    s
+}
+
+/// The full text: the summary and every input with its value, σ, nominal value and status.
+pub fn render_chain_report(c: &ChainReport) -> String {
+    let mut s = render_chain_summary(c);
+    let _ = writeln!(
+        s,
+        "\n{:<11} {:>16} {:>12} {:>16} {:>5}  status",
+        "parameter", "value", "σ", "nominal", "unit"
+    );
+    for r in &c.parameters {
+        let _ = writeln!(
+            s,
+            "{:<11} {:>16.6} {:>12.6} {:>16.6} {:>5}  {}",
+            r.name, r.value, r.sigma, r.nominal, r.unit, r.status
+        );
+    }
+    s
+}
