@@ -1,4 +1,5 @@
-//! `identify`: MDH parameters from laser-tracker sweeps (circle point method).
+//! `identify`: MDH parameters, target and placement from laser-tracker data (sweeps or poses, in
+//! any measurement frame), with the covariance the data produce.
 
 use super::args::load_model;
 use super::outputs::Outputs;
@@ -7,7 +8,10 @@ use super::Run;
 use crate::cmd::reports::ReportFlags;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
-use gpu_amcs::identify::IdentifyReports;
+use gpu_amcs::identify::{
+    ChainOptions, IdentifyReports, NoiseModel, Placement, PoseRunPoints, TrackerData,
+    UncertaintyMethod,
+};
 use gpu_amcs::report::Report;
 use std::path::PathBuf;
 
@@ -18,6 +22,15 @@ pub enum FitArg {
     Commanded,
     /// Plain point-cloud circle fit (plane, algebraic circle, geometric refinement).
     PointCloud,
+}
+
+/// How the covariance is obtained.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UncertaintyArg {
+    /// s²(JᵀWJ)⁻¹ at the solution.
+    Linearised,
+    /// The sample covariance of --mc-draws re-identifications of synthetic data.
+    Montecarlo,
 }
 
 /// `identify` options.
@@ -34,10 +47,49 @@ pub enum FitArg {
     mut_arg("svg", |a| a.help("Write residuals.svg (circle-fit RMS residual per joint) into DIR")),
     mut_arg("quiet", |a| a.help("Print only warnings and errors"))
 )]
+#[command(group(clap::ArgGroup::new("noise").args(["tracker_sigma", "tracker_mpe"])))]
 pub struct IdentifyArgs {
-    /// Sweeps CSV: joint,q1..q6,x,y,z (optionally a run column); degrees and mm.
-    #[arg(value_name = "SWEEPS.csv")]
+    /// Tracker data CSV, told apart by the header: sweeps (joint,q1..q6,x,y,z) or poses
+    /// (q1..q6,x,y,z, optionally sx,sy,sz); either may have a run column; degrees and mm, in any
+    /// measurement frame.
+    #[arg(value_name = "DATA.csv")]
     pub sweeps: PathBuf,
+    /// The data are in the robot's base frame (J1 along z): do not identify the placement.
+    #[arg(long)]
+    pub base_known: bool,
+    /// Fix these parameters at their nominal values, by name: theta1…beta6, tool_x…tool_z,
+    /// base_x, base_y, base_z, base_roll, base_pitch, base_yaw.
+    #[arg(long, value_delimiter = ',', value_name = "NAME,...")]
+    pub fix: Vec<String>,
+    /// Tracker noise: σ per coordinate, mm (default: the data's sx,sy,sz columns, else estimated
+    /// from the residuals).
+    #[arg(long, value_name = "MM")]
+    pub tracker_sigma: Option<f64>,
+    /// Tracker noise from its MPE: A,B[,R] = ±(A µm + B µm/m · distance) across the line of
+    /// sight and ±R µm along it (default R = 10), each MPE taken as 2σ; e.g. 15,6 for an
+    /// AT960-class tracker. The tracker stands at the data frame's origin (see --tracker-at).
+    #[arg(long, value_delimiter = ',', num_args = 2..=3, value_name = "A,B[,R]")]
+    pub tracker_mpe: Option<Vec<f64>>,
+    /// Tracker position in the data's frame, mm, for --tracker-mpe (default: the origin, where a
+    /// tracker's own frame has it).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        num_args = 3,
+        value_name = "X,Y,Z",
+        requires = "tracker_mpe"
+    )]
+    pub tracker_at: Option<Vec<f64>>,
+    /// How the parameters' covariance is obtained: linearised s²(JᵀWJ)⁻¹, or the spread of
+    /// Monte Carlo re-identifications of synthetic data drawn around the fit.
+    #[arg(long, value_enum, default_value_t = UncertaintyArg::Linearised)]
+    pub uncertainty: UncertaintyArg,
+    /// Number of Monte Carlo re-identifications for --uncertainty montecarlo.
+    #[arg(long, default_value_t = 200, value_name = "K")]
+    pub mc_draws: usize,
+    /// Seed of the Monte Carlo re-identification.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
     /// Write the identified model (TOML) to FILE.
     #[arg(long, short, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -54,15 +106,18 @@ pub struct IdentifyArgs {
     /// Use the data alone: no prior towards the nominal geometry.
     #[arg(long)]
     pub no_prior: bool,
-    /// Skip the least-squares refinement over all sweep points.
+    /// Skip the least-squares refinement over all sweep points (sweeps in the base frame only;
+    /// the model then has no covariance of its own).
     #[arg(long)]
     pub no_refine: bool,
     /// With several runs, write the full sample covariance of the parameters instead of
     /// independent σ.
     #[arg(long)]
     pub covariance: bool,
-    /// Fail (exit 2, no model file) when a result looks implausible: a fit RMS residual above
-    /// 0.05 mm, a parameter more than 5 mm / 2° from nominal, a J1 axis away from base z.
+    /// Fail (exit 2, no model file) when a result looks implausible or the data cannot identify
+    /// the parameters: a fit RMS residual above 0.05 mm, a parameter more than 5 mm / 2° from
+    /// nominal, a J1 axis away from base z, rank deficiency, a condition number above 100,
+    /// residuals inconsistent with the stated noise.
     #[arg(long)]
     pub strict: bool,
     /// Print every run's per-joint fit and parameter tables instead of a summary.
@@ -83,7 +138,9 @@ impl Run for IdentifyArgs {
         a.reports
             .declare(&mut outputs, &IdentifyReports::planned_layout())?;
         let nominal = load_model(a.nominal.as_deref(), &a.preset).context("--nominal")?;
-        let data = identify::read_sweeps(&a.sweeps)?;
+        let origin = a.sweeps.display().to_string();
+        let data = identify::read_tracker_data(&a.sweeps)?;
+        identify::check_tracker_data(&data, &nominal, &origin)?;
         let opts = IdentifyOptions {
             method: match a.fit {
                 FitArg::Commanded => CircleFitMethod::CommandedAngles,
@@ -92,7 +149,24 @@ impl Run for IdentifyArgs {
             nominal_prior: (!a.no_prior).then(NominalPrior::default),
             refine: !a.no_refine,
         };
-        let ids = identify::identify(&data, &nominal, &opts)?;
+        let chain = a.chain_options(&data)?;
+        let ids = match &data {
+            TrackerData::Sweeps(d) if a.no_refine => {
+                if !a.base_known {
+                    bail!(
+                        "--no-refine: the plain circle-point result needs base-frame data; add --base-known"
+                    );
+                }
+                identify::identify(d, &nominal, &opts)?
+            }
+            TrackerData::Sweeps(d) => identify::identify_sweeps_chain(d, &nominal, &opts, &chain)?,
+            TrackerData::Poses(p) => {
+                if a.no_refine || a.fit != FitArg::Commanded {
+                    bail!("--no-refine and --fit apply to sweeps only; this file holds poses");
+                }
+                identify::identify_poses(&pose_runs(p), &nominal, &opts, &chain)?
+            }
+        };
         let reports = IdentifyReports::new(&nominal.name, &ids);
         // stdout is built first and printed after the model file is written, so a reader that
         // stops early (`| head`) cannot cost the file.
@@ -132,7 +206,12 @@ impl Run for IdentifyArgs {
         outputs.stage_file("--out", model.to_toml())?;
         let yes_no = |b: bool| if b { "yes" } else { "no" }.to_string();
         let rows = [
-            ("sweeps file".to_string(), a.sweeps.display().to_string()),
+            ("data file".to_string(), a.sweeps.display().to_string()),
+            (
+                "frame".to_string(),
+                identify::frame_label(chain.placement).to_string(),
+            ),
+            ("noise".to_string(), chain.noise.describe()),
             (
                 "prior towards the nominal geometry".to_string(),
                 yes_no(!a.no_prior),
@@ -147,4 +226,76 @@ impl Run for IdentifyArgs {
         crate::cmd::stdout::print(&text)?;
         Ok(())
     }
+}
+
+impl IdentifyArgs {
+    /// The whole-chain options of the flags; the noise defaults to the data's sx,sy,sz columns
+    /// when every point has them, else to the residuals.
+    fn chain_options(&self, data: &TrackerData) -> Result<ChainOptions> {
+        let noise = if let Some(s) = self.tracker_sigma {
+            if !(s.is_finite() && s > 0.0) {
+                bail!("--tracker-sigma: {s} is not a positive number of mm");
+            }
+            NoiseModel::Isotropic { sigma_mm: s }
+        } else if let Some(m) = &self.tracker_mpe {
+            if m.iter().any(|v| !(v.is_finite() && *v >= 0.0)) || m[0] <= 0.0 {
+                bail!("--tracker-mpe: A,B[,R] must be non-negative numbers of µm and µm/m, A > 0");
+            }
+            let at = self.tracker_at.clone().unwrap_or_else(|| vec![0.0; 3]);
+            if at.iter().any(|v| !v.is_finite()) {
+                bail!("--tracker-at: not finite");
+            }
+            NoiseModel::Tracker {
+                constant_um: m[0],
+                per_metre_um: m[1],
+                radial_um: m.get(2).copied().unwrap_or(10.0),
+                mpe_sigmas: 2.0,
+                position_mm: [at[0], at[1], at[2]],
+            }
+        } else if matches!(data, TrackerData::Poses(p) if p.runs.iter().all(|r| r.points.iter().all(|x| x.sigma_mm.is_some())))
+        {
+            NoiseModel::PerPoint
+        } else {
+            NoiseModel::FromResiduals
+        };
+        if self.mc_draws < 10 && self.uncertainty == UncertaintyArg::Montecarlo {
+            bail!("--mc-draws: at least 10 re-identifications are needed for a covariance");
+        }
+        Ok(ChainOptions {
+            placement: if self.base_known {
+                Placement::Known
+            } else {
+                Placement::Identify
+            },
+            fix: self.fix.clone(),
+            noise,
+            uncertainty: match self.uncertainty {
+                UncertaintyArg::Linearised => UncertaintyMethod::Linearised,
+                UncertaintyArg::Montecarlo => UncertaintyMethod::MonteCarlo {
+                    draws: self.mc_draws,
+                },
+            },
+            seed: self.seed,
+        })
+    }
+}
+
+/// The runs of pose data as the whole-chain fit takes them.
+fn pose_runs(p: &gpu_amcs::identify::PoseData) -> Vec<PoseRunPoints> {
+    p.runs
+        .iter()
+        .map(|r| PoseRunPoints {
+            run: r.run.clone(),
+            points: r
+                .points
+                .iter()
+                .map(|x| gpu_amcs::identify::MeasuredPoint {
+                    q_deg: x.q_deg,
+                    position_mm: x.position_mm,
+                    sigma_mm: x.sigma_mm,
+                    line: x.line,
+                })
+                .collect(),
+        })
+        .collect()
 }

@@ -23,6 +23,21 @@ pub struct ValidateArgs {
     /// Built-in nominal model for a bare --nominal.
     #[arg(long, default_value = "tx60", value_name = "NAME")]
     pub preset: String,
+    /// Frame of the measured positions: `measurement` (the tracker frame the model's placement
+    /// was identified in; a nominal model is placed where the model is) or `base` (the robot's
+    /// base frame). Default: measurement for a model whose covariance includes the placement
+    /// (identified from data in a tracker frame), else base.
+    #[arg(long, value_enum, value_name = "FRAME")]
+    pub frame: Option<ValidateFrame>,
+}
+
+/// The frame of the measurements.
+#[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ValidateFrame {
+    /// The measurement (tracker) frame: the model's base placement applies.
+    Measurement,
+    /// The robot's base frame.
+    Base,
 }
 
 impl Run for ValidateArgs {
@@ -35,14 +50,31 @@ impl Run for ValidateArgs {
             Some(f) => Some(load_model(f.as_deref(), &a.preset).context("--nominal")?),
         };
         let m = identify::read_measurements(&a.measured)?;
-        let v = identify::validate(&model, &m, nominal.as_ref()).map_err(|e| match e {
-            // The library names the line; the file is named here.
-            identify::IdentifyError::OutsideLimits { .. } => {
-                anyhow::anyhow!("{}: {e} of model {}", a.measured.display(), model.name)
+        let frame = match a.frame {
+            Some(ValidateFrame::Measurement) => identify::Placement::Identify,
+            Some(ValidateFrame::Base) => identify::Placement::Known,
+            None if model.uncertainty.dim() > gpu_amcs::kinematics::N_UNCERTAIN => {
+                identify::Placement::Identify
             }
-            e => e.into(),
-        })?;
-        crate::cmd::stdout::print(&identify::render_validation(&v))?;
+            None => identify::Placement::Known,
+        };
+        let v =
+            identify::validate_in(&model, &m, nominal.as_ref(), frame).map_err(|e| match e {
+                // The library names the line; the file is named here.
+                identify::IdentifyError::OutsideLimits { .. } => {
+                    anyhow::anyhow!("{}: {e} of model {}", a.measured.display(), model.name)
+                }
+                e => e.into(),
+            })?;
+        let mut text = identify::render_validation(&v);
+        text.push_str(&format!(
+            "frame: {}\n",
+            match frame {
+                identify::Placement::Identify => "measurement (the model's placement applies)",
+                identify::Placement::Known => "robot base",
+            }
+        ));
+        crate::cmd::stdout::print(&text)?;
         Ok(())
     }
 }

@@ -102,6 +102,6 @@ pub use statistics::{
 };
 pub use sweeps::{parse_sweeps, read_sweeps, write_sweeps, Sweep, SweepData, SweepPoint, SweepRun};
 pub use validate::{
-    accuracy, parse_measurements, read_measurements, validate, write_measurements, AccuracyStats,
-    Measurement, Validation, SAME_TOOL_MM,
+    accuracy, accuracy_in, parse_measurements, point_errors_in, read_measurements, validate,
+    validate_in, write_measurements, AccuracyStats, Measurement, Validation, SAME_TOOL_MM,
 };

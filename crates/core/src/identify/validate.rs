@@ -2,12 +2,13 @@
 //! docs/METHOD.md §5: mean absolute positioning error before and after calibration).
 //!
 //! Input CSV header `q1,q2,q3,q4,q5,q6,x,y,z`: commanded joint angles (deg) and the measured
-//! target position (mm, base frame). The error at a point is `‖P(model, q) − p_measured‖`;
+//! target position (mm, in the robot base frame, or with [`validate_in`] in the measurement frame
+//! of an identified placement). The error at a point is `‖P(model, q) − p_measured‖`;
 //! [`validate`] reports its mean, RMS and maximum for a model and optionally for a nominal model,
 //! with the improvement in percent ([`Validation::improvement_percent`]).
 
 use super::sweeps::{column_indices, csv_error, csv_reader, open_input, parse_number};
-use super::IdentifyError;
+use super::{IdentifyError, Placement};
 use crate::kinematics::{position, RobotModel, JOINTS};
 use std::io::{Read, Write};
 use std::path::Path;
@@ -113,12 +114,22 @@ pub struct AccuracyStats {
     pub max_mm: f64,
 }
 
-/// Positioning error of `model` at every measurement, mm.
+/// Positioning error of `model` at every measurement, mm (measurements in the robot base frame).
 pub fn point_errors(model: &RobotModel, m: &[Measurement]) -> Vec<f64> {
+    point_errors_in(model, m, Placement::Known)
+}
+
+/// Positioning error of `model` at every measurement, mm: with [`Placement::Identify`] the
+/// measurements are in the measurement frame and the model's `base` (its identified placement)
+/// applies; with [`Placement::Known`] they are in the robot base frame.
+pub fn point_errors_in(model: &RobotModel, m: &[Measurement], frame: Placement) -> Vec<f64> {
     m.iter()
         .map(|p| {
             let q = p.q_deg.map(f64::to_radians);
-            let x = position(&model.params, &model.tool, &q);
+            let x = match frame {
+                Placement::Identify => model.world_position(&q),
+                Placement::Known => position(&model.params, &model.tool, &q),
+            };
             (0..3)
                 .map(|k| (x[k] - p.position_mm[k]).powi(2))
                 .sum::<f64>()
@@ -130,6 +141,11 @@ pub fn point_errors(model: &RobotModel, m: &[Measurement]) -> Vec<f64> {
 /// Mean, RMS and maximum positioning error of `model` over `m` (all zero for no points).
 pub fn accuracy(model: &RobotModel, m: &[Measurement]) -> AccuracyStats {
     stats(&point_errors(model, m))
+}
+
+/// [`accuracy`] with the measurements in `frame` ([`point_errors_in`]).
+pub fn accuracy_in(model: &RobotModel, m: &[Measurement], frame: Placement) -> AccuracyStats {
+    stats(&point_errors_in(model, m, frame))
 }
 
 /// Mean, RMS and maximum of a list of errors (all zero for an empty list).
@@ -190,6 +206,23 @@ pub fn validate(
     measurements: &[Measurement],
     nominal: Option<&RobotModel>,
 ) -> Result<Validation, IdentifyError> {
+    validate_in(model, measurements, nominal, Placement::Known)
+}
+
+/// [`validate`] with the measurements in `frame`: in the measurement frame
+/// ([`Placement::Identify`]) the model's placement applies, and a nominal model is placed where
+/// the model is (its `base` replaced by the model's), so that it is compared on the geometry
+/// alone.
+///
+/// # Errors
+///
+/// As [`validate`].
+pub fn validate_in(
+    model: &RobotModel,
+    measurements: &[Measurement],
+    nominal: Option<&RobotModel>,
+    frame: Placement,
+) -> Result<Validation, IdentifyError> {
     if measurements.is_empty() {
         return Err(IdentifyError::NoData(
             "no measurements to validate against".into(),
@@ -214,11 +247,14 @@ pub fn validate(
             nominal_tool_replaced = Some(n.tool);
             n.tool = model.tool;
         }
-        (n.name.clone(), accuracy(&n, measurements))
+        if frame == Placement::Identify {
+            n.base = model.base;
+        }
+        (n.name.clone(), accuracy_in(&n, measurements, frame))
     });
     Ok(Validation {
         model_name: model.name.clone(),
-        model: accuracy(model, measurements),
+        model: accuracy_in(model, measurements, frame),
         nominal,
         nominal_tool_replaced,
     })
