@@ -60,6 +60,7 @@
 
 pub mod chain;
 pub mod chain_fit;
+mod chain_outputs;
 mod chain_text;
 pub mod circle;
 mod error;

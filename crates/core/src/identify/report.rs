@@ -3,6 +3,10 @@
 //! ([`render_validation`]); and [`IdentifyReports`], the runs of one identification as a
 //! [`Report`] (JSON, CSV tables, the residual figure and the page).
 
+use super::chain_outputs::{
+    chain_sections, correlation_svg, parameters_csv, pose_residual_plot, CORRELATION_SVG,
+    PARAMETERS_CSV, POSE_RESIDUALS_SVG,
+};
 use super::{sweeps, AccuracyStats, Identification, IdentifyReport, Validation};
 use crate::kinematics::{ParamKind, JOINTS};
 use crate::report::html::pages::{add_settings, link_all};
@@ -240,10 +244,19 @@ impl IdentifyReports {
     pub fn planned_layout() -> Layout {
         Layout::new(
             "identify.json",
-            &[JOINTS_CSV, RUNS_CSV],
-            &[RESIDUALS_SVG],
+            &[JOINTS_CSV, RUNS_CSV, PARAMETERS_CSV],
+            &[RESIDUALS_SVG, CORRELATION_SVG, POSE_RESIDUALS_SVG],
             &[],
         )
+    }
+
+    /// Every run with its label.
+    fn labelled(&self) -> Vec<(String, &IdentifyReport)> {
+        self.runs
+            .iter()
+            .enumerate()
+            .map(|(i, r)| (self.label(i), r))
+            .collect()
     }
 
     /// The run's label: its name, or its number from 1 when the data had no `run` column.
@@ -389,11 +402,35 @@ impl Report for IdentifyReports {
                 quoted(&warnings.join("; "))
             );
         }
-        vec![(JOINTS_CSV.into(), joints), (RUNS_CSV.into(), runs)]
+        vec![
+            (JOINTS_CSV.into(), joints),
+            (RUNS_CSV.into(), runs),
+            (PARAMETERS_CSV.into(), parameters_csv(&self.labelled())),
+        ]
     }
 
     fn svg(&self) -> Vec<(String, String)> {
-        vec![(RESIDUALS_SVG.into(), residual_plot(self).render())]
+        let runs = self.labelled();
+        let first = runs
+            .iter()
+            .find_map(|(l, r)| r.chain.as_ref().map(|c| (l, c)));
+        vec![
+            (RESIDUALS_SVG.into(), residual_plot(self).render()),
+            (
+                CORRELATION_SVG.into(),
+                correlation_svg(
+                    first.map(|(_, c)| c),
+                    &format!(
+                        "Correlation of the identified quantities — {}",
+                        first.map_or("-".to_string(), |(l, _)| format!("run {l}"))
+                    ),
+                ),
+            ),
+            (
+                POSE_RESIDUALS_SVG.into(),
+                pose_residual_plot(&runs, &self.nominal).render(),
+            ),
+        ]
     }
 
     fn page(&self, settings: &[(String, String)], files: &[(String, String)]) -> String {
@@ -562,6 +599,7 @@ fn identify_page(
             }
         ),
     ));
+    chain_sections(&mut page, &r.labelled(), &r.nominal);
     page.setting("nominal model", &r.nominal);
     add_settings(&mut page, settings);
     page.setting("circle fit", method);
