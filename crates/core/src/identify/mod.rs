@@ -69,6 +69,7 @@ mod lm;
 pub mod measured;
 pub mod noise;
 mod pipeline;
+mod provenance;
 mod quality;
 pub mod refine;
 mod report;
@@ -90,6 +91,7 @@ pub use pipeline::{
     JointReport, NominalPrior, HOME_TOLERANCE_DEG, NOMINAL_ANGLE_SIGMA_DEG,
     NOMINAL_LENGTH_SIGMA_MM,
 };
+pub use provenance::{sha256_hex, Provenance};
 pub use quality::{
     grouped_warnings, quality_warnings, IdentifyWarning, QualityLimits, MAX_ANGLE_CHANGE_DEG,
     MAX_LENGTH_CHANGE_MM, MAX_RMS_RESIDUAL_MM,

@@ -94,6 +94,11 @@ struct ModelFile {
     joint: Vec<JointFile>,
     #[serde(skip_serializing_if = "Option::is_none")]
     covariance: Option<CovarianceFile>,
+    /// Where an identified model came from (data hash, fit figures): written by the
+    /// identification after the model, read and ignored here.
+    #[serde(default, skip_serializing)]
+    #[allow(dead_code)]
+    provenance: Option<toml::Table>,
 }
 
 impl RobotModel {
