@@ -258,7 +258,36 @@ pub const STUDY_SETTINGS: Table = Table {
 
 /// Every table.
 #[cfg_attr(not(test), allow(dead_code))]
+/// `identify::IdentifyOptions` in `identify`.
+pub const IDENTIFY_OPTIONS: Table = Table {
+    name: "identify::IdentifyOptions",
+    commands: &["identify"],
+    fields: &[
+        ("method", Flags(&["--fit"])),
+        ("nominal_prior", Flags(&["--no-prior"])),
+        ("refine", Flags(&["--no-refine"])),
+    ],
+};
+
+/// `identify::ChainOptions` in `identify`.
+pub const CHAIN_OPTIONS: Table = Table {
+    name: "identify::ChainOptions",
+    commands: &["identify"],
+    fields: &[
+        ("placement", Flags(&["--base-known"])),
+        ("fix", Flags(&["--fix"])),
+        (
+            "noise",
+            Flags(&["--tracker-sigma", "--tracker-mpe", "--tracker-at"]),
+        ),
+        ("uncertainty", Flags(&["--uncertainty", "--mc-draws"])),
+        ("seed", Flags(&["--seed"])),
+    ],
+};
+
 pub const TABLES: &[&Table] = &[
+    &IDENTIFY_OPTIONS,
+    &CHAIN_OPTIONS,
     &RUN_SETTINGS,
     &AMCS_OPTIONS,
     &MCS_OPTIONS,

@@ -68,6 +68,7 @@ fn same_fields(t: &Table, fields: &[&str]) {
 
 #[test]
 fn every_field_of_every_options_struct_has_an_entry() {
+    use gpu_amcs::identify::{ChainOptions, IdentifyOptions};
     use gpu_amcs::map::MapSpec;
     use gpu_amcs::mc::sensitivity::SensitivityOptions;
     use gpu_amcs::mc::tail::TailOptions;
@@ -154,6 +155,20 @@ fn every_field_of_every_options_struct_has_an_entry() {
         adapter
     });
     same_fields(&STUDY_SETTINGS, &study);
+    let identify = fields!(IdentifyOptions {
+        method,
+        nominal_prior,
+        refine
+    });
+    same_fields(&IDENTIFY_OPTIONS, &identify);
+    let chain = fields!(ChainOptions {
+        placement,
+        fix,
+        noise,
+        uncertainty,
+        seed
+    });
+    same_fields(&CHAIN_OPTIONS, &chain);
     // The serialised forms agree where the structs are serialisable (a field renamed for
     // serde would be named by its serde key in the documentation).
     let keys =
