@@ -432,3 +432,79 @@ fn base_known_fits_23_quantities() {
     let q = [0.3, -0.2, 1.0, 0.5, -0.4, 0.8];
     assert!(distance(model.world_position(&q), truth.world_position(&q)) < 1e-6);
 }
+
+/// The reliability a single run predicts is the reliability the true robots have: over 300
+/// experiments (base-frame data, 60 poses, σ = 10 µm), the engine's R(l_c) at five held-out
+/// points from each identified model (its own covariance, Monte Carlo with 20 000 draws) is
+/// compared with whether the true robot met l_c there; at three thresholds (R ≈ 0.2–0.8) the mean predicted R
+/// and the fraction of true robots within l_c agree within 3 binomial standard errors.
+#[test]
+fn predicted_reliability_matches_the_true_robots() {
+    use gpu_amcs::engine::{CpuEvaluator, Problem, Reference};
+    use gpu_amcs::kinematics::position;
+    use gpu_amcs::mc::{run_mcs, McsOptions, RunSettings};
+    let thresholds = vec![0.007, 0.009, 0.011];
+    let n = 300;
+    let mut predicted = vec![0.0; thresholds.len()];
+    let mut met = vec![0usize; thresholds.len()];
+    let nominal = preset("tx60").unwrap();
+    for e in 0..n as u64 {
+        let mut rng = ChaCha8Rng::seed_from_u64(5000 + e);
+        let truth = perturbed_model(
+            &nominal,
+            &ParameterErrors::default(),
+            [30.0, -20.0, 80.0],
+            &mut rng,
+        );
+        let data = measure(&truth, &configs(&truth, 60, &mut rng), 0.01, &mut rng);
+        let opts = ChainOptions {
+            placement: Placement::Known,
+            ..ChainOptions::default()
+        };
+        let (model, _) = identify("tx60", &data, &opts);
+        let held = configs(&truth, 5, &mut rng);
+        let w_true = held
+            .iter()
+            .map(|q| {
+                let q = q.map(f64::to_radians);
+                distance(
+                    position(&truth.params, &truth.tool, &q),
+                    position(&model.params, &model.tool, &q),
+                )
+            })
+            .fold(0.0, f64::max);
+        let problem = Problem::new(model, &held, &Reference::Calibrated, 1 + e).unwrap();
+        let r = run_mcs(
+            &mut CpuEvaluator::new(problem),
+            &McsOptions {
+                draws: 20_000,
+                chunk: 20_000,
+                settings: RunSettings {
+                    thresholds: thresholds.clone(),
+                    ..RunSettings::default()
+                },
+            },
+            None,
+        )
+        .unwrap();
+        for (t, rel) in r.reliability.iter().enumerate() {
+            predicted[t] += rel.r / n as f64;
+            if w_true < thresholds[t] {
+                met[t] += 1;
+            }
+        }
+    }
+    for (t, l) in thresholds.iter().enumerate() {
+        let frac = met[t] as f64 / n as f64;
+        let se = (predicted[t] * (1.0 - predicted[t]) / n as f64).sqrt();
+        eprintln!(
+            "l_c = {l} mm: mean predicted R {:.3}, true robots within l_c {frac:.3} (±{se:.3})",
+            predicted[t]
+        );
+        assert!(
+            (frac - predicted[t]).abs() <= 3.0 * se + 0.01,
+            "l_c = {l}: {frac} vs {}",
+            predicted[t]
+        );
+    }
+}
