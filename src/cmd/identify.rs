@@ -9,8 +9,7 @@ use crate::cmd::reports::ReportFlags;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use gpu_amcs::identify::{
-    ChainOptions, IdentifyReports, NoiseModel, Placement, PoseRunPoints, TrackerData,
-    UncertaintyMethod,
+    ChainOptions, IdentifyReports, NoiseModel, Placement, TrackerData, UncertaintyMethod,
 };
 use gpu_amcs::report::Report;
 use std::path::PathBuf;
@@ -131,7 +130,7 @@ impl Run for IdentifyArgs {
     fn run(self) -> Result<()> {
         let a = self;
         use gpu_amcs::identify::{self, CircleFitMethod, IdentifyOptions, NominalPrior};
-        let mut inputs = vec![("the sweeps file", a.sweeps.as_path())];
+        let mut inputs = vec![("the data file", a.sweeps.as_path())];
         inputs.extend(a.nominal.as_deref().map(|n| ("--nominal", n)));
         let mut outputs = Outputs::new(inputs);
         outputs.file("--out", a.out.as_deref())?;
@@ -150,23 +149,16 @@ impl Run for IdentifyArgs {
             refine: !a.no_refine,
         };
         let chain = a.chain_options(&data)?;
-        let ids = match &data {
-            TrackerData::Sweeps(d) if a.no_refine => {
-                if !a.base_known {
-                    bail!(
-                        "--no-refine: the plain circle-point result needs base-frame data; add --base-known"
-                    );
-                }
-                identify::identify(d, &nominal, &opts)?
-            }
-            TrackerData::Sweeps(d) => identify::identify_sweeps_chain(d, &nominal, &opts, &chain)?,
-            TrackerData::Poses(p) => {
-                if a.no_refine || a.fit != FitArg::Commanded {
-                    bail!("--no-refine and --fit apply to sweeps only; this file holds poses");
-                }
-                identify::identify_poses(&pose_runs(p), &nominal, &opts, &chain)?
-            }
-        };
+        if a.no_refine && !a.base_known {
+            bail!("--no-refine: the plain circle-point result needs base-frame data; add --base-known");
+        }
+        if matches!(data, TrackerData::Poses(_)) && (a.no_refine || a.fit != FitArg::Commanded) {
+            bail!(
+                "--no-refine and --fit apply to sweeps only; {} holds poses",
+                a.sweeps.display()
+            );
+        }
+        let ids = identify::identify_data(&data, &nominal, &opts, &chain, a.no_refine)?;
         let reports = IdentifyReports::new(&nominal.name, &ids);
         // stdout is built first and printed after the model file is written, so a reader that
         // stops early (`| head`) cannot cost the file.
@@ -252,11 +244,8 @@ impl IdentifyArgs {
                 mpe_sigmas: 2.0,
                 position_mm: [at[0], at[1], at[2]],
             }
-        } else if matches!(data, TrackerData::Poses(p) if p.runs.iter().all(|r| r.points.iter().all(|x| x.sigma_mm.is_some())))
-        {
-            NoiseModel::PerPoint
         } else {
-            NoiseModel::FromResiduals
+            NoiseModel::default_for(data)
         };
         if self.mc_draws < 10 && self.uncertainty == UncertaintyArg::Montecarlo {
             bail!("--mc-draws: at least 10 re-identifications are needed for a covariance");
@@ -278,24 +267,4 @@ impl IdentifyArgs {
             seed: self.seed,
         })
     }
-}
-
-/// The runs of pose data as the whole-chain fit takes them.
-fn pose_runs(p: &gpu_amcs::identify::PoseData) -> Vec<PoseRunPoints> {
-    p.runs
-        .iter()
-        .map(|r| PoseRunPoints {
-            run: r.run.clone(),
-            points: r
-                .points
-                .iter()
-                .map(|x| gpu_amcs::identify::MeasuredPoint {
-                    q_deg: x.q_deg,
-                    position_mm: x.position_mm,
-                    sigma_mm: x.sigma_mm,
-                    line: x.line,
-                })
-                .collect(),
-        })
-        .collect()
 }

@@ -256,8 +256,6 @@ pub const STUDY_SETTINGS: Table = Table {
     ],
 };
 
-/// Every table.
-#[cfg_attr(not(test), allow(dead_code))]
 /// `identify::IdentifyOptions` in `identify`.
 pub const IDENTIFY_OPTIONS: Table = Table {
     name: "identify::IdentifyOptions",
@@ -285,6 +283,8 @@ pub const CHAIN_OPTIONS: Table = Table {
     ],
 };
 
+/// Every table.
+#[cfg_attr(not(test), allow(dead_code))]
 pub const TABLES: &[&Table] = &[
     &IDENTIFY_OPTIONS,
     &CHAIN_OPTIONS,

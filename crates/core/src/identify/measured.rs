@@ -18,19 +18,11 @@ use super::chain_fit::ChainState;
 use super::circle::{fit_circle, CircleFitMethod};
 use super::lines::{common_normal, Line};
 use super::pipeline::{identify_run, Identification, IdentifyOptions, IdentifyReport};
+use super::poses::{PoseData, TrackerData};
 use super::sweeps::{SweepData, SweepRun};
 use super::{mdh, IdentifyError, IdentifyWarning};
 use crate::kinematics::{param_index, ParamKind, RobotModel, JOINTS};
 use nalgebra::{Matrix3, Rotation3, Vector3};
-
-/// One run of pose data: its label and points.
-#[derive(Clone, Debug, PartialEq)]
-pub struct PoseRunPoints {
-    /// The run label, if the data have a `run` column.
-    pub run: Option<String>,
-    /// The measured points.
-    pub points: Vec<MeasuredPoint>,
-}
 
 /// An identification report for data without circle fits (poses): the whole-chain report and
 /// the target, nothing per joint.
@@ -60,18 +52,29 @@ fn pose_report(
 ///
 /// [`IdentifyError::NoData`] for no runs, and the errors of [`identify_chain`].
 pub fn identify_poses(
-    runs: &[PoseRunPoints],
+    data: &PoseData,
     nominal: &RobotModel,
     options: &IdentifyOptions,
     chain: &ChainOptions,
 ) -> Result<Vec<Identification>, IdentifyError> {
-    if runs.is_empty() {
+    if data.runs.is_empty() {
         return Err(IdentifyError::NoData("no poses to identify from".into()));
     }
-    runs.iter()
+    data.runs
+        .iter()
         .map(|r| {
             let label = super::sweeps::run_label(r.run.as_deref());
-            let result = identify_chain(&r.points, nominal, None, options.nominal_prior, chain)?;
+            let points: Vec<MeasuredPoint> = r
+                .points
+                .iter()
+                .map(|p| MeasuredPoint {
+                    q_deg: p.q_deg,
+                    position_mm: p.position_mm,
+                    sigma_mm: p.sigma_mm,
+                    line: p.line,
+                })
+                .collect();
+            let result = identify_chain(&points, nominal, None, options.nominal_prior, chain)?;
             let model = chain_model(
                 nominal,
                 &result,
@@ -81,6 +84,38 @@ pub fn identify_poses(
             Ok(Identification { model, report })
         })
         .collect()
+}
+
+/// Identifies tracker data of either kind: poses through [`identify_poses`], sweeps through
+/// [`identify_sweeps_chain`], or with `circle_only` through the plain circle-point pipeline
+/// ([`super::identify`]; base-frame sweeps only, no covariance of its own).
+///
+/// # Errors
+///
+/// [`IdentifyError::NoData`] for `circle_only` with poses or with the placement to identify;
+/// the errors of the pipelines.
+pub fn identify_data(
+    data: &TrackerData,
+    nominal: &RobotModel,
+    options: &IdentifyOptions,
+    chain: &ChainOptions,
+    circle_only: bool,
+) -> Result<Vec<Identification>, IdentifyError> {
+    match data {
+        TrackerData::Sweeps(d) if circle_only => {
+            if chain.placement == Placement::Identify {
+                return Err(IdentifyError::NoData(
+                    "the plain circle-point result needs sweeps in the robot base frame (the placement known)".into(),
+                ));
+            }
+            super::identify(d, nominal, options)
+        }
+        TrackerData::Sweeps(d) => identify_sweeps_chain(d, nominal, options, chain),
+        TrackerData::Poses(_) if circle_only => Err(IdentifyError::NoData(
+            "the plain circle-point method needs sweeps; these are poses".into(),
+        )),
+        TrackerData::Poses(p) => identify_poses(p, nominal, options, chain),
+    }
 }
 
 /// The chain report's warnings as identification warnings.

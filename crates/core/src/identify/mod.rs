@@ -69,6 +69,7 @@ mod lm;
 pub mod measured;
 pub mod noise;
 mod pipeline;
+pub mod poses;
 mod provenance;
 mod quality;
 pub mod refine;
@@ -84,12 +85,16 @@ pub use circle::{fit_circle, AxisPrior, CircleFit, CircleFitError, CircleFitMeth
 pub use error::IdentifyError;
 pub use lines::{common_normal, CommonNormal, Line, LineRelation};
 pub use mdh::PARALLEL_THRESHOLD_DEG;
-pub use measured::{identify_poses, identify_sweeps_chain, placement_from_axes, PoseRunPoints};
+pub use measured::{identify_data, identify_poses, identify_sweeps_chain, placement_from_axes};
 pub use noise::NoiseModel;
 pub use pipeline::{
     check_sweep, identify, identify_run, Identification, IdentifyOptions, IdentifyReport,
     JointReport, NominalPrior, HOME_TOLERANCE_DEG, NOMINAL_ANGLE_SIGMA_DEG,
     NOMINAL_LENGTH_SIGMA_MM,
+};
+pub use poses::{
+    check_tracker_data, parse_poses, parse_tracker_data, read_poses, read_tracker_data,
+    write_poses, PoseData, PosePoint, PoseRun, TrackerData,
 };
 pub use provenance::{sha256_hex, Provenance};
 pub use quality::{

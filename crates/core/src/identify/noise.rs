@@ -38,6 +38,16 @@ pub enum NoiseModel {
 }
 
 impl NoiseModel {
+    /// The default for `data`: the data's own `sx, sy, sz` when every point has them, else
+    /// estimated from the residuals.
+    pub fn default_for(data: &super::TrackerData) -> NoiseModel {
+        if data.has_sigmas() {
+            NoiseModel::PerPoint
+        } else {
+            NoiseModel::FromResiduals
+        }
+    }
+
     /// Whether the noise is stated (not estimated from the residuals).
     pub fn is_stated(&self) -> bool {
         !matches!(self, NoiseModel::FromResiduals)

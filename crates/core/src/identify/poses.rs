@@ -1,0 +1,449 @@
+//! Pose data (the target measured at many configurations) and its CSV format, and the reader
+//! that tells pose and sweep files apart by their header.
+//!
+//! Header `q1,q2,q3,q4,q5,q6,x,y,z`, optionally with `run` (any position, any label) and with
+//! per-point standard uncertainties `sx,sy,sz` (mm; all three or none). The angles are commanded
+//! joint angles in degrees, `x,y,z` the measured target position in mm in any measurement frame.
+//! [`read_tracker_data`] reads either this or a sweep file (a `joint` column); the checks that
+//! need the nominal model (joint limits, units that look like metres) are made by
+//! [`check_tracker_data`]. Every error is one line naming the file, the line and the column.
+
+use super::sweeps::{
+    column_indices, csv_error, csv_reader, open_input, parse_number, parse_sweeps, run_label,
+    SweepData,
+};
+use super::IdentifyError;
+use crate::kinematics::{RobotModel, JOINTS};
+use std::collections::HashMap;
+use std::io::{Read, Write};
+use std::path::Path;
+
+/// The columns a pose file must have.
+pub const POSE_COLUMNS: [&str; 9] = ["q1", "q2", "q3", "q4", "q5", "q6", "x", "y", "z"];
+/// The optional per-point standard uncertainty columns.
+pub const SIGMA_COLUMNS: [&str; 3] = ["sx", "sy", "sz"];
+
+/// One measured pose.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PosePoint {
+    /// Commanded joint angles, degrees.
+    pub q_deg: [f64; JOINTS],
+    /// Measured target position, mm, in the data's frame.
+    pub position_mm: [f64; 3],
+    /// Stated standard uncertainty per coordinate, mm.
+    pub sigma_mm: Option<[f64; 3]>,
+    /// Line in the file.
+    pub line: u64,
+}
+
+/// The poses of one run.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PoseRun {
+    /// The `run` label; `None` without such a column.
+    pub run: Option<String>,
+    /// The poses in file order.
+    pub points: Vec<PosePoint>,
+}
+
+/// Pose data: runs in the order they first appear.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PoseData {
+    /// The runs.
+    pub runs: Vec<PoseRun>,
+}
+
+/// Sweep or pose data, as [`read_tracker_data`] found it.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TrackerData {
+    /// Circle-point sweeps.
+    Sweeps(SweepData),
+    /// Poses.
+    Poses(PoseData),
+}
+
+impl TrackerData {
+    /// Measured points over all runs.
+    pub fn points(&self) -> usize {
+        match self {
+            TrackerData::Sweeps(d) => d
+                .runs
+                .iter()
+                .flat_map(|r| &r.sweeps)
+                .map(|s| s.points.len())
+                .sum(),
+            TrackerData::Poses(p) => p.runs.iter().map(|r| r.points.len()).sum(),
+        }
+    }
+
+    /// Whether every point states its own σ.
+    pub fn has_sigmas(&self) -> bool {
+        matches!(self, TrackerData::Poses(p)
+            if p.runs.iter().all(|r| r.points.iter().all(|x| x.sigma_mm.is_some())))
+    }
+
+    /// Every measured point with its commanded angles, position and line.
+    fn rows(&self) -> Vec<([f64; JOINTS], [f64; 3], u64)> {
+        match self {
+            TrackerData::Sweeps(d) => d
+                .runs
+                .iter()
+                .flat_map(|r| &r.sweeps)
+                .flat_map(|s| &s.points)
+                .map(|p| (p.q_deg, p.position_mm, p.line))
+                .collect(),
+            TrackerData::Poses(d) => d
+                .runs
+                .iter()
+                .flat_map(|r| &r.points)
+                .map(|p| (p.q_deg, p.position_mm, p.line))
+                .collect(),
+        }
+    }
+}
+
+/// Parses pose CSV text; `origin` names the source in errors.
+///
+/// # Errors
+///
+/// [`IdentifyError::MissingColumn`] for a missing required column (or one of `sx,sy,sz` while
+/// another is present), [`IdentifyError::Csv`] for a malformed row, a value that is not a finite
+/// number, a σ that is not positive, or a row that repeats an earlier one exactly (same run,
+/// angles and position), naming its line; [`IdentifyError::Empty`] for no data rows.
+pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, IdentifyError> {
+    let mut rdr = csv_reader(reader);
+    let header = rdr.headers().map_err(|e| csv_error(e, origin))?.clone();
+    let cols = column_indices(&header, &POSE_COLUMNS, origin)?;
+    let find = |name: &str| {
+        header
+            .iter()
+            .position(|h| h.trim().eq_ignore_ascii_case(name))
+    };
+    let run_col = find("run");
+    let present: Vec<bool> = SIGMA_COLUMNS.iter().map(|c| find(c).is_some()).collect();
+    let sigma_cols = if present.iter().any(|&p| p) {
+        Some(column_indices(&header, &SIGMA_COLUMNS, origin)?)
+    } else {
+        None
+    };
+    let mut data = PoseData::default();
+    let mut seen: HashMap<(Option<String>, [u64; 9]), u64> = HashMap::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| csv_error(e, origin))?;
+        let line = rec.position().map(|p| p.line()).unwrap_or(0);
+        let run = run_col.map(|c| rec.get(c).unwrap_or("").trim().to_string());
+        let context = run_label(run.as_deref());
+        let mut v = [0.0; 9];
+        for (k, x) in v.iter_mut().enumerate() {
+            *x = parse_number(&rec, cols[k], POSE_COLUMNS[k], line, origin, &context)?;
+        }
+        let sigma_mm = match &sigma_cols {
+            None => None,
+            Some(sc) => {
+                let mut s = [0.0; 3];
+                for (k, x) in s.iter_mut().enumerate() {
+                    *x = parse_number(&rec, sc[k], SIGMA_COLUMNS[k], line, origin, &context)?;
+                    if *x <= 0.0 {
+                        return Err(IdentifyError::Csv {
+                            origin: origin.to_string(),
+                            line,
+                            message: format!(
+                                "column {} = {} is not a positive standard uncertainty (mm)",
+                                SIGMA_COLUMNS[k], x
+                            ),
+                        });
+                    }
+                }
+                Some(s)
+            }
+        };
+        let key = (run.clone(), v.map(f64::to_bits));
+        if let Some(first) = seen.insert(key, line) {
+            return Err(IdentifyError::Csv {
+                origin: origin.to_string(),
+                line,
+                message: format!(
+                    "repeats line {first} (same run, joint angles and position): a copied row?"
+                ),
+            });
+        }
+        let point = PosePoint {
+            q_deg: [v[0], v[1], v[2], v[3], v[4], v[5]],
+            position_mm: [v[6], v[7], v[8]],
+            sigma_mm,
+            line,
+        };
+        match data.runs.iter_mut().find(|r| r.run == run) {
+            Some(r) => r.points.push(point),
+            None => data.runs.push(PoseRun {
+                run,
+                points: vec![point],
+            }),
+        }
+    }
+    if data.runs.is_empty() {
+        return Err(IdentifyError::Empty {
+            origin: origin.to_string(),
+        });
+    }
+    Ok(data)
+}
+
+/// Reads a pose file.
+///
+/// # Errors
+///
+/// As [`parse_poses`], and [`IdentifyError::Io`] / [`IdentifyError::Read`] when the file cannot
+/// be read, is too large or is not UTF-8.
+pub fn read_poses(path: &Path) -> Result<PoseData, IdentifyError> {
+    let (text, origin) = open_input(path)?;
+    parse_poses(text.as_bytes(), &origin)
+}
+
+/// Reads sweep or pose data, told apart by the header: a `joint` column means sweeps, otherwise
+/// the pose columns are required.
+///
+/// # Errors
+///
+/// [`IdentifyError::MissingColumn`] naming both accepted headers when the file is neither; the
+/// errors of [`parse_sweeps`] and [`parse_poses`].
+pub fn read_tracker_data(path: &Path) -> Result<TrackerData, IdentifyError> {
+    let (text, origin) = open_input(path)?;
+    parse_tracker_data(&text, &origin)
+}
+
+/// [`read_tracker_data`] on text.
+///
+/// # Errors
+///
+/// As [`read_tracker_data`].
+pub fn parse_tracker_data(text: &str, origin: &str) -> Result<TrackerData, IdentifyError> {
+    let header_line = text
+        .lines()
+        .find(|l| !l.trim().is_empty() && !l.trim_start().starts_with('#'))
+        .unwrap_or("");
+    let names: Vec<String> = header_line
+        .split(',')
+        .map(|h| h.trim().trim_matches('"').to_ascii_lowercase())
+        .collect();
+    if names.iter().any(|n| n == "joint") {
+        return Ok(TrackerData::Sweeps(parse_sweeps(text.as_bytes(), origin)?));
+    }
+    if !POSE_COLUMNS.iter().all(|c| names.iter().any(|n| n == c)) {
+        return Err(IdentifyError::MissingColumn {
+            origin: origin.to_string(),
+            column: POSE_COLUMNS
+                .iter()
+                .find(|c| !names.iter().any(|n| n == *c))
+                .copied()
+                .unwrap_or("q1"),
+            expected: "joint,q1,…,q6,x,y,z (sweeps) or q1,…,q6,x,y,z [,sx,sy,sz] (poses), each optionally with run".into(),
+        });
+    }
+    Ok(TrackerData::Poses(parse_poses(text.as_bytes(), origin)?))
+}
+
+/// The largest plausible coordinate (mm) of data written in metres: a robot cell is a few metres,
+/// so all coordinates within ±10 with a spread under 10 are metres, not millimetres.
+const METRES_LIMIT: f64 = 10.0;
+
+/// Checks data against the nominal model: every row's angles within the joint limits, and
+/// positions that are not in metres.
+///
+/// # Errors
+///
+/// [`IdentifyError::Csv`] naming the first row outside the limits (joint, value, limits) or the
+/// first row of data that look like metres.
+pub fn check_tracker_data(
+    data: &TrackerData,
+    nominal: &RobotModel,
+    origin: &str,
+) -> Result<(), IdentifyError> {
+    let rows = data.rows();
+    for (q, _, line) in &rows {
+        nominal
+            .check_limits(q)
+            .map_err(|message| IdentifyError::Csv {
+                origin: origin.to_string(),
+                line: *line,
+                message: format!("{message} of the nominal model {}", nominal.name),
+            })?;
+    }
+    let largest = rows
+        .iter()
+        .flat_map(|(_, p, _)| p.iter())
+        .fold(0.0f64, |m, v| m.max(v.abs()));
+    let spread = (0..3)
+        .map(|k| {
+            let (lo, hi) = rows
+                .iter()
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), r| {
+                    (l.min(r.1[k]), h.max(r.1[k]))
+                });
+            hi - lo
+        })
+        .fold(0.0f64, f64::max);
+    if rows.len() > 1 && largest <= METRES_LIMIT && spread < METRES_LIMIT && spread > 0.0 {
+        return Err(IdentifyError::Csv {
+            origin: origin.to_string(),
+            line: rows[0].2,
+            message: format!(
+                "the positions look like metres (largest coordinate {largest}, spread {spread:.3}); x, y, z must be in mm"
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// Writes pose data in the format [`parse_poses`] reads: a `run` column when any run has a label,
+/// `sx,sy,sz` when every point has them.
+///
+/// # Errors
+///
+/// [`IdentifyError::Io`] when writing fails.
+pub fn write_poses<W: Write>(data: &PoseData, writer: W) -> Result<(), IdentifyError> {
+    let io = |e: csv::Error| IdentifyError::Io {
+        path: "<pose output>".into(),
+        cause: std::io::Error::other(e.to_string()),
+    };
+    let with_run = data.runs.iter().any(|r| r.run.is_some());
+    let with_sigma = data
+        .runs
+        .iter()
+        .all(|r| r.points.iter().all(|p| p.sigma_mm.is_some()));
+    let mut w = csv::Writer::from_writer(writer);
+    let mut header: Vec<&str> = Vec::new();
+    if with_run {
+        header.push("run");
+    }
+    header.extend_from_slice(&POSE_COLUMNS);
+    if with_sigma {
+        header.extend_from_slice(&SIGMA_COLUMNS);
+    }
+    w.write_record(&header).map_err(io)?;
+    for r in &data.runs {
+        for p in &r.points {
+            let mut row: Vec<String> = Vec::with_capacity(13);
+            if with_run {
+                row.push(r.run.clone().unwrap_or_default());
+            }
+            row.extend(p.q_deg.iter().map(|v| format!("{v:?}")));
+            row.extend(p.position_mm.iter().map(|v| format!("{v:?}")));
+            if let (true, Some(s)) = (with_sigma, p.sigma_mm) {
+                row.extend(s.iter().map(|v| format!("{v:?}")));
+            }
+            w.write_record(&row).map_err(io)?;
+        }
+    }
+    w.flush().map_err(|cause| IdentifyError::Io {
+        path: "<pose output>".into(),
+        cause,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::tx60;
+
+    const HEAD: &str = "run,q1,q2,q3,q4,q5,q6,x,y,z,sx,sy,sz\n";
+
+    #[test]
+    fn round_trip_with_runs_and_sigmas() {
+        let text = format!(
+            "{HEAD}a,0,1,2,3,4,5,100.5,200,300,0.01,0.01,0.02\nb,0,1,2,3,4,5,101,200,300,0.01,0.01,0.02\na,5,1,2,3,4,5,100,-20,300,0.01,0.01,0.02\n"
+        );
+        let d = parse_poses(text.as_bytes(), "t.csv").unwrap();
+        assert_eq!(d.runs.len(), 2);
+        assert_eq!(d.runs[0].points.len(), 2);
+        assert_eq!(d.runs[0].points[1].line, 4);
+        assert_eq!(d.runs[0].points[0].sigma_mm, Some([0.01, 0.01, 0.02]));
+        let mut out = Vec::new();
+        write_poses(&d, &mut out).unwrap();
+        let back = parse_poses(out.as_slice(), "o").unwrap();
+        let strip =
+            |d: &PoseData| -> Vec<(Option<String>, Vec<([f64; 6], [f64; 3], Option<[f64; 3]>)>)> {
+                d.runs
+                    .iter()
+                    .map(|r| {
+                        let pts = r
+                            .points
+                            .iter()
+                            .map(|p| (p.q_deg, p.position_mm, p.sigma_mm))
+                            .collect();
+                        (r.run.clone(), pts)
+                    })
+                    .collect()
+            };
+        assert_eq!(strip(&back), strip(&d));
+    }
+
+    #[test]
+    fn header_tells_the_formats_apart() {
+        let s = parse_tracker_data("joint,q1,q2,q3,q4,q5,q6,x,y,z\n1,0,0,0,0,0,0,1,2,3\n", "s")
+            .unwrap();
+        assert!(matches!(s, TrackerData::Sweeps(_)));
+        let p = parse_tracker_data("q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1,2,3\n", "p").unwrap();
+        assert!(matches!(p, TrackerData::Poses(_)));
+        let e = parse_tracker_data("a,b\n1,2\n", "bad.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("bad.csv") && e.contains("sweeps") && e.contains("poses"),
+            "{e}"
+        );
+    }
+
+    /// Each bad input ends in one line naming the file, the line and what is wrong.
+    #[test]
+    fn bad_rows_name_their_line() {
+        let cases = [
+            (
+                "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1,2,3\n0,0,0,0,0,NaN,1,2,3\n",
+                "line 3",
+            ),
+            (
+                "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1,2,3\n0,0,0,0,0,0,1,2\n",
+                "line 3",
+            ),
+            (
+                "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1,2,3\n0,0,0,0,0,0,1,2,3\n",
+                "repeats line 2",
+            ),
+            (
+                "q1,q2,q3,q4,q5,q6,x,y,z,sx,sy\n0,0,0,0,0,0,1,2,3,1,1\n",
+                "'sz'",
+            ),
+            (
+                "q1,q2,q3,q4,q5,q6,x,y,z,sx,sy,sz\n0,0,0,0,0,0,1,2,3,1,0,1\n",
+                "sy = 0",
+            ),
+            ("q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,abc,1,2,3\n", "q6"),
+        ];
+        for (text, want) in cases {
+            let e = parse_tracker_data(text, "f.csv").unwrap_err().to_string();
+            assert!(
+                e.contains(want) && e.starts_with("f.csv") && !e.contains('\n'),
+                "{e}"
+            );
+        }
+    }
+
+    #[test]
+    fn limits_and_metres_are_checked() {
+        let m = tx60();
+        let d = parse_tracker_data(
+            "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1000,200,300\n0,0,0,0,400,0,1000,200,300\n",
+            "f.csv",
+        )
+        .unwrap();
+        let e = check_tracker_data(&d, &m, "f.csv").unwrap_err().to_string();
+        assert!(e.contains("line 3") && e.contains("q5"), "{e}");
+        let d = parse_tracker_data(
+            "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1.2,0.2,0.3\n10,0,0,0,0,0,1.1,0.4,0.3\n",
+            "f.csv",
+        )
+        .unwrap();
+        let e = check_tracker_data(&d, &m, "f.csv").unwrap_err().to_string();
+        assert!(e.contains("metres") && e.contains("line 2"), "{e}");
+    }
+}
