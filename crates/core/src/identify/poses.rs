@@ -360,20 +360,20 @@ mod tests {
         let mut out = Vec::new();
         write_poses(&d, &mut out).unwrap();
         let back = parse_poses(out.as_slice(), "o").unwrap();
-        let strip =
-            |d: &PoseData| -> Vec<(Option<String>, Vec<([f64; 6], [f64; 3], Option<[f64; 3]>)>)> {
-                d.runs
-                    .iter()
-                    .map(|r| {
-                        let pts = r
-                            .points
-                            .iter()
-                            .map(|p| (p.q_deg, p.position_mm, p.sigma_mm))
-                            .collect();
-                        (r.run.clone(), pts)
-                    })
-                    .collect()
-            };
+        type Row = ([f64; 6], [f64; 3], Option<[f64; 3]>);
+        let strip = |d: &PoseData| -> Vec<(Option<String>, Vec<Row>)> {
+            d.runs
+                .iter()
+                .map(|r| {
+                    let pts = r
+                        .points
+                        .iter()
+                        .map(|p| (p.q_deg, p.position_mm, p.sigma_mm))
+                        .collect();
+                    (r.run.clone(), pts)
+                })
+                .collect()
+        };
         assert_eq!(strip(&back), strip(&d));
     }
 
