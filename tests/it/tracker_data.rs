@@ -263,13 +263,18 @@ fn held_out_error_matches_an_independent_fit() {
 /// σ of a scalar function of the chain state by the delta method over the result's covariance.
 fn predicted_sigma(
     r: &ChainResult,
+    file: &RobotModel,
     f: &dyn Fn(&gpu_amcs::identify::chain_fit::ChainState) -> f64,
 ) -> f64 {
     use gpu_amcs::identify::chain_fit::{fit_input_is_angle, N_FIT_INPUTS};
     let n = N_FIT_INPUTS;
+    let gpu_amcs::kinematics::Uncertainty::Covariance(cov) = &file.uncertainty else {
+        panic!("an identified model carries a covariance")
+    };
+    assert_eq!(cov.len(), n * n);
     let grad: Vec<f64> = (0..n)
         .map(|i| {
-            if r.covariance[i * n + i] == 0.0 {
+            if cov[i * n + i] == 0.0 {
                 return 0.0;
             }
             let h = if fit_input_is_angle(i) { 1e-7 } else { 1e-4 };
@@ -282,7 +287,7 @@ fn predicted_sigma(
     let mut v = 0.0;
     for i in 0..n {
         for k in 0..n {
-            v += grad[i] * r.covariance[i * n + k] * grad[k];
+            v += grad[i] * cov[i * n + k] * grad[k];
         }
     }
     v.sqrt()
@@ -328,16 +333,19 @@ fn single_run_covariance_is_honest() {
             let truth = true_robot("tx60", &mut rng);
             let data = measure(&truth, &configs(&truth, 60, &mut rng), 0.01, &mut rng);
             let (model, r) = identify("tx60", &data, &opts);
+            // The covariance as the model file holds it.
+            let file = RobotModel::from_toml(&model.to_toml(), "identified.toml").unwrap();
+            assert_eq!(file.uncertainty.dim(), 39);
             let held = configs(&truth, 2, &mut rng);
             let (qa, qb) = (held[0].map(f64::to_radians), held[1].map(f64::to_radians));
             let d_true = distance(truth.world_position(&qa), truth.world_position(&qb));
             let d_est = distance(model.world_position(&qa), model.world_position(&qb));
-            let s = predicted_sigma(&r, &|st| distance(st.predict(&qa), st.predict(&qb)));
+            let s = predicted_sigma(&r, &file, &|st| distance(st.predict(&qa), st.predict(&qb)));
             dist.z.push((d_est - d_true) / s);
             let axis = e as usize % 3;
             let p_true = truth.world_position(&qa)[axis];
             let p_est = model.world_position(&qa)[axis];
-            let s = predicted_sigma(&r, &|st| st.predict(&qa)[axis]);
+            let s = predicted_sigma(&r, &file, &|st| st.predict(&qa)[axis]);
             pos.z.push((p_est - p_true) / s);
         }
         dist.check(&format!("{noise:?}: held-out distance"));
@@ -386,9 +394,9 @@ fn unidentifiable_data_are_named() {
     }
     let few = configs(&truth, 5, &mut rng);
     for (what, qs, expect) in [
-        ("frozen wrist", frozen, "move joint(s)"),
+        ("frozen wrist", frozen, "J4 0.0°, J5 0.0°, J6 0.0°"),
         ("five poses", few, "measure more poses"),
-        ("one plane", planar, "move joint(s)"),
+        ("one plane", planar, "J1 0.0°, J4 0.0°"),
     ] {
         let data = measure(&truth, &qs, 0.01, &mut rng);
         let nominal = preset("tx60").unwrap();

@@ -721,7 +721,7 @@ mod tests {
             r.report
                 .warnings
                 .iter()
-                .any(|w| w.contains("rank deficient") && w.contains("more widely")),
+                .any(|w| w.contains("rank deficient") && w.contains("barely moved")),
             "{:?}",
             r.report.warnings
         );

@@ -39,6 +39,9 @@ pub const RANK_TOLERANCE: f64 = 1e-6;
 /// and flags too few poses, narrow joint ranges and a target on the J6 axis.
 pub const CONDITION_LIMIT: f64 = 100.0;
 
+/// A joint whose commanded angle spans less than this in the data (degrees) counts as not moved.
+pub const STILL_JOINT_DEG: f64 = 30.0;
+
 /// Correlation magnitude above which a parameter pair is listed.
 pub const CORRELATION_LIMIT: f64 = 0.9;
 
@@ -336,8 +339,25 @@ pub fn advice(combination: &str, a: &Identifiability) -> String {
             a.parameters + null_count(a)
         );
     }
+    // A joint that barely moved explains most weak directions by itself.
+    let still: Vec<String> = (0..JOINTS)
+        .filter(|&j| a.joint_spans_deg[j] < STILL_JOINT_DEG)
+        .map(|j| format!("J{} {:.1}°", j + 1, a.joint_spans_deg[j]))
+        .collect();
+    if !still.is_empty() {
+        return format!(
+            "move every joint over a wide range: some barely moved (ranges in the data: {})",
+            still.join(", ")
+        );
+    }
     let (joints, base) = joints_in(combination);
-    if joints.iter().any(|&j| j >= JOINTS - 1) && a.target_axis_distance_mm < 10.0 {
+    let tool_fixed = a
+        .null_directions
+        .iter()
+        .map(|n| n.fixed.as_str())
+        .chain(a.fixed_by_user.iter().map(String::as_str))
+        .any(|n| n.starts_with("tool_"));
+    if !tool_fixed && joints.iter().any(|&j| j >= JOINTS - 1) && a.target_axis_distance_mm < 10.0 {
         return format!(
             "mount the target away from the J6 axis (it is {:.1} mm from it; at 50 mm or more J6's rotation shows in the data)",
             a.target_axis_distance_mm

@@ -2,8 +2,8 @@
 //! enforces. An error names the field as the model file spells it ([`InvalidField`]).
 
 use super::index::{
-    param_index, param_joint, param_kind, tool_index, FixedParam, ParamKind, JOINTS, N_PARAMS,
-    N_UNCERTAIN, TOOL_COORDS,
+    param_index, param_joint, param_kind, tool_index, FixedParam, ParamKind, BASE_COORDS, JOINTS,
+    N_PARAMS, N_UNCERTAIN, N_WITH_BASE, TOOL_COORDS,
 };
 use super::model::{RobotModel, Uncertainty};
 
@@ -100,7 +100,7 @@ impl RobotModel {
                 check_covariance(c, &self.fixed)?;
                 check_sigmas(&self.uncertainty.sigmas(), &self.fixed)?;
                 let n = self.uncertainty.dim();
-                if n == N_UNCERTAIN {
+                if n >= N_UNCERTAIN {
                     let diag: [f64; 3] = std::array::from_fn(|k| {
                         let i = tool_index(k);
                         self.uncertainty.entry(i, i).sqrt()
@@ -119,7 +119,27 @@ impl RobotModel {
                         }
                     }
                 }
-                let free: Vec<usize> = self.free_inputs().into_iter().filter(|&i| i < n).collect();
+                let mut free: Vec<usize> =
+                    self.free_inputs().into_iter().filter(|&i| i < n).collect();
+                if n == N_WITH_BASE {
+                    for k in 0..BASE_COORDS {
+                        let i = N_UNCERTAIN + k;
+                        let v = c[i * n + i];
+                        if v > 0.0 {
+                            check_magnitude(
+                                &input_field(i),
+                                v.sqrt(),
+                                if k < 3 {
+                                    MAX_SIGMA_MM
+                                } else {
+                                    MAX_SIGMA_DEG.to_radians()
+                                },
+                                if k < 3 { "mm" } else { "rad" },
+                            )?;
+                            free.push(i);
+                        }
+                    }
+                }
                 check_positive_definite(c, n, &free)
             }
         }
@@ -128,7 +148,9 @@ impl RobotModel {
 
 /// Input `i` as the file names it: `joint[2].d` or `tool[0]`.
 fn input_field(i: usize) -> String {
-    if i >= N_PARAMS {
+    if i >= N_UNCERTAIN {
+        format!("covariance.matrix[{}] ({})", i + 1, super::input_name(i))
+    } else if i >= N_PARAMS {
         format!("tool[{}]", i - N_PARAMS)
     } else {
         format!("{}.{}", joint_field(param_joint(i)), param_kind(i).name())
@@ -258,7 +280,9 @@ pub(super) fn check_tool_sigma(s: &[f64; 3]) -> Result<(), InvalidField> {
 /// A covariance in internal units: finite, symmetric, variances ≥ 0, fixed parameters' rows 0.
 fn check_covariance(c: &[f64], fixed: &[FixedParam; JOINTS]) -> Result<(), InvalidField> {
     let cell = |i: usize, k: usize| format!("covariance.matrix[{}][{}]", i + 1, k + 1);
-    let n = if c.len() == N_UNCERTAIN * N_UNCERTAIN {
+    let n = if c.len() == N_WITH_BASE * N_WITH_BASE {
+        N_WITH_BASE
+    } else if c.len() == N_UNCERTAIN * N_UNCERTAIN {
         N_UNCERTAIN
     } else {
         N_PARAMS
@@ -267,9 +291,10 @@ fn check_covariance(c: &[f64], fixed: &[FixedParam; JOINTS]) -> Result<(), Inval
         return Err(InvalidField {
             field: "covariance.matrix".into(),
             message: format!(
-                "must have {} or {} entries, found {}",
+                "must have {}, {} or {} entries, found {}",
                 N_PARAMS * N_PARAMS,
                 N_UNCERTAIN * N_UNCERTAIN,
+                N_WITH_BASE * N_WITH_BASE,
                 c.len()
             ),
         });

@@ -8,7 +8,7 @@ use std::fmt::Write as _;
 use super::check::{check_sigmas, check_tool_sigma, input_sigma_field, joint_field, InvalidField};
 use super::index::{
     input_to_internal, param_index, tool_index, FixedParam, ParamKind, JOINTS, N_PARAMS,
-    N_UNCERTAIN,
+    N_UNCERTAIN, N_WITH_BASE,
 };
 use super::model::{BaseTransform, RobotModel, Uncertainty};
 
@@ -236,7 +236,7 @@ impl RobotModel {
         };
         // A 33 × 33 covariance carries the tool's spread; `tool_sigma`, when given, must repeat
         // its diagonal.
-        let full = model.uncertainty.dim() == N_UNCERTAIN;
+        let full = model.uncertainty.dim() >= N_UNCERTAIN;
         if full {
             model.tool_sigma = std::array::from_fn(|k| {
                 let i = tool_index(k);
@@ -359,8 +359,14 @@ impl RobotModel {
                 s,
                 "\n# Full covariance of the 30 parameters, joint-major [theta, d, a, alpha, beta],"
             );
-            if n == N_UNCERTAIN {
+            if n >= N_UNCERTAIN {
                 let _ = writeln!(s, "# then the tool's x, y, z,");
+            }
+            if n == N_WITH_BASE {
+                let _ = writeln!(
+                    s,
+                    "# then the base placement's x, y, z and roll, pitch, yaw (the `base` field's convention),"
+                );
             }
             let _ = writeln!(s, "# in file units (mm, deg and their products).");
             let _ = writeln!(s, "[covariance]\nmatrix = [");
@@ -393,16 +399,17 @@ fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
     }
 }
 
-/// The covariance matrix of the file (30 rows of 30, or 33 of 33 with the tool; file units) in
-/// internal units.
+/// The covariance matrix of the file (30 rows of 30, 33 of 33 with the tool, or 39 of 39 with
+/// the tool and the base placement; file units) in internal units.
 fn covariance_from_file(m: &[Vec<f64>]) -> Result<Vec<f64>, InvalidField> {
     let n = m.len();
-    if n != N_PARAMS && n != N_UNCERTAIN {
+    if n != N_PARAMS && n != N_UNCERTAIN && n != N_WITH_BASE {
         return Err(InvalidField {
             field: "covariance.matrix".into(),
             message: format!(
-                "must have {N_PARAMS} rows (the parameters) or {N_UNCERTAIN} (the parameters, \
-                 then the tool's x, y, z), found {n}"
+                "must have {N_PARAMS} rows (the parameters), {N_UNCERTAIN} (the parameters, \
+                 then the tool's x, y, z) or {N_WITH_BASE} (then the base's x, y, z, roll, pitch, \
+                 yaw), found {n}"
             ),
         });
     }

@@ -17,6 +17,19 @@ pub const TOOL_COORDS: usize = 3;
 /// length (docs/METHOD.md §14).
 pub const N_UNCERTAIN: usize = N_PARAMS + TOOL_COORDS;
 
+/// Coordinates of the placement (base x, y, z in mm; roll, pitch, yaw).
+pub const BASE_COORDS: usize = 6;
+/// Rows of a covariance that includes the placement: the [`N_UNCERTAIN`] inputs, then the
+/// base's x, y, z (mm) and roll, pitch, yaw in the `base` field's convention
+/// ([`base_index`]; docs/METHOD.md §2.7).
+pub const N_WITH_BASE: usize = N_UNCERTAIN + BASE_COORDS;
+
+/// Index of placement coordinate `k` (0–2 x, y, z; 3–5 roll, pitch, yaw) in a covariance of
+/// [`N_WITH_BASE`] rows.
+pub const fn base_index(k: usize) -> usize {
+    N_UNCERTAIN + k
+}
+
 /// Index of tool coordinate `k` (0 = x, 1 = y, 2 = z) among the [`N_UNCERTAIN`] inputs.
 pub const fn tool_index(k: usize) -> usize {
     N_PARAMS + k
@@ -25,7 +38,12 @@ pub const fn tool_index(k: usize) -> usize {
 /// The name of input `i` of the [`N_UNCERTAIN`] inputs as reports spell it: `theta2`, `d1`, …
 /// (1-based joint), or `tool_x`, `tool_y`, `tool_z`.
 pub fn input_name(i: usize) -> String {
-    if i >= N_PARAMS {
+    if i >= N_UNCERTAIN {
+        format!(
+            "base_{}",
+            ["x", "y", "z", "roll", "pitch", "yaw"][i - N_UNCERTAIN]
+        )
+    } else if i >= N_PARAMS {
         format!("tool_{}", ["x", "y", "z"][i - N_PARAMS])
     } else {
         format!("{}{}", param_kind(i).name(), param_joint(i) + 1)
@@ -35,7 +53,9 @@ pub fn input_name(i: usize) -> String {
 /// Factor from file units to internal units of input `i` (degrees → radians for the angles;
 /// 1 for lengths and the tool coordinates).
 pub fn input_to_internal(i: usize) -> f64 {
-    if i >= N_PARAMS {
+    if i >= N_UNCERTAIN + 3 {
+        std::f64::consts::PI / 180.0
+    } else if i >= N_PARAMS {
         1.0
     } else {
         param_kind(i).to_internal()

@@ -32,8 +32,9 @@ pub use check::{
 pub use file::ModelError;
 pub use fk::{joint_transform, position, position_deg, transform, Mat4};
 pub use index::{
-    input_name, input_to_internal, param_index, param_joint, param_kind, tool_index, FixedParam,
-    ParamKind, JOINTS, N_PARAMS, N_UNCERTAIN, PARAMS_PER_JOINT, TOOL_COORDS,
+    base_index, input_name, input_to_internal, param_index, param_joint, param_kind, tool_index,
+    FixedParam, ParamKind, BASE_COORDS, JOINTS, N_PARAMS, N_UNCERTAIN, N_WITH_BASE,
+    PARAMS_PER_JOINT, TOOL_COORDS,
 };
 pub use model::{BaseTransform, RobotModel, Uncertainty};
 pub use tx60::tx60;

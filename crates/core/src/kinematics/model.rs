@@ -2,7 +2,7 @@
 //! tool point and the parameter uncertainty. Its TOML file format is in `file`, the checks of
 //! its values in `check`.
 
-use super::index::{FixedParam, JOINTS, N_PARAMS, N_UNCERTAIN};
+use super::index::{FixedParam, BASE_COORDS, JOINTS, N_PARAMS, N_UNCERTAIN, N_WITH_BASE};
 
 /// Spread of the parameters about their values (internal units: mm, rad). The tool point's
 /// spread is [`RobotModel::tool_sigma`], except with a 33 × 33 covariance, which covers it.
@@ -12,16 +12,19 @@ pub enum Uncertainty {
     /// Independent normals with these standard deviations (0 = exactly known).
     Independent([f64; N_PARAMS]),
     /// Full covariance, row-major, either 30 × 30 (the parameters; the tool's spread is then
-    /// [`RobotModel::tool_sigma`], independent of them) or 33 × 33 ([`N_UNCERTAIN`]: the
-    /// parameters, then the tool's x, y, z in mm).
+    /// [`RobotModel::tool_sigma`], independent of them), 33 × 33 ([`N_UNCERTAIN`]: the
+    /// parameters, then the tool's x, y, z in mm) or 39 × 39 ([`N_WITH_BASE`]: then the
+    /// placement's x, y, z in mm and roll, pitch, yaw in rad, as identified from data in a
+    /// tracker frame).
     Covariance(Vec<f64>),
 }
 
 impl Uncertainty {
-    /// Rows of the covariance: [`N_UNCERTAIN`] for a 33 × 33 matrix, else [`N_PARAMS`] (also
-    /// for independent σ).
+    /// Rows of the covariance: [`N_WITH_BASE`] for a 39 × 39 matrix, [`N_UNCERTAIN`] for a
+    /// 33 × 33 one, else [`N_PARAMS`] (also for independent σ).
     pub fn dim(&self) -> usize {
         match self {
+            Self::Covariance(c) if c.len() == N_WITH_BASE * N_WITH_BASE => N_WITH_BASE,
             Self::Covariance(c) if c.len() == N_UNCERTAIN * N_UNCERTAIN => N_UNCERTAIN,
             _ => N_PARAMS,
         }
@@ -145,13 +148,13 @@ impl RobotModel {
     }
 
     /// The covariance of all [`N_UNCERTAIN`] inputs, row-major 33 × 33, for a correlated model
-    /// (a 30 × 30 matrix is extended by the independent tool variances `tool_sigma²`); `None`
-    /// for independent σ.
+    /// (a 30 × 30 matrix is extended by the independent tool variances `tool_sigma²`, a 39 × 39
+    /// one cut to its first 33 rows); `None` for independent σ.
     pub fn full_covariance(&self) -> Option<Vec<f64>> {
         match &self.uncertainty {
             Uncertainty::Independent(_) => None,
             Uncertainty::Covariance(_) => {
-                let n = self.uncertainty.dim();
+                let n = self.uncertainty.dim().min(N_UNCERTAIN);
                 let mut c = vec![0.0; N_UNCERTAIN * N_UNCERTAIN];
                 for i in 0..N_UNCERTAIN {
                     for k in 0..N_UNCERTAIN {
@@ -167,6 +170,40 @@ impl RobotModel {
                 Some(c)
             }
         }
+    }
+
+    /// Standard deviations of the placement (x, y, z mm; roll, pitch, yaw rad): the last six
+    /// diagonal entries of a 39 × 39 covariance, else zeros.
+    pub fn base_sigmas(&self) -> [f64; BASE_COORDS] {
+        if self.uncertainty.dim() == N_WITH_BASE {
+            std::array::from_fn(|k| {
+                let i = N_UNCERTAIN + k;
+                self.uncertainty.entry(i, i).max(0.0).sqrt()
+            })
+        } else {
+            [0.0; BASE_COORDS]
+        }
+    }
+
+    /// Whether the placement is uncertain (some base σ > 0).
+    pub fn base_uncertain(&self) -> bool {
+        self.base_sigmas().iter().any(|&s| s > 0.0)
+    }
+
+    /// The model in the robot's base frame: a 39 × 39 covariance cut to its first 33 rows (the
+    /// placement's spread and its correlations dropped); any other model unchanged.
+    pub fn without_base_uncertainty(&self) -> RobotModel {
+        let mut m = self.clone();
+        if let Uncertainty::Covariance(c) = &self.uncertainty {
+            if self.uncertainty.dim() == N_WITH_BASE {
+                let n = N_UNCERTAIN;
+                let cut = (0..n * n)
+                    .map(|x| c[(x / n) * N_WITH_BASE + x % n])
+                    .collect();
+                m.uncertainty = Uncertainty::Covariance(cut);
+            }
+        }
+        m
     }
 
     /// Indices of the parameters with nonzero spread.
