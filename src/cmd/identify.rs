@@ -195,7 +195,12 @@ impl Run for IdentifyArgs {
             &a.sweeps.display().to_string(),
         )?;
         say(note);
-        outputs.stage_file("--out", model.to_toml())?;
+        // The file's bytes for its SHA-256 (already read once within the size bound).
+        let bytes = std::fs::read(&a.sweeps).unwrap_or_default();
+        outputs.stage_file(
+            "--out",
+            identify::model_file_text(&model, &ids, &origin, &bytes),
+        )?;
         let yes_no = |b: bool| if b { "yes" } else { "no" }.to_string();
         let rows = [
             ("data file".to_string(), a.sweeps.display().to_string()),

@@ -1,24 +1,55 @@
-//! `simulate`: calibration sweeps of a virtual robot measured by a laser tracker.
+//! `simulate`: calibration data of a virtual robot measured by a laser tracker: circle-point
+//! sweeps, or with `--poses N` the target at N random (or given) configurations, in the
+//! tracker's own frame.
 
 use super::outputs::Outputs;
 use super::Run;
 use crate::cmd::args::{FactorArgs, MemoryArgs};
-use anyhow::{Context, Result};
-use clap::Args;
+use anyhow::{bail, Context, Result};
+use clap::{Args, ValueEnum};
 use gpu_amcs::memory::Estimate;
+use gpu_amcs::simulate::{random_placement, simulate_poses, TrackerNoise};
 use std::path::PathBuf;
+
+/// Where the robot base stands in the tracker's frame.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum PlacementArg {
+    /// A seeded random placement 1.5–4 m from the tracker, any heading, tilted up to ±10°.
+    Random,
+    /// The tracker frame is the robot base frame.
+    Base,
+}
 
 /// `simulate` options.
 #[derive(Args, Debug, Clone)]
 pub struct SimulateArgs {
     #[command(flatten)]
     pub factors: FactorArgs,
-    /// Write the sweeps CSV to FILE (default: stdout).
+    /// Write the data CSV to FILE (default: stdout).
     #[arg(long, short, value_name = "FILE")]
     pub out: Option<PathBuf>,
-    /// Also write the true robot's model file.
+    /// Also write the true robot's model file (with its placement as `base`).
     #[arg(long, value_name = "FILE")]
     pub truth_out: Option<PathBuf>,
+    /// Measure the target at N random configurations within the joint limits (pose data: one
+    /// run, q1..q6,x,y,z) instead of circle-point sweeps.
+    #[arg(long, value_name = "N")]
+    pub poses: Option<usize>,
+    /// With --poses: the configurations to measure at (CSV of q1..q6, degrees) instead of random
+    /// ones.
+    #[arg(long, value_name = "FILE", requires = "poses")]
+    pub points_file: Option<PathBuf>,
+    /// Where the robot base stands in the tracker's frame (default: --truth's own `base` when it
+    /// has one, else random for --poses and base for sweeps, as the factor study uses).
+    #[arg(long, value_enum)]
+    pub placement: Option<PlacementArg>,
+    /// Target on the flange, mm (default: the design target 30,-20,80 of the sweep simulation;
+    /// replaced by --truth's).
+    #[arg(long, value_delimiter = ',', num_args = 3, value_name = "X,Y,Z")]
+    pub target: Option<Vec<f64>>,
+    /// With --poses: plain tracker noise σ per coordinate, mm, instead of the AT960 model.
+    #[arg(long, value_name = "MM", requires = "poses")]
+    pub tracker_sigma: Option<f64>,
     #[command(flatten)]
     pub memory: MemoryArgs,
 }
@@ -26,29 +57,97 @@ pub struct SimulateArgs {
 impl Run for SimulateArgs {
     fn run(self) -> Result<()> {
         let a = self;
-        let mut outputs = Outputs::new(a.factors.inputs());
+        let mut inputs = a.factors.inputs();
+        inputs.extend(a.points_file.as_deref().map(|p| ("--points-file", p)));
+        let mut outputs = Outputs::new(inputs);
         outputs.file("--out", a.out.as_deref())?;
         outputs.file("--truth-out", a.truth_out.as_deref())?;
-        let (exp, f) = a.factors.experiment()?;
-        a.memory.check(&a.factors.sweep_estimate(Estimate::new(
-            format!("{} runs of sweeps at a {}° step", f.runs, f.step_deg),
-            "use fewer --runs or a larger --step, or raise --memory-limit",
-        )))?;
-        let data = exp.sweeps(&f, a.factors.seed);
-        let mut buf = Vec::new();
-        gpu_amcs::identify::write_sweeps(&data, &mut buf)?;
-        let text = String::from_utf8(buf).context("sweep CSV")?;
-        let lines = text.lines().count() - 1;
-        outputs.stage_file("--truth-out", exp.truth.to_toml())?;
+        let (mut exp, f) = a.factors.experiment()?;
+        if let Some(t) = &a.target {
+            if t.iter().any(|v| !v.is_finite() || v.abs() > 1e5) {
+                bail!("--target: x, y, z must be finite mm within ±100 m");
+            }
+            exp.truth.tool = [t[0], t[1], t[2]];
+            exp.nominal.tool = exp.truth.tool;
+        }
+        let poses = a.poses.is_some();
+        // A true robot read with --truth keeps its own placement unless one is asked for.
+        let placement = match (a.placement, exp.truth.base) {
+            (None, Some(b)) if a.factors.truth.is_some() => Some(b),
+            (p, _) => match p.unwrap_or(if poses {
+                PlacementArg::Random
+            } else {
+                PlacementArg::Base
+            }) {
+                PlacementArg::Random => Some(random_placement(a.factors.seed)),
+                PlacementArg::Base => None,
+            },
+        };
+        exp.placement = placement;
+        let mut truth = exp.truth.clone();
+        if let Some(b) = placement {
+            truth.base = Some(b);
+        }
+        let (text, what) = match a.poses {
+            Some(n) => {
+                let configs = match &a.points_file {
+                    Some(p) => gpu_amcs::points::read_csv(p)
+                        .with_context(|| format!("--points-file {}", p.display()))?,
+                    None => {
+                        if n == 0 || n > 10_000_000 {
+                            bail!("--poses: {n} is not a number of poses in 1–10000000");
+                        }
+                        gpu_amcs::simulate::random_poses(&exp.truth, n, a.factors.seed)
+                    }
+                };
+                for (i, q) in configs.iter().enumerate() {
+                    exp.truth.check_limits(q).map_err(|m| {
+                        anyhow::anyhow!("--points-file: configuration {}: {m}", i + 1)
+                    })?;
+                }
+                let noise = match a.tracker_sigma {
+                    Some(s) if s.is_finite() && s >= 0.0 => TrackerNoise::Isotropic(s),
+                    Some(s) => bail!("--tracker-sigma: {s} is not a non-negative number of mm"),
+                    None => TrackerNoise::Tracker(exp.tracker),
+                };
+                let b = placement.unwrap_or(gpu_amcs::kinematics::BaseTransform {
+                    xyz: [0.0; 3],
+                    rpy: [0.0; 3],
+                });
+                let data = simulate_poses(&exp.truth, &configs, &b, &noise, a.factors.seed);
+                let mut buf = Vec::new();
+                gpu_amcs::identify::write_poses(&data, &mut buf)?;
+                (
+                    String::from_utf8(buf).context("pose CSV")?,
+                    format!("{} poses", configs.len()),
+                )
+            }
+            None => {
+                a.memory.check(&a.factors.sweep_estimate(Estimate::new(
+                    format!("{} runs of sweeps at a {}° step", f.runs, f.step_deg),
+                    "use fewer --runs or a larger --step, or raise --memory-limit",
+                )))?;
+                let data = exp.sweeps(&f, a.factors.seed);
+                let mut buf = Vec::new();
+                gpu_amcs::identify::write_sweeps(&data, &mut buf)?;
+                let text = String::from_utf8(buf).context("sweep CSV")?;
+                let lines = text.lines().count() - 1;
+                (text, format!("{} runs × 6 sweeps ({lines} points)", f.runs))
+            }
+        };
+        outputs.stage_file("--truth-out", truth.to_toml())?;
+        let frame = match &placement {
+            None => "the robot base frame".to_string(),
+            Some(b) => format!(
+                "a tracker frame, robot base {:.2} m from the tracker",
+                (b.xyz[0].powi(2) + b.xyz[1].powi(2) + b.xyz[2].powi(2)).sqrt() / 1000.0
+            ),
+        };
         match &a.out {
             Some(o) => {
                 outputs.stage_file("--out", text)?;
                 outputs.commit()?;
-                eprintln!(
-                    "wrote {} runs × 6 sweeps ({lines} points) to {}",
-                    f.runs,
-                    o.display()
-                );
+                eprintln!("wrote {what} in {frame} to {}", o.display());
             }
             None => {
                 outputs.commit()?;

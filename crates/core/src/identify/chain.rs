@@ -436,7 +436,20 @@ pub fn identify_chain(
         .collect();
     let rms = (norms.iter().map(|v| v * v).sum::<f64>() / norms.len() as f64).sqrt();
     let max = norms.iter().fold(0.0f64, |m, v| m.max(*v));
-    let warnings = chain_warnings(&identifiability, &noise, &parameters);
+    let mut warnings = chain_warnings(&identifiability, &noise, &parameters);
+    if rms > super::MAX_RMS_RESIDUAL_MM {
+        warnings.insert(
+            0,
+            format!(
+                "the RMS residual {rms:.4} mm is far above tracker noise ({} mm allowed): {}",
+                super::MAX_RMS_RESIDUAL_MM,
+                match opts.placement {
+                    Placement::Known => "are the data really in the robot base frame, with the nominal model's structure?",
+                    Placement::Identify => "check the nominal model's structure, the target and the data",
+                }
+            ),
+        );
+    }
     identifiability.correlated.truncate(50);
     Ok(ChainResult {
         state,

@@ -111,6 +111,21 @@ impl Provenance {
     }
 }
 
+/// The identified model's file: the model's TOML, then (for runs through the whole-chain fit)
+/// the `[provenance]` table of `ids` identified from `data` (the data file's bytes).
+pub fn model_file_text(
+    model: &crate::kinematics::RobotModel,
+    ids: &[Identification],
+    data_file: &str,
+    data: &[u8],
+) -> String {
+    let mut s = model.to_toml();
+    if let Some(p) = Provenance::new(ids, data_file, data) {
+        s.push_str(&p.to_toml());
+    }
+    s
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

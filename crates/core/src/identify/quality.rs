@@ -160,13 +160,21 @@ pub fn grouped_warnings(ids: &[Identification]) -> Vec<String> {
         usize,
         std::mem::Discriminant<IdentifyWarning>,
         Option<ParamKind>,
+        Option<String>,
     );
     let key = |w: &IdentifyWarning| -> Key {
         let kind = match w {
             IdentifyWarning::Parameter { kind, .. } => Some(*kind),
             _ => None,
         };
-        (w.joint(), std::mem::discriminant(w), kind)
+        // A chain warning's kind is its first words ("rank deficient", "ill-conditioned", …).
+        let what = match w {
+            IdentifyWarning::Chain { message, .. } => {
+                Some(message.split([':', '(']).next().unwrap_or("").to_string())
+            }
+            _ => None,
+        };
+        (w.joint(), std::mem::discriminant(w), kind, what)
     };
     let mut seen: Vec<(Key, String, usize)> = Vec::new();
     for w in ids.iter().flat_map(|i| &i.report.warnings) {

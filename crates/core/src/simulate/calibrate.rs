@@ -53,6 +53,10 @@ pub struct Experiment {
     pub plan: SweepPlan,
     /// Identification options.
     pub identify: IdentifyOptions,
+    /// Where the robot base stands in the tracker's frame; `None`: the sweeps are recorded in
+    /// the base frame (the factor study's setting). With a placement the tracker stands at the
+    /// measurement frame's origin and every point is reported in that frame.
+    pub placement: Option<crate::kinematics::BaseTransform>,
 }
 
 impl Experiment {
@@ -86,6 +90,7 @@ impl Experiment {
             robot: RobotErrorModel::default(),
             plan: SweepPlan::default(),
             identify: IdentifyOptions::default(),
+            placement: None,
         }
     }
 
@@ -101,6 +106,17 @@ impl Experiment {
     /// One simulated calibration run (all six sweeps) from generator `rng`.
     pub fn sweep_run(&self, f: &Factors, label: Option<String>, rng: &mut ChaCha8Rng) -> SweepRun {
         let plan = self.plan_for(f);
+        let tracker = match &self.placement {
+            None => self.tracker,
+            Some(b) => TrackerModel {
+                position_mm: super::poses::tracker_in_base_frame(b),
+                ..self.tracker
+            },
+        };
+        let place = |p: [f64; 3]| match &self.placement {
+            None => p,
+            Some(b) => b.apply(p),
+        };
         let dir = f.direction.sign();
         let sweeps = (1..=JOINTS)
             .map(|j| {
@@ -129,7 +145,7 @@ impl Experiment {
                         let p = [p[0] + s[0], p[1] + s[1], p[2] + s[2]];
                         SweepPoint {
                             q_deg,
-                            position_mm: self.tracker.measure(p, rng),
+                            position_mm: place(tracker.measure(p, rng)),
                             line: 0,
                         }
                     })

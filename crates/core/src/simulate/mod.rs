@@ -14,6 +14,7 @@
 
 pub mod calibrate;
 pub mod factors;
+pub mod poses;
 pub mod robot;
 pub mod sweep;
 pub mod tracker;
@@ -21,6 +22,9 @@ pub mod tracker;
 pub use crate::identify::{write_measurements, write_sweeps};
 pub use calibrate::{accuracy_check, calibrate, run_seed, Calibration, Experiment, DESIGN_TOOL_MM};
 pub use factors::{Factors, RobotErrorModel, SimulateError, SimulateSetting, SweepDirection};
+pub use poses::{
+    random_placement, random_poses, simulate_poses, tracker_in_base_frame, TrackerNoise,
+};
 pub use robot::{measure_positions, perturbed_model, random_configurations, ParameterErrors};
 pub use sweep::{
     simulate_sweeps, simulate_sweeps_with, SweepPlan, TX60_HOME_DEG, TX60_MEASURING_RANGES_DEG,

@@ -1,0 +1,134 @@
+//! Pose measurements of a simulated robot in a tracker's own frame: the target measured at
+//! random configurations (or given ones), with the tracker standing somewhere else than the
+//! robot base (docs/METHOD.md §2.4).
+//!
+//! The tracker frame's origin is the tracker. [`random_placement`] draws where the robot base
+//! stands in it (1.5–4 m away, any heading, tilted up to ±10°, ±0.5 m in height): the
+//! `p_tracker = B · p_base` of the model's `base` field. [`simulate_poses`] measures the true
+//! robot's target there with the AT960 noise model of [`super::tracker`] (radial and transverse
+//! about the line of sight from the tracker), or with a plain σ per coordinate.
+
+use super::tracker::TrackerModel;
+use crate::identify::{PoseData, PosePoint, PoseRun};
+use crate::kinematics::{BaseTransform, RobotModel, JOINTS};
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+/// How the tracker's measurements are perturbed.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum TrackerNoise {
+    /// The AT960 model (MPE-based, radial and transverse) with the tracker at the measurement
+    /// frame's origin.
+    Tracker(TrackerModel),
+    /// A plain σ per coordinate, mm.
+    Isotropic(f64),
+}
+
+/// A seeded random placement of the robot base in a tracker's frame: 1.5–4 m from the tracker
+/// horizontally, any heading and yaw, roll and pitch within ±10°, height ±500 mm.
+pub fn random_placement(seed: u64) -> BaseTransform {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7472_6163_6b65_72);
+    let r = rng.random_range(1500.0..4000.0);
+    let heading = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
+    let tilt = 10f64.to_radians();
+    BaseTransform {
+        xyz: [
+            r * heading.cos(),
+            r * heading.sin(),
+            rng.random_range(-500.0..500.0),
+        ],
+        rpy: [
+            rng.random_range(-tilt..tilt),
+            rng.random_range(-tilt..tilt),
+            rng.random_range(-std::f64::consts::PI..std::f64::consts::PI),
+        ],
+    }
+}
+
+/// Measures `truth`'s target at `configs` (degrees) from a tracker whose frame holds the robot
+/// base at `placement`: the true position `placement · P(θ, t, q)` plus noise. One run, line
+/// numbers as [`crate::identify::write_poses`] writes them.
+pub fn simulate_poses(
+    truth: &RobotModel,
+    configs: &[[f64; JOINTS]],
+    placement: &BaseTransform,
+    noise: &TrackerNoise,
+    seed: u64,
+) -> PoseData {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let points = configs
+        .iter()
+        .enumerate()
+        .map(|(k, q)| {
+            let p =
+                crate::kinematics::position(&truth.params, &truth.tool, &q.map(f64::to_radians));
+            let p = placement.apply(p);
+            let position_mm = match noise {
+                TrackerNoise::Tracker(t) => TrackerModel {
+                    position_mm: [0.0; 3],
+                    ..*t
+                }
+                .measure(p, &mut rng),
+                TrackerNoise::Isotropic(s) => super::add_tracker_noise(p, *s, &mut rng),
+            };
+            PosePoint {
+                q_deg: *q,
+                position_mm,
+                sigma_mm: None,
+                line: k as u64 + 2,
+            }
+        })
+        .collect();
+    PoseData {
+        runs: vec![PoseRun { run: None, points }],
+    }
+}
+
+/// `n` configurations uniform within `model`'s joint limits, seeded (degrees).
+pub fn random_poses(model: &RobotModel, n: usize, seed: u64) -> Vec<[f64; JOINTS]> {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    super::random_configurations(&model.limits_deg, n, &mut rng)
+}
+
+/// The tracker's position in the robot base frame for a placement (the tracker stands at the
+/// measurement frame's origin): `placement⁻¹ · 0`.
+pub fn tracker_in_base_frame(placement: &BaseTransform) -> [f64; 3] {
+    let v = placement.isometry().inverse() * nalgebra::Point3::origin();
+    [v.x, v.y, v.z]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::kinematics::tx60;
+
+    #[test]
+    fn placements_are_far_and_reproducible() {
+        for seed in 0..50 {
+            let p = random_placement(seed);
+            let d = (p.xyz[0].powi(2) + p.xyz[1].powi(2)).sqrt();
+            assert!((1500.0..4000.0).contains(&d));
+            assert!(p.rpy[0].abs() <= 0.175 && p.rpy[1].abs() <= 0.175);
+            assert_eq!(p, random_placement(seed));
+        }
+        assert_ne!(random_placement(1), random_placement(2));
+    }
+
+    #[test]
+    fn noise_free_poses_are_the_placed_truth() {
+        let mut m = tx60();
+        m.tool = [30.0, -20.0, 80.0];
+        let b = random_placement(3);
+        let qs = [[10.0, -20.0, 90.0, 30.0, 40.0, -50.0]];
+        let d = simulate_poses(&m, &qs, &b, &TrackerNoise::Isotropic(0.0), 1);
+        m.base = Some(b);
+        let want = m.world_position(&qs[0].map(f64::to_radians));
+        let got = d.runs[0].points[0].position_mm;
+        for k in 0..3 {
+            assert!((got[k] - want[k]).abs() < 1e-9);
+        }
+        let t = tracker_in_base_frame(&b);
+        let back = b.apply(t);
+        assert!(back.iter().all(|v| v.abs() < 1e-9));
+    }
+}
