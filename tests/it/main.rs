@@ -25,4 +25,5 @@ mod sensitivity;
 mod study;
 mod summary;
 mod tail;
+mod tracker_cli;
 mod tracker_data;

@@ -298,10 +298,17 @@ pub fn identify_chain(
     let mut estimated_sigma = None;
     if !opts.noise.is_stated() {
         if dof == 0 {
+            let fixed: Vec<&str> = nulls.iter().map(|n| n.fixed.as_str()).collect();
             return Err(IdentifyError::NoData(format!(
-                "{} points give no degrees of freedom to estimate the noise for {} parameters: measure more points or state the tracker's σ",
+                "{} points give {} equations: {} quantities are identifiable at most{}, and no degrees of freedom are left to estimate the noise; measure 30–60 poses spread over the joint ranges, or state the tracker's σ",
                 obs.len(),
-                free.len()
+                3 * obs.len(),
+                free.len(),
+                if fixed.is_empty() {
+                    String::new()
+                } else {
+                    format!(" (rank deficient: {} not identifiable)", fixed.join(", "))
+                }
             )));
         }
         let r = residuals(&obs, &state);

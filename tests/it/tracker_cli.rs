@@ -1,0 +1,290 @@
+//! `simulate --poses` → `identify` → `validate` on the command line: pose data in a tracker
+//! frame, the model file with its 39 × 39 covariance and provenance, the reports, and every bad
+//! input ending in one line, exit 2 and no file.
+
+use crate::common::{arg, fails_leaving_nothing, run, stderr, stdout, tmpdir};
+use gpu_amcs::kinematics::RobotModel;
+use std::fs;
+
+/// Noise-free poses of a random tracker placement: the identified model reproduces the truth at
+/// held-out configurations within 1e-6 mm in the tracker frame, its covariance is 39 × 39, its
+/// provenance names the data's SHA-256, and `simulate` is reproducible from its seed.
+#[test]
+fn poses_in_a_tracker_frame_end_to_end() {
+    let d = tmpdir("tracker-e2e");
+    let (p, t, m) = (arg(&d, "p.csv"), arg(&d, "t.toml"), arg(&d, "m.toml"));
+    let o = run(&[
+        "simulate",
+        "--poses",
+        "60",
+        "--seed",
+        "4",
+        "--tracker-sigma",
+        "0",
+        "-o",
+        &p,
+        "--truth-out",
+        &t,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("wrote 60 poses in a tracker frame"),
+        "{}",
+        stderr(&o)
+    );
+    let again = arg(&d, "p2.csv");
+    let o = run(&[
+        "simulate",
+        "--poses",
+        "60",
+        "--seed",
+        "4",
+        "--tracker-sigma",
+        "0",
+        "-o",
+        &again,
+    ]);
+    assert!(o.status.success());
+    assert_eq!(
+        fs::read(&p).unwrap(),
+        fs::read(&again).unwrap(),
+        "same seed, same file"
+    );
+    let other = arg(&d, "p3.csv");
+    assert!(
+        run(&["simulate", "--poses", "60", "--seed", "5", "-o", &other])
+            .status
+            .success()
+    );
+    assert_ne!(fs::read(&p).unwrap(), fs::read(&other).unwrap());
+    let truth = RobotModel::from_file(std::path::Path::new(&t)).unwrap();
+    let b = truth.base.expect("the truth records its placement");
+    assert!((b.xyz[0].powi(2) + b.xyz[1].powi(2)).sqrt() >= 1500.0);
+
+    let o = run(&[
+        "identify",
+        &p,
+        "-o",
+        &m,
+        "--json",
+        &arg(&d, "id.json"),
+        "--csv",
+        &arg(&d, "csv"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(
+        out.contains("Whole-chain fit: 60 points in the measurement frame"),
+        "{out}"
+    );
+    assert!(out.contains("rank 27 of 27"), "{out}");
+    let model = RobotModel::from_file(std::path::Path::new(&m)).unwrap();
+    assert_eq!(model.uncertainty.dim(), 39);
+    let text = fs::read_to_string(&m).unwrap();
+    assert!(text.contains(&format!(
+        "data_sha256 = \"{}\"",
+        gpu_amcs::identify::sha256_hex(&fs::read(&p).unwrap())
+    )));
+    let held = arg(&d, "held.csv");
+    let o = run(&[
+        "simulate",
+        "--poses",
+        "50",
+        "--seed",
+        "11",
+        "--tracker-sigma",
+        "0",
+        "--truth",
+        &t,
+        "-o",
+        &held,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let measured = gpu_amcs::identify::read_measurements(std::path::Path::new(&held)).unwrap();
+    for x in &measured {
+        let got = model.world_position(&x.q_deg.map(f64::to_radians));
+        for k in 0..3 {
+            assert!(
+                (got[k] - x.position_mm[k]).abs() < 1e-6,
+                "{got:?} vs {:?}",
+                x.position_mm
+            );
+        }
+    }
+    let o = run(&["validate", "--model", &m, &held]);
+    assert!(stdout(&o).contains("frame: measurement"), "{}", stdout(&o));
+    // The report files.
+    let json: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(d.join("id.json")).unwrap()).unwrap();
+    let chain = &json["identify"]["runs"][0]["chain"];
+    assert_eq!(chain["identifiability"]["rank"], 27);
+    assert_eq!(json["identify"]["runs"][0]["method"], "poses");
+    let params = fs::read_to_string(d.join("csv/parameters.csv")).unwrap();
+    assert_eq!(params.lines().count(), 1 + 39);
+    assert!(params.contains("base_yaw") && params.contains("fixed: convention"));
+}
+
+/// Data that cannot identify the parameters: a warning naming them; with `--strict` exit 2 and
+/// no model file.
+#[test]
+fn strict_refuses_unidentifiable_data() {
+    let d = tmpdir("tracker-strict");
+    let p = arg(&d, "p.csv");
+    // Five poses only: without a stated σ nothing is left to estimate the noise from.
+    let o = run(&["simulate", "--poses", "5", "--seed", "2", "-o", &p]);
+    assert!(o.status.success());
+    fails_leaving_nothing(
+        &d,
+        &["identify", &p, "-o", &arg(&d, "m.toml")],
+        "rank deficient",
+    );
+    let o = run(&[
+        "identify",
+        &p,
+        "--tracker-sigma",
+        "0.01",
+        "-o",
+        &arg(&d, "m.toml"),
+    ]);
+    assert!(o.status.success());
+    assert!(stderr(&o).contains("rank deficient"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("measure more poses"), "{}", stderr(&o));
+    fs::remove_file(d.join("m.toml")).unwrap();
+    let before = crate::common::tree(&d);
+    let o = run(&[
+        "identify",
+        &p,
+        "--tracker-sigma",
+        "0.01",
+        "--strict",
+        "-o",
+        &arg(&d, "m.toml"),
+    ]);
+    assert_eq!(o.status.code(), Some(2), "{}", stderr(&o));
+    assert!(stderr(&o).contains("--strict"), "{}", stderr(&o));
+    assert_eq!(crate::common::tree(&d), before, "no model file");
+}
+
+/// Every bad input ends in one line naming the file and line, exit 2, nothing written; CRLF and
+/// a byte-order mark are read as plain text.
+#[test]
+fn bad_pose_files_end_in_one_line() {
+    let d = tmpdir("tracker-bad");
+    let out = arg(&d, "m.toml");
+    let good = "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,90,0,0,0,400,20,900\n";
+    let cases = [
+        (
+            "nan.csv",
+            format!("{good}10,0,90,0,0,NaN,400,20,900\n"),
+            "line 3",
+        ),
+        (
+            "dup.csv",
+            format!("{good}0,0,90,0,0,0,400,20,900\n"),
+            "repeats line 2",
+        ),
+        (
+            "limits.csv",
+            format!("{good}0,0,90,0,170,0,400,20,900\n"),
+            "q5",
+        ),
+        (
+            "metres.csv",
+            "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,90,0,0,0,0.4,0.02,0.9\n10,0,90,0,0,0,0.4,0.1,0.9\n"
+                .to_string(),
+            "metres",
+        ),
+        (
+            "sigma.csv",
+            "q1,q2,q3,q4,q5,q6,x,y,z,sx,sy\n0,0,90,0,0,0,400,20,900,1,1\n".to_string(),
+            "'sz'",
+        ),
+        ("neither.csv", "a,b,c\n1,2,3\n".to_string(), "poses"),
+        (
+            "empty.csv",
+            "q1,q2,q3,q4,q5,q6,x,y,z\n".to_string(),
+            "no data rows",
+        ),
+        (
+            "short.csv",
+            format!("{good}0,0,90,0,0,0,400,20\n"),
+            "line 3",
+        ),
+    ];
+    for (name, text, what) in cases {
+        let f = d.join(name);
+        fs::write(&f, text).unwrap();
+        fails_leaving_nothing(&d, &["identify", f.to_str().unwrap(), "-o", &out], what);
+    }
+    // CRLF and a BOM: the same data as plain LF text.
+    let p = arg(&d, "p.csv");
+    assert!(run(&["simulate", "--poses", "40", "--seed", "3", "-o", &p])
+        .status
+        .success());
+    let lf = fs::read_to_string(&p).unwrap();
+    let crlf = format!("\u{feff}{}", lf.replace('\n', "\r\n"));
+    fs::write(d.join("crlf.csv"), crlf).unwrap();
+    let a = run(&["identify", &p, "--json", &arg(&d, "a.json")]);
+    let b = run(&[
+        "identify",
+        &arg(&d, "crlf.csv"),
+        "--json",
+        &arg(&d, "b.json"),
+    ]);
+    assert!(a.status.success() && b.status.success(), "{}", stderr(&b));
+    let strip = |f: &str| -> String {
+        fs::read_to_string(d.join(f))
+            .unwrap()
+            .lines()
+            .filter(|l| !l.contains("seconds") && !l.contains("data file") && !l.contains(".csv"))
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    assert_eq!(strip("a.json"), strip("b.json"));
+    // Bad flags.
+    fails_leaving_nothing(&d, &["identify", &p, "--fix", "nope", "-o", &out], "nope");
+    fails_leaving_nothing(
+        &d,
+        &["identify", &p, "--tracker-sigma=-1", "-o", &out],
+        "--tracker-sigma",
+    );
+}
+
+/// `--uncertainty montecarlo` writes the Monte Carlo covariance and reports the σ ratios; the
+/// stated tracker noise gives a χ² line.
+#[test]
+fn monte_carlo_and_stated_noise_on_the_command_line() {
+    let d = tmpdir("tracker-mc");
+    let p = arg(&d, "p.csv");
+    assert!(run(&[
+        "simulate",
+        "--poses",
+        "60",
+        "--seed",
+        "6",
+        "--tracker-sigma",
+        "0.01",
+        "-o",
+        &p
+    ])
+    .status
+    .success());
+    let o = run(&[
+        "identify",
+        &p,
+        "--uncertainty",
+        "montecarlo",
+        "--mc-draws",
+        "100",
+        "--tracker-sigma",
+        "0.01",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    assert!(
+        out.contains("Monte Carlo check (100 re-identifications)"),
+        "{out}"
+    );
+    assert!(out.contains("χ² ="), "{out}");
+    assert!(out.contains("consistent"), "{out}");
+}
