@@ -81,7 +81,9 @@ pub fn run_and_report(
         );
         let rows = problem_rows(problem, &built.problem);
         let model_notes = report::model_notes(&built.problem.model);
-        let (mut ev, notes) = problem.backend.evaluator(built.problem)?;
+        let (mut ev, notes) = problem
+            .backend
+            .frame_evaluator(built.problem, problem.frame)?;
         let notes = [model_notes, notes].concat();
         let bar = Progress::new(output.reports.quiet, plan.label, "draws");
         let bar = if plan.capped { bar.capped() } else { bar };

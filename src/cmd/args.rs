@@ -140,6 +140,24 @@ pub struct MemoryArgs {
     pub memory_limit: Option<String>,
 }
 
+/// The frame of the targets.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FrameArg {
+    /// The measurement (tracker, cell) frame the model's placement was identified in.
+    Measurement,
+    /// The robot's own base frame.
+    Base,
+}
+
+impl From<FrameArg> for gpu_amcs::engine::Frame {
+    fn from(f: FrameArg) -> Self {
+        match f {
+            FrameArg::Measurement => gpu_amcs::engine::Frame::Measurement,
+            FrameArg::Base => gpu_amcs::engine::Frame::Base,
+        }
+    }
+}
+
 /// Model, test points, reference, seed and backend.
 #[derive(Args, Debug, Clone)]
 pub struct ProblemArgs {
@@ -165,6 +183,11 @@ pub struct ProblemArgs {
     /// Nominal model for --reference nominal (default: the preset).
     #[arg(long, value_name = "FILE")]
     pub nominal: Option<PathBuf>,
+    /// Frame of the targets: `measurement` draws a model's uncertain base placement too (a
+    /// model identified from tracker data carries one; amcs and mcs draw it, on the CPU), `base`
+    /// leaves it out (the robot's own frame).
+    #[arg(long, value_enum, default_value_t = FrameArg::Measurement)]
+    pub frame: FrameArg,
     #[command(flatten)]
     pub backend: BackendArgs,
     /// CPU threads (default: all cores). Results do not depend on it.
@@ -300,6 +323,23 @@ impl BackendArgs {
     /// `auto` it asks for that GPU (an error when none matches, not a silent CPU fallback).
     pub fn choice(&self) -> Result<(BackendChoice, Option<&str>)> {
         spec::backend_choice(self.backend.into(), self.adapter.as_deref()).map_err(spec_error)
+    }
+
+    /// Builds the evaluator for targets in `frame` (drawing an uncertain placement in the
+    /// measurement frame); the notes say what was chosen and why.
+    pub fn frame_evaluator(
+        &self,
+        problem: Problem,
+        frame: FrameArg,
+    ) -> Result<(Box<dyn Evaluator>, Vec<String>)> {
+        spec::make_frame_evaluator(
+            gpu_amcs::backends(),
+            problem,
+            self.backend.into(),
+            self.adapter.as_deref(),
+            frame.into(),
+        )
+        .map_err(spec_error)
     }
 
     /// Builds the evaluator; the notes say what was chosen and why.
@@ -513,4 +553,21 @@ pub fn sweeps_estimate(e: Estimate, f: &Factors) -> Estimate {
     let plan = Experiment::tx60(0).plan_for(f);
     let per_run = (1..=6).fold(0u64, |acc, j| acc.saturating_add(plan.sweep_len(j)));
     e.plus(&[f.runs as u64, per_run, BYTES_PER_SWEEP_POINT])
+}
+
+/// The note of an analysis that does not draw the placement (`what`) on a model whose placement
+/// is uncertain: it runs in the robot base frame.
+pub fn placement_note(problem: &Problem, frame: FrameArg, what: &str) -> Vec<String> {
+    if problem.model.base_uncertain() {
+        vec![format!(
+            "frame: robot base frame: {what} does not draw the model's base placement{}",
+            if frame == FrameArg::Measurement {
+                " (amcs and mcs do)"
+            } else {
+                ""
+            }
+        )]
+    } else {
+        Vec::new()
+    }
 }

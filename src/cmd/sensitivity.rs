@@ -93,7 +93,10 @@ impl Run for SensitivityArgs {
             let built = a.problem.build()?;
             let rows = problem_rows(&a.problem, &built.problem);
             let problem = built.problem.clone();
+            let placement =
+                super::args::placement_note(&built.problem, a.problem.frame, "sensitivity");
             let (mut ev, notes) = a.problem.backend.evaluator(built.problem)?;
+            let notes = [notes, placement].concat();
             if !a.reports.quiet {
                 for n in &notes {
                     eprintln!("note: {n}");

@@ -110,7 +110,9 @@ impl Run for TailArgs {
             let built = a.problem.build()?;
             let rows = problem_rows(&a.problem, &built.problem);
             let sampler = built.problem.sampler.clone();
+            let placement = super::args::placement_note(&built.problem, a.problem.frame, "tail");
             let (mut ev, notes) = a.problem.backend.evaluator(built.problem)?;
+            let notes = [notes, placement].concat();
             if !a.reports.quiet {
                 for n in &notes {
                     eprintln!("note: {n}");

@@ -516,3 +516,150 @@ fn predicted_reliability_matches_the_true_robots() {
         );
     }
 }
+
+/// The same in the tracker frame: models identified with their placement (39 × 39), R(l_c)
+/// from the evaluator that draws the placement too, against whether the true robot in its true
+/// placement met l_c at the held-out points' targets in the tracker frame.
+#[test]
+fn predicted_reliability_in_the_tracker_frame_matches_the_true_robots() {
+    use gpu_amcs::engine::{CpuOnly, Frame, Problem, Reference};
+    use gpu_amcs::mc::{run_mcs, McsOptions, RunSettings};
+    use gpu_amcs::spec::make_frame_evaluator;
+    let thresholds = vec![0.010, 0.013, 0.016];
+    let n = 300;
+    let mut predicted = vec![0.0; thresholds.len()];
+    let mut met = vec![0usize; thresholds.len()];
+    for e in 0..n as u64 {
+        let mut rng = ChaCha8Rng::seed_from_u64(7000 + e);
+        let truth = true_robot("tx60", &mut rng);
+        let data = measure(&truth, &configs(&truth, 60, &mut rng), 0.01, &mut rng);
+        let (model, _) = identify("tx60", &data, &ChainOptions::default());
+        let held = configs(&truth, 5, &mut rng);
+        let w_true = held
+            .iter()
+            .map(|q| {
+                let q = q.map(f64::to_radians);
+                distance(truth.world_position(&q), model.world_position(&q))
+            })
+            .fold(0.0, f64::max);
+        let problem = Problem::new(model, &held, &Reference::Calibrated, 1 + e).unwrap();
+        let (mut ev, notes) = make_frame_evaluator(
+            &CpuOnly,
+            problem,
+            gpu_amcs::engine::BackendChoice::Cpu,
+            None,
+            Frame::Measurement,
+        )
+        .unwrap();
+        assert!(
+            notes.iter().any(|n| n.contains("placement drawn")),
+            "{notes:?}"
+        );
+        let r = run_mcs(
+            ev.as_mut(),
+            &McsOptions {
+                draws: 20_000,
+                chunk: 20_000,
+                settings: RunSettings {
+                    thresholds: thresholds.clone(),
+                    ..RunSettings::default()
+                },
+            },
+            None,
+        )
+        .unwrap();
+        for (t, rel) in r.reliability.iter().enumerate() {
+            predicted[t] += rel.r / n as f64;
+            if w_true < thresholds[t] {
+                met[t] += 1;
+            }
+        }
+    }
+    for (t, l) in thresholds.iter().enumerate() {
+        let frac = met[t] as f64 / n as f64;
+        let se = (predicted[t] * (1.0 - predicted[t]) / n as f64).sqrt();
+        eprintln!(
+            "tracker frame, l_c = {l} mm: mean predicted R {:.3}, true robots within l_c {frac:.3} (±{se:.3})",
+            predicted[t]
+        );
+        assert!(
+            (frac - predicted[t]).abs() <= 3.0 * se + 0.01,
+            "l_c = {l}: {frac} vs {}",
+            predicted[t]
+        );
+    }
+}
+
+/// The placement evaluator with a placement spread only in base x (σ = s) gives e_j = |δx| at
+/// every point: R(l) = erf(l / (s√2)) within binomial error; and with every placement σ 0 it
+/// gives the standard CPU evaluator's draws.
+#[test]
+fn placement_draws_have_their_closed_forms() {
+    use gpu_amcs::engine::{
+        CpuEvaluator, Evaluator, PlacementEvaluator, PlacementSpread, Problem, Reference,
+    };
+    use gpu_amcs::kinematics::{tx60, Uncertainty};
+    let mut m = tx60();
+    m.tool = [30.0, -20.0, 80.0];
+    m.base = Some(BaseTransform {
+        xyz: [2000.0, 100.0, 0.0],
+        rpy: [0.05, -0.02, 1.2],
+    });
+    let n = 39;
+    let s = 0.01;
+    let mut c = vec![0.0; n * n];
+    c[33 * n + 33] = s * s;
+    m.uncertainty = Uncertainty::Covariance(c);
+    m.tool_sigma = [0.0; 3];
+    let pts = [
+        [10.0, -20.0, 90.0, 0.0, 30.0, 0.0],
+        [-40.0, 10.0, 60.0, 20.0, -30.0, 50.0],
+    ];
+    let pb = Problem::new(m.clone(), &pts, &Reference::Calibrated, 3).unwrap();
+    let spread = PlacementSpread::of(&pb).unwrap().unwrap();
+    let mut ev = PlacementEvaluator::new(pb, spread);
+    let draws = 200_000;
+    let mut w = vec![0.0; draws];
+    ev.eval_draws(0, &mut w, None).unwrap();
+    for l in [0.005, 0.01, 0.02] {
+        let r = w.iter().filter(|&&x| x < l).count() as f64 / draws as f64;
+        // erf(x) = 1 − 2·Φ̄(x√2)
+        let want = 1.0 - 2.0 * gpu_amcs::identify::noise::normal_upper_tail(l / s);
+        let se = (want * (1.0 - want) / draws as f64).sqrt();
+        assert!((r - want).abs() < 4.0 * se + 1e-4, "l = {l}: {r} vs {want}");
+    }
+    // Parameters uncertain, placement exact: the standard evaluator's draws.
+    let mut c = vec![0.0; n * n];
+    for i in [0usize, 7, 12, 18, 31] {
+        c[i * n + i] = 1e-6;
+    }
+    c[33 * n + 33] = 0.0;
+    m.uncertainty = Uncertainty::Covariance(c.clone());
+    m.tool_sigma = [0.0, 1e-3, 0.0];
+    let pb = Problem::new(m.clone(), &pts, &Reference::Calibrated, 3).unwrap();
+    assert!(
+        PlacementSpread::of(&pb).unwrap().is_none(),
+        "no placement spread"
+    );
+    // A tiny placement spread keeps the first 33 inputs' draws: compare with the 33 × 33 model.
+    c[35 * n + 35] = 1e-30;
+    m.uncertainty = Uncertainty::Covariance(c);
+    let pb = Problem::new(m.clone(), &pts, &Reference::Calibrated, 3).unwrap();
+    let spread = PlacementSpread::of(&pb).unwrap().unwrap();
+    let mut a = PlacementEvaluator::new(pb.clone(), spread);
+    let mut b = CpuEvaluator::new(
+        Problem::new(
+            m.without_base_uncertainty(),
+            &pts,
+            &Reference::Calibrated,
+            3,
+        )
+        .unwrap(),
+    );
+    let (mut wa, mut wb) = (vec![0.0; 1000], vec![0.0; 1000]);
+    a.eval_draws(0, &mut wa, None).unwrap();
+    b.eval_draws(0, &mut wb, None).unwrap();
+    for (x, y) in wa.iter().zip(&wb) {
+        assert!((x - y).abs() < 1e-9, "{x} vs {y}");
+    }
+}

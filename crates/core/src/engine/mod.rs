@@ -49,10 +49,12 @@
 pub mod backend;
 pub mod cpu;
 pub mod deviation;
+pub mod placement;
 mod problem;
 
 pub use backend::{cpu_evaluator, BackendChoice, Backends, CpuOnly};
 pub use cpu::CpuEvaluator;
+pub use placement::{Frame, PlacementEvaluator, PlacementSpread};
 pub use problem::{Problem, ProblemError, Reference};
 
 use crate::kinematics::{input_name, param_kind, N_PARAMS, N_UNCERTAIN};
@@ -122,6 +124,10 @@ pub enum EngineError {
         /// Which evaluator.
         evaluator: String,
     },
+    /// The model's uncertain placement cannot be drawn as asked (not positive definite, or on
+    /// an evaluator that does not draw it).
+    #[error("base placement: {0}")]
+    Placement(String),
     /// A pick-freeze request that does not describe valid rows.
     #[error("pick-freeze request: {0}")]
     PickFreezeRequest(String),

@@ -11,7 +11,7 @@ mod gauss;
 mod normal;
 mod philox;
 
-pub use distribution::{ParamSampler, SamplerError, ALL_NORMALS, MAX_NORMALS};
+pub use distribution::{ParamSampler, SamplerError, ALL_NORMALS, MAX_NORMALS, PARAM_STREAM};
 pub use gauss::standard_normal;
 pub use normal::{box_muller, normals_block, uniform_open};
 pub use philox::{philox4x32_10, Philox};

@@ -1,0 +1,206 @@
+//! Reliability in the measurement frame: draws that include the robot's placement
+//! (docs/METHOD.md §2.8).
+//!
+//! A model identified from data in a tracker's frame carries a 39 × 39 covariance: the 33 inputs
+//! of every draw, then the placement's x, y, z and roll, pitch, yaw, correlated with them. A
+//! target given in the measurement frame is missed by
+//!
+//! ```text
+//! e_j = |B' · P(θ', t', q_j) − B̂ · P_ref,j| = |ΔB · P(θ', t', q_j) − P_ref,j|,  ΔB = B̂⁻¹ B'
+//! ```
+//!
+//! with `B'` the drawn placement. [`PlacementEvaluator`] evaluates this exactly in f64 on the
+//! CPU (rayon over draws). Draw `k`'s normals are those of the standard sampler (Philox block
+//! `b` gives normals `4b … 4b + 3`), extended by blocks 8–9 for the placement's normals 33–38, so
+//! a model whose placement has no spread gives the standard evaluator's draws. The GPU evaluator
+//! does not draw the placement; choosing the frame [`Frame::Base`] leaves it out (the marginal
+//! 33 × 33 block), as for a model without one.
+
+use super::{BackendInfo, EngineError, Evaluator, Problem};
+use crate::kinematics::{position, N_PARAMS, N_UNCERTAIN, N_WITH_BASE};
+use crate::sampling::{normals_block, Philox, PARAM_STREAM};
+use nalgebra::{Matrix3, Rotation3, Vector3};
+use rayon::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// The frame the test points' targets are given in.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Frame {
+    /// The measurement (tracker, cell) frame: the placement's uncertainty is drawn when the
+    /// model has one.
+    #[default]
+    Measurement,
+    /// The robot's own base frame: the placement is left out.
+    Base,
+}
+
+impl Frame {
+    /// How reports name the frame of an analysis of a model with (`drawn`) or without an
+    /// uncertain placement.
+    pub fn label(self, drawn: bool) -> &'static str {
+        match (self, drawn) {
+            (Frame::Measurement, true) => "measurement frame (base placement drawn: 6 more inputs)",
+            (Frame::Measurement, false) => "measurement frame (the placement is exactly known)",
+            (Frame::Base, _) => "robot base frame",
+        }
+    }
+}
+
+/// The joint distribution of all 39 inputs of a model with an uncertain placement.
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlacementSpread {
+    /// Inputs (of the 39) with nonzero variance.
+    pub free: Vec<usize>,
+    /// Lower Cholesky factor of their covariance, row-major.
+    pub chol: Vec<f64>,
+    /// The placement's mean: x, y, z (mm), roll, pitch, yaw (rad).
+    pub base: [f64; 6],
+}
+
+impl PlacementSpread {
+    /// The spread of `problem`'s model, when its covariance includes an uncertain placement.
+    ///
+    /// # Errors
+    ///
+    /// [`EngineError::Placement`] when the 39 × 39 covariance is not positive definite on its
+    /// inputs with nonzero variance.
+    pub fn of(problem: &Problem) -> Result<Option<PlacementSpread>, EngineError> {
+        let m = &problem.model;
+        if !m.base_uncertain() {
+            return Ok(None);
+        }
+        let n = N_WITH_BASE;
+        let c = |i: usize, k: usize| m.uncertainty.entry(i, k);
+        let free: Vec<usize> = (0..n).filter(|&i| c(i, i) > 0.0).collect();
+        let p = free.len();
+        let sub = nalgebra::DMatrix::from_fn(p, p, |a, b| c(free[a], free[b]));
+        let l = nalgebra::linalg::Cholesky::new(sub)
+            .ok_or_else(|| EngineError::Placement(
+                "the covariance with the base placement is not positive definite on its inputs with nonzero variance".into(),
+            ))?
+            .l();
+        let base = m
+            .base
+            .map(|b| [b.xyz[0], b.xyz[1], b.xyz[2], b.rpy[0], b.rpy[1], b.rpy[2]])
+            .unwrap_or([0.0; 6]);
+        Ok(Some(PlacementSpread {
+            free,
+            chol: (0..p * p).map(|x| l[(x / p, x % p)]).collect(),
+            base,
+        }))
+    }
+
+    /// The 39 offsets of draw `k` (internal units).
+    pub fn deltas(&self, gen: &Philox, k: u64) -> [f64; N_WITH_BASE] {
+        let mut z = [0.0; 40];
+        let mut done = [false; 10];
+        for &i in &self.free {
+            let b = i / 4;
+            if !done[b] {
+                let v = normals_block(gen, k, b as u32, PARAM_STREAM);
+                z[4 * b..4 * b + 4].copy_from_slice(&v);
+                done[b] = true;
+            }
+        }
+        let mut d = [0.0; N_WITH_BASE];
+        let p = self.free.len();
+        for a in 0..p {
+            let mut acc = 0.0;
+            for (b, &fb) in self.free.iter().enumerate().take(a + 1) {
+                acc += self.chol[a * p + b] * z[fb];
+            }
+            d[self.free[a]] = acc;
+        }
+        d
+    }
+}
+
+fn rotation(rpy: &[f64]) -> Matrix3<f64> {
+    *Rotation3::from_euler_angles(rpy[0], rpy[1], rpy[2]).matrix()
+}
+
+/// The CPU evaluator of draws that include the placement (see the module docs).
+pub struct PlacementEvaluator {
+    problem: Problem,
+    spread: PlacementSpread,
+    gen: Philox,
+    r_mean_t: Matrix3<f64>,
+}
+
+impl PlacementEvaluator {
+    /// The evaluator of `problem` with `spread` ([`PlacementSpread::of`]).
+    pub fn new(problem: Problem, spread: PlacementSpread) -> Self {
+        let gen = Philox::new(problem.seed);
+        let r_mean_t = rotation(&spread.base[3..]).transpose();
+        PlacementEvaluator {
+            problem,
+            spread,
+            gen,
+            r_mean_t,
+        }
+    }
+
+    /// `e_j` of draw `k` at every test point.
+    pub fn point_errors(&self, k: u64) -> Vec<f64> {
+        let d = self.spread.deltas(&self.gen, k);
+        let m = &self.problem.model;
+        let params: [f64; N_PARAMS] = std::array::from_fn(|i| m.params[i] + d[i]);
+        let tool: [f64; 3] = std::array::from_fn(|i| m.tool[i] + d[N_PARAMS + i]);
+        let b = &self.spread.base;
+        let drawn: [f64; 6] = std::array::from_fn(|i| b[i] + d[N_UNCERTAIN + i]);
+        // ΔB = B̂⁻¹ B': rotation R̂ᵀR', translation R̂ᵀ(t' − t̂).
+        let dr = self.r_mean_t * rotation(&drawn[3..]);
+        let dt = self.r_mean_t * Vector3::new(drawn[0] - b[0], drawn[1] - b[1], drawn[2] - b[2]);
+        self.problem
+            .points
+            .iter()
+            .zip(&self.problem.reference)
+            .map(|(q, r)| {
+                let p = dr * Vector3::from(position(&params, &tool, q)) + dt;
+                (p - Vector3::from(*r)).norm()
+            })
+            .collect()
+    }
+}
+
+impl Evaluator for PlacementEvaluator {
+    fn info(&self) -> BackendInfo {
+        BackendInfo {
+            backend: "cpu".into(),
+            adapter: "rayon f64 (with the base placement)".into(),
+            driver: format!("{} threads", rayon::current_num_threads()),
+        }
+    }
+
+    fn n_points(&self) -> usize {
+        self.problem.points.len()
+    }
+
+    fn eval_draws(
+        &mut self,
+        first: u64,
+        w: &mut [f64],
+        per_point: Option<&mut [f64]>,
+    ) -> Result<(), EngineError> {
+        let m = self.problem.points.len();
+        match per_point {
+            None => w.par_iter_mut().enumerate().for_each(|(i, wi)| {
+                *wi = self
+                    .point_errors(first + i as u64)
+                    .into_iter()
+                    .fold(0.0, f64::max);
+            }),
+            Some(e) => w
+                .par_iter_mut()
+                .zip(e.par_chunks_mut(m))
+                .enumerate()
+                .for_each(|(i, (wi, ei))| {
+                    let v = self.point_errors(first + i as u64);
+                    *wi = v.iter().copied().fold(0.0, f64::max);
+                    ei.copy_from_slice(&v);
+                }),
+        }
+        Ok(())
+    }
+}
