@@ -25,8 +25,8 @@ pub struct ValidateArgs {
     pub preset: String,
     /// Frame of the measured positions: `measurement` (the tracker frame the model's placement
     /// was identified in; a nominal model is placed where the model is) or `base` (the robot's
-    /// base frame). Default: measurement for a model whose covariance includes the placement
-    /// (identified from data in a tracker frame), else base.
+    /// base frame). Default: the frame the model was identified in (its `[provenance]` table),
+    /// else base.
     #[arg(long, value_enum, value_name = "FRAME")]
     pub frame: Option<ValidateFrame>,
 }
@@ -53,10 +53,11 @@ impl Run for ValidateArgs {
         let frame = match a.frame {
             Some(ValidateFrame::Measurement) => identify::Placement::Identify,
             Some(ValidateFrame::Base) => identify::Placement::Known,
-            None if model.uncertainty.dim() > gpu_amcs::kinematics::N_UNCERTAIN => {
-                identify::Placement::Identify
-            }
-            None => identify::Placement::Known,
+            // The frame the model was identified in, as its provenance records it.
+            None => std::fs::read_to_string(&a.model)
+                .ok()
+                .and_then(|t| identify::provenance_frame(&t))
+                .unwrap_or(identify::Placement::Known),
         };
         let v =
             identify::validate_in(&model, &m, nominal.as_ref(), frame).map_err(|e| match e {

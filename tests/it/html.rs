@@ -397,7 +397,10 @@ fn identify_report_renders_and_writes_every_part() {
     for (dir, name) in [
         ("csv", "joints.csv"),
         ("csv", "runs.csv"),
+        ("csv", "parameters.csv"),
         ("svg", "residuals.svg"),
+        ("svg", "correlation.svg"),
+        ("svg", "pose_residuals.svg"),
     ] {
         assert_eq!(
             std::fs::read_to_string(d.join(dir).join(name)).unwrap(),
@@ -410,7 +413,9 @@ fn identify_report_renders_and_writes_every_part() {
         page.contains("sweeps.csv"),
         "the sweeps file is a settings row"
     );
-    check_report(&h, 1, 3, "identify");
+    // Circle-fit residuals, the correlation heat map and the residual of each point; the circle
+    // fits, the parameters, the tool point, the whole-chain fit per run and its quantities.
+    check_report(&h, 3, 5, "identify");
 }
 
 #[test]

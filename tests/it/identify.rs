@@ -578,7 +578,8 @@ fn swapped_axes_warn_and_strict_refuses() {
         id[0].report.warnings
     );
     let (dir, f) = sweep_file("swapped", &d);
-    let (code, _, e) = run_cli(&["identify", f.to_str().unwrap()]);
+    // Taken as base-frame data the J1 axis lies sideways.
+    let (code, _, e) = run_cli(&["identify", f.to_str().unwrap(), "--base-known"]);
     assert_eq!(code, 0, "{e}");
     let w = warning_lines(&e);
     assert!(
@@ -586,6 +587,13 @@ fn swapped_axes_warn_and_strict_refuses() {
             .any(|l| l.contains("joint 1") && l.contains("swapped")),
         "{e}"
     );
+    // With the placement identified a turn cannot undo the mirror: the geometry is far from
+    // nominal and the fit ill-conditioned.
+    let (code, _, e) = run_cli(&["identify", f.to_str().unwrap()]);
+    assert_eq!(code, 0, "{e}");
+    let w = warning_lines(&e);
+    assert!(w.iter().any(|l| l.contains("column order")), "{e}");
+    assert!(w.iter().any(|l| l.contains("ill-conditioned")), "{e}");
     strict_refuses(&f, &dir.join("model.toml"));
 }
 
@@ -599,8 +607,10 @@ fn identify_prints_a_summary_by_default() {
     let (code, summary, e) = run_cli(&args);
     assert_eq!(code, 0, "{e}");
     assert!(e.is_empty(), "no warnings expected: {e}");
-    // Title, column heads, 6 joints, tool point, what the file holds, the file written.
-    assert_eq!(summary.lines().count(), 11, "{summary}");
+    // Title, column heads, 6 joints, tool point, the whole-chain fit of the runs, what the file
+    // holds, the file written.
+    assert_eq!(summary.lines().count(), 12, "{summary}");
+    assert!(summary.contains("Whole-chain fit of each run"), "{summary}");
     assert!(
         summary.contains("20 runs") && summary.contains("model.toml"),
         "{summary}"

@@ -763,17 +763,22 @@ mod target_tests {
             base: [2000.0, 0.0, 0.0, 0.0, 0.0, 1.0],
         };
         let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(4);
-        let pts: Vec<MeasuredPoint> =
-            crate::simulate::random_configurations(&m.limits_deg, 60, &mut rng)
-                .into_iter()
-                .enumerate()
-                .map(|(k, q)| MeasuredPoint {
-                    q_deg: q,
-                    position_mm: s.predict(&q.map(f64::to_radians)),
-                    sigma_mm: None,
-                    line: k as u64,
-                })
-                .collect();
+        use rand::Rng;
+        let configs: Vec<[f64; JOINTS]> = (0..60)
+            .map(|_| {
+                std::array::from_fn(|j| rng.random_range(m.limits_deg[j].0..m.limits_deg[j].1))
+            })
+            .collect();
+        let pts: Vec<MeasuredPoint> = configs
+            .into_iter()
+            .enumerate()
+            .map(|(k, q)| MeasuredPoint {
+                q_deg: q,
+                position_mm: s.predict(&q.map(f64::to_radians)),
+                sigma_mm: None,
+                line: k as u64,
+            })
+            .collect();
         let r = identify_chain(&pts, &m, None, None, &ChainOptions::default()).unwrap();
         let w = r.report.warnings.join("\n");
         assert!(w.contains("away from the J6 axis"), "{w}");

@@ -51,9 +51,16 @@ pub fn render_chain_summary(c: &ChainReport) -> String {
         }
         (None, None) => {}
     }
+    let weak = if a.condition_number > super::identifiability::WEAK_CONDITION
+        && a.condition_number <= super::identifiability::CONDITION_LIMIT
+    {
+        " (weak: above 100)"
+    } else {
+        ""
+    };
     let _ = writeln!(
         s,
-        "  identifiability: rank {} of {}, condition number {:.1}, O1 {:.4}, O3 {:.4}; weakest: {}",
+        "  identifiability: rank {} of {}, condition number {:.1}{weak}, O1 {:.4}, O3 {:.4}; weakest: {}",
         a.rank, a.parameters, a.condition_number, a.o1, a.o3, a.weakest
     );
     for n in &a.null_directions {

@@ -96,7 +96,7 @@ pub use poses::{
     check_tracker_data, parse_poses, parse_tracker_data, read_poses, read_tracker_data,
     write_poses, PoseData, PosePoint, PoseRun, TrackerData,
 };
-pub use provenance::{model_file_text, sha256_hex, Provenance};
+pub use provenance::{model_file_text, provenance_frame, sha256_hex, Provenance};
 pub use quality::{
     grouped_warnings, quality_warnings, IdentifyWarning, QualityLimits, MAX_ANGLE_CHANGE_DEG,
     MAX_LENGTH_CHANGE_MM, MAX_RMS_RESIDUAL_MM,

@@ -22,7 +22,7 @@ pub enum NoiseModel {
     },
     /// A laser tracker at `position_mm` (in the data's frame) with a point MPE of
     /// `±(constant_um + per_metre_um · L)` across the line of sight and `±radial_um` along it,
-    /// each MPE standing for `mpe_sigmas` σ (the AT960 model of `crate::simulate::tracker`).
+    /// each MPE standing for `mpe_sigmas` σ (the AT960 model of the simulator's tracker).
     Tracker {
         /// Constant part of the transverse MPE, µm.
         constant_um: f64,

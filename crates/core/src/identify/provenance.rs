@@ -111,6 +111,16 @@ impl Provenance {
     }
 }
 
+/// The frame a model file's `[provenance]` says its model was identified in, if it has one.
+pub fn provenance_frame(model_file_text: &str) -> Option<Placement> {
+    let table: toml::Table = model_file_text.parse().ok()?;
+    match table.get("provenance")?.get("frame")?.as_str()? {
+        "measurement" => Some(Placement::Identify),
+        "robot base" => Some(Placement::Known),
+        _ => None,
+    }
+}
+
 /// The identified model's file: the model's TOML, then (for runs through the whole-chain fit)
 /// the `[provenance]` table of `ids` identified from `data` (the data file's bytes).
 pub fn model_file_text(

@@ -166,12 +166,33 @@ pub fn render_identify_summary<'a>(
         tool[1],
         tool[2]
     );
-    for r in &reports {
-        if let Some(c) = &r.chain {
-            if n > 1 {
-                let _ = writeln!(s, "Run {}:", r.run.as_deref().unwrap_or("-"));
-            }
-            s.push_str(&super::render_chain_summary(c));
+    let chains: Vec<&super::ChainReport> =
+        reports.iter().filter_map(|r| r.chain.as_ref()).collect();
+    match chains.as_slice() {
+        [] => {}
+        [one] => s.push_str(&super::render_chain_summary(one)),
+        many => {
+            let range = |f: &dyn Fn(&super::ChainReport) -> f64| {
+                let v: Vec<f64> = many.iter().map(|c| f(c)).collect();
+                (
+                    v.iter().copied().fold(f64::INFINITY, f64::min),
+                    v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                )
+            };
+            let (k0, k1) = range(&|c| c.identifiability.condition_number);
+            let (r0, r1) = range(&|c| c.rms_residual_mm);
+            let ranks = many
+                .iter()
+                .map(|c| c.identifiability.rank)
+                .min()
+                .unwrap_or(0);
+            let _ = writeln!(
+                s,
+                "Whole-chain fit of each run: {} points, {}, rank ≥ {ranks} of {}, condition number {k0:.1}–{k1:.1}, residual RMS {r0:.4}–{r1:.4} mm (each run's own covariance in identify.json)",
+                many[0].points,
+                super::frame_label(many[0].frame),
+                many[0].identifiability.parameters
+            );
         }
     }
     s

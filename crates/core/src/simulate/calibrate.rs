@@ -99,7 +99,7 @@ impl Experiment {
         SweepPlan {
             range_fraction: f.range_fraction,
             step_deg: f.step_deg,
-            ..self.plan.clone()
+            ..self.plan.within(&self.nominal.limits_deg)
         }
     }
 

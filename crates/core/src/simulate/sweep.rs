@@ -52,6 +52,21 @@ impl Default for SweepPlan {
 }
 
 impl SweepPlan {
+    /// This plan fitted into joint limits (degrees): each measuring range cut to the limits, and
+    /// each home angle moved inside them, so that no commanded angle lies outside. A plan
+    /// already within the limits (the TX60's) is returned unchanged.
+    pub fn within(&self, limits_deg: &[(f64, f64); JOINTS]) -> SweepPlan {
+        let mut p = self.clone();
+        for j in 0..JOINTS {
+            let (lo, hi) = limits_deg[j];
+            let (a, b) = p.measuring_range_deg[j];
+            let (a, b) = (a.max(lo), b.min(hi));
+            p.measuring_range_deg[j] = if a < b { (a, b) } else { (lo, hi) };
+            p.home_deg[j] = p.home_deg[j].clamp(lo, hi);
+        }
+        p
+    }
+
     /// The commanded angles of joint `joint` (1-based) in its sweep, degrees, ascending. Empty for
     /// a joint outside 1–6 or a non-positive step or fraction.
     pub fn sweep_angles(&self, joint: usize) -> Vec<f64> {
