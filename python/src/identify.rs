@@ -5,7 +5,8 @@
 use crate::errors::{arg_error, lib_error, value_error};
 use crate::model::PyModel;
 use gpu_amcs_core::identify::{
-    self as lib, CircleFitMethod, Identification, IdentifyOptions, NominalPrior,
+    self as lib, noise::NoiseSetting, ChainOptions, CircleFitMethod, Identification,
+    IdentifyOptions, NoiseModel, NominalPrior, Placement, UncertaintyMethod,
 };
 use gpu_amcs_core::kinematics::RobotModel;
 use gpu_amcs_core::report::Report;
@@ -24,6 +25,8 @@ pub struct PyIdentifyResult {
     reports: lib::IdentifyReports,
     /// The line after the tables: the single-run note or the statistics of the runs.
     closing: String,
+    /// The model file the command line writes (the model and its provenance).
+    file_text: String,
 }
 
 /// A model as a Python `Model` (not from a preset).
@@ -76,9 +79,10 @@ impl PyIdentifyResult {
         text
     }
 
-    /// The identified model file (TOML), as `--out` writes it.
+    /// The identified model file (TOML), as `--out` writes it: the model, then its
+    /// `[provenance]` (data file and SHA-256, points, residuals, rank, condition, noise, frame).
     fn to_toml(&self) -> String {
-        self.model.to_toml()
+        self.file_text.clone()
     }
 
     /// The command line's `--json` document of the identification (per run the circle fits,
@@ -102,24 +106,41 @@ impl PyIdentifyResult {
     }
 }
 
-/// Identifies the MDH parameters from laser-tracker sweeps (`gpu-amcs identify`): `sweeps` is
-/// the CSV (joint,q1..q6,x,y,z, optionally a run column; degrees and mm). The nominal model
-/// giving the structure is `nominal` (a `Model`, or a model file or robot description path),
-/// else the preset `preset`. `fit`: "commanded" (each point's angle known from the commanded
-/// joint angle) or "point-cloud"; `no_prior` uses the data alone, `no_refine` skips the
-/// least-squares refinement; with several runs `covariance=True` keeps the full sample
-/// covariance instead of independent σ. `strict=True` raises a `ValueError` when a result
-/// looks implausible (the warnings). Returns an `IdentifyResult`.
+/// Identifies the MDH parameters, target and placement from laser-tracker data
+/// (`gpu-amcs identify`): `data` is the CSV, sweeps (joint,q1..q6,x,y,z) or poses
+/// (q1..q6,x,y,z, optionally sx,sy,sz), either optionally with a run column; degrees and mm, in
+/// any measurement frame. The nominal model giving the structure is `nominal` (a `Model`, or a
+/// model file or robot description path), else the preset `preset`. `base_known=True` takes the
+/// data as robot-base-frame data (no placement identified). `fix`: parameter names held at their
+/// nominal values (theta1…beta6, tool_x…, base_x…base_yaw). Noise: `tracker_sigma` (mm per
+/// coordinate) or `tracker_mpe` ([A, B] or [A, B, R]: µm, µm/m, µm) with `tracker_at` (mm;
+/// default the data frame's origin), else the data's sx,sy,sz or the residuals.
+/// `uncertainty`: "linearised" or "montecarlo" (`mc_draws` re-identifications from `seed`).
+/// Sweeps only: `fit` "commanded" or "point-cloud", `no_prior`, `no_refine` (the plain
+/// circle-point result; with `base_known=True`). With several runs `covariance=True` keeps the
+/// full sample covariance. `strict=True` raises a `ValueError` for the warnings. Returns an
+/// `IdentifyResult` whose `to_toml()` is the model file the command writes and whose
+/// `to_dict()` is its `--json` document.
 #[pyfunction]
-#[pyo3(signature = (sweeps, *, nominal = None, preset = DEFAULT_PRESET.to_string(),
+#[pyo3(signature = (data, *, nominal = None, preset = DEFAULT_PRESET.to_string(),
+    base_known = false, fix = Vec::new(), tracker_sigma = None, tracker_mpe = None,
+    tracker_at = None, uncertainty = "linearised".to_string(), mc_draws = 200, seed = 1,
     fit = "commanded".to_string(), no_prior = false, no_refine = false, covariance = false,
     strict = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify(
     py: Python<'_>,
-    sweeps: PathBuf,
+    data: PathBuf,
     nominal: Option<Bound<'_, PyAny>>,
     preset: String,
+    base_known: bool,
+    fix: Vec<String>,
+    tracker_sigma: Option<f64>,
+    tracker_mpe: Option<Vec<f64>>,
+    tracker_at: Option<Vec<f64>>,
+    uncertainty: String,
+    mc_draws: usize,
+    seed: u64,
     fit: String,
     no_prior: bool,
     no_refine: bool,
@@ -132,6 +153,22 @@ pub fn identify(
         other => {
             return Err(value_error(format!(
                 "fit: unknown fit '{other}' (expected \"commanded\" or \"point-cloud\")"
+            )))
+        }
+    };
+    let uncertainty = match uncertainty.as_str() {
+        "linearised" | "linearized" => UncertaintyMethod::Linearised,
+        "montecarlo" | "monte-carlo" | "monte_carlo" => {
+            if mc_draws < 10 {
+                return Err(value_error(
+                    "mc_draws: at least 10 re-identifications are needed for a covariance",
+                ));
+            }
+            UncertaintyMethod::MonteCarlo { draws: mc_draws }
+        }
+        other => {
+            return Err(value_error(format!(
+                "uncertainty: unknown method '{other}' (expected \"linearised\" or \"montecarlo\")"
             )))
         }
     };
@@ -159,10 +196,39 @@ pub fn identify(
         nominal_prior: (!no_prior).then(NominalPrior::default),
         refine: !no_refine,
     };
-    let (ids, data_label) = py.detach(|| -> PyResult<_> {
-        let data = lib::read_sweeps(&sweeps).map_err(lib_error)?;
-        let ids = lib::identify(&data, &nominal, &opts).map_err(lib_error)?;
-        Ok((ids, sweeps.display().to_string()))
+    let (ids, data_label, bytes) = py.detach(|| -> PyResult<_> {
+        let origin = data.display().to_string();
+        let tracker = lib::read_tracker_data(&data).map_err(lib_error)?;
+        lib::check_tracker_data(&tracker, &nominal, &origin).map_err(lib_error)?;
+        let noise = NoiseModel::from_settings(
+            tracker_sigma,
+            tracker_mpe.as_deref(),
+            tracker_at.as_deref(),
+            &tracker,
+        )
+        .map_err(|e| {
+            let name = match e.setting() {
+                NoiseSetting::Sigma => "tracker_sigma",
+                NoiseSetting::Mpe => "tracker_mpe",
+                NoiseSetting::Position => "tracker_at",
+            };
+            value_error(format!("{name}: {e}"))
+        })?;
+        let chain = ChainOptions {
+            placement: if base_known {
+                Placement::Known
+            } else {
+                Placement::Identify
+            },
+            fix,
+            noise,
+            uncertainty,
+            seed,
+        };
+        let ids =
+            lib::identify_data(&tracker, &nominal, &opts, &chain, no_refine).map_err(lib_error)?;
+        let bytes = std::fs::read(&data).unwrap_or_default();
+        Ok((ids, origin, bytes))
     })?;
     let warnings = lib::grouped_warnings(&ids);
     if strict && !warnings.is_empty() {
@@ -174,9 +240,11 @@ pub fn identify(
     }
     let (model, closing) =
         lib::identified_model(&ids, &nominal, covariance, &data_label).map_err(lib_error)?;
+    let file_text = lib::model_file_text(&model, &ids, &data_label, &bytes);
     let reports = lib::IdentifyReports::new(&nominal.name, &ids);
     Ok(PyIdentifyResult {
         model,
+        file_text,
         reports,
         runs: ids,
         warnings,

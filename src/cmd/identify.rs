@@ -9,7 +9,8 @@ use crate::cmd::reports::ReportFlags;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use gpu_amcs::identify::{
-    ChainOptions, IdentifyReports, NoiseModel, Placement, TrackerData, UncertaintyMethod,
+    noise::NoiseSetting, ChainOptions, IdentifyReports, NoiseModel, Placement, TrackerData,
+    UncertaintyMethod,
 };
 use gpu_amcs::report::Report;
 use std::path::PathBuf;
@@ -149,9 +150,6 @@ impl Run for IdentifyArgs {
             refine: !a.no_refine,
         };
         let chain = a.chain_options(&data)?;
-        if a.no_refine && !a.base_known {
-            bail!("--no-refine: the plain circle-point result needs base-frame data; add --base-known");
-        }
         if matches!(data, TrackerData::Poses(_)) && (a.no_refine || a.fit != FitArg::Commanded) {
             bail!(
                 "--no-refine and --fit apply to sweeps only; {} holds poses",
@@ -229,29 +227,20 @@ impl IdentifyArgs {
     /// The whole-chain options of the flags; the noise defaults to the data's sx,sy,sz columns
     /// when every point has them, else to the residuals.
     fn chain_options(&self, data: &TrackerData) -> Result<ChainOptions> {
-        let noise = if let Some(s) = self.tracker_sigma {
-            if !(s.is_finite() && s > 0.0) {
-                bail!("--tracker-sigma: {s} is not a positive number of mm");
-            }
-            NoiseModel::Isotropic { sigma_mm: s }
-        } else if let Some(m) = &self.tracker_mpe {
-            if m.iter().any(|v| !(v.is_finite() && *v >= 0.0)) || m[0] <= 0.0 {
-                bail!("--tracker-mpe: A,B[,R] must be non-negative numbers of µm and µm/m, A > 0");
-            }
-            let at = self.tracker_at.clone().unwrap_or_else(|| vec![0.0; 3]);
-            if at.iter().any(|v| !v.is_finite()) {
-                bail!("--tracker-at: not finite");
-            }
-            NoiseModel::Tracker {
-                constant_um: m[0],
-                per_metre_um: m[1],
-                radial_um: m.get(2).copied().unwrap_or(10.0),
-                mpe_sigmas: 2.0,
-                position_mm: [at[0], at[1], at[2]],
-            }
-        } else {
-            NoiseModel::default_for(data)
-        };
+        let noise = NoiseModel::from_settings(
+            self.tracker_sigma,
+            self.tracker_mpe.as_deref(),
+            self.tracker_at.as_deref(),
+            data,
+        )
+        .map_err(|e| {
+            let flag = match e.setting() {
+                NoiseSetting::Sigma => "--tracker-sigma",
+                NoiseSetting::Mpe => "--tracker-mpe",
+                NoiseSetting::Position => "--tracker-at",
+            };
+            anyhow::anyhow!("{flag}: {e}")
+        })?;
         if self.mc_draws < 10 && self.uncertainty == UncertaintyArg::Montecarlo {
             bail!("--mc-draws: at least 10 re-identifications are needed for a covariance");
         }

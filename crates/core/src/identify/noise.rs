@@ -104,6 +104,89 @@ impl NoiseModel {
     }
 }
 
+/// A noise setting that cannot be used.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum NoiseSettingError {
+    /// σ per coordinate not a positive number of mm.
+    #[error("{0} is not a positive number of mm")]
+    Sigma(f64),
+    /// MPE parts not two or three non-negative numbers with a positive constant part.
+    #[error(
+        "A,B[,R] must be two or three non-negative numbers (µm, µm/m, µm) with A > 0, got {0:?}"
+    )]
+    Mpe(Vec<f64>),
+    /// Tracker position not three finite numbers.
+    #[error("x, y, z must be three finite numbers of mm, got {0:?}")]
+    Position(Vec<f64>),
+}
+
+/// Which noise setting a [`NoiseSettingError`] is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum NoiseSetting {
+    /// The plain σ per coordinate.
+    Sigma,
+    /// The tracker's MPE.
+    Mpe,
+    /// The tracker's position.
+    Position,
+}
+
+impl NoiseSettingError {
+    /// The setting at fault.
+    pub fn setting(&self) -> NoiseSetting {
+        match self {
+            Self::Sigma(_) => NoiseSetting::Sigma,
+            Self::Mpe(_) => NoiseSetting::Mpe,
+            Self::Position(_) => NoiseSetting::Position,
+        }
+    }
+}
+
+impl NoiseModel {
+    /// The noise model of the settings: a plain σ per coordinate, or a tracker MPE `A,B[,R]`
+    /// (µm, µm/m, µm; R defaults to 10 µm; MPE = 2σ) with the tracker at `position` (default:
+    /// the data frame's origin), else [`NoiseModel::default_for`] the data.
+    ///
+    /// # Errors
+    ///
+    /// [`NoiseSettingError`] naming a σ that is not positive, MPE parts that are not usable, a
+    /// position that is not three finite numbers.
+    pub fn from_settings(
+        sigma_mm: Option<f64>,
+        mpe: Option<&[f64]>,
+        position: Option<&[f64]>,
+        data: &super::TrackerData,
+    ) -> Result<NoiseModel, NoiseSettingError> {
+        if let Some(s) = sigma_mm {
+            if !(s.is_finite() && s > 0.0) {
+                return Err(NoiseSettingError::Sigma(s));
+            }
+            return Ok(NoiseModel::Isotropic { sigma_mm: s });
+        }
+        let Some(m) = mpe else {
+            return Ok(NoiseModel::default_for(data));
+        };
+        if !(2..=3).contains(&m.len())
+            || m.iter().any(|v| !(v.is_finite() && *v >= 0.0))
+            || m[0] <= 0.0
+        {
+            return Err(NoiseSettingError::Mpe(m.to_vec()));
+        }
+        let at = match position {
+            None => [0.0; 3],
+            Some(p) if p.len() == 3 && p.iter().all(|v| v.is_finite()) => [p[0], p[1], p[2]],
+            Some(p) => return Err(NoiseSettingError::Position(p.to_vec())),
+        };
+        Ok(NoiseModel::Tracker {
+            constant_um: m[0],
+            per_metre_um: m[1],
+            radial_um: m.get(2).copied().unwrap_or(10.0),
+            mpe_sigmas: 2.0,
+            position_mm: at,
+        })
+    }
+}
+
 /// Standard normal upper tail `Pr[Z > z]` (complementary error function by a Chebyshev-fitted
 /// rational approximation, relative error below 1.2e-7: Press et al., Numerical Recipes §6.2).
 pub fn normal_upper_tail(z: f64) -> f64 {
