@@ -47,6 +47,11 @@ pub enum PlaneArg {
 pub struct MapArgs {
     #[command(flatten)]
     pub model: ModelArgs,
+    /// Frame of the grid and the targets: `measurement` (the model's description or tracker
+    /// frame; a model's uncertain base placement is not drawn by map) or `base` (the robot's own
+    /// frame: the model's `base` placement and its uncertainty are left out).
+    #[arg(long, value_enum, default_value_t = crate::cmd::args::FrameArg::Measurement)]
+    pub frame: crate::cmd::args::FrameArg,
     /// The box the grid spans (the same flags as the generated test points).
     #[command(flatten)]
     pub workspace: BoxArgs,
@@ -218,7 +223,15 @@ impl Run for MapArgs {
     fn run(self) -> Result<()> {
         let a = self;
         map::check_run(&a.thresholds, a.draws).map_err(map_error)?;
-        let model = a.model.load()?;
+        let mut model = a.model.load()?;
+        if a.frame == crate::cmd::args::FrameArg::Base {
+            model = model.without_base_uncertainty();
+            model.base = None;
+        } else if model.base_uncertain() && !a.reports.quiet {
+            eprintln!(
+                "note: frame: measurement: map does not draw the model's base placement (amcs and mcs do); --frame base maps the robot's own frame"
+            );
+        }
         let spec = a.spec(&model)?;
         spec.check(&model).map_err(map_error)?;
         let (_, n, _) = spec.layout();

@@ -137,15 +137,19 @@ pub fn model_notes(m: &RobotModel) -> Vec<String> {
     }
     let s = m.input_sigmas();
     let t = &s[N_PARAMS..];
+    // Four significant digits: σ is an uncertainty, its 17th digit says nothing.
+    let g = |v: f64| format!("{v:.4e}").parse::<f64>().unwrap_or(v);
     vec![format!(
         "tool point uncertain: σ = ({}, {}, {}) mm{}",
-        t[0],
-        t[1],
-        t[2],
-        if m.uncertainty.dim() == N_UNCERTAIN {
-            ", correlated with the parameters (33 × 33 covariance)"
-        } else {
-            ""
+        g(t[0]),
+        g(t[1]),
+        g(t[2]),
+        match m.uncertainty.dim() {
+            N_UNCERTAIN => ", correlated with the parameters (33 × 33 covariance)",
+            crate::kinematics::N_WITH_BASE => {
+                ", correlated with the parameters and the base placement (39 × 39 covariance)"
+            }
+            _ => "",
         }
     )]
 }
