@@ -27,7 +27,7 @@ pub enum TrackerNoise {
 /// A seeded random placement of the robot base in a tracker's frame: 1.5–4 m from the tracker
 /// horizontally, any heading and yaw, roll and pitch within ±10°, height ±500 mm.
 pub fn random_placement(seed: u64) -> BaseTransform {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x7472_6163_6b65_72);
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x0074_7261_636b_6572);
     let r = rng.random_range(1500.0..4000.0);
     let heading = rng.random_range(-std::f64::consts::PI..std::f64::consts::PI);
     let tilt = 10f64.to_radians();
