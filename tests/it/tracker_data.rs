@@ -441,22 +441,83 @@ fn base_known_fits_23_quantities() {
     assert!(distance(model.world_position(&q), truth.world_position(&q)) < 1e-6);
 }
 
+/// Over `n` experiments, `experiment(e)` gives the true robot's largest error at the held-out
+/// points and the evaluator of the identified model's prediction there; at each threshold the
+/// mean predicted R (Monte Carlo, 20 000 draws) and the share of true robots within it agree
+/// within 3 binomial standard errors.
+fn predicted_reliability_is_honest(
+    what: &str,
+    thresholds: &[f64],
+    n: usize,
+    experiment: impl Fn(u64) -> (f64, Box<dyn gpu_amcs::engine::Evaluator>),
+) {
+    use gpu_amcs::mc::{run_mcs, McsOptions, RunSettings};
+    let mut predicted = vec![0.0; thresholds.len()];
+    let mut met = vec![0usize; thresholds.len()];
+    for e in 0..n as u64 {
+        let (w_true, mut ev) = experiment(e);
+        let r = run_mcs(
+            ev.as_mut(),
+            &McsOptions {
+                draws: 20_000,
+                chunk: 20_000,
+                settings: RunSettings {
+                    thresholds: thresholds.to_vec(),
+                    ..RunSettings::default()
+                },
+            },
+            None,
+        )
+        .unwrap();
+        for (t, rel) in r.reliability.iter().enumerate() {
+            predicted[t] += rel.r / n as f64;
+            if w_true < thresholds[t] {
+                met[t] += 1;
+            }
+        }
+    }
+    for (t, l) in thresholds.iter().enumerate() {
+        let frac = met[t] as f64 / n as f64;
+        let se = (predicted[t] * (1.0 - predicted[t]) / n as f64).sqrt();
+        eprintln!(
+            "{what}, l_c = {l} mm: mean predicted R {:.3}, true robots within l_c {frac:.3} (±{se:.3})",
+            predicted[t]
+        );
+        assert!(
+            (frac - predicted[t]).abs() <= 3.0 * se + 0.01,
+            "{what}, l_c = {l}: {frac} vs {}",
+            predicted[t]
+        );
+    }
+}
+
+/// The largest error at `held` between two models' positions (`base`: with their placements).
+fn largest_error(a: &RobotModel, b: &RobotModel, held: &[[f64; JOINTS]], base: bool) -> f64 {
+    use gpu_amcs::kinematics::position;
+    held.iter()
+        .map(|q| {
+            let q = q.map(f64::to_radians);
+            if base {
+                distance(a.world_position(&q), b.world_position(&q))
+            } else {
+                distance(
+                    position(&a.params, &a.tool, &q),
+                    position(&b.params, &b.tool, &q),
+                )
+            }
+        })
+        .fold(0.0, f64::max)
+}
+
 /// The reliability a single run predicts is the reliability the true robots have: over 300
-/// experiments (base-frame data, 60 poses, σ = 10 µm), the engine's R(l_c) at five held-out
-/// points from each identified model (its own covariance, Monte Carlo with 20 000 draws) is
-/// compared with whether the true robot met l_c there; at three thresholds (R ≈ 0.2–0.8) the mean predicted R
-/// and the fraction of true robots within l_c agree within 3 binomial standard errors.
+/// experiments (base-frame data, 60 poses, σ = 10 µm) the engine's R(l_c) at five held-out
+/// points from each identified model (its own covariance) against whether the true robot met
+/// l_c there, at three thresholds (R ≈ 0.2–0.8).
 #[test]
 fn predicted_reliability_matches_the_true_robots() {
     use gpu_amcs::engine::{CpuEvaluator, Problem, Reference};
-    use gpu_amcs::kinematics::position;
-    use gpu_amcs::mc::{run_mcs, McsOptions, RunSettings};
-    let thresholds = vec![0.007, 0.009, 0.011];
-    let n = 300;
-    let mut predicted = vec![0.0; thresholds.len()];
-    let mut met = vec![0usize; thresholds.len()];
     let nominal = preset("tx60").unwrap();
-    for e in 0..n as u64 {
+    predicted_reliability_is_honest("base frame", &[0.007, 0.009, 0.011], 300, |e| {
         let mut rng = ChaCha8Rng::seed_from_u64(5000 + e);
         let truth = perturbed_model(
             &nominal,
@@ -471,50 +532,10 @@ fn predicted_reliability_matches_the_true_robots() {
         };
         let (model, _) = identify("tx60", &data, &opts);
         let held = configs(&truth, 5, &mut rng);
-        let w_true = held
-            .iter()
-            .map(|q| {
-                let q = q.map(f64::to_radians);
-                distance(
-                    position(&truth.params, &truth.tool, &q),
-                    position(&model.params, &model.tool, &q),
-                )
-            })
-            .fold(0.0, f64::max);
+        let w = largest_error(&truth, &model, &held, false);
         let problem = Problem::new(model, &held, &Reference::Calibrated, 1 + e).unwrap();
-        let r = run_mcs(
-            &mut CpuEvaluator::new(problem),
-            &McsOptions {
-                draws: 20_000,
-                chunk: 20_000,
-                settings: RunSettings {
-                    thresholds: thresholds.clone(),
-                    ..RunSettings::default()
-                },
-            },
-            None,
-        )
-        .unwrap();
-        for (t, rel) in r.reliability.iter().enumerate() {
-            predicted[t] += rel.r / n as f64;
-            if w_true < thresholds[t] {
-                met[t] += 1;
-            }
-        }
-    }
-    for (t, l) in thresholds.iter().enumerate() {
-        let frac = met[t] as f64 / n as f64;
-        let se = (predicted[t] * (1.0 - predicted[t]) / n as f64).sqrt();
-        eprintln!(
-            "l_c = {l} mm: mean predicted R {:.3}, true robots within l_c {frac:.3} (±{se:.3})",
-            predicted[t]
-        );
-        assert!(
-            (frac - predicted[t]).abs() <= 3.0 * se + 0.01,
-            "l_c = {l}: {frac} vs {}",
-            predicted[t]
-        );
-    }
+        (w, Box::new(CpuEvaluator::new(problem)))
+    });
 }
 
 /// The same in the tracker frame: models identified with their placement (39 × 39), R(l_c)
@@ -522,31 +543,20 @@ fn predicted_reliability_matches_the_true_robots() {
 /// placement met l_c at the held-out points' targets in the tracker frame.
 #[test]
 fn predicted_reliability_in_the_tracker_frame_matches_the_true_robots() {
-    use gpu_amcs::engine::{CpuOnly, Frame, Problem, Reference};
-    use gpu_amcs::mc::{run_mcs, McsOptions, RunSettings};
+    use gpu_amcs::engine::{BackendChoice, CpuOnly, Frame, Problem, Reference};
     use gpu_amcs::spec::make_frame_evaluator;
-    let thresholds = vec![0.010, 0.013, 0.016];
-    let n = 300;
-    let mut predicted = vec![0.0; thresholds.len()];
-    let mut met = vec![0usize; thresholds.len()];
-    for e in 0..n as u64 {
+    predicted_reliability_is_honest("tracker frame", &[0.010, 0.013, 0.016], 300, |e| {
         let mut rng = ChaCha8Rng::seed_from_u64(7000 + e);
         let truth = true_robot("tx60", &mut rng);
         let data = measure(&truth, &configs(&truth, 60, &mut rng), 0.01, &mut rng);
         let (model, _) = identify("tx60", &data, &ChainOptions::default());
         let held = configs(&truth, 5, &mut rng);
-        let w_true = held
-            .iter()
-            .map(|q| {
-                let q = q.map(f64::to_radians);
-                distance(truth.world_position(&q), model.world_position(&q))
-            })
-            .fold(0.0, f64::max);
+        let w = largest_error(&truth, &model, &held, true);
         let problem = Problem::new(model, &held, &Reference::Calibrated, 1 + e).unwrap();
-        let (mut ev, notes) = make_frame_evaluator(
+        let (ev, notes) = make_frame_evaluator(
             &CpuOnly,
             problem,
-            gpu_amcs::engine::BackendChoice::Cpu,
+            BackendChoice::Cpu,
             None,
             Frame::Measurement,
         )
@@ -555,39 +565,8 @@ fn predicted_reliability_in_the_tracker_frame_matches_the_true_robots() {
             notes.iter().any(|n| n.contains("placement drawn")),
             "{notes:?}"
         );
-        let r = run_mcs(
-            ev.as_mut(),
-            &McsOptions {
-                draws: 20_000,
-                chunk: 20_000,
-                settings: RunSettings {
-                    thresholds: thresholds.clone(),
-                    ..RunSettings::default()
-                },
-            },
-            None,
-        )
-        .unwrap();
-        for (t, rel) in r.reliability.iter().enumerate() {
-            predicted[t] += rel.r / n as f64;
-            if w_true < thresholds[t] {
-                met[t] += 1;
-            }
-        }
-    }
-    for (t, l) in thresholds.iter().enumerate() {
-        let frac = met[t] as f64 / n as f64;
-        let se = (predicted[t] * (1.0 - predicted[t]) / n as f64).sqrt();
-        eprintln!(
-            "tracker frame, l_c = {l} mm: mean predicted R {:.3}, true robots within l_c {frac:.3} (±{se:.3})",
-            predicted[t]
-        );
-        assert!(
-            (frac - predicted[t]).abs() <= 3.0 * se + 0.01,
-            "l_c = {l}: {frac} vs {}",
-            predicted[t]
-        );
-    }
+        (w, ev)
+    });
 }
 
 /// The placement evaluator with a placement spread only in base x (σ = s) gives e_j = |δx| at

@@ -15,7 +15,7 @@ use super::chain::{
     chain_model, identify_chain, nominal_state, ChainOptions, ChainReport, MeasuredPoint, Placement,
 };
 use super::chain_fit::ChainState;
-use super::circle::{fit_circle, CircleFitMethod};
+use super::circle::CircleFitMethod;
 use super::lines::{common_normal, Line};
 use super::pipeline::{identify_run, Identification, IdentifyOptions, IdentifyReport};
 use super::poses::{PoseData, TrackerData};
@@ -158,30 +158,10 @@ pub fn placement_from_axes(
     nominal: &RobotModel,
     method: CircleFitMethod,
 ) -> Result<[f64; 6], IdentifyError> {
-    let label = run.label();
     let mut lines = Vec::new();
     let mut homes = Vec::new();
     for j in 1..=2 {
-        let sweep = run.sweep(j).ok_or_else(|| IdentifyError::MissingJoint {
-            joint: j,
-            run: label.clone(),
-        })?;
-        let home = super::pipeline::check_sweep(sweep, run.run.as_deref())?;
-        let pts: Vec<Vector3<f64>> = sweep
-            .points
-            .iter()
-            .map(|p| Vector3::from(p.position_mm))
-            .collect();
-        let qs: Vec<f64> = sweep
-            .points
-            .iter()
-            .map(|p| p.q_deg[j - 1].to_radians())
-            .collect();
-        let fit = fit_circle(&pts, &qs, method, None).map_err(|cause| IdentifyError::Fit {
-            joint: j,
-            run: label.clone(),
-            cause,
-        })?;
+        let (_, home, fit) = super::pipeline::fit_sweep(run, j, method, |_| None)?;
         lines.push(Line {
             point: fit.center,
             dir: fit.normal,

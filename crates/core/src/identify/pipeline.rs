@@ -215,6 +215,45 @@ pub fn identify(
         .collect()
 }
 
+/// Checks joint `j`'s sweep of `run` ([`check_sweep`]) and fits its circle with the prior
+/// `prior(home)`; returns the sweep, its home pose (degrees) and the fit.
+///
+/// # Errors
+///
+/// [`IdentifyError::MissingJoint`] when the run has no sweep of `j`, the errors of
+/// [`check_sweep`], and [`IdentifyError::Fit`] naming the joint and run.
+pub(crate) fn fit_sweep<'a>(
+    run: &'a SweepRun,
+    j: usize,
+    method: CircleFitMethod,
+    prior: impl Fn(&[f64; JOINTS]) -> Option<circle::AxisPrior>,
+) -> Result<(&'a Sweep, [f64; JOINTS], circle::CircleFit), IdentifyError> {
+    let label = run.label();
+    let sweep = run.sweep(j).ok_or_else(|| IdentifyError::MissingJoint {
+        joint: j,
+        run: label.clone(),
+    })?;
+    let home = check_sweep(sweep, run.run.as_deref())?;
+    let pts: Vec<Vector3<f64>> = sweep
+        .points
+        .iter()
+        .map(|p| Vector3::from(p.position_mm))
+        .collect();
+    let qs: Vec<f64> = sweep
+        .points
+        .iter()
+        .map(|p| p.q_deg[j - 1].to_radians())
+        .collect();
+    let fit = fit_circle(&pts, &qs, method, prior(&home).as_ref()).map_err(|cause| {
+        IdentifyError::Fit {
+            joint: j,
+            run: label,
+            cause,
+        }
+    })?;
+    Ok((sweep, home, fit))
+}
+
 /// Identifies the model of one run.
 ///
 /// # Errors
@@ -231,34 +270,14 @@ pub fn identify_run(
     let mut fits = Vec::with_capacity(JOINTS);
     let mut axes = Vec::with_capacity(JOINTS);
     for j in 1..=JOINTS {
-        let sweep = run.sweep(j).ok_or_else(|| IdentifyError::MissingJoint {
-            joint: j,
-            run: label.clone(),
-        })?;
-        let home = check_sweep(sweep, run.run.as_deref())?;
-        let pts: Vec<Vector3<f64>> = sweep
-            .points
-            .iter()
-            .map(|p| Vector3::from(p.position_mm))
-            .collect();
-        let qs: Vec<f64> = sweep
-            .points
-            .iter()
-            .map(|p| p.q_deg[j - 1].to_radians())
-            .collect();
-        let prior = options.nominal_prior.map(|pr| {
-            let (r, _) = mdh::frame(&nominal.params, j - 1, &home.map(f64::to_radians));
-            circle::AxisPrior {
-                direction: r * Vector3::z(),
-                sigma_rad: pr.angle_sigma_deg.to_radians(),
-            }
-        });
-        let fit = fit_circle(&pts, &qs, options.method, prior.as_ref()).map_err(|cause| {
-            IdentifyError::Fit {
-                joint: j,
-                run: label.clone(),
-                cause,
-            }
+        let (sweep, home, fit) = fit_sweep(run, j, options.method, |home| {
+            options.nominal_prior.map(|pr| {
+                let (r, _) = mdh::frame(&nominal.params, j - 1, &home.map(f64::to_radians));
+                circle::AxisPrior {
+                    direction: r * Vector3::z(),
+                    sigma_rad: pr.angle_sigma_deg.to_radians(),
+                }
+            })
         })?;
         axes.push(mdh::MeasuredAxis {
             line: Line {
