@@ -222,12 +222,12 @@ pub fn identify(
 ///
 /// [`IdentifyError::MissingJoint`] when the run has no sweep of `j`, the errors of
 /// [`check_sweep`], and [`IdentifyError::Fit`] naming the joint and run.
-pub(crate) fn fit_sweep<'a>(
-    run: &'a SweepRun,
+pub(crate) fn fit_sweep(
+    run: &SweepRun,
     j: usize,
     method: CircleFitMethod,
     prior: impl Fn(&[f64; JOINTS]) -> Option<circle::AxisPrior>,
-) -> Result<(&'a Sweep, [f64; JOINTS], circle::CircleFit), IdentifyError> {
+) -> Result<(&Sweep, [f64; JOINTS], circle::CircleFit), IdentifyError> {
     let label = run.label();
     let sweep = run.sweep(j).ok_or_else(|| IdentifyError::MissingJoint {
         joint: j,
