@@ -20,7 +20,9 @@
 struct Config {
     key: vec2<u32>,
     m: u32,
-    // 0: independent (spread = σ[33]); 1: correlated (spread = L, nfree × nfree row-major)
+    // 0: independent (spread = σ[33]); 1: correlated (spread = L, nfree × nfree row-major);
+    // 2: correlated over the 39 inputs with the base placement (spread = L, then 15 constants:
+    // a_y, a_p, the rows of R̂ᵀ; docs/METHOD.md §2.8)
     mode: u32,
     nfree: u32,
     // bit b set: Philox block b feeds some free parameter
@@ -60,8 +62,10 @@ struct Chunk {
 
 const WORDS_PER_POINT: u32 = 13u;
 const N_INPUTS: u32 = 33u;
-// Philox blocks of 4 normals per draw: 9 cover the 33 inputs
-const N_BLOCKS: u32 = 9u;
+// With the base placement: 39 inputs (33–38: base x, y, z, roll, pitch, yaw)
+const N_PLACED: u32 = 39u;
+// Philox blocks of 4 normals per draw: 9 cover the 33 inputs, 10 the 39
+const N_BLOCKS: u32 = 10u;
 const WORKGROUP_SIZE: u32 = 64u;
 
 // Offsets of one joint's rotations for a draw: α' and β' as (cos', sin', cos' − cos,
@@ -127,8 +131,8 @@ fn joint_step(dv: vec3<f32>, A: vec4<f32>, B: vec4<f32>, tr: vec4<f32>, o: Joint
 
 // Standard normals of draw `draw` from the Philox blocks whose bit is set in `blocks` (zero
 // elsewhere; the CPU sampler's definition, in f32).
-fn draw_normals(draw: vec2<u32>, blocks: u32) -> array<f32, 36> {
-    var z: array<f32, 36>;
+fn draw_normals(draw: vec2<u32>, blocks: u32) -> array<f32, 40> {
+    var z: array<f32, 40>;
     for (var b = 0u; b < N_BLOCKS; b++) {
         if ((blocks & (1u << b)) != 0u) {
             let v = normals_block(draw, b, 0u, cfg.key);
@@ -146,18 +150,18 @@ fn draw_normals(draw: vec2<u32>, blocks: u32) -> array<f32, 36> {
     return z;
 }
 
-// Offsets δ of the 33 inputs from standard normals: independent δ_i = σ_i z_i, or correlated
-// δ_free[a] = Σ_{b<=a} L[a][b] z[free[b]].
-fn spread_offsets(z: array<f32, 36>) -> array<f32, 33> {
-    var d: array<f32, 33>;
+// Offsets δ of the 33 inputs (39 with the placement; 0 beyond) from standard normals:
+// independent δ_i = σ_i z_i, or correlated δ_free[a] = Σ_{b<=a} L[a][b] z[free[b]].
+fn spread_offsets(z: array<f32, 40>) -> array<f32, 39> {
+    var d: array<f32, 39>;
+    for (var p = 0u; p < N_PLACED; p++) {
+        d[p] = 0.0;
+    }
     if (cfg.mode == 0u) {
         for (var p = 0u; p < N_INPUTS; p++) {
             d[p] = spread[p] * z[p];
         }
     } else {
-        for (var p = 0u; p < N_INPUTS; p++) {
-            d[p] = 0.0;
-        }
         let n = cfg.nfree;
         for (var a = 0u; a < n; a++) {
             var acc = 0.0;
@@ -171,7 +175,7 @@ fn spread_offsets(z: array<f32, 36>) -> array<f32, 33> {
 }
 
 // Offsets δ of counter draw `draw`.
-fn draw_offsets(draw: vec2<u32>) -> array<f32, 33> {
+fn draw_offsets(draw: vec2<u32>) -> array<f32, 39> {
     return spread_offsets(draw_normals(draw, cfg.block_mask));
 }
 
@@ -185,8 +189,8 @@ fn draw_plus(base: vec2<u32>, r: u32) -> vec2<u32> {
 // those whose bit is set in `mask` (36 bits, (lo, hi) words) taken from draw `b`. A block is
 // computed for a draw only when some of its normals come from that draw; a row with mask 0
 // does exactly what draw_normals(a, cfg.block_mask) does.
-fn pick_freeze_normals(a: vec2<u32>, b: vec2<u32>, mask: vec2<u32>) -> array<f32, 36> {
-    var z: array<f32, 36>;
+fn pick_freeze_normals(a: vec2<u32>, b: vec2<u32>, mask: vec2<u32>) -> array<f32, 40> {
+    var z: array<f32, 40>;
     for (var blk = 0u; blk < N_BLOCKS; blk++) {
         var v = vec4<f32>(0.0);
         if ((cfg.block_mask & (1u << blk)) != 0u) {
@@ -217,9 +221,38 @@ fn pick_freeze_normals(a: vec2<u32>, b: vec2<u32>, mask: vec2<u32>) -> array<f32
     return z;
 }
 
+// Increment of v under a small rotation δ about the unit axis a:
+// Rot(a, δ) v − v = sin δ (a × v) + (1 − cos δ) a × (a × v), with 1 − cos δ = 2 sin²(δ/2).
+fn rot_inc(a: vec3<f32>, delta: f32, v: vec3<f32>) -> vec3<f32> {
+    let h = sincos_small(0.5 * delta);
+    let s = 2.0 * h.x * h.y;
+    let omc = 2.0 * h.x * h.x;
+    let av = cross(a, v);
+    return s * av + omc * cross(a, av);
+}
+
+// The deviation in the mean placement's base frame with the placement drawn (mode 2):
+// Δ_0 = ΔR (x0 + Δ_1) − x0 + R̂ᵀ δt, ΔR = Rot(a_y, δyaw) Rot(a_p, δpitch) Rot(x, δroll), applied
+// as increments so that the ~1000 mm x0 enters only multiplied by small sines.
+fn placement_step(dv: vec3<f32>, x0: vec3<f32>, d: array<f32, 39>) -> vec3<f32> {
+    let c = cfg.nfree * cfg.nfree;
+    let a_y = vec3<f32>(spread[c], spread[c + 1u], spread[c + 2u]);
+    let a_p = vec3<f32>(spread[c + 3u], spread[c + 4u], spread[c + 5u]);
+    let i1 = rot_inc(vec3<f32>(1.0, 0.0, 0.0), d[36], x0 + dv);
+    let i2 = rot_inc(a_p, d[37], x0 + dv + i1);
+    let i3 = rot_inc(a_y, d[38], x0 + dv + i1 + i2);
+    let t = vec3<f32>(d[33], d[34], d[35]);
+    let rt = vec3<f32>(
+        spread[c + 6u] * t.x + spread[c + 7u] * t.y + spread[c + 8u] * t.z,
+        spread[c + 9u] * t.x + spread[c + 10u] * t.y + spread[c + 11u] * t.z,
+        spread[c + 12u] * t.x + spread[c + 13u] * t.y + spread[c + 14u] * t.z,
+    );
+    return dv + i1 + i2 + i3 + rt;
+}
+
 // Errors of the parameter vector mean + d at every test point: e_out row i (if asked for) and
 // w_out[i] = max_j e_j.
-fn point_errors(i: u32, d: array<f32, 33>) {
+fn point_errors(i: u32, d: array<f32, 39>) {
     // Per joint: α' and β' as (cos', sin', cos' − cos, sin' − sin); θ as (sin h, cos h) with
     // h = δθ/2; and (δa, δd). Constant indices throughout, so these stay in registers.
     let j0 = joint_offsets(0u, d[0], d[1], d[2], d[3], d[4]);
@@ -247,6 +280,14 @@ fn point_errors(i: u32, d: array<f32, 33>) {
         dv = joint_step(dv, pts[base + 4u], pts[base + 5u], t2, j2);
         dv = joint_step(dv, pts[base + 2u], pts[base + 3u], t1, j1);
         dv = joint_step(dv, pts[base], pts[base + 1u], t0, j0);
+        if (cfg.mode == 2u) {
+            // x0 = Rz(φ_0) u0_0, the mean chain's position (f32 is enough: it only multiplies
+            // small sines)
+            let u = pts[base];
+            let sp = pts[base + 1u].w;
+            let x0 = vec3<f32>(u.w * u.x - sp * u.y, sp * u.x + u.w * u.y, u.z);
+            dv = placement_step(dv, x0, d);
+        }
         let o = pts[base + 12u];
         let ex = dv.x + o.x;
         let ey = dv.y + o.y;
@@ -277,7 +318,10 @@ fn max_point_error_offsets(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= chunk.count) {
         return;
     }
-    var d: array<f32, 33>;
+    var d: array<f32, 39>;
+    for (var p = 0u; p < N_PLACED; p++) {
+        d[p] = 0.0;
+    }
     for (var p = 0u; p < N_INPUTS; p++) {
         d[p] = offsets_in[i * N_INPUTS + p];
     }

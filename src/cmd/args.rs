@@ -184,7 +184,7 @@ pub struct ProblemArgs {
     #[arg(long, value_name = "FILE")]
     pub nominal: Option<PathBuf>,
     /// Frame of the targets: `measurement` draws a model's uncertain base placement too (a
-    /// model identified from tracker data carries one; amcs and mcs draw it, on the CPU), `base`
+    /// model identified from tracker data carries one; amcs and mcs draw it), `base`
     /// leaves it out (the robot's own frame).
     #[arg(long, value_enum, default_value_t = FrameArg::Measurement)]
     pub frame: FrameArg,

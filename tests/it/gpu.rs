@@ -238,8 +238,13 @@ fn shaders_validate_with_naga() {
     };
     assert_eq!(constant("N_INPUTS") as usize, N_UNCERTAIN);
     assert_eq!(
+        constant("N_PLACED") as usize,
+        gpu_amcs::kinematics::N_WITH_BASE
+    );
+    // The sampler's 9 blocks, and a tenth for the placement's normals 36–38.
+    assert_eq!(
         constant("N_BLOCKS") as usize * 4,
-        gpu_amcs::sampling::MAX_NORMALS
+        gpu_amcs::sampling::MAX_NORMALS + 4
     );
     assert_eq!(
         constant("WORDS_PER_POINT") as usize,
@@ -983,4 +988,79 @@ fn library_probe_is_quiet_without_xdg_runtime_dir() {
     let err = common::stderr(&o);
     assert!(o.status.success(), "{err}");
     assert!(!err.contains("XDG_RUNTIME_DIR"), "{err}");
+}
+
+/// A model identified from poses in a tracker frame (39 × 39 covariance, the placement
+/// correlated with the parameters): the GPU draws the placement as the CPU's exact f64 path does,
+/// sample by sample within the deviation form's budget and in the moments; `--frame base` (the
+/// 33 × 33 block) agrees too; explicit offsets are refused with the placement drawn.
+#[test]
+fn gpu_draws_the_base_placement_as_the_cpu_does() {
+    if !have_adapter("gpu_draws_the_base_placement_as_the_cpu_does") {
+        return;
+    }
+    use gpu_amcs::engine::{cpu_evaluator, PlacementSpread};
+    use gpu_amcs::identify::chain::{chain_model, identify_chain, ChainOptions};
+    use gpu_amcs::identify::MeasuredPoint;
+    use gpu_amcs::kinematics::BaseTransform;
+    let mut truth = tx60();
+    truth.tool = [30.0, -20.0, 80.0];
+    truth.base = Some(BaseTransform {
+        xyz: [2300.0, -700.0, 250.0],
+        rpy: [0.08, -0.12, 2.4],
+    });
+    let configs = gpu_amcs::simulate::random_poses(&truth, 30, 5);
+    let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(9);
+    let data: Vec<MeasuredPoint> = configs
+        .iter()
+        .enumerate()
+        .map(|(k, q)| MeasuredPoint {
+            q_deg: *q,
+            position_mm: truth
+                .world_position(&q.map(f64::to_radians))
+                .map(|v| v + 0.02 * gpu_amcs::sampling::standard_normal(&mut rng)),
+            sigma_mm: None,
+            line: k as u64 + 2,
+        })
+        .collect();
+    let r = identify_chain(&data, &tx60(), None, None, &ChainOptions::default()).unwrap();
+    let model = chain_model(&tx60(), &r, "identified".into());
+    assert!(model.base_uncertain());
+    let pts = gpu_amcs::simulate::random_poses(&model, 20, 7);
+    let problem = Problem::new(model.clone(), &pts, &Reference::Calibrated, 11).unwrap();
+    assert!(PlacementSpread::of(&problem).unwrap().is_some());
+    let (mut cpu, _) = cpu_evaluator(problem.clone(), None);
+    let mut gpu = GpuEvaluator::new(problem.clone(), &GpuOptions::default()).unwrap();
+    let n = 20_000;
+    let (wc, ec) = evaluate(cpu.as_mut(), 0, n);
+    let (wg, eg) = evaluate(&mut gpu, 0, n);
+    let (dw, de) = (max_diff(&wc, &wg), max_diff(&ec, &eg));
+    let (mc, mg) = (moments(&wc), moments(&wg));
+    eprintln!("placement drawn: max |Δw| = {dw:.3e} mm, max |Δe| = {de:.3e} mm, moments cpu {mc:.6?} gpu {mg:.6?}");
+    assert!(dw <= SAMPLE_TOL_MM && de <= SAMPLE_TOL_MM, "{dw} {de}");
+    for k in 0..4 {
+        assert!(
+            ((mc[k] - mg[k]) / mc[k]).abs() <= MOMENT_TOL,
+            "moment {}",
+            k + 1
+        );
+    }
+    // The placement matters: without it the errors are smaller on average.
+    let base = Problem::new(
+        model.without_base_uncertainty(),
+        &pts,
+        &Reference::Calibrated,
+        11,
+    )
+    .unwrap();
+    let mut gpu_base = GpuEvaluator::new(base.clone(), &GpuOptions::default()).unwrap();
+    let (wb, _) = evaluate(&mut gpu_base, 0, n);
+    let (wbc, _) = evaluate(&mut CpuEvaluator::new(base), 0, n);
+    assert!(max_diff(&wb, &wbc) <= SAMPLE_TOL_MM);
+    assert!(moments(&wb)[0] < mg[0], "{} vs {}", moments(&wb)[0], mg[0]);
+    let mut w = vec![0.0; 1];
+    let e = gpu
+        .eval_offsets(&vec![0.0; N_UNCERTAIN], &mut w, None)
+        .unwrap_err();
+    assert!(e.to_string().contains("base placement"), "{e}");
 }

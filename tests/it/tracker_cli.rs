@@ -288,3 +288,53 @@ fn monte_carlo_and_stated_noise_on_the_command_line() {
     assert!(out.contains("χ² ="), "{out}");
     assert!(out.contains("consistent"), "{out}");
 }
+
+/// `mcs` on an identified tracker-frame model draws the placement (a note says so) and gives a
+/// lower R than `--frame base`; the GPU backend (lavapipe) gives the CPU's R to the draw.
+#[test]
+fn analyses_draw_the_placement_in_the_measurement_frame() {
+    let d = tmpdir("tracker-frame");
+    let (p, m) = (arg(&d, "p.csv"), arg(&d, "m.toml"));
+    assert!(run(&["simulate", "--poses", "60", "--seed", "3", "-o", &p])
+        .status
+        .success());
+    assert!(run(&["identify", &p, "-o", &m, "-q"]).status.success());
+    let r_of = |extra: &[&str]| -> (String, f64) {
+        let json = arg(&d, "r.json");
+        let mut args = vec![
+            "mcs",
+            "--model",
+            &m,
+            "--points",
+            "20",
+            "--draws",
+            "20000",
+            "--thresholds",
+            "0.015",
+            "-q",
+            "--json",
+            &json,
+        ];
+        args.extend_from_slice(extra);
+        let o = run(&args);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let v: serde_json::Value =
+            serde_json::from_str(&fs::read_to_string(&json).unwrap()).unwrap();
+        (
+            v.to_string(),
+            v["result"]["reliability"][0]["r"].as_f64().unwrap(),
+        )
+    };
+    let (doc, measured) = r_of(&["--backend", "cpu"]);
+    assert!(doc.contains("base placement drawn"), "{doc}");
+    let (doc_b, base) = r_of(&["--backend", "cpu", "--frame", "base"]);
+    assert!(
+        doc_b.contains("placement uncertainty is left out"),
+        "{doc_b}"
+    );
+    assert!(measured < base, "{measured} vs {base}");
+    if crate::common::have_adapter("analyses_draw_the_placement_in_the_measurement_frame") {
+        let (_, gpu) = r_of(&["--backend", "gpu"]);
+        assert_eq!(gpu, measured);
+    }
+}

@@ -7,9 +7,7 @@
 
 use super::{adapters, hardware_adapter_present, GpuEvaluator, GpuOptions};
 use gpu_amcs_core::engine::backend::{cpu_evaluator, Built};
-use gpu_amcs_core::engine::{
-    BackendChoice, Backends, CpuEvaluator, EngineError, Evaluator, Problem,
-};
+use gpu_amcs_core::engine::{BackendChoice, Backends, EngineError, Evaluator, Problem};
 
 /// The CPU and the wgpu evaluator.
 #[derive(Clone, Copy, Debug, Default)]
@@ -79,7 +77,7 @@ pub fn make_evaluator(
                         soft.join(", ")
                     )
                 };
-                return Ok((Box::new(CpuEvaluator::new(problem)), Some(note)));
+                return Ok((cpu_evaluator(problem, None).0, Some(note)));
             }
             let opts = GpuOptions {
                 adapter: adapter.map(str::to_owned),
@@ -89,7 +87,7 @@ pub fn make_evaluator(
             match GpuEvaluator::new(problem.clone(), &opts) {
                 Ok(ev) => Ok((Box::new(ev), None)),
                 Err(e) => Ok((
-                    Box::new(CpuEvaluator::new(problem)),
+                    cpu_evaluator(problem, None).0,
                     Some(format!("{e}; using the CPU (rayon) path")),
                 )),
             }

@@ -5,7 +5,7 @@
 use crate::device::{self, BindGroup, Buffer, Gpu, Timer};
 use crate::{binding, GpuContext};
 use gpu_amcs_core::engine::deviation::{self, SpreadPacking};
-use gpu_amcs_core::engine::{PickFreeze, Problem};
+use gpu_amcs_core::engine::{PickFreeze, PlacementSpread, Problem};
 use gpu_amcs_core::kinematics::N_UNCERTAIN;
 
 /// The run configuration uniform (`cfg` in the shader; `tests/it/gpu.rs` checks that its size
@@ -17,7 +17,8 @@ pub struct ConfigUniform {
     pub key: [u32; 2],
     /// Test points m.
     pub m: u32,
-    /// 0: independent spread (σ), 1: correlated (Cholesky factor).
+    /// 0: independent spread (σ), 1: correlated (Cholesky factor), 2: correlated with the base
+    /// placement.
     pub mode: u32,
     /// Free parameters of a correlated spread.
     pub nfree: u32,
@@ -59,16 +60,23 @@ pub(crate) struct ProblemBuffers {
     pub(crate) free: Buffer,
     pub(crate) points: Buffer,
     pub(crate) m: usize,
+    /// The draws include the base placement (counter draws only).
+    pub(crate) placed: bool,
 }
 
 impl ProblemBuffers {
     pub(crate) fn new(gpu: &Gpu, problem: &Problem) -> Self {
-        let packing = SpreadPacking::new(problem);
+        // A model whose placement is uncertain (checked positive definite when the problem was
+        // made) draws it too.
+        let packing = match PlacementSpread::of(problem) {
+            Ok(Some(sp)) => SpreadPacking::with_placement(&sp),
+            _ => SpreadPacking::new(problem),
+        };
         let m = problem.n_points();
         let cfg = ConfigUniform {
             key: problem.sampler.key(),
             m: m as u32,
-            mode: u32::from(packing.correlated),
+            mode: deviation::kernel_mode(&packing),
             nfree: packing.n_free() as u32,
             block_mask: packing.block_mask,
             pad: [0; 2],
@@ -84,6 +92,7 @@ impl ProblemBuffers {
             free: gpu.storage_init("free", bytemuck::cast_slice(&packing.free)),
             points: gpu.storage_init("points", bytemuck::cast_slice(&pts)),
             m,
+            placed: packing.placement,
         }
     }
 }

@@ -398,6 +398,17 @@ impl GpuEvaluator {
     }
 
     /// Refuses work after a device error.
+    /// Explicit offsets and pick-freeze rows have the 33 inputs only: a problem that draws the
+    /// placement gets an error rather than rows without it.
+    fn refuse_placement(&self) -> Result<(), EngineError> {
+        if self.problem.placed {
+            return Err(EngineError::Placement(
+                "explicit offsets and pick-freeze rows carry the 33 inputs only; analyse the robot base frame".into(),
+            ));
+        }
+        Ok(())
+    }
+
     fn check_usable(&self) -> Result<(), EngineError> {
         match &self.broken {
             Some(b) => Err(EngineError::Gpu(format!(
@@ -462,10 +473,12 @@ impl Evaluator for GpuEvaluator {
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
+        self.refuse_placement()?;
         self.request(Rows::Offsets(offsets), w, per_point)
     }
 
     fn eval_pick_freeze(&mut self, request: &PickFreeze, w: &mut [f64]) -> Result<(), EngineError> {
+        self.refuse_placement()?;
         self.request(Rows::PickFreeze(*request, 0), w, None)
     }
 }

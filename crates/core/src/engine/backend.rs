@@ -99,7 +99,7 @@ impl Backends for CpuOnly {
                 Err(EngineError::NoGpuBackend)
             }
             (BackendChoice::Auto, None) => Ok((
-                Box::new(CpuEvaluator::new(problem)),
+                cpu_evaluator(problem, None).0,
                 Some(NO_GPU_BACKEND_NOTE.to_string()),
             )),
         }
@@ -117,6 +117,14 @@ impl Backends for CpuOnly {
 /// The CPU evaluator, with a note when an adapter name was given (the CPU uses none).
 pub fn cpu_evaluator(problem: Problem, adapter: Option<&str>) -> Built {
     let note = adapter.map(|a| format!("adapter '{a}' ignored: the CPU backend is in use"));
+    // A model whose placement is uncertain (checked positive definite when the problem was
+    // made) draws it too.
+    if let Ok(Some(spread)) = super::PlacementSpread::of(&problem) {
+        return (
+            Box::new(super::PlacementEvaluator::new(problem, spread)),
+            note,
+        );
+    }
     (Box::new(CpuEvaluator::new(problem)), note)
 }
 

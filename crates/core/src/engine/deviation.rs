@@ -38,6 +38,12 @@
 //! * arithmetic: ~25 f32 operations per joint on quantities of size `|Δ|` → ≲ 1e-6·|Δ|;
 //! * offsets `o_j` rounded to f32: ≤ u·|o_j| (6e-7 mm for a 10 mm nominal-reference offset).
 //!
+//! * the base placement (mode 2, docs/METHOD.md §2.8): three rotation increments
+//!   `sin δ (a×v) + 2 sin²(δ/2) a×(a×v)` with `v = x0 + Δ` (`x0` rebuilt in f32 from the
+//!   point's first two words, ≤ 6e-5 mm off) and `|δ| ≲ 1e-4`: ≲ 1e-8 mm from `x0`, ≲ 1e-6
+//!   relative from the arithmetic; the unit axes and `R̂ᵀ` rounded to f32 add u relative to the
+//!   increments. Measured against the f64 placement evaluator: 2.7e-8 mm (`tests/it/gpu.rs`).
+//!
 //! Together `|e_f32 − e_f64| ≲ 2e-6·e_j + 1e-6 mm + u·|o_j|`, i.e. well under 1e-5 mm for the
 //! TX60 at the paper's spreads (e ≈ 0.1–1 mm). Measured on lavapipe (`tests/it/gpu.rs`, 50 test
 //! points, 4–6·10^4 draws): max `|w_gpu − w_cpu|` = 9.6e-8 mm (independent), 6.9e-8 mm
@@ -112,8 +118,25 @@ pub struct SpreadPacking {
     /// Free-input indices of the [`N_UNCERTAIN`] inputs (correlated); `[0]` otherwise, so the
     /// buffer is never empty.
     pub free: Vec<u32>,
-    /// Bit `b` set: Philox block `b` (normals `4b … 4b+3`, `b ≤ 8`) feeds some free input.
+    /// Bit `b` set: Philox block `b` (normals `4b … 4b+3`, `b ≤ 9`) feeds some free input.
     pub block_mask: u32,
+    /// The draws include the base placement (correlated over all 39 inputs, §2.8): `spread`
+    /// then ends with [`PLACEMENT_WORDS`] constants after the Cholesky factor.
+    pub placement: bool,
+}
+
+/// f32 words of the placement constants after a placement packing's Cholesky factor: the unit
+/// axes `a_y = Rx(r)ᵀRy(p)ᵀẑ` and `a_p = Rx(r)ᵀŷ` of the yaw and pitch increments, then the
+/// rows of `R̂ᵀ` (the mean placement's rotation, transposed), 3 each.
+pub const PLACEMENT_WORDS: usize = 15;
+
+/// Kernel mode of a packing: 0 independent, 1 correlated, 2 correlated with the placement.
+pub fn kernel_mode(p: &SpreadPacking) -> u32 {
+    match (p.correlated, p.placement) {
+        (_, true) => 2,
+        (true, false) => 1,
+        (false, false) => 0,
+    }
 }
 
 impl SpreadPacking {
@@ -133,6 +156,7 @@ impl SpreadPacking {
                     spread: s.iter().map(|v| *v as f32).collect(),
                     free: vec![0],
                     block_mask,
+                    placement: false,
                 }
             }
             (None, Some((free, l))) => {
@@ -144,6 +168,7 @@ impl SpreadPacking {
                     spread: l.iter().map(|v| *v as f32).collect(),
                     free: free.iter().map(|&i| i as u32).collect(),
                     block_mask,
+                    placement: false,
                 }
             }
             (None, None) => SpreadPacking {
@@ -151,7 +176,38 @@ impl SpreadPacking {
                 spread: vec![0.0; N_UNCERTAIN],
                 free: vec![0],
                 block_mask,
+                placement: false,
             },
+        }
+    }
+
+    /// The packing of a model whose draws include the placement: the Cholesky factor over all
+    /// its free inputs (indices up to 38), then the [`PLACEMENT_WORDS`] constants.
+    pub fn with_placement(spread: &super::PlacementSpread) -> Self {
+        use nalgebra::{Rotation3, Vector3};
+        let mut block_mask = 0u32;
+        for &i in &spread.free {
+            block_mask |= 1 << (i / 4);
+        }
+        let [r, p, y] = [spread.base[3], spread.base[4], spread.base[5]];
+        let rx = Rotation3::from_axis_angle(&Vector3::x_axis(), r);
+        let ry = Rotation3::from_axis_angle(&Vector3::y_axis(), p);
+        let a_y = rx.inverse() * (ry.inverse() * Vector3::z());
+        let a_p = rx.inverse() * Vector3::y();
+        let rt = Rotation3::from_euler_angles(r, p, y).inverse();
+        let mut words: Vec<f32> = spread.chol.iter().map(|v| *v as f32).collect();
+        words.extend([a_y.x, a_y.y, a_y.z, a_p.x, a_p.y, a_p.z].map(|v| v as f32));
+        for row in 0..3 {
+            for c in 0..3 {
+                words.push(rt[(row, c)] as f32);
+            }
+        }
+        SpreadPacking {
+            correlated: true,
+            spread: words,
+            free: spread.free.iter().map(|&i| i as u32).collect(),
+            block_mask,
+            placement: true,
         }
     }
 

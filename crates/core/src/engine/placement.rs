@@ -10,11 +10,13 @@
 //! ```
 //!
 //! with `B'` the drawn placement. [`PlacementEvaluator`] evaluates this exactly in f64 on the
-//! CPU (rayon over draws). Draw `k`'s normals are those of the standard sampler (Philox block
-//! `b` gives normals `4b … 4b + 3`), extended by blocks 8–9 for the placement's normals 33–38, so
-//! a model whose placement has no spread gives the standard evaluator's draws. The GPU evaluator
-//! does not draw the placement; choosing the frame [`Frame::Base`] leaves it out (the marginal
-//! 33 × 33 block), as for a model without one.
+//! CPU (rayon over draws), the reference of the GPU kernel's f32 deviation form (mode 2 of
+//! `shaders/mdh_max_error.wgsl`, [`super::deviation::SpreadPacking::with_placement`]). Draw
+//! `k`'s normals are those of the standard sampler (Philox block `b` gives normals
+//! `4b … 4b + 3`), extended by blocks 8–9 for the placement's normals 33–38, so a model whose
+//! placement has no spread gives the standard evaluator's draws. Choosing the frame
+//! [`Frame::Base`] leaves the placement out (the marginal 33 × 33 block), as for a model without
+//! one.
 
 use super::{BackendInfo, EngineError, Evaluator, Problem};
 use crate::kinematics::{JOINTS, N_PARAMS, N_UNCERTAIN, N_WITH_BASE};

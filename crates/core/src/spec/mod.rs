@@ -28,8 +28,7 @@ mod tests;
 pub use error::{SpecError, SpecErrorKind, SpecField};
 
 use crate::engine::{
-    BackendChoice, Backends, Evaluator, Frame, PlacementEvaluator, PlacementSpread, Problem,
-    ProblemError, Reference,
+    BackendChoice, Backends, Evaluator, Frame, PlacementSpread, Problem, ProblemError, Reference,
 };
 use crate::import::{self, ImportOptions};
 use crate::kinematics::{RobotModel, JOINTS};
@@ -286,51 +285,38 @@ pub fn make_evaluator(
 }
 
 /// [`make_evaluator`] for an analysis whose test points' targets are in `frame`: with
-/// [`Frame::Measurement`] and a model whose placement is uncertain (a 39 × 39 covariance) the
-/// draws include the placement ([`PlacementEvaluator`], CPU); with [`Frame::Base`] it is left
-/// out. A note says which.
+/// [`Frame::Measurement`] and a model whose placement is uncertain (a 39 × 39 covariance) both
+/// backends draw the placement too (docs/METHOD.md §2.8); with [`Frame::Base`] it is left out
+/// (the model's 33 × 33 block). A note says which.
 ///
 /// # Errors
-/// Those of [`make_evaluator`]; [`SpecField::Backend`] when the GPU backend is asked for
-/// explicitly and the placement is to be drawn (the GPU evaluator does not draw it), or when
-/// the covariance with the placement has no Cholesky factor.
+/// Those of [`make_evaluator`]; [`SpecField::Backend`] when the covariance with the placement
+/// has no Cholesky factor.
 pub fn make_frame_evaluator(
     backends: &dyn Backends,
-    problem: Problem,
+    mut problem: Problem,
     backend: BackendChoice,
     adapter: Option<&str>,
     frame: Frame,
 ) -> Result<(Box<dyn Evaluator>, Vec<String>), SpecError> {
     let uncertain = problem.model.base_uncertain();
-    if frame == Frame::Base || !uncertain {
-        let (ev, mut notes) = make_evaluator(backends, problem, backend, adapter)?;
-        if uncertain {
-            notes.push(format!(
+    if uncertain && frame == Frame::Base {
+        problem.model = problem.model.without_base_uncertainty();
+    }
+    if uncertain {
+        PlacementSpread::of(&problem).map_err(|e| SpecError::new(SpecField::Backend, e))?;
+    }
+    let (ev, mut notes) = make_evaluator(backends, problem, backend, adapter)?;
+    if uncertain {
+        notes.push(match frame {
+            Frame::Base => format!(
                 "frame: {}: the model's placement uncertainty is left out",
                 frame.label(false)
-            ));
-        }
-        return Ok((ev, notes));
-    }
-    let (choice, _) = backend_choice(backend, adapter)?;
-    if choice == BackendChoice::Gpu {
-        return Err(SpecError::new(
-            SpecField::Backend,
-            crate::engine::EngineError::Placement(
-                "the GPU evaluator does not draw the base placement: use the CPU backend, or the robot base frame".into(),
             ),
-        ));
+            Frame::Measurement => format!("frame: {}", frame.label(true)),
+        });
     }
-    let spread = PlacementSpread::of(&problem)
-        .map_err(|e| SpecError::new(SpecField::Backend, e))?
-        .expect("an uncertain placement has a spread");
-    Ok((
-        Box::new(PlacementEvaluator::new(problem, spread)),
-        vec![format!(
-            "frame: {}; these draws run on the CPU",
-            frame.label(true)
-        )],
-    ))
+    Ok((ev, notes))
 }
 
 impl ProblemSpec {
