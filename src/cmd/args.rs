@@ -562,7 +562,7 @@ pub fn placement_note(problem: &Problem, frame: FrameArg, what: &str) -> Vec<Str
         vec![format!(
             "frame: robot base frame: {what} does not draw the model's base placement{}",
             if frame == FrameArg::Measurement {
-                " (amcs and mcs do)"
+                " (amcs, mcs and map do)"
             } else {
                 ""
             }
@@ -570,4 +570,11 @@ pub fn placement_note(problem: &Problem, frame: FrameArg, what: &str) -> Vec<Str
     } else {
         Vec::new()
     }
+}
+
+/// `problem` with the model's base placement uncertainty left out (for the analyses whose rows
+/// carry the 33 inputs only).
+pub fn in_base_frame(mut problem: Problem) -> Problem {
+    problem.model = problem.model.without_base_uncertainty();
+    problem
 }

@@ -48,8 +48,8 @@ pub struct MapArgs {
     #[command(flatten)]
     pub model: ModelArgs,
     /// Frame of the grid and the targets: `measurement` (the model's description or tracker
-    /// frame; a model's uncertain base placement is not drawn by map) or `base` (the robot's own
-    /// frame: the model's `base` placement and its uncertainty are left out).
+    /// frame; a model's uncertain base placement is drawn) or `base` (the robot's own frame: the
+    /// model's `base` placement and its uncertainty are left out).
     #[arg(long, value_enum, default_value_t = crate::cmd::args::FrameArg::Measurement)]
     pub frame: crate::cmd::args::FrameArg,
     /// The box the grid spans (the same flags as the generated test points).
@@ -229,7 +229,7 @@ impl Run for MapArgs {
             model.base = None;
         } else if model.base_uncertain() && !a.reports.quiet {
             eprintln!(
-                "note: frame: measurement: map does not draw the model's base placement (amcs and mcs do); --frame base maps the robot's own frame"
+                "note: frame: measurement frame (base placement drawn: 6 more inputs); the grid is in that frame, --frame base maps the robot's own frame"
             );
         }
         let spec = a.spec(&model)?;

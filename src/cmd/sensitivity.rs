@@ -95,7 +95,10 @@ impl Run for SensitivityArgs {
             let problem = built.problem.clone();
             let placement =
                 super::args::placement_note(&built.problem, a.problem.frame, "sensitivity");
-            let (mut ev, notes) = a.problem.backend.evaluator(built.problem)?;
+            let (mut ev, notes) = a
+                .problem
+                .backend
+                .evaluator(super::args::in_base_frame(built.problem))?;
             let notes = [notes, placement].concat();
             if !a.reports.quiet {
                 for n in &notes {

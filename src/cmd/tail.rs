@@ -111,7 +111,10 @@ impl Run for TailArgs {
             let rows = problem_rows(&a.problem, &built.problem);
             let sampler = built.problem.sampler.clone();
             let placement = super::args::placement_note(&built.problem, a.problem.frame, "tail");
-            let (mut ev, notes) = a.problem.backend.evaluator(built.problem)?;
+            let (mut ev, notes) = a
+                .problem
+                .backend
+                .evaluator(super::args::in_base_frame(built.problem))?;
             let notes = [notes, placement].concat();
             if !a.reports.quiet {
                 for n in &notes {
