@@ -209,7 +209,8 @@ problem_function! {
         let built = spec.build(&estimate)?;
         let evaluators = spec.evaluators();
         let (result, notes) = py.detach(|| -> PyResult<_> {
-            let (mut ev, notes) = evaluators.make(built.problem.clone())?;
+            let (mut ev, mut notes) = evaluators.make(built.problem.clone().without_placement())?;
+            notes.extend(gpu_amcs_core::engine::left_out_note(&built.problem, "sensitivity"));
             let r = run_sensitivity(&built.problem, ev.as_mut(), &opts).map_err(sensitivity_error)?;
             Ok((r, notes))
         })?;
@@ -358,7 +359,9 @@ problem_function! {
         let evaluators = spec.evaluators();
         let (result, notes) = py.detach(|| -> PyResult<_> {
             let sampler = built.problem.sampler.clone();
-            let (mut ev, notes) = evaluators.make(built.problem)?;
+            let note = gpu_amcs_core::engine::left_out_note(&built.problem, "tail");
+            let (mut ev, mut notes) = evaluators.make(built.problem.without_placement())?;
+            notes.extend(note);
             let r = run_tail(ev.as_mut(), &sampler, &opts, None).map_err(tail_error)?;
             Ok((r, notes))
         })?;

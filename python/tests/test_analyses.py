@@ -197,6 +197,12 @@ def test_identify_poses_in_a_tracker_frame_equals_cli(cli, tmp_path):
     chain = res.to_dict()["identify"]["runs"][0]["chain"]
     assert chain["identifiability"]["fixed_by_user"] == ["a1"]
     assert chain["monte_carlo"]["draws"] == 50
+    # A placed model: tail and sensitivity analyse the robot base frame and say so, as the
+    # command line does.
+    model_file = tmp_path / "placed.toml"
+    model_file.write_text(res.to_toml())
+    t = gpu_amcs.tail(gpu_amcs.Model.from_file(model_file), points=5, threshold=0.05, backend="cpu")
+    assert any("does not draw the model's base placement" in n for n in t.notes)
     with pytest.raises(ValueError, match=r"^tracker_sigma: "):
         gpu_amcs.identify(poses, tracker_sigma=-1.0)
     with pytest.raises(ValueError, match=r"^uncertainty: "):

@@ -554,27 +554,3 @@ pub fn sweeps_estimate(e: Estimate, f: &Factors) -> Estimate {
     let per_run = (1..=6).fold(0u64, |acc, j| acc.saturating_add(plan.sweep_len(j)));
     e.plus(&[f.runs as u64, per_run, BYTES_PER_SWEEP_POINT])
 }
-
-/// The note of an analysis that does not draw the placement (`what`) on a model whose placement
-/// is uncertain: it runs in the robot base frame.
-pub fn placement_note(problem: &Problem, frame: FrameArg, what: &str) -> Vec<String> {
-    if problem.model.base_uncertain() {
-        vec![format!(
-            "frame: robot base frame: {what} does not draw the model's base placement{}",
-            if frame == FrameArg::Measurement {
-                " (amcs, mcs and map do)"
-            } else {
-                ""
-            }
-        )]
-    } else {
-        Vec::new()
-    }
-}
-
-/// `problem` with the model's base placement uncertainty left out (for the analyses whose rows
-/// carry the 33 inputs only).
-pub fn in_base_frame(mut problem: Problem) -> Problem {
-    problem.model = problem.model.without_base_uncertainty();
-    problem
-}

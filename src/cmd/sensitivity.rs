@@ -93,12 +93,14 @@ impl Run for SensitivityArgs {
             let built = a.problem.build()?;
             let rows = problem_rows(&a.problem, &built.problem);
             let problem = built.problem.clone();
-            let placement =
-                super::args::placement_note(&built.problem, a.problem.frame, "sensitivity");
+            let placement: Vec<String> =
+                gpu_amcs::engine::left_out_note(&built.problem, "sensitivity")
+                    .into_iter()
+                    .collect();
             let (mut ev, notes) = a
                 .problem
                 .backend
-                .evaluator(super::args::in_base_frame(built.problem))?;
+                .evaluator(built.problem.without_placement())?;
             let notes = [notes, placement].concat();
             if !a.reports.quiet {
                 for n in &notes {

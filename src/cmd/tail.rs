@@ -110,11 +110,13 @@ impl Run for TailArgs {
             let built = a.problem.build()?;
             let rows = problem_rows(&a.problem, &built.problem);
             let sampler = built.problem.sampler.clone();
-            let placement = super::args::placement_note(&built.problem, a.problem.frame, "tail");
+            let placement: Vec<String> = gpu_amcs::engine::left_out_note(&built.problem, "tail")
+                .into_iter()
+                .collect();
             let (mut ev, notes) = a
                 .problem
                 .backend
-                .evaluator(super::args::in_base_frame(built.problem))?;
+                .evaluator(built.problem.without_placement())?;
             let notes = [notes, placement].concat();
             if !a.reports.quiet {
                 for n in &notes {

@@ -54,7 +54,7 @@ mod problem;
 
 pub use backend::{cpu_evaluator, BackendChoice, Backends, CpuOnly};
 pub use cpu::CpuEvaluator;
-pub use placement::{Frame, PlacementEvaluator, PlacementSpread};
+pub use placement::{left_out_note, Frame, PlacementEvaluator, PlacementSpread};
 pub use problem::{Problem, ProblemError, Reference};
 
 use crate::kinematics::{input_name, param_kind, N_PARAMS, N_UNCERTAIN};

@@ -49,6 +49,25 @@ impl Frame {
     }
 }
 
+/// The note of an analysis (`what`: "sensitivity", "tail") whose rows carry the 33 inputs only,
+/// on a model whose placement is uncertain: it analyses the robot base frame. `None` otherwise.
+pub fn left_out_note(problem: &Problem, what: &str) -> Option<String> {
+    problem.model.base_uncertain().then(|| {
+        format!(
+            "frame: robot base frame: {what} does not draw the model's base placement (amcs, mcs and map do)"
+        )
+    })
+}
+
+impl Problem {
+    /// The problem with the model's base placement uncertainty left out (the robot base frame;
+    /// the 33 × 33 block), for the analyses whose rows carry the 33 inputs only.
+    pub fn without_placement(mut self) -> Problem {
+        self.model = self.model.without_base_uncertainty();
+        self
+    }
+}
+
 /// The joint distribution of all 39 inputs of a model with an uncertain placement.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PlacementSpread {
