@@ -335,8 +335,28 @@ fn analyses_draw_the_placement_in_the_measurement_frame() {
     assert!(measured < base, "{measured} vs {base}");
     // The analyses whose rows carry the 33 inputs run in the robot base frame and say so.
     for args in [
-        vec!["tail", "--model", &m, "--points", "5", "--threshold", "0.05", "--backend", "cpu"],
-        vec!["sensitivity", "--model", &m, "--points", "5", "--draws", "1024", "--backend", "cpu"],
+        vec![
+            "tail",
+            "--model",
+            &m,
+            "--points",
+            "5",
+            "--threshold",
+            "0.05",
+            "--backend",
+            "cpu",
+        ],
+        vec![
+            "sensitivity",
+            "--model",
+            &m,
+            "--points",
+            "5",
+            "--draws",
+            "1024",
+            "--backend",
+            "cpu",
+        ],
     ] {
         let o = run(&args);
         assert!(o.status.success(), "{args:?}: {}", stderr(&o));

@@ -626,6 +626,14 @@ fn placement_draws_have_their_closed_forms() {
     let pb = Problem::new(m.clone(), &pts, &Reference::Calibrated, 3).unwrap();
     let spread = PlacementSpread::of(&pb).unwrap().unwrap();
     let mut a = PlacementEvaluator::new(pb.clone(), spread);
+    // The vectorised evaluator draws the placement as the scalar reference does.
+    let mut v = CpuEvaluator::new(pb.clone());
+    let (mut wa0, mut wv) = (vec![0.0; 1000], vec![0.0; 1000]);
+    a.eval_draws(0, &mut wa0, None).unwrap();
+    v.eval_draws(0, &mut wv, None).unwrap();
+    for (x, y) in wa0.iter().zip(&wv) {
+        assert!((x - y).abs() < 1e-11, "{x} vs {y}");
+    }
     let mut b = CpuEvaluator::new(
         Problem::new(
             m.without_base_uncertainty(),
@@ -693,4 +701,43 @@ fn noise_free_sweeps_in_a_tracker_frame_are_reproduced() {
             27
         );
     }
+}
+
+/// On a model identified in a tracker frame the vectorised CPU evaluator draws the placement as
+/// the scalar exact reference does: every w and e_j within 1e-10 mm.
+#[test]
+fn vectorised_placement_draws_equal_the_reference() {
+    use gpu_amcs::engine::{
+        CpuEvaluator, Evaluator, PlacementEvaluator, PlacementSpread, Problem, Reference,
+    };
+    let mut rng = ChaCha8Rng::seed_from_u64(42);
+    let truth = true_robot("ur5e", &mut rng);
+    let data = measure(&truth, &configs(&truth, 40, &mut rng), 0.01, &mut rng);
+    let (model, _) = identify("ur5e", &data, &ChainOptions::default());
+    let held = configs(&truth, 7, &mut rng);
+    let pb = Problem::new(model, &held, &Reference::Calibrated, 5).unwrap();
+    let spread = PlacementSpread::of(&pb).unwrap().unwrap();
+    let mut exact = PlacementEvaluator::new(pb.clone(), spread);
+    let mut fast = CpuEvaluator::new(pb);
+    let n = 3000;
+    let (mut wa, mut wb) = (vec![0.0; n], vec![0.0; n]);
+    let (mut ea, mut eb) = (vec![0.0; n * 7], vec![0.0; n * 7]);
+    exact.eval_draws(100, &mut wa, Some(&mut ea)).unwrap();
+    fast.eval_draws(100, &mut wb, Some(&mut eb)).unwrap();
+    let diff = |a: &[f64], b: &[f64]| {
+        a.iter()
+            .zip(b)
+            .map(|(x, y)| (x - y).abs())
+            .fold(0.0, f64::max)
+    };
+    assert!(
+        diff(&wa, &wb) < 1e-10 && diff(&ea, &eb) < 1e-10,
+        "{} {}",
+        diff(&wa, &wb),
+        diff(&ea, &eb)
+    );
+    let e = fast
+        .eval_offsets(&vec![0.0; 33], &mut [0.0], None)
+        .unwrap_err();
+    assert!(e.to_string().contains("base placement"), "{e}");
 }

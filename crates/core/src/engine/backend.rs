@@ -117,14 +117,7 @@ impl Backends for CpuOnly {
 /// The CPU evaluator, with a note when an adapter name was given (the CPU uses none).
 pub fn cpu_evaluator(problem: Problem, adapter: Option<&str>) -> Built {
     let note = adapter.map(|a| format!("adapter '{a}' ignored: the CPU backend is in use"));
-    // A model whose placement is uncertain (checked positive definite when the problem was
-    // made) draws it too.
-    if let Ok(Some(spread)) = super::PlacementSpread::of(&problem) {
-        return (
-            Box::new(super::PlacementEvaluator::new(problem, spread)),
-            note,
-        );
-    }
+    // A model whose placement is uncertain draws it too (the evaluator sees to it).
     (Box::new(CpuEvaluator::new(problem)), note)
 }
 

@@ -94,6 +94,104 @@ pub struct CpuEvaluator {
     /// sin/cos of the mean θ, α, β per joint.
     mean_trig: [[(f64, f64); 3]; JOINTS],
     avx2: bool,
+    /// The base placement's draws, for a model whose placement is uncertain.
+    placement: Option<PlacementLanes>,
+}
+
+/// The placement's offsets of a draw from its other 33 (docs/METHOD.md §2.8). With the joint
+/// Cholesky factor `L = [[L_aa, 0], [L_ba, L_bb]]` (the 33 inputs first, as the sampler's factor
+/// is the leading block), `δ_b = L_ba z_a + L_bb z_b = M δ_a + L_bb z_b` with `M = L_ba L_aa⁻¹`:
+/// the sampler's own δ_a plus the placement's normals 33–38, so the draws equal
+/// [`super::PlacementEvaluator`]'s.
+#[derive(Clone, Debug)]
+struct PlacementLanes {
+    /// `M` as (base input k, input i, coefficient), nonzero entries only.
+    m: Vec<(usize, usize, f64)>,
+    /// `L_bb` as (base input k, base input k', coefficient), k' ≤ k.
+    lbb: Vec<(usize, usize, f64)>,
+    /// Philox blocks holding the placement's normals.
+    blocks: Vec<u32>,
+    /// Mean placement: x, y, z (mm), roll, pitch, yaw (rad).
+    base: [f64; 6],
+    /// `R̂ᵀ`, row-major.
+    r_mean_t: [[f64; 3]; 3],
+    gen: crate::sampling::Philox,
+}
+
+impl PlacementLanes {
+    fn new(problem: &Problem) -> Option<PlacementLanes> {
+        let sp = super::PlacementSpread::of(problem).ok()??;
+        let p = sp.free.len();
+        let na = sp.free.iter().filter(|&&i| i < N_UNCERTAIN).count();
+        let l = nalgebra::DMatrix::from_fn(p, p, |a, b| sp.chol[a * p + b]);
+        let laa = l.view((0, 0), (na, na)).into_owned();
+        let lba = l.view((na, 0), (p - na, na)).into_owned();
+        // M = L_ba L_aa⁻¹: solve L_aaᵀ Mᵀ = L_baᵀ.
+        let mt = laa
+            .transpose()
+            .solve_upper_triangular(&lba.transpose())
+            .unwrap_or_else(|| nalgebra::DMatrix::zeros(na, p - na));
+        let mut m = Vec::new();
+        let mut lbb = Vec::new();
+        for (kb, &ib) in sp.free[na..].iter().enumerate() {
+            for (ka, &ia) in sp.free[..na].iter().enumerate() {
+                let v = mt[(ka, kb)];
+                if v != 0.0 {
+                    m.push((ib - N_UNCERTAIN, ia, v));
+                }
+            }
+            for (kb2, &ib2) in sp.free[na..].iter().enumerate().take(kb + 1) {
+                lbb.push((ib - N_UNCERTAIN, ib2 - N_UNCERTAIN, l[(na + kb, na + kb2)]));
+            }
+        }
+        let mut blocks: Vec<u32> = sp.free[na..].iter().map(|&i| (i / 4) as u32).collect();
+        blocks.dedup();
+        let rt =
+            nalgebra::Rotation3::from_euler_angles(sp.base[3], sp.base[4], sp.base[5]).inverse();
+        Some(PlacementLanes {
+            m,
+            lbb,
+            blocks,
+            base: sp.base,
+            r_mean_t: std::array::from_fn(|r| std::array::from_fn(|c| rt[(r, c)])),
+            gen: crate::sampling::Philox::new(problem.seed),
+        })
+    }
+
+    /// `ΔB = B̂⁻¹B'` of draws `first … first + LANES − 1` with offsets `d`: per lane the rows
+    /// of `[ΔR | Δt]`.
+    fn transforms(&self, first: u64, d: &[[f64; LANES]; N_UNCERTAIN]) -> [[[f64; LANES]; 4]; 3] {
+        let mut out = [[[0.0; LANES]; 4]; 3];
+        for l in 0..LANES {
+            let k = first + l as u64;
+            let mut z = [0.0; 40];
+            for &b in &self.blocks {
+                let v =
+                    crate::sampling::normals_block(&self.gen, k, b, crate::sampling::PARAM_STREAM);
+                z[4 * b as usize..4 * b as usize + 4].copy_from_slice(&v);
+            }
+            let mut db = [0.0; 6];
+            for &(kb, i, v) in &self.m {
+                db[kb] += v * d[i][l];
+            }
+            for &(kb, kb2, v) in &self.lbb {
+                db[kb] += v * z[N_UNCERTAIN + kb2];
+            }
+            let r = nalgebra::Rotation3::from_euler_angles(
+                self.base[3] + db[3],
+                self.base[4] + db[4],
+                self.base[5] + db[5],
+            );
+            let rt = &self.r_mean_t;
+            for row in 0..3 {
+                for c in 0..3 {
+                    out[row][c][l] = (0..3).map(|k| rt[row][k] * r[(k, c)]).sum();
+                }
+                out[row][3][l] = (0..3).map(|k| rt[row][k] * db[k]).sum();
+            }
+        }
+        out
+    }
 }
 
 /// Offsets at or above this (radians) use `sin_cos` instead of the series.
@@ -147,11 +245,13 @@ impl CpuEvaluator {
         let avx2 = std::is_x86_feature_detected!("avx2");
         #[cfg(not(target_arch = "x86_64"))]
         let avx2 = false;
+        let placement = PlacementLanes::new(&problem);
         CpuEvaluator {
             problem,
             points,
             mean_trig,
             avx2,
+            placement,
         }
     }
 
@@ -229,7 +329,14 @@ impl CpuEvaluator {
             } else {
                 None
             };
-            self.run_block(&jl, &tl, &mut w2, el);
+            let place = match (&self.placement, src.skip(b * LANES)) {
+                (Some(p), Source::Draws(k)) => Some(p.transforms(k, &d)),
+                _ => None,
+            };
+            match &place {
+                None => self.run_block(&jl, &tl, &mut w2, el),
+                Some(t) => block_kernel_placed(&jl, &tl, &self.points, t, &mut w2, el),
+            }
             for (l, v) in wb.iter_mut().enumerate() {
                 *v = w2[l].sqrt();
             }
@@ -252,6 +359,69 @@ impl CpuEvaluator {
     }
 }
 
+/// [`block_kernel`] with each lane's end position moved by its placement offset `ΔB` (rows of
+/// `[ΔR | Δt]` per lane) before it is compared with the reference.
+#[inline(always)]
+fn block_kernel_placed(
+    jl: &JointLanes,
+    tool: &[[f64; LANES]; 3],
+    pts: &[PointPre],
+    t: &[[[f64; LANES]; 4]; 3],
+    w2: &mut [f64; LANES],
+    mut e: Option<&mut [f64]>,
+) {
+    let m = pts.len();
+    for (pj, p) in pts.iter().enumerate() {
+        let (x, y, z) = chain_lanes(jl, tool, p);
+        let mut e2 = [0.0; LANES];
+        for l in 0..LANES {
+            let px = t[0][0][l] * x[l] + t[0][1][l] * y[l] + t[0][2][l] * z[l] + t[0][3][l];
+            let py = t[1][0][l] * x[l] + t[1][1][l] * y[l] + t[1][2][l] * z[l] + t[1][3][l];
+            let pz = t[2][0][l] * x[l] + t[2][1][l] * y[l] + t[2][2][l] * z[l] + t[2][3][l];
+            let (dx, dy, dz) = (px - p.r[0], py - p.r[1], pz - p.r[2]);
+            e2[l] = dx * dx + dy * dy + dz * dz;
+            w2[l] = if e2[l] > w2[l] { e2[l] } else { w2[l] };
+        }
+        if let Some(e) = e.as_deref_mut() {
+            for l in 0..LANES {
+                e[l * m + pj] = e2[l].sqrt();
+            }
+        }
+    }
+}
+
+/// The end positions of `LANES` draws at point `p` (the chain from the tool to the base).
+#[inline(always)]
+fn chain_lanes(
+    jl: &JointLanes,
+    tool: &[[f64; LANES]; 3],
+    p: &PointPre,
+) -> ([f64; LANES], [f64; LANES], [f64; LANES]) {
+    let mut x = tool[0];
+    let mut y = tool[1];
+    let mut z = tool[2];
+    for i in (0..JOINTS).rev() {
+        let [ct, st, ca, sa, cb, sb, a, d] = &jl[i];
+        let (cq, sq) = (p.cq[i], p.sq[i]);
+        for l in 0..LANES {
+            // Ry(β)
+            let x1 = cb[l] * x[l] + sb[l] * z[l];
+            let z1 = cb[l] * z[l] - sb[l] * x[l];
+            // Rx(α), Tx(a), Tz(d)
+            let y2 = ca[l] * y[l] - sa[l] * z1;
+            let z2 = sa[l] * y[l] + ca[l] * z1 + d[l];
+            let x2 = x1 + a[l];
+            // Rz(θ+q)
+            let c = ct[l] * cq - st[l] * sq;
+            let s = st[l] * cq + ct[l] * sq;
+            x[l] = c * x2 - s * y2;
+            y[l] = s * x2 + c * y2;
+            z[l] = z2;
+        }
+    }
+    (x, y, z)
+}
+
 /// Squared maximum point error of `LANES` draws (and per-point errors, lane-major); `tool` is
 /// each lane's tool point in the flange frame.
 #[inline(always)]
@@ -264,28 +434,7 @@ fn block_kernel(
 ) {
     let m = pts.len();
     for (pj, p) in pts.iter().enumerate() {
-        let mut x = tool[0];
-        let mut y = tool[1];
-        let mut z = tool[2];
-        for i in (0..JOINTS).rev() {
-            let [ct, st, ca, sa, cb, sb, a, d] = &jl[i];
-            let (cq, sq) = (p.cq[i], p.sq[i]);
-            for l in 0..LANES {
-                // Ry(β)
-                let x1 = cb[l] * x[l] + sb[l] * z[l];
-                let z1 = cb[l] * z[l] - sb[l] * x[l];
-                // Rx(α), Tx(a), Tz(d)
-                let y2 = ca[l] * y[l] - sa[l] * z1;
-                let z2 = sa[l] * y[l] + ca[l] * z1 + d[l];
-                let x2 = x1 + a[l];
-                // Rz(θ+q)
-                let c = ct[l] * cq - st[l] * sq;
-                let s = st[l] * cq + ct[l] * sq;
-                x[l] = c * x2 - s * y2;
-                y[l] = s * x2 + c * y2;
-                z[l] = z2;
-            }
-        }
+        let (x, y, z) = chain_lanes(jl, tool, p);
         let mut e2 = [0.0; LANES];
         for l in 0..LANES {
             let (dx, dy, dz) = (x[l] - p.r[0], y[l] - p.r[1], z[l] - p.r[2]);
@@ -304,7 +453,15 @@ impl Evaluator for CpuEvaluator {
     fn info(&self) -> BackendInfo {
         BackendInfo {
             backend: "cpu".into(),
-            adapter: format!("rayon f64{}", if self.avx2 { " (AVX2)" } else { "" }),
+            adapter: format!(
+                "rayon f64{}{}",
+                if self.avx2 { " (AVX2)" } else { "" },
+                if self.placement.is_some() {
+                    ", with the base placement"
+                } else {
+                    ""
+                }
+            ),
             driver: format!("{} threads", rayon::current_num_threads()),
         }
     }
@@ -329,17 +486,30 @@ impl Evaluator for CpuEvaluator {
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
+        self.refuse_placement()?;
         self.run(Source::Offsets(offsets), w, per_point);
         Ok(())
     }
 
     fn eval_pick_freeze(&mut self, request: &PickFreeze, w: &mut [f64]) -> Result<(), EngineError> {
+        self.refuse_placement()?;
         self.run(Source::PickFreeze(*request, 0), w, None);
         Ok(())
     }
 }
 
 impl CpuEvaluator {
+    /// Explicit offsets and pick-freeze rows carry the 33 inputs only: a problem that draws the
+    /// placement gets an error rather than rows without it.
+    fn refuse_placement(&self) -> Result<(), EngineError> {
+        if self.placement.is_some() {
+            return Err(EngineError::Placement(
+                "explicit offsets and pick-freeze rows carry the 33 inputs only; analyse the robot base frame".into(),
+            ));
+        }
+        Ok(())
+    }
+
     /// Evaluates `w.len()` parameter vectors from `src` in parallel tasks of [`CHUNK`].
     fn run(&self, src: Source, w: &mut [f64], per_point: Option<&mut [f64]>) {
         let m = self.points.len();
