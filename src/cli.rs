@@ -85,11 +85,13 @@ subcommands! {
     Import(cmd::import::ImportArgs),
     /// Write a model as URDF and/or as a UR calibration file.
     Export(cmd::export::ExportArgs),
-    /// Identify the MDH parameters from laser-tracker sweeps (circle point method).
+    /// Identify the MDH parameters, target and base placement from laser-tracker data (sweeps or
+    /// poses, in any frame), with identifiability and the covariance the data produce.
     Identify(cmd::identify::IdentifyArgs),
     /// Positioning accuracy of a model against measured positions.
     Validate(cmd::validate::ValidateArgs),
-    /// Simulate calibration sweeps of a virtual robot measured by a laser tracker (CSV).
+    /// Simulate laser-tracker data of a virtual robot (CSV): circle-point sweeps, or poses at
+    /// random configurations (--poses), in the base frame or a tracker frame.
     #[command(allow_negative_numbers = true)]
     Simulate(cmd::simulate::SimulateArgs),
     /// Repeated simulated calibrations → model file with mean, σ and full covariance.

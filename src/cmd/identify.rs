@@ -68,16 +68,21 @@ pub struct IdentifyArgs {
     /// Tracker noise from its MPE: A,B[,R] = ±(A µm + B µm/m · distance) across the line of
     /// sight and ±R µm along it (default R = 10), each MPE taken as 2σ; e.g. 15,6 for an
     /// AT960-class tracker. The tracker stands at the data frame's origin (see --tracker-at).
-    #[arg(long, value_delimiter = ',', num_args = 2..=3, value_name = "A,B[,R]")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "A,B[,R]",
+        allow_hyphen_values = true
+    )]
     pub tracker_mpe: Option<Vec<f64>>,
     /// Tracker position in the data's frame, mm, for --tracker-mpe (default: the origin, where a
     /// tracker's own frame has it).
     #[arg(
         long,
         value_delimiter = ',',
-        num_args = 3,
         value_name = "X,Y,Z",
-        requires = "tracker_mpe"
+        requires = "tracker_mpe",
+        allow_hyphen_values = true
     )]
     pub tracker_at: Option<Vec<f64>>,
     /// How the parameters' covariance is obtained: linearised s²(JᵀWJ)⁻¹, or the spread of
