@@ -20,7 +20,7 @@
 //! one.
 
 use super::{BackendInfo, EngineError, Evaluator, Problem};
-use crate::kinematics::{JOINTS, N_PARAMS, N_UNCERTAIN, N_WITH_BASE};
+use crate::kinematics::{position_with_trig, twist_trig, N_PARAMS, N_UNCERTAIN, N_WITH_BASE};
 use crate::sampling::{normals_block, Philox, PARAM_STREAM};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use rayon::prelude::*;
@@ -138,31 +138,6 @@ impl PlacementSpread {
     }
 }
 
-/// [`position`] with the sines and cosines of every α and β given (`trig[i]` = `[(sin α_i, cos
-/// α_i), (sin β_i, cos β_i)]`): the same arithmetic, so the same bits.
-fn chain_position(
-    params: &[f64; N_PARAMS],
-    trig: &[[(f64, f64); 2]; JOINTS],
-    tool: &[f64; 3],
-    q: &[f64; JOINTS],
-) -> [f64; 3] {
-    let [mut x, mut y, mut z] = *tool;
-    for i in (0..JOINTS).rev() {
-        let p = &params[5 * i..5 * i + 5];
-        let [(sa, ca), (sb, cb)] = trig[i];
-        let (sz, cz) = (p[0] + q[i]).sin_cos();
-        let x1 = cb * x + sb * z;
-        let z1 = -sb * x + cb * z;
-        let y2 = ca * y - sa * z1;
-        let z2 = sa * y + ca * z1 + p[1];
-        let x2 = x1 + p[2];
-        x = cz * x2 - sz * y2;
-        y = sz * x2 + cz * y2;
-        z = z2;
-    }
-    [x, y, z]
-}
-
 fn rotation(rpy: &[f64]) -> Matrix3<f64> {
     *Rotation3::from_euler_angles(rpy[0], rpy[1], rpy[2]).matrix()
 }
@@ -200,14 +175,13 @@ impl PlacementEvaluator {
         let dr = self.r_mean_t * rotation(&drawn[3..]);
         let dt = self.r_mean_t * Vector3::new(drawn[0] - b[0], drawn[1] - b[1], drawn[2] - b[2]);
         // The α, β rotations are the same at every point: their sines and cosines once per draw.
-        let trig: [[(f64, f64); 2]; JOINTS] =
-            std::array::from_fn(|i| [params[5 * i + 3].sin_cos(), params[5 * i + 4].sin_cos()]);
+        let trig = twist_trig(&params);
         self.problem
             .points
             .iter()
             .zip(&self.problem.reference)
             .map(|(q, r)| {
-                let p = dr * Vector3::from(chain_position(&params, &trig, &tool, q)) + dt;
+                let p = dr * Vector3::from(position_with_trig(&params, &trig, &tool, q)) + dt;
                 (p - Vector3::from(*r)).norm()
             })
             .collect()
@@ -252,27 +226,5 @@ impl Evaluator for PlacementEvaluator {
                 }),
         }
         Ok(())
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::kinematics::{position, tx60};
-
-    /// The hoisted trigonometry gives [`position`]'s bits.
-    #[test]
-    fn chain_position_is_position() {
-        let mut m = tx60();
-        m.params[9] = 0.001;
-        let tool = [30.0, -20.0, 80.0];
-        let trig =
-            std::array::from_fn(|i| [m.params[5 * i + 3].sin_cos(), m.params[5 * i + 4].sin_cos()]);
-        for q in [[0.1, -0.5, 1.2, 0.3, -0.9, 2.0], [0.0; JOINTS]] {
-            assert_eq!(
-                chain_position(&m.params, &trig, &tool, &q),
-                position(&m.params, &tool, &q)
-            );
-        }
     }
 }

@@ -62,11 +62,30 @@ pub fn transform(params: &[f64; N_PARAMS], q: &[f64; JOINTS]) -> Mat4 {
 /// End position `P(q) = T(q)·p_tool` in mm, for parameters in radians/mm and `q` in radians.
 #[inline(always)]
 pub fn position(params: &[f64; N_PARAMS], tool: &[f64; 3], q: &[f64; JOINTS]) -> [f64; 3] {
+    position_with_trig(params, &twist_trig(params), tool, q)
+}
+
+/// `[(sin α_i, cos α_i), (sin β_i, cos β_i)]` per joint: the part of [`position`]'s trigonometry
+/// that does not depend on the joint angles, for callers that evaluate many configurations of
+/// one parameter vector.
+#[inline(always)]
+pub fn twist_trig(params: &[f64; N_PARAMS]) -> [[(f64, f64); 2]; JOINTS] {
+    std::array::from_fn(|i| [params[5 * i + 3].sin_cos(), params[5 * i + 4].sin_cos()])
+}
+
+/// [`position`] with the twists' sines and cosines given ([`twist_trig`]): the same arithmetic,
+/// so the same bits.
+#[inline(always)]
+pub fn position_with_trig(
+    params: &[f64; N_PARAMS],
+    trig: &[[(f64, f64); 2]; JOINTS],
+    tool: &[f64; 3],
+    q: &[f64; JOINTS],
+) -> [f64; 3] {
     let [mut x, mut y, mut z] = *tool;
     for i in (0..JOINTS).rev() {
         let p = &params[5 * i..5 * i + 5];
-        let (sb, cb) = p[4].sin_cos();
-        let (sa, ca) = p[3].sin_cos();
+        let [(sa, ca), (sb, cb)] = trig[i];
         let (sz, cz) = (p[0] + q[i]).sin_cos();
         // Ry(β)
         let x1 = cb * x + sb * z;

@@ -30,7 +30,9 @@ pub use check::{
     InvalidField, MAX_ANGLE_DEG, MAX_LENGTH_MM, MAX_LIMIT_DEG, MAX_SIGMA_DEG, MAX_SIGMA_MM,
 };
 pub use file::ModelError;
-pub use fk::{joint_transform, position, position_deg, transform, Mat4};
+pub use fk::{
+    joint_transform, position, position_deg, position_with_trig, transform, twist_trig, Mat4,
+};
 pub use index::{
     base_index, input_name, input_to_internal, param_index, param_joint, param_kind, tool_index,
     FixedParam, ParamKind, BASE_COORDS, JOINTS, N_PARAMS, N_UNCERTAIN, N_WITH_BASE,
