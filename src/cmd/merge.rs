@@ -326,14 +326,21 @@ pub fn run_summary(
     problem.memory.check(&estimate(generated))?;
     let pool = thread_pool(problem.threads)?;
     let (s, notes, rows) = pool.install(|| -> Result<(Summary, Vec<String>, _)> {
-        let built = problem.build()?;
+        let mut built = problem.build()?;
+        // The robot base frame analyses the model without its placement's spread: so does the
+        // provenance (its model hash), so shards of the two frames never merge.
+        if problem.frame == crate::cmd::args::FrameArg::Base {
+            built.problem = built.problem.without_placement();
+        }
         let m = built.problem.n_points() as u64;
         problem.memory.check(&estimate(m))?;
         let max_bins = problem.memory.budget()?.room_left(&fixed(m)) / BYTES_PER_BIN;
         let prov = Provenance::new(&built.problem, &built.reference, draws, first, end);
         let rows = problem_rows(problem, &built.problem);
         let model = gpu_amcs::report::model_notes(&built.problem.model);
-        let (mut ev, more) = problem.backend.evaluator(built.problem)?;
+        let (mut ev, more) = problem
+            .backend
+            .frame_evaluator(built.problem, problem.frame)?;
         let label = if summary_out.is_some() {
             "MCS shard"
         } else {
@@ -389,8 +396,8 @@ pub fn run_sensitivity_shard(
     let s = pool.install(|| -> Result<SensitivityShard> {
         let built = problem.build()?;
         let prov = Provenance::new(&built.problem, &built.reference, n, first, end);
-        let pb = built.problem.clone();
-        let (mut ev, _) = problem.backend.evaluator(built.problem)?;
+        let pb = built.problem.clone().without_placement();
+        let (mut ev, _) = problem.backend.evaluator(pb.clone())?;
         SensitivityShard::run(&pb, ev.as_mut(), opts, prov).map_err(sensitivity_error)
     })?;
     outputs.stage_file("--summary-out", s.to_json())?;

@@ -371,3 +371,43 @@ fn analyses_draw_the_placement_in_the_measurement_frame() {
         assert_eq!(gpu, measured);
     }
 }
+
+/// Summary-mode shards respect the frame, and shards of the two frames of one placed model do
+/// not merge (their model hashes differ).
+#[test]
+fn shards_of_two_frames_do_not_merge() {
+    let d = tmpdir("tracker-shards");
+    let (p, m) = (arg(&d, "p.csv"), arg(&d, "m.toml"));
+    assert!(run(&["simulate", "--poses", "60", "--seed", "3", "-o", &p])
+        .status
+        .success());
+    assert!(run(&["identify", &p, "-o", &m, "-q"]).status.success());
+    let shard = |k: &str, frame: &str, out: &str| {
+        let o = run(&[
+            "mcs",
+            "--model",
+            &m,
+            "--points",
+            "10",
+            "--draws",
+            "20000",
+            "--shard",
+            k,
+            "--summary-out",
+            out,
+            "--frame",
+            frame,
+            "--backend",
+            "cpu",
+            "-q",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+    };
+    let (a, b, c) = (arg(&d, "a.json"), arg(&d, "b.json"), arg(&d, "c.json"));
+    shard("0/2", "measurement", &a);
+    shard("1/2", "base", &b);
+    shard("1/2", "measurement", &c);
+    crate::common::fails_naming(&["merge", &a, &b], "model_hash");
+    let o = run(&["merge", &a, &c]);
+    assert!(o.status.success(), "{}", stderr(&o));
+}
