@@ -82,8 +82,18 @@ fn measure(
 }
 
 fn identify(name: &str, data: &[MeasuredPoint], opts: &ChainOptions) -> (RobotModel, ChainResult) {
+    identify_with(name, data, opts, None)
+}
+
+/// [`identify`] with a prior towards the nominal geometry (the command line's default).
+fn identify_with(
+    name: &str,
+    data: &[MeasuredPoint],
+    opts: &ChainOptions,
+    prior: Option<gpu_amcs::identify::NominalPrior>,
+) -> (RobotModel, ChainResult) {
     let nominal = preset(name).unwrap();
-    let r = identify_chain(data, &nominal, None, None, opts).unwrap();
+    let r = identify_chain(data, &nominal, None, prior, opts).unwrap();
     (chain_model(&nominal, &r, "identified".into()), r)
 }
 
@@ -315,13 +325,18 @@ impl Coverage {
 /// frames, 60 poses, σ = 10 µm, covariance with s² from the residuals) the errors of the
 /// identified distance between two held-out points and of a held-out point's position in the
 /// tracker frame, divided by their predicted σ, have a standard deviation within [0.8, 1.25] and
-/// their 95 % intervals cover within [0.90, 0.99]. With the tracker's stated σ instead of the
-/// residuals' the same holds.
+/// their 95 % intervals cover within [0.90, 0.99]: with s² from the residuals and the nominal
+/// prior (the command line's default), and with the tracker's stated σ and no prior.
 #[test]
 fn single_run_covariance_is_honest() {
-    for noise in [
-        NoiseModel::FromResiduals,
-        NoiseModel::Isotropic { sigma_mm: 0.01 },
+    // σ from the residuals with the nominal prior (what `identify` does by default), and the
+    // stated σ without it.
+    for (noise, prior) in [
+        (
+            NoiseModel::FromResiduals,
+            Some(gpu_amcs::identify::NominalPrior::default()),
+        ),
+        (NoiseModel::Isotropic { sigma_mm: 0.01 }, None),
     ] {
         let opts = ChainOptions {
             noise,
@@ -332,7 +347,7 @@ fn single_run_covariance_is_honest() {
             let mut rng = ChaCha8Rng::seed_from_u64(1000 + e);
             let truth = true_robot("tx60", &mut rng);
             let data = measure(&truth, &configs(&truth, 60, &mut rng), 0.01, &mut rng);
-            let (model, r) = identify("tx60", &data, &opts);
+            let (model, r) = identify_with("tx60", &data, &opts, prior);
             // The covariance as the model file holds it.
             let file = RobotModel::from_toml(&model.to_toml(), "identified.toml").unwrap();
             assert_eq!(file.uncertainty.dim(), 39);
