@@ -389,6 +389,19 @@ fn check_threads(threads: Option<usize>) -> Result<()> {
 /// start it is an error naming `--threads`.
 pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     check_threads(threads)?;
+    // Threads that start while the address space runs out can abort the process (glibc cannot
+    // register a new thread's destructors): refuse a pool whose stacks alone would take more
+    // than half of the address-space limit before starting any.
+    if let (Some(n), Some(limit)) = (threads, address_space_limit()) {
+        let stacks = n as u64 * THREAD_STACK_BYTES;
+        if stacks > limit / 2 {
+            bail!(
+                "--threads {n}: {n} threads reserve about {} MiB of stack address space, more than half of the address-space limit ({} MiB); use fewer",
+                stacks >> 20,
+                limit >> 20
+            );
+        }
+    }
     rayon::ThreadPoolBuilder::new()
         .num_threads(threads.unwrap_or(0))
         .build()
@@ -398,6 +411,27 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
                 threads.map_or_else(|| "(all cores)".to_string(), |t| t.to_string())
             )
         })
+}
+
+/// Address space a pool thread reserves for its stack (Rust's default 2 MiB and a guard page).
+const THREAD_STACK_BYTES: u64 = (2 << 20) + (4 << 10);
+
+/// The process's address-space limit (`RLIMIT_AS`), bytes; `None` when unlimited or unknown.
+fn address_space_limit() -> Option<u64> {
+    #[cfg(unix)]
+    {
+        let mut r = libc::rlimit {
+            rlim_cur: 0,
+            rlim_max: 0,
+        };
+        // SAFETY: getrlimit writes the struct it is given and nothing else.
+        let ok = unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut r) } == 0;
+        (ok && r.rlim_cur != libc::RLIM_INFINITY).then_some(r.rlim_cur as u64)
+    }
+    #[cfg(not(unix))]
+    {
+        None
+    }
 }
 
 /// The problem a run analyses and a label of its reference.
