@@ -426,7 +426,7 @@ fn address_space_limit() -> Option<u64> {
         };
         // SAFETY: getrlimit writes the struct it is given and nothing else.
         let ok = unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut r) } == 0;
-        (ok && r.rlim_cur != libc::RLIM_INFINITY).then_some(r.rlim_cur as u64)
+        (ok && r.rlim_cur != libc::RLIM_INFINITY).then_some(r.rlim_cur)
     }
     #[cfg(not(unix))]
     {
