@@ -253,6 +253,10 @@ pub fn calibrate(exp: &Experiment, f: &Factors, seed: u64) -> Result<Calibration
                 .map(|id| id.model)
                 .map_err(|cause| SimulateError::Identify { run: r + 1, cause })
         })
+        .collect::<Vec<_>>()
+        // In run order, so that the error reported is the first failing run's, whatever
+        // thread finished first.
+        .into_iter()
         .collect::<Result<_, _>>()?;
     let mut independent = parameter_statistics(&runs).ok_or_else(|| {
         SimulateError::Other("the runs identified models of different structure".into())
