@@ -191,11 +191,13 @@ problem_function! {
         };
         opts.check().map_err(sensitivity_error)?;
         let spec = problem.spec()?;
+        let budget = problem.budget()?;
         // As the command line: w and every pick-freeze output (at most 2 + 30 parameters + 8
         // groups matrices) for the bootstrap, and one chunk of offset rows and outputs.
         let matrices = 40u64;
         let estimate = |m: u64| {
             check_estimate(
+                &budget,
                 &Estimate::new(
                     format!("a sensitivity analysis with N = {draws}"),
                     "use fewer draws",
@@ -341,11 +343,13 @@ problem_function! {
         };
         opts.check().map_err(tail_error)?;
         let spec = problem.spec()?;
+        let budget = problem.budget()?;
         // As the command line: two levels of states (30 normals and w each), their offsets,
         // one batch of rows.
         let states = (samples_per_level as u64).max(opts.batch_size as u64);
         let estimate = |m: u64| {
             check_estimate(
+                &budget,
                 &Estimate::new(
                     format!("tail probabilities with {samples_per_level} samples per level"),
                     "use fewer samples_per_level",
@@ -512,7 +516,7 @@ fn grid(plane: Option<&str>, at: Option<f64>, cells: Option<Vec<usize>>) -> PyRe
     plane = None, at = None, cells = None, orientation = None, free_orientation = false,
     reference_q = None, ik_seeds = 8, draws = 10_000,
     thresholds = vec![0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8], seed = 2025,
-    backend = "auto".to_string(), adapter = None))]
+    backend = "auto".to_string(), adapter = None, memory_limit = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn workspace_map<'py>(
     py: Python<'py>,
@@ -532,6 +536,7 @@ pub fn workspace_map<'py>(
     seed: u64,
     backend: String,
     adapter: Option<String>,
+    memory_limit: Option<Bound<'py, PyAny>>,
 ) -> PyResult<PyMapResult> {
     map::check_run(&thresholds, draws).map_err(map_error)?;
     let source = match &model {
@@ -576,7 +581,8 @@ pub fn workspace_map<'py>(
     mspec.check(&model).map_err(map_error)?;
     let n = mspec.n_cells();
     let needed = map::memory_estimate(n, n, draws, map::batch_size(n, draws));
-    check_estimate(&needed).map_err(|e| value_error(format!("draws, cells: {e}")))?;
+    let budget = crate::problem::memory_budget(memory_limit.as_ref())?;
+    check_estimate(&budget, &needed).map_err(|e| value_error(format!("draws, cells: {e}")))?;
     let backend = crate::model::backend(&backend)?;
     spec::backend_choice(backend, adapter.as_deref())
         .map_err(|e| arg_error(keyword(e.field), e.kind))?;

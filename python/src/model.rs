@@ -11,11 +11,12 @@ use crate::arrays;
 use crate::errors::{lib_error, value_error};
 use gpu_amcs_core::engine::{BackendChoice, MAX_ANGLE_OFFSET};
 use gpu_amcs_core::kinematics::{
-    input_name, input_to_internal, param_kind, RobotModel, Uncertainty, JOINTS, N_PARAMS,
-    N_UNCERTAIN,
+    input_name, input_to_internal, param_kind, RobotModel, Uncertainty, JOINTS, MAX_LENGTH_MM,
+    N_PARAMS, N_UNCERTAIN,
 };
-use gpu_amcs_core::memory::{Estimate, MemoryBudget};
+use gpu_amcs_core::memory::Estimate;
 use gpu_amcs_core::presets::preset;
+use gpu_amcs_core::report::text::fmt_plain;
 use gpu_amcs_core::sampling::ParamSampler;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
@@ -71,12 +72,18 @@ pub fn backend(name: &str) -> PyResult<BackendChoice> {
         .map_err(|e: String| value_error(format!("backend: {e}")))
 }
 
-/// Checks that `bytes` products fit the memory budget (80 % of the available memory).
-pub fn check_memory(what: String, advice: &str, terms: &[&[u64]]) -> PyResult<()> {
+/// Checks that `bytes` products fit the budget `memory_limit` gives
+/// ([`memory_budget`](crate::problem::memory_budget)).
+pub fn check_memory(
+    memory_limit: Option<&Bound<'_, PyAny>>,
+    what: String,
+    advice: &str,
+    terms: &[&[u64]],
+) -> PyResult<()> {
     let e = terms
         .iter()
         .fold(Estimate::new(what, advice), |e, t| e.plus(t));
-    MemoryBudget::new(None).check(&e).map_err(lib_error)
+    crate::problem::check_estimate(&crate::problem::memory_budget(memory_limit)?, &e)
 }
 
 /// Which of the [`N_UNCERTAIN`] inputs the columns of a `params` matrix hold, as `cols` names
@@ -155,6 +162,19 @@ fn offsets_of(
                     here(),
                     mean_file[p],
                     MAX_ANGLE_OFFSET.to_degrees()
+                ));
+            }
+            // Lengths within the bound every model file is checked against: beyond it the
+            // forward kinematics overflows to inf, never an answer.
+            if !is_angle(p) && off.abs() > MAX_LENGTH_MM {
+                return Err(format!(
+                    "{}: {} mm is {} mm from the model's value {}; lengths may move at \
+                     most {} mm",
+                    here(),
+                    fmt_plain(v),
+                    fmt_plain(off),
+                    fmt_plain(mean_file[p]),
+                    fmt_plain(MAX_LENGTH_MM),
                 ));
             }
             out[p] = off * unit(p);
@@ -323,7 +343,8 @@ impl PyModel {
     /// default the preset the model came from, else tx60). Runs on `backend` ("auto", "cpu",
     /// "gpu") without the GIL.
     #[pyo3(signature = (params, q_deg, *, reference = "calibrated", nominal = None,
-        per_point = false, backend = "auto", columns = None, offsets = false))]
+        per_point = false, backend = "auto", columns = None, offsets = false,
+        memory_limit = None))]
     #[allow(clippy::too_many_arguments)]
     fn max_error<'py>(
         &self,
@@ -336,6 +357,7 @@ impl PyModel {
         backend: &str,
         columns: Option<&Bound<'py, PyAny>>,
         offsets: bool,
+        memory_limit: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let named = self::columns(columns)?;
         let (widths, shape) = match &named {
@@ -356,6 +378,7 @@ impl PyModel {
         let cols = named.unwrap_or_else(|| (0..view.ncols()).collect());
         let n = view.nrows();
         check_memory(
+            memory_limit,
             format!("max_error of {n} rows at {m} points"),
             "pass fewer rows per call, fewer points or per_point=False",
             &[
@@ -396,15 +419,27 @@ impl PyModel {
     /// The input vectors (N × 33, mm and degrees: the 30 parameters, then the tool point) of
     /// draws `first … first + n − 1` of a run with `seed`: the draws `mcs`/`amcs` evaluate (a
     /// draw is a function of the seed and its index, the same on every backend).
-    #[pyo3(signature = (n, *, seed = 2025, first = 0))]
+    #[pyo3(signature = (n, *, seed = 2025, first = 0, memory_limit = None))]
     fn draws<'py>(
         &self,
         py: Python<'py>,
-        n: usize,
+        n: &Bound<'py, PyAny>,
         seed: u64,
         first: u64,
+        memory_limit: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
+        let n = match n.extract::<i128>() {
+            Ok(n) if (0..=i128::from(u32::MAX)).contains(&n) => n as usize,
+            Ok(n) => {
+                return Err(value_error(format!(
+                    "n: {n} draws is not a count from 0 to {}",
+                    u32::MAX
+                )))
+            }
+            Err(_) => return Err(value_error("n: expected a whole number of draws")),
+        };
         check_memory(
+            memory_limit,
             format!("{n} parameter draws"),
             "ask for fewer draws at a time (use first)",
             &[&[n as u64, N_UNCERTAIN as u64, 8]],

@@ -54,6 +54,7 @@ pub struct ProblemKw<'py> {
     pub nominal: Option<PyRef<'py, PyModel>>,
     pub backend: String,
     pub adapter: Option<String>,
+    pub memory_limit: Option<Bound<'py, PyAny>>,
 }
 
 /// The reference from the keywords `reference` and `nominal`; without `nominal`, a nominal
@@ -176,11 +177,50 @@ fn spec_error(e: SpecError, nominal_from_preset: bool) -> PyErr {
     arg_error(k, e.kind)
 }
 
-/// Checks that an estimate fits the memory budget (80 % of the available memory).
-pub fn check_estimate(e: &Estimate) -> PyResult<()> {
-    MemoryBudget::new(None)
-        .check(e)
-        .map_err(crate::errors::lib_error)
+/// The memory budget of a call: `memory_limit` (bytes as an int, or a size such as "500M" or
+/// "2GiB") when given, else 80 % of the smallest of the available memory, the address space
+/// left under the process's `RLIMIT_AS` and the cgroup's room.
+pub fn memory_budget(memory_limit: Option<&Bound<'_, PyAny>>) -> PyResult<MemoryBudget> {
+    let Some(obj) = memory_limit else {
+        return Ok(MemoryBudget::new(None));
+    };
+    let bytes = if let Ok(text) = obj.extract::<String>() {
+        gpu_amcs_core::memory::parse_size(&text)
+            .map_err(|e| value_error(format!("memory_limit: {e}")))?
+    } else {
+        match obj.extract::<i128>() {
+            Ok(b) if (1..=i128::from(u64::MAX)).contains(&b) => b as u64,
+            Ok(b) => {
+                return Err(value_error(format!(
+                    "memory_limit: {b} is not a size (at least 1 byte)"
+                )))
+            }
+            Err(_) => {
+                return Err(value_error(
+                    "memory_limit: expected a number of bytes or a size such as \"500M\"",
+                ))
+            }
+        }
+    };
+    Ok(MemoryBudget::new(Some(bytes)))
+}
+
+/// Checks that an estimate fits `budget`.
+pub fn check_estimate(budget: &MemoryBudget, e: &Estimate) -> PyResult<()> {
+    budget.check(e).map_err(|e| match e {
+        gpu_amcs_core::memory::MemoryError::TooLarge {
+            source_of_limit: gpu_amcs_core::memory::LimitSource::User,
+            ..
+        } => value_error(format!("memory_limit: {}", crate::errors::one_line(&e))),
+        e => crate::errors::lib_error(e),
+    })
+}
+
+impl ProblemKw<'_> {
+    /// The memory budget the `memory_limit` keyword gives.
+    pub fn budget(&self) -> PyResult<MemoryBudget> {
+        memory_budget(self.memory_limit.as_ref())
+    }
 }
 
 impl ProblemKw<'_> {
@@ -243,7 +283,7 @@ macro_rules! problem_function {
             q_deg = None, points_file = None, points_seed = 1,
             box_center = None, box_size = None, seed = 2025,
             reference = "calibrated".to_string(), nominal = None,
-            backend = "auto".to_string(), adapter = None))]
+            backend = "auto".to_string(), adapter = None, memory_limit = None))]
         #[allow(clippy::too_many_arguments)]
         pub fn $name<'py>(
             $py: ::pyo3::Python<'py>,
@@ -261,6 +301,7 @@ macro_rules! problem_function {
             nominal: Option<::pyo3::PyRef<'py, $crate::model::PyModel>>,
             backend: String,
             adapter: Option<String>,
+            memory_limit: Option<::pyo3::Bound<'py, ::pyo3::PyAny>>,
         ) -> ::pyo3::PyResult<$ret> {
             let $problem = $crate::problem::ProblemKw {
                 model,
@@ -276,6 +317,7 @@ macro_rules! problem_function {
                 nominal,
                 backend,
                 adapter,
+                memory_limit,
             };
             $body
         }

@@ -173,12 +173,13 @@ fn build(
 ) -> PyResult<Built> {
     let spec = kw.spec()?;
     let per_point = settings.per_point;
+    let budget = kw.budget()?;
     let estimate = |m: u64| {
         let e = Estimate::new(what.clone(), advice)
             .plus(&[draws, BYTES_PER_DRAW])
             .plus(&[m, BYTES_PER_POINT])
             .plus(&[batch, m, if per_point { 16 } else { 0 }]);
-        check_estimate(&e)
+        check_estimate(&budget, &e)
     };
     spec.check(&estimate)?;
     let built = spec.build(&estimate)?;

@@ -301,6 +301,35 @@ def test_nan_and_far_params_name_row_and_column(tx60, q):
     np.testing.assert_allclose(tx60.max_error(p, q, backend="cpu"), [200.0, 0.0], atol=TOL_MM)
 
 
+def test_huge_finite_params_and_negative_counts_are_value_errors(tx60, q):
+    # A finite 1e300 mm would overflow the forward kinematics to inf: refused, naming it.
+    p = rows(tx60, 3)
+    p[2, 2] = 1e300
+    with pytest.raises(ValueError, match=r"params: row 2, column 2 \(\w+\): 1e300 mm is 1e300 mm"):
+        tx60.max_error(p, q)
+    with pytest.raises(ValueError, match=r"n: -1 draws is not a count"):
+        tx60.draws(-1)
+    with pytest.raises(ValueError, match=r"n: expected a whole number"):
+        tx60.draws("ten")
+
+
+def test_memory_limit_is_checked_before_any_work(tx60, q):
+    # 10^9 broadcast rows cost no memory as a view, but their results would need 8 GB.
+    p = np.broadcast_to(tx60.params, (10**9, gpu_amcs.N_UNCERTAIN))
+    with pytest.raises(ValueError, match=r"memory_limit: max_error of 1000000000 rows .* needs"):
+        tx60.max_error(p, q, memory_limit="1G")
+    with pytest.raises(ValueError, match=r"memory_limit: 10 parameter draws needs"):
+        tx60.draws(10, memory_limit=100)
+    assert tx60.draws(10, memory_limit="1gb").shape == (10, 33)
+    for bad in ["lots", 0, -5, 1.5j]:
+        with pytest.raises(ValueError, match="memory_limit"):
+            tx60.draws(10, memory_limit=bad)
+    with pytest.raises(ValueError, match=r"memory_limit: MCS with 10000000 draws needs"):
+        gpu_amcs.mcs(tx60, draws=10**7, memory_limit="10M")
+    with pytest.raises(ValueError, match=r"memory_limit: .* needs"):
+        gpu_amcs.map(tx60, plane="xz", at=0.0, cells=[100, 100], draws=1000, memory_limit="1M")
+
+
 def test_bad_options(tx60, q):
     p = rows(tx60, 2)
     with pytest.raises(ValueError, match="backend: unknown backend 'fast'"):

@@ -354,6 +354,9 @@ impl BackendArgs {
     }
 }
 
+/// The default budget of this process, measured at its first use.
+static DEFAULT_BUDGET: std::sync::OnceLock<MemoryBudget> = std::sync::OnceLock::new();
+
 impl MemoryArgs {
     /// The memory budget: `--memory-limit`, or a share of the available memory.
     pub fn budget(&self) -> Result<MemoryBudget> {
@@ -363,7 +366,13 @@ impl MemoryArgs {
             .map(memory::parse_size)
             .transpose()
             .context("--memory-limit")?;
-        Ok(MemoryBudget::new(limit))
+        Ok(match limit {
+            Some(_) => MemoryBudget::new(limit),
+            // Measured once: the address space left shrinks as worker threads reserve their
+            // stacks and allocator arenas, and the decisions of one run (summary mode or not,
+            // then the check before the run) must use the same limit.
+            None => *DEFAULT_BUDGET.get_or_init(|| MemoryBudget::new(None)),
+        })
     }
 
     /// Checks `estimate` against the budget.
@@ -392,7 +401,7 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
     // Threads that start while the address space runs out can abort the process (glibc cannot
     // register a new thread's destructors): refuse a pool whose stacks alone would take more
     // than half of the address-space limit before starting any.
-    if let (Some(n), Some(limit)) = (threads, address_space_limit()) {
+    if let (Some(n), Some(limit)) = (threads, gpu_amcs_core::memory::address_space_limit()) {
         let stacks = n as u64 * THREAD_STACK_BYTES;
         if stacks > limit / 2 {
             bail!(
@@ -415,24 +424,6 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
 
 /// Address space a pool thread reserves for its stack (Rust's default 2 MiB and a guard page).
 const THREAD_STACK_BYTES: u64 = (2 << 20) + (4 << 10);
-
-/// The process's address-space limit (`RLIMIT_AS`), bytes; `None` when unlimited or unknown.
-fn address_space_limit() -> Option<u64> {
-    #[cfg(unix)]
-    {
-        let mut r = libc::rlimit {
-            rlim_cur: 0,
-            rlim_max: 0,
-        };
-        // SAFETY: getrlimit writes the struct it is given and nothing else.
-        let ok = unsafe { libc::getrlimit(libc::RLIMIT_AS, &mut r) } == 0;
-        (ok && r.rlim_cur != libc::RLIM_INFINITY).then_some(r.rlim_cur)
-    }
-    #[cfg(not(unix))]
-    {
-        None
-    }
-}
 
 /// The problem a run analyses and a label of its reference.
 pub struct Built {

@@ -460,3 +460,36 @@ fn stdout_on_a_full_disk_is_one_line_not_a_panic() {
         );
     }
 }
+
+/// Under an address-space limit (`ulimit -v`, as Slurm and containers set it) the default memory
+/// limit is what that limit leaves: a run too large for it summarises (mcs) or is refused with
+/// one line naming the limit, never an allocation abort (exit 134).
+#[test]
+fn the_default_memory_limit_follows_the_address_space_limit() {
+    let d = tmpdir("rlimit-as");
+    // 3·10^7 draws keep 458 MiB of values, far over 80 % of what ~195 MiB of address space
+    // leaves: summary mode, exit 0, and the note names the limit's source.
+    let o = sh(
+        &d,
+        "ulimit -v 200000 && exec \"$BIN\" mcs --backend cpu --points 5 --draws 30000000 --json r.json",
+    );
+    let out = String::from_utf8_lossy(&o.stdout);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{out}\n{err}");
+    assert!(
+        out.contains("summary mode") && out.contains("RLIMIT_AS"),
+        "{out}"
+    );
+    // A map that needs 415 MiB (259 MB peak without the limit) is refused up front.
+    let map = sh(
+        &d,
+        "ulimit -v 300000 && exec \"$BIN\" map --backend cpu -q --plane xz --at 0 \
+         --cells 150,150 --draws 2000",
+    );
+    let err = String::from_utf8_lossy(&map.stderr);
+    assert_eq!(map.status.code(), Some(2), "{err}");
+    assert!(
+        err.contains("memory limit") && err.contains("RLIMIT_AS") && !err.contains("panicked"),
+        "{err}"
+    );
+}

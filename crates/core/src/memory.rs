@@ -2,10 +2,13 @@
 //! per-point buffers, generated points, simulated sweeps) against a budget, so an oversized request
 //! is refused up front with a sentence saying what it needs instead of aborting mid-allocation.
 //!
-//! The budget is the user's limit or, by default, a fraction of the memory the system reports as
-//! available (`MemAvailable` in `/proc/meminfo`; where that file does not exist,
-//! [`FALLBACK_BYTES`] is assumed). All sizes use checked arithmetic: a size that does not fit in
-//! 64 bits is an error, never a wrap-around.
+//! The budget is the user's limit or, by default, a fraction of the smallest of three rooms: the
+//! memory the system reports as available (`MemAvailable` in `/proc/meminfo`), the address space
+//! left under the process's limit (`RLIMIT_AS`, which `ulimit -v`, Slurm and containers set, less
+//! what the process has already mapped), and what the control group's `memory.max` leaves beside
+//! its `memory.current` (cgroup v2, the tightest of the process's group and its parents). Where
+//! none of them can be read, [`FALLBACK_BYTES`] is assumed. All sizes use checked arithmetic: a
+//! size that does not fit in 64 bits is an error, never a wrap-around.
 
 use std::fmt;
 
@@ -60,6 +63,10 @@ pub enum LimitSource {
     User,
     /// A fraction of the available memory the system reports.
     Available,
+    /// A fraction of the address space left under the process's `RLIMIT_AS`.
+    AddressSpace,
+    /// A fraction of what the control group's `memory.max` leaves.
+    Cgroup,
     /// [`FALLBACK_BYTES`]: the system does not report its available memory.
     Assumed,
 }
@@ -69,6 +76,10 @@ impl fmt::Display for LimitSource {
         f.write_str(match self {
             LimitSource::User => "as given",
             LimitSource::Available => "80 % of the available memory",
+            LimitSource::AddressSpace => {
+                "80 % of the address space left under the process's limit, RLIMIT_AS (ulimit -v)"
+            }
+            LimitSource::Cgroup => "80 % of what the control group's memory.max leaves",
             LimitSource::Assumed => "assumed: the system does not report its available memory",
         })
     }
@@ -103,10 +114,15 @@ impl fmt::Display for Bytes {
 pub fn parse_size(text: &str) -> Result<u64, MemoryError> {
     let bad = || MemoryError::BadSize(text.to_string());
     let t = text.trim();
-    let t = t
-        .strip_suffix("iB")
-        .or_else(|| t.strip_suffix('B'))
-        .unwrap_or(t);
+    // Any case: 1gb, 1GB, 1GiB and 1gib are the same size.
+    let lower = t.to_ascii_lowercase();
+    let t = if lower.ends_with("ib") {
+        &t[..t.len() - 2]
+    } else if lower.ends_with('b') {
+        &t[..t.len() - 1]
+    } else {
+        t
+    };
     let (num, scale) = match t.chars().last().map(|c| c.to_ascii_uppercase()) {
         Some(c) if c.is_ascii_alphabetic() => {
             let scale = UNITS.iter().find(|(u, _)| *u == c).ok_or_else(bad)?.1;
@@ -124,12 +140,105 @@ pub fn parse_size(text: &str) -> Result<u64, MemoryError> {
 
 /// Memory the system reports as available, bytes (`MemAvailable`), if it says.
 pub fn available_bytes() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    kb_field(
+        &std::fs::read_to_string("/proc/meminfo").ok()?,
+        "MemAvailable:",
+    )
+}
+
+/// Reads `key:  N kB` from a `/proc` status-like text, bytes.
+fn kb_field(text: &str, key: &str) -> Option<u64> {
     text.lines()
-        .find_map(|l| l.strip_prefix("MemAvailable:"))
+        .find_map(|l| l.strip_prefix(key))
         .and_then(|rest| rest.trim().strip_suffix("kB"))
         .and_then(|kb| kb.trim().parse::<u64>().ok())
         .and_then(|kb| kb.checked_mul(1024))
+}
+
+/// The soft address-space limit from a `/proc/PID/limits` text, bytes; `None` when unlimited.
+fn address_space_limit_in(limits: &str) -> Option<u64> {
+    let line = limits
+        .lines()
+        .find(|l| l.starts_with("Max address space"))?;
+    let soft = line["Max address space".len()..]
+        .split_whitespace()
+        .next()?;
+    soft.parse().ok()
+}
+
+/// The process's soft address-space limit (`RLIMIT_AS`), bytes; `None` when unlimited or the
+/// system does not say.
+pub fn address_space_limit() -> Option<u64> {
+    address_space_limit_in(&std::fs::read_to_string("/proc/self/limits").ok()?)
+}
+
+/// Address space the process may still map under `RLIMIT_AS`, bytes (the limit less `VmSize`);
+/// `None` when unlimited or the system does not say.
+pub fn address_space_left() -> Option<u64> {
+    let limit = address_space_limit()?;
+    let status = std::fs::read_to_string("/proc/self/status").ok()?;
+    let mapped = kb_field(&status, "VmSize:").unwrap_or(0);
+    Some(limit.saturating_sub(mapped))
+}
+
+/// What the cgroup v2 limits leave beside their current use, bytes: the smallest of
+/// `memory.max − memory.current` over the group named in `cgroup` (a `/proc/self/cgroup` text)
+/// and its parents, read through `read(relative path)`; `None` when no group sets a limit.
+fn cgroup_room_in(cgroup: &str, read: &dyn Fn(&str) -> Option<String>) -> Option<u64> {
+    let path = cgroup.lines().find_map(|l| l.strip_prefix("0::"))?.trim();
+    let mut room: Option<u64> = None;
+    let mut dir = path.trim_end_matches('/').to_string();
+    loop {
+        let max = read(&format!("{dir}/memory.max"));
+        if let Some(max) = max.and_then(|m| m.trim().parse::<u64>().ok()) {
+            let current = read(&format!("{dir}/memory.current"))
+                .and_then(|c| c.trim().parse::<u64>().ok())
+                .unwrap_or(0);
+            let left = max.saturating_sub(current);
+            room = Some(room.map_or(left, |r| r.min(left)));
+        }
+        match dir.rfind('/') {
+            Some(i) => dir.truncate(i),
+            None => break,
+        }
+    }
+    room
+}
+
+/// What the process's cgroup v2 `memory.max` (the tightest over the group and its parents)
+/// leaves beside `memory.current`, bytes; `None` when no limit is set or the system does not say.
+pub fn cgroup_room() -> Option<u64> {
+    let cgroup = std::fs::read_to_string("/proc/self/cgroup").ok()?;
+    cgroup_room_in(&cgroup, &|rel| {
+        std::fs::read_to_string(format!("/sys/fs/cgroup{rel}")).ok()
+    })
+}
+
+/// The default budget from the three rooms (any may be unknown): [`DEFAULT_FRACTION`] of the
+/// smallest, or [`FALLBACK_BYTES`] when none is known.
+fn default_budget(
+    available: Option<u64>,
+    address: Option<u64>,
+    cgroup: Option<u64>,
+) -> MemoryBudget {
+    [
+        (available, LimitSource::Available),
+        (address, LimitSource::AddressSpace),
+        (cgroup, LimitSource::Cgroup),
+    ]
+    .into_iter()
+    .filter_map(|(room, source)| room.map(|r| (r, source)))
+    .min_by_key(|&(r, _)| r)
+    .map_or(
+        MemoryBudget {
+            limit: FALLBACK_BYTES,
+            source: LimitSource::Assumed,
+        },
+        |(room, source)| MemoryBudget {
+            limit: (room as f64 * DEFAULT_FRACTION) as u64,
+            source,
+        },
+    )
 }
 
 /// How much memory a run may plan to use.
@@ -142,21 +251,16 @@ pub struct MemoryBudget {
 }
 
 impl MemoryBudget {
-    /// The user's limit when given, else [`DEFAULT_FRACTION`] of the available memory.
+    /// The user's limit when given, else [`DEFAULT_FRACTION`] of the smallest of the available
+    /// memory, the address space left under `RLIMIT_AS` and the cgroup's room (see the module
+    /// documentation).
     pub fn new(user_limit: Option<u64>) -> Self {
-        match (user_limit, available_bytes()) {
-            (Some(limit), _) => MemoryBudget {
+        match user_limit {
+            Some(limit) => MemoryBudget {
                 limit,
                 source: LimitSource::User,
             },
-            (None, Some(avail)) => MemoryBudget {
-                limit: (avail as f64 * DEFAULT_FRACTION) as u64,
-                source: LimitSource::Available,
-            },
-            (None, None) => MemoryBudget {
-                limit: FALLBACK_BYTES,
-                source: LimitSource::Assumed,
-            },
+            None => default_budget(available_bytes(), address_space_left(), cgroup_room()),
         }
     }
 
@@ -257,6 +361,59 @@ mod tests {
         assert_eq!(b.room_left(&e), 0);
         assert_eq!(b.room_left(&Estimate::new("a", "b").plus(&[300])), 700);
         assert_eq!(b.room_left(&Estimate::new("a", "b").plus(&[3000])), 0);
+    }
+
+    #[test]
+    fn sizes_in_any_case() {
+        for t in ["1gb", "1GB", "1GiB", "1gib", "1G", "1g"] {
+            assert_eq!(parse_size(t).unwrap(), 1 << 30, "{t}");
+        }
+        assert_eq!(parse_size("512b").unwrap(), 512);
+    }
+
+    #[test]
+    fn address_space_limit_parses_proc_limits() {
+        let text = "Limit                     Soft Limit           Hard Limit           Units     \n\
+                    Max stack size            8388608              unlimited            bytes     \n\
+                    Max address space         204800000            unlimited            bytes     \n";
+        assert_eq!(address_space_limit_in(text), Some(204_800_000));
+        let unlimited =
+            "Max address space         unlimited            unlimited            bytes\n";
+        assert_eq!(address_space_limit_in(unlimited), None);
+    }
+
+    #[test]
+    fn cgroup_room_is_the_tightest_over_the_parents() {
+        let files = |rel: &str| -> Option<String> {
+            match rel {
+                "/a/b/memory.max" => Some("max\n".into()),
+                "/a/b/memory.current" => Some("100\n".into()),
+                "/a/memory.max" => Some("1000\n".into()),
+                "/a/memory.current" => Some("300\n".into()),
+                "/memory.max" => None,
+                _ => None,
+            }
+        };
+        assert_eq!(cgroup_room_in("0::/a/b\n", &files), Some(700));
+        assert_eq!(cgroup_room_in("0::/x\n", &files), None);
+        assert_eq!(cgroup_room_in("1:memory:/a\n", &files), None);
+    }
+
+    #[test]
+    fn the_default_is_the_smallest_room() {
+        let b = default_budget(Some(1000), Some(500), None);
+        assert_eq!(b.source, LimitSource::AddressSpace);
+        assert_eq!(b.limit, 400);
+        let b = default_budget(Some(1000), None, Some(2000));
+        assert_eq!(b.source, LimitSource::Available);
+        let b = default_budget(Some(1000), Some(5000), Some(100));
+        assert_eq!((b.source, b.limit), (LimitSource::Cgroup, 80));
+        assert_eq!(
+            default_budget(None, None, None).source,
+            LimitSource::Assumed
+        );
+        // The live budget under this test process's own limits is positive.
+        assert!(MemoryBudget::new(None).limit > 0);
     }
 
     #[test]
