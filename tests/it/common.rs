@@ -16,6 +16,23 @@ pub fn run(args: &[&str]) -> Output {
     bin().args(args).output().unwrap()
 }
 
+/// A shard file's text with its content checksum recomputed after an edit: what a deliberate
+/// forger would do, so that the checks behind the checksum are tested too.
+pub fn reseal(text: &str) -> String {
+    let t = text.trim_end();
+    let at = t.rfind(",\"content_sha256\"").expect("a sealed shard file");
+    gpu_amcs::mc::summary::checksum::seal(&format!("{}}}", &t[..at]))
+}
+
+/// A shard file's JSON without its content checksum (which differs wherever a timing does).
+pub fn without_checksum(mut v: serde_json::Value) -> serde_json::Value {
+    v.as_object_mut()
+        .expect("a JSON object")
+        .remove("content_sha256")
+        .expect("a sealed shard file");
+    v
+}
+
 /// Runs `script` in `sh -c` with `$BIN` set to the binary, in `dir`.
 pub fn sh(dir: &Path, script: &str) -> Output {
     Command::new("sh")

@@ -112,7 +112,7 @@ fn one_three_and_seven_shards_merge_to_the_one_run_map() {
         let t = v["timings"].take();
         assert!(t.is_object());
         v.as_object_mut().unwrap().remove("float_bits");
-        v
+        common::without_checksum(v)
     };
     assert_eq!(shard_of("slurm.json"), shard_of("n3-1.json"));
     let _ = std::fs::remove_dir_all(&d);
@@ -149,15 +149,23 @@ fn merge_refuses_foreign_missing_duplicated_corrupt_and_mixed_files() {
     let mut edited = text.clone();
     let digit = if &text[at..at + 1] == "9" { "1" } else { "9" };
     edited.replace_range(at..at + 1, digit);
-    std::fs::write(p("edited.json"), edited).unwrap();
+    std::fs::write(p("edited.json"), common::reseal(&edited)).unwrap();
+    // The same edit without a new checksum, and one hex digit of w changed: the content
+    // checksum refuses both before reading anything else.
+    std::fs::write(p("digit.json"), &edited).unwrap();
+    let w0 = text.find("\"w_bits\":\"").unwrap() + "\"w_bits\":\"".len() + 15;
+    let mut w_digit = text.clone();
+    let d15 = if &text[w0..w0 + 1] == "0" { "1" } else { "0" };
+    w_digit.replace_range(w0..w0 + 1, d15);
+    std::fs::write(p("w_digit.json"), &w_digit).unwrap();
     // A w bit pattern that is not a finite non-negative error, and one digit too few.
     let w_at = text.find("\"w_bits\":\"").unwrap() + "\"w_bits\":\"".len();
     let mut bad_w = text.clone();
     bad_w.replace_range(w_at..w_at + 16, &format!("{:016x}", f64::NAN.to_bits()));
-    std::fs::write(p("nan.json"), bad_w).unwrap();
+    std::fs::write(p("nan.json"), common::reseal(&bad_w)).unwrap();
     let mut short_w = text.clone();
     short_w.remove(w_at);
-    std::fs::write(p("short.json"), short_w).unwrap();
+    std::fs::write(p("short.json"), common::reseal(&short_w)).unwrap();
     let out = p("out.json");
     let cases: &[(&[&str], &str)] = &[
         (
@@ -183,6 +191,14 @@ fn merge_refuses_foreign_missing_duplicated_corrupt_and_mixed_files() {
         (
             &["s0.json", "edited.json", "s2.json"],
             "edited.json: not a summary: field `float_bits`",
+        ),
+        (
+            &["s0.json", "digit.json", "s2.json"],
+            "digit.json: not a summary: content checksum mismatch (edited or corrupted)",
+        ),
+        (
+            &["s0.json", "w_digit.json", "s2.json"],
+            "w_digit.json: not a summary: content checksum mismatch (edited or corrupted)",
         ),
         (
             &["s0.json", "nan.json", "s2.json"],

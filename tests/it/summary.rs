@@ -259,10 +259,30 @@ fn merge_refuses_mismatches_gaps_overlaps_and_corrupt_files() {
         );
     }
     let tampered = text.replacen("\"below\":[", "\"below\":[99999999,", 1);
-    let e = Summary::from_json(&tampered, "t.json")
+    let e = Summary::from_json(&common::reseal(&tampered), "t.json")
         .unwrap_err()
         .to_string();
     assert!(e.contains("t.json") && e.contains("below"), "{e}");
+    // One digit of sums.mean, sums.m2 or below[0] changed: the content checksum refuses it
+    // (the values stay consistent, so nothing else could).
+    for field in ["\"mean\":", "\"m2\":", "\"below\":["] {
+        let at = text.find(field).unwrap() + field.len();
+        let digit_at = at + text[at..].find(|c: char| c.is_ascii_digit()).unwrap();
+        let mut edited = text.clone();
+        let d = if &text[digit_at..digit_at + 1] == "1" {
+            "2"
+        } else {
+            "1"
+        };
+        edited.replace_range(digit_at..digit_at + 1, d);
+        let e = Summary::from_json(&edited, "e.json")
+            .unwrap_err()
+            .to_string();
+        assert_eq!(
+            e, "e.json: not a summary: content checksum mismatch (edited or corrupted)",
+            "{field}"
+        );
+    }
 }
 
 use crate::common;
@@ -305,7 +325,7 @@ fn cli_shards_then_merge_equal_the_single_run() {
     let (mut a, mut b) = (json(&d.join("slurm.json")), json(&d.join("s1.json")));
     a["seconds"] = 0.into();
     b["seconds"] = 0.into();
-    assert_eq!(a, b);
+    assert_eq!(common::without_checksum(a), common::without_checksum(b));
 
     let o = run(&[
         "merge",
@@ -501,7 +521,7 @@ fn cli_shard_from_an_indexed_job_and_inconsistent_variables() {
     let (mut a, mut b) = (json(&d.join("job.json")), json(&d.join("flag.json")));
     a["seconds"] = 0.into();
     b["seconds"] = 0.into();
-    assert_eq!(a, b);
+    assert_eq!(common::without_checksum(a), common::without_checksum(b));
     let o = bin()
         .args(base)
         .args(["--summary-out", &p("half.json")])
@@ -569,6 +589,28 @@ fn sensitivity_shards_merge_to_the_single_run_bit_for_bit() {
     assert!(one.contains("\"first_order\""));
 
     let out = p("out.json");
+    // Outputs tripled (every digit of the first output changed) and one digit of a bit
+    // pattern changed: the content checksum refuses both.
+    let text = std::fs::read_to_string(d.join("x1.json")).unwrap();
+    let at = text.find("\"a\":[").unwrap() + "\"a\":[".len();
+    let end = at + text[at..].find([',', ']']).unwrap();
+    let value: f64 = text[at..end].parse().unwrap();
+    let mut tripled = text.clone();
+    tripled.replace_range(at..end, &(3.0 * value).to_string());
+    std::fs::write(d.join("tripled.json"), &tripled).unwrap();
+    fails_leaving_nothing(
+        &d,
+        &[
+            "merge",
+            &p("x0.json"),
+            &p("tripled.json"),
+            &p("x2.json"),
+            "--json",
+            &out,
+        ],
+        "tripled.json: not a summary: content checksum mismatch (edited or corrupted)",
+    );
+    let _ = std::fs::remove_file(d.join("tripled.json"));
     fails_leaving_nothing(
         &d,
         &["merge", &p("x0.json"), &p("x2.json"), "--json", &out],
@@ -606,4 +648,86 @@ fn sensitivity_shards_merge_to_the_single_run_bit_for_bit() {
     let o = run(&[&base[..], &["--summary-out", &out, "--json", &p("j.json")]].concat());
     assert_fails_naming(&o, "--json", "--summary-out with --json");
     let _ = std::fs::remove_dir_all(&d);
+}
+
+/// Shards that ran on different backends merge, and the report says so ("mixed: cpu (2
+/// shards), gpu (1)") instead of naming the first shard's backend.
+#[test]
+fn mixed_backend_shards_are_reported_as_mixed() {
+    if !common::have_adapter("mixed_backend_shards_are_reported_as_mixed") {
+        return;
+    }
+    let d = tmpdir("summary-mixed");
+    let p = |name: &str| d.join(name).display().to_string();
+    let base = ["mcs", "--points", "5", "--draws", "30000", "-q"];
+    for (k, backend) in ["cpu", "gpu", "cpu"].iter().enumerate() {
+        let o = run(&[
+            &base[..],
+            &[
+                "--backend",
+                backend,
+                "--shard",
+                &format!("{k}/3"),
+                "--summary-out",
+                &p(&format!("m{k}.json")),
+            ],
+        ]
+        .concat());
+        assert!(o.status.success(), "{}", common::stderr(&o));
+    }
+    let o = run(&[
+        "merge",
+        &p("m0.json"),
+        &p("m1.json"),
+        &p("m2.json"),
+        "--json",
+        &p("r.json"),
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout).to_string();
+    assert!(text.contains("mixed: cpu (2 shards), gpu (1)"), "{text}");
+    let v = json(&d.join("r.json"));
+    let b = &v["result"]["backend"]["backend"];
+    assert_eq!(b, "mixed: cpu (2 shards), gpu (1)", "{v}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// The text of one small mcs summary (computed once).
+fn summary_text() -> &'static str {
+    static TEXT: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    TEXT.get_or_init(|| shards(5, &[3000])[0].1.to_json())
+}
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig { cases: 400, ..Default::default() })]
+
+    /// Any change of one byte (or a deleted or inserted byte) of a shard file is refused, unless
+    /// it is trailing whitespace, which leaves the content as it was.
+    #[test]
+    fn mutated_shard_files_are_refused(
+        pos in 0usize..100_000,
+        byte in 0x20u8..0x7f,
+        how in 0u8..3,
+    ) {
+        let text = summary_text();
+        let mut b = text.as_bytes().to_vec();
+        let at = pos % b.len();
+        match how {
+            0 => b[at] = byte,
+            1 => { b.remove(at); }
+            _ => b.insert(at, byte),
+        }
+        let Ok(t) = String::from_utf8(b) else { return Ok(()); };
+        let original = Summary::from_json(text, "s.json").unwrap();
+        match Summary::from_json(&t, "s.json") {
+            Ok(s) => {
+                proptest::prop_assert_eq!(&s, &original);
+                proptest::prop_assert_eq!(t.trim_end(), text.trim_end());
+            }
+            Err(e) => {
+                let e = e.to_string();
+                proptest::prop_assert!(e.starts_with("s.json: not a summary: "), "{}", e);
+            }
+        }
+    }
 }

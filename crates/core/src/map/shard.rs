@@ -163,7 +163,7 @@ impl MapShard {
         if let Value::Object(o) = &mut v {
             o.insert("float_bits".into(), bits.into());
         }
-        serde_json::to_string(&v).unwrap_or_default() + "\n"
+        crate::mc::summary::checksum::seal(&serde_json::to_string(&v).unwrap_or_default())
     }
 
     /// Reads a shard written by [`MapShard::to_json`], its floats from their bits; `file` names
@@ -178,7 +178,8 @@ impl MapShard {
             file: file.to_string(),
             message,
         };
-        let mut v: Value = serde_json::from_str(text).map_err(|e| corrupt(e.to_string()))?;
+        let text = crate::mc::summary::checksum::verify(text, file)?;
+        let mut v: Value = serde_json::from_str(&text).map_err(|e| corrupt(e.to_string()))?;
         let bits: Vec<u64> = match &mut v {
             Value::Object(o) => o.remove("float_bits"),
             _ => None,
@@ -266,7 +267,7 @@ fn visit_floats(v: &mut Value, f: &mut impl FnMut(&mut Value)) {
 /// agree on provenance, grid, thresholds, the reached cells and the kind of backend, and their
 /// ranges must tile the reached cells. The result does not depend on the order given and equals
 /// one run's map apart from the timings (the longest shard's inverse kinematics, the sum of the
-/// shards' evaluations) and, where the shards ran elsewhere, the backend (the first shard's).
+/// shards' evaluations) and, where the shards ran on different adapters, the backend ("mixed: …").
 ///
 /// # Errors
 ///
@@ -315,7 +316,8 @@ pub fn merge(named: &[(String, MapShard)]) -> Result<MapResult, SummaryError> {
         timings.ik_seconds = timings.ik_seconds.max(s.timings.ik_seconds);
         timings.eval_seconds += s.timings.eval_seconds;
     }
-    let [backend, adapter, driver] = first.backend.clone();
+    let [backend, adapter, driver] =
+        crate::mc::summary::merged_backend(order.iter().map(|(_, s)| &s.backend));
     let p = &first.provenance;
     Ok(MapResult::new(
         &p.model,

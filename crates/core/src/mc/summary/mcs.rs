@@ -113,7 +113,7 @@ impl Summary {
     /// The summary as JSON.
     pub fn to_json(&self) -> String {
         // Plain data with finite floats: serialising cannot fail.
-        serde_json::to_string(self).unwrap_or_default() + "\n"
+        super::checksum::seal(&serde_json::to_string(self).unwrap_or_default())
     }
 
     /// Reads a summary written by [`Summary::to_json`]; `file` names it in errors.
@@ -128,7 +128,8 @@ impl Summary {
             file: file.to_string(),
             message,
         };
-        let s: Summary = serde_json::from_str(text).map_err(|e| corrupt(e.to_string()))?;
+        let text = super::checksum::verify(text, file)?;
+        let s: Summary = serde_json::from_str(&text).map_err(|e| corrupt(e.to_string()))?;
         let p = &s.provenance;
         let t = s.thresholds.len();
         let binned: u64 = s.bins.values().sum();
@@ -491,6 +492,7 @@ pub fn merge(named: &[(String, Summary)]) -> Result<Summary, SummaryError> {
     for (_, s) in &order[1..] {
         out.absorb(s);
     }
+    out.backend = super::merged_backend(order.iter().map(|(_, s)| &s.backend));
     Ok(out)
 }
 

@@ -14,6 +14,7 @@
 //! width is within 2h of the shortest, and its ends are within h/2 of the sorted-values ends
 //! whenever it picks the same ranks (tested within h on 3·10^5 and 10^6 draws).
 
+pub mod checksum;
 mod fnv;
 mod mcs;
 mod moments;
@@ -28,6 +29,46 @@ pub(crate) use provenance::{in_range_order, provenance_fields};
 pub use sensitivity_shard::{merge_sensitivity, SensitivityMergeError, SensitivityShard};
 
 use super::result::McError;
+
+/// The backend of merged parts, each `[backend, adapter, driver]`: the common one when every
+/// part ran on the same backend and adapter, otherwise "mixed: cpu (2 shards), gpu (1)" with the
+/// distinct adapters and drivers joined by "; ". Never empty when `parts` is not.
+pub fn merged_backend<'a>(parts: impl IntoIterator<Item = &'a [String; 3]>) -> [String; 3] {
+    let parts: Vec<&[String; 3]> = parts.into_iter().collect();
+    let Some(first) = parts.first() else {
+        return Default::default();
+    };
+    if parts.iter().all(|p| p[..2] == first[..2]) {
+        return (*first).clone();
+    }
+    let distinct = |i: usize| -> Vec<(&str, usize)> {
+        let mut seen: Vec<(&str, usize)> = Vec::new();
+        for p in &parts {
+            match seen.iter_mut().find(|(name, _)| *name == p[i]) {
+                Some((_, n)) => *n += 1,
+                None => seen.push((&p[i], 1)),
+            }
+        }
+        seen
+    };
+    let backends: Vec<String> = distinct(0)
+        .iter()
+        .enumerate()
+        .map(|(k, (name, n))| match (k, n) {
+            (0, 1) => format!("{name} (1 shard)"),
+            (0, n) => format!("{name} ({n} shards)"),
+            (_, n) => format!("{name} ({n})"),
+        })
+        .collect();
+    let join = |i: usize| {
+        distinct(i)
+            .iter()
+            .map(|(name, _)| *name)
+            .collect::<Vec<_>>()
+            .join("; ")
+    };
+    [format!("mixed: {}", backends.join(", ")), join(1), join(2)]
+}
 
 /// Width h of a histogram bin, mm: bin `b` holds `b·h ≤ w < (b + 1)·h`.
 pub const BIN_WIDTH: f64 = 1e-6;
@@ -100,4 +141,30 @@ pub enum SummaryError {
         /// Largest w so far, mm.
         max: f64,
     },
+}
+
+#[cfg(test)]
+mod tests {
+    use super::merged_backend;
+
+    fn b(x: &str, a: &str) -> [String; 3] {
+        [x.into(), a.into(), "d".into()]
+    }
+
+    #[test]
+    fn mixed_backends_are_reported_as_such() {
+        let same = [b("cpu", "rayon"), b("cpu", "rayon")];
+        assert_eq!(merged_backend(&same), b("cpu", "rayon"));
+        let mixed = [b("cpu", "rayon"), b("gpu", "H100"), b("cpu", "rayon")];
+        let m = merged_backend(&mixed);
+        assert_eq!(m[0], "mixed: cpu (2 shards), gpu (1)");
+        assert_eq!(m[1], "rayon; H100");
+        assert_eq!(m[2], "d");
+        let one = [b("gpu", "a"), b("cpu", "r")];
+        assert_eq!(merged_backend(&one)[0], "mixed: gpu (1 shard), cpu (1)");
+        assert_eq!(
+            merged_backend(&[] as &[[String; 3]]),
+            <[String; 3]>::default()
+        );
+    }
 }

@@ -110,7 +110,7 @@ impl SensitivityShard {
     /// The shard as JSON (`kind` first, so a reader can tell it from a summary).
     pub fn to_json(&self) -> String {
         // Plain data with finite floats: serialising cannot fail.
-        serde_json::to_string(self).unwrap_or_default() + "\n"
+        super::checksum::seal(&serde_json::to_string(self).unwrap_or_default())
     }
 
     /// Reads a shard written by [`SensitivityShard::to_json`]; `file` names it in errors.
@@ -124,7 +124,9 @@ impl SensitivityShard {
             file: file.to_string(),
             message,
         };
-        let s: SensitivityShard = serde_json::from_str(text).map_err(|e| corrupt(e.to_string()))?;
+        let text = super::checksum::verify(text, file)?;
+        let s: SensitivityShard =
+            serde_json::from_str(&text).map_err(|e| corrupt(e.to_string()))?;
         let p = &s.provenance;
         let n = (p.end - p.first) as usize;
         let o = &s.outputs;
@@ -206,7 +208,7 @@ pub fn merge_sensitivity(
         thresholds: first.thresholds.clone(),
         ..SensitivityOptions::default()
     };
-    let [backend, adapter, driver] = first.backend.clone();
+    let [backend, adapter, driver] = super::merged_backend(named.iter().map(|(_, s)| &s.backend));
     let info = BackendInfo {
         backend,
         adapter,
