@@ -56,7 +56,11 @@ pub fn install_signal_cleanup() {
             if sig == SIGXFSZ {
                 continue;
             }
-            pending().clean();
+            // The lock is held until the process ends: a writer that is creating or writing
+            // a temporary file finishes it first (and it is then removed), and none can start
+            // another between the cleanup and the exit.
+            let mut p = pending();
+            p.clean();
             std::process::exit(128 + sig);
         }
     });
@@ -355,9 +359,15 @@ impl Outputs {
                 .map(|n| n.to_string_lossy().into_owned())
                 .unwrap_or_default();
             let tmp = dir.join(format!(".{name}.tmp{}", std::process::id()));
-            pending().files.push(tmp.clone());
-            std::fs::write(&tmp, contents)
-                .map_err(|e| anyhow!("{flag}: cannot write {}: {e}", path.display()))?;
+            {
+                // Registered and written under the lock, so that a signal's cleanup never runs
+                // while the file is being created (it would remove it before it exists, and the
+                // write would then leave it behind).
+                let mut p = pending();
+                p.files.push(tmp.clone());
+                std::fs::write(&tmp, contents)
+                    .map_err(|e| anyhow!("{flag}: cannot write {}: {e}", path.display()))?;
+            }
             temps.push((flag, tmp, path.clone()));
         }
         {
@@ -394,9 +404,12 @@ fn create_dirs(flag: &str, dir: &Path) -> Result<()> {
         }
     }
     for m in missing.into_iter().rev() {
+        // Created and registered under the lock: no window in which a signal's cleanup could
+        // miss it.
+        let mut p = pending();
         std::fs::create_dir(&m)
             .map_err(|e| anyhow!("{flag}: cannot create {}: {e}", m.display()))?;
-        pending().dirs.push(m);
+        p.dirs.push(m);
     }
     Ok(())
 }

@@ -493,3 +493,124 @@ fn the_default_memory_limit_follows_the_address_space_limit() {
         "{err}"
     );
 }
+
+/// Starts `args` (writing into `out`, which does not exist yet), waits until one of its
+/// temporary files exists, sends `sig`, and checks that nothing is left of `out`. Returns
+/// whether the signal arrived while temporary files existed (false when the run finished
+/// first).
+fn signal_while_writing(d: &std::path::Path, args: &[String], sig: (&str, i32)) -> bool {
+    let out = d.join("out");
+    assert!(!out.exists());
+    let mut child = bin()
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let t0 = Instant::now();
+    let caught = loop {
+        if tree(&out).iter().any(|f| f.contains(".tmp")) {
+            break true;
+        }
+        if child.try_wait().unwrap().is_some() || t0.elapsed() > Duration::from_secs(120) {
+            break false;
+        }
+        std::thread::yield_now();
+    };
+    if !caught {
+        let _ = child.kill();
+        let _ = child.wait();
+        let _ = std::fs::remove_dir_all(&out);
+        return false;
+    }
+    let status = signal(&mut child, sig.0);
+    if status.success() {
+        // Finished its renames before the signal arrived: complete outputs, nothing partial.
+        assert!(
+            !tree(&out).iter().any(|f| f.contains(".tmp")),
+            "{:?}",
+            tree(&out)
+        );
+        let _ = std::fs::remove_dir_all(&out);
+        return false;
+    }
+    assert_eq!(status.code(), Some(128 + sig.1), "{status:?}");
+    assert!(!out.exists(), "SIG{} left {:?}", sig.0, tree(&out));
+    true
+}
+
+/// SIGTERM, SIGINT and SIGHUP while `map` and `merge` write their reports (a 3-D map's 60 SVG
+/// files, a 33 MB JSON and an 8 MB CSV) leave no temporary file and none of the directories the
+/// run created: the signal waits for the file being written, removes every temporary file and
+/// created directory, and exits with 128 + the signal number.
+#[test]
+fn signals_while_reports_are_written_leave_nothing() {
+    let d = tmpdir("sig-writers");
+    let p = |name: &str| d.join(name).display().to_string();
+    let map = |extra: &[&str]| -> Vec<String> {
+        let mut v: Vec<String> = [
+            "map",
+            "--backend",
+            "cpu",
+            "-q",
+            "--cells",
+            "30,30,30",
+            "--draws",
+            "200",
+        ]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+        v.extend(extra.iter().map(|s| s.to_string()));
+        v
+    };
+    for k in 0..2 {
+        let o = bin()
+            .args(map(&[
+                "--shard",
+                &format!("{k}/2"),
+                "--summary-out",
+                &p(&format!("s{k}.json")),
+            ]))
+            .output()
+            .unwrap();
+        assert!(o.status.success(), "{}", stderr(&o));
+    }
+    let reports = |cmd: Vec<String>| -> Vec<String> {
+        let mut v = cmd;
+        for (flag, name) in [
+            ("--json", "out/r.json"),
+            ("--csv", "out/csv"),
+            ("--svg", "out/svg"),
+        ] {
+            v.push(flag.into());
+            v.push(p(name));
+        }
+        v
+    };
+    let merge = reports(vec![
+        "merge".into(),
+        "-q".into(),
+        p("s0.json"),
+        p("s1.json"),
+    ]);
+    let map_run = reports(map(&[]));
+    let sigs = [("TERM", 15), ("INT", 2), ("HUP", 1)];
+    let mut caught = [0, 0];
+    for attempt in 0..9 {
+        for (i, args) in [&merge, &map_run].into_iter().enumerate() {
+            if caught[i] < 3 && signal_while_writing(&d, args, sigs[attempt % 3]) {
+                caught[i] += 1;
+            }
+        }
+        if caught == [3, 3] {
+            break;
+        }
+    }
+    eprintln!(
+        "signals caught while writing: merge {}, map {}",
+        caught[0], caught[1]
+    );
+    assert!(caught.iter().all(|&c| c >= 1), "{caught:?}");
+    let _ = std::fs::remove_dir_all(&d);
+}
