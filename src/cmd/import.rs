@@ -44,6 +44,9 @@ impl Run for ImportArgs {
         })?;
         outputs.stage_file("--out", imported.to_toml())?;
         outputs.commit()?;
+        for w in &imported.warnings {
+            eprintln!("warning: {w}");
+        }
         crate::cmd::stdout::println(&format!(
             "imported {} ({}) -> {}: max deviation source vs model {:e} mm over {} configurations",
             a.source.display(),

@@ -8,7 +8,7 @@
 
 use crate::common;
 
-use common::{run, tmpdir};
+use common::{arg, bin, run, stderr, tmpdir};
 use gpu_amcs::import::{self, export, ImportError, ImportOptions, SourceFormat};
 use gpu_amcs::kinematics::{self, position, RobotModel, JOINTS};
 use gpu_amcs::presets;
@@ -1048,4 +1048,91 @@ fn cli_import_export_and_model_list() {
     let m = presets::ur5e();
     let p = position(&m.params, &m.tool, &[0.0; 6]);
     assert_eq!(&row[6..9], &p, "{text}");
+}
+
+/// Import applies the model file's own rules, naming the source's joint and element, so it
+/// never writes a model that every other command refuses; a repeated DH directive is an error;
+/// a reach that suggests the wrong units is a warning.
+#[test]
+fn imports_are_validated_as_model_files() {
+    let base = simple_urdf("");
+    // Limits of ±100 rad (5730°) on joint 3, and a 1 km link before joint 4.
+    refused(
+        "limits.urdf",
+        &with_joint(
+            &base,
+            "j3",
+            "lower=\"-2\" upper=\"2\"",
+            "lower=\"-100\" upper=\"100\"",
+        ),
+        &["joint 'j3'", "limits", "720", "limits.urdf"],
+    );
+    refused(
+        "km.urdf",
+        &with_joint(&base, "j4", "0.05 0 0.35", "1000 0 0.35"),
+        &[
+            "joint 'j3'",
+            "MDH a (the model's joint[3].a)",
+            "1000000 mm is out of range",
+            "check the units",
+        ],
+    );
+    // A DH table that states its units twice: the second no longer silently wins.
+    let dir = tmpdir("dh-twice");
+    let good = "convention,standard\nunits,mm-deg\ntheta,d,a,alpha,lower,upper\n0,100,0,90,-10,10\n0,0,300,0,-10,10\n0,0,300,0,-10,10\n0,100,0,90,-10,10\n0,100,0,-90,-10,10\n0,80,0,0,-10,10\n";
+    let twice = good.replace("units,mm-deg\n", "units,mm-deg\nunits,m-rad\n");
+    let e = import_err(&dir, "twice.csv", &twice);
+    assert!(
+        e.contains("twice.csv:3") && e.contains("'units' is given twice"),
+        "{e}"
+    );
+    let e = import_err(&dir, "conv.csv", &format!("convention,modified\n{good}"));
+    assert!(e.contains("'convention' is given twice"), "{e}");
+    // A metres table labelled mm-deg converts, with a warning naming the units; a good one
+    // has none.
+    let metres = good
+        .replace("0,100,0,90", "0,0.1,0,90")
+        .replace("0,0,300,0", "0,0,0.3,0")
+        .replace("0,80,0,0", "0,0.08,0,0")
+        .replace("0,100,0,-90", "0,0.1,0,-90");
+    let imp = import(&write(&dir, "metres.csv", &metres)).unwrap();
+    assert_eq!(imp.warnings.len(), 1, "{:?}", imp.warnings);
+    assert!(imp.warnings[0].contains("metres"), "{:?}", imp.warnings);
+    assert!(import(&write(&dir, "good.csv", good))
+        .unwrap()
+        .warnings
+        .is_empty());
+    // The command line prints the warning and still writes the model.
+    let out = dir.join("m.toml");
+    let o = bin()
+        .args([
+            "import",
+            &arg(&dir, "metres.csv"),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .output()
+        .unwrap();
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).starts_with("warning: the arm reaches only"),
+        "{}",
+        stderr(&o)
+    );
+    assert!(out.exists());
+    // An analysis of it names the model, not a box flag the user never gave.
+    let o = run(&[
+        "mcs",
+        "--model",
+        out.to_str().unwrap(),
+        "-q",
+        "--backend",
+        "cpu",
+    ]);
+    let e = stderr(&o);
+    assert_eq!(o.status.code(), Some(2), "{e}");
+    assert!(
+        e.starts_with("error: --model:") && e.contains("metres") && !e.contains("--box"),
+        "{e}"
+    );
 }

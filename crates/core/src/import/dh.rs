@@ -178,6 +178,7 @@ pub fn parse_csv(text: &str, path: &str, default_name: &str) -> Result<SourceCha
     let mut name = default_name.to_string();
     let mut tool_raw = [0.0; 3];
     let mut header_seen = false;
+    let mut seen_directives: Vec<String> = Vec::new();
     let mut raws: Vec<([f64; 6], usize)> = Vec::new();
     let syntax = |line: usize, message: String| ImportError::Syntax {
         path: path.into(),
@@ -196,19 +197,31 @@ pub fn parse_csv(text: &str, path: &str, default_name: &str) -> Result<SourceCha
             "convention" | "units" | "name" if cells.len() != 2 => {
                 return Err(syntax(line, format!("'{key}' takes one value")))
             }
+            "convention" | "units" | "name" | "tool" if seen_directives.contains(&key) => {
+                return Err(syntax(
+                    line,
+                    format!("'{key}' is given twice (a table states its {key} once)"),
+                ))
+            }
             "convention" => {
+                seen_directives.push(key.clone());
                 conv = Some(convention(cells[1]).ok_or_else(|| {
                     syntax(line, format!("convention '{}' {CONVENTION_HELP}", cells[1]))
                 })?)
             }
             "units" => {
+                seen_directives.push(key.clone());
                 unit =
                     Some(units(cells[1]).ok_or_else(|| {
                         syntax(line, format!("units '{}' {UNITS_HELP}", cells[1]))
                     })?)
             }
-            "name" => name = cells[1].to_string(),
+            "name" => {
+                seen_directives.push(key.clone());
+                name = cells[1].to_string()
+            }
             "tool" => {
+                seen_directives.push(key.clone());
                 if cells.len() != 4 {
                     return Err(syntax(line, "'tool' takes three values x, y, z".into()));
                 }

@@ -34,6 +34,7 @@ pub mod urdf;
 use crate::kinematics::lines::Line;
 use crate::kinematics::mdh::{chain_from_zero_pose, GeometryError};
 use crate::kinematics::{BaseTransform, RobotModel, Uncertainty, JOINTS, N_PARAMS};
+use crate::report::text::fmt_plain;
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use std::fmt::Write as _;
@@ -189,7 +190,7 @@ pub enum ImportError {
         message: String,
     },
     /// The converted model's forward kinematics differs from the source's.
-    #[error("{path}: the MDH model deviates from the source by {deviation_mm:e} mm at q = {q_deg:?} deg (limit {PROOF_TOLERANCE_MM:e} mm)")]
+    #[error("{path}: the MDH model deviates from the source by {} mm at q = {q_deg:?} deg (limit {} mm)", fmt_plain(*.deviation_mm), fmt_plain(PROOF_TOLERANCE_MM))]
     Proof {
         /// The path given.
         path: String,
@@ -223,6 +224,34 @@ pub struct Imported {
     pub max_deviation_mm: f64,
     /// Number of configurations checked (q = 0 and the random ones).
     pub configurations: usize,
+    /// What looks wrong but converts (a reach that suggests the wrong units), one line each.
+    pub warnings: Vec<String>,
+}
+
+/// Reach below which an imported arm is suspected of lengths in the wrong unit, mm.
+pub const MIN_PLAUSIBLE_REACH_MM: f64 = 50.0;
+
+/// Reach above which an imported arm is suspected of lengths in the wrong unit, mm.
+pub const MAX_PLAUSIBLE_REACH_MM: f64 = 20_000.0;
+
+/// The warning for an arm whose reach ([`crate::points::reach_mm`]) is outside
+/// [`MIN_PLAUSIBLE_REACH_MM`] … [`MAX_PLAUSIBLE_REACH_MM`]: industrial and research arms reach
+/// from about 0.3 m to 4 m, so a reach of millimetres or kilometres is a unit slip.
+pub fn reach_warning(model: &RobotModel) -> Option<String> {
+    let reach = crate::points::reach_mm(model);
+    if reach < MIN_PLAUSIBLE_REACH_MM {
+        Some(format!(
+            "the arm reaches only {} mm beyond joint 1; if its lengths are in metres, say so (a DH table's 'units,m-rad', a URDF is always in metres)",
+            fmt_plain(reach)
+        ))
+    } else if reach > MAX_PLAUSIBLE_REACH_MM {
+        Some(format!(
+            "the arm reaches {} m beyond joint 1; if its lengths are in millimetres, say so (a DH table's 'units,mm-deg')",
+            fmt_plain(reach / 1000.0)
+        ))
+    } else {
+        None
+    }
 }
 
 impl Imported {
@@ -321,13 +350,58 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         uncertainty: Uncertainty::Independent([0.0; N_PARAMS]),
         base,
     };
+    check_model(&model, chain, path)?;
     let (max_deviation_mm, configurations) = prove(chain, &model, path)?;
+    let warnings = reach_warning(&model).into_iter().collect();
     Ok(Imported {
         model,
         source: path.into(),
         format: chain.format,
         max_deviation_mm,
         configurations,
+        warnings,
+    })
+}
+
+/// The model file's own rules ([`RobotModel::check`]) applied to an imported model, so that
+/// import never writes a file every other command refuses; the error names the source's joint
+/// (or the tip link) and the element.
+fn check_model(model: &RobotModel, chain: &SourceChain, path: &str) -> Result<(), ImportError> {
+    let Err(e) = model.check() else {
+        return Ok(());
+    };
+    // `joint[N].limits`, `joint[N].d`, … (1-based) name the source's joint N.
+    let joint = e
+        .field
+        .strip_prefix("joint[")
+        .and_then(|rest| rest.split_once(']'))
+        .and_then(|(n, rest)| Some((n.parse::<usize>().ok()?, rest.trim_start_matches('.'))))
+        .filter(|(n, _)| (1..=chain.joints.len()).contains(n));
+    Err(match joint {
+        Some((n, element)) => {
+            let what = match element {
+                "limits" => "limits".to_string(),
+                other => format!("MDH {other}"),
+            };
+            ImportError::NotRepresentable {
+                path: path.into(),
+                joint: chain.joints[n - 1].name.clone(),
+                message: format!(
+                    "{what} (the model's {}): {}; the model files accept lengths up to {} mm and limits up to ±{}° (check the units)",
+                    e.field,
+                    e.message,
+                    fmt_plain(crate::kinematics::MAX_LENGTH_MM),
+                    fmt_plain(crate::kinematics::MAX_LIMIT_DEG)
+                ),
+            }
+        }
+        None => ImportError::Chain {
+            path: path.into(),
+            message: format!(
+                "the model it gives is invalid: {} (the tool point, from the tip link's offset, or the base): {}",
+                e.field, e.message
+            ),
+        },
     })
 }
 
@@ -338,12 +412,13 @@ fn check_base(axis: &Line, joint: &str, path: &str) -> Result<(), ImportError> {
     // An axis along −z has been turned up by the base transform (see `convert`).
     let message = if tilt > BASE_TILT_EPS {
         Some(format!(
-            "its axis is tilted {:e} deg from base z; the model's first axis is base z: express the chain in a base frame whose z is this axis",
-            tilt.asin().to_degrees()
+            "its axis is tilted {}° from base z; the model's first axis is base z: express the chain in a base frame whose z is this axis",
+            fmt_plain(tilt.asin().to_degrees())
         ))
     } else if offset > BASE_OFFSET_EPS_MM {
         Some(format!(
-            "its axis is {offset:e} mm from the base origin; the model's first axis passes through it: express the chain in a base frame on this axis"
+            "its axis is {} mm from the base origin; the model's first axis passes through it: express the chain in a base frame on this axis",
+            fmt_plain(offset)
         ))
     } else {
         None

@@ -166,8 +166,8 @@ pub(super) fn joint_field(j: usize) -> String {
 /// degree/radian round trip, in exponent form when large.
 fn show(v: f64) -> String {
     let r: f64 = format!("{v:.12e}").parse().unwrap_or(v);
-    if r.abs() >= 1e6 {
-        format!("{r:e}")
+    if r.abs() >= 1e7 {
+        crate::report::text::fmt_plain(r)
     } else {
         format!("{r}")
     }

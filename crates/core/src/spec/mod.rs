@@ -377,6 +377,21 @@ impl ProblemSpec {
         match &self.points {
             PointsSource::Generate(g) => {
                 let bx = g.workspace(model);
+                let own = WorkspaceBox::for_robot(model);
+                if g.box_size.is_none() && !own.size.iter().all(|s| *s > 0.0) {
+                    // The robot's own box is empty: the model's lengths are wrong (in metres in
+                    // a millimetre file, typically), not a box the user gave.
+                    return Err(SpecError::new(
+                        SpecField::Model,
+                        PointsError::BadBox(format!(
+                            "the robot's own box is empty (size {:?} mm) because the arm reaches \
+                             only {} mm beyond joint 1: are its lengths in metres? Give the box's \
+                             centre and size, or correct the model's units",
+                            own.size,
+                            crate::report::text::fmt_plain(points::reach_mm(model))
+                        )),
+                    ));
+                }
                 points::generate(model, g.count, &bx, g.seed).map_err(|e| {
                     let field = match e {
                         PointsError::BadBox(_)
