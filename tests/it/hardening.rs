@@ -614,3 +614,73 @@ fn signals_while_reports_are_written_leave_nothing() {
     assert!(caught.iter().all(|&c| c >= 1), "{caught:?}");
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// The messages of issue "hardening round 2", each as the user meets it: a branching URDF on an
+/// analysis command says how to name the tip; overflowing inputs are refused, never reported as
+/// "inf mm"; huge numbers print as people write them; a free-orientation map that reaches
+/// nothing does not advise freeing the orientation; a map of one draw is refused.
+#[test]
+fn messages_say_what_to_do_and_print_numbers_as_written() {
+    let urdf = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/irb2400.urdf");
+    let o = run(&with_cpu(&["mcs", "--model", urdf]));
+    assert_fails_naming(&o, "gpu-amcs import FILE --tip LINK", "branching URDF");
+    let d = tmpdir("messages");
+    std::fs::write(
+        d.join("m.csv"),
+        "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1e308,-1.7e308,1e308\n",
+    )
+    .unwrap();
+    std::fs::write(d.join("tx60.toml"), stdout(&run(&["model"]))).unwrap();
+    let o = run(&[
+        "validate",
+        "--model",
+        &arg(&d, "tx60.toml"),
+        &arg(&d, "m.csv"),
+    ]);
+    assert_fails_naming(
+        &o,
+        "line 2: column x = 1e308 is beyond",
+        "overflowing measurement",
+    );
+    assert!(!stdout(&o).contains("inf"), "{}", stdout(&o));
+    let o = run(&[
+        "sensitivity",
+        "--backend",
+        "cpu",
+        "--points",
+        "3",
+        "--draws",
+        "1024",
+        "--thresholds",
+        "1e300",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains("1[w ≥ 1e300 mm]"), "{}", stdout(&o));
+    let far = [
+        "map",
+        "--plane",
+        "xy",
+        "--at",
+        "0",
+        "--box-center",
+        "9000,0,0",
+        "--box-size",
+        "10,10,10",
+    ];
+    let o = run(&with_cpu(&[&far[..], &["--free-orientation"]].concat()));
+    assert_fails_naming(&o, "into the arm's reach", "free-orientation map");
+    assert!(
+        !stderr(&o).contains("free the orientation"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run(&with_cpu(&far));
+    assert_fails_naming(&o, "free the orientation", "fixed-orientation map");
+    let o = run(&with_cpu(&[
+        "map", "--plane", "xz", "--at", "0", "--draws", "1",
+    ]));
+    assert_fails_naming(&o, "at least 20 are needed", "map --draws 1");
+    // Sizes in any case.
+    let o = run(&with_cpu(&["--points", "3", "--memory-limit", "1gb"]));
+    assert!(o.status.success(), "{}", stderr(&o));
+}

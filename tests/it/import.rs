@@ -460,6 +460,10 @@ fn ur_file_errors_name_the_line_and_key() {
             UR5E_CALIBRATION.replace("kinematics:", "kin:"),
             "missing the top-level 'kinematics:'",
         ),
+        (
+            format!("---\n{UR5E_CALIBRATION}---\n{UR5E_CALIBRATION}"),
+            "a second YAML document",
+        ),
     ] {
         let e = import_err(&dir, "bad.yaml", &text);
         assert!(e.contains(want), "{want}: {e}");
@@ -824,12 +828,12 @@ fn continuous_joints_get_360_degrees() {
 }
 
 #[test]
-fn quat_xyzw_replaces_rpy() {
+fn quat_xyzw_gives_the_rotation() {
     // 90° about z as a quaternion on j2's origin, and the same as rpy: same model.
     let s = std::f64::consts::FRAC_1_SQRT_2;
     let a = simple_urdf("").replace(
         "<origin xyz=\"0 0.1 0\"/>",
-        &format!("<origin xyz=\"0 0.1 0\" rpy=\"1 2 3\" quat_xyzw=\"0 0 {s} {s}\"/>"),
+        &format!("<origin xyz=\"0 0.1 0\" quat_xyzw=\"0 0 {s} {s}\"/>"),
     );
     let b = simple_urdf("").replace(
         "<origin xyz=\"0 0.1 0\"/>",
@@ -1133,6 +1137,49 @@ fn imports_are_validated_as_model_files() {
     assert_eq!(o.status.code(), Some(2), "{e}");
     assert!(
         e.starts_with("error: --model:") && e.contains("metres") && !e.contains("--box"),
+        "{e}"
+    );
+}
+
+/// What used to be accepted silently or worded badly: duplicate joint and link names, an origin
+/// with both rpy and quat_xyzw, a URDF whose joints form a cycle.
+#[test]
+fn ambiguous_urdf_elements_are_refused() {
+    let base = simple_urdf("");
+    refused(
+        "dupjoint.urdf",
+        &base.replacen("joint name=\"j5\"", "joint name=\"j2\"", 1),
+        &[
+            "joint 'j2'",
+            "a second joint of this name (the first is on line",
+        ],
+    );
+    refused(
+        "duplink.urdf",
+        &base.replacen(
+            "<link name=\"l6\"/>\n",
+            "<link name=\"l6\"/>\n  <link name=\"l6\"/>\n",
+            1,
+        ),
+        &["link 'l6'", "a second link of this name"],
+    );
+    refused(
+        "both.urdf",
+        &with_joint(
+            &base,
+            "j2",
+            "<origin xyz=\"0 0.1 0\"/>",
+            "<origin xyz=\"0 0.1 0\" rpy=\"0 0 0\" quat_xyzw=\"0 0 0 1\"/>",
+        ),
+        &["both rpy and quat_xyzw"],
+    );
+    // l0 gets a parent: every link has one.
+    let cycle = simple_urdf(
+        "  <joint name=\"back\" type=\"fixed\"><parent link=\"l6\"/><child link=\"l0\"/></joint>\n",
+    );
+    let e = import_err(&tmpdir("cycle"), "cycle.urdf", &cycle);
+    assert!(
+        e.contains("found none: the joints form a cycle") && !e.ends_with(':'),
         "{e}"
     );
 }

@@ -25,6 +25,17 @@ pub fn spec_flag(field: SpecField) -> &'static str {
 
 /// A spec error as the command line shows it: the flag, then the cause.
 pub fn spec_error(e: SpecError) -> anyhow::Error {
+    use gpu_amcs::import::ImportError;
+    use gpu_amcs::spec::SpecErrorKind;
+    // A branching URDF: the analysis commands take no tip link, so say how to name one.
+    if let SpecErrorKind::Import(ImportError::Branching { .. }) = &e.kind {
+        return anyhow::anyhow!(
+            "{}: {}: convert it once with `gpu-amcs import FILE --tip LINK --out robot.toml` and \
+             give the model file",
+            spec_flag(e.field),
+            e.kind
+        );
+    }
     anyhow::Error::new(e.kind).context(spec_flag(e.field))
 }
 

@@ -143,8 +143,23 @@ pub(crate) fn parse_number(
             message: format!("column {col} = {text} is not a finite number{context}"),
         });
     }
+    if v.abs() > MAX_CSV_MAGNITUDE {
+        return Err(IdentifyError::Csv {
+            origin: origin.to_string(),
+            line,
+            message: format!(
+                "column {col} = {text} is beyond ±{} (10 km in mm, or that many degrees): not a \
+                 measurement{context}",
+                crate::report::text::fmt_plain(MAX_CSV_MAGNITUDE)
+            ),
+        });
+    }
     Ok(v)
 }
+
+/// Largest magnitude a number of a measurement or sweep CSV may have (mm or degrees): far
+/// beyond any robot cell, and small enough that squares and sums of positions stay finite.
+pub const MAX_CSV_MAGNITUDE: f64 = 1e7;
 
 pub(crate) fn csv_reader<R: Read>(reader: R) -> csv::Reader<R> {
     csv::ReaderBuilder::new()

@@ -57,7 +57,18 @@ pub fn parse(text: &str, path: &str, name: &str) -> Result<SourceChain, ImportEr
             None => raw,
         };
         let t = l.trim_end();
-        if t.trim().is_empty() || t.trim_start().starts_with('#') || t.trim() == "---" {
+        if t.trim() == "---" {
+            // A document marker: one leading `---` is allowed; another after content starts
+            // a second document, which a calibration file does not have.
+            if !entries.is_empty() {
+                return Err(syntax(
+                    line,
+                    "a second YAML document: a calibration file holds one".into(),
+                ));
+            }
+            continue;
+        }
+        if t.trim().is_empty() || t.trim_start().starts_with('#') {
             continue;
         }
         if t.contains('\t') {

@@ -1,7 +1,7 @@
 //! URDF reader: the serial chain from a base link to a tip link.
 //!
-//! Joint origins (`xyz`, `rpy`, and URDF 1.1's `quat_xyzw` when given, which then replaces
-//! `rpy`) are composed in f64; fixed joints fold into the next joint's origin (or into the tip
+//! Joint origins (`xyz`, and `rpy` or URDF 1.1's `quat_xyzw`; both at once is refused as
+//! ambiguous) are composed in f64; fixed joints fold into the next joint's origin (or into the tip
 //! transform after the last joint); axes keep their sign; limits go from radians to degrees and a
 //! `continuous` joint gets ±360°. Lengths go from metres to millimetres.
 //!
@@ -93,14 +93,34 @@ pub fn parse(
     let mut joints = Vec::new();
     for n in root.children().filter(|n| n.is_element()) {
         match n.tag_name().name() {
-            "link" => links.push(required(&n, "name", "link", path, line_of(&n))?),
+            "link" => {
+                let name = required(&n, "name", "link", path, line_of(&n))?;
+                if links.contains(&name) {
+                    return Err(ImportError::Element {
+                        path: path.into(),
+                        line: line_of(&n),
+                        element: format!("link '{name}'"),
+                        message: "a second link of this name".into(),
+                    });
+                }
+                links.push(name);
+            }
             "joint" => joints.push(joint_el(&n, path, line_of(&n))?),
             _ => {}
         }
     }
     // child link → joint index
     let mut parent_joint: HashMap<&str, usize> = HashMap::new();
+    let mut names: HashMap<&str, usize> = HashMap::new();
     for (k, j) in joints.iter().enumerate() {
+        if let Some(first) = names.insert(j.name.as_str(), j.line) {
+            return Err(ImportError::Element {
+                path: path.into(),
+                line: j.line,
+                element: format!("joint '{}'", j.name),
+                message: format!("a second joint of this name (the first is on line {first})"),
+            });
+        }
         if parent_joint.insert(j.child.as_str(), k).is_some() {
             return Err(ImportError::Element {
                 path: path.into(),
@@ -140,15 +160,21 @@ pub fn parse(
                 _ => {
                     return Err(ImportError::Chain {
                         path: path.into(),
-                        message: format!(
-                            "expected one root link, found {}: {}",
-                            roots.len(),
-                            roots
-                                .iter()
-                                .map(|s| s.as_str())
-                                .collect::<Vec<_>>()
-                                .join(", ")
-                        ),
+                        message: if roots.is_empty() {
+                            "expected one root link, found none: the joints form a cycle (every \
+                             link has a parent joint)"
+                                .to_string()
+                        } else {
+                            format!(
+                                "expected one root link, found {}: {}",
+                                roots.len(),
+                                roots
+                                    .iter()
+                                    .map(|s| s.as_str())
+                                    .collect::<Vec<_>>()
+                                    .join(", ")
+                            )
+                        },
                     })
                 }
             }
@@ -369,6 +395,12 @@ fn joint_el(n: &roxmltree::Node, path: &str, line: usize) -> Result<JointEl, Imp
             }
         };
         let xyz = attr3("xyz")?.map(|v| v * MM_PER_M);
+        if o.attribute("quat_xyzw").is_some() && o.attribute("rpy").is_some() {
+            return Err(bad(
+                ol,
+                "origin has both rpy and quat_xyzw: give one rotation".into(),
+            ));
+        }
         let rotation = match o.attribute("quat_xyzw") {
             Some(s) => {
                 let q = numbers::<4>(s).ok_or_else(|| {

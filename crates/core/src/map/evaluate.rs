@@ -75,11 +75,25 @@ pub fn check_run(thresholds: &[f64], draws: u64) -> Result<(), MapError> {
             format!("each must be a positive number of mm, got {t}"),
         ));
     }
-    if draws == 0 {
-        return Err(setting(MapSetting::Draws, "at least 1 is needed"));
+    if draws < MIN_MAP_DRAWS {
+        return Err(setting(
+            MapSetting::Draws,
+            format!(
+                "at least {MIN_MAP_DRAWS} are needed, got {draws}: the map reports each cell's \
+                 95 % quantile, and with fewer than 1/(1 − 0.95) = 20 draws that is just the \
+                 largest draw"
+            ),
+        ));
     }
     Ok(())
 }
+
+/// Fewest draws a map accepts: `1/(1 − 0.95)`, below which the 95 % quantile it reports is the
+/// largest draw.
+pub const MIN_MAP_DRAWS: u64 = 20;
+
+/// The probability of the per-cell quantile a map reports.
+const Q95: f64 = 0.95;
 
 /// The ⌈p·n⌉-th smallest of `v` (reorders `v`).
 fn quantile(v: &mut [f64], p: f64) -> f64 {
@@ -98,7 +112,7 @@ pub fn statistics(v: &mut [f64], thresholds: &[f64]) -> CellStats {
         .collect();
     CellStats {
         mean_mm,
-        q95_mm: quantile(v, 0.95),
+        q95_mm: quantile(v, Q95),
         reliability,
     }
 }

@@ -339,6 +339,7 @@ impl MapSpec {
             return Err(MapError::NothingReachable {
                 cells: out.len(),
                 task: self.task(),
+                orientation_fixed: self.orientation_rpy_deg.is_some(),
             });
         }
         Ok(out)

@@ -86,12 +86,14 @@ pub enum MapError {
         message: String,
     },
     /// No cell can be reached.
-    #[error("none of the {cells} cells is reachable with the {task}: move or shrink the grid, or free the orientation")]
+    #[error("none of the {cells} cells is reachable with the {task}: move or shrink the grid{}", if *.orientation_fixed { ", or free the orientation" } else { " into the arm's reach" })]
     NothingReachable {
         /// Cells tried.
         cells: usize,
         /// "tool orientation (r, p, y)°" or "position only".
         task: String,
+        /// Whether the flange orientation was prescribed (freeing it could help).
+        orientation_fixed: bool,
     },
     /// The reached configurations do not make a problem (the model's own checks).
     #[error(transparent)]

@@ -64,7 +64,11 @@ fn quantity_title(q: &QuantityIndices) -> String {
             q.mean, q.variance
         ),
         Quantity::Exceedance { threshold } => {
-            format!("failure indicator 1[w ≥ {threshold} mm]: P = {:.6}", q.mean)
+            format!(
+                "failure indicator 1[w ≥ {} mm]: P = {:.6}",
+                super::text::fmt_plain(threshold),
+                q.mean
+            )
         }
     }
 }
@@ -392,7 +396,9 @@ pub fn render_svg(r: &SensitivityResult) -> Vec<(String, String)> {
             q.note.as_deref(),
             match q.quantity {
                 Quantity::Value => "w".to_string(),
-                Quantity::Exceedance { threshold } => format!("1[w ≥ {threshold} mm]"),
+                Quantity::Exceedance { threshold } => {
+                    format!("1[w ≥ {} mm]", super::text::fmt_plain(threshold))
+                }
             },
         ),
         None => (&empty, &empty, None, "w".to_string()),

@@ -99,7 +99,7 @@ pub fn render_text(r: &TailResult) -> String {
         let _ = writeln!(
             s,
             "  {:>12}  {:>12.4e}  {:>8}  {:>8}",
-            e.threshold,
+            super::text::fmt_plain(e.threshold),
             e.p_f,
             opt(e.cov, |c| format!("{c:.3}")),
             opt(e.beta, |b| format!("{b:.3}"))

@@ -208,6 +208,9 @@ pub fn fmt_plain(v: f64) -> String {
 
 /// Short general number format (no trailing zeros).
 pub fn fmt_g(v: f64) -> String {
+    if v.abs() >= 1e7 || !v.is_finite() {
+        return fmt_plain(v);
+    }
     let v = if v.abs() < 5e-7 { 0.0 } else { v };
     let s = format!("{v:.6}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
