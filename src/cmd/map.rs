@@ -253,9 +253,21 @@ impl Run for MapArgs {
         // A shard evaluates at most ⌈cells/N⌉ cells (its share of the reached ones).
         let cells = spec.n_cells();
         let evaluated = cells.div_ceil(shard.map_or(1, |s| s.n.min(cells as u64) as usize));
+        // A shard's file holds no per-cell reports; a run's reports are kept while written.
+        let kinds = map::ReportKinds {
+            json: a.reports.json.is_some(),
+            csv: a.reports.csv.is_some(),
+            svg: a.reports.svg.is_some(),
+            html: a.reports.html.is_some(),
+        };
+        let report_bytes = if a.summary_out.is_some() {
+            0
+        } else {
+            map::report_bytes_per_cell(a.thresholds.len(), kinds)
+        };
         let estimate = |evaluated: usize| {
             let batch = map::batch_size(evaluated, a.draws);
-            map::memory_estimate(cells, evaluated, a.draws, batch)
+            map::memory_estimate_with_reports(cells, evaluated, a.draws, batch, report_bytes)
         };
         let budget = a.memory.budget()?;
         let mut needed = estimate(evaluated);

@@ -684,3 +684,91 @@ fn messages_say_what_to_do_and_print_numbers_as_written() {
     let o = run(&with_cpu(&["--points", "3", "--memory-limit", "1gb"]));
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+/// Runs `args` and returns (exit code, stderr, peak resident memory in bytes), the peak from
+/// the kernel's accounting of this one child (`wait4`).
+#[cfg(target_os = "linux")]
+fn run_measuring_peak(args: &[&str]) -> (i32, String, u64) {
+    use std::io::Read;
+    let mut child = bin()
+        .args(args)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut err = String::new();
+    child
+        .stderr
+        .take()
+        .unwrap()
+        .read_to_string(&mut err)
+        .unwrap();
+    let mut status = 0;
+    // SAFETY: a zeroed rusage is a valid value for wait4 to overwrite.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    // SAFETY: waits for our own child and writes only the two values given.
+    let pid = unsafe { libc::wait4(child.id() as i32, &mut status, 0, &mut usage) };
+    assert_eq!(pid, child.id() as i32);
+    let code = if libc::WIFEXITED(status) {
+        libc::WEXITSTATUS(status)
+    } else {
+        -1
+    };
+    (code, err, usage.ru_maxrss as u64 * 1024)
+}
+
+/// The map's memory estimate bounds what it really keeps, reports included: a map run under
+/// a limit just above its estimate succeeds and its peak resident memory stays under that limit;
+/// just below, it is refused before any work.
+#[cfg(target_os = "linux")]
+#[test]
+fn the_map_stays_within_its_memory_estimate() {
+    let d = tmpdir("map-peak");
+    let reports = [
+        "--json",
+        &arg(&d, "m.json"),
+        "--csv",
+        &arg(&d, "csv"),
+        "--svg",
+        &arg(&d, "svg"),
+        "--html",
+        &arg(&d, "html"),
+    ];
+    for grid in [
+        &["--plane", "xz", "--at", "0", "--cells", "120,120"][..],
+        &["--cells", "25,25,25"],
+    ] {
+        let base = [
+            &["map", "--backend", "cpu", "-q", "--draws", "50"][..],
+            grid,
+            &reports,
+        ]
+        .concat();
+        let o = run(&[&base[..], &["--memory-limit", "1K"]].concat());
+        let e = stderr(&o);
+        let needed = e
+            .split("needs ")
+            .nth(1)
+            .and_then(|r| r.split(" MiB").next())
+            .and_then(|x| x.parse::<f64>().ok())
+            .unwrap_or_else(|| panic!("no estimate in: {e}"));
+        let limit_mib = needed.ceil() as u64 + 1;
+        let limit = format!("{limit_mib}M");
+        let (code, err, peak) =
+            run_measuring_peak(&[&base[..], &["--memory-limit", &limit]].concat());
+        assert_eq!(code, 0, "{err}");
+        eprintln!(
+            "{grid:?}: estimate {needed} MiB, peak {:.1} MiB",
+            peak as f64 / 1048576.0
+        );
+        assert!(
+            peak <= limit_mib << 20,
+            "peak {peak} B over the {limit} limit"
+        );
+        let below = format!("{}M", (needed.floor() as u64).saturating_sub(1).max(1));
+        let o = run(&[&base[..], &["--memory-limit", &below]].concat());
+        assert_fails_naming(&o, "memory limit", "just below the estimate");
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+    }
+}

@@ -16,6 +16,59 @@ pub const BYTES_PER_CELL: u64 = 512;
 /// into shards ([`shard`](super::shard)) evaluates only a shard's cells in each, so `evaluated` may be fewer
 /// than the grid's `cells`.
 pub fn memory_estimate(cells: usize, evaluated: usize, draws: u64, batch: u64) -> Estimate {
+    memory_estimate_with_reports(cells, evaluated, draws, batch, 0)
+}
+
+/// Which reports a map run writes, for [`report_bytes_per_cell`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct ReportKinds {
+    /// The JSON report.
+    pub json: bool,
+    /// The CSV table.
+    pub csv: bool,
+    /// The SVG maps.
+    pub svg: bool,
+    /// The HTML report (which holds the JSON, CSV and SVG files too).
+    pub html: bool,
+}
+
+/// Bytes the reports of a map keep per grid cell while they are built and staged: every
+/// report's text, kept until all are written (JSON about 530 + 95·T bytes a cell with T
+/// thresholds, CSV 176 + 15·T, SVG maps 150, the HTML report its index, 150, plus its own copies
+/// of the other three; measured on 10^4-cell planes), and, while the JSON is built, its
+/// document tree, five times its text. Measured peaks (200 × 200 plane, 40³ and 30³ grids, one
+/// and eight thresholds, JSON alone, CSV and SVG, and every report) are 52–91 % of it.
+pub fn report_bytes_per_cell(thresholds: usize, kinds: ReportKinds) -> u64 {
+    let t = thresholds as u64;
+    let (json, csv, svg) = (530 + 95 * t, 176 + 15 * t, 150);
+    let mut bytes = 0;
+    if kinds.json {
+        bytes += json;
+    }
+    if kinds.csv {
+        bytes += csv;
+    }
+    if kinds.svg {
+        bytes += svg;
+    }
+    if kinds.html {
+        bytes += 150 + json + csv + svg;
+    }
+    if kinds.json || kinds.html {
+        bytes += 5 * json;
+    }
+    bytes
+}
+
+/// [`memory_estimate`] plus `report_bytes` a grid cell for the reports
+/// ([`report_bytes_per_cell`]).
+pub fn memory_estimate_with_reports(
+    cells: usize,
+    evaluated: usize,
+    draws: u64,
+    batch: u64,
+    report_bytes: u64,
+) -> Estimate {
     let what = if evaluated < cells {
         format!("a shard of {evaluated} of the {cells} cells of a map with {draws} draws")
     } else {
@@ -26,6 +79,7 @@ pub fn memory_estimate(cells: usize, evaluated: usize, draws: u64, batch: u64) -
         .plus(&[batch, evaluated as u64, 2 * 8])
         .plus(&[draws, 8])
         .plus(&[cells as u64, BYTES_PER_CELL])
+        .plus(&[cells as u64, report_bytes])
 }
 
 /// Draws evaluated at a time for `cells` reached cells: about 4·10^6 errors (32 MB) a batch.

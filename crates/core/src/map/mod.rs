@@ -22,8 +22,9 @@ mod result;
 pub mod shard;
 
 pub use evaluate::{
-    batch_size, check_run, evaluate, evaluate_cells, memory_estimate, statistics, CellErrors,
-    CellStats, Evaluation, BYTES_PER_CELL,
+    batch_size, check_run, evaluate, evaluate_cells, memory_estimate, memory_estimate_with_reports,
+    report_bytes_per_cell, statistics, CellErrors, CellStats, Evaluation, ReportKinds,
+    BYTES_PER_CELL,
 };
 pub use grid::{
     default_reference_deg, tool_down_rpy_deg, CellIk, CellTarget, Grid, MapSpec, Plane,
