@@ -714,6 +714,8 @@ fn run_measuring_peak(args: &[&str]) -> (i32, String, u64) {
     } else {
         -1
     };
+    // Already reaped by wait4: this only lets the handle go (ECHILD is expected).
+    let _ = child.wait();
     (code, err, usage.ru_maxrss as u64 * 1024)
 }
 
