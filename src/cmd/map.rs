@@ -87,9 +87,9 @@ pub struct MapArgs {
         allow_hyphen_values = true
     )]
     pub reference_q: Option<Vec<f64>>,
-    /// Inverse kinematics: seeds spread over the joint ranges, besides the reference and the
-    /// solved neighbours.
-    #[arg(long, default_value_t = 8, value_name = "N")]
+    /// Inverse kinematics: extra seeds tried where the built-in 64 (spread over the joint
+    /// ranges, besides the reference and the solved neighbours) reach nothing.
+    #[arg(long, default_value_t = 0, value_name = "N")]
     pub ik_seeds: usize,
     /// Parameter draws (one stream shared by all cells).
     #[arg(long, default_value_t = 10_000, value_name = "N")]
