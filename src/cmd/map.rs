@@ -265,14 +265,15 @@ impl Run for MapArgs {
         } else {
             map::report_bytes_per_cell(a.thresholds.len(), kinds)
         };
-        let estimate = |evaluated: usize| {
+        let estimate = |evaluated: usize, report_bytes: u64| {
             let batch = map::batch_size(evaluated, a.draws);
             map::memory_estimate_with_reports(cells, evaluated, a.draws, batch, report_bytes)
         };
         let budget = a.memory.budget()?;
-        let mut needed = estimate(evaluated);
+        let mut needed = estimate(evaluated, report_bytes);
         if budget.check(&needed).is_err() && shard.is_none() {
-            if let Some(k) = fewest_shards(cells, |e| budget.check(&estimate(e)).is_ok()) {
+            // Shards write their summaries only (the merge writes the reports).
+            if let Some(k) = fewest_shards(cells, |e| budget.check(&estimate(e, 0)).is_ok()) {
                 needed.advice = format!(
                     "split it into {k} or more shards (--shard K/{k} --summary-out FILE, then \
                      gpu-amcs merge), or {}",
