@@ -347,7 +347,12 @@ fn solve_and_evaluate(
     shard: Shard,
 ) -> Result<Evaluated> {
     let t0 = std::time::Instant::now();
-    let solutions = spec.solve(model).map_err(map_error)?;
+    let ik_bar = Progress::new(a.reports.quiet, "map IK", "cells");
+    let solutions = spec
+        .solve_with_progress(model, Some(&|done, total| ik_bar.update(done, total)))
+        .map_err(map_error);
+    ik_bar.finish();
+    let solutions = solutions?;
     let ik_seconds = t0.elapsed().as_secs_f64();
     let points = map::test_points(&solutions);
     let r = points.len() as u64;

@@ -266,6 +266,19 @@ impl MapSpec {
     /// [`MapError::Setting`] when the settings are wrong ([`MapSpec::check`]) and
     /// [`MapError::NothingReachable`] when no cell is reachable.
     pub fn solve(&self, model: &RobotModel) -> Result<Vec<Option<CellIk>>, MapError> {
+        self.solve_with_progress(model, None)
+    }
+
+    /// [`MapSpec::solve`], calling `progress(cells done, cells)` as the grid is visited.
+    ///
+    /// # Errors
+    ///
+    /// Those of [`MapSpec::solve`].
+    pub fn solve_with_progress(
+        &self,
+        model: &RobotModel,
+        progress: Option<&(dyn Fn(u64, u64) + Sync)>,
+    ) -> Result<Vec<Option<CellIk>>, MapError> {
         self.check(model)?;
         let targets = self.targets();
         let (_, n, _) = self.layout();
@@ -320,6 +333,12 @@ impl MapSpec {
                         let mut b = [i, j, k];
                         b[d] += 1;
                         near(d, b);
+                    }
+                    if let Some(p) = progress {
+                        let done = (k * n[1] + jj) * n[0] + ii;
+                        if done % 16 == 0 {
+                            p(done as u64, targets.len() as u64);
+                        }
                     }
                     let target = IkTarget {
                         position: in_base(targets[c].position),

@@ -72,6 +72,8 @@ pub struct Ik<'a> {
     /// Where the tool point can be at most: the point on joint 1's axis at height d1 and the
     /// radius around it (see [`Ik::within_reach`]).
     reach: ([f64; 3], f64),
+    /// The radius frame 5's origin stays within around the same point.
+    reach5: f64,
     /// Length (mm) that turns orientation errors (rad) into mm: half the reach bound.
     scale: f64,
 }
@@ -117,11 +119,9 @@ impl<'a> Ik<'a> {
         // Frame 1's origin is within |a1| of (0, 0, d1) on joint 1's axis, each later link
         // moves the next origin by √(a² + d²), and the tool point is |tool| from the flange.
         let p = &model.params;
-        let radius = p[2].abs()
-            + (1..JOINTS)
-                .map(|j| p[5 * j + 1].hypot(p[5 * j + 2]))
-                .sum::<f64>()
-            + norm(&model.tool);
+        let link = |j: usize| p[5 * j + 1].hypot(p[5 * j + 2]);
+        let reach5 = p[2].abs() + (1..JOINTS - 1).map(link).sum::<f64>();
+        let radius = reach5 + link(JOINTS - 1) + norm(&model.tool);
         Ik {
             model,
             lo,
@@ -130,6 +130,7 @@ impl<'a> Ik<'a> {
             seeds,
             extra,
             reach: ([0.0, 0.0, p[1]], radius),
+            reach5,
             scale: 0.5 * reach_bound(model).max(1.0),
         }
     }
@@ -138,14 +139,48 @@ impl<'a> Ik<'a> {
     /// 1's origin is within |a1| of the point (0, 0, d1) on joint 1's axis, and the tool point
     /// within the sum of the later links' lengths and the tool's of it. A target outside is
     /// unreachable whatever the seeds: a proof, not a failed search.
+    ///
+    /// With the flange orientation `R6` fixed, frame 5's origin is fixed too: the last joint
+    /// `T_6 = Rz(φ)·Tz(d6)·Tx(a6)·Rx(α6)·Ry(β6)` gives `R6 = R5·Rz(φ)·Rx(α6)·Ry(β6)` and
+    /// `o6 = o5 + R5·Rz(φ)·(a6, 0, d6)`, so with `M = R6·(Rx(α6)·Ry(β6))ᵀ`,
+    /// `o5 = p − R6·tool − M·(a6, 0, d6)`, which must lie within the links 1…5's ball.
     pub fn within_reach(&self, target: &IkTarget) -> bool {
         let (c, r) = self.reach;
-        let d = norm(&[
-            target.position[0] - c[0],
-            target.position[1] - c[1],
-            target.position[2] - c[2],
-        ]);
-        d <= r * (1.0 + 1e-9) + POSITION_TOL_MM
+        let dist = |v: [f64; 3]| norm(&[v[0] - c[0], v[1] - c[1], v[2] - c[2]]);
+        let slack = |r: f64| r * (1.0 + 1e-9) + POSITION_TOL_MM;
+        if dist(target.position) > slack(r) {
+            return false;
+        }
+        let Some(r6) = &target.rotation else {
+            return true;
+        };
+        dist(self.wrist_origin(target.position, r6)) <= slack(self.reach5)
+    }
+
+    /// Frame 5's origin of every configuration whose tool point is at `position` with the
+    /// flange rotation `r6` (see [`Ik::within_reach`]).
+    fn wrist_origin(&self, position: [f64; 3], r6: &Rot3) -> [f64; 3] {
+        let p = &self.model.params;
+        let j = 5 * (JOINTS - 1);
+        let (d6, a6, alpha, beta) = (p[j + 1], p[j + 2], p[j + 3], p[j + 4]);
+        let (sa, ca) = alpha.sin_cos();
+        let (sb, cb) = beta.sin_cos();
+        // Rx(α)·Ry(β)
+        let xy: Rot3 = [
+            [cb, 0.0, sb],
+            [sa * sb, ca, -sa * cb],
+            [-ca * sb, sa, ca * cb],
+        ];
+        let tool = self.model.tool;
+        std::array::from_fn(|i| {
+            let r_tool: f64 = (0..3).map(|k| r6[i][k] * tool[k]).sum();
+            // (M·(a6, 0, d6))_i with M = R6·xyᵀ: Σ_k R6[i][k]·(xyᵀ·v)_k, (xyᵀ·v)_k = Σ_l xy[l][k]·v_l.
+            let v = [a6, 0.0, d6];
+            let m_v: f64 = (0..3)
+                .map(|k| r6[i][k] * (0..3).map(|l| xy[l][k] * v[l]).sum::<f64>())
+                .sum();
+            position[i] - r_tool - m_v
+        })
     }
 
     fn clamp(&self, q: &mut [f64; JOINTS]) {
@@ -369,6 +404,45 @@ impl<'a> Ik<'a> {
 
 #[cfg(test)]
 mod tests {
+
+    #[test]
+    fn the_wrist_origin_of_a_pose_is_that_of_its_configurations() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        for name in PRESETS {
+            let mut m = preset(name).unwrap();
+            // β on the last joint and a tool off every axis, so every term of the formula counts.
+            m.params[5 * 5 + 4] = 0.01;
+            m.tool = [12.0, -7.0, 95.0];
+            let ik = Ik::new(&m, [0.0; JOINTS], 0);
+            for _ in 0..50 {
+                let q: [f64; JOINTS] = std::array::from_fn(|i| {
+                    let (lo, hi) = m.limits_deg[i];
+                    rng.random_range(lo..hi).to_radians()
+                });
+                let f = frames(&m, &q);
+                let o5 = ik.wrist_origin(f.tool, &f.rot);
+                let d = norm(&[
+                    o5[0] - f.origin[5][0],
+                    o5[1] - f.origin[5][1],
+                    o5[2] - f.origin[5][2],
+                ]);
+                assert!(d < 1e-9, "{name}: {d} mm");
+                let target = IkTarget {
+                    position: f.tool,
+                    rotation: Some(f.rot),
+                };
+                assert!(ik.within_reach(&target), "{name}");
+                assert!(
+                    ik.within_reach(&IkTarget {
+                        rotation: None,
+                        ..target
+                    }),
+                    "{name}"
+                );
+            }
+        }
+    }
     use super::*;
     use crate::presets::{preset, PRESETS};
 
