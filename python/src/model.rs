@@ -15,8 +15,8 @@ use gpu_amcs_core::kinematics::{
     N_PARAMS, N_UNCERTAIN,
 };
 use gpu_amcs_core::memory::Estimate;
+use gpu_amcs_core::number::fmt_plain;
 use gpu_amcs_core::presets::preset;
-use gpu_amcs_core::report::text::fmt_plain;
 use gpu_amcs_core::sampling::ParamSampler;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2};

@@ -63,3 +63,21 @@ def test_from_urdf_reproduces_the_preset():
     assert np.all(imported.sigma == 0)
     with pytest.raises(ValueError, match="nothing.urdf"):
         gpu_amcs.Model.from_urdf(REPO / "nothing.urdf")
+
+
+def test_from_urdf_applies_the_model_rules(tmp_path):
+    # Limits of ±100 rad on joint_3: the model every other call would refuse is refused at
+    # import, naming the URDF's joint.
+    text = (REPO / "tests" / "data" / "irb2400.urdf").read_text()
+    at = text.index('<joint name="joint_3"')
+    end = text.index("</joint>", at)
+    joint = text[at:end]
+    lower = joint.index('lower="') + len('lower="')
+    upper = joint.index('upper="') + len('upper="')
+    bad = joint[:lower] + "-100" + joint[joint.index('"', lower):]
+    upper = bad.index('upper="') + len('upper="')
+    bad = bad[:upper] + "100" + bad[bad.index('"', upper):]
+    f = tmp_path / "bad.urdf"
+    f.write_text(text[:at] + bad + text[end:])
+    with pytest.raises(ValueError, match=r"joint 'joint_3': limits.*720"):
+        gpu_amcs.Model.from_urdf(f, tip="tool0")

@@ -36,6 +36,7 @@
 #![warn(clippy::missing_errors_doc)]
 #![allow(clippy::needless_range_loop)]
 
+pub mod digest;
 pub mod engine;
 pub mod identify;
 pub mod import;
@@ -44,6 +45,7 @@ pub mod kinematics;
 pub mod map;
 pub mod mc;
 pub mod memory;
+pub mod number;
 pub mod points;
 pub mod presets;
 pub mod report;

@@ -5,8 +5,6 @@
 
 use super::chain::Placement;
 use super::Identification;
-use sha2::{Digest, Sha256};
-use std::fmt::Write as _;
 
 /// Provenance of an identified model.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -35,15 +33,7 @@ pub struct Provenance {
     pub frame: String,
 }
 
-/// SHA-256 of `bytes` as lower-case hex.
-pub fn sha256_hex(bytes: &[u8]) -> String {
-    Sha256::digest(bytes)
-        .iter()
-        .fold(String::with_capacity(64), |mut s, b| {
-            let _ = write!(s, "{b:02x}");
-            s
-        })
-}
+pub use crate::digest::sha256_hex;
 
 impl Provenance {
     /// The provenance of `ids` (runs through the whole-chain fit; `None` when none did),

@@ -150,7 +150,7 @@ pub(crate) fn parse_number(
             message: format!(
                 "column {col} = {text} is beyond ±{} (10 km in mm, or that many degrees): not a \
                  measurement{context}",
-                crate::report::text::fmt_plain(MAX_CSV_MAGNITUDE)
+                crate::number::fmt_plain(MAX_CSV_MAGNITUDE)
             ),
         });
     }

@@ -22,7 +22,7 @@ pub const UR_TOOL_AXIS_EPS_MM: f64 = 1e-9;
 pub enum ExportError {
     /// A UR calibration file ends at the flange, on the joint-6 axis: a tool point off that
     /// axis cannot be written.
-    #[error("the tool point is {} mm off the joint-6 axis; a UR calibration file ends on that axis (flange) and cannot hold it", crate::report::text::fmt_plain(*.offset_mm))]
+    #[error("the tool point is {} mm off the joint-6 axis; a UR calibration file ends on that axis (flange) and cannot hold it", crate::number::fmt_plain(*.offset_mm))]
     ToolOffAxis {
         /// Distance of the tool point from the joint-6 axis, mm.
         offset_mm: f64,

@@ -34,7 +34,7 @@ pub mod urdf;
 use crate::kinematics::lines::Line;
 use crate::kinematics::mdh::{chain_from_zero_pose, GeometryError};
 use crate::kinematics::{BaseTransform, RobotModel, Uncertainty, JOINTS, N_PARAMS};
-use crate::report::text::fmt_plain;
+use crate::number::fmt_plain;
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use std::fmt::Write as _;
@@ -234,11 +234,14 @@ pub const MIN_PLAUSIBLE_REACH_MM: f64 = 50.0;
 /// Reach above which an imported arm is suspected of lengths in the wrong unit, mm.
 pub const MAX_PLAUSIBLE_REACH_MM: f64 = 20_000.0;
 
-/// The warning for an arm whose reach ([`crate::points::reach_mm`]) is outside
+/// The warning for an arm whose reach beyond joint 1 (the sum of the later links' lengths) is outside
 /// [`MIN_PLAUSIBLE_REACH_MM`] … [`MAX_PLAUSIBLE_REACH_MM`]: industrial and research arms reach
 /// from about 0.3 m to 4 m, so a reach of millimetres or kilometres is a unit slip.
 pub fn reach_warning(model: &RobotModel) -> Option<String> {
-    let reach = crate::points::reach_mm(model);
+    // The reach beyond joint 1 (as `points::reach_mm`, which this module cannot use: points
+    // depend on the presets, which are imported).
+    let p = &model.params;
+    let reach: f64 = (1..JOINTS).map(|j| p[5 * j + 1].hypot(p[5 * j + 2])).sum();
     if reach < MIN_PLAUSIBLE_REACH_MM {
         Some(format!(
             "the arm reaches only {} mm beyond joint 1; if its lengths are in metres, say so (a DH table's 'units,m-rad', a URDF is always in metres)",

@@ -167,7 +167,7 @@ pub(super) fn joint_field(j: usize) -> String {
 fn show(v: f64) -> String {
     let r: f64 = format!("{v:.12e}").parse().unwrap_or(v);
     if r.abs() >= 1e7 {
-        crate::report::text::fmt_plain(r)
+        crate::number::fmt_plain(r)
     } else {
         format!("{r}")
     }

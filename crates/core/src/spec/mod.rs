@@ -388,7 +388,7 @@ impl ProblemSpec {
                              only {} mm beyond joint 1: are its lengths in metres? Give the box's \
                              centre and size, or correct the model's units",
                             own.size,
-                            crate::report::text::fmt_plain(points::reach_mm(model))
+                            crate::number::fmt_plain(points::reach_mm(model))
                         )),
                     ));
                 }

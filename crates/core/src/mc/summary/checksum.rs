@@ -7,7 +7,7 @@
 //! re-serialisation, so no float has to survive a parse and a print to verify.
 
 use super::SummaryError;
-use crate::identify::sha256_hex;
+use crate::digest::sha256_hex;
 
 /// Name of the checksum field.
 pub const FIELD: &str = "content_sha256";
