@@ -429,11 +429,10 @@ impl PyModel {
         memory_limit: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let n = match n.extract::<i128>() {
-            Ok(n) if (0..=i128::from(u32::MAX)).contains(&n) => n as usize,
+            Ok(n) if (0..=usize::MAX as i128).contains(&n) => n as usize,
             Ok(n) => {
                 return Err(value_error(format!(
-                    "n: {n} draws is not a count from 0 to {}",
-                    u32::MAX
+                    "n: {n} draws is not a count (0 or more)"
                 )))
             }
             Err(_) => return Err(value_error("n: expected a whole number of draws")),
