@@ -115,11 +115,27 @@ fn bench(label: &str, ev: &mut dyn Evaluator, pb: &Problem, masks: &[u64], reps:
     );
 }
 
-/// Seconds of `f`, and its value.
-fn timed<T>(f: impl FnOnce() -> T) -> (f64, T) {
-    let t = Instant::now();
+/// CPU seconds of this process so far, all threads (0 where unknown).
+fn cpu_seconds() -> f64 {
+    #[cfg(unix)]
+    {
+        let mut t = libc::timespec {
+            tv_sec: 0,
+            tv_nsec: 0,
+        };
+        // SAFETY: a valid clock id and a valid pointer to a timespec.
+        if unsafe { libc::clock_gettime(libc::CLOCK_PROCESS_CPUTIME_ID, &mut t) } == 0 {
+            return t.tv_sec as f64 + t.tv_nsec as f64 * 1e-9;
+        }
+    }
+    0.0
+}
+
+/// Wall and CPU seconds of `f`, and its value.
+fn timed<T>(f: impl FnOnce() -> T) -> ([f64; 2], T) {
+    let (t, c) = (Instant::now(), cpu_seconds());
     let v = f();
-    (t.elapsed().as_secs_f64(), v)
+    ([t.elapsed().as_secs_f64(), cpu_seconds() - c], v)
 }
 
 /// The whole analysis at each N: medians of the evaluation, the analysis and their sum.
@@ -140,7 +156,8 @@ fn scaling(pb: &Problem) {
             draws: 1 << log,
             ..SensitivityOptions::default()
         };
-        let (mut te, mut ta, mut tt) = (Vec::new(), Vec::new(), Vec::new());
+        // Per rep: wall and CPU seconds of the evaluation, the analysis and both.
+        let mut t = vec![Vec::new(); 6];
         for _ in 0..reps {
             let mut ev = CpuEvaluator::new(pb.clone());
             let (e, (out, design)) =
@@ -148,30 +165,33 @@ fn scaling(pb: &Problem) {
             let model = (pb.model.name.clone(), pb.n_points(), pb.seed);
             let (a, r) = timed(|| design.result(model, ev.info(), &out, &opts).unwrap());
             assert_eq!(r.analysis.bootstrap_resamples, opts.bootstrap);
-            te.push(e);
-            ta.push(a);
-            tt.push(e + a);
+            for (i, v) in [e[0], e[1], a[0], a[1], e[0] + a[0], e[1] + a[1]]
+                .into_iter()
+                .enumerate()
+            {
+                t[i].push(v);
+            }
         }
-        let (e, a, t) = (median(te), median(ta), median(tt));
+        let m: Vec<f64> = t.into_iter().map(median).collect();
         println!(
-            "  N = 2^{log} ({:>7}): evaluation {e:7.3} s, analysis {a:7.3} s, total {t:7.3} s \
-             ({:.2e} base samples/s)",
-            opts.draws,
-            opts.draws as f64 / t
+            "  N = 2^{log} ({:>7}): evaluation {:7.3} s ({:7.3} s CPU), analysis {:7.3} s \
+             ({:7.3} s CPU), total {:7.3} s ({:7.3} s CPU)",
+            opts.draws, m[0], m[1], m[2], m[3], m[4], m[5]
         );
-        totals.push((log, e, a, t));
+        totals.push((log, m));
     }
-    if let (Some(first), Some(last)) = (totals.first(), totals.last()) {
-        if last.0 > first.0 {
+    if let (Some((l0, first)), Some((l1, last))) = (totals.first(), totals.last()) {
+        if l1 > l0 {
             println!(
-                "  time(2^{}) / time(2^{}): total {:.1}, evaluation {:.1}, analysis {:.1} \
-                 (N grew {}×)",
-                last.0,
-                first.0,
-                last.3 / first.3,
-                last.1 / first.1,
-                last.2 / first.2,
-                1u64 << (last.0 - first.0)
+                "  time(2^{l1}) / time(2^{l0}), wall (CPU): total {:.1} ({:.1}), evaluation {:.1} \
+                 ({:.1}), analysis {:.1} ({:.1}) (N grew {}×)",
+                last[4] / first[4],
+                last[5] / first[5],
+                last[0] / first[0],
+                last[1] / first[1],
+                last[2] / first[2],
+                last[3] / first[3],
+                1u64 << (l1 - l0)
             );
         }
     }
@@ -185,20 +205,19 @@ fn thresholds(pb: &Problem, reps: usize) {
     let model = (pb.model.name.clone(), pb.n_points(), pb.seed);
     for count in [0, 1000] {
         opts.thresholds = (0..count).map(|i| 0.05 + 0.0005 * i as f64).collect();
-        let t: Vec<f64> = (0..reps)
+        let t: Vec<[f64; 2]> = (0..reps)
             .map(|_| {
-                timed(|| {
-                    design
-                        .result(model.clone(), ev.info(), &out, &opts)
-                        .unwrap()
-                })
-                .0
+                let (t, r) = timed(|| design.result(model.clone(), ev.info(), &out, &opts));
+                assert_eq!(r.unwrap().analysis.quantities.len(), 1 + count);
+                t
             })
             .collect();
         println!(
-            "thresholds: analysis of N = {} with {count:4} thresholds, median of {reps}: {:.3} s",
+            "thresholds: analysis of N = {} with {count:4} thresholds, medians of {reps}: {:.3} s \
+             ({:.3} s CPU)",
             opts.draws,
-            median(t)
+            median(t.iter().map(|t| t[0]).collect()),
+            median(t.iter().map(|t| t[1]).collect())
         );
     }
 }
