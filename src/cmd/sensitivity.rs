@@ -72,9 +72,9 @@ impl Run for SensitivityArgs {
         a.reports
             .declare(&mut outputs, &SensitivityResult::planned_layout())?;
         // Kept: w and every pick-freeze output (at most 2 + 30 parameters + 8 groups matrices)
-        // for the bootstrap, with their ranks among the thresholds (u16) when there are any;
-        // the replicates of w (two indices per matrix and resample) and of one batch of
-        // thresholds (at most THRESHOLD_BATCH_BYTES); one chunk of offset rows and outputs.
+        // for the bootstrap; the replicates of w (two indices per matrix and resample) and of
+        // one batch of thresholds (at most THRESHOLD_BATCH_BYTES); one chunk of offset rows and
+        // outputs.
         let matrices = 40u64;
         let thresholds = !a.thresholds.is_empty();
         let estimate = a.problem.points_estimate(
@@ -82,7 +82,7 @@ impl Run for SensitivityArgs {
                 format!("a sensitivity analysis with N = {}", a.draws),
                 "use fewer --draws, or raise --memory-limit",
             )
-            .plus(&[a.draws as u64, matrices, 8 + 2 * u64::from(thresholds)])
+            .plus(&[a.draws as u64, matrices, 8])
             .plus(&[a.bootstrap as u64, matrices, 16])
             .plus(&[u64::from(thresholds), THRESHOLD_BATCH_BYTES as u64])
             .plus(&[opts.chunk as u64, matrices, 8 * 30 + 8]),

@@ -30,11 +30,12 @@
 //! whatever the number of threads.
 //!
 //! For an indicator `1[y ≥ l]` the same sums are integers, computed exactly: each output is
-//! replaced by its rank among the sorted thresholds (the number of thresholds ≤ y), and a base
-//! sample adds its weight to a difference array over the thresholds (`d_S` is ±1 exactly for
-//! the thresholds between the ranks of `y^A` and `y^S`), so one pass and one prefix sum give
-//! the sums of every threshold: `O(N · S + L · S)` per resample for `L` thresholds instead of
-//! `O(N · S · L)`.
+//! replaced by its rank among the sorted thresholds (the number of thresholds ≤ y, by binary
+//! search as the pass reads it), and a base sample adds its weight to a difference array over
+//! the thresholds (`d_S` is ±1 exactly for the thresholds between the ranks of `y^A` and
+//! `y^S`), so one pass and one prefix sum give the sums of every threshold: `O(N · S + L · S)`
+//! per resample for `L` thresholds (and `O(N · S · log L)` per group of resamples for the
+//! ranks) instead of `O(N · S · L)`.
 
 use rayon::prelude::*;
 
@@ -58,7 +59,7 @@ const LEVEL_CACHE: usize = 256 << 10;
 
 /// Bytes of the replicates of the thresholds analysed in one pass (or of one threshold, if
 /// more): the thresholds are analysed in batches that fit.
-pub const THRESHOLD_BATCH_BYTES: usize = 32 << 20;
+pub const THRESHOLD_BATCH_BYTES: usize = 8 << 20;
 
 /// `⌊2³² · P(X ≤ j)⌋` for `X ~ Poisson(1)`, `j = 0 … 11`: the weight of a 32-bit word `u` is
 /// the number of entries `≤ u` (at most 12; `P(X > 12) < 2⁻³²`).
@@ -334,53 +335,51 @@ fn accumulate_impl(acc: &mut [f64], feat: &[f64], f: usize, nz: &[(u32, f64)], n
     }
 }
 
-/// The ranks of the outputs among a batch of sorted thresholds `levels` (the number of them
-/// ≤ the output), so `1[y ≥ levels[j]] = 1[j < rank(y)]`.
-pub(super) struct Ranks {
-    levels: usize,
-    a: Vec<u16>,
-    b: Vec<u16>,
-    sets: Vec<Vec<u16>>,
+/// The outputs and a batch of sorted thresholds `levels`: the rank of an output is the number
+/// of levels ≤ it, so `1[y ≥ levels[j]] = 1[j < rank(y)]`. Ranks are computed block by block
+/// where a pass reads them (a binary search each), so nothing of size N is added to the outputs.
+pub(super) struct Ranks<'a> {
+    y: &'a Outputs,
+    levels: &'a [f64],
 }
 
 /// Most thresholds in one batch (ranks are u16).
 pub(super) const MAX_LEVELS: usize = u16::MAX as usize - 1;
 
-impl Ranks {
-    /// Ranks of every output among `levels` (sorted, at most [`MAX_LEVELS`]).
-    pub fn new(y: &Outputs, levels: &[f64]) -> Self {
-        let rank = |v: &Vec<f64>| -> Vec<u16> {
-            v.iter()
-                .map(|&x| levels.partition_point(|&t| t <= x) as u16)
-                .collect()
-        };
-        let mut all: Vec<Vec<u16>> = std::iter::once(&y.a)
-            .chain(std::iter::once(&y.b))
-            .chain(&y.sets)
-            .collect::<Vec<_>>()
-            .into_par_iter()
-            .map(rank)
-            .collect();
-        let sets = all.split_off(2);
-        let b = all.pop().unwrap_or_default();
-        let a = all.pop().unwrap_or_default();
-        Ranks {
-            levels: levels.len(),
-            a,
-            b,
-            sets,
+impl<'a> Ranks<'a> {
+    /// The ranks of the outputs `y` among `levels` (sorted, at most [`MAX_LEVELS`]).
+    pub fn new(y: &'a Outputs, levels: &'a [f64]) -> Self {
+        Ranks { y, levels }
+    }
+
+    #[inline]
+    fn rank(&self, v: f64) -> u16 {
+        self.levels.partition_point(|&t| t <= v) as u16
+    }
+
+    /// The ranks of base samples `k0 … k0 + len − 1`, `2 + S` per base sample: A, B, then the
+    /// sets.
+    fn block(&self, k0: usize, len: usize, out: &mut [u16]) {
+        let w = 2 + self.y.sets.len();
+        for (k, r) in out.chunks_exact_mut(w).take(len).enumerate() {
+            r[0] = self.rank(self.y.a[k0 + k]);
+            r[1] = self.rank(self.y.b[k0 + k]);
+            for (r, s) in r[2..].iter_mut().zip(&self.y.sets) {
+                *r = self.rank(s[k0 + k]);
+            }
         }
     }
 
     /// Per threshold, how many of the 2N outputs of A and B are at or above it.
     pub fn hits(&self) -> Vec<usize> {
-        let mut at = vec![0usize; self.levels + 1];
-        for &r in self.a.iter().chain(&self.b) {
-            at[usize::from(r)] += 1;
+        let levels = self.levels.len();
+        let mut at = vec![0usize; levels + 1];
+        for &v in self.y.a.iter().chain(&self.y.b) {
+            at[usize::from(self.rank(v))] += 1;
         }
         let mut above = 0;
-        let mut hits = vec![0; self.levels];
-        for j in (0..self.levels).rev() {
+        let mut hits = vec![0; levels];
+        for j in (0..levels).rev() {
             above += at[j + 1];
             hits[j] = above;
         }
@@ -391,7 +390,7 @@ impl Ranks {
 /// The point estimates and the R replicates of the indicators at every threshold of `ranks`.
 pub(super) fn indicators(ranks: &Ranks, boot: &Bootstrap) -> (Replicate, Vec<Replicate>) {
     let point = indicator_pass(ranks, Weighting::Ones, 1).remove(0);
-    let per = 4 * (1 + 3 * ranks.sets.len()) * (ranks.levels + 1);
+    let per = 4 * (1 + 3 * ranks.y.sets.len()) * (ranks.levels.len() + 1);
     let group = (LEVEL_CACHE / per).clamp(1, GROUP);
     let reps = over_resamples(boot, group, |w, count| indicator_pass(ranks, w, count));
     (point, reps)
@@ -401,23 +400,22 @@ pub(super) fn indicators(ranks: &Ranks, boot: &Bootstrap) -> (Replicate, Vec<Rep
 /// L + 1 ranks of `Σ c (I_A + I_B)` (a histogram, summed from the top) and, per set, of
 /// `T_S`, `D_S` and `P_S`; their prefix sums are the integer sums at every threshold.
 fn indicator_pass(ranks: &Ranks, weighting: Weighting, count: usize) -> Vec<Replicate> {
-    let (n, sets, levels) = (ranks.a.len(), ranks.sets.len(), ranks.levels);
+    let (n, sets, levels) = (ranks.y.a.len(), ranks.y.sets.len(), ranks.levels.len());
     let l = levels + 1;
     let per = (1 + 3 * sets) * l;
     let mut acc = vec![0i32; count * per];
     let mut total = vec![0i64; count];
     let mut wts = vec![0u8; count * BLOCK];
-    let mut rs = vec![0usize; sets];
+    let mut block = vec![0u16; (2 + sets) * BLOCK];
     for k0 in (0..n).step_by(BLOCK) {
         let len = BLOCK.min(n - k0);
         weighting.fill(count, k0, len, &mut wts);
-        for k in k0..k0 + len {
-            let (ra, rb) = (usize::from(ranks.a[k]), usize::from(ranks.b[k]));
-            for (r, s) in rs.iter_mut().zip(&ranks.sets) {
-                *r = usize::from(s[k]);
-            }
+        ranks.block(k0, len, &mut block);
+        for (k, r) in block.chunks_exact(2 + sets).take(len).enumerate() {
+            let (ra, rb) = (usize::from(r[0]), usize::from(r[1]));
+            let rs = &r[2..];
             for (g, acc) in acc.chunks_exact_mut(per).enumerate() {
-                let c = wts[g * BLOCK + k - k0];
+                let c = wts[g * BLOCK + k];
                 if c == 0 {
                     continue;
                 }
@@ -426,6 +424,7 @@ fn indicator_pass(ranks: &Ranks, weighting: Weighting, count: usize) -> Vec<Repl
                 acc[ra] += c;
                 acc[rb] += c;
                 for (&r, arr) in rs.iter().zip(acc[l..].chunks_exact_mut(3 * l)) {
+                    let r = usize::from(r);
                     if r == ra {
                         continue;
                     }

@@ -33,7 +33,8 @@
 //! keyed by [`SensitivityOptions::bootstrap_seed`], so they are reproducible, and every sum runs
 //! in a fixed order, so the results do not depend on the thread count. The whole analysis is
 //! O(N): one pass over the outputs per group of resamples, `O(R · N · S)` for `w` and
-//! `O(R · (N + L) · S)` for all `L` thresholds together (bootstrap.rs).
+//! `O(R · (N + L) · S)`, plus a binary search per output and group, for all `L` thresholds
+//! together (bootstrap.rs).
 //!
 //! # Draw definition
 //!
