@@ -50,7 +50,8 @@ const BOOTSTRAP_STREAM: u32 = 0x50b1;
 /// time); a multiple of 32, the samples of one 8-lane Philox call.
 const BLOCK: usize = 256;
 
-/// Resamples per task of a pass over the outputs of `w`: each task reads all outputs once.
+/// Most resamples per task of a pass over the outputs of `w` (fewer with many threads): each
+/// task reads all outputs once.
 const GROUP: usize = 16;
 
 /// Bytes of the integer accumulators of one task of a pass over the indicators (kept within
@@ -185,12 +186,15 @@ impl Replicate {
     }
 }
 
-/// Runs `task(first, count)` over the R resamples in groups of `group`, in parallel; the
-/// replicates come back in resample order.
+/// Runs `task(first, count)` over the R resamples in groups of at most `group`, in parallel;
+/// the replicates come back in resample order. Groups shrink (to 4) so that every thread gets
+/// about four: a resample's sums do not depend on its group, so neither do the bits.
 fn over_resamples<F>(boot: &Bootstrap, group: usize, task: F) -> Vec<Replicate>
 where
     F: Fn(Weighting, usize) -> Vec<Replicate> + Sync,
 {
+    let spread = boot.count / (4 * rayon::current_num_threads());
+    let group = group.min(spread.max(4)).max(1);
     (0..boot.count.div_ceil(group))
         .into_par_iter()
         .map(|t| {
