@@ -586,6 +586,39 @@ fn sensitivity_subcommand_writes_json_and_csv() {
     }
 }
 
+/// The report is the same bits with 1 and with 3 threads (the bootstrap sums each resample in
+/// base-sample order, whichever thread runs it), thresholds included.
+#[test]
+fn sensitivity_report_does_not_depend_on_the_thread_count() {
+    let d = common::tmpdir("sens-threads");
+    let run = |threads: &str| {
+        let json = d.join(format!("t{threads}.json"));
+        let o = common::run(&[
+            "sensitivity",
+            "--backend",
+            "cpu",
+            "--points",
+            "5",
+            "--draws",
+            "2048",
+            "--thresholds",
+            "0.08,0.1,0.12",
+            "--threads",
+            threads,
+            "-q",
+            "--json",
+            json.to_str().unwrap(),
+        ]);
+        assert_eq!(o.status.code(), Some(0), "{}", common::stderr(&o));
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        v["sensitivity"]["quantities"].to_string()
+    };
+    let one = run("1");
+    assert!(one.contains("\"std_error\""), "{one}");
+    assert_eq!(one, run("3"));
+}
+
 /// `sensitivity --svg DIR`: indices.svg and groups.svg are well-formed, with one first-order
 /// and one total bar per parameter (at most 20) and per group, each with an interval.
 #[test]

@@ -582,8 +582,8 @@ fn sensitivity_shards_merge_to_the_single_run_bit_for_bit() {
         &p("merged.json"),
     ]);
     assert!(o.status.success(), "{}", common::stderr(&o));
-    // The bootstrap resamples the whole range, so the shards keep their outputs (as f64 bits)
-    // and the merge runs the one analysis: the same JSON, byte for byte.
+    // The bootstrap's sums are centred on the mean of the whole range, so the shards keep their
+    // outputs (as f64 bits) and the merge runs the one analysis: the same JSON, byte for byte.
     let one = std::fs::read_to_string(d.join("one.json")).unwrap();
     assert_eq!(std::fs::read_to_string(d.join("merged.json")).unwrap(), one);
     assert!(one.contains("\"first_order\""));

@@ -14,4 +14,5 @@ mod philox;
 pub use distribution::{ParamSampler, SamplerError, ALL_NORMALS, MAX_NORMALS, PARAM_STREAM};
 pub use gauss::standard_normal;
 pub use normal::{box_muller, normals_block, uniform_open};
+pub(crate) use philox::philox4x32_10_lanes;
 pub use philox::{philox4x32_10, Philox};

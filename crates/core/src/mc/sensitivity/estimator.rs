@@ -4,11 +4,8 @@
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use super::bootstrap::{self, summarise, Bootstrap, Ranks, Replicate};
 use super::{SensitivityError, SensitivityOptions, B_DRAW_OFFSET};
-use crate::sampling::Philox;
-
-/// Philox stream of the bootstrap resampling indices (the parameter draws use stream 0).
-const BOOTSTRAP_STREAM: u32 = 0x50b1;
 
 /// Fewest rows of A and B on each side of a threshold below which an exceedance's indices get
 /// a note: the indicator's variance then has a relative standard error above 1/√100 = 10 %.
@@ -153,17 +150,6 @@ pub struct Outputs {
     pub b: Vec<f64>,
     /// Outputs on the rows of each A_B^(S), in the order the design evaluates the sets.
     pub sets: Vec<Vec<f64>>,
-}
-
-impl Quantity {
-    /// The quantity of model output `y`.
-    #[inline]
-    fn of(self, y: f64) -> f64 {
-        match self {
-            Quantity::Value => y,
-            Quantity::Exceedance { threshold } => f64::from(u8::from(y >= threshold)),
-        }
-    }
 }
 
 /// Sobol indices of a model of `names.len()` independent inputs (see the module docs).
@@ -342,18 +328,15 @@ pub fn analyse_outputs(
             got: out.a.len() + out.b.len() + out.sets.iter().map(Vec::len).sum::<usize>(),
         });
     }
-    let boot = Bootstrap {
-        gen: Philox::new(opts.bootstrap_seed),
-        count: opts.bootstrap,
+    let boot = Bootstrap::new(opts.bootstrap_seed, opts.bootstrap);
+    let indices = Indices {
+        plan: &plan,
+        names,
+        groups,
+        rows: 2 * n,
     };
-    let quantities = std::iter::once(Quantity::Value)
-        .chain(
-            opts.thresholds
-                .iter()
-                .map(|&threshold| Quantity::Exceedance { threshold }),
-        )
-        .map(|q| analyse(q, out, &boot, &plan, names, groups))
-        .collect();
+    let mut quantities = vec![value_indices(out, &boot, &indices)];
+    quantities.extend(exceedance_indices(out, &opts.thresholds, &boot, &indices));
     Ok(SobolAnalysis {
         draws: n,
         dimension: dim,
@@ -366,158 +349,163 @@ pub fn analyse_outputs(
     })
 }
 
-/// The bootstrap resamples: generated on demand from the seed, so only the resamples in
-/// flight (one per thread) are held in memory.
-struct Bootstrap {
-    gen: Philox,
-    count: usize,
+/// The indices of `w`: mean and variance of A ∪ B, then the point estimates and replicates
+/// of one pass per group of resamples ([`bootstrap::value`]).
+fn value_indices(y: &Outputs, boot: &Bootstrap, ix: &Indices) -> QuantityIndices {
+    let rows = ix.rows as f64;
+    let all = || y.a.iter().chain(&y.b);
+    let mean = all().sum::<f64>() / rows;
+    let variance = all().map(|v| (v - mean).powi(2)).sum::<f64>() / (rows - 1.0);
+    let (point, reps) = bootstrap::value(y, mean, boot);
+    ix.quantity(Quantity::Value, (mean, variance), &point, 0, &reps)
 }
 
-impl Bootstrap {
-    /// Resample `r`: base sample `p_k` drawn uniformly from `0 … n − 1` (n a power of 2) as the
-    /// top `log2 n` bits of Philox word `k` of resample `r`, so it depends only on the seed.
-    fn indices(&self, r: usize, n: usize) -> Vec<u32> {
-        let shift = 32 - n.trailing_zeros();
-        let mut idx = Vec::with_capacity(n + 3);
-        for blk in 0..n.div_ceil(4) {
-            let w = self.gen.block(r as u64, blk as u32, BOOTSTRAP_STREAM);
-            idx.extend(w.iter().map(|&x| x.checked_shr(shift).unwrap_or(0)));
-        }
-        idx.truncate(n);
-        idx
-    }
-}
-
-/// First-order and total indices of every set from the rows `pick` (all rows when `None`):
-/// `None` when the variance of those rows is zero.
-fn estimate(y: &Outputs, q: Quantity, pick: Option<&[u32]>) -> Option<(Vec<f64>, Vec<f64>)> {
-    let n = y.a.len();
-    let row = |k: usize| pick.map_or(k, |p| p[k] as usize);
-    let (fa, fb) = (|k: usize| q.of(y.a[row(k)]), |k: usize| q.of(y.b[row(k)]));
-    let mean = (0..n).map(|k| fa(k) + fb(k)).sum::<f64>() / (2 * n) as f64;
-    let ss: f64 = (0..n)
-        .map(|k| (fa(k) - mean).powi(2) + (fb(k) - mean).powi(2))
-        .sum();
-    let var = ss / (2 * n - 1) as f64;
-    if var.partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
-        return None;
-    }
-    let (first, total) = y
-        .sets
-        .iter()
-        .map(|s| {
-            let (mut f, mut t) = (0.0, 0.0);
-            for k in 0..n {
-                let (a, b, ab) = (fa(k), fb(k), q.of(s[row(k)]));
-                f += (b - mean) * (ab - a);
-                t += (a - ab) * (a - ab);
-            }
-            (f / n as f64 / var, t / (2 * n) as f64 / var)
-        })
-        .unzip();
-    Some((first, total))
-}
-
-/// The mean and variance of a quantity over the rows of A and B.
-fn mean_variance(y: &Outputs, q: Quantity) -> (f64, f64) {
-    let n = (2 * y.a.len()) as f64;
-    let all = || y.a.iter().chain(&y.b).map(|&v| q.of(v));
-    let mean = all().sum::<f64>() / n;
-    let var = all().map(|v| (v - mean).powi(2)).sum::<f64>() / (n - 1.0);
-    (mean, var)
-}
-
-/// Point estimate and percentile interval of one index from its replicates.
-fn summarise(value: f64, mut reps: Vec<f64>) -> Estimate {
-    if reps.len() < 2 {
-        return Estimate {
-            value,
-            ci_low: None,
-            ci_high: None,
-            std_error: None,
-        };
-    }
-    reps.sort_by(f64::total_cmp);
-    let q = |p: f64| reps[((p * (reps.len() - 1) as f64).round() as usize).min(reps.len() - 1)];
-    let m = reps.iter().sum::<f64>() / reps.len() as f64;
-    let sd = (reps.iter().map(|v| (v - m).powi(2)).sum::<f64>() / (reps.len() - 1) as f64).sqrt();
-    let tail = (1.0 - CONFIDENCE) / 2.0;
-    Estimate {
-        value,
-        ci_low: Some(q(tail)),
-        ci_high: Some(q(1.0 - tail)),
-        std_error: Some(sd),
-    }
-}
-
-/// Indices of one quantity with bootstrap intervals, ranked by total index.
-fn analyse(
-    quantity: Quantity,
+/// The indices of the indicators `1[w ≥ l]` at every threshold `l`, in the order given. A
+/// threshold at or below the least of the 2N outputs of A and B, or above the largest, gives a
+/// constant indicator (no pass needed); the others are analysed together, sorted, in batches
+/// whose replicates fit [`bootstrap::THRESHOLD_BATCH_BYTES`], one pass per group of resamples each.
+fn exceedance_indices(
     y: &Outputs,
+    thresholds: &[f64],
     boot: &Bootstrap,
-    plan: &Plan,
-    names: &[String],
-    groups: &[InputGroup],
-) -> QuantityIndices {
-    let (mean, variance) = mean_variance(y, quantity);
-    let mut q = QuantityIndices {
-        quantity,
-        mean,
-        variance,
-        bootstrap_valid: 0,
-        inputs: Vec::new(),
-        groups: Vec::new(),
-        note: None,
-    };
-    let Some((first, total)) = estimate(y, quantity, None) else {
-        q.note = Some(format!(
-            "the quantity is constant ({mean}) on all {} rows of A and B: its indices are undefined",
-            2 * y.a.len()
-        ));
-        return q;
-    };
-    let n = y.a.len();
-    let reps: Vec<(Vec<f64>, Vec<f64>)> = (0..boot.count)
-        .into_par_iter()
-        .filter_map(|r| estimate(y, quantity, Some(&boot.indices(r, n))))
+    ix: &Indices,
+) -> Vec<QuantityIndices> {
+    let (lo, hi) =
+        y.a.iter()
+            .chain(&y.b)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &v| {
+                (l.min(v), h.max(v))
+            });
+    let mut levels: Vec<f64> = thresholds
+        .iter()
+        .copied()
+        .filter(|&l| l > lo && l <= hi)
         .collect();
-    q.bootstrap_valid = reps.len();
-    if let Quantity::Exceedance { .. } = quantity {
-        let rows = 2 * y.a.len();
-        let hits = (mean * rows as f64).round() as usize;
-        let fewer = hits.min(rows - hits);
-        if fewer < MIN_EVENTS {
-            q.note = Some(format!(
-                "only {fewer} of the {rows} rows of A and B are on one side of the threshold: \
-                 the indices rest on few events and their intervals are wide (more draws help)"
-            ));
+    levels.sort_by(f64::total_cmp);
+    levels.dedup();
+    let per_level = 16 * boot.count * ix.plan.sets.len();
+    let batch = (bootstrap::THRESHOLD_BATCH_BYTES / per_level).clamp(1, bootstrap::MAX_LEVELS);
+    let batches = levels.len().div_ceil(batch);
+    let batch = levels.len().div_ceil(batches.max(1)).max(1);
+    let mut done: Vec<Option<QuantityIndices>> = vec![None; thresholds.len()];
+    for (b, chunk) in levels.chunks(batch).enumerate() {
+        let ranks = Ranks::new(y, chunk);
+        let (point, reps) = bootstrap::indicators(&ranks, boot);
+        let hits = ranks.hits();
+        let analysed: Vec<(usize, QuantityIndices)> = thresholds
+            .par_iter()
+            .enumerate()
+            .filter_map(|(i, &threshold)| {
+                let j = chunk.binary_search_by(|l| l.total_cmp(&threshold)).ok()?;
+                debug_assert_eq!(levels[b * batch + j], threshold);
+                let rows = ix.rows as f64;
+                let m = hits[j] as f64;
+                let moments = (m / rows, m * (rows - m) / rows / (rows - 1.0));
+                let q = Quantity::Exceedance { threshold };
+                Some((i, ix.quantity(q, moments, &point, j, &reps)))
+            })
+            .collect();
+        for (i, q) in analysed {
+            done[i] = Some(q);
         }
     }
-    let index = |s: usize, name: &str, members: Vec<String>| SobolIndex {
-        name: name.to_string(),
-        members,
-        first_order: summarise(first[s], reps.iter().map(|r| r.0[s]).collect()),
-        total: summarise(total[s], reps.iter().map(|r| r.1[s]).collect()),
-    };
-    q.inputs = names
+    thresholds
         .iter()
-        .enumerate()
-        .map(|(i, nm)| index(i, nm, vec![nm.clone()]))
-        .collect();
-    q.groups = groups
-        .iter()
-        .zip(&plan.group_set)
-        .map(|(g, &s)| {
-            index(
-                s,
-                &g.name,
-                plan.sets[s].iter().map(|&i| names[i].clone()).collect(),
-            )
+        .zip(done)
+        .map(|(&threshold, q)| {
+            q.unwrap_or_else(|| {
+                let mean = f64::from(u8::from(threshold <= lo));
+                ix.constant(Quantity::Exceedance { threshold }, mean)
+            })
         })
-        .collect();
-    rank(&mut q.inputs);
-    rank(&mut q.groups);
-    q
+        .collect()
+}
+
+/// What turns the replicates into reported indices: the plan, the names, the rows of A ∪ B.
+struct Indices<'a> {
+    plan: &'a Plan,
+    names: &'a [String],
+    groups: &'a [InputGroup],
+    rows: usize,
+}
+
+impl Indices<'_> {
+    /// A quantity constant on all rows of A and B: no indices.
+    fn constant(&self, quantity: Quantity, mean: f64) -> QuantityIndices {
+        QuantityIndices {
+            quantity,
+            mean,
+            variance: 0.0,
+            bootstrap_valid: 0,
+            inputs: Vec::new(),
+            groups: Vec::new(),
+            note: Some(format!(
+                "the quantity is constant ({mean}) on all {} rows of A and B: its indices are undefined",
+                self.rows
+            )),
+        }
+    }
+
+    /// The indices of level `j` of a quantity with `(mean, variance)` over A ∪ B, from its
+    /// point estimates and replicates, ranked by total index.
+    fn quantity(
+        &self,
+        quantity: Quantity,
+        (mean, variance): (f64, f64),
+        point: &Replicate,
+        j: usize,
+        reps: &[Replicate],
+    ) -> QuantityIndices {
+        let sets = self.plan.sets.len();
+        let Some((first, total)) = point.level(j, sets) else {
+            return self.constant(quantity, mean);
+        };
+        let valid = || reps.iter().filter_map(|r| r.level(j, sets));
+        let mut q = QuantityIndices {
+            quantity,
+            mean,
+            variance,
+            bootstrap_valid: valid().count(),
+            inputs: Vec::new(),
+            groups: Vec::new(),
+            note: None,
+        };
+        if let Quantity::Exceedance { .. } = quantity {
+            let hits = (mean * self.rows as f64).round() as usize;
+            let fewer = hits.min(self.rows - hits);
+            if fewer < MIN_EVENTS {
+                q.note = Some(format!(
+                    "only {fewer} of the {} rows of A and B are on one side of the threshold: \
+                     the indices rest on few events and their intervals are wide (more draws help)",
+                    self.rows
+                ));
+            }
+        }
+        let index = |s: usize, name: &str, members: Vec<String>| SobolIndex {
+            name: name.to_string(),
+            members,
+            first_order: summarise(first[s], valid().map(|r| r.0[s])),
+            total: summarise(total[s], valid().map(|r| r.1[s])),
+        };
+        q.inputs = self
+            .names
+            .iter()
+            .enumerate()
+            .map(|(i, nm)| index(i, nm, vec![nm.clone()]))
+            .collect();
+        q.groups = self
+            .groups
+            .iter()
+            .zip(&self.plan.group_set)
+            .map(|(g, &s)| {
+                let members = self.plan.sets[s].iter().map(|&i| self.names[i].clone());
+                index(s, &g.name, members.collect())
+            })
+            .collect();
+        rank(&mut q.inputs);
+        rank(&mut q.groups);
+        q
+    }
 }
 
 /// Sorts by decreasing total index (ties: decreasing first order, then name).
@@ -549,42 +537,24 @@ mod tests {
     }
 
     #[test]
-    fn bootstrap_indices_are_uniform_and_seeded() {
-        let all = |seed| {
-            let b = Bootstrap {
-                gen: Philox::new(seed),
-                count: 200,
-            };
-            (0..b.count).map(|r| b.indices(r, 64)).collect::<Vec<_>>()
-        };
-        let a = all(9);
-        assert_eq!(a, all(9));
-        assert_ne!(a, all(10));
-        let mut counts = [0u32; 64];
-        for r in &a {
-            assert_eq!(r.len(), 64);
-            for &k in r {
-                counts[k as usize] += 1;
-            }
-        }
-        // 12 800 picks, 200 per index expected, binomial sd ≈ 14: all within 6 sd.
-        assert!(
-            counts
-                .iter()
-                .all(|&c| (c as f64 - 200.0).abs() < 6.0 * 14.0),
-            "{counts:?}"
-        );
-    }
-
-    #[test]
     fn constant_quantity_has_no_indices() {
         let y = Outputs {
-            a: vec![1.0; 8],
-            b: vec![1.0; 8],
-            sets: vec![vec![1.0; 8]],
+            a: vec![1.0; 64],
+            b: vec![1.0; 64],
+            sets: vec![vec![1.0; 64]],
         };
-        assert!(estimate(&y, Quantity::Value, None).is_none());
-        let q = Quantity::Exceedance { threshold: 2.0 };
-        assert!(estimate(&y, q, None).is_none());
+        let opts = SensitivityOptions {
+            draws: 64,
+            bootstrap: 100,
+            thresholds: vec![2.0, 1.0],
+            ..SensitivityOptions::default()
+        };
+        let r = analyse_outputs(&["x".to_string()], &[], &y, &opts).unwrap();
+        let moments: Vec<(f64, f64)> = r.quantities.iter().map(|q| (q.mean, q.variance)).collect();
+        assert_eq!(moments, [(1.0, 0.0), (0.0, 0.0), (1.0, 0.0)]);
+        for q in &r.quantities {
+            assert!(q.inputs.is_empty() && q.note.is_some(), "{q:?}");
+            assert_eq!(q.bootstrap_valid, 0);
+        }
     }
 }

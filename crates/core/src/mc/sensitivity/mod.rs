@@ -25,11 +25,16 @@
 //! [`SobolAnalysis::evaluations`]). Estimates are not clipped: sampling error can make an
 //! index slightly negative or above 1, and the interval shows by how much.
 //!
-//! Confidence intervals: R resamples ([`SensitivityOptions::bootstrap`]) (with replacement) of the N base-sample indices `k`,
-//! shared by every index so their replicates stay coherent; each resample recomputes `V(Y)`,
-//! `f̄` and every index, and the 2.5 % and 97.5 % order statistics of the replicates give the
-//! 95 % percentile interval, their standard deviation a standard error. The resampling uses
-//! Philox keyed by [`SensitivityOptions::bootstrap_seed`], so it is reproducible.
+//! Confidence intervals: R resamples ([`SensitivityOptions::bootstrap`]) that weight each base
+//! sample `k` by a Poisson(1) count (the Poisson bootstrap), shared by every index and quantity
+//! so their replicates stay coherent; each resample recomputes `V(Y)`, `f̄` and every index as
+//! weighted sums, and the 2.5 % and 97.5 % order statistics of the replicates give the 95 %
+//! percentile interval, their standard deviation a standard error. The weights come from Philox
+//! keyed by [`SensitivityOptions::bootstrap_seed`], so they are reproducible, and every sum runs
+//! in a fixed order, so the results do not depend on the thread count. The whole analysis is
+//! O(N): one pass over the outputs per group of resamples, `O(R · N · S)` for `w` and
+//! `O(R · (N + L) · S)`, plus a binary search per output and group, for all `L` thresholds
+//! together (bootstrap.rs).
 //!
 //! # Draw definition
 //!
@@ -77,7 +82,10 @@
 //!
 //! Just over 600 lines: the robot inputs, their groups and the correlated-model handling are one concept; the generic estimator is already apart (estimator.rs).
 
+mod bootstrap;
 mod estimator;
+
+pub use bootstrap::THRESHOLD_BATCH_BYTES;
 
 pub use estimator::{
     analyse_outputs, pick_freeze, pick_freeze_chunks, pick_freeze_outputs, rank, Estimate,
@@ -99,7 +107,7 @@ pub const B_DRAW_OFFSET: u64 = 1 << 63;
 pub const MIN_DRAWS: usize = 64;
 /// Largest accepted number of base samples N: the `N · (2 + S)` outputs are kept for the
 /// bootstrap (2²⁰ · 40 values are 336 MB), and each of the bootstrap resamples costs
-/// `N · S` operations per quantity.
+/// `N · S` operations for `w` and as many for all thresholds together.
 pub const MAX_DRAWS: usize = 1 << 20;
 /// Fewest bootstrap resamples (the 2.5 % order statistic needs a few values below it).
 pub const MIN_BOOTSTRAP: usize = 100;
