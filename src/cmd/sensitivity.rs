@@ -109,6 +109,9 @@ impl Run for SensitivityArgs {
                 for n in &notes {
                     eprintln!("note: {n}");
                 }
+                if let Some(line) = announce(ev.as_mut(), &problem, &opts) {
+                    eprintln!("{line}");
+                }
             }
             Ok((
                 run_sensitivity(&problem, ev.as_mut(), &opts).map_err(sensitivity_error)?,
@@ -117,4 +120,39 @@ impl Run for SensitivityArgs {
         })?;
         write_reports(outputs, &result, &a.reports, &rows)
     }
+}
+
+/// Rows timed for the up-front estimate of a sensitivity run.
+const PILOT_ROWS: usize = 2048;
+
+/// The "estimated ~N s" line of a run expected to take more than
+/// [`ANNOUNCE_S`](super::progress::ANNOUNCE_S): a pilot evaluation of [`PILOT_ROWS`] rows times
+/// the rows of the run (N base samples × (2 + free parameters + 8 groups) pick-freeze matrices),
+/// plus a quarter for the bootstrap analysis (its share at 2^20 in `benches/sensitivity.rs`).
+fn announce(
+    ev: &mut dyn gpu_amcs::engine::Evaluator,
+    problem: &gpu_amcs::engine::Problem,
+    opts: &SensitivityOptions,
+) -> Option<String> {
+    let offsets = vec![0.0; PILOT_ROWS * gpu_amcs::kinematics::N_UNCERTAIN];
+    let mut w = vec![0.0; PILOT_ROWS];
+    let t = std::time::Instant::now();
+    ev.evaluate_offsets(&offsets, &mut w, None).ok()?;
+    let per_row = t.elapsed().as_secs_f64() / PILOT_ROWS as f64;
+    let free = problem
+        .model
+        .uncertainty
+        .sigmas()
+        .iter()
+        .filter(|s| **s > 0.0)
+        .count();
+    let rows = opts.draws as f64 * (2 + free + 8) as f64;
+    let seconds = 1.25 * per_row * rows;
+    (seconds > super::progress::ANNOUNCE_S).then(|| {
+        format!(
+            "sensitivity: estimated ~{seconds:.0} s for N = {} base samples ({} pick-freeze matrices)",
+            opts.draws,
+            2 + free + 8
+        )
+    })
 }

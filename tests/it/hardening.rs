@@ -810,3 +810,34 @@ fn the_map_stays_within_its_memory_estimate() {
         std::fs::create_dir_all(&d).unwrap();
     }
 }
+
+/// A long sensitivity analysis says so up front (before its evaluation), and termination then
+/// leaves nothing.
+#[test]
+fn a_long_sensitivity_analysis_says_so() {
+    use std::io::{BufRead, BufReader};
+    let d = tmpdir("sens-long");
+    // 2^20 base samples at 1000 points: minutes on any machine.
+    let mut child = bin()
+        .args([
+            "sensitivity",
+            "--backend",
+            "cpu",
+            "--points",
+            "1000",
+            "--draws",
+            "1048576",
+            "--json",
+            &arg(&d, "s.json"),
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
+    let first = lines.next().expect("no estimate line").unwrap();
+    assert!(first.starts_with("sensitivity: estimated ~"), "{first}");
+    let status = signal(&mut child, "TERM");
+    assert_eq!(status.code(), Some(143), "{status:?}");
+    assert_eq!(tree(&d), Vec::<String>::new());
+}
