@@ -35,6 +35,8 @@ pub const ORIENTATION_TOL_RAD: f64 = 1e-10;
 pub const BUILT_IN_SEEDS: usize = 64;
 /// Iterations per seed; converging seeds need 5–30.
 const MAX_ITERATIONS: usize = 200;
+/// Iterations after which a seed that gained less than 1 % is given up.
+const STALL_WINDOW: usize = 10;
 
 /// What a cell asks of the robot: a tool-point position and, optionally, a flange orientation.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -247,9 +249,9 @@ impl<'a> Ik<'a> {
         let mut lambda = 1e-2 * s2;
         let mut checkpoint = cost;
         for it in 0..MAX_ITERATIONS {
-            // A seed still far from the target that gained less than 1 % in 20 iterations is
+            // A seed still far from the target that gained less than 1 % in STALL_WINDOW iterations is
             // caught in a local minimum or against a limit: give up on it.
-            if it % 20 == 19 {
+            if it % STALL_WINDOW == STALL_WINDOW - 1 {
                 if cost > 1e-6 * self.scale && cost > 0.99 * checkpoint {
                     break;
                 }
