@@ -216,36 +216,44 @@ fn a_write_failing_midway_leaves_no_output_and_no_temp_file() {
     assert_eq!(tree(&d), Vec::<String>::new(), "left behind");
 }
 
-/// A long run says how long up front, and SIGTERM during it leaves no file (exit 128 + 15).
-#[test]
-fn long_runs_say_so_and_termination_leaves_nothing() {
+/// Starts `args` (writing into `d`), checks that its first stderr line starts with `first`,
+/// terminates it and checks that it exits with 128 + 15 and leaves nothing in `d`.
+fn announces_then_terminates(d: &std::path::Path, args: &[&str], first: &str) {
     use std::io::{BufRead, BufReader};
-    let d = tmpdir("term");
-    // 2·10^6 draws × 5000 points: minutes on any machine, 32 MB of values.
     let mut child = bin()
-        .args([
-            "mcs",
-            "--backend",
-            "cpu",
-            "--points",
-            "5000",
-            "--draws",
-            "2000000",
-            "--json",
-            &arg(&d, "x.json"),
-            "--csv",
-            &arg(&d, "csv"),
-        ])
+        .args(args)
         .stdout(std::process::Stdio::null())
         .stderr(std::process::Stdio::piped())
         .spawn()
         .unwrap();
     let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
-    let first = lines.next().expect("no estimate line").unwrap();
-    assert!(first.contains("estimated ~"), "{first}");
+    let line = lines.next().expect("no estimate line").unwrap();
+    assert!(line.starts_with(first), "{line}");
     let status = signal(&mut child, "TERM");
     assert_eq!(status.code(), Some(143), "{status:?}");
-    assert_eq!(tree(&d), Vec::<String>::new());
+    assert_eq!(tree(d), Vec::<String>::new());
+}
+
+/// A long run says how long up front, and SIGTERM during it leaves no file (exit 128 + 15).
+#[test]
+fn long_runs_say_so_and_termination_leaves_nothing() {
+    let d = tmpdir("term");
+    // 2·10^6 draws × 5000 points: minutes on any machine, 32 MB of values.
+    let (json, csv) = (arg(&d, "x.json"), arg(&d, "csv"));
+    let args = [
+        "mcs",
+        "--backend",
+        "cpu",
+        "--points",
+        "5000",
+        "--draws",
+        "2000000",
+        "--json",
+        &json,
+        "--csv",
+        &csv,
+    ];
+    announces_then_terminates(&d, &args, "MCS: estimated ~");
 }
 
 #[test]
@@ -815,29 +823,19 @@ fn the_map_stays_within_its_memory_estimate() {
 /// leaves nothing.
 #[test]
 fn a_long_sensitivity_analysis_says_so() {
-    use std::io::{BufRead, BufReader};
     let d = tmpdir("sens-long");
     // 2^20 base samples at 1000 points: minutes on any machine.
-    let mut child = bin()
-        .args([
-            "sensitivity",
-            "--backend",
-            "cpu",
-            "--points",
-            "1000",
-            "--draws",
-            "1048576",
-            "--json",
-            &arg(&d, "s.json"),
-        ])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
-    let first = lines.next().expect("no estimate line").unwrap();
-    assert!(first.starts_with("sensitivity: estimated ~"), "{first}");
-    let status = signal(&mut child, "TERM");
-    assert_eq!(status.code(), Some(143), "{status:?}");
-    assert_eq!(tree(&d), Vec::<String>::new());
+    let json = arg(&d, "s.json");
+    let args = [
+        "sensitivity",
+        "--backend",
+        "cpu",
+        "--points",
+        "1000",
+        "--draws",
+        "1048576",
+        "--json",
+        &json,
+    ];
+    announces_then_terminates(&d, &args, "sensitivity: estimated ~");
 }
