@@ -38,7 +38,7 @@ fn run_with(
         proposal,
         ..TailOptions::default()
     };
-    run_tail(&mut CpuEvaluator::new(pb.clone()), &pb.sampler, &opts, None).unwrap()
+    run_tail(&mut CpuEvaluator::new(pb.clone()), pb, &opts, None).unwrap()
 }
 
 fn median(mut v: Vec<f64>) -> f64 {

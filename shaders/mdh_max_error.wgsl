@@ -6,7 +6,8 @@
 //        normal i: parameters 0–29, tool x, y, z 30–32),
 //     2. offsets δ of the 33 inputs: independent δ_i = σ_i z_i, or correlated
 //        δ_free[a] = Σ_{b<=a} L[a][b] z[free[b]];
-//   max_point_error_offsets: δ read from row i of the offset matrix (N_INPUTS f32 per row);
+//   max_point_error_offsets: δ read from row i of the offset matrix (N_INPUTS f32 per row, N_PLACED
+//   in mode 2);
 //   max_point_error_pick_freeze: row r of matrix s of a Sobol pick-freeze design: normal n from
 //     draw b_first + r where bit n of masks[s] is set, from draw first + r elsewhere, then the
 //     offsets of step 2 (so the rows of A, B and A_B are generated here, never uploaded);
@@ -55,7 +56,8 @@ struct Chunk {
 @group(0) @binding(5) var<storage, read> pts: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read_write> w_out: array<f32>;
 @group(0) @binding(7) var<storage, read_write> e_out: array<f32>;
-// offset path: row i = δ of parameter vector i, N_INPUTS entries (mm, rad; tool last)
+// offset path: row i = δ of parameter vector i, N_INPUTS entries (mm, rad; tool last), then in
+// mode 2 the placement's six (x, y, z mm; roll, pitch, yaw rad)
 @group(0) @binding(8) var<storage, read> offsets_in: array<f32>;
 // pick-freeze path: per matrix, the 36-bit mask of normals taken from the B draw, (lo, hi) words
 @group(0) @binding(9) var<storage, read> masks: array<vec2<u32>>;
@@ -322,8 +324,10 @@ fn max_point_error_offsets(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var p = 0u; p < N_PLACED; p++) {
         d[p] = 0.0;
     }
-    for (var p = 0u; p < N_INPUTS; p++) {
-        d[p] = offsets_in[i * N_INPUTS + p];
+    // Rows carry the placement's six offsets too when it is drawn (mode 2).
+    let width = select(N_INPUTS, N_PLACED, cfg.mode == 2u);
+    for (var p = 0u; p < width; p++) {
+        d[p] = offsets_in[i * width + p];
     }
     point_errors(i, d);
 }

@@ -57,6 +57,18 @@ fn main() {
     unsafe {
         libc::signal(libc::SIGPIPE, libc::SIG_DFL);
     }
+    // Under an address-space limit (`ulimit -v`, as Slurm and containers set), glibc's
+    // per-thread malloc arenas each reserve 64 MiB of address space when a thread first
+    // allocates: the rayon workers and the progress thread would take it from the room the
+    // default memory limit was measured in (before they start), and a run sized to that limit
+    // could then fail to allocate. One arena keeps the address space what the limit saw.
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    if gpu_amcs::memory::address_space_limit().is_some() {
+        // SAFETY: a malloc tuning call before any other thread starts.
+        unsafe {
+            libc::mallopt(libc::M_ARENA_MAX, 1);
+        }
+    }
     cmd::outputs::install_signal_cleanup();
     if let Err(e) = cli.run() {
         eprintln!("error: {}", one_line(&e));

@@ -211,9 +211,9 @@ problem_function! {
         let built = spec.build(&estimate)?;
         let evaluators = spec.evaluators();
         let (result, notes) = py.detach(|| -> PyResult<_> {
-            let (mut ev, mut notes) = evaluators.make(built.problem.clone().without_placement())?;
-            notes.extend(gpu_amcs_core::engine::left_out_note(&built.problem, "sensitivity"));
-            let r = run_sensitivity(&built.problem, ev.as_mut(), &opts).map_err(sensitivity_error)?;
+            let (mut ev, notes) = evaluators.make(built.problem.clone())?;
+            let problem = evaluators.problem(built.problem);
+            let r = run_sensitivity(&problem, ev.as_mut(), &opts).map_err(sensitivity_error)?;
             Ok((r, notes))
         })?;
         Ok(PySensitivityResult { result, notes })
@@ -362,11 +362,9 @@ problem_function! {
         let built = spec.build(&estimate)?;
         let evaluators = spec.evaluators();
         let (result, notes) = py.detach(|| -> PyResult<_> {
-            let sampler = built.problem.sampler.clone();
-            let note = gpu_amcs_core::engine::left_out_note(&built.problem, "tail");
-            let (mut ev, mut notes) = evaluators.make(built.problem.without_placement())?;
-            notes.extend(note);
-            let r = run_tail(ev.as_mut(), &sampler, &opts, None).map_err(tail_error)?;
+            let (mut ev, notes) = evaluators.make(built.problem.clone())?;
+            let problem = evaluators.problem(built.problem);
+            let r = run_tail(ev.as_mut(), &problem, &opts, None).map_err(tail_error)?;
             Ok((r, notes))
         })?;
         Ok(PyTailResult { result, notes })

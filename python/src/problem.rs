@@ -6,7 +6,7 @@
 use crate::arrays;
 use crate::errors::{arg_error, value_error};
 use crate::model::{self, PyModel};
-use gpu_amcs_core::engine::{Evaluator, Problem};
+use gpu_amcs_core::engine::{Evaluator, Frame, Problem};
 use gpu_amcs_core::memory::{Estimate, MemoryBudget};
 use gpu_amcs_core::spec::{
     self, BuiltProblem, GeneratedPoints, ModelSource, PointsSource, ProblemSpec, ReferenceSource,
@@ -55,6 +55,8 @@ pub struct ProblemKw<'py> {
     pub backend: String,
     pub adapter: Option<String>,
     pub memory_limit: Option<Bound<'py, PyAny>>,
+    /// "measurement" or "base": the frame of the targets (the command line's `--frame`).
+    pub frame: String,
 }
 
 /// The reference from the keywords `reference` and `nominal`; without `nominal`, a nominal
@@ -108,6 +110,8 @@ pub fn given_points(
             adapter: None,
         },
         nominal_from_preset,
+        // Parameter rows carry the 33 inputs: the robot's own frame.
+        frame: Frame::Base,
     })
 }
 
@@ -117,6 +121,8 @@ pub struct Spec {
     pub spec: ProblemSpec,
     /// Whether the nominal model is the default one, from `preset` (its errors name `preset`).
     nominal_from_preset: bool,
+    /// The frame of the targets: the measurement frame draws a model's uncertain placement.
+    pub frame: Frame,
 }
 
 impl Spec {
@@ -145,6 +151,7 @@ impl Spec {
         Evaluators {
             backend: self.spec.backend,
             adapter: self.spec.adapter.clone(),
+            frame: self.frame,
         }
     }
 }
@@ -153,18 +160,41 @@ impl Spec {
 pub struct Evaluators {
     backend: gpu_amcs_core::engine::BackendChoice,
     adapter: Option<String>,
+    frame: Frame,
 }
 
 impl Evaluators {
-    /// The evaluator of `problem` and the notes on the choice.
+    /// The evaluator of `problem` in the spec's frame and the notes on the choice (and on the
+    /// frame, for a model with an uncertain placement).
     pub fn make(&self, problem: Problem) -> PyResult<(Box<dyn Evaluator>, Vec<String>)> {
-        spec::make_evaluator(
+        spec::make_frame_evaluator(
             crate::backends(),
             problem,
             self.backend,
             self.adapter.as_deref(),
+            self.frame,
         )
         .map_err(|e| spec_error(e, false))
+    }
+
+    /// The problem an analysis in the spec's frame runs (the placement's spread left out in the
+    /// robot base frame), for the drivers that read the problem's distribution.
+    pub fn problem(&self, problem: Problem) -> Problem {
+        match self.frame {
+            Frame::Base => problem.without_placement(),
+            Frame::Measurement => problem,
+        }
+    }
+}
+
+/// The frame from the `frame` keyword.
+pub fn frame(name: &str) -> PyResult<Frame> {
+    match name {
+        "measurement" => Ok(Frame::Measurement),
+        "base" => Ok(Frame::Base),
+        other => Err(value_error(format!(
+            "frame: unknown frame '{other}' (expected \"measurement\" or \"base\")"
+        ))),
     }
 }
 
@@ -267,6 +297,7 @@ impl ProblemKw<'_> {
                 adapter: self.adapter.clone(),
             },
             nominal_from_preset,
+            frame: frame(&self.frame)?,
         })
     }
 }
@@ -283,7 +314,8 @@ macro_rules! problem_function {
             q_deg = None, points_file = None, points_seed = 1,
             box_center = None, box_size = None, seed = 2025,
             reference = "calibrated".to_string(), nominal = None,
-            backend = "auto".to_string(), adapter = None, memory_limit = None))]
+            backend = "auto".to_string(), adapter = None, memory_limit = None,
+            frame = "measurement".to_string()))]
         #[allow(clippy::too_many_arguments)]
         pub fn $name<'py>(
             $py: ::pyo3::Python<'py>,
@@ -302,6 +334,7 @@ macro_rules! problem_function {
             backend: String,
             adapter: Option<String>,
             memory_limit: Option<::pyo3::Bound<'py, ::pyo3::PyAny>>,
+            frame: String,
         ) -> ::pyo3::PyResult<$ret> {
             let $problem = $crate::problem::ProblemKw {
                 model,
@@ -318,6 +351,7 @@ macro_rules! problem_function {
                 backend,
                 adapter,
                 memory_limit,
+                frame,
             };
             $body
         }

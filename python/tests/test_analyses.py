@@ -197,12 +197,28 @@ def test_identify_poses_in_a_tracker_frame_equals_cli(cli, tmp_path):
     chain = res.to_dict()["identify"]["runs"][0]["chain"]
     assert chain["identifiability"]["fixed_by_user"] == ["a1"]
     assert chain["monte_carlo"]["draws"] == 50
-    # A placed model: tail and sensitivity analyse the robot base frame and say so, as the
-    # command line does.
+    # A placed model: tail and sensitivity draw the placement in the measurement frame and
+    # leave it out with frame="base", each equal to the command line's --frame.
     model_file = tmp_path / "placed.toml"
     model_file.write_text(res.to_toml())
-    t = gpu_amcs.tail(gpu_amcs.Model.from_file(model_file), points=5, threshold=0.05, backend="cpu")
-    assert any("does not draw the model's base placement" in n for n in t.notes)
+    placed = gpu_amcs.Model.from_file(model_file)
+    for frame in ["measurement", "base"]:
+        t = gpu_amcs.tail(placed, points=5, threshold=0.03, backend="cpu", frame=frame)
+        doc, _, _ = cli_json(cli, tmp_path, "tail", "--model", model_file, "--points", 5,
+                             "--threshold", 0.03, "--backend", "cpu", "--frame", frame)
+        assert without_timing(t.to_dict()) == without_timing(doc)
+        assert t.to_dict()["tail"]["dimension"] == (27 if frame == "measurement" else 21)
+        note = "base placement drawn" if frame == "measurement" else "left out"
+        assert any(note in n for n in t.notes), t.notes
+        s = gpu_amcs.sensitivity(placed, points=5, draws=256, bootstrap=100, backend="cpu",
+                                 frame=frame)
+        doc, _, _ = cli_json(cli, tmp_path, "sensitivity", "--model", model_file, "--points", 5,
+                             "--draws", 256, "--bootstrap", 100, "--backend", "cpu",
+                             "--frame", frame)
+        assert s.to_dict() == doc
+        assert ("base_yaw" in s.to_dict()["sensitivity"]["parameters"]) == (frame == "measurement")
+    with pytest.raises(ValueError, match=r"^frame: "):
+        gpu_amcs.tail(placed, points=5, threshold=0.03, frame="tracker")
     with pytest.raises(ValueError, match=r"^tracker_sigma: "):
         gpu_amcs.identify(poses, tracker_sigma=-1.0)
     with pytest.raises(ValueError, match=r"^uncertainty: "):

@@ -158,6 +158,15 @@ impl From<FrameArg> for gpu_amcs::engine::Frame {
     }
 }
 
+/// The problem an analysis in `frame` runs: with [`FrameArg::Base`] the model's placement
+/// uncertainty is left out (the robot's own frame), else the problem as built.
+pub fn frame_problem(problem: Problem, frame: FrameArg) -> Problem {
+    match frame {
+        FrameArg::Base => problem.without_placement(),
+        FrameArg::Measurement => problem,
+    }
+}
+
 /// Model, test points, reference, seed and backend.
 #[derive(Args, Debug, Clone)]
 pub struct ProblemArgs {
@@ -184,8 +193,8 @@ pub struct ProblemArgs {
     #[arg(long, value_name = "FILE")]
     pub nominal: Option<PathBuf>,
     /// Frame of the targets: `measurement` draws a model's uncertain base placement too (a
-    /// model identified from tracker data carries one; amcs and mcs draw it), `base`
-    /// leaves it out (the robot's own frame).
+    /// model identified from tracker data carries one), `base` leaves it out (the robot's own
+    /// frame).
     #[arg(long, value_enum, default_value_t = FrameArg::Measurement)]
     pub frame: FrameArg,
     #[command(flatten)]

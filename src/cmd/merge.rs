@@ -395,9 +395,13 @@ pub fn run_sensitivity_shard(
     let pool = thread_pool(problem.threads)?;
     let s = pool.install(|| -> Result<SensitivityShard> {
         let built = problem.build()?;
-        let prov = Provenance::new(&built.problem, &built.reference, n, first, end);
-        let pb = built.problem.clone().without_placement();
-        let (mut ev, _) = problem.backend.evaluator(pb.clone())?;
+        // The frame decides the inputs, and so the provenance's model hash: shards of the two
+        // frames never merge.
+        let pb = crate::cmd::args::frame_problem(built.problem.clone(), problem.frame);
+        let prov = Provenance::new(&pb, &built.reference, n, first, end);
+        let (mut ev, _) = problem
+            .backend
+            .frame_evaluator(built.problem.clone(), problem.frame)?;
         SensitivityShard::run(&pb, ev.as_mut(), opts, prov).map_err(sensitivity_error)
     })?;
     outputs.stage_file("--summary-out", s.to_json())?;

@@ -1,6 +1,6 @@
 //! `sensitivity`: first-order and total Sobol indices of w per parameter, joint and kind.
 
-use super::args::thread_pool;
+use super::args::{frame_problem, thread_pool};
 use super::flags::sensitivity_error;
 use super::outputs::Outputs;
 use super::reports::{problem_rows, write_reports};
@@ -95,16 +95,11 @@ impl Run for SensitivityArgs {
         let (result, rows) = pool.install(|| -> Result<_> {
             let built = a.problem.build()?;
             let rows = problem_rows(&a.problem, &built.problem);
-            let problem = built.problem.clone();
-            let placement: Vec<String> =
-                gpu_amcs::engine::left_out_note(&built.problem, "sensitivity")
-                    .into_iter()
-                    .collect();
             let (mut ev, notes) = a
                 .problem
                 .backend
-                .evaluator(built.problem.without_placement())?;
-            let notes = [notes, placement].concat();
+                .frame_evaluator(built.problem.clone(), a.problem.frame)?;
+            let problem = frame_problem(built.problem, a.problem.frame);
             if !a.reports.quiet {
                 for n in &notes {
                     eprintln!("note: {n}");
@@ -134,7 +129,7 @@ fn announce(
     problem: &gpu_amcs::engine::Problem,
     opts: &SensitivityOptions,
 ) -> Option<String> {
-    let offsets = vec![0.0; PILOT_ROWS * gpu_amcs::kinematics::N_UNCERTAIN];
+    let offsets = vec![0.0; PILOT_ROWS * ev.offset_width()];
     let mut w = vec![0.0; PILOT_ROWS];
     let t = std::time::Instant::now();
     ev.evaluate_offsets(&offsets, &mut w, None).ok()?;

@@ -1,6 +1,6 @@
 //! `tail`: the probability that w reaches a threshold, down to 1e-9, by subset simulation.
 
-use super::args::thread_pool;
+use super::args::{frame_problem, thread_pool};
 use super::flags::tail_error;
 use super::outputs::Outputs;
 use super::progress::Progress;
@@ -109,15 +109,11 @@ impl Run for TailArgs {
         let (result, rows) = pool.install(|| -> Result<_> {
             let built = a.problem.build()?;
             let rows = problem_rows(&a.problem, &built.problem);
-            let sampler = built.problem.sampler.clone();
-            let placement: Vec<String> = gpu_amcs::engine::left_out_note(&built.problem, "tail")
-                .into_iter()
-                .collect();
             let (mut ev, notes) = a
                 .problem
                 .backend
-                .evaluator(built.problem.without_placement())?;
-            let notes = [notes, placement].concat();
+                .frame_evaluator(built.problem.clone(), a.problem.frame)?;
+            let problem = frame_problem(built.problem, a.problem.frame);
             if !a.reports.quiet {
                 for n in &notes {
                     eprintln!("note: {n}");
@@ -126,7 +122,7 @@ impl Run for TailArgs {
             let bar = Progress::new(a.reports.quiet, "tail", "evaluations").capped();
             let r = run_tail(
                 ev.as_mut(),
-                &sampler,
+                &problem,
                 &opts,
                 Some(&|done, total| bar.update(done, total)),
             )

@@ -241,10 +241,10 @@ fn shaders_validate_with_naga() {
         constant("N_PLACED") as usize,
         gpu_amcs::kinematics::N_WITH_BASE
     );
-    // The sampler's 9 blocks, and a tenth for the placement's normals 36–38.
+    // Ten Philox blocks of four normals: the 33 inputs and the placement's six.
     assert_eq!(
         constant("N_BLOCKS") as usize * 4,
-        gpu_amcs::sampling::MAX_NORMALS + 4
+        gpu_amcs::sampling::MAX_NORMALS
     );
     assert_eq!(
         constant("WORDS_PER_POINT") as usize,
@@ -1003,6 +1003,7 @@ fn gpu_draws_the_base_placement_as_the_cpu_does() {
     use gpu_amcs::identify::chain::{chain_model, identify_chain, ChainOptions};
     use gpu_amcs::identify::MeasuredPoint;
     use gpu_amcs::kinematics::BaseTransform;
+    use gpu_amcs::kinematics::N_WITH_BASE;
     let mut truth = tx60();
     truth.tool = [30.0, -20.0, 80.0];
     truth.base = Some(BaseTransform {
@@ -1058,9 +1059,48 @@ fn gpu_draws_the_base_placement_as_the_cpu_does() {
     let (wbc, _) = evaluate(&mut CpuEvaluator::new(base), 0, n);
     assert!(max_diff(&wb, &wbc) <= SAMPLE_TOL_MM);
     assert!(moments(&wb)[0] < mg[0], "{} vs {}", moments(&wb)[0], mg[0]);
-    let mut w = vec![0.0; 1];
-    let e = gpu
-        .eval_offsets(&vec![0.0; N_UNCERTAIN], &mut w, None)
-        .unwrap_err();
-    assert!(e.to_string().contains("base placement"), "{e}");
+    // Explicit offsets carry the placement's six after the 33 inputs (what tail runs on), and
+    // pick-freeze rows take any of the 39 normals from the second draw (what sensitivity runs
+    // on): both as the CPU's exact path, within the same budget.
+    assert_eq!(gpu.offset_width(), N_WITH_BASE);
+    let spread = PlacementSpread::of(&problem).unwrap().unwrap();
+    let gen = gpu_amcs::sampling::Philox::new(problem.seed);
+    let rows = 2000;
+    let offsets: Vec<f64> = (0..rows as u64)
+        .flat_map(|k| spread.deltas(&gen, 500 + k))
+        .collect();
+    let (mut oc, mut og) = (vec![0.0; rows], vec![0.0; rows]);
+    cpu.evaluate_offsets(&offsets, &mut oc, None).unwrap();
+    gpu.evaluate_offsets(&offsets, &mut og, None).unwrap();
+    assert!(
+        max_diff(&oc, &og) <= SAMPLE_TOL_MM,
+        "{}",
+        max_diff(&oc, &og)
+    );
+    // Row k of the offsets is draw 500 + k.
+    assert!(max_diff(&oc, &wc[500..500 + rows]) <= 1e-10);
+    let placement_bits = 0x3f_u64 << N_UNCERTAIN;
+    let masks = [
+        0,
+        gpu_amcs::sampling::ALL_NORMALS,
+        placement_bits,
+        1 << 3 | 1 << 35,
+    ];
+    let request = gpu_amcs::engine::PickFreeze {
+        first: 0,
+        b_first: 1 << 40,
+        count: 1000,
+        masks: &masks,
+    };
+    let (mut pc, mut pg) = (vec![0.0; request.rows()], vec![0.0; request.rows()]);
+    cpu.evaluate_pick_freeze(&request, &mut pc).unwrap();
+    gpu.evaluate_pick_freeze(&request, &mut pg).unwrap();
+    let d = max_diff(&pc, &pg);
+    eprintln!(
+        "placement rows: offsets max |Δw| = {:.3e} mm, pick-freeze {d:.3e} mm",
+        max_diff(&oc, &og)
+    );
+    assert!(d <= SAMPLE_TOL_MM, "{d}");
+    // Mask 0 is the draws themselves.
+    assert!(max_diff(&pc[..1000], &wc[..1000]) <= 1e-10);
 }

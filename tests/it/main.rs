@@ -20,6 +20,7 @@ mod map;
 mod map_shards;
 mod mc_known_answers;
 mod module_cycles;
+mod placement_analyses;
 mod reports;
 mod sensitivity;
 mod study;

@@ -149,7 +149,7 @@ fn sensitivity_and_tail_write_what_their_layout_names() {
         max_evaluations: 20_000,
         ..TailOptions::default()
     };
-    let t = run_tail(&mut CpuEvaluator::new(pb.clone()), &pb.sampler, &opts, None).unwrap();
+    let t = run_tail(&mut CpuEvaluator::new(pb.clone()), &pb, &opts, None).unwrap();
     check(&t, TailResult::planned_layout(), "tail");
 }
 

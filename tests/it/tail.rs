@@ -77,7 +77,7 @@ fn subset(thresholds: Vec<f64>, n: usize, target: f64, cap: u64) -> TailOptions 
 }
 
 fn run_cpu(pb: &Problem, opts: &TailOptions) -> TailResult {
-    run_tail(&mut CpuEvaluator::new(pb.clone()), &pb.sampler, opts, None).unwrap()
+    run_tail(&mut CpuEvaluator::new(pb.clone()), pb, opts, None).unwrap()
 }
 
 #[test]
@@ -366,7 +366,7 @@ fn bad_settings_name_the_field() {
         ),
     ];
     for (opts, field) in cases {
-        match run_tail(&mut CpuEvaluator::new(pb.clone()), &pb.sampler, &opts, None) {
+        match run_tail(&mut CpuEvaluator::new(pb.clone()), &pb, &opts, None) {
             Err(TailError::Setting { field: f, message }) => {
                 assert_eq!(f, field, "{message}");
                 let line = TailError::Setting { field: f, message }.to_string();
@@ -381,7 +381,7 @@ fn bad_settings_name_the_field() {
     let mut m = tx60();
     m.uncertainty = Uncertainty::Independent([0.0; N_PARAMS]);
     let pb = problem(m, 5, 1);
-    let r = run_tail(&mut CpuEvaluator::new(pb.clone()), &pb.sampler, &ok, None);
+    let r = run_tail(&mut CpuEvaluator::new(pb.clone()), &pb, &ok, None);
     assert!(matches!(r, Err(TailError::NoUncertainty)), "{r:?}");
 }
 
@@ -407,7 +407,7 @@ fn gpu_matches_cpu() {
         ..GpuOptions::default()
     };
     let mut gev = GpuEvaluator::new(pb.clone(), &gopts).unwrap();
-    let gpu = run_tail(&mut gev, &pb.sampler, &opts, None).unwrap();
+    let gpu = run_tail(&mut gev, &pb, &opts, None).unwrap();
     assert_eq!(gpu.backend.backend, "gpu");
     assert_eq!(cpu.evaluations, gpu.evaluations);
     for (a, b) in cpu.estimates.iter().zip(&gpu.estimates) {

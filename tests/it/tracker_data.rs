@@ -751,8 +751,14 @@ fn vectorised_placement_draws_equal_the_reference() {
         diff(&wa, &wb),
         diff(&ea, &eb)
     );
+    // Explicit offsets carry the placement too: a row of the 33 inputs alone is refused by its
+    // shape, a row of 39 zeros is the mean model (w = 0 at the calibrated reference).
+    assert_eq!(fast.offset_width(), 39);
     let e = fast
-        .eval_offsets(&vec![0.0; 33], &mut [0.0], None)
+        .evaluate_offsets(&[0.0; 33], &mut [0.0], None)
         .unwrap_err();
-    assert!(e.to_string().contains("base placement"), "{e}");
+    assert!(e.to_string().contains("39"), "{e}");
+    let mut w0 = [1.0];
+    fast.evaluate_offsets(&[0.0; 39], &mut w0, None).unwrap();
+    assert!(w0[0] < 1e-9, "{}", w0[0]);
 }

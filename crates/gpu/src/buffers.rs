@@ -6,7 +6,6 @@ use crate::device::{self, BindGroup, Buffer, Gpu, Timer};
 use crate::{binding, GpuContext};
 use gpu_amcs_core::engine::deviation::{self, SpreadPacking};
 use gpu_amcs_core::engine::{PickFreeze, PlacementSpread, Problem};
-use gpu_amcs_core::kinematics::N_UNCERTAIN;
 
 /// The run configuration uniform (`cfg` in the shader; `tests/it/gpu.rs` checks that its size
 /// equals the WGSL struct's).
@@ -196,8 +195,9 @@ impl Slot {
 pub(crate) enum Rows<'a> {
     /// Counter draws from this index on.
     Draws(u64),
-    /// An offset matrix, `N_UNCERTAIN` per row, from its first row on.
-    Offsets(&'a [f64]),
+    /// An offset matrix of the given width (`N_UNCERTAIN`, or `N_WITH_BASE` for a problem
+    /// that draws its placement) per row, from its first row on.
+    Offsets(&'a [f64], usize),
     /// The rows of a pick-freeze request from this row on (its masks already uploaded).
     PickFreeze(PickFreeze<'a>, usize),
 }
@@ -207,7 +207,7 @@ impl<'a> Rows<'a> {
     pub(crate) fn skip(self, n: usize) -> Rows<'a> {
         match self {
             Rows::Draws(k) => Rows::Draws(k.wrapping_add(n as u64)),
-            Rows::Offsets(o) => Rows::Offsets(&o[(n * N_UNCERTAIN).min(o.len())..]),
+            Rows::Offsets(o, width) => Rows::Offsets(&o[(n * width).min(o.len())..], width),
             Rows::PickFreeze(pf, row) => Rows::PickFreeze(pf, row + n),
         }
     }

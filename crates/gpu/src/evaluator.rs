@@ -6,7 +6,7 @@ use crate::buffers::{words, ChunkUniform, InFlight, ProblemBuffers, Rows, Slot};
 use crate::device::{self, Buffer, Gpu};
 use crate::{gpu_err, GpuContext, GpuOptions, GpuTimings, WORKGROUP};
 use gpu_amcs_core::engine::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
-use gpu_amcs_core::kinematics::N_UNCERTAIN;
+use gpu_amcs_core::kinematics::{N_UNCERTAIN, N_WITH_BASE};
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
@@ -58,7 +58,7 @@ impl GpuEvaluator {
         let gpu = &ctx.gpu;
         let chunk = opts.chunk.max(1).min(ctx.max_chunk()).max(1);
         let by_bytes = ctx.max_binding_words();
-        let chunk_o = chunk.min((by_bytes / N_UNCERTAIN).max(1));
+        let chunk_o = chunk.min((by_bytes / N_WITH_BASE).max(1));
         let problem_bufs = ProblemBuffers::new(gpu, problem);
         let timestamps = opts.timestamps && gpu.timestamps;
         let masks = gpu.storage("masks (unused)", 8);
@@ -164,7 +164,7 @@ impl GpuEvaluator {
         if self.offsets_ready {
             return;
         }
-        let bytes = 4 * (self.chunk_o * N_UNCERTAIN) as u64;
+        let bytes = 4 * (self.chunk_o * self.offset_width()) as u64;
         for slot in &mut self.slots {
             slot.offsets = self.ctx.gpu.storage("offsets", bytes);
             slot.rebind(&self.ctx, &self.problem, &self.masks);
@@ -261,10 +261,10 @@ impl GpuEvaluator {
                 cu.first = words(k0);
                 &self.ctx.draws
             }
-            Rows::Offsets(o) => {
+            Rows::Offsets(o, width) => {
                 self.staging_f32.clear();
                 self.staging_f32
-                    .extend(o[..count * N_UNCERTAIN].iter().map(|&v| v as f32));
+                    .extend(o[..count * width].iter().map(|&v| v as f32));
                 gpu.write(&slot.offsets, bytemuck::cast_slice(&self.staging_f32));
                 &self.ctx.offsets
             }
@@ -338,7 +338,7 @@ impl GpuEvaluator {
         }
         let mut c = if want_e { self.chunk_e } else { self.chunk };
         match rows {
-            Rows::Offsets(_) => {
+            Rows::Offsets(..) => {
                 self.ensure_offset_buffers();
                 c = c.min(self.chunk_o);
             }
@@ -398,17 +398,6 @@ impl GpuEvaluator {
     }
 
     /// Refuses work after a device error.
-    /// Explicit offsets and pick-freeze rows have the 33 inputs only: a problem that draws the
-    /// placement gets an error rather than rows without it.
-    fn refuse_placement(&self) -> Result<(), EngineError> {
-        if self.problem.placed {
-            return Err(EngineError::Placement(
-                "explicit offsets and pick-freeze rows carry the 33 inputs only; analyse the robot base frame".into(),
-            ));
-        }
-        Ok(())
-    }
-
     fn check_usable(&self) -> Result<(), EngineError> {
         match &self.broken {
             Some(b) => Err(EngineError::Gpu(format!(
@@ -467,18 +456,25 @@ impl Evaluator for GpuEvaluator {
         self.request(Rows::Draws(first), w, per_point)
     }
 
+    fn offset_width(&self) -> usize {
+        if self.problem.placed {
+            N_WITH_BASE
+        } else {
+            N_UNCERTAIN
+        }
+    }
+
     fn eval_offsets(
         &mut self,
         offsets: &[f64],
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
-        self.refuse_placement()?;
-        self.request(Rows::Offsets(offsets), w, per_point)
+        let width = self.offset_width();
+        self.request(Rows::Offsets(offsets, width), w, per_point)
     }
 
     fn eval_pick_freeze(&mut self, request: &PickFreeze, w: &mut [f64]) -> Result<(), EngineError> {
-        self.refuse_placement()?;
         self.request(Rows::PickFreeze(*request, 0), w, None)
     }
 }

@@ -34,7 +34,8 @@
 //! and the Monte Carlo drivers ask for consecutive batches, so the next batch is already
 //! computing while the caller sorts this one ([`GpuOptions::prefetch`]). Memory is per chunk,
 //! never per request: an MCS of 10^8 draws needs the caller's output slice and two chunks of GPU
-//! buffers; an offset request of n rows uploads `N_UNCERTAIN` f32 per row, one chunk at a time.
+//! buffers; an offset request of n rows uploads `N_UNCERTAIN` f32 per row (`N_WITH_BASE` when the
+//! problem draws its placement), one chunk at a time.
 #![warn(clippy::missing_errors_doc)]
 
 mod backend;
@@ -89,7 +90,8 @@ pub mod binding {
     pub const W: u32 = 6;
     /// Output: e_j per parameter vector and point (`e_out`).
     pub const E: u32 = 7;
-    /// Input of the offset path: `N_UNCERTAIN` offsets per row (`offsets_in`).
+    /// Input of the offset path: `N_UNCERTAIN` offsets per row (`N_WITH_BASE` with the
+    /// placement; `offsets_in`).
     pub const OFFSETS: u32 = 8;
     /// Input of the pick-freeze path: one mask of normals per matrix, (lo, hi) words (`masks`).
     pub const MASKS: u32 = 9;

@@ -96,6 +96,9 @@ pub struct CpuEvaluator {
     avx2: bool,
     /// The base placement's draws, for a model whose placement is uncertain.
     placement: Option<PlacementLanes>,
+    /// The exact evaluator of rows with the placement (explicit offsets of 39 inputs and
+    /// pick-freeze rows over 39 normals), for such a model.
+    exact: Option<Box<super::PlacementEvaluator>>,
 }
 
 /// The placement's offsets of a draw from its other 33 (docs/METHOD.md §2.8). With the joint
@@ -246,12 +249,17 @@ impl CpuEvaluator {
         #[cfg(not(target_arch = "x86_64"))]
         let avx2 = false;
         let placement = PlacementLanes::new(&problem);
+        let exact = super::PlacementSpread::of(&problem)
+            .ok()
+            .flatten()
+            .map(|sp| Box::new(super::PlacementEvaluator::new(problem.clone(), sp)));
         CpuEvaluator {
             problem,
             points,
             mean_trig,
             avx2,
             placement,
+            exact,
         }
     }
 
@@ -480,36 +488,40 @@ impl Evaluator for CpuEvaluator {
         Ok(())
     }
 
+    fn offset_width(&self) -> usize {
+        match &self.exact {
+            Some(ev) => ev.offset_width(),
+            None => N_UNCERTAIN,
+        }
+    }
+
     fn eval_offsets(
         &mut self,
         offsets: &[f64],
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
-        self.refuse_placement()?;
-        self.run(Source::Offsets(offsets), w, per_point);
-        Ok(())
+        match &mut self.exact {
+            Some(ev) => ev.eval_offsets(offsets, w, per_point),
+            None => {
+                self.run(Source::Offsets(offsets), w, per_point);
+                Ok(())
+            }
+        }
     }
 
     fn eval_pick_freeze(&mut self, request: &PickFreeze, w: &mut [f64]) -> Result<(), EngineError> {
-        self.refuse_placement()?;
-        self.run(Source::PickFreeze(*request, 0), w, None);
-        Ok(())
+        match &mut self.exact {
+            Some(ev) => ev.eval_pick_freeze(request, w),
+            None => {
+                self.run(Source::PickFreeze(*request, 0), w, None);
+                Ok(())
+            }
+        }
     }
 }
 
 impl CpuEvaluator {
-    /// Explicit offsets and pick-freeze rows carry the 33 inputs only: a problem that draws the
-    /// placement gets an error rather than rows without it.
-    fn refuse_placement(&self) -> Result<(), EngineError> {
-        if self.placement.is_some() {
-            return Err(EngineError::Placement(
-                "explicit offsets and pick-freeze rows carry the 33 inputs only; analyse the robot base frame".into(),
-            ));
-        }
-        Ok(())
-    }
-
     /// Evaluates `w.len()` parameter vectors from `src` in parallel tasks of [`CHUNK`].
     fn run(&self, src: Source, w: &mut [f64], per_point: Option<&mut [f64]>) {
         let m = self.points.len();

@@ -54,7 +54,7 @@ mod problem;
 
 pub use backend::{cpu_evaluator, BackendChoice, Backends, CpuOnly};
 pub use cpu::CpuEvaluator;
-pub use placement::{left_out_note, Frame, PlacementEvaluator, PlacementSpread};
+pub use placement::{Frame, PlacementEvaluator, PlacementSpread};
 pub use problem::{Problem, ProblemError, Reference};
 
 use crate::kinematics::{input_name, param_kind, N_PARAMS, N_UNCERTAIN};
@@ -88,11 +88,11 @@ pub enum EngineError {
         /// Entries given.
         got: usize,
     },
-    /// An offset matrix whose length is not `rows × N_UNCERTAIN` for the requested rows.
+    /// An offset matrix whose length is not `rows ×` [`Evaluator::offset_width`] for the
+    /// requested rows.
     #[error(
-        "offset matrix has {got} entries, expected {expected} ({rows} rows of {} parameters and \
-         tool coordinates)",
-        N_UNCERTAIN
+        "offset matrix has {got} entries, expected {expected} ({rows} rows of {} inputs)",
+        expected / (*rows).max(1)
     )]
     OffsetsShape {
         /// Rows requested (the length of the output `w`).
@@ -164,8 +164,15 @@ pub trait Evaluator: Send {
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError>;
 
-    /// Backend part of [`Evaluator::evaluate_offsets`]: `offsets` has `w.len() · N_UNCERTAIN`
-    /// finite entries with angular offsets within [`MAX_ANGLE_OFFSET`], and `per_point`, when
+    /// Entries per row of [`Evaluator::evaluate_offsets`]: [`N_UNCERTAIN`], or [`N_WITH_BASE`](crate::kinematics::N_WITH_BASE)
+    /// for an evaluator that draws the model's uncertain base placement (the six placement
+    /// offsets x, y, z in mm and roll, pitch, yaw in radians follow the 33 inputs).
+    fn offset_width(&self) -> usize {
+        N_UNCERTAIN
+    }
+
+    /// Backend part of [`Evaluator::evaluate_offsets`]: `offsets` has `w.len() ·`
+    /// [`Evaluator::offset_width`] finite entries with angular offsets within [`MAX_ANGLE_OFFSET`], and `per_point`, when
     /// given, `w.len() · m`. The default: [`EngineError::OffsetsUnsupported`].
     ///
     /// # Errors
@@ -240,13 +247,14 @@ pub trait Evaluator: Send {
         self.eval_draws(first, w, per_point)
     }
 
-    /// Fills `w[i]` with `w` of the parameter vector and tool point `μ̄ + offsets[i·N_UNCERTAIN
-    /// ..][..N_UNCERTAIN]` (μ̄ the model's values; mm and radians; the last three entries move the
-    /// tool point in the flange frame) and, if given, `per_point[i·m + j]` with its `e_j`.
+    /// Fills `w[i]` with `w` of the parameter vector and tool point `μ̄ + offsets[i·W ..][..W]`
+    /// (μ̄ the model's values; mm and radians; entries 30–32 move the tool point in the flange
+    /// frame, and with W = [`N_WITH_BASE`](crate::kinematics::N_WITH_BASE) entries 33–38 the base placement) and, if given,
+    /// `per_point[i·m + j]` with its `e_j`. W is [`Evaluator::offset_width`].
     ///
     /// # Errors
     ///
-    /// [`EngineError::OffsetsShape`] when `offsets` does not hold `w.len() · N_UNCERTAIN` entries,
+    /// [`EngineError::OffsetsShape`] when `offsets` does not hold `w.len() · W` entries,
     /// [`EngineError::BadOffset`] for a non-finite entry or an angular offset beyond
     /// [`MAX_ANGLE_OFFSET`], [`EngineError::BufferSize`] for a `per_point` of the wrong length,
     /// [`EngineError::OffsetsUnsupported`] for an evaluator without an offset path, and the
@@ -257,7 +265,7 @@ pub trait Evaluator: Send {
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
-        check_offsets(offsets, w.len())?;
+        check_offsets(offsets, w.len(), self.offset_width())?;
         check_buffers(self.n_points(), w, per_point.as_deref())?;
         self.eval_offsets(offsets, w, per_point)
     }
@@ -342,8 +350,8 @@ fn check_buffers(m: usize, w: &[f64], per_point: Option<&[f64]>) -> Result<(), E
 }
 
 /// Checks an offset matrix of `rows` rows: its length, finiteness, and the angle bound.
-fn check_offsets(offsets: &[f64], rows: usize) -> Result<(), EngineError> {
-    let expected = rows * N_UNCERTAIN;
+fn check_offsets(offsets: &[f64], rows: usize, width: usize) -> Result<(), EngineError> {
+    let expected = rows * width;
     if offsets.len() != expected {
         return Err(EngineError::OffsetsShape {
             rows,
@@ -352,8 +360,9 @@ fn check_offsets(offsets: &[f64], rows: usize) -> Result<(), EngineError> {
         });
     }
     for (x, &v) in offsets.iter().enumerate() {
-        let (row, p) = (x / N_UNCERTAIN, x % N_UNCERTAIN);
-        let angle = p < N_PARAMS && param_kind(p).is_angle();
+        let (row, p) = (x / width, x % width);
+        // The placement's roll, pitch and yaw (inputs 36–38) are angles too.
+        let angle = (p < N_PARAMS && param_kind(p).is_angle()) || p >= N_UNCERTAIN + 3;
         let message = if !v.is_finite() {
             format!("{v} is not finite")
         } else if angle && v.abs() > MAX_ANGLE_OFFSET {
@@ -421,6 +430,7 @@ impl<F: Fn(&Philox, u64) -> f64 + Send + Sync> Evaluator for FnEvaluator<F> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::kinematics::N_WITH_BASE;
 
     fn scalar() -> FnEvaluator<impl Fn(&Philox, u64) -> f64 + Send + Sync> {
         FnEvaluator::new(1, |_: &Philox, k: u64| k as f64)
@@ -498,8 +508,8 @@ mod tests {
 
     #[test]
     fn offset_matrices_are_checked() {
-        assert!(check_offsets(&[0.0; 3 * N_UNCERTAIN], 3).is_ok());
-        match check_offsets(&[0.0; 3 * N_UNCERTAIN - 1], 3) {
+        assert!(check_offsets(&[0.0; 3 * N_UNCERTAIN], 3, N_UNCERTAIN).is_ok());
+        match check_offsets(&[0.0; 3 * N_UNCERTAIN - 1], 3, N_UNCERTAIN) {
             Err(EngineError::OffsetsShape {
                 rows,
                 expected,
@@ -509,7 +519,7 @@ mod tests {
         }
         let mut m = vec![0.0; 2 * N_UNCERTAIN];
         m[N_UNCERTAIN + N_PARAMS + 2] = f64::NAN; // row 1, tool z
-        match check_offsets(&m, 2) {
+        match check_offsets(&m, 2, N_UNCERTAIN) {
             Err(EngineError::BadOffset { row, param, .. }) => {
                 assert_eq!((row, param.as_str()), (1, "tool_z"))
             }
@@ -517,16 +527,16 @@ mod tests {
         }
         m[N_UNCERTAIN + N_PARAMS + 2] = 2.0; // a tool offset is a length: no angle bound
         m[N_UNCERTAIN + 7] = f64::NAN; // row 1, a of joint 2
-        match check_offsets(&m, 2) {
+        match check_offsets(&m, 2, N_UNCERTAIN) {
             Err(EngineError::BadOffset { row, param, .. }) => {
                 assert_eq!((row, param.as_str()), (1, "a2"))
             }
             r => panic!("{r:?}"),
         }
         m[N_UNCERTAIN + 7] = 1e3; // lengths have no bound
-        assert!(check_offsets(&m, 2).is_ok());
+        assert!(check_offsets(&m, 2, N_UNCERTAIN).is_ok());
         m[3] = -2.0; // α1 beyond a quarter turn
-        match check_offsets(&m, 2) {
+        match check_offsets(&m, 2, N_UNCERTAIN) {
             Err(EngineError::BadOffset {
                 row,
                 param,
@@ -539,8 +549,21 @@ mod tests {
         }
         m[3] = f64::INFINITY;
         assert!(matches!(
-            check_offsets(&m, 2),
+            check_offsets(&m, 2, N_UNCERTAIN),
             Err(EngineError::BadOffset { .. })
         ));
+        // Rows with the placement: 39 entries, the base's angles bounded, its lengths not.
+        let mut p = vec![0.0; 2 * N_WITH_BASE];
+        assert!(check_offsets(&p, 2, N_WITH_BASE).is_ok());
+        assert!(check_offsets(&p, 2, N_UNCERTAIN).is_err());
+        p[N_WITH_BASE + N_UNCERTAIN] = 500.0; // row 1, base x
+        assert!(check_offsets(&p, 2, N_WITH_BASE).is_ok());
+        p[N_WITH_BASE + N_UNCERTAIN + 5] = 2.0; // row 1, base yaw
+        match check_offsets(&p, 2, N_WITH_BASE) {
+            Err(EngineError::BadOffset { row, param, .. }) => {
+                assert_eq!((row, param.as_str()), (1, "base_yaw"))
+            }
+            r => panic!("{r:?}"),
+        }
     }
 }

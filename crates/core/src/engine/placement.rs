@@ -19,7 +19,7 @@
 //! [`Frame::Base`] leaves the placement out (the marginal 33 × 33 block), as for a model without
 //! one.
 
-use super::{BackendInfo, EngineError, Evaluator, Problem};
+use super::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
 use crate::kinematics::{position_with_trig, twist_trig, N_PARAMS, N_UNCERTAIN, N_WITH_BASE};
 use crate::sampling::{normals_block, Philox, PARAM_STREAM};
 use nalgebra::{Matrix3, Rotation3, Vector3};
@@ -48,16 +48,6 @@ impl Frame {
             (Frame::Base, _) => "robot base frame",
         }
     }
-}
-
-/// The note of an analysis (`what`: "sensitivity", "tail") whose rows carry the 33 inputs only,
-/// on a model whose placement is uncertain: it analyses the robot base frame. `None` otherwise.
-pub fn left_out_note(problem: &Problem, what: &str) -> Option<String> {
-    problem.model.base_uncertain().then(|| {
-        format!(
-            "frame: robot base frame: {what} does not draw the model's base placement (amcs, mcs and map do)"
-        )
-    })
 }
 
 impl Problem {
@@ -115,16 +105,42 @@ impl PlacementSpread {
 
     /// The 39 offsets of draw `k` (internal units).
     pub fn deltas(&self, gen: &Philox, k: u64) -> [f64; N_WITH_BASE] {
+        self.pick_freeze_deltas(gen, k, k, 0)
+    }
+
+    /// The 39 offsets of a pick-freeze row: normal `i` from draw `b` where bit `i` of `mask` is
+    /// set, from draw `a` elsewhere (mask 0 is draw `a` itself, as [`Self::deltas`]).
+    pub fn pick_freeze_deltas(
+        &self,
+        gen: &Philox,
+        a: u64,
+        b: u64,
+        mask: u64,
+    ) -> [f64; N_WITH_BASE] {
         let mut z = [0.0; 40];
         let mut done = [false; 10];
         for &i in &self.free {
-            let b = i / 4;
-            if !done[b] {
-                let v = normals_block(gen, k, b as u32, PARAM_STREAM);
-                z[4 * b..4 * b + 4].copy_from_slice(&v);
-                done[b] = true;
+            let blk = i / 4;
+            if done[blk] {
+                continue;
+            }
+            done[blk] = true;
+            let nib = (mask >> (4 * blk)) & 15;
+            let va = (nib != 15).then(|| normals_block(gen, a, blk as u32, PARAM_STREAM));
+            let vb = (nib != 0).then(|| normals_block(gen, b, blk as u32, PARAM_STREAM));
+            for t in 0..4 {
+                let from_b = nib & (1 << t) != 0;
+                z[4 * blk + t] = match (from_b, va, vb) {
+                    (true, _, Some(v)) | (false, Some(v), _) => v[t],
+                    _ => 0.0,
+                };
             }
         }
+        self.offsets_of_normals(&z)
+    }
+
+    /// The 39 offsets `δ_free[a] = Σ_{b ≤ a} L[a][b] z[free[b]]` of the normals `z`.
+    fn offsets_of_normals(&self, z: &[f64; 40]) -> [f64; N_WITH_BASE] {
         let mut d = [0.0; N_WITH_BASE];
         let p = self.free.len();
         for a in 0..p {
@@ -165,7 +181,14 @@ impl PlacementEvaluator {
 
     /// `e_j` of draw `k` at every test point.
     pub fn point_errors(&self, k: u64) -> Vec<f64> {
-        let d = self.spread.deltas(&self.gen, k);
+        let mut e = vec![0.0; self.problem.points.len()];
+        self.errors_of(&self.spread.deltas(&self.gen, k), &mut e);
+        e
+    }
+
+    /// `e_j` at every test point of the inputs `mean + d` (the 33, then the placement's six;
+    /// internal units) into `e`; returns their maximum `w`.
+    pub fn errors_of(&self, d: &[f64; N_WITH_BASE], e: &mut [f64]) -> f64 {
         let m = &self.problem.model;
         let params: [f64; N_PARAMS] = std::array::from_fn(|i| m.params[i] + d[i]);
         let tool: [f64; 3] = std::array::from_fn(|i| m.tool[i] + d[N_PARAMS + i]);
@@ -176,15 +199,40 @@ impl PlacementEvaluator {
         let dt = self.r_mean_t * Vector3::new(drawn[0] - b[0], drawn[1] - b[1], drawn[2] - b[2]);
         // The α, β rotations are the same at every point: their sines and cosines once per draw.
         let trig = twist_trig(&params);
-        self.problem
+        let mut w = 0.0f64;
+        for ((q, r), ej) in self
+            .problem
             .points
             .iter()
             .zip(&self.problem.reference)
-            .map(|(q, r)| {
-                let p = dr * Vector3::from(position_with_trig(&params, &trig, &tool, q)) + dt;
-                (p - Vector3::from(*r)).norm()
-            })
-            .collect()
+            .zip(e)
+        {
+            let p = dr * Vector3::from(position_with_trig(&params, &trig, &tool, q)) + dt;
+            *ej = (p - Vector3::from(*r)).norm();
+            w = w.max(*ej);
+        }
+        w
+    }
+
+    /// `w` (and, when `per_point` is given, every `e_j`) of row `i` of `rows`, in parallel.
+    fn eval_rows(
+        &self,
+        rows: impl Fn(usize) -> [f64; N_WITH_BASE] + Sync,
+        w: &mut [f64],
+        per_point: Option<&mut [f64]>,
+    ) {
+        let m = self.problem.points.len();
+        match per_point {
+            None => w.par_iter_mut().enumerate().for_each_init(
+                || vec![0.0; m],
+                |e, (i, wi)| *wi = self.errors_of(&rows(i), e),
+            ),
+            Some(e) => w
+                .par_iter_mut()
+                .zip(e.par_chunks_mut(m.max(1)))
+                .enumerate()
+                .for_each(|(i, (wi, ei))| *wi = self.errors_of(&rows(i), ei)),
+        }
     }
 }
 
@@ -207,24 +255,37 @@ impl Evaluator for PlacementEvaluator {
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
-        let m = self.problem.points.len();
-        match per_point {
-            None => w.par_iter_mut().enumerate().for_each(|(i, wi)| {
-                *wi = self
-                    .point_errors(first + i as u64)
-                    .into_iter()
-                    .fold(0.0, f64::max);
-            }),
-            Some(e) => w
-                .par_iter_mut()
-                .zip(e.par_chunks_mut(m))
-                .enumerate()
-                .for_each(|(i, (wi, ei))| {
-                    let v = self.point_errors(first + i as u64);
-                    *wi = v.iter().copied().fold(0.0, f64::max);
-                    ei.copy_from_slice(&v);
-                }),
-        }
+        self.eval_rows(
+            |i| self.spread.deltas(&self.gen, first + i as u64),
+            w,
+            per_point,
+        );
+        Ok(())
+    }
+
+    fn offset_width(&self) -> usize {
+        N_WITH_BASE
+    }
+
+    fn eval_offsets(
+        &mut self,
+        offsets: &[f64],
+        w: &mut [f64],
+        per_point: Option<&mut [f64]>,
+    ) -> Result<(), EngineError> {
+        let row = |i: usize| -> [f64; N_WITH_BASE] {
+            std::array::from_fn(|p| offsets[i * N_WITH_BASE + p])
+        };
+        self.eval_rows(row, w, per_point);
+        Ok(())
+    }
+
+    fn eval_pick_freeze(&mut self, request: &PickFreeze, w: &mut [f64]) -> Result<(), EngineError> {
+        let row = |i: usize| {
+            let (a, b, mask) = request.row(i);
+            self.spread.pick_freeze_deltas(&self.gen, a, b, mask)
+        };
+        self.eval_rows(row, w, None);
         Ok(())
     }
 }

@@ -20,8 +20,10 @@ use super::normal::box_muller;
 use super::philox::{philox4x32_10_lanes, Philox};
 use crate::kinematics::{RobotModel, N_PARAMS, N_UNCERTAIN};
 
-/// Normals available per draw (9 Philox blocks of 4: the [`N_UNCERTAIN`] inputs use the first 33).
-pub const MAX_NORMALS: usize = 36;
+/// Normals available per draw (10 Philox blocks of 4): the [`N_UNCERTAIN`] inputs use the first
+/// 33, and a model with an uncertain base placement draws its six inputs from normals 33–38
+/// ([`crate::engine::PlacementSpread`]).
+pub const MAX_NORMALS: usize = 40;
 
 /// A pick-freeze mask that takes every normal from the second draw (bits `0 … MAX_NORMALS − 1`).
 pub const ALL_NORMALS: u64 = (1 << MAX_NORMALS) - 1;
@@ -357,7 +359,7 @@ mod tests {
             g.pick_freeze_deltas(a, b, ALL_NORMALS, &mut d);
             assert_eq!(d, db);
             let normals = |k: u64| -> Vec<f64> {
-                (0..9u32)
+                (0..(MAX_NORMALS / 4) as u32)
                     .flat_map(|blk| crate::sampling::normals_block(&g.gen, k, blk, PARAM_STREAM))
                     .collect()
             };

@@ -95,9 +95,9 @@ pub use estimator::{
 
 use serde::{Deserialize, Serialize};
 
-use crate::engine::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
+use crate::engine::{BackendInfo, EngineError, Evaluator, PickFreeze, PlacementSpread, Problem};
 use crate::kinematics::{
-    input_name, param_joint, param_kind, ParamKind, JOINTS, N_PARAMS, N_UNCERTAIN,
+    input_name, param_joint, param_kind, ParamKind, JOINTS, N_PARAMS, N_UNCERTAIN, N_WITH_BASE,
 };
 use crate::sampling::ALL_NORMALS;
 
@@ -323,7 +323,8 @@ pub fn param_name(i: usize) -> String {
 }
 
 /// The groups of the free inputs `free` (as input columns): per joint, then per kind, then the
-/// tool point (its uncertain coordinates).
+/// tool point (its uncertain coordinates), then the base placement (its uncertain inputs, when
+/// it is drawn).
 fn robot_groups(free: &[usize]) -> Vec<InputGroup> {
     let select = |name: String, keep: &dyn Fn(usize) -> bool| InputGroup {
         name,
@@ -341,10 +342,14 @@ fn robot_groups(free: &[usize]) -> Vec<InputGroup> {
             i < N_PARAMS && ks.contains(&param_kind(i))
         })
     });
-    let tool = std::iter::once(select("tool".to_string(), &|i| i >= N_PARAMS));
+    let tool = std::iter::once(select("tool".to_string(), &|i| {
+        (N_PARAMS..N_UNCERTAIN).contains(&i)
+    }));
+    let placement = std::iter::once(select("base placement".to_string(), &|i| i >= N_UNCERTAIN));
     joints
         .chain(kinds)
         .chain(tool)
+        .chain(placement)
         .filter(|g| !g.members.is_empty())
         .collect()
 }
@@ -418,9 +423,13 @@ pub fn run_outputs(
         });
     }
     let sampler = &problem.sampler;
-    let (free, input_kind) = match sampler.cholesky() {
-        Some((free, _)) => (free.to_vec(), InputKind::CholeskyInnovations),
-        None => {
+    // With an uncertain base placement (the measurement frame) the inputs are the 39 of the
+    // joint covariance, the placement's six last.
+    let placed = PlacementSpread::of(problem)?.map(|sp| sp.free);
+    let (free, input_kind) = match (placed, sampler.cholesky()) {
+        (Some(free), _) => (free, InputKind::CholeskyInnovations),
+        (None, Some((free, _))) => (free.to_vec(), InputKind::CholeskyInnovations),
+        (None, None) => {
             // An independent sampler always has its σ; none would mean no free parameter.
             let s = sampler.sigmas().copied().unwrap_or([0.0; N_UNCERTAIN]);
             let free = (0..N_UNCERTAIN).filter(|&i| s[i] > 0.0).collect();
@@ -463,8 +472,8 @@ pub fn run_outputs(
 pub struct Design {
     /// What the inputs are.
     pub input_kind: InputKind,
-    /// Indices of the free inputs among the 33 (30 parameters, then the tool point), in input
-    /// order.
+    /// Indices of the free inputs among the 33 (30 parameters, then the tool point), or among
+    /// the 39 with the base placement when it is drawn, in input order.
     pub free: Vec<usize>,
 }
 
@@ -476,7 +485,7 @@ impl Design {
     /// # Errors
     ///
     /// [`SensitivityError::Design`] when the design's free inputs are not a non-empty set of the
-    /// [`N_UNCERTAIN`] inputs; otherwise as [`analyse_outputs`] (an option out of range, outputs of
+    /// [`N_WITH_BASE`] inputs; otherwise as [`analyse_outputs`] (an option out of range, outputs of
     /// the wrong count).
     pub fn result(
         &self,
@@ -485,11 +494,11 @@ impl Design {
         out: &Outputs,
         opts: &SensitivityOptions,
     ) -> Result<SensitivityResult, SensitivityError> {
-        if self.free.is_empty() || self.free.iter().any(|&i| i >= N_UNCERTAIN) {
+        if self.free.is_empty() || self.free.iter().any(|&i| i >= N_WITH_BASE) {
             return Err(SensitivityError::Design(format!(
                 "free inputs {:?} must be a non-empty set of 0 … {}",
                 self.free,
-                N_UNCERTAIN - 1
+                N_WITH_BASE - 1
             )));
         }
         let names: Vec<String> = self.free.iter().map(|&i| param_name(i)).collect();

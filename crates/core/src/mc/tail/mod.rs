@@ -5,10 +5,14 @@
 //!
 //! The parameters are Gaussian, so draw `μ = μ̄ + L u` with `u ~ N(0, I_d)` is exact: `d` is the
 //! number of free parameters (nonzero variance), `L` the diagonal of their standard deviations
-//! (independent model) or the lower Cholesky factor the [`ParamSampler`] already holds (full
-//! covariance, `docs/METHOD.md §6`). Subset simulation works on `u`; every evaluation maps `u`
-//! to the offsets `δ = L u` and goes through [`Evaluator::evaluate_offsets`], so the CPU and the
-//! GPU backends carry it alike.
+//! (independent model) or the lower Cholesky factor the
+//! [`ParamSampler`](crate::sampling::ParamSampler) already holds (full covariance,
+//! `docs/METHOD.md §6`). A model with an uncertain base placement analysed in the measurement
+//! frame has 39 inputs, the placement's six after the 33, and `L` is the factor of the 39 × 39
+//! covariance on its free inputs ([`PlacementSpread`](crate::engine::PlacementSpread),
+//! `docs/METHOD.md §2.8`). Subset simulation works on `u`; every evaluation maps `u` to the
+//! offsets `δ = L u` and goes through [`Evaluator::evaluate_offsets`], so the CPU and the GPU
+//! backends carry it alike.
 //!
 //! # Subset simulation
 //!
@@ -101,7 +105,7 @@
 //!
 //! # Random numbers
 //!
-//! All normals and uniforms come from the run's Philox key ([`ParamSampler::key`]) with the
+//! All normals and uniforms come from the run's Philox key ([`ParamSampler::key`](crate::sampling::ParamSampler::key)) with the
 //! counter `[state index, run, block, stream]`: stream [`TAIL_STREAM`] for level 0 and
 //! `TAIL_STREAM + j` for the Markov steps of level `j`; blocks `0 … ⌈d/4⌉ − 1` give the normals
 //! (Box–Muller, as the parameter draws) and the next `⌈d/4⌉` blocks the uniforms of the
@@ -124,8 +128,8 @@ pub use result::{LevelSummary, SubsetRun, SubsetSettings, TailEstimate, TailOutc
 pub use subset::gamma;
 
 use super::result::Progress;
-use crate::engine::Evaluator;
-use crate::sampling::{ParamSampler, Philox};
+use crate::engine::{EngineError, Evaluator, Problem};
+use crate::sampling::Philox;
 use crude::crude_mc;
 use space::{Model, NormalSpace};
 use subset::subset_simulation;
@@ -145,9 +149,9 @@ pub const MAX_SAMPLES_PER_LEVEL: usize = 1 << 20;
 /// Largest accepted [`TailOptions::batch_size`].
 pub const MAX_BATCH: usize = 1 << 22;
 
-/// Estimates `Pr[w ≥ L]` for each threshold of `opts` on `eval`, whose problem's parameter
-/// distribution is `sampler` (use the sampler of the [`crate::engine::Problem`] the evaluator
-/// was built from: it gives the map `u ↦ L u` and the Philox key). See the module docs.
+/// Estimates `Pr[w ≥ L]` for each threshold of `opts` on `eval`, built for `problem` (whose
+/// distribution gives the map `u ↦ L u` and the Philox key; with an uncertain base placement
+/// the 39 inputs of the measurement frame, else the 33). See the module docs.
 ///
 /// # Errors
 ///
@@ -168,7 +172,6 @@ pub const MAX_BATCH: usize = 1 << 22;
 /// let model = gpu_amcs_core::kinematics::tx60();
 /// let points = gpu_amcs_core::points::generate(&model, 5, &Default::default(), 1)?;
 /// let problem = Problem::new(model, &points, &Reference::Calibrated, 2025)?;
-/// let sampler = problem.sampler.clone();
 /// let opts = TailOptions {
 ///     thresholds: vec![0.2],
 ///     target_cov: 0.5,
@@ -176,7 +179,7 @@ pub const MAX_BATCH: usize = 1 << 22;
 ///     max_evaluations: 20_000,
 ///     ..TailOptions::default()
 /// };
-/// let result = run_tail(&mut CpuEvaluator::new(problem), &sampler, &opts, None)?;
+/// let result = run_tail(&mut CpuEvaluator::new(problem.clone()), &problem, &opts, None)?;
 /// let e = &result.estimates[0];
 /// assert!(e.p_f > 1e-6 && e.p_f < 1e-2 && result.evaluations <= 20_000);
 /// println!("P_f = {:.2e} (cov {:?}, beta {:?})", e.p_f, e.cov, e.beta);
@@ -184,13 +187,21 @@ pub const MAX_BATCH: usize = 1 << 22;
 /// ```
 pub fn run_tail(
     eval: &mut dyn Evaluator,
-    sampler: &ParamSampler,
+    problem: &Problem,
     opts: &TailOptions,
     progress: Option<Progress>,
 ) -> Result<TailResult, TailError> {
     opts.check()?;
     let start = std::time::Instant::now();
-    let space = NormalSpace::new(sampler)?;
+    let space = NormalSpace::new(problem)?;
+    if space.width != eval.offset_width() {
+        return Err(TailError::Engine(EngineError::Placement(format!(
+            "the evaluator takes {} inputs per row and the problem draws {}: build both from the same problem",
+            eval.offset_width(),
+            space.width
+        ))));
+    }
+    let sampler = &problem.sampler;
     let backend = eval.info();
     let mut m = Model {
         eval,

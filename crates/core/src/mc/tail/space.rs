@@ -2,10 +2,10 @@
 //! evaluator with its generator and evaluation count ([`Model`]).
 
 use super::TailError;
-use crate::engine::Evaluator;
-use crate::kinematics::N_UNCERTAIN;
+use crate::engine::{Evaluator, PlacementSpread, Problem};
+use crate::kinematics::{N_UNCERTAIN, N_WITH_BASE};
 use crate::mc::result::Progress;
-use crate::sampling::{box_muller, uniform_open, ParamSampler, Philox};
+use crate::sampling::{box_muller, uniform_open, Philox};
 
 /// The map `u ↦ δ = L u` from the standard-normal space to parameter offsets.
 pub(super) struct NormalSpace {
@@ -14,23 +14,41 @@ pub(super) struct NormalSpace {
     /// Cholesky factor (`d²` entries).
     pub(super) factor: Vec<f64>,
     pub(super) diagonal: bool,
+    /// Entries of an offset row: [`N_UNCERTAIN`], or [`N_WITH_BASE`] when the placement is
+    /// drawn.
+    pub(super) width: usize,
 }
 
 impl NormalSpace {
-    pub(super) fn new(sampler: &ParamSampler) -> Result<Self, TailError> {
-        let space = if let Some((free, chol)) = sampler.cholesky() {
+    /// The space of `problem`'s inputs: its 33, or all 39 when its model's placement is
+    /// uncertain (the measurement frame, docs/METHOD.md §2.8).
+    pub(super) fn new(problem: &Problem) -> Result<Self, TailError> {
+        let space = if let Some(sp) = PlacementSpread::of(problem)? {
+            NormalSpace {
+                free: sp.free,
+                factor: sp.chol,
+                diagonal: false,
+                width: N_WITH_BASE,
+            }
+        } else if let Some((free, chol)) = problem.sampler.cholesky() {
             NormalSpace {
                 free: free.to_vec(),
                 factor: chol.to_vec(),
                 diagonal: false,
+                width: N_UNCERTAIN,
             }
         } else {
-            let s = sampler.sigmas().copied().unwrap_or([0.0; N_UNCERTAIN]);
+            let s = problem
+                .sampler
+                .sigmas()
+                .copied()
+                .unwrap_or([0.0; N_UNCERTAIN]);
             let free: Vec<usize> = (0..N_UNCERTAIN).filter(|&i| s[i] > 0.0).collect();
             NormalSpace {
                 factor: free.iter().map(|&i| s[i]).collect(),
                 free,
                 diagonal: true,
+                width: N_UNCERTAIN,
             }
         };
         if space.free.is_empty() {
@@ -43,7 +61,7 @@ impl NormalSpace {
         self.free.len()
     }
 
-    /// Writes the offsets of `u` (length d) into `out` (length `N_UNCERTAIN`).
+    /// Writes the offsets of `u` (length d) into `out` (length [`Self::width`](NormalSpace)).
     pub(super) fn offsets(&self, u: &[f64], out: &mut [f64]) {
         out.fill(0.0);
         let d = self.dim();
@@ -74,9 +92,10 @@ impl Model<'_> {
     pub(super) fn eval_u(&mut self, u: &[f64], w: &mut [f64]) -> Result<(), TailError> {
         let d = self.space.dim();
         let mut offsets = Vec::new();
+        let width = self.space.width;
         for (uc, wc) in u.chunks(self.batch * d).zip(w.chunks_mut(self.batch)) {
-            offsets.resize(wc.len() * N_UNCERTAIN, 0.0);
-            for (row, o) in uc.chunks(d).zip(offsets.chunks_mut(N_UNCERTAIN)) {
+            offsets.resize(wc.len() * width, 0.0);
+            for (row, o) in uc.chunks(d).zip(offsets.chunks_mut(width)) {
                 self.space.offsets(row, o);
             }
             self.eval.evaluate_offsets(&offsets, wc, None)?;
@@ -131,6 +150,7 @@ mod tests {
     use super::*;
     use crate::kinematics::{tx60, Uncertainty, N_PARAMS};
     use crate::sampling::normals_block;
+    use crate::sampling::ParamSampler;
 
     /// The map `u ↦ L u` reproduces the sampler's draw `k` from that draw's normals, for the
     /// σ list and for a full covariance with correlations.
@@ -147,7 +167,15 @@ mod tests {
         corr.uncertainty = Uncertainty::Covariance(c);
         for model in [tx60(), corr] {
             let sampler = ParamSampler::new(&model, 17).unwrap();
-            let space = NormalSpace::new(&sampler).unwrap();
+            let points = crate::points::generate(&model, 2, &Default::default(), 1).unwrap();
+            let problem = Problem::new(
+                model.clone(),
+                &points,
+                &crate::engine::Reference::Calibrated,
+                17,
+            )
+            .unwrap();
+            let space = NormalSpace::new(&problem).unwrap();
             let g = Philox { key: sampler.key() };
             for k in [0u64, 5, 1 << 33] {
                 let z: Vec<f64> = (0..9).flat_map(|b| normals_block(&g, k, b, 0)).collect();
