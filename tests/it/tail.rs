@@ -135,10 +135,22 @@ fn theta1_closed_form_down_to_1e_9() {
     );
 }
 
-/// Over 200 seeds (one run each), the spread of the estimates equals the mean reported
-/// coefficient of variation within a factor 1.5: the standard deviation of a sample standard
-/// deviation of 200 is about 5 % (more for the skewed subset estimator), far inside the factor.
-/// For both proposals, each with its own combination of the levels' δ_j.
+/// The band for (empirical coefficient of variation over the seeds) / (mean reported one): the
+/// reported figure may be somewhat wide but never clearly narrow. The sampling error of a
+/// standard deviation of 200 skewed estimates is near 7 %, so the band is about ±1.5 of it.
+const HONEST: std::ops::RangeInclusive<f64> = 0.85..=1.1;
+
+/// `(mean, empirical CoV against `exact`, ratio to the mean reported CoV)` of `est`.
+fn spread(est: &[f64], mean_reported: f64, exact: f64) -> (f64, f64, f64) {
+    let n = est.len() as f64;
+    let mean = est.iter().sum::<f64>() / n;
+    let sd = (est.iter().map(|p| (p - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
+    (mean, sd / exact, sd / exact / mean_reported)
+}
+
+/// Over 200 seeds (one run of `N` = 500 each), the spread of the estimates over the mean
+/// reported coefficient of variation lies in [`HONEST`], for both proposals, each with its own
+/// combination of the levels' δ_j ([`ChainProposal::combined_cov`]).
 #[test]
 fn reported_cov_is_honest() {
     for proposal in [
@@ -174,25 +186,62 @@ fn cov_is_honest(proposal: ChainProposal) {
     }
     for (i, &l) in ls.iter().enumerate() {
         let exact = theta1_exact(l, r_max);
-        let n = est[i].len() as f64;
-        let mean = est[i].iter().sum::<f64>() / n;
-        let sd = (est[i].iter().map(|p| (p - mean).powi(2)).sum::<f64>() / (n - 1.0)).sqrt();
-        let empirical = sd / exact;
-        let ratio = empirical / cov[i];
+        let (mean, empirical, ratio) = spread(&est[i], cov[i], exact);
         eprintln!(
-            "{proposal:?}, P_f {exact:.3e}: mean estimate {mean:.3e}, empirical cov {empirical:.3}, mean reported {:.3} (independent levels {:.3})",
+            "{proposal:?}, P_f {exact:.3e}: mean estimate {mean:.3e}, empirical cov {empirical:.3}, \
+             mean reported {:.3} (independent levels {:.3}), ratio {ratio:.3}",
             cov[i], cov_ind[i]
         );
         assert!(
-            (1.0 / 1.5..=1.5).contains(&ratio),
-            "{proposal:?}: ratio {ratio}"
+            HONEST.contains(&ratio),
+            "{proposal:?}, P_f {exact:.1e}: ratio {ratio}"
         );
         // The mean of 200 estimates is unbiased within 4 of its standard errors.
+        let n = est[i].len() as f64;
         assert!(
-            (mean - exact).abs() <= 4.0 * sd / n.sqrt(),
+            (mean - exact).abs() <= 4.0 * empirical * exact / n.sqrt(),
             "{mean} vs {exact}"
         );
     }
+}
+
+/// The default TX60 (20 normals) at 5 test points, adaptive conditional sampling: the threshold
+/// with `P_f` ≈ 1e-4 (the 20th largest of 2·10^5 draws of another seed), its truth from 10^7
+/// crude Monte Carlo draws (CoV about 0.04), then 1000 seeds of one run with `N` = 500 (2 s;
+/// 200 seeds alone gave 1.14, the spread of a few hundred of these skewed estimates is itself
+/// uncertain by 10 % or more): the ratio in [`HONEST`]. Here the chains forget their seeds more than on the θ1-only problem, and
+/// the reported figure follows (adjacent levels taken as fully correlated gave 0.72).
+#[test]
+fn reported_cov_is_honest_on_default_tx60() {
+    let pick = problem(tx60(), 5, 7);
+    let mut w = vec![0.0; 200_000];
+    CpuEvaluator::new(pick).evaluate(0, &mut w, None).unwrap();
+    w.sort_by(|a, b| b.total_cmp(a));
+    let l = w[19];
+    let mc_opts = TailOptions {
+        method: TailMethod::MonteCarlo,
+        ..subset(vec![l], 1000, 0.01, 10_000_000)
+    };
+    let exact = run_cpu(&problem(tx60(), 5, 9), &mc_opts).estimates[0].p_f;
+    let seeds = 1000;
+    let mut est = Vec::new();
+    let (mut cov, mut cov_ind) = (0.0, 0.0);
+    for seed in 0..seeds {
+        let pb = problem(tx60(), 5, 2000 + seed);
+        let res = run_cpu(&pb, &subset(vec![l], 500, 0.99, 5_000));
+        assert!(res.runs[0].complete);
+        let e = &res.estimates[0];
+        est.push(e.p_f);
+        cov += e.cov.unwrap() / seeds as f64;
+        cov_ind += e.cov_independent_levels.unwrap() / seeds as f64;
+    }
+    let (mean, empirical, ratio) = spread(&est, cov, exact);
+    eprintln!(
+        "default TX60, 5 points, P_f {exact:.3e} (crude MC): mean estimate {mean:.3e}, \
+         empirical cov {empirical:.3}, mean reported {cov:.3} (independent levels {cov_ind:.3}), \
+         ratio {ratio:.3}"
+    );
+    assert!(HONEST.contains(&ratio), "TX60: ratio {ratio}");
 }
 
 /// The default TX60 at `points` test points: a threshold with P_f ≈ 1e-4 (the 20th largest of

@@ -60,7 +60,7 @@ pub fn render_text(r: &TailResult) -> String {
             "subset simulation (modified Metropolis; CoV after Au & Beck, levels summed)"
         }
         (TailMethod::Subset, _) => {
-            "subset simulation (adaptive conditional sampling; CoV after Au & Beck, adjacent levels correlated)"
+            "subset simulation (adaptive conditional sampling; CoV after Au & Beck, levels correlated by the seed carry)"
         }
         (TailMethod::MonteCarlo, _) => "crude Monte Carlo",
     };

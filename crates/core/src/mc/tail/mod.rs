@@ -57,17 +57,19 @@
 //! estimates are uncorrelated, the upper `δ = Σ_j δ_j` when they are fully correlated.
 //! They are not uncorrelated: the seeds of level `j + 1` are level `j`'s largest states, and a
 //! chain that moves little keeps its seed's excess into the next quantile. How far that carries
-//! depends on the proposal, so [`ChainProposal::combined_cov`] combines the `δ_j` per proposal,
-//! and [`TailEstimate::cov_independent_levels`] always reports the lower bound. Measured over
-//! 200 seeds with `N = 500` (empirical coefficient of variation / reported):
+//! depends on the proposal and the problem, so [`ChainProposal::combined_cov`] combines the `δ_j`
+//! per proposal, and [`TailEstimate::cov_independent_levels`] always reports the lower bound.
+//! Measured with `N = 500` (empirical coefficient of variation / mean reported, ratio):
 //!
-//! * Modified Metropolis, fully correlated levels `Σ_j δ_j`: θ1-only TX60 (one normal, two
-//!   failure regions) 0.87 / 1.03 at `P_f = 1e-4` and 1.41 / 1.70 at 1e-6 (the lower bound
-//!   0.51 and 0.69 would understate it by 2×).
-//! * Adaptive conditional sampling, adjacent levels fully correlated and the others not,
-//!   `√(Σ δ_j² + 2 Σ δ_j δ_{j+1})`: θ1-only 0.46 / 0.65 at 1e-4 and 0.60 / 0.85 at 1e-6; the
-//!   default TX60 (20 normals) 0.52 / 0.67 at 7e-5 and 0.80 / 0.89 at 5e-7. The sum `Σ δ_j`
-//!   would overstate these by 1.2–1.5×, the lower bound understate the last by 1.5×.
+//! * Adaptive conditional sampling, levels `i < k` correlated by the product of the levels'
+//!   seed carries `c_m = (1 + Σ_τ ρ_m(τ))/N_s` in between (measured in the run): θ1-only TX60
+//!   (one normal, two failure regions) 0.50 / 0.48 (1.05) at `P_f = 1e-4` and 0.67 / 0.62
+//!   (1.07) at 1e-6 over 200 seeds; the default TX60 (20 normals, 5 points) 0.49 / 0.50 (0.98)
+//!   at 6e-5 over 1000 seeds. Adjacent levels taken as fully correlated gave 0.72–0.82, the
+//!   lower bound 1.17–1.36.
+//! * Modified Metropolis, fully correlated levels `Σ_j δ_j`: θ1-only 1.01 / 1.03 at 1e-4 and
+//!   1.71 / 1.70 at 1e-6 over 200 seeds (over 1000 seeds the heavy tail of its estimates at 1e-6
+//!   gives 2.75 / 1.70).
 //!
 //! **Bias and the target**: `P̂_f` is biased upward by about `δ²` of its own run, because the
 //! estimate divides by the random conditional probabilities of the levels (Jensen), so the bias

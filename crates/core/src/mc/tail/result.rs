@@ -64,6 +64,9 @@ pub struct LevelSummary {
     pub p: Option<f64>,
     /// `γ_j` of the indicator `1[w ≥ b_{j+1}]` (0 at level 0 and the final level).
     pub gamma: f64,
+    /// The seeds' share of the same indicator's chains (`(1 + Σ_τ ρ_j(τ)) / N_s`, see
+    /// [`ChainProposal::combined_cov`]; 0 at level 0 and the final level).
+    pub seed_carry: f64,
     /// Fraction of Markov steps that moved the chain (`None` for level 0).
     pub acceptance: Option<f64>,
     /// Adaptive conditional sampling: the scale `λ` at the level's first step (`None` for level

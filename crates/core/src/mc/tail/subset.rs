@@ -27,35 +27,60 @@ impl Level {
         }
     }
 
-    /// `#{w ≥ l}/N` and `γ` of the indicator `1[w ≥ l]` over the chains.
-    pub(super) fn fraction(&self, l: f64) -> (f64, f64) {
+    /// `#{w ≥ l}/N`, `γ` and the [`seed_carry`] of the indicator `1[w ≥ l]` over the chains.
+    pub(super) fn fraction(&self, l: f64) -> (f64, f64, f64) {
         let ind: Vec<bool> = self.w.iter().map(|&v| v >= l).collect();
         let n = ind.len();
         let p = ind.iter().filter(|&&b| b).count() as f64 / n as f64;
-        (p, gamma(&ind, self.chains))
+        (p, gamma(&ind, self.chains), seed_carry(&ind, self.chains))
     }
+}
+
+/// `ρ(τ)` for `τ = 1 … N_s − 1` of the indicator `ind` over `chains` chains of consecutive
+/// entries (Au & Beck 2001 eq. 28–29): `ρ(τ) = R(τ)/R(0)`,
+/// `R(τ) = 1/(N − τ N_c) Σ_k Σ_l I_{k,l} I_{k,l+τ} − p²`; empty for one state per chain, zeros
+/// when all or none of the entries are set.
+fn autocorrelation(ind: &[bool], chains: usize) -> Vec<f64> {
+    let n = ind.len();
+    let ns = n / chains;
+    let p = ind.iter().filter(|&&b| b).count() as f64 / n as f64;
+    let r0 = p * (1.0 - p);
+    (1..ns)
+        .map(|tau| {
+            if r0 <= 0.0 {
+                return 0.0;
+            }
+            let mut s = 0usize;
+            for c in ind.chunks(ns) {
+                s += c.iter().zip(&c[tau..]).filter(|(a, b)| **a && **b).count();
+            }
+            (s as f64 / (n - tau * chains) as f64 - p * p) / r0
+        })
+        .collect()
 }
 
 /// Au & Beck (2001) eq. 29: `γ = 2 Σ_{τ=1}^{N_s−1} (1 − τ N_c/N) ρ(τ)` for `chains` chains of
 /// consecutive entries of `ind`.
 pub fn gamma(ind: &[bool], chains: usize) -> f64 {
-    let n = ind.len();
-    let ns = n / chains;
-    let p = ind.iter().filter(|&&b| b).count() as f64 / n as f64;
-    let r0 = p * (1.0 - p);
-    if ns < 2 || r0 <= 0.0 {
+    let n = ind.len() as f64;
+    autocorrelation(ind, chains)
+        .iter()
+        .enumerate()
+        .map(|(i, r)| 2.0 * (1.0 - ((i + 1) * chains) as f64 / n) * r)
+        .sum()
+}
+
+/// How much of a Markov level's estimate its seeds carry over from the level before: the mean
+/// correlation of a chain's `N_s` states with its first state (the seed),
+/// `(1 + Σ_{τ=1}^{N_s−1} ρ(τ)) / N_s`, clamped to [0, 1]: 1 for chains that never move (the
+/// level repeats its seeds' indicator), `1/N_s` for chains that forget the seed after one step
+/// (only the seed itself is shared). Level 0 (one state per chain) has no seeds: 0.
+pub fn seed_carry(ind: &[bool], chains: usize) -> f64 {
+    let ns = ind.len() / chains;
+    if ns < 2 {
         return 0.0;
     }
-    let mut g = 0.0;
-    for tau in 1..ns {
-        let mut s = 0usize;
-        for c in ind.chunks(ns) {
-            s += c.iter().zip(&c[tau..]).filter(|(a, b)| **a && **b).count();
-        }
-        let r = s as f64 / (n - tau * chains) as f64 - p * p;
-        g += 2.0 * (1.0 - (tau * chains) as f64 / n as f64) * r / r0;
-    }
-    g
+    ((1.0 + autocorrelation(ind, chains).iter().sum::<f64>()) / ns as f64).clamp(0.0, 1.0)
 }
 
 /// One run of `n` samples per level, number `r`: levels until the `N_c`-th largest `w` reaches `l_max`, the cap, or
@@ -99,6 +124,7 @@ fn subset_run(
             next: None,
             p: None,
             gamma: 0.0,
+            seed_carry: 0.0,
             acceptance,
             scale: start_scale,
             evaluations: level_evals,
@@ -111,10 +137,11 @@ fn subset_run(
         // p_j = p0 exactly: the count #{w ≥ b} would include the repeats of a stuck chain at
         // the quantile and bias every level upward (measured: +20 % at P_f = 1e-6, N = 500).
         let p = nc as f64 / n as f64;
-        let (_, g) = level.fraction(b_next);
+        let (_, g, carry) = level.fraction(b_next);
         summary.next = Some(b_next);
         summary.p = Some(p);
         summary.gamma = g;
+        summary.seed_carry = carry;
         summaries.push(summary);
         let j = levels.len() + 1;
         if j >= MAX_LEVELS {
@@ -164,21 +191,24 @@ fn level_estimate(
     let delta = |p: f64, g: f64| ((1.0 - p) / (p * n as f64) * (1.0 + g)).sqrt();
     let mut p_f = 1.0;
     let mut deltas = Vec::with_capacity(j + 1);
+    let mut carries = Vec::with_capacity(j + 1);
     for s in &summaries[..j] {
         let p = s.p.unwrap_or(1.0);
         p_f *= p;
         deltas.push(delta(p, s.gamma));
+        carries.push(s.seed_carry);
     }
-    let (p, g) = levels[j].fraction(l);
+    let (p, g, carry) = levels[j].fraction(l);
     if p == 0.0 {
         return TailEstimate::new(l, 0.0, None, None);
     }
     deltas.push(delta(p, g));
+    carries.push(carry);
     let independent = deltas.iter().map(|d| d * d).sum::<f64>().sqrt();
     TailEstimate::new(
         l,
         p_f * p,
-        Some(proposal.combined_cov(&deltas)),
+        Some(proposal.combined_cov(&deltas, &carries)),
         Some(independent),
     )
 }
@@ -257,5 +287,28 @@ mod tests {
         assert!((gamma(&ind, 4) - expected).abs() < 1e-12);
         // All or none failing: no variance, γ = 0.
         assert_eq!(gamma(&[true; 20], 2), 0.0);
+    }
+
+    #[test]
+    fn seed_carry_from_stuck_to_forgetful_chains() {
+        // One state per chain (level 0): no seeds.
+        assert_eq!(seed_carry(&[true, false, true, false], 4), 0.0);
+        // Chains that never move carry their seed in full.
+        let ind: Vec<bool> = (0..5 * 10).map(|i| (i / 10) % 2 == 0).collect();
+        assert!((seed_carry(&ind, 5) - 1.0).abs() < 1e-12);
+        // Alternating states (p = ½, ρ(τ) = (−1)^τ, N_s = 4): 1 − 1 + 1 − 1 = 0, clamped at 0;
+        // N_s = 5 adds ρ(4) = 1: (1 − 1 + 1 − 1 + 1)/5.
+        let ind: Vec<bool> = (0..4 * 4).map(|i| i % 2 == 0).collect();
+        assert!(seed_carry(&ind, 4).abs() < 1e-12);
+        let ind: Vec<bool> = (0..4 * 5).map(|i| (i % 5) % 2 == 0).collect();
+        let p = 12.0 / 20.0;
+        let r0 = p * (1.0 - p);
+        // Per lag: the pairs (both set) over N − τ N_c, less p², over p(1 − p).
+        let rho: Vec<f64> = [(0.0, 16.0), (8.0, 12.0), (0.0, 8.0), (4.0, 4.0)]
+            .iter()
+            .map(|(s, m)| (s / m - p * p) / r0)
+            .collect();
+        let expected = ((1.0 + rho.iter().sum::<f64>()) / 5.0).clamp(0.0, 1.0);
+        assert!((seed_carry(&ind, 4) - expected).abs() < 1e-12);
     }
 }
