@@ -100,6 +100,10 @@ pub struct ModelArgs {
     /// Built-in model used when --model is not given.
     #[arg(long, default_value = "tx60", value_name = "NAME")]
     pub preset: String,
+    /// Tip link of a URDF given with --model (default: a link named tool0, else flange, else
+    /// the deepest leaf of the longest revolute chain; a note says which).
+    #[arg(long, value_name = "LINK")]
+    pub tip: Option<String>,
 }
 
 /// The workspace box of generated test points.
@@ -277,9 +281,44 @@ impl From<IntervalArg> for IntervalKind {
 }
 
 impl ModelArgs {
-    /// The model file, or the preset when none is given.
+    /// Where the model comes from: the file (a description imported with `--tip` when given),
+    /// or the preset.
+    pub fn source(&self) -> Result<ModelSource> {
+        match (&self.model, &self.tip) {
+            (_, None) => Ok(ModelSource::file_or_preset(
+                self.model.as_deref(),
+                &self.preset,
+            )),
+            (Some(p), Some(tip)) if gpu_amcs::spec::is_description(p) => {
+                Ok(ModelSource::Description {
+                    path: p.clone(),
+                    tip: tip.clone(),
+                })
+            }
+            (_, Some(_)) => bail!(
+                "--tip names the tip link of a robot description given with --model (.urdf, .xml)"
+            ),
+        }
+    }
+
+    /// The model file, or the preset when none is given; what an import chose (the tip link)
+    /// is printed as a note.
     pub fn load(&self) -> Result<RobotModel> {
-        load_model(self.model.as_deref(), &self.preset)
+        let source = self.source()?;
+        let (model, notes) = source
+            .load_noted()
+            .map_err(|e| spec_error(gpu_amcs::spec::SpecError::new(source.field(), e)))?;
+        print_model_notes(self.model.as_deref(), &notes);
+        Ok(model)
+    }
+}
+
+/// Prints what loading the model `file` chose on the user's behalf.
+fn print_model_notes(file: Option<&Path>, notes: &[String]) {
+    if let Some(f) = file {
+        for n in notes {
+            eprintln!("note: --model {}: {n}", f.display());
+        }
     }
 }
 
@@ -460,7 +499,7 @@ impl ProblemArgs {
             ))),
         };
         Ok(ProblemSpec {
-            model: ModelSource::file_or_preset(self.model.model.as_deref(), &self.model.preset),
+            model: self.model.source()?,
             points,
             reference,
             seed: self.seed,
@@ -504,6 +543,7 @@ impl ProblemArgs {
     pub fn build(&self) -> Result<Built> {
         self.check()?;
         let b = self.spec()?.build_problem().map_err(spec_error)?;
+        print_model_notes(self.model.model.as_deref(), &b.notes);
         Ok(Built {
             problem: b.problem,
             reference: b.reference,

@@ -44,6 +44,9 @@ impl Run for ImportArgs {
         })?;
         outputs.stage_file("--out", imported.to_toml())?;
         outputs.commit()?;
+        for n in &imported.notes {
+            eprintln!("note: {n}");
+        }
         for w in &imported.warnings {
             eprintln!("warning: {w}");
         }

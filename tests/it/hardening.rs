@@ -642,14 +642,21 @@ fn signals_while_reports_are_written_leave_nothing() {
 }
 
 /// The messages of issue "hardening round 2", each as the user meets it: a branching URDF on an
-/// analysis command says how to name the tip; overflowing inputs are refused, never reported as
+/// analysis command takes tool0 and says so; overflowing inputs are refused, never reported as
 /// "inf mm"; huge numbers print as people write them; a free-orientation map that reaches
 /// nothing does not advise freeing the orientation; a map of one draw is refused.
 #[test]
 fn messages_say_what_to_do_and_print_numbers_as_written() {
     let urdf = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/irb2400.urdf");
-    let o = run(&with_cpu(&["mcs", "--model", urdf]));
-    assert_fails_naming(&o, "gpu-amcs import FILE --tip LINK", "branching URDF");
+    // ROS-Industrial's tree (tool0 and base below base_link): the tip is tool0, and a note says
+    // so.
+    let o = run(&with_cpu(&["mcs", "--model", urdf, "--draws", "2000"]));
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("tip link 'tool0' (named tool0)"),
+        "{}",
+        stderr(&o)
+    );
     let d = tmpdir("messages");
     std::fs::write(
         d.join("m.csv"),

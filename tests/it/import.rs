@@ -524,15 +524,16 @@ fn irb2400_urdf() -> String {
 fn urdf_irb2400_matches_its_source_and_the_preset() {
     let dir = tmpdir("irb");
     let path = write(&dir, "irb2400.urdf", &irb2400_urdf());
-    // Two leaves (tool0 and base): the tip must be named.
-    let e = import(&path).unwrap_err();
-    assert!(matches!(e, ImportError::Branching { .. }), "{e}");
-    assert!(e.to_string().contains("base, tool0"), "{e}");
+    // Two leaves (tool0 and base): without a tip, the link named tool0, and a note says so.
+    let auto = import(&path).unwrap();
+    assert_eq!(auto.notes, ["tip link 'tool0' (named tool0)"]);
     let opts = ImportOptions {
         tip: Some("tool0".into()),
         ..Default::default()
     };
     let imp = import::import_file(&path, &opts).unwrap();
+    assert!(imp.notes.is_empty());
+    assert_eq!(auto.model, imp.model);
     assert_eq!(imp.model.name, "abb_irb2400");
     let joints: Vec<_> = presets::IRB2400_URDF
         .iter()
@@ -748,9 +749,13 @@ fn the_refusals_name_the_element() {
             vec!["7 revolute joints", "j7"],
         ),
         (
+            // Two links hang off the last one: which is the tip cannot be told.
             "branch.urdf",
-            extra_joint("cam_joint", "fixed", "l3", "cam"),
-            vec!["branches", "cam, l6", "name the tip link"],
+            simple_urdf(concat!(
+                "  <link name=\"cam\"/>\n  <joint name=\"cam_joint\" type=\"fixed\"><parent link=\"l6\"/><child link=\"cam\"/></joint>\n",
+                "  <link name=\"light\"/>\n  <joint name=\"light_joint\" type=\"fixed\"><parent link=\"l6\"/><child link=\"light\"/></joint>\n",
+            )),
+            vec!["branches", "cam, light", "name the tip link"],
         ),
         (
             "finger.urdf",
@@ -988,11 +993,16 @@ fn cli_import_export_and_model_list() {
     let dir = tmpdir("cli");
     let urdf = write(&dir, "irb.urdf", &irb2400_urdf());
     let out = dir.join("irb.toml");
+    // ROS-Industrial's tree: tool0 is the tip unless another is named, and a note says so.
     let o = run(&["import", s(&urdf), "--out", s(&out)]);
-    assert_eq!(o.status.code(), Some(2));
+    assert_eq!(o.status.code(), Some(0));
     let err = String::from_utf8_lossy(&o.stderr);
-    assert!(err.contains("--tip"), "{err}");
-    assert!(!out.exists());
+    assert!(
+        err.contains("note: tip link 'tool0' (named tool0)"),
+        "{err}"
+    );
+    let auto = std::fs::read_to_string(&out).unwrap();
+    std::fs::remove_file(&out).unwrap();
     let said = ok(&run(&[
         "import",
         s(&urdf),
@@ -1004,6 +1014,7 @@ fn cli_import_export_and_model_list() {
     assert!(said.contains("max deviation"), "{said}");
     let toml = std::fs::read_to_string(&out).unwrap();
     assert!(toml.starts_with("# Imported by gpu-amcs"), "{toml}");
+    assert_eq!(auto, toml);
     // The input is never overwritten.
     let o = run(&["import", s(&urdf), "--out", s(&urdf), "--tip", "tool0"]);
     assert_eq!(o.status.code(), Some(2));
@@ -1181,5 +1192,152 @@ fn ambiguous_urdf_elements_are_refused() {
     assert!(
         e.contains("found none: the joints form a cycle") && !e.ends_with(':'),
         "{e}"
+    );
+}
+
+/// A URDF with the tip not named: a link named `tool0` first, then one named `flange`, then the
+/// single deepest leaf of the longest revolute chain (a sensor hanging off link 2 is not the
+/// arm); two such leaves are ambiguous and refused naming every leaf.
+#[test]
+fn default_tip_prefers_tool0_then_flange_then_the_longest_chain() {
+    let dir = tmpdir("tips");
+    // A six-joint arm from base_link to link_6 (all axes along z or y, offsets in metres).
+    let arm = |extra: &str| -> String {
+        let mut s = String::from("<robot name=\"arm\">\n  <link name=\"base_link\"/>\n");
+        let axes = ["0 0 1", "0 1 0", "0 1 0", "1 0 0", "0 1 0", "1 0 0"];
+        let xyz = [
+            "0 0 0.3",
+            "0.05 0 0.1",
+            "0 0 0.4",
+            "0.1 0 0.05",
+            "0.3 0 0",
+            "0.08 0 0",
+        ];
+        for j in 0..6 {
+            let parent = if j == 0 {
+                "base_link".to_string()
+            } else {
+                format!("link_{j}")
+            };
+            s.push_str(&format!(
+                "  <link name=\"link_{}\"/>\n  <joint name=\"j{}\" type=\"revolute\">\n    \
+                 <parent link=\"{parent}\"/>\n    <child link=\"link_{}\"/>\n    \
+                 <origin xyz=\"{}\" rpy=\"0 0 0\"/>\n    <axis xyz=\"{}\"/>\n    \
+                 <limit lower=\"-3\" upper=\"3\" effort=\"1\" velocity=\"1\"/>\n  </joint>\n",
+                j + 1,
+                j + 1,
+                j + 1,
+                xyz[j],
+                axes[j]
+            ));
+        }
+        s.push_str(extra);
+        s.push_str("</robot>\n");
+        s
+    };
+    let fixed = |parent: &str, child: &str| {
+        format!(
+            "  <link name=\"{child}\"/>\n  <joint name=\"{parent}-{child}\" type=\"fixed\">\n    \
+             <parent link=\"{parent}\"/>\n    <child link=\"{child}\"/>\n    \
+             <origin xyz=\"0 0 0.01\" rpy=\"0 0 0\"/>\n  </joint>\n"
+        )
+    };
+    let sensor = fixed("link_2", "camera");
+    let cases = [
+        (
+            format!(
+                "{}{}{sensor}",
+                fixed("link_6", "flange"),
+                fixed("flange", "tool0")
+            ),
+            "tip link 'tool0' (named tool0)",
+        ),
+        (
+            format!("{}{sensor}", fixed("link_6", "flange")),
+            "tip link 'flange' (named flange)",
+        ),
+        (
+            format!("{}{sensor}", fixed("link_6", "gripper")),
+            "tip link 'gripper' (the deepest leaf of the longest revolute chain)",
+        ),
+        (
+            String::new(),
+            "tip link 'link_6' (the single leaf below the base)",
+        ),
+    ];
+    for (k, (extra, note)) in cases.iter().enumerate() {
+        let path = write(&dir, &format!("t{k}.urdf"), &arm(extra));
+        let imp = import(&path).unwrap();
+        assert_eq!(imp.notes, [note.to_string()], "case {k}");
+    }
+    // Two grippers at the end of the arm: ambiguous.
+    let two = format!("{}{}", fixed("link_6", "left"), fixed("link_6", "right"));
+    let path = write(&dir, "two.urdf", &arm(&two));
+    let e = import(&path).unwrap_err();
+    assert!(matches!(e, ImportError::Branching { .. }), "{e}");
+    assert!(e.to_string().contains("left, right"), "{e}");
+    // On an analysis command: the note, and --tip to choose another link; an ambiguous tree
+    // says to name one.
+    let path = write(&dir, "flange.urdf", &arm(&fixed("link_6", "flange")));
+    let q = write(&dir, "q.csv", "q1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n");
+    let q = q.display().to_string();
+    let o = run(&[
+        "fk",
+        "--model",
+        &path.display().to_string(),
+        "--points-file",
+        &q,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("tip link 'flange' (the single leaf below the base)"),
+        "{}",
+        stderr(&o)
+    );
+    let o = run(&[
+        "fk",
+        "--model",
+        &path.display().to_string(),
+        "--tip",
+        "link_6",
+        "--points-file",
+        &q,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("note"), "{}", stderr(&o));
+    let two = write(
+        &dir,
+        "two2.urdf",
+        &arm(&format!(
+            "{}{}",
+            fixed("link_6", "left"),
+            fixed("link_6", "right")
+        )),
+    );
+    let o = run(&[
+        "mcs",
+        "--backend",
+        "cpu",
+        "--model",
+        &two.display().to_string(),
+        "--draws",
+        "1000",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(stderr(&o).contains("--tip LINK"), "{}", stderr(&o));
+    let o = run(&[
+        "mcs",
+        "--backend",
+        "cpu",
+        "--tip",
+        "tool0",
+        "--draws",
+        "1000",
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("--tip names the tip link"),
+        "{}",
+        stderr(&o)
     );
 }

@@ -213,6 +213,7 @@ fn urdf_preset(name: &str, figures: &[UrdfJointFigures; JOINTS]) -> RobotModel {
         format: SourceFormat::Urdf,
         joints,
         tip: Isometry3::identity(),
+        note: None,
     })
 }
 

@@ -27,11 +27,10 @@ pub fn spec_flag(field: SpecField) -> &'static str {
 pub fn spec_error(e: SpecError) -> anyhow::Error {
     use gpu_amcs::import::ImportError;
     use gpu_amcs::spec::SpecErrorKind;
-    // A branching URDF: the analysis commands take no tip link, so say how to name one.
+    // A branching URDF whose tip could not be chosen: say how to name one.
     if let SpecErrorKind::Import(ImportError::Branching { .. }) = &e.kind {
         return anyhow::anyhow!(
-            "{}: {}: convert it once with `gpu-amcs import FILE --tip LINK --out robot.toml` and \
-             give the model file",
+            "{}: {}: name the tip link with --tip LINK",
             spec_flag(e.field),
             e.kind
         );

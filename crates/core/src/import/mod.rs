@@ -101,6 +101,9 @@ pub struct SourceChain {
     pub joints: Vec<SourceJoint>,
     /// Fixed transform from the last joint's frame (after its rotation) to the tip.
     pub tip: Isometry3<f64>,
+    /// What the reader chose that the user did not say (the tip link of a URDF given without
+    /// one), for the user to see.
+    pub note: Option<String>,
 }
 
 impl SourceChain {
@@ -226,6 +229,8 @@ pub struct Imported {
     pub configurations: usize,
     /// What looks wrong but converts (a reach that suggests the wrong units), one line each.
     pub warnings: Vec<String>,
+    /// What the reader chose on the user's behalf (the tip link), one line each.
+    pub notes: Vec<String>,
 }
 
 /// Reach below which an imported arm is suspected of lengths in the wrong unit, mm.
@@ -363,6 +368,7 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         max_deviation_mm,
         configurations,
         warnings,
+        notes: chain.note.iter().cloned().collect(),
     })
 }
 

@@ -186,5 +186,6 @@ pub fn parse(text: &str, path: &str, name: &str) -> Result<SourceChain, ImportEr
         format: SourceFormat::UrCalibration,
         joints,
         tip: Isometry3::identity(),
+        note: None,
     })
 }

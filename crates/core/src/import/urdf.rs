@@ -180,6 +180,7 @@ pub fn parse(
             }
         }
     };
+    let mut tip_note = None;
     let tip = match tip {
         Some(t) => {
             if !links.iter().any(|l| l == t) {
@@ -191,30 +192,17 @@ pub fn parse(
             t.to_string()
         }
         None => {
-            // Leaves below the base.
-            let mut leaves = Vec::new();
-            let mut stack = vec![base.clone()];
-            while let Some(l) = stack.pop() {
-                let kids: Vec<String> = joints
-                    .iter()
-                    .filter(|j| j.parent == l)
-                    .map(|j| j.child.clone())
-                    .collect();
-                if kids.is_empty() {
-                    leaves.push(l);
-                } else {
-                    stack.extend(kids);
-                }
-            }
-            if leaves.len() != 1 {
+            let (t, why) = default_tip(&joints, &base).ok_or_else(|| {
+                let mut leaves = leaves_below(&joints, &base);
                 leaves.sort();
-                return Err(ImportError::Branching {
+                ImportError::Branching {
                     path: path.into(),
-                    base,
+                    base: base.clone(),
                     leaves,
-                });
-            }
-            leaves.remove(0)
+                }
+            })?;
+            tip_note = Some(format!("tip link '{t}' ({why})"));
+            t
         }
     };
     // Walk up from the tip.
@@ -313,7 +301,70 @@ pub fn parse(
         format: SourceFormat::Urdf,
         joints: out,
         tip: pending,
+        note: tip_note,
     })
+}
+
+/// The leaf links below `base`.
+fn leaves_below(joints: &[JointEl], base: &str) -> Vec<String> {
+    let mut leaves = Vec::new();
+    let mut stack = vec![base.to_string()];
+    while let Some(l) = stack.pop() {
+        let kids: Vec<String> = joints
+            .iter()
+            .filter(|j| j.parent == l)
+            .map(|j| j.child.clone())
+            .collect();
+        if kids.is_empty() {
+            leaves.push(l);
+        } else {
+            stack.extend(kids);
+        }
+    }
+    leaves
+}
+
+/// The tip when none is named, and why: the single leaf below `base`; else a link named
+/// `tool0` (ROS-Industrial's tool flange), then one named `flange`, below the base; else the
+/// single deepest leaf among those with the most revolute joints on their path from the base
+/// (the arm, not a sensor or a `base` frame hanging off the base link). `None` when the choice
+/// is ambiguous.
+fn default_tip(joints: &[JointEl], base: &str) -> Option<(String, &'static str)> {
+    let leaves = leaves_below(joints, base);
+    if leaves.len() == 1 {
+        return Some((leaves[0].clone(), "the single leaf below the base"));
+    }
+    // Every link below the base with (revolute joints, links) on its path from the base.
+    let mut below: Vec<(String, usize, usize)> = Vec::new();
+    let mut stack = vec![(base.to_string(), 0usize, 0usize)];
+    while let Some((l, rev, depth)) = stack.pop() {
+        for j in joints.iter().filter(|j| j.parent == l) {
+            let r = rev + usize::from(j.kind == "revolute" || j.kind == "continuous");
+            below.push((j.child.clone(), r, depth + 1));
+            stack.push((j.child.clone(), r, depth + 1));
+        }
+    }
+    for (name, why) in [("tool0", "named tool0"), ("flange", "named flange")] {
+        if below.iter().any(|(l, _, _)| l == name) {
+            return Some((name.to_string(), why));
+        }
+    }
+    let score = |l: &String| {
+        below
+            .iter()
+            .find(|(b, _, _)| b == l)
+            .map_or((0, 0), |&(_, r, d)| (r, d))
+    };
+    let best = leaves.iter().map(score).max()?;
+    let mut top = leaves.iter().filter(|l| score(l) == best);
+    let first = top.next()?;
+    if top.next().is_some() {
+        return None;
+    }
+    Some((
+        first.clone(),
+        "the deepest leaf of the longest revolute chain",
+    ))
 }
 
 fn xacro(path: &str, text: &str) -> ImportError {

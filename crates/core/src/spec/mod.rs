@@ -51,6 +51,13 @@ pub enum ModelSource {
     /// extension (URDF `.urdf`/`.xml`/`.xacro`, DH table `.csv`, UR calibration `.yaml`/`.yml`),
     /// with the same proof as [`import::import_file`]. A `.toml` is always a model file.
     File(PathBuf),
+    /// A robot description imported with its tip link named (a URDF whose tree branches).
+    Description {
+        /// The description file.
+        path: PathBuf,
+        /// The tip link.
+        tip: String,
+    },
     /// A model in memory; serialized as its model-file text ([`RobotModel::to_toml`]).
     #[serde(rename = "toml", with = "model_toml")]
     Model(Box<RobotModel>),
@@ -102,13 +109,31 @@ impl ModelSource {
     /// [`SpecErrorKind::Model`] for an unknown preset or a model file that cannot be read or is
     /// invalid, [`SpecErrorKind::Import`] for a robot description that cannot be imported.
     pub fn load(&self) -> Result<RobotModel, SpecErrorKind> {
+        self.load_noted().map(|(m, _)| m)
+    }
+
+    /// [`Self::load`], with what an import chose on the user's behalf (the tip link of a URDF
+    /// given without one), one line each.
+    ///
+    /// # Errors
+    /// As [`Self::load`].
+    pub fn load_noted(&self) -> Result<(RobotModel, Vec<String>), SpecErrorKind> {
+        let imported = |p: &Path, opts: &ImportOptions| -> Result<_, SpecErrorKind> {
+            let i = import::import_file(p, opts)?;
+            Ok((i.model, i.notes))
+        };
         Ok(match self {
-            ModelSource::Preset(name) => preset(name)?,
-            ModelSource::File(p) if is_description(p) => {
-                import::import_file(p, &ImportOptions::default())?.model
-            }
-            ModelSource::File(p) => RobotModel::from_file(p)?,
-            ModelSource::Model(m) => (**m).clone(),
+            ModelSource::Preset(name) => (preset(name)?, Vec::new()),
+            ModelSource::File(p) if is_description(p) => imported(p, &ImportOptions::default())?,
+            ModelSource::File(p) => (RobotModel::from_file(p)?, Vec::new()),
+            ModelSource::Description { path, tip } => imported(
+                path,
+                &ImportOptions {
+                    tip: Some(tip.clone()),
+                    ..ImportOptions::default()
+                },
+            )?,
+            ModelSource::Model(m) => ((**m).clone(), Vec::new()),
         })
     }
 
@@ -225,6 +250,8 @@ pub struct BuiltProblem {
     pub problem: Problem,
     /// `"calibrated model"` or `"nominal model (NAME)"` ([`Reference::label`]).
     pub reference: String,
+    /// What loading the model chose on the user's behalf (the tip link of a description).
+    pub notes: Vec<String>,
 }
 
 /// A spec built: the problem, its reference label, and the evaluator for it.
@@ -361,8 +388,16 @@ impl ProblemSpec {
     /// # Errors
     /// Those of [`ModelSource::load`], naming [`SpecField::Preset`] or [`SpecField::Model`].
     pub fn load_model(&self) -> Result<RobotModel, SpecError> {
+        self.load_model_noted().map(|(m, _)| m)
+    }
+
+    /// [`Self::load_model`] with the notes of [`ModelSource::load_noted`].
+    ///
+    /// # Errors
+    /// As [`Self::load_model`].
+    pub fn load_model_noted(&self) -> Result<(RobotModel, Vec<String>), SpecError> {
         self.model
-            .load()
+            .load_noted()
             .map_err(|kind| SpecError::new(self.model.field(), kind))
     }
 
@@ -451,7 +486,7 @@ impl ProblemSpec {
     /// name the model.
     pub fn build_problem(&self) -> Result<BuiltProblem, SpecError> {
         self.check()?;
-        let model = self.load_model()?;
+        let (model, notes) = self.load_model_noted()?;
         let pts = self.load_points(&model)?;
         let reference = self.load_reference()?;
         let label = reference.label(&model);
@@ -474,6 +509,7 @@ impl ProblemSpec {
         Ok(BuiltProblem {
             problem,
             reference: label,
+            notes,
         })
     }
 
