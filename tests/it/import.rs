@@ -947,6 +947,16 @@ fn export_import_round_trip() {
     for m in [presets::ur5e(), presets::ur10e(), kinematics::tx60()] {
         let yaml = export::to_ur_calibration(&m).unwrap();
         assert!(yaml.contains("does not fit here"));
+        // The `hash` key the ROS 2 UR description requires: a digest of the kinematics lines,
+        // so another geometry gives another hash.
+        let hash = yaml
+            .lines()
+            .find_map(|l| l.strip_prefix("  hash: calib_gpu_amcs_"))
+            .unwrap();
+        assert_eq!(hash.len(), 16);
+        let mut moved = m.clone();
+        moved.params[1] += 0.5;
+        assert!(!export::to_ur_calibration(&moved).unwrap().contains(hash));
         let dev = round_trip_dev(&m, &yaml, "m.yaml");
         assert!(dev < 1e-9, "{}: UR round trip {dev}", m.name);
     }

@@ -166,8 +166,12 @@ pub fn to_urdf(model: &RobotModel, name: Option<&str>) -> String {
 /// The model as a UR calibration file (`kinematics:` with x, y, z, roll, pitch, yaw per joint,
 /// metres and radians). The chain ends at the flange on the joint-6 axis, so the tool point must
 /// lie on that axis; its distance along the axis goes into `wrist_3`'s origin (a shift along a
-/// joint's axis commutes with its rotation). The `hash` key (the controller's checksum of its
-/// calibration) is not written: it cannot be computed from the geometry.
+/// joint's axis commutes with its rotation). The `hash` key, which the ROS 2 UR description
+/// requires, is the controller's checksum of its own calibration and cannot be computed from
+/// the geometry; the file carries `calib_gpu_amcs_` and the first 16 hex digits of the SHA-256
+/// of its kinematics lines instead, so it loads and names its content (the driver's comparison
+/// with the controller's checksum then reports a mismatch, as it should for a file the
+/// controller did not write).
 ///
 /// # Errors
 ///
@@ -202,15 +206,19 @@ pub fn to_ur_calibration(model: &RobotModel) -> Result<String, ExportError> {
     );
     let _ = writeln!(
         s,
-        "# (TOML) is the full record. No 'hash': it is the controller's checksum of its calibration."
+        "# (TOML) is the full record. 'hash' is not the controller's checksum: a digest of these lines."
     );
-    let _ = writeln!(s, "kinematics:");
+    let mut body = String::new();
     for (j, t) in o.iter().enumerate() {
         let (x, r) = xyz_rpy_of(t);
-        let _ = writeln!(s, "  {}:", UR_JOINTS[j]);
+        let _ = writeln!(body, "  {}:", UR_JOINTS[j]);
         for (k, v) in x.iter().chain(r.iter()).enumerate() {
-            let _ = writeln!(s, "    {}: {}", UR_KEYS[k], num(*v));
+            let _ = writeln!(body, "    {}: {}", UR_KEYS[k], num(*v));
         }
     }
+    let digest = crate::digest::sha256_hex(body.as_bytes());
+    let _ = writeln!(s, "kinematics:");
+    s.push_str(&body);
+    let _ = writeln!(s, "  hash: calib_gpu_amcs_{}", &digest[..16]);
     Ok(s)
 }
