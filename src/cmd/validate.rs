@@ -29,6 +29,17 @@ pub struct ValidateArgs {
     /// else base.
     #[arg(long, value_enum, value_name = "FRAME")]
     pub frame: Option<ValidateFrame>,
+    /// ISO 9283: the rows are cycles at test poses (rows sharing one commanded configuration are
+    /// one pose); report each pose's accuracy AP and repeatability RP = l̄ + 3 S_l.
+    #[arg(long)]
+    pub iso9283: bool,
+    /// With --iso9283: the certificate Pr[AP ≤ MM] at each pose and at all of them, from the
+    /// model's uncertainty.
+    #[arg(long, value_name = "MM", requires = "iso9283")]
+    pub spec: Option<f64>,
+    /// Draws of the certificate's Monte Carlo run.
+    #[arg(long, default_value_t = 100_000, value_name = "N", requires = "spec")]
+    pub draws: u64,
 }
 
 /// The frame of the measurements.
@@ -59,6 +70,9 @@ impl Run for ValidateArgs {
                 .and_then(|t| identify::provenance_frame(&t))
                 .unwrap_or(identify::Placement::Known),
         };
+        if a.iso9283 {
+            return iso9283(&a, &model, &m, frame);
+        }
         let v =
             identify::validate_in(&model, &m, nominal.as_ref(), frame).map_err(|e| match e {
                 // The library names the line; the file is named here.
@@ -78,4 +92,29 @@ impl Run for ValidateArgs {
         crate::cmd::stdout::print(&text)?;
         Ok(())
     }
+}
+
+/// `validate --iso9283`: the ISO 9283 figures of the measured cycles and, with `--spec`, the
+/// certificate at their poses.
+fn iso9283(
+    a: &ValidateArgs,
+    model: &RobotModel,
+    m: &[gpu_amcs::identify::validate::Measurement],
+    frame: gpu_amcs::identify::Placement,
+) -> Result<()> {
+    use gpu_amcs::iso9283;
+    let figures =
+        iso9283::pose_figures(model, m, frame).with_context(|| a.measured.display().to_string())?;
+    let mut text = iso9283::render(&figures);
+    if let Some(spec) = a.spec {
+        if !(spec.is_finite() && spec > 0.0) {
+            anyhow::bail!("--spec: {spec} is not a length > 0 (mm)");
+        }
+        let poses: Vec<_> = figures.iter().map(|f| f.q_deg).collect();
+        let c =
+            iso9283::certificate(model, &poses, spec, frame, a.draws, 2025).context("--spec")?;
+        text.push_str(&iso9283::render_certificate(&c));
+    }
+    crate::cmd::stdout::print(&text)?;
+    Ok(())
 }

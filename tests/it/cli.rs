@@ -602,3 +602,100 @@ fn descriptions_and_presets_work_where_model_files_do() {
     // The UR5e's own box (from its reach), not the TX60's.
     assert!(md.contains("[1500.0, 2000.0, 1350.0] mm box"), "{md}");
 }
+
+/// `validate --iso9283`: 30 cycles at each of five poses, attained = command + a known offset per
+/// pose + a circle of radius 0.015 mm: each pose's AP is its offset's length and RP is 0.015
+/// (every cycle is 0.015 from the barycentre, S_l = 0); `--spec` adds the certificate, whose
+/// probability at every pose is at least the all-poses one; a pose with one cycle is refused
+/// naming it and its line.
+#[test]
+fn validate_iso9283_reports_ap_rp_and_the_certificate() {
+    use gpu_amcs::kinematics::{position, tx60};
+    let d = tmpdir("iso9283");
+    let model = arg(&d, "m.toml");
+    std::fs::write(&model, stdout(&run(&["model"]))).unwrap();
+    let m = tx60();
+    let poses = [
+        [0.0, 0.0, 90.0, 0.0, 0.0, 0.0],
+        [20.0, 10.0, 80.0, 10.0, 20.0, 0.0],
+        [-20.0, 10.0, 80.0, -10.0, 20.0, 0.0],
+        [20.0, -10.0, 100.0, 10.0, -20.0, 0.0],
+        [-20.0, -10.0, 100.0, -10.0, -20.0, 0.0],
+    ];
+    let offsets = [
+        [0.01, 0.0, 0.0],
+        [0.0, 0.02, 0.0],
+        [0.0, 0.0, -0.03],
+        [0.03, 0.04, 0.0],
+        [0.0, 0.0, 0.0],
+    ];
+    let mut csv = String::from("q1,q2,q3,q4,q5,q6,x,y,z\n");
+    for i in 0..30 {
+        let t = i as f64 * std::f64::consts::TAU / 30.0;
+        for (q, o) in poses.iter().zip(&offsets) {
+            let c = position(&m.params, &m.tool, &q.map(f64::to_radians));
+            let p = [
+                c[0] + o[0] + 0.015 * t.cos(),
+                c[1] + o[1],
+                c[2] + o[2] + 0.015 * t.sin(),
+            ];
+            let qs: Vec<String> = q.iter().map(|v| v.to_string()).collect();
+            csv.push_str(&format!(
+                "{},{:.9},{:.9},{:.9}\n",
+                qs.join(","),
+                p[0],
+                p[1],
+                p[2]
+            ));
+        }
+    }
+    let cycles = arg(&d, "cycles.csv");
+    std::fs::write(&cycles, &csv).unwrap();
+    let o = run(&[
+        "validate",
+        "--model",
+        &model,
+        &cycles,
+        "--iso9283",
+        "--spec",
+        "0.05",
+        "--draws",
+        "20000",
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = stdout(&o);
+    let rows: Vec<Vec<f64>> = out
+        .lines()
+        .filter(|l| l.trim_start().starts_with('P') && l.split_whitespace().count() == 9)
+        .map(|l| {
+            l.split_whitespace()
+                .skip(1)
+                .map(|v| v.parse().unwrap())
+                .collect()
+        })
+        .collect();
+    assert_eq!(rows.len(), 5, "{out}");
+    for (r, o) in rows.iter().zip(&offsets) {
+        let ap = (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]).sqrt();
+        assert_eq!(r[0], 30.0);
+        assert!((r[1] - ap).abs() < 1e-4, "AP {} vs {ap}: {out}", r[1]);
+        assert!((r[7] - 0.015).abs() < 1e-4, "RP {}: {out}", r[7]);
+    }
+    let cert: Vec<f64> = out
+        .lines()
+        .skip_while(|l| !l.starts_with("certificate"))
+        .skip(1)
+        .map(|l| l.split_whitespace().nth(1).unwrap().parse().unwrap())
+        .collect();
+    assert_eq!(cert.len(), 6, "{out}");
+    assert!(cert[..5].iter().all(|&p| p >= cert[5] && p <= 1.0), "{out}");
+    // One cycle at a sixth pose: refused, naming it.
+    std::fs::write(&cycles, format!("{csv}1,2,3,4,5,6,0,0,0\n")).unwrap();
+    let o = run(&["validate", "--model", &model, &cycles, "--iso9283"]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("pose 6 (first at line 152) has 1 cycle"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -41,6 +41,7 @@ pub mod engine;
 pub mod identify;
 pub mod import;
 pub mod input;
+pub mod iso9283;
 pub mod kinematics;
 pub mod map;
 pub mod mc;
