@@ -2,6 +2,9 @@
 //! package and a support package with a macro file and a top file), compared with the same
 //! robot written out by hand as URDF; block parameters, if/unless, args, package look-up, and the
 //! refusals (one line naming the file and the line, exit 2, nothing written).
+//!
+//! Over 600 lines: the fake packages and their hand-expanded URDF are the fixtures every test
+//! here shares.
 
 use super::{import, write};
 use crate::common::{arg, fails_leaving_nothing, run, stderr, tmpdir};

@@ -16,6 +16,9 @@
 //! DTD refusal, includes nest at most [`MAX_INCLUDE_DEPTH`] deep and never in a cycle, macro
 //! calls nest at most [`MAX_MACRO_DEPTH`] deep, and the expansion stops with an error past
 //! [`MAX_OUTPUT_BYTES`] of output or [`MAX_STEPS`] steps of work.
+//!
+//! Over 600 lines: the directives share one scope stack, one set of limits and one error
+//! location; the expression language lives apart in [`expr`].
 
 pub mod expr;
 
