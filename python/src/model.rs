@@ -225,18 +225,28 @@ impl PyModel {
         })
     }
 
-    /// Imports a robot description (URDF; also a DH table .csv/.toml or a UR calibration
-    /// .yaml, chosen by extension) as `gpu-amcs import` does, with the proof that the model
-    /// reproduces it. `base`/`tip` pick the URDF chain. The model has zero uncertainty.
+    /// Imports a robot description (URDF or xacro; also a DH table .csv/.toml or a UR
+    /// calibration .yaml, chosen by extension) as `gpu-amcs import` does, with the proof that
+    /// the model reproduces it. `base`/`tip` pick the URDF chain. For a .xacro file,
+    /// `packages` maps package names to directories for `$(find NAME)` and `xacro_args` sets
+    /// `$(arg NAME)` values. The model has zero uncertainty.
     #[staticmethod]
-    #[pyo3(signature = (path, base = None, tip = None, name = None))]
+    #[pyo3(signature = (path, base = None, tip = None, name = None, packages = None, xacro_args = None))]
     fn from_urdf(
         path: PathBuf,
         base: Option<String>,
         tip: Option<String>,
         name: Option<String>,
+        packages: Option<std::collections::BTreeMap<String, PathBuf>>,
+        xacro_args: Option<std::collections::BTreeMap<String, String>>,
     ) -> PyResult<Self> {
-        let opts = gpu_amcs_core::import::ImportOptions { base, tip, name };
+        let opts = gpu_amcs_core::import::ImportOptions {
+            base,
+            tip,
+            name,
+            packages: packages.unwrap_or_default(),
+            xacro_args: xacro_args.unwrap_or_default(),
+        };
         let imported = gpu_amcs_core::import::import_file(&path, &opts).map_err(lib_error)?;
         Ok(PyModel {
             model: imported.model,

@@ -65,6 +65,37 @@ def test_from_urdf_reproduces_the_preset():
         gpu_amcs.Model.from_urdf(REPO / "nothing.urdf")
 
 
+def test_from_urdf_expands_xacro(tmp_path):
+    # The irb2400 URDF as a xacro file that includes a file of another package (found through
+    # packages=) and takes an arg (set through xacro_args=): the same model as the URDF.
+    urdf = REPO / "tests" / "data" / "irb2400.urdf"
+    text = urdf.read_text()
+    ns = 'xmlns:xacro="http://www.ros.org/wiki/xacro"'
+    parts = tmp_path / "elsewhere"
+    parts.mkdir()
+    (parts / "parts.xacro").write_text(
+        f'<robot {ns}><xacro:property name="extra" value="camera"/></robot>\n'
+    )
+    head, rest = text.split("<robot ", 1)
+    body = rest.split(">", 1)
+    xacro = (
+        head + "<robot " + ns + " " + body[0] + ">\n"
+        '<xacro:include filename="$(find parts)/parts.xacro"/>\n'
+        '<xacro:arg name="suffix" default="_x"/>\n'
+        '<material name="${extra}$(arg suffix)"/>\n' + body[1]
+    )
+    (tmp_path / "robot.xacro").write_text(xacro)
+    with pytest.raises(ValueError, match="package 'parts' not found"):
+        gpu_amcs.Model.from_urdf(tmp_path / "robot.xacro", tip="tool0")
+    m = gpu_amcs.Model.from_urdf(
+        tmp_path / "robot.xacro",
+        tip="tool0",
+        packages={"parts": str(parts)},
+        xacro_args={"suffix": "_y"},
+    )
+    np.testing.assert_array_equal(m.params, gpu_amcs.Model.from_urdf(urdf, tip="tool0").params)
+
+
 def test_from_urdf_applies_the_model_rules(tmp_path):
     # Limits of ±100 rad on joint_3: the model every other call would refuse is refused at
     # import, naming the URDF's joint.

@@ -1,4 +1,4 @@
-//! `import`: a URDF, DH table or UR calibration file to a model file, with the conversion proved.
+//! `import`: a URDF (or xacro), DH table or UR calibration file to a model file, with the conversion proved.
 
 use super::outputs::Outputs;
 use super::Run;
@@ -10,8 +10,8 @@ use std::path::PathBuf;
 /// `import` options.
 #[derive(Args, Debug, Clone)]
 pub struct ImportArgs {
-    /// Robot description: .urdf/.xml (URDF), .csv/.toml (standard or modified DH table),
-    /// .yaml/.yml (UR calibration).
+    /// Robot description: .urdf/.xml (URDF), .xacro (expanded here, no ROS needed),
+    /// .csv/.toml (standard or modified DH table), .yaml/.yml (UR calibration).
     #[arg(value_name = "FILE")]
     pub source: PathBuf,
     /// Model file to write (TOML).
@@ -26,6 +26,45 @@ pub struct ImportArgs {
     /// Model name (default: the robot's name in the file, else the file name).
     #[arg(long, value_name = "NAME")]
     pub name: Option<String>,
+    /// xacro: the directory of package NAME for `$(find NAME)` (repeatable; without it a
+    /// package is looked for upwards from the including file).
+    #[arg(long = "package", value_name = "NAME=DIR", value_parser = package_pair)]
+    pub packages: Vec<(String, PathBuf)>,
+    /// xacro: set `$(arg NAME)` to VALUE, overriding the file's default (repeatable).
+    #[arg(long = "xacro-arg", value_name = "NAME:=VALUE", value_parser = xacro_arg_pair)]
+    pub xacro_args: Vec<(String, String)>,
+}
+
+/// `NAME=DIR`.
+fn package_pair(s: &str) -> Result<(String, PathBuf), String> {
+    match s.split_once('=') {
+        Some((n, d)) if !n.trim().is_empty() && !d.is_empty() => {
+            Ok((n.trim().to_string(), PathBuf::from(d)))
+        }
+        _ => Err(format!("expected NAME=DIR, got '{s}'")),
+    }
+}
+
+/// `NAME:=VALUE`.
+fn xacro_arg_pair(s: &str) -> Result<(String, String), String> {
+    match s.split_once(":=") {
+        Some((n, v)) if !n.trim().is_empty() => Ok((n.trim().to_string(), v.to_string())),
+        _ => Err(format!("expected NAME:=VALUE, got '{s}'")),
+    }
+}
+
+/// The pairs as a map; a name given twice is an error naming `flag`.
+fn unique<V: Clone>(
+    pairs: &[(String, V)],
+    flag: &str,
+) -> Result<std::collections::BTreeMap<String, V>> {
+    let mut m = std::collections::BTreeMap::new();
+    for (k, v) in pairs {
+        if m.insert(k.clone(), v.clone()).is_some() {
+            anyhow::bail!("{flag} {k} is given twice");
+        }
+    }
+    Ok(m)
 }
 
 impl Run for ImportArgs {
@@ -37,6 +76,8 @@ impl Run for ImportArgs {
             base: a.base.clone(),
             tip: a.tip.clone(),
             name: a.name.clone(),
+            packages: unique(&a.packages, "--package")?,
+            xacro_args: unique(&a.xacro_args, "--xacro-arg")?,
         };
         let imported = import_file(&a.source, &opts).map_err(|e| match e {
             ImportError::Branching { .. } => anyhow::anyhow!("{e} (--tip LINK)"),

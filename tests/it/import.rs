@@ -8,6 +8,8 @@
 
 use crate::common;
 
+mod xacro;
+
 use common::{arg, bin, run, stderr, tmpdir};
 use gpu_amcs::import::{self, export, ImportError, ImportOptions, SourceFormat};
 use gpu_amcs::kinematics::{self, position, RobotModel, JOINTS};
@@ -737,7 +739,6 @@ fn the_refusals_name_the_element() {
             "<robot xmlns:xacro=\"http://www.ros.org/wiki/xacro\" name=\"r\">\n<xacro:macro name=\"m\"/>\n</robot>\n".into(),
             vec!["xacro", "run xacro first", ":2"],
         ),
-        ("y.xacro", base.clone(), vec!["run xacro first"]),
         (
             "five.urdf",
             with_joint(&base, "j6", revolute, "type=\"fixed\""),

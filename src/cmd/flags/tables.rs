@@ -283,9 +283,23 @@ pub const CHAIN_OPTIONS: Table = Table {
     ],
 };
 
+/// `import::ImportOptions` in `import`.
+pub const IMPORT_OPTIONS: Table = Table {
+    name: "import::ImportOptions",
+    commands: &["import"],
+    fields: &[
+        ("base", Flags(&["--base"])),
+        ("tip", Flags(&["--tip"])),
+        ("name", Flags(&["--name"])),
+        ("packages", Flags(&["--package"])),
+        ("xacro_args", Flags(&["--xacro-arg"])),
+    ],
+};
+
 /// Every table.
 #[cfg_attr(not(test), allow(dead_code))]
 pub const TABLES: &[&Table] = &[
+    &IMPORT_OPTIONS,
     &IDENTIFY_OPTIONS,
     &CHAIN_OPTIONS,
     &RUN_SETTINGS,

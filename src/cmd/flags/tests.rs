@@ -69,6 +69,7 @@ fn same_fields(t: &Table, fields: &[&str]) {
 #[test]
 fn every_field_of_every_options_struct_has_an_entry() {
     use gpu_amcs::identify::{ChainOptions, IdentifyOptions};
+    use gpu_amcs::import::ImportOptions;
     use gpu_amcs::map::MapSpec;
     use gpu_amcs::mc::sensitivity::SensitivityOptions;
     use gpu_amcs::mc::tail::TailOptions;
@@ -169,6 +170,14 @@ fn every_field_of_every_options_struct_has_an_entry() {
         seed
     });
     same_fields(&CHAIN_OPTIONS, &chain);
+    let import = fields!(ImportOptions {
+        base,
+        tip,
+        name,
+        packages,
+        xacro_args
+    });
+    same_fields(&IMPORT_OPTIONS, &import);
     // The serialised forms agree where the structs are serialisable (a field renamed for
     // serde would be named by its serde key in the documentation).
     let keys =

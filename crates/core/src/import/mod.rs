@@ -30,6 +30,7 @@ pub mod dh;
 pub mod export;
 pub mod ur;
 pub mod urdf;
+pub mod xacro;
 
 use crate::kinematics::lines::Line;
 use crate::kinematics::mdh::{chain_from_zero_pose, GeometryError};
@@ -140,16 +141,15 @@ pub enum ImportError {
         /// What is wrong.
         message: String,
     },
-    /// The file is an unexpanded xacro macro file.
-    #[error(
-        "{path}:{line}: unexpanded xacro ({what}); run xacro first and import the URDF it writes"
-    )]
+    /// A xacro construct that is not supported or does not expand (see [`xacro`]), or xacro
+    /// left in a `.urdf` file.
+    #[error("{path}:{line}: xacro: {what}")]
     Xacro {
-        /// The path given.
+        /// The file (the one given, or the included file the construct is in).
         path: String,
-        /// 1-based line of the first xacro construct.
+        /// 1-based line of the construct.
         line: usize,
-        /// The construct found.
+        /// The construct and what is wrong with it.
         what: String,
     },
     /// An element or field is wrong or not supported; the message names it.
@@ -489,6 +489,8 @@ pub fn prove(
 pub enum FileKind {
     /// `.urdf`, `.xml`.
     Urdf,
+    /// `.xacro`: expanded ([`xacro::expand_file`]) to URDF.
+    Xacro,
     /// `.csv`, `.toml`: a DH table (standard or modified, as the file states).
     DhTable,
     /// `.yaml`, `.yml`: a UR calibration file.
@@ -504,13 +506,18 @@ pub struct ImportOptions {
     pub tip: Option<String>,
     /// Model name (default: the file's robot name, else the file stem).
     pub name: Option<String>,
+    /// xacro: package name → its directory, for `$(find NAME)` (before the search upwards
+    /// from the including file).
+    pub packages: std::collections::BTreeMap<String, std::path::PathBuf>,
+    /// xacro: `$(arg NAME)` values that override the file's `<xacro:arg>` defaults.
+    pub xacro_args: std::collections::BTreeMap<String, String>,
 }
 
-/// The reader for `path` by its extension; `.xacro` is refused (run xacro first).
+/// The reader for `path` by its extension.
 ///
 /// # Errors
 ///
-/// [`ImportError::Xacro`] for a `.xacro` file and [`ImportError::Chain`] for an unknown extension.
+/// [`ImportError::Chain`] for an unknown extension.
 pub fn kind_of(path: &std::path::Path) -> Result<FileKind, ImportError> {
     let ext = path
         .extension()
@@ -521,14 +528,10 @@ pub fn kind_of(path: &std::path::Path) -> Result<FileKind, ImportError> {
         "urdf" | "xml" => Ok(FileKind::Urdf),
         "csv" | "toml" => Ok(FileKind::DhTable),
         "yaml" | "yml" => Ok(FileKind::UrCalibration),
-        "xacro" => Err(ImportError::Xacro {
-            path: path.display().to_string(),
-            line: 1,
-            what: "a .xacro file".into(),
-        }),
+        "xacro" => Ok(FileKind::Xacro),
         _ => Err(ImportError::Chain {
             path: path.display().to_string(),
-            message: "unknown file type: expected .urdf/.xml (URDF), .csv/.toml (DH table) or .yaml/.yml (UR calibration)".into(),
+            message: "unknown file type: expected .urdf/.xml (URDF), .xacro (xacro), .csv/.toml (DH table) or .yaml/.yml (UR calibration)".into(),
         }),
     }
 }
@@ -544,6 +547,15 @@ pub fn kind_of(path: &std::path::Path) -> Result<FileKind, ImportError> {
 pub fn import_file(path: &std::path::Path, opts: &ImportOptions) -> Result<Imported, ImportError> {
     let kind = kind_of(path)?;
     let p = path.display().to_string();
+    if kind == FileKind::Xacro {
+        let e = xacro::expand_file(path, &opts.packages, &opts.xacro_args)?;
+        let mut chain = urdf::parse(&e.text, &p, opts.base.as_deref(), opts.tip.as_deref())
+            .map_err(|err| relocate(err, &e))?;
+        if let Some(n) = &opts.name {
+            chain.name = n.clone();
+        }
+        return convert(&chain, &p);
+    }
     let text = crate::input::read_text(
         path,
         crate::input::DESCRIPTION_FILE_LIMIT,
@@ -567,11 +579,51 @@ pub fn import_file(path: &std::path::Path, opts: &ImportOptions) -> Result<Impor
             }
         }
         FileKind::UrCalibration => ur::parse(&text, &p, &stem)?,
+        FileKind::Xacro => unreachable!("expanded above"),
     };
     if let Some(n) = &opts.name {
         chain.name = n.clone();
     }
     convert(&chain, &p)
+}
+
+/// A URDF reader's error on expanded xacro text, naming the source file and line the offending
+/// output line came from instead of the expansion's line.
+fn relocate(err: ImportError, e: &xacro::Expanded) -> ImportError {
+    let at = |line: usize| e.origins.get(line.wrapping_sub(1)).cloned();
+    match err {
+        ImportError::Element {
+            path,
+            line,
+            element,
+            message,
+        } => {
+            let (path, line) = at(line).unwrap_or((path, line));
+            ImportError::Element {
+                path,
+                line,
+                element,
+                message,
+            }
+        }
+        ImportError::Syntax {
+            path,
+            line,
+            message,
+        } => {
+            let (path, line) = at(line).unwrap_or((path, line));
+            ImportError::Syntax {
+                path,
+                line,
+                message,
+            }
+        }
+        ImportError::Xacro { path, line, what } => {
+            let (path, line) = at(line).unwrap_or((path, line));
+            ImportError::Xacro { path, line, what }
+        }
+        other => other,
+    }
 }
 
 /// `Trans(xyz)·Rz(yaw)·Ry(pitch)·Rx(roll)`: the URDF `<origin>` and UR calibration transform.

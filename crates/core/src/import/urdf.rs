@@ -67,15 +67,17 @@ pub fn parse(
             return Err(ImportError::Xacro {
                 path: path.into(),
                 line: line_of(&n),
-                what: if n
-                    .tag_name()
-                    .namespace()
-                    .is_some_and(|ns| ns.contains("xacro"))
-                {
-                    format!("<xacro:{}>", n.tag_name().name())
-                } else {
-                    "a ${...} expression".into()
-                },
+                what: format!(
+                    "unexpanded {} in a URDF file; {UNEXPANDED}",
+                    if n.tag_name()
+                        .namespace()
+                        .is_some_and(|ns| ns.contains("xacro"))
+                    {
+                        format!("<xacro:{}>", n.tag_name().name())
+                    } else {
+                        "${...} expression".into()
+                    }
+                ),
             });
         }
     }
@@ -367,6 +369,10 @@ fn default_tip(joints: &[JointEl], base: &str) -> Option<(String, &'static str)>
     ))
 }
 
+/// The advice for xacro found in a URDF file.
+const UNEXPANDED: &str =
+    "import the .xacro file itself to have it expanded, or run xacro first and import the URDF it writes";
+
 fn xacro(path: &str, text: &str) -> ImportError {
     let line = text
         .lines()
@@ -375,7 +381,7 @@ fn xacro(path: &str, text: &str) -> ImportError {
     ImportError::Xacro {
         path: path.into(),
         line,
-        what: "xacro namespace or macro".into(),
+        what: format!("unexpanded xacro namespace or macro in a URDF file; {UNEXPANDED}"),
     }
 }
 
