@@ -50,8 +50,9 @@ pub const PROOF_CONFIGURATIONS: usize = 1000;
 pub const PROOF_TOLERANCE_MM: f64 = 1e-9;
 /// Seed of the proof's configurations (fixed: an import is reproducible).
 pub const PROOF_SEED: u64 = 0x1d_2024;
-/// Tolerance of the base check on joint 1: tilt of its axis from base z (radians) and offset of
-/// the axis from the base origin (mm). Well below what would move a 2 m arm by 1e-9 mm.
+/// Rounding tolerances of joint 1's axis: a tilt from z (radians) and an offset from the origin
+/// (mm) within them is not turned or moved into the base frame, and the check after the move
+/// allows them. Well below what would move a 2 m arm by 1e-9 mm.
 const BASE_TILT_EPS: f64 = 1e-13;
 const BASE_OFFSET_EPS_MM: f64 = 1e-10;
 
@@ -438,8 +439,10 @@ fn base_frame(axis: &Line) -> (bool, Option<UnitQuaternion<f64>>, Vector3<f64>) 
     } else {
         d
     };
-    // d_flipped.z > −1/√2: the smallest rotation from z is well defined (at most 135°).
-    let turn = (d_flipped.x != 0.0 || d_flipped.y != 0.0)
+    // d_flipped.z > −1/√2: the smallest rotation from z is well defined (at most 135°). A tilt
+    // within rounding (which the model took as base z before any placement was accepted) is
+    // not turned, so those imports stay exactly as they were.
+    let turn = (d_flipped.x.hypot(d_flipped.y) > BASE_TILT_EPS)
         .then(|| UnitQuaternion::rotation_between(&Vector3::z(), &d_flipped))
         .flatten();
     let along = axis.point.dot(&d);
