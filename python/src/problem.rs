@@ -61,7 +61,9 @@ pub struct ProblemKw<'py> {
 
 /// The reference from the keywords `reference` and `nominal`; without `nominal`, a nominal
 /// reference is the preset `default_preset` gives (the one asked for, else the one the model
-/// came from), else [`DEFAULT_PRESET`]. The flag: whether the nominal model is that preset.
+/// came from), else the library's choice ([`ReferenceSource::Nominal`]`(None)`: the preset the
+/// analysed model's name says it is, or an error naming `nominal`). The flag: whether the
+/// nominal model is that preset.
 pub fn reference_source(
     kind: &str,
     nominal: Option<&PyModel>,
@@ -76,13 +78,15 @@ pub fn reference_source(
             ReferenceSource::Nominal(Some(ModelSource::Model(Box::new(n.model.clone())))),
             false,
         )),
-        ("nominal", None) => {
-            let name = default_preset().unwrap_or_else(|| DEFAULT_PRESET.to_string());
-            Ok((
+        ("nominal", None) => Ok(match default_preset() {
+            Some(name) => (
                 ReferenceSource::Nominal(Some(ModelSource::Preset(name))),
                 true,
-            ))
-        }
+            ),
+            // The library takes the preset the model is (by its name) or refuses, naming the
+            // nominal field: another robot's geometry would be a wrong reference.
+            None => (ReferenceSource::Nominal(None), false),
+        }),
         (other, _) => Err(value_error(format!(
             "reference: unknown reference '{other}' (expected \"calibrated\" or \"nominal\")"
         ))),

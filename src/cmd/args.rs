@@ -193,7 +193,8 @@ pub struct ProblemArgs {
     /// Reference positions the errors are measured from.
     #[arg(long, value_enum, default_value_t = ReferenceArg::Calibrated)]
     pub reference: ReferenceArg,
-    /// Nominal model for --reference nominal (default: the preset).
+    /// Nominal model for --reference nominal (default: the preset the model is; a model that is
+    /// no preset needs it).
     #[arg(long, value_name = "FILE")]
     pub nominal: Option<PathBuf>,
     /// Frame of the targets: `measurement` draws a model's uncertain base placement too (a
@@ -492,11 +493,13 @@ impl ProblemArgs {
         };
         let reference = match self.reference {
             ReferenceArg::Calibrated => ReferenceSource::Calibrated,
-            // Without --nominal: the preset (--preset, default tx60).
-            ReferenceArg::Nominal => ReferenceSource::Nominal(Some(ModelSource::file_or_preset(
-                self.nominal.as_deref(),
-                &self.model.preset,
-            ))),
+            // Without --nominal: the preset the model is (--preset, or a model file by its
+            // name), else the library refuses (naming --nominal).
+            ReferenceArg::Nominal => ReferenceSource::Nominal(
+                self.nominal
+                    .as_deref()
+                    .map(|p| ModelSource::File(p.to_path_buf())),
+            ),
         };
         Ok(ProblemSpec {
             model: self.model.source()?,

@@ -699,3 +699,99 @@ fn validate_iso9283_reports_ap_rp_and_the_certificate() {
         stderr(&o)
     );
 }
+
+/// A box the user gives is in the world frame (the frame `fk` reports in), also for a robot
+/// whose base transform turns its MDH chain upside down (the KR 6, base Rx(180°)): points in a
+/// box in front of and above its shoulder are found, from the preset and from its model file,
+/// and `fk` puts every one inside the box.
+#[test]
+fn box_of_a_base_turned_robot_is_in_the_world_frame() {
+    let d = tmpdir("pts-kr6");
+    let model = d.join("kr6.toml");
+    let o = run(&["model", "--preset", "kr6r700sixx"]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    std::fs::write(&model, &o.stdout).unwrap();
+    let m = gpu_amcs::presets::kr6r700sixx();
+    for source in [
+        ["--preset", "kr6r700sixx"],
+        ["--model", model.to_str().unwrap()],
+    ] {
+        let f = d.join("p.csv");
+        let mut args = vec![
+            "points",
+            "5",
+            "--box-center",
+            "400,0,600",
+            "--box-size",
+            "300,300,300",
+            "--out",
+            f.to_str().unwrap(),
+        ];
+        args.extend(source);
+        let o = run(&args);
+        assert!(o.status.success(), "{source:?}: {}", common::stderr(&o));
+        let text = std::fs::read_to_string(&f).unwrap();
+        assert_eq!(text.lines().count(), 6);
+        let mut fk_args = vec!["fk", "--points-file", f.to_str().unwrap()];
+        fk_args.extend(source);
+        let o = run(&fk_args);
+        assert!(o.status.success(), "{}", common::stderr(&o));
+        let out = String::from_utf8_lossy(&o.stdout).into_owned();
+        for line in out.lines().skip(1) {
+            let v: Vec<f64> = line.split(',').map(|x| x.trim().parse().unwrap()).collect();
+            let p = [v[6], v[7], v[8]];
+            let c = [400.0, 0.0, 600.0];
+            assert!((0..3).all(|k| (p[k] - c[k]).abs() <= 150.0), "{line}");
+            let w = m.world_position(&std::array::from_fn(|j| v[j].to_radians()));
+            assert!((0..3).all(|k| (w[k] - p[k]).abs() < 1e-6), "{line}");
+        }
+    }
+}
+
+/// `--reference nominal` needs the same robot's design geometry: a model file of an imported
+/// robot (no preset's name) is refused in one line naming `--nominal`; with `--nominal` it runs,
+/// and a model file the preset printed (the KR 6) takes that preset.
+#[test]
+fn nominal_reference_of_an_imported_model_needs_its_nominal() {
+    let d = tmpdir("nominal-import");
+    let model = d.join("arm.toml");
+    let o = run(&["model", "--preset", "ur5e"]);
+    let text = String::from_utf8(o.stdout)
+        .unwrap()
+        .replace("Universal Robots UR5e", "my imported arm");
+    assert!(text.contains("my imported arm"));
+    std::fs::write(&model, text).unwrap();
+    let m = model.to_str().unwrap();
+    let base = [
+        "mcs",
+        "--draws",
+        "2000",
+        "--points",
+        "3",
+        "--backend",
+        "cpu",
+        "-q",
+    ];
+    let mut args = base.to_vec();
+    args.extend(["--model", m, "--reference", "nominal"]);
+    let o = run(&args);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(
+        e.contains("'my imported arm'")
+            && e.contains("has no nominal model")
+            && e.contains("--nominal FILE")
+            && e.trim().lines().count() == 1,
+        "{e}"
+    );
+    let mut args = base.to_vec();
+    args.extend(["--model", m, "--reference", "nominal", "--nominal", m]);
+    let o = run(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let kr6 = d.join("kr6.toml");
+    std::fs::write(&kr6, run(&["model", "--preset", "kr6r700sixx"]).stdout).unwrap();
+    let mut args = base.to_vec();
+    args.extend(["--model", kr6.to_str().unwrap(), "--reference", "nominal"]);
+    let o = run(&args);
+    assert!(o.status.success(), "{}", stderr(&o));
+}

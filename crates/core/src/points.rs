@@ -3,13 +3,16 @@
 //! Generated sets are seeded: configurations uniform within the joint limits, kept when the tool
 //! point lies in the workspace box (docs/METHOD.md §5). The default box is the robot's own
 //! ([`WorkspaceBox::for_robot`]): the paper's 900 × 1200 × 800 mm box centred at (250, 0, 200) mm
-//! for the TX60, scaled with the arm's reach for any other robot. Sets can also be read from and
-//! written to CSV (`q1..q6` in degrees, one configuration per row).
+//! for the TX60, scaled with the arm's reach for any other robot. The box, like every position
+//! given or reported, is in the description's (world) frame, after a model's base transform.
+//! Sets can also be read from and written to CSV (`q1..q6` in degrees, one configuration per
+//! row).
 
 use crate::kinematics::{param_index, position_deg, ParamKind, RobotModel, JOINTS};
 use rand::{Rng, SeedableRng};
 
-/// An axis-aligned box in the base frame, mm.
+/// An axis-aligned box in the description's (world) frame, mm: the frame `fk` reports in, after
+/// the model's base transform ([`RobotModel::world_position`]).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct WorkspaceBox {
     /// Centre (x, y, z).
@@ -58,19 +61,34 @@ impl WorkspaceBox {
     /// placed in x by the same ratio and in z at the same scaled depth below the shoulder
     /// (`d1`), rounded to 50 mm. For the TX60 it is the paper's box; for a larger arm it grows
     /// with the reach, so the generated points spread over the same share of the reachable
-    /// shell.
+    /// shell. The box is in the world frame: for a model with a base transform the centre's
+    /// offset is turned with the base and the depth is counted down the world's z.
     pub fn for_robot(model: &RobotModel) -> WorkspaceBox {
         let s = reach_mm(model) / TX60_REACH_MM;
         let round = |v: f64| (v / BOX_GRID_MM).round() * BOX_GRID_MM + 0.0;
         let shoulder = model.params[param_index(0, ParamKind::D)];
         let (c, size) = PAPER_BOX;
+        let depth = (TX60_SHOULDER_MM - c[2]) * s;
+        let size = size.map(|v| v * s);
+        // In the world frame: the centre's horizontal offset is the arm's (base frame, at the
+        // shoulder's height), then it goes `depth` down the world's z, so that a base turned
+        // upside down (the KR 6's half turn about x) still gets its box below the shoulder; the
+        // size is the world-aligned box around the turned one (the same for turns by multiples
+        // of 90°).
+        let (center, size) = match &model.base {
+            None => ([c[0] * s, c[1] * s, shoulder - depth], size),
+            Some(b) => {
+                let mut center = b.apply([c[0] * s, c[1] * s, shoulder]);
+                center[2] -= depth;
+                let r = b.isometry().rotation.to_rotation_matrix();
+                let size: [f64; 3] =
+                    std::array::from_fn(|i| (0..3).map(|j| r[(i, j)].abs() * size[j]).sum::<f64>());
+                (center, size)
+            }
+        };
         WorkspaceBox {
-            center: [
-                round(c[0] * s),
-                round(c[1] * s),
-                round(shoulder - (TX60_SHOULDER_MM - c[2]) * s),
-            ],
-            size: size.map(|v| round(v * s)),
+            center: center.map(round),
+            size: size.map(round),
         }
     }
 
@@ -120,7 +138,7 @@ pub enum PointsError {
 }
 
 /// `n` seeded configurations (degrees) uniform within the model's joint limits whose tool point
-/// lies in `bx`.
+/// (world frame, after the model's base transform) lies in `bx`.
 ///
 /// # Errors
 ///
@@ -148,6 +166,8 @@ pub fn generate(
         )));
     }
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    // The box is in the world frame: the tool point goes through the base transform.
+    let base = model.base.as_ref().map(|b| b.isometry());
     let max_tries = 2_000_000u64.max(20_000 * n as u64);
     let mut out = Vec::with_capacity(n);
     let mut tries = 0;
@@ -164,7 +184,15 @@ pub fn generate(
             let (lo, hi) = model.limits_deg[j];
             rng.random_range(lo..=hi)
         });
-        if bx.contains(&position_deg(&model.params, &model.tool, &q)) {
+        let p = position_deg(&model.params, &model.tool, &q);
+        let p = match &base {
+            None => p,
+            Some(t) => {
+                let v = t * nalgebra::Point3::from(p);
+                [v.x, v.y, v.z]
+            }
+        };
+        if bx.contains(&p) {
             out.push(q);
         }
     }

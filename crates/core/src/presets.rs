@@ -236,6 +236,21 @@ pub fn preset(name: &str) -> Result<RobotModel, ModelError> {
     }
 }
 
+/// The preset a model named `model_name` came from, if any: the preset whose model has that
+/// name (a model file the preset printed), or whose name followed by a space begins it (the
+/// models identified or calibrated from a nominal model are named "NOMINAL (identified from
+/// …)", "NOMINAL calibrated (…)").
+pub fn preset_named(model_name: &str) -> Option<&'static str> {
+    PRESETS.iter().copied().find(|p| {
+        preset(p).is_ok_and(|m| {
+            model_name == m.name
+                || model_name
+                    .strip_prefix(m.name.as_str())
+                    .is_some_and(|rest| rest.starts_with(' '))
+        })
+    })
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -35,6 +35,12 @@ pub fn spec_error(e: SpecError) -> anyhow::Error {
             e.kind
         );
     }
+    if let SpecErrorKind::NoNominal { model } = &e.kind {
+        return anyhow::anyhow!(
+            "--reference nominal: the model '{model}' is not a preset and has no nominal model: \
+             give --nominal FILE"
+        );
+    }
     anyhow::Error::new(e.kind).context(spec_flag(e.field))
 }
 

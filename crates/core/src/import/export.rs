@@ -65,8 +65,7 @@ pub fn origins(model: &RobotModel) -> ([Isometry3<f64>; JOINTS], Isometry3<f64>)
 /// `(xyz in metres, rpy)` of a transform in mm, as URDF and UR files write it.
 fn xyz_rpy_of(t: &Isometry3<f64>) -> ([f64; 3], [f64; 3]) {
     let v = t.translation.vector / 1000.0;
-    let (r, p, y) = t.rotation.euler_angles();
-    ([v.x, v.y, v.z], [r, p, y])
+    ([v.x, v.y, v.z], crate::kinematics::rpy_of(&t.rotation))
 }
 
 fn num(v: f64) -> String {

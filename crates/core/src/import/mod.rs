@@ -13,14 +13,18 @@
 //!    [`PROOF_CONFIGURATIONS`] random configurations within the limits; a maximum deviation above
 //!    [`PROOF_TOLERANCE_MM`] fails the import.
 //!
-//! What the MDH form cannot hold is an error naming the joint, never an approximation: the
-//! model's first axis is the base z axis through the base origin, pointing up (there are no
-//! parameters before `Rz(θ_1 + q_1)`), and two consecutive axes cannot coincide. A first axis
-//! along base −z through the origin (ROS-Industrial's KUKA arms) is held by the model's base
-//! transform ([`crate::kinematics::BaseTransform`]): the chain is expressed in the base frame
-//! turned half a turn about x, and the model keeps `base = Rx(180°)`, which forward kinematics,
-//! export and the proof apply (errors and `w` are invariant to it). A tilted or offset first
-//! axis is refused naming the joint (choose the arm's own base link). Source q = 0 is
+//! What the MDH form cannot hold is an error naming the joint, never an approximation: two
+//! consecutive axes cannot coincide. The model's first axis is its base z axis through its base
+//! origin, pointing up (there are no parameters before `Rz(θ_1 + q_1)`), so the first axis of
+//! the description, wherever it lies (a wall or ceiling mount, ROS-Industrial's KUKA arms whose
+//! first axis points down and sits off the origin, a world → base joint with an offset), defines
+//! the model's base frame B: z along that axis, the origin at the axis point nearest the
+//! description's origin, x the description's x carried along by the smallest rotation that
+//! takes z to the axis (after a half turn about x when the axis points within 45° of down). The chain is
+//! expressed in B and the model keeps B's placement as its base transform
+//! ([`crate::kinematics::BaseTransform`]), which forward kinematics, export and the proof apply
+//! (errors and `w` are invariant to it). An axis along +z through the origin gives no base
+//! transform, one along −z through the origin exactly `Rx(180°)`. Source q = 0 is
 //! model q = 0 and each joint turns in its source's sense. Only the tip's position is kept (the
 //! model's tool point); its orientation is not part of the model.
 //!
@@ -47,8 +51,9 @@ pub const PROOF_CONFIGURATIONS: usize = 1000;
 pub const PROOF_TOLERANCE_MM: f64 = 1e-9;
 /// Seed of the proof's configurations (fixed: an import is reproducible).
 pub const PROOF_SEED: u64 = 0x1d_2024;
-/// Tolerance of the base check on joint 1: tilt of its axis from base z (radians) and offset of
-/// the axis from the base origin (mm). Well below what would move a 2 m arm by 1e-9 mm.
+/// Rounding tolerances of joint 1's axis: a tilt from z (radians) and an offset from the origin
+/// (mm) within them is not turned or moved into the base frame, and the check after the move
+/// allows them. Well below what would move a 2 m arm by 1e-9 mm.
 const BASE_TILT_EPS: f64 = 1e-13;
 const BASE_OFFSET_EPS_MM: f64 = 1e-10;
 
@@ -297,8 +302,8 @@ impl Imported {
 /// # Errors
 ///
 /// [`ImportError::Chain`] when the chain does not have six joints,
-/// [`ImportError::NotRepresentable`] naming the joint whose geometry has no exact MDH form (a first
-/// axis off base z, coinciding axes, …), and [`ImportError::Proof`] when the model's forward
+/// [`ImportError::NotRepresentable`] naming the joint whose geometry has no exact MDH form
+/// (coinciding axes, …), and [`ImportError::Proof`] when the model's forward
 /// kinematics deviates from the source's by more than [`PROOF_TOLERANCE_MM`].
 pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError> {
     if chain.joints.len() != JOINTS {
@@ -324,22 +329,25 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         };
     }
     let mut tip = (frame * chain.tip).translation.vector;
-    // First axis along −z: express everything in the base frame turned by Rx(π), exactly
-    // (x, y, z) → (x, −y, −z), and keep that turn as the model's base transform.
-    let base = (axes[0].dir.z < 0.0).then_some(BaseTransform {
-        xyz: [0.0; 3],
-        rpy: [std::f64::consts::PI, 0.0, 0.0],
-    });
-    if base.is_some() {
-        let flip = |v: Vector3<f64>| Vector3::new(v.x, -v.y, -v.z);
-        for a in &mut axes {
-            *a = Line {
-                point: flip(a.point),
-                dir: flip(a.dir),
-            };
-        }
-        tip = flip(tip);
+    // The model's base frame B (see `base_frame`): express every axis and the tip in it.
+    let (flip, turn, origin) = base_frame(&axes[0]);
+    let to_base = |v: Vector3<f64>| {
+        let v = if flip {
+            Vector3::new(v.x, -v.y, -v.z)
+        } else {
+            v
+        };
+        turn.map_or(v, |r| r.inverse_transform_vector(&v))
+    };
+    let to_base_point = |p: Vector3<f64>| to_base(p - origin);
+    for a in &mut axes {
+        *a = Line {
+            point: to_base_point(a.point),
+            dir: to_base(a.dir),
+        };
     }
+    tip = to_base_point(tip);
+    let base = base_transform(flip, turn, origin);
     check_base(&axes[0], &chain.joints[0].name, path)?;
     let c = chain_from_zero_pose(&axes, tip).map_err(|GeometryError { joint, message }| {
         ImportError::NotRepresentable {
@@ -412,6 +420,67 @@ fn check_model(model: &RobotModel, chain: &SourceChain, path: &str) -> Result<()
             ),
         },
     })
+}
+
+/// The model's base frame B for a first axis `axis` (description frame at q = 0), as
+/// `(flip, turn, origin)`: B = Trans(origin) · Rx(π if flip) · turn.
+///
+/// * z: the axis direction (the model's first axis is B's z through B's origin);
+/// * origin: the foot of the perpendicular from the description's origin onto the axis (the
+///   axis point nearest the description's origin; the origin itself when the axis passes
+///   through it);
+/// * x: the description's x carried along by the smallest rotation that takes the description's
+///   z to the axis; for an axis within 45° of straight down (a ceiling mount, ROS-Industrial's
+///   KUKA arms), by the half turn about x and then the smallest rotation from −z (the smallest
+///   rotation from +z is ill-defined near a half turn). θ_1 takes whatever angle the next axis
+///   needs, so this choice only fixes where θ_1 counts from.
+///
+/// An axis along +z through the origin gives the identity (no base transform) and one along −z
+/// through the origin exactly the half turn `Rx(180°)`, as before this was general.
+fn base_frame(axis: &Line) -> (bool, Option<UnitQuaternion<f64>>, Vector3<f64>) {
+    let d = axis.dir.normalize();
+    let flip = d.z < -std::f64::consts::FRAC_1_SQRT_2;
+    let d_flipped = if flip {
+        Vector3::new(d.x, -d.y, -d.z)
+    } else {
+        d
+    };
+    // d_flipped.z > −1/√2: the smallest rotation from z is well defined (at most 135°). A tilt
+    // within rounding (which the model took as base z before any placement was accepted) is
+    // not turned, so those imports stay exactly as they were.
+    let turn = (d_flipped.x.hypot(d_flipped.y) > BASE_TILT_EPS)
+        .then(|| UnitQuaternion::rotation_between(&Vector3::z(), &d_flipped))
+        .flatten();
+    let along = axis.point.dot(&d);
+    let foot = axis.point - d * along;
+    let origin = if foot.iter().all(|c| c.abs() <= BASE_OFFSET_EPS_MM) {
+        Vector3::zeros()
+    } else {
+        foot
+    };
+    (flip, turn, origin)
+}
+
+/// The base transform of [`base_frame`]'s frame, `None` for the identity.
+fn base_transform(
+    flip: bool,
+    turn: Option<UnitQuaternion<f64>>,
+    origin: Vector3<f64>,
+) -> Option<BaseTransform> {
+    let rpy = match (flip, turn) {
+        (false, None) => [0.0; 3],
+        (true, None) => [std::f64::consts::PI, 0.0, 0.0],
+        (f, Some(t)) => {
+            let half = if f {
+                UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
+            } else {
+                UnitQuaternion::identity()
+            };
+            crate::kinematics::rpy_of(&(half * t))
+        }
+    };
+    let xyz = [origin.x, origin.y, origin.z];
+    (rpy != [0.0; 3] || xyz != [0.0; 3]).then_some(BaseTransform { xyz, rpy })
 }
 
 /// The model's first axis is fixed: base z through the origin, pointing up.

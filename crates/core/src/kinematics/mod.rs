@@ -38,5 +38,5 @@ pub use index::{
     FixedParam, ParamKind, BASE_COORDS, JOINTS, N_PARAMS, N_UNCERTAIN, N_WITH_BASE,
     PARAMS_PER_JOINT, TOOL_COORDS,
 };
-pub use model::{BaseTransform, RobotModel, Uncertainty};
+pub use model::{rpy_of, BaseTransform, RobotModel, Uncertainty};
 pub use tx60::tx60;

@@ -108,7 +108,7 @@ pub fn default_reference_deg(model: &RobotModel) -> [f64; JOINTS] {
 pub struct CellTarget {
     /// Grid index: (horizontal, vertical, layer) for a plane (layer 0), (x, y, z) for a volume.
     pub index: [usize; 3],
-    /// Target position in the base frame, mm.
+    /// Target position in the description's (world) frame, mm.
     pub position: [f64; 3],
 }
 
@@ -191,7 +191,10 @@ impl MapSpec {
                 ));
             }
             let reach = ik::reach_bound(model);
-            if at.abs() > reach {
+            // The plane is in the world frame; the reach is counted from the base origin,
+            // which a base transform places at its `xyz`.
+            let origin = model.base.as_ref().map_or(0.0, |b| b.xyz[a]);
+            if (at - origin).abs() > reach {
                 return Err(setting(
                     MapSetting::PlanePosition,
                     format!(

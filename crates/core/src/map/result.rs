@@ -3,7 +3,7 @@
 
 use super::{CellIk, CellStats, CellTarget, Evaluation, MapSpec};
 use crate::engine::BackendInfo;
-use crate::kinematics::{position, RobotModel, JOINTS};
+use crate::kinematics::{RobotModel, JOINTS};
 use crate::mc::Reliability;
 use serde::{Deserialize, Serialize};
 
@@ -107,7 +107,8 @@ impl MapResult {
 /// The tool-point distance of a reached cell's configuration from its target, mm (for checks).
 pub fn round_trip_error(model: &RobotModel, cell: &MapCell) -> Option<f64> {
     let q = cell.ik?.q_deg.map(f64::to_radians);
-    let p = position(&model.params, &model.tool, &q);
+    // Targets are in the world frame, after the base transform.
+    let p = model.world_position(&q);
     let t = cell.target.position;
     Some(((p[0] - t[0]).powi(2) + (p[1] - t[1]).powi(2) + (p[2] - t[2]).powi(2)).sqrt())
 }

@@ -143,6 +143,13 @@ pub enum SpecErrorKind {
         /// What is wrong with the point.
         source: ProblemError,
     },
+    /// A nominal reference without a nominal model, for an analysed model that is no preset
+    /// (by name): its design geometry is unknown, and another robot's would be wrong.
+    #[error("the model '{model}' is not a preset and has no nominal model: name one")]
+    NoNominal {
+        /// The analysed model's name.
+        model: String,
+    },
     /// An adapter was named for the CPU backend.
     #[error("'{0}' needs the gpu or auto backend: the CPU backend uses no adapter")]
     AdapterWithCpu(String),

@@ -204,8 +204,9 @@ pub enum ReferenceSource {
     /// The position the analysed model itself predicts.
     #[default]
     Calibrated,
-    /// A nominal (design) model's position; `None`: the preset the analysed model is, else
-    /// [`DEFAULT_PRESET`].
+    /// A nominal (design) model's position; `None`: the preset the analysed model is (asked for,
+    /// or by the model's name), else an error ([`SpecErrorKind::NoNominal`]): another robot's
+    /// design geometry would be a wrong reference.
     Nominal(Option<ModelSource>),
 }
 
@@ -447,11 +448,17 @@ impl ProblemSpec {
         }
     }
 
-    /// What the errors of an analysis of `model` are measured from.
+    /// What the errors of an analysis of `model` (the analysed model, as loaded) are measured
+    /// from. A nominal reference without its own nominal model uses the preset the model is: the
+    /// preset asked for, else the preset `model`'s name says it came from
+    /// ([`crate::presets::preset_named`]: a model file the preset printed, or one identified or
+    /// calibrated from it).
     ///
     /// # Errors
-    /// Those of [`ModelSource::load`] for the nominal model, naming [`SpecField::Nominal`].
-    pub fn load_reference(&self) -> Result<Reference, SpecError> {
+    /// Those of [`ModelSource::load`] for the nominal model, naming [`SpecField::Nominal`];
+    /// [`SpecErrorKind::NoNominal`], naming [`SpecField::Nominal`], when the nominal model is not
+    /// given and `model` is no preset.
+    pub fn load_reference(&self, model: &RobotModel) -> Result<Reference, SpecError> {
         match &self.reference {
             ReferenceSource::Calibrated => Ok(Reference::Calibrated),
             ReferenceSource::Nominal(source) => {
@@ -459,10 +466,20 @@ impl ProblemSpec {
                 let source = match source {
                     Some(s) => s,
                     None => {
-                        default = ModelSource::Preset(match &self.model {
+                        let name = match &self.model {
                             ModelSource::Preset(name) => name.clone(),
-                            _ => DEFAULT_PRESET.to_string(),
-                        });
+                            _ => crate::presets::preset_named(&model.name)
+                                .ok_or_else(|| {
+                                    SpecError::new(
+                                        SpecField::Nominal,
+                                        SpecErrorKind::NoNominal {
+                                            model: model.name.clone(),
+                                        },
+                                    )
+                                })?
+                                .to_string(),
+                        };
+                        default = ModelSource::Preset(name);
                         &default
                     }
                 };
@@ -488,7 +505,7 @@ impl ProblemSpec {
         self.check()?;
         let (model, notes) = self.load_model_noted()?;
         let pts = self.load_points(&model)?;
-        let reference = self.load_reference()?;
+        let reference = self.load_reference(&model)?;
         let label = reference.label(&model);
         let model_field = self.model.field();
         let problem = Problem::new(model, &pts, &reference, self.seed).map_err(|e| {

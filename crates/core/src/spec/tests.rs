@@ -214,3 +214,42 @@ fn nominal_defaults_to_the_models_preset() {
         b.reference
     );
 }
+
+/// A model that is no preset (by name) has no nominal model of its own: a nominal reference
+/// without one is refused naming the nominal field (not silently the TX60); given one, or for a
+/// model named as a preset (a calibrated UR5e), it builds.
+#[test]
+fn nominal_of_a_model_that_is_no_preset_must_be_given() {
+    let mut m = crate::presets::ur5e();
+    m.name = "my arm".into();
+    let spec = ProblemSpec {
+        model: ModelSource::Model(Box::new(m.clone())),
+        reference: ReferenceSource::Nominal(None),
+        ..ProblemSpec::default()
+    };
+    let e = spec.build_problem().err().unwrap();
+    assert_eq!(e.field, SpecField::Nominal);
+    let text = e.to_string();
+    assert!(
+        text.contains("'my arm'") && text.contains("no nominal model") && !text.contains("--"),
+        "{text}"
+    );
+    let given = ProblemSpec {
+        reference: ReferenceSource::Nominal(Some(ModelSource::Preset("ur5e".into()))),
+        ..spec.clone()
+    };
+    assert!(given.build_problem().is_ok());
+    let mut cal = crate::presets::ur5e();
+    cal.params[7] += 0.2;
+    let named = ProblemSpec {
+        model: ModelSource::Model(Box::new(cal)),
+        ..spec
+    };
+    let b = named.build_problem().unwrap();
+    assert!(
+        b.reference
+            .starts_with("nominal model (Universal Robots UR5e)"),
+        "{}",
+        b.reference
+    );
+}
