@@ -88,6 +88,23 @@ impl Run for ImportArgs {
         for n in &imported.notes {
             eprintln!("note: {n}");
         }
+        // Where joint 1 stands in the description's frame, when it is not at the origin along z.
+        if let Some(b) = imported.model.base {
+            let f = |v: &[f64; 3], deg: bool| -> String {
+                v.iter()
+                    .map(|&x| {
+                        let x = if deg { x.to_degrees() } else { x };
+                        gpu_amcs::number::fmt_plain((x * 1e6).round() / 1e6 + 0.0)
+                    })
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            };
+            eprintln!(
+                "note: joint 1's frame in the description: xyz ({}) mm, rpy ({})° (the model's base)",
+                f(&b.xyz, false),
+                f(&b.rpy, true)
+            );
+        }
         for w in &imported.warnings {
             eprintln!("warning: {w}");
         }

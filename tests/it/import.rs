@@ -1381,16 +1381,15 @@ fn default_tip_prefers_tool0_then_flange_then_the_longest_chain() {
             format!("{}{sensor}", fixed("link_6", "gripper")),
             "tip link 'gripper' (the deepest leaf of the longest revolute chain)",
         ),
-        (
-            String::new(),
-            "tip link 'link_6' (the single leaf below the base)",
-        ),
     ];
     for (k, (extra, note)) in cases.iter().enumerate() {
         let path = write(&dir, &format!("t{k}.urdf"), &arm(extra));
         let imp = import(&path).unwrap();
         assert_eq!(imp.notes, [note.to_string()], "case {k}");
     }
+    // A single leaf is the tip without a choice: no note.
+    let imp = import(&write(&dir, "single.urdf", &arm(""))).unwrap();
+    assert!(imp.notes.is_empty(), "{:?}", imp.notes);
     // Two grippers at the end of the arm: ambiguous.
     let two = format!("{}{}", fixed("link_6", "left"), fixed("link_6", "right"));
     let path = write(&dir, "two.urdf", &arm(&two));
@@ -1399,7 +1398,11 @@ fn default_tip_prefers_tool0_then_flange_then_the_longest_chain() {
     assert!(e.to_string().contains("left, right"), "{e}");
     // On an analysis command: the note, and --tip to choose another link; an ambiguous tree
     // says to name one.
-    let path = write(&dir, "flange.urdf", &arm(&fixed("link_6", "flange")));
+    let path = write(
+        &dir,
+        "flange.urdf",
+        &arm(&format!("{}{sensor}", fixed("link_6", "flange"))),
+    );
     let q = write(&dir, "q.csv", "q1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n");
     let q = q.display().to_string();
     let o = run(&[
@@ -1411,7 +1414,7 @@ fn default_tip_prefers_tool0_then_flange_then_the_longest_chain() {
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(
-        stderr(&o).contains("tip link 'flange' (the single leaf below the base)"),
+        stderr(&o).contains("tip link 'flange' (named flange)"),
         "{}",
         stderr(&o)
     );
@@ -1461,4 +1464,28 @@ fn default_tip_prefers_tool0_then_flange_then_the_longest_chain() {
         "{}",
         stderr(&o)
     );
+}
+
+/// `import` says where it found joint 1 when that is not the description's origin along z: the
+/// KR 6 exported to URDF (its first axis points down) comes back with the base Rx(180°), and the
+/// command prints it; the TX60 (axis up through the origin) prints nothing of the kind.
+#[test]
+fn import_prints_the_base_it_inferred() {
+    let dir = tmpdir("base-note");
+    for (preset, want) in [
+        ("kr6r700sixx", Some("xyz (0, 0, 0) mm, rpy (180, 0, 0)°")),
+        ("tx60", None),
+    ] {
+        let urdf = dir.join(format!("{preset}.urdf"));
+        let toml = dir.join(format!("{preset}.toml"));
+        let o = run(&["export", "--preset", preset, "--urdf", s(&urdf)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let o = run(&["import", s(&urdf), "--out", s(&toml)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let err = stderr(&o);
+        match want {
+            Some(w) => assert!(err.contains(w), "{preset}: {err}"),
+            None => assert!(!err.contains("joint 1's frame"), "{preset}: {err}"),
+        }
+    }
 }

@@ -571,7 +571,8 @@ pub enum FileKind {
 pub struct ImportOptions {
     /// URDF: the base link (default: the root link).
     pub base: Option<String>,
-    /// URDF: the tip link (default: the single leaf below the base).
+    /// URDF: the tip link (default: the single leaf below the base, else tool0, flange or the
+    /// deepest leaf of the longest revolute chain, with a note).
     pub tip: Option<String>,
     /// Model name (default: the file's robot name, else the file stem).
     pub name: Option<String>,

@@ -203,7 +203,8 @@ pub fn parse(
                     leaves,
                 }
             })?;
-            tip_note = Some(format!("tip link '{t}' ({why})"));
+            // A single leaf is the tip without a choice; a choice among several is said.
+            tip_note = why.map(|why| format!("tip link '{t}' ({why})"));
             t
         }
     };
@@ -326,15 +327,15 @@ fn leaves_below(joints: &[JointEl], base: &str) -> Vec<String> {
     leaves
 }
 
-/// The tip when none is named, and why: the single leaf below `base`; else a link named
+/// The tip when none is named, and why (`None` for the single leaf below `base`); else a link named
 /// `tool0` (ROS-Industrial's tool flange), then one named `flange`, below the base; else the
 /// single deepest leaf among those with the most revolute joints on their path from the base
 /// (the arm, not a sensor or a `base` frame hanging off the base link). `None` when the choice
 /// is ambiguous.
-fn default_tip(joints: &[JointEl], base: &str) -> Option<(String, &'static str)> {
+fn default_tip(joints: &[JointEl], base: &str) -> Option<(String, Option<&'static str>)> {
     let leaves = leaves_below(joints, base);
     if leaves.len() == 1 {
-        return Some((leaves[0].clone(), "the single leaf below the base"));
+        return Some((leaves[0].clone(), None));
     }
     // Every link below the base with (revolute joints, links) on its path from the base.
     let mut below: Vec<(String, usize, usize)> = Vec::new();
@@ -348,7 +349,7 @@ fn default_tip(joints: &[JointEl], base: &str) -> Option<(String, &'static str)>
     }
     for (name, why) in [("tool0", "named tool0"), ("flange", "named flange")] {
         if below.iter().any(|(l, _, _)| l == name) {
-            return Some((name.to_string(), why));
+            return Some((name.to_string(), Some(why)));
         }
     }
     let score = |l: &String| {
@@ -365,7 +366,7 @@ fn default_tip(joints: &[JointEl], base: &str) -> Option<(String, &'static str)>
     }
     Some((
         first.clone(),
-        "the deepest leaf of the longest revolute chain",
+        Some("the deepest leaf of the longest revolute chain"),
     ))
 }
 
