@@ -229,10 +229,14 @@ impl PyModel {
     /// calibration .yaml, chosen by extension) as `gpu-amcs import` does, with the proof that
     /// the model reproduces it. `base`/`tip` pick the URDF chain. For a .xacro file,
     /// `packages` maps package names to directories for `$(find NAME)` and `xacro_args` sets
-    /// `$(arg NAME)` values. The model has zero uncertainty.
+    /// `$(arg NAME)` values. The model has zero uncertainty. A tip chosen among several leaves
+    /// (tool0, then flange, then the deepest leaf of the longest revolute chain) is named in a
+    /// `UserWarning`, as the command line's note.
     #[staticmethod]
     #[pyo3(signature = (path, base = None, tip = None, name = None, packages = None, xacro_args = None))]
+    #[allow(clippy::too_many_arguments)]
     fn from_urdf(
+        py: Python<'_>,
         path: PathBuf,
         base: Option<String>,
         tip: Option<String>,
@@ -248,6 +252,16 @@ impl PyModel {
             xacro_args: xacro_args.unwrap_or_default(),
         };
         let imported = gpu_amcs_core::import::import_file(&path, &opts).map_err(lib_error)?;
+        for n in &imported.notes {
+            let msg = std::ffi::CString::new(n.as_str())
+                .map_err(|e| pyo3::exceptions::PyValueError::new_err(e.to_string()))?;
+            PyErr::warn(
+                py,
+                &py.get_type::<pyo3::exceptions::PyUserWarning>(),
+                &msg,
+                1,
+            )?;
+        }
         Ok(PyModel {
             model: imported.model,
             preset: None,

@@ -48,9 +48,11 @@ def test_from_urdf_reproduces_the_preset():
     # irb2400 preset was converted from: the imported model puts the flange where the preset
     # does (the import proves 1e-9 mm against the URDF itself).
     urdf = REPO / "tests" / "data" / "irb2400.urdf"
-    with pytest.raises(ValueError, match="leaf links: base, tool0.*name the tip link"):
-        gpu_amcs.Model.from_urdf(urdf)
+    # Two leaves (tool0 and base): without a tip, tool0, named in a warning.
+    with pytest.warns(UserWarning, match=r"tip link 'tool0' \(named tool0\)"):
+        auto = gpu_amcs.Model.from_urdf(urdf)
     imported = gpu_amcs.Model.from_urdf(urdf, tip="tool0")
+    assert auto.to_toml() == imported.to_toml()
     assert imported.name == "abb_irb2400"
     # tool0 at q = 0 is (940, 0, 1455) mm: the sum of the URDF's joint origins.
     np.testing.assert_allclose(imported.fk(np.zeros((1, 6)))[0], [940, 0, 1455], atol=1e-9)
