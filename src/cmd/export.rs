@@ -41,6 +41,19 @@ impl Run for ExportArgs {
             outputs.stage_file("--urdf", export::to_urdf(&model, a.name.as_deref()))?;
         }
         outputs.commit()?;
+        // UR's file is the arm in its own base frame: a base other than the REP-103 turn UR's
+        // description adds itself is where the arm stands, and belongs in the description.
+        if let (Some(_), Some(b)) = (&a.ur_calibration, model.base) {
+            let ur_turn = b.xyz == [0.0; 3]
+                && b.rpy[0].abs() < 1e-12
+                && b.rpy[1].abs() < 1e-12
+                && (b.rpy[2].abs() - std::f64::consts::PI).abs() < 1e-12;
+            if !ur_turn {
+                eprintln!(
+                    "note: --ur-calibration: the model's base transform is not part of UR's kinematics file (it starts at the arm's own base frame); place the arm in its description"
+                );
+            }
+        }
         Ok(())
     }
 }

@@ -1489,3 +1489,102 @@ fn import_prints_the_base_it_inferred() {
         }
     }
 }
+
+/// A UR5e as UR's ROS description lays it out (REP-103 `base_link`, turned half a turn about z
+/// into `base_link_inertia`, the factory kinematics as joint origins, then `flange` and `tool0`)
+/// imports with base Rz(180°) and exports back to the factory calibration file: every joint's
+/// origin within 1e-6 (metres, and rotation matrix entries; the file writes wrist_3's Rx(−π/2)
+/// as rpy (π/2, π, π)), and the hash key is there. The model's FK in the description's frame is
+/// the URDF's.
+#[test]
+fn ur5e_from_its_ros_urdf_exports_the_factory_calibration() {
+    let factory = ur_yaml_joints(UR5E_CALIBRATION);
+    let names = [
+        "shoulder",
+        "upper_arm",
+        "forearm",
+        "wrist_1",
+        "wrist_2",
+        "wrist_3",
+    ];
+    let joints = [
+        "shoulder_pan",
+        "shoulder_lift",
+        "elbow",
+        "wrist_1",
+        "wrist_2",
+        "wrist_3",
+    ];
+    let mut u = String::from(
+        "<robot name=\"ur5e\">\n  <link name=\"base_link\"/>\n  <link name=\"base_link_inertia\"/>\n  \
+         <joint name=\"base_link-base_link_inertia\" type=\"fixed\"><parent link=\"base_link\"/>\
+         <child link=\"base_link_inertia\"/><origin xyz=\"0 0 0\" rpy=\"0 0 3.141592653589793\"/></joint>\n",
+    );
+    let mut parent = "base_link_inertia".to_string();
+    for j in 0..6 {
+        let (xyz, rpy, _) = factory[j];
+        let child = format!("{}_link", names[j]);
+        u.push_str(&format!(
+            "  <link name=\"{child}\"/>\n  <joint name=\"{}_joint\" type=\"revolute\"><parent link=\"{parent}\"/>\
+             <child link=\"{child}\"/><origin xyz=\"{} {} {}\" rpy=\"{} {} {}\"/><axis xyz=\"0 0 1\"/>\
+             <limit lower=\"-6.28\" upper=\"6.28\" effort=\"1\" velocity=\"1\"/></joint>\n",
+            joints[j],
+            xyz[0] / 1e3,
+            xyz[1] / 1e3,
+            xyz[2] / 1e3,
+            rpy[0],
+            rpy[1],
+            rpy[2]
+        ));
+        parent = child;
+    }
+    u.push_str(
+        "  <link name=\"flange\"/>\n  <joint name=\"wrist_3-flange\" type=\"fixed\"><parent link=\"wrist_3_link\"/>\
+         <child link=\"flange\"/><origin xyz=\"0 0 0\" rpy=\"0 -1.5707963267948966 -1.5707963267948966\"/></joint>\n  \
+         <link name=\"tool0\"/>\n  <joint name=\"flange-tool0\" type=\"fixed\"><parent link=\"flange\"/>\
+         <child link=\"tool0\"/><origin xyz=\"0 0 0\" rpy=\"1.5707963267948966 0 1.5707963267948966\"/></joint>\n</robot>\n",
+    );
+    let dir = tmpdir("ur-ros");
+    let imp = import(&write(&dir, "ur5e.urdf", &u)).unwrap();
+    let b = imp
+        .model
+        .base
+        .expect("base_link → base_link_inertia becomes the base");
+    assert!(b.xyz.iter().all(|v| v.abs() < 1e-12), "{b:?}");
+    assert!(
+        (b.rpy[2].abs() - PI).abs() < 1e-12 && b.rpy[0].abs() < 1e-12,
+        "{b:?}"
+    );
+    let yaml = export::to_ur_calibration(&imp.model).unwrap();
+    let back = ur_yaml_joints(&yaml);
+    let rot = |rpy: [f64; 3]| nalgebra::Rotation3::from_euler_angles(rpy[0], rpy[1], rpy[2]);
+    for j in 0..6 {
+        let (xa, ra, _) = factory[j];
+        let (xb, rb, _) = back[j];
+        for k in 0..3 {
+            assert!(
+                (xa[k] - xb[k]).abs() < 1e-3,
+                "{}: xyz {xa:?} vs {xb:?}\n{yaml}",
+                names[j]
+            );
+        }
+        let d = (rot(ra).matrix() - rot(rb).matrix()).abs().max();
+        assert!(d < 1e-6, "{}: rpy {ra:?} vs {rb:?}\n{yaml}", names[j]);
+    }
+    assert!(yaml.contains("  hash: calib_gpu_amcs_"), "{yaml}");
+    // Fed back, the file is the model in UR's base frame: the same FK as the model without its
+    // base turn.
+    let again = import(&write(&dir, "back.yaml", &yaml)).unwrap().model;
+    assert!(max_dev(&again, |q| position(&imp.model.params, &imp.model.tool, q)) < 1e-9);
+    // A mount other than UR's own turn is not in the file, and the command says so.
+    for (preset, noted) in [("kr6r700sixx", true), ("ur5e", false)] {
+        let out = dir.join(format!("{preset}.yaml"));
+        let o = run(&["export", "--preset", preset, "--ur-calibration", s(&out)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        assert_eq!(
+            stderr(&o).contains("base transform is not part"),
+            noted,
+            "{preset}"
+        );
+    }
+}

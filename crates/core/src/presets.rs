@@ -214,6 +214,7 @@ fn urdf_preset(name: &str, figures: &[UrdfJointFigures; JOINTS]) -> RobotModel {
         joints,
         tip: Isometry3::identity(),
         note: None,
+        arm_frame: None,
     })
 }
 

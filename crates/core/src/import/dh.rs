@@ -112,6 +112,7 @@ impl DhTable {
             joints,
             tip: carry * tr(self.tool[0], self.tool[1], self.tool[2]),
             note: None,
+            arm_frame: None,
         }
     }
 }

@@ -163,7 +163,9 @@ pub fn to_urdf(model: &RobotModel, name: Option<&str>) -> String {
 }
 
 /// The model as a UR calibration file (`kinematics:` with x, y, z, roll, pitch, yaw per joint,
-/// metres and radians). The chain ends at the flange on the joint-6 axis, so the tool point must
+/// metres and radians), in UR's own layout and base frame: each joint's θ and d before its
+/// rotation, its a, α, β in the next joint's origin, and the model's `base` left out (a UR
+/// description places the arm with its own `base_link` → `base_link_inertia` turn and mount). The chain ends at the flange on the joint-6 axis, so the tool point must
 /// lie on that axis; its distance along the axis goes into `wrist_3`'s origin (a shift along a
 /// joint's axis commutes with its rotation). The `hash` key, which the ROS 2 UR description
 /// requires, is the controller's checksum of its own calibration and cannot be computed from
@@ -177,21 +179,33 @@ pub fn to_urdf(model: &RobotModel, name: Option<&str>) -> String {
 /// [`ExportError::ToolOffAxis`] when the tool point lies off the joint-6 axis (a UR calibration
 /// file ends on that axis and cannot hold it).
 pub fn to_ur_calibration(model: &RobotModel) -> Result<String, ExportError> {
-    let (mut o, _) = origins(model);
-    let p6 = &model.params[25..30];
+    let p = |i: usize| &model.params[5 * i..5 * i + 5];
+    // Rz(θ_i)·Tz(d_i) commutes with joint i's own rotation, so it goes before it, as UR writes
+    // its files (shoulder z = d1, …); the rest of joint i, Tx(a_i)·Rx(α_i)·Ry(β_i), starts the
+    // next joint's origin. The model's base (where the arm stands) is not part of the file.
+    let before = |i: usize| {
+        Isometry3::from_parts(
+            Translation3::new(0.0, 0.0, p(i)[1]),
+            UnitQuaternion::from_axis_angle(&Vector3::z_axis(), p(i)[0]),
+        )
+    };
+    let after = |i: usize| iso(&joint_transform(0.0, 0.0, p(i)[2], p(i)[3], p(i)[4], 0.0));
+    let mut o: [Isometry3<f64>; JOINTS] = std::array::from_fn(|i| {
+        if i == 0 {
+            before(0)
+        } else {
+            after(i - 1) * before(i)
+        }
+    });
     // Tool point in the frame after Rz(θ6 + q6)·Tz(d6): w = (a6, 0, 0) + Rx(α6)Ry(β6)·tool.
-    let m = joint_transform(0.0, 0.0, p6[2], p6[3], p6[4], 0.0);
+    let m = joint_transform(0.0, 0.0, p(5)[2], p(5)[3], p(5)[4], 0.0);
     let t = model.tool;
     let w = Vector3::from_fn(|r, _| m[r][0] * t[0] + m[r][1] * t[1] + m[r][2] * t[2] + m[r][3]);
     let offset_mm = w.x.hypot(w.y);
     if !offset_mm.is_finite() || offset_mm > UR_TOOL_AXIS_EPS_MM {
         return Err(ExportError::ToolOffAxis { offset_mm });
     }
-    let along = Isometry3::from_parts(
-        Translation3::new(0.0, 0.0, p6[1] + w.z),
-        UnitQuaternion::from_axis_angle(&Vector3::z_axis(), p6[0]),
-    );
-    o[JOINTS - 1] *= along;
+    o[JOINTS - 1] *= Isometry3::translation(0.0, 0.0, w.z);
     let mut s = String::new();
     let _ = writeln!(
         s,

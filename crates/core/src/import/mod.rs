@@ -110,6 +110,10 @@ pub struct SourceChain {
     /// What the reader chose that the user did not say (the tip link of a URDF given without
     /// one), for the user to see.
     pub note: Option<String>,
+    /// The arm's own base frame in the description's frame, when the description names one
+    /// (UR's `base_link_inertia`, `base_link` turned half a turn about z, which UR's calibration
+    /// files are relative to). Used as the model's base frame when its z is joint 1's axis.
+    pub arm_frame: Option<Isometry3<f64>>,
 }
 
 impl SourceChain {
@@ -329,17 +333,24 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         };
     }
     let mut tip = (frame * chain.tip).translation.vector;
-    // The model's base frame B (see `base_frame`): express every axis and the tip in it.
+    // The model's base frame B: the arm's own base frame when the description names one whose z
+    // is joint 1's axis (UR's `base_link_inertia`), else the canonical one of `base_frame`.
+    // Express every axis and the tip in it.
+    let own = chain.arm_frame.filter(|f| on_axis(f, &axes[0]));
     let (flip, turn, origin) = base_frame(&axes[0]);
-    let to_base = |v: Vector3<f64>| {
-        let v = if flip {
-            Vector3::new(v.x, -v.y, -v.z)
-        } else {
-            v
-        };
-        turn.map_or(v, |r| r.inverse_transform_vector(&v))
+    let to_base = |v: Vector3<f64>| match &own {
+        Some(f) => f.rotation.inverse_transform_vector(&v),
+        None => {
+            let v = if flip {
+                Vector3::new(v.x, -v.y, -v.z)
+            } else {
+                v
+            };
+            turn.map_or(v, |r| r.inverse_transform_vector(&v))
+        }
     };
-    let to_base_point = |p: Vector3<f64>| to_base(p - origin);
+    let shift = own.map_or(origin, |f| f.translation.vector);
+    let to_base_point = |p: Vector3<f64>| to_base(p - shift);
     for a in &mut axes {
         *a = Line {
             point: to_base_point(a.point),
@@ -347,7 +358,15 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         };
     }
     tip = to_base_point(tip);
-    let base = base_transform(flip, turn, origin);
+    let base = match &own {
+        Some(f) => {
+            let t = f.translation.vector;
+            let xyz = [t.x, t.y, t.z];
+            let rpy = crate::kinematics::rpy_of(&f.rotation);
+            (rpy != [0.0; 3] || xyz != [0.0; 3]).then_some(BaseTransform { xyz, rpy })
+        }
+        None => base_transform(flip, turn, origin),
+    };
     check_base(&axes[0], &chain.joints[0].name, path)?;
     let c = chain_from_zero_pose(&axes, tip).map_err(|GeometryError { joint, message }| {
         ImportError::NotRepresentable {
@@ -459,6 +478,15 @@ fn base_frame(axis: &Line) -> (bool, Option<UnitQuaternion<f64>>, Vector3<f64>) 
         foot
     };
     (flip, turn, origin)
+}
+
+/// Whether the frame `f` has joint 1's `axis` as its z axis (same direction, through its
+/// origin), within the tolerances of the base check.
+fn on_axis(f: &Isometry3<f64>, axis: &Line) -> bool {
+    let z = f.rotation * Vector3::z();
+    let d = axis.dir.normalize();
+    let off = (f.translation.vector - axis.point).cross(&d).norm();
+    z.cross(&d).norm() <= 1e-9 && z.dot(&d) > 0.0 && off <= 1e-6
 }
 
 /// The base transform of [`base_frame`]'s frame, `None` for the identity.

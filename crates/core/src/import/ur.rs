@@ -187,5 +187,6 @@ pub fn parse(text: &str, path: &str, name: &str) -> Result<SourceChain, ImportEr
         joints,
         tip: Isometry3::identity(),
         note: None,
+        arm_frame: None,
     })
 }

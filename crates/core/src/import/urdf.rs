@@ -231,6 +231,7 @@ pub fn parse(
     chain_idx.reverse();
     let mut out = Vec::new();
     let mut pending = Isometry3::identity();
+    let mut arm_frame = None;
     for &k in &chain_idx {
         let j = &joints[k];
         let el = || format!("joint '{}'", j.name);
@@ -248,6 +249,10 @@ pub fn parse(
         match j.kind.as_str() {
             "fixed" => {
                 pending *= j.origin;
+                // UR's arm base frame, before joint 1: what its calibration files are relative to.
+                if out.is_empty() && j.child.ends_with("base_link_inertia") {
+                    arm_frame = Some(pending);
+                }
                 continue;
             }
             "revolute" | "continuous" => {}
@@ -305,6 +310,7 @@ pub fn parse(
         joints: out,
         tip: pending,
         note: tip_note,
+        arm_frame,
     })
 }
 
