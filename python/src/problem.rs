@@ -184,10 +184,7 @@ impl Evaluators {
     /// The problem an analysis in the spec's frame runs (the placement's spread left out in the
     /// robot base frame), for the drivers that read the problem's distribution.
     pub fn problem(&self, problem: Problem) -> Problem {
-        match self.frame {
-            Frame::Base => problem.without_placement(),
-            Frame::Measurement => problem,
-        }
+        problem.in_frame(self.frame)
     }
 }
 

@@ -162,13 +162,9 @@ impl From<FrameArg> for gpu_amcs::engine::Frame {
     }
 }
 
-/// The problem an analysis in `frame` runs: with [`FrameArg::Base`] the model's placement
-/// uncertainty is left out (the robot's own frame), else the problem as built.
+/// The problem an analysis in `frame` runs ([`Problem::in_frame`]).
 pub fn frame_problem(problem: Problem, frame: FrameArg) -> Problem {
-    match frame {
-        FrameArg::Base => problem.without_placement(),
-        FrameArg::Measurement => problem,
-    }
+    problem.in_frame(frame.into())
 }
 
 /// Model, test points, reference, seed and backend.

@@ -329,9 +329,7 @@ pub fn run_summary(
         let mut built = problem.build()?;
         // The robot base frame analyses the model without its placement's spread: so does the
         // provenance (its model hash), so shards of the two frames never merge.
-        if problem.frame == crate::cmd::args::FrameArg::Base {
-            built.problem = built.problem.without_placement();
-        }
+        built.problem = crate::cmd::args::frame_problem(built.problem, problem.frame);
         let m = built.problem.n_points() as u64;
         problem.memory.check(&estimate(m))?;
         let max_bins = problem.memory.budget()?.room_left(&fixed(m)) / BYTES_PER_BIN;

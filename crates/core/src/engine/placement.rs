@@ -52,10 +52,19 @@ impl Frame {
 
 impl Problem {
     /// The problem with the model's base placement uncertainty left out (the robot base frame;
-    /// the 33 × 33 block), for the analyses whose rows carry the 33 inputs only.
+    /// the 33 × 33 block).
     pub fn without_placement(mut self) -> Problem {
         self.model = self.model.without_base_uncertainty();
         self
+    }
+
+    /// The problem an analysis of targets in `frame` runs: in the robot base frame the
+    /// placement's uncertainty is left out, in the measurement frame the problem is kept.
+    pub fn in_frame(self, frame: Frame) -> Problem {
+        match frame {
+            Frame::Base => self.without_placement(),
+            Frame::Measurement => self,
+        }
     }
 }
 

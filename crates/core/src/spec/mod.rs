@@ -328,9 +328,7 @@ pub fn make_frame_evaluator(
     frame: Frame,
 ) -> Result<(Box<dyn Evaluator>, Vec<String>), SpecError> {
     let uncertain = problem.model.base_uncertain();
-    if uncertain && frame == Frame::Base {
-        problem.model = problem.model.without_base_uncertainty();
-    }
+    problem = problem.in_frame(frame);
     if uncertain {
         PlacementSpread::of(&problem).map_err(|e| SpecError::new(SpecField::Backend, e))?;
     }
