@@ -66,7 +66,10 @@ fn main() {
 
     // Whole processes, start to report: the main job and MCS 10^6, on the CPU and (when an
     // adapter exists) on the GPU backend.
-    let exe = env!("CARGO_BIN_EXE_gpu-amcs");
+    // GPU_AMCS_BIN overrides the path cargo baked in, for a bench executable carried to another
+    // machine together with the binary.
+    let exe_env = std::env::var("GPU_AMCS_BIN").ok();
+    let exe = exe_env.as_deref().unwrap_or(env!("CARGO_BIN_EXE_gpu-amcs"));
     let mut backends = vec!["cpu"];
     if !gpu_amcs::backends().list_adapters().is_empty() {
         backends.push("gpu");

@@ -275,6 +275,21 @@ impl Shard {
 /// this reserve are bounded while the run goes, by the memory the limit leaves.
 const RESERVED_BINS: u64 = 1 << 16;
 
+/// Draws per chunk of a summary of `draws` draws, `per_draw` bytes of buffers each (None: not
+/// known yet): up to 2^20, for fewer round trips to a GPU (a 10^9-draw run in chunks of 10^5
+/// made 10^4 of them), halved while one chunk's buffers would take more than an eighth of the
+/// memory `limit`, and never below `floor` (the exact run's chunk).
+fn summary_chunk(floor: u64, draws: u64, per_draw: Option<u64>, limit: u64) -> u64 {
+    let Some(bytes) = per_draw else {
+        return floor;
+    };
+    let mut chunk = (1u64 << 20).min(draws);
+    while chunk > floor && chunk.saturating_mul(bytes) > limit / 8 {
+        chunk /= 2;
+    }
+    chunk.max(floor.min(draws)).max(1)
+}
+
 /// Runs shard `shard` of an MCS run of `draws` draws in chunks of `chunk` (`sizes`) without
 /// keeping the values, and writes its summary to `summary_out` when given, with the reports
 /// of the other outputs (from the summary, after `notes`).
@@ -305,6 +320,21 @@ pub fn run_summary(
     let mut outputs = outputs(problem, output)?;
     outputs.file("--summary-out", summary_out)?;
     let (first, end) = shard.range(draws);
+    let generated = match problem.points_file {
+        Some(_) => 0,
+        None => problem.points as u64,
+    };
+    let chunk = summary_chunk(
+        chunk,
+        end - first,
+        match (output.per_point, problem.points_file.is_some()) {
+            (false, _) => Some(8),
+            (true, false) => Some(8 + 16 * generated),
+            // A points file's count is known only once read.
+            (true, true) => None,
+        },
+        problem.memory.budget()?.limit,
+    );
     let fixed = |m: u64| {
         let e = Estimate::new(
             format!("a summary of {} draws in chunks of {chunk}", end - first),
@@ -319,10 +349,6 @@ pub fn run_summary(
         }
     };
     let estimate = |m: u64| fixed(m).plus(&[(end - first).min(RESERVED_BINS), BYTES_PER_BIN]);
-    let generated = match problem.points_file {
-        Some(_) => 0,
-        None => problem.points as u64,
-    };
     problem.memory.check(&estimate(generated))?;
     let pool = thread_pool(problem.threads)?;
     let (s, notes, rows) = pool.install(|| -> Result<(Summary, Vec<String>, _)> {

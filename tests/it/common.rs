@@ -6,9 +6,15 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+/// The path of the binary under test: `GPU_AMCS_BIN` when set (a test executable carried to
+/// another machine beside the binary), else the one cargo built.
+pub fn bin_path() -> std::ffi::OsString {
+    std::env::var_os("GPU_AMCS_BIN").unwrap_or_else(|| env!("CARGO_BIN_EXE_gpu-amcs").into())
+}
+
 /// The binary under test.
 pub fn bin() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_gpu-amcs"))
+    Command::new(bin_path())
 }
 
 /// Runs the binary with `args`.
@@ -38,7 +44,7 @@ pub fn sh(dir: &Path, script: &str) -> Output {
     Command::new("sh")
         .arg("-c")
         .arg(script)
-        .env("BIN", env!("CARGO_BIN_EXE_gpu-amcs"))
+        .env("BIN", bin_path())
         .current_dir(dir)
         .output()
         .unwrap()

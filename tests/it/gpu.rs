@@ -25,9 +25,16 @@ use gpu_amcs::sampling::{normals_block, philox4x32_10, Philox, ALL_NORMALS};
 /// Largest allowed |e_gpu − e_cpu| per draw and point, mm (the module docs of
 /// `engine::gpu` estimate ≲ 1e-5 mm at these spreads; measured ≤ 2.4e-7 mm on lavapipe).
 const SAMPLE_TOL_MM: f64 = 1e-5;
-/// Largest allowed relative difference of each of the four moments (the requirement is 1e-3;
-/// measured ~2e-8 on lavapipe).
+/// Largest allowed relative difference of the mean and the variance (the requirement is 1e-3;
+/// measured ≤ 6.4e-8 on lavapipe and on an NVIDIA H200).
 const MOMENT_TOL: f64 = 1e-5;
+/// Largest allowed absolute difference of skewness and kurtosis. These are dimensionless and
+/// skewness can be near zero (0.009 for the nominal reference), where a relative difference
+/// means nothing: on an H200 the nominal reference's skewness differed by 1e-7 absolute, 1.1e-5
+/// relative. A first-order bound for a standardised moment k under per-draw changes |Δw| ≤ ε is
+/// k·E[|z|^(k−1)(2 + |z|)]·ε/σ: about 5e-5 for ε = 2e-7 mm and σ = 0.05 mm; rounding errors that
+/// are not aligned with z^(k−1) stay far under it (measured ≤ 4e-7).
+const STANDARDISED_MOMENT_TOL: f64 = 1e-5;
 
 fn points(model: &RobotModel, n: usize) -> Vec<[f64; 6]> {
     gpu_amcs::points::generate(model, n, &Default::default(), 11).expect("points")
@@ -78,14 +85,10 @@ fn compare(problem: Problem, first: u64, n: usize, label: &str) -> (f64, f64) {
     let (wg, eg) = evaluate(&mut gpu, first, n);
     let (dw, de) = (max_diff(&wc, &wg), max_diff(&ec, &eg));
     let (mc, mg) = (moments(&wc), moments(&wg));
-    let rel: Vec<f64> = mc
-        .iter()
-        .zip(&mg)
-        .map(|(a, b)| ((a - b) / a).abs())
-        .collect();
+    let rel = moment_differences(&mc, &mg);
     eprintln!(
         "{label}: {n} draws, max |Δw| = {dw:.3e} mm, max |Δe_j| = {de:.3e} mm, \
-         moments cpu {mc:.6?} gpu {mg:.6?}, relative differences {}",
+         moments cpu {mc:.6?} gpu {mg:.6?}, differences (relative, relative, absolute, absolute) {}",
         rel.iter()
             .map(|r| format!("{r:.2e}"))
             .collect::<Vec<_>>()
@@ -93,10 +96,31 @@ fn compare(problem: Problem, first: u64, n: usize, label: &str) -> (f64, f64) {
     );
     assert!(dw <= SAMPLE_TOL_MM, "{label}: max |Δw| {dw} mm");
     assert!(de <= SAMPLE_TOL_MM, "{label}: max |Δe| {de} mm");
-    for (k, r) in rel.iter().enumerate() {
-        assert!(*r <= MOMENT_TOL, "{label}: moment {} differs by {r}", k + 1);
-    }
+    assert_moments_agree(label, &mc, &mg);
     (dw, de)
+}
+
+/// Relative differences of mean and variance, absolute ones of skewness and kurtosis.
+fn moment_differences(a: &[f64; 4], b: &[f64; 4]) -> [f64; 4] {
+    std::array::from_fn(|k| {
+        let d = (a[k] - b[k]).abs();
+        if k < 2 {
+            d / a[k].abs()
+        } else {
+            d
+        }
+    })
+}
+
+fn assert_moments_agree(label: &str, cpu: &[f64; 4], gpu: &[f64; 4]) {
+    for (k, r) in moment_differences(cpu, gpu).iter().enumerate() {
+        let tol = if k < 2 {
+            MOMENT_TOL
+        } else {
+            STANDARDISED_MOMENT_TOL
+        };
+        assert!(*r <= tol, "{label}: moment {} differs by {r}", k + 1);
+    }
 }
 
 fn correlated_tx60() -> RobotModel {
@@ -1039,13 +1063,7 @@ fn gpu_draws_the_base_placement_as_the_cpu_does() {
     let (mc, mg) = (moments(&wc), moments(&wg));
     eprintln!("placement drawn: max |Δw| = {dw:.3e} mm, max |Δe| = {de:.3e} mm, moments cpu {mc:.6?} gpu {mg:.6?}");
     assert!(dw <= SAMPLE_TOL_MM && de <= SAMPLE_TOL_MM, "{dw} {de}");
-    for k in 0..4 {
-        assert!(
-            ((mc[k] - mg[k]) / mc[k]).abs() <= MOMENT_TOL,
-            "moment {}",
-            k + 1
-        );
-    }
+    assert_moments_agree("placement drawn", &mc, &mg);
     // The placement matters: without it the errors are smaller on average.
     let base = Problem::new(
         model.without_base_uncertainty(),

@@ -341,7 +341,9 @@ fn cli_shards_then_merge_equal_the_single_run() {
     assert!(o.status.success(), "{}", common::stderr(&o));
     let (m, e) = (json(&d.join("m.json")), json(&d.join("e.json")));
     agree_as_json(&m["result"], &e["result"]);
-    assert_eq!(m["result"]["batch_size"], e["result"]["batch_size"]);
+    // A summary evaluates its draws in chunks of up to 2^20 (here one chunk per shard).
+    assert_eq!(m["result"]["batch_size"], json(&d.join("s0.json"))["chunk"]);
+    assert_eq!(m["result"]["batches"], 3);
     // Shards read the same histogram as one summary: here the same ranks, ends within h.
     for key in ["low", "high"] {
         let x = m["result"]["coverage_interval"][key].as_f64().unwrap();
@@ -373,6 +375,46 @@ fn cli_shards_then_merge_equal_the_single_run() {
     assert_fails_naming(&o, "--shard", "shard 3/3");
     let o = run(&[&base[..], &["--shard", "0/3"]].concat());
     assert_fails_naming(&o, "--summary-out", "--shard alone");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+#[test]
+fn summary_mode_gives_the_same_bits_with_any_thread_count() {
+    // The chunk's work is split into fixed pieces done in parallel and combined in draw order;
+    // the histogram's counts are integers. One, two and three threads: the same report.
+    let d = tmpdir("summary-threads");
+    let mut results = Vec::new();
+    for threads in ["1", "2", "3"] {
+        let out = d.join(format!("t{threads}.json"));
+        let o = run(&[
+            "mcs",
+            "--points",
+            "10",
+            "--draws",
+            "700000",
+            "--backend",
+            "cpu",
+            "--memory-limit",
+            "9M",
+            "--threads",
+            threads,
+            "-q",
+            "--json",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", common::stderr(&o));
+        let mut r = json(&out)["result"].clone();
+        r["seconds"] = 0.into();
+        r["backend"] = 0.into();
+        results.push(r);
+    }
+    let notes = json(&d.join("t1.json"))["notes"].clone();
+    assert!(
+        notes[0].as_str().unwrap().starts_with("summary mode"),
+        "{notes}"
+    );
+    assert_eq!(results[0], results[1]);
+    assert_eq!(results[0], results[2]);
     let _ = std::fs::remove_dir_all(&d);
 }
 

@@ -5,6 +5,7 @@ use super::stats::{
     coverage_interval, moment_standard_errors, CoverageInterval, IntervalKind, Moments, Reliability,
 };
 use crate::engine::{BackendInfo, EngineError, Evaluator};
+use rayon::slice::ParallelSliceMut;
 use serde::Serialize;
 
 /// MCS or AMCS.
@@ -330,7 +331,9 @@ impl<'e> Accumulator<'e> {
         let mut values = self.values;
         let moments = Moments::of(&values);
         let moment_standard_errors = moment_standard_errors(&values, 20);
-        values.sort_unstable_by(f64::total_cmp);
+        // In parallel: 10^8 values took 4 s on one core of a 16-core host. The order is total, so
+        // the sorted values are the same bits whatever the thread count.
+        values.par_sort_unstable_by(f64::total_cmp);
         let p = self.settings.coverage_probability;
         let n = values.len() as u64;
         let reliability = self
