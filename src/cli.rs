@@ -94,6 +94,10 @@ subcommands! {
     /// random configurations (--poses), in the base frame or a tracker frame.
     #[command(allow_negative_numbers = true)]
     Simulate(cmd::simulate::SimulateArgs),
+    /// Plan a calibration: the poses to measure for reliability at the task points, and the
+    /// reliability they are predicted to give, before measuring.
+    #[command(allow_negative_numbers = true)]
+    Plan(cmd::plan::PlanArgs),
     /// Repeated simulated calibrations → model file with mean, σ and full covariance.
     #[command(allow_negative_numbers = true)]
     Calibrate(cmd::calibrate::CalibrateArgs),

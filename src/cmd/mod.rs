@@ -19,6 +19,7 @@ pub mod mcs;
 pub mod merge;
 pub mod model;
 pub mod outputs;
+pub mod plan;
 pub mod points;
 pub mod progress;
 pub mod reports;

@@ -47,6 +47,7 @@ pub mod map;
 pub mod mc;
 pub mod memory;
 pub mod number;
+pub mod plan;
 pub mod points;
 pub mod presets;
 pub mod report;

@@ -623,7 +623,26 @@ fn monte_carlo_covariance(
 /// model file's `[covariance]`: 39 × 39 with the placement (rows 34–39: x, y, z, roll, pitch,
 /// yaw), 33 × 33 without.
 pub fn chain_model(nominal: &RobotModel, result: &ChainResult, name: String) -> RobotModel {
-    let n = if result.report.frame == Placement::Identify {
+    state_model(
+        nominal,
+        &result.state,
+        &result.covariance,
+        result.report.frame,
+        name,
+    )
+}
+
+/// The model of chain state `s` with `covariance` (row-major [`N_FIT_INPUTS`]², internal units,
+/// zero rows for inputs held fixed) in `frame`: what [`chain_model`] makes of an identification,
+/// and what a calibration plan predicts before any data exist.
+pub fn state_model(
+    nominal: &RobotModel,
+    s: &ChainState,
+    covariance: &[f64],
+    frame: Placement,
+    name: String,
+) -> RobotModel {
+    let n = if frame == Placement::Identify {
         N_FIT_INPUTS
     } else {
         BASE_INPUT
@@ -631,10 +650,9 @@ pub fn chain_model(nominal: &RobotModel, result: &ChainResult, name: String) -> 
     let mut cov = vec![0.0; n * n];
     for a in 0..n {
         for b in 0..n {
-            cov[a * n + b] = result.covariance[a * N_FIT_INPUTS + b];
+            cov[a * n + b] = covariance[a * N_FIT_INPUTS + b];
         }
     }
-    let s = &result.state;
     RobotModel {
         name,
         params: s.params,
@@ -643,10 +661,10 @@ pub fn chain_model(nominal: &RobotModel, result: &ChainResult, name: String) -> 
         tool: s.tool,
         tool_sigma: std::array::from_fn(|k| {
             let i = N_PARAMS + k;
-            result.covariance[i * N_FIT_INPUTS + i].max(0.0).sqrt()
+            covariance[i * N_FIT_INPUTS + i].max(0.0).sqrt()
         }),
         uncertainty: Uncertainty::Covariance(cov),
-        base: match result.report.frame {
+        base: match frame {
             Placement::Identify => Some(crate::kinematics::BaseTransform {
                 xyz: [s.base[0], s.base[1], s.base[2]],
                 rpy: [s.base[3], s.base[4], s.base[5]],

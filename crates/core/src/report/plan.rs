@@ -1,0 +1,316 @@
+//! Reports of a calibration plan ([`Plan`]): the terminal summary, the JSON document (the plan's
+//! own serde form), the comparison and the curve as CSV, the curve as SVG and the HTML page.
+
+use super::html::pages::{add_settings, link_all};
+use super::html::{Figure, Page, Table};
+use super::svg::{LinePlot, Series};
+use super::text::fmt_g;
+use super::{Layout, Report};
+use crate::plan::{DesignFigures, Plan};
+use std::fmt::Write;
+
+/// The JSON document in a report directory.
+const JSON: &str = "plan.json";
+/// The three designs side by side.
+const COMPARE_CSV: &str = "plan_compare.csv";
+/// The predicted figures against the number of poses.
+const CURVE_CSV: &str = "plan_curve.csv";
+/// The same as a figure.
+const CURVE_SVG: &str = "plan_curve.svg";
+
+impl Plan {
+    /// The files of a plan's report, before it runs.
+    pub fn planned_layout() -> Layout {
+        Layout::new(JSON, &[COMPARE_CSV, CURVE_CSV], &[CURVE_SVG], &[])
+    }
+
+    /// The design as CSV: `q1..q6` in degrees, one pose a line, in visiting order.
+    pub fn design_csv(&self) -> String {
+        let mut s = String::from("q1,q2,q3,q4,q5,q6\n");
+        for q in &self.design_deg {
+            let row: Vec<String> = q.iter().map(|v| format!("{v:.6}")).collect();
+            let _ = writeln!(s, "{}", row.join(","));
+        }
+        s
+    }
+}
+
+impl Report for Plan {
+    fn layout(&self) -> Layout {
+        Self::planned_layout()
+    }
+
+    fn text(&self) -> String {
+        render_text(self)
+    }
+
+    fn json(&self) -> String {
+        let mut s = serde_json::to_string_pretty(self)
+            .unwrap_or_else(|e| format!("{{\"error\": \"{e}\"}}"));
+        s.push('\n');
+        s
+    }
+
+    fn csv(&self) -> Vec<(String, String)> {
+        vec![
+            (COMPARE_CSV.to_string(), render_compare_csv(self)),
+            (CURVE_CSV.to_string(), render_curve_csv(self)),
+        ]
+    }
+
+    fn svg(&self) -> Vec<(String, String)> {
+        vec![(CURVE_SVG.to_string(), curve_plot(self).render())]
+    }
+
+    fn page(&self, settings: &[(String, String)], files: &[(String, String)]) -> String {
+        plan_page(self, settings, files).render()
+    }
+}
+
+/// The three designs: name and figures.
+fn designs(p: &Plan) -> [(String, &DesignFigures); 3] {
+    [
+        ("planned".to_string(), &p.planned),
+        ("log-det (D-optimal)".to_string(), &p.log_det_design),
+        (
+            format!("random (median of {})", p.random_designs),
+            &p.random_median,
+        ),
+    ]
+}
+
+fn compare_header(p: &Plan) -> Vec<String> {
+    let mut h = vec!["design".to_string(), "q95 of w (mm)".to_string()];
+    h.extend(p.thresholds.iter().map(|t| format!("R({} mm)", fmt_g(*t))));
+    h.extend(["log det".into(), "O1".into(), "condition".into()]);
+    h
+}
+
+fn compare_rows(p: &Plan) -> Vec<Vec<String>> {
+    designs(p)
+        .iter()
+        .map(|(name, f)| {
+            let mut r = vec![name.clone(), format!("{:.5}", f.q95_mm)];
+            r.extend(f.reliability.iter().map(|v| format!("{v:.4}")));
+            r.extend([
+                format!("{:.3}", f.log_det),
+                format!("{:.4}", f.o1),
+                format!("{:.2}", f.condition),
+            ]);
+            r
+        })
+        .collect()
+}
+
+/// The terminal summary.
+pub fn render_text(p: &Plan) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "Calibration plan");
+    let _ = writeln!(
+        s,
+        "model      {}  |  {} task points  |  target on the flange ({}, {}, {}) mm",
+        p.model_name,
+        p.task_points,
+        fmt_g(p.target_mm[0]),
+        fmt_g(p.target_mm[1]),
+        fmt_g(p.target_mm[2])
+    );
+    let tracker = match &p.tracker {
+        Some(t) => format!(
+            "at ({}, {}, {}) mm, range {} mm, incidence ≤ {}°",
+            fmt_g(t.position_mm[0]),
+            fmt_g(t.position_mm[1]),
+            fmt_g(t.position_mm[2]),
+            fmt_g(t.range_mm),
+            fmt_g(t.max_incidence_deg)
+        ),
+        None => "anywhere (no visibility limit)".to_string(),
+    };
+    let _ = writeln!(
+        s,
+        "tracker    σ = {} mm per coordinate, {tracker}",
+        fmt_g(p.sigma_mm)
+    );
+    let _ = writeln!(
+        s,
+        "design     {} poses of {} candidates ({} drawn), joint travel {:.0}° in visiting order, {:.2} s",
+        p.design_deg.len(),
+        p.candidates,
+        p.candidates_drawn,
+        p.travel_deg,
+        p.seconds
+    );
+    let _ = writeln!(
+        s,
+        "identified {} inputs: {}",
+        p.identified.len(),
+        p.identified.join(" ")
+    );
+    if let Some(pr) = &p.prediction {
+        let _ = writeln!(
+            s,
+            "\npredicted at the task points ({} draws of the planned model, {}):",
+            pr.draws, pr.backend.backend
+        );
+        let _ = writeln!(
+            s,
+            "  mean of w {:.5} mm, 95 % quantile of w {:.5} mm",
+            pr.mean_mm, pr.q95_mm
+        );
+        for r in &pr.reliability {
+            let _ = writeln!(
+                s,
+                "  R({} mm) = {:.4}   [{:.4}, {:.4}]",
+                fmt_g(r.threshold),
+                r.r,
+                r.ci_low,
+                r.ci_high
+            );
+        }
+    }
+    let _ = writeln!(
+        s,
+        "\ncompared (linearised, the same {} draws for every design):",
+        crate::plan::EVAL_DRAWS
+    );
+    let header = compare_header(p);
+    let rows = compare_rows(p);
+    let widths: Vec<usize> = (0..header.len())
+        .map(|c| {
+            rows.iter()
+                .map(|r| r[c].chars().count())
+                .chain(std::iter::once(header[c].chars().count()))
+                .max()
+                .unwrap_or(0)
+        })
+        .collect();
+    for r in std::iter::once(&header).chain(rows.iter()) {
+        let cells: Vec<String> = r
+            .iter()
+            .zip(&widths)
+            .enumerate()
+            .map(|(c, (v, w))| {
+                if c == 0 {
+                    format!("{v:<w$}")
+                } else {
+                    format!("{v:>w$}")
+                }
+            })
+            .collect();
+        let _ = writeln!(s, "  {}", cells.join("  "));
+    }
+    if let (Some(first), Some(last)) = (p.curve.first(), p.curve.last()) {
+        let _ = writeln!(
+            s,
+            "\nq95 of w against poses: {} poses {:.5} mm … {} poses {:.5} mm",
+            first.poses, first.q95_mm, last.poses, last.q95_mm
+        );
+    }
+    s
+}
+
+fn render_compare_csv(p: &Plan) -> String {
+    crate::report::csv::table(&compare_header(p), &compare_rows(p))
+}
+
+fn render_curve_csv(p: &Plan) -> String {
+    let mut s = String::from("poses,q95_mm");
+    for t in &p.thresholds {
+        let _ = write!(s, ",R_{}", fmt_g(*t));
+    }
+    s.push('\n');
+    for c in &p.curve {
+        let _ = write!(s, "{},{:.6}", c.poses, c.q95_mm);
+        for r in &c.reliability {
+            let _ = write!(s, ",{r:.6}");
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// q95 of w against the number of poses, with the random designs' median as a level.
+fn curve_plot(p: &Plan) -> LinePlot {
+    let pts: Vec<(f64, f64)> = p.curve.iter().map(|c| (c.poses as f64, c.q95_mm)).collect();
+    let (x0, x1) = (
+        pts.first().map_or(0.0, |v| v.0),
+        pts.last().map_or(1.0, |v| v.0),
+    );
+    LinePlot {
+        title: "Predicted 95 % quantile of w against the number of poses".into(),
+        x_label: "poses measured".into(),
+        y_label: "q95 of w (mm)".into(),
+        series: vec![
+            Series {
+                name: "planned design, first n poses".into(),
+                points: pts,
+                dashed: false,
+            },
+            Series {
+                name: format!("random designs of {} poses (median)", p.design_deg.len()),
+                points: vec![(x0, p.random_median.q95_mm), (x1, p.random_median.q95_mm)],
+                dashed: true,
+            },
+        ],
+        log_y: false,
+    }
+}
+
+/// The page of a plan, linking `files`.
+fn plan_page(p: &Plan, settings: &[(String, String)], files: &[(String, String)]) -> Page {
+    let mut page = Page::new("Calibration plan");
+    page.summary("poses", &p.design_deg.len().to_string())
+        .summary("q95 of w, planned", &format!("{:.5} mm", p.planned.q95_mm))
+        .summary(
+            "q95 of w, random designs",
+            &format!("{:.5} mm", p.random_median.q95_mm),
+        );
+    if let Some(pr) = &p.prediction {
+        for r in &pr.reliability {
+            page.summary(
+                &format!("predicted R({} mm)", fmt_g(r.threshold)),
+                &format!("{:.4} [{:.4}, {:.4}]", r.r, r.ci_low, r.ci_high),
+            );
+        }
+    }
+    page.heading("Designs compared");
+    let header = compare_header(p);
+    let h: Vec<&str> = header.iter().map(String::as_str).collect();
+    page.table(Table::new(
+        "The planned design, the log-det design and random designs of the same size: linearised predictions on one set of draws; information figures of the column-scaled Jacobian",
+        &h,
+        compare_rows(p),
+    ));
+    page.heading("Poses in visiting order");
+    page.table(Table::new(
+        "Joint angles (degrees), as design.csv holds them",
+        &["#", "q1", "q2", "q3", "q4", "q5", "q6"],
+        p.design_deg
+            .iter()
+            .enumerate()
+            .map(|(k, q)| {
+                std::iter::once((k + 1).to_string())
+                    .chain(q.iter().map(|v| format!("{v:.3}")))
+                    .collect()
+            })
+            .collect(),
+    ));
+    page.heading("Figures");
+    let svg = curve_plot(p).render();
+    page.figure(Figure::from_svg(
+        CURVE_SVG,
+        &svg,
+        "The predicted 95 % quantile of w at the task points when only the first n poses of the \
+         design (in its own D-optimal order) are measured, against n; the dashed level is the \
+         median of random designs of the full size.",
+    ));
+    add_settings(&mut page, settings);
+    page.setting("tracker noise σ", &format!("{} mm", fmt_g(p.sigma_mm)))
+        .setting("candidates", &p.candidates.to_string())
+        .setting("identified inputs", &p.identified.join(" "));
+    if let Some(pr) = &p.prediction {
+        page.backend(&pr.backend);
+    }
+    link_all(&mut page, files);
+    page
+}

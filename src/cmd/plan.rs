@@ -1,0 +1,180 @@
+//! `plan`: choose the poses to measure for a calibration and predict the reliability they give
+//! at the task points, before the tracker is switched on.
+
+use super::args::{thread_pool, ProblemArgs};
+use super::outputs::Outputs;
+use super::progress::Progress;
+use super::reports::{problem_rows, write_reports, ReportFlags};
+use super::Run;
+use anyhow::{bail, Result};
+use clap::Args;
+use gpu_amcs::plan::{self, Plan, PlanError, PlanField, PlanOptions, TrackerSite};
+use std::path::PathBuf;
+
+/// `plan` options.
+#[derive(Args, Debug, Clone)]
+#[command(
+    mut_arg("json", |a| a.help("Write the plan as JSON to FILE")),
+    mut_arg("csv", |a| a.help("Write plan_compare.csv and plan_curve.csv into DIR")),
+    mut_arg("svg", |a| a.help("Write plan_curve.svg (q95 of w against the number of poses) into DIR"))
+)]
+pub struct PlanArgs {
+    /// The nominal robot (--model/--preset) and the task points (--points/--points-file), where
+    /// the reliability is wanted.
+    #[command(flatten)]
+    pub problem: ProblemArgs,
+    /// Poses to measure.
+    #[arg(long, default_value_t = 30, value_name = "N")]
+    pub poses: usize,
+    /// Tracker noise per coordinate, mm (1σ).
+    #[arg(
+        long,
+        default_value_t = 0.01,
+        value_name = "MM",
+        allow_hyphen_values = true
+    )]
+    pub tracker_sigma: f64,
+    /// Where the tracker stands, mm, in the model's measurement frame (its base frame for a
+    /// model without `base`): candidates must face it and lie within its range.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        num_args = 3,
+        value_name = "X,Y,Z",
+        allow_hyphen_values = true
+    )]
+    pub tracker_at: Option<Vec<f64>>,
+    /// With --tracker-at: the tracker's range, mm.
+    #[arg(
+        long,
+        default_value_t = 20_000.0,
+        value_name = "MM",
+        requires = "tracker_at"
+    )]
+    pub tracker_range: f64,
+    /// With --tracker-at: largest angle between the target's facing direction (the flange z
+    /// axis) and the line to the tracker, degrees.
+    #[arg(
+        long,
+        default_value_t = 60.0,
+        value_name = "DEG",
+        requires = "tracker_at"
+    )]
+    pub max_incidence: f64,
+    /// The target on the flange, mm (default: the model's tool when it is not the flange origin,
+    /// else 30,-20,80 as `simulate` uses).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        num_args = 3,
+        value_name = "X,Y,Z",
+        allow_hyphen_values = true
+    )]
+    pub target: Option<Vec<f64>>,
+    /// Thresholds L (mm) of the predicted reliability R(L) = Pr[w < L].
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "MM,...",
+        default_value = "0.02,0.03,0.05",
+        allow_hyphen_values = true
+    )]
+    pub threshold: Vec<f64>,
+    /// Candidate configurations to choose from.
+    #[arg(long, default_value_t = 2000, value_name = "M")]
+    pub candidates: usize,
+    /// Draws of the engine's Monte Carlo of the planned model at the task points.
+    #[arg(long, default_value_t = 100_000, value_name = "N")]
+    pub draws: usize,
+    /// Write the design (q1..q6 in degrees, in visiting order) to FILE.
+    #[arg(long, short, value_name = "FILE")]
+    pub out: PathBuf,
+    #[command(flatten)]
+    pub reports: ReportFlags,
+}
+
+/// The flag of a plan setting.
+fn flag(f: PlanField) -> &'static str {
+    match f {
+        PlanField::Poses => "--poses",
+        PlanField::Candidates => "--candidates",
+        PlanField::Sigma => "--tracker-sigma",
+        PlanField::Tracker => "--tracker-at",
+        PlanField::Thresholds => "--threshold",
+        PlanField::Search => "--draws",
+        PlanField::TaskPoints => "--points-file",
+        PlanField::Target => "--target",
+    }
+}
+
+fn plan_error(e: PlanError) -> anyhow::Error {
+    match e {
+        PlanError::Setting { field, message } => {
+            anyhow::anyhow!("{} ({}): {message}", field, flag(field))
+        }
+        other => other.into(),
+    }
+}
+
+impl Run for PlanArgs {
+    fn run(self) -> Result<()> {
+        let a = self;
+        a.problem.check()?;
+        let mut outputs = Outputs::new(a.problem.inputs());
+        outputs.file("--out", Some(&a.out))?;
+        a.reports.declare(&mut outputs, &Plan::planned_layout())?;
+        if a.draws < 100 || a.draws > 100_000_000 {
+            bail!("--draws: must be 100 … 100000000, got {}", a.draws);
+        }
+        let pool = thread_pool(a.problem.threads)?;
+        let (plan, rows) = pool.install(|| -> Result<_> {
+            let built = a.problem.build()?;
+            let model = built.problem.model.clone();
+            let task: Vec<[f64; 6]> = built
+                .problem
+                .points
+                .iter()
+                .map(|q| q.map(f64::to_degrees))
+                .collect();
+            let target = match &a.target {
+                Some(t) => [t[0], t[1], t[2]],
+                None if model.tool != [0.0; 3] => model.tool,
+                None => PlanOptions::default().target_mm,
+            };
+            let opts = PlanOptions {
+                poses: a.poses,
+                candidates: a.candidates,
+                sigma_mm: a.tracker_sigma,
+                tracker: a.tracker_at.as_ref().map(|t| TrackerSite {
+                    position_mm: [t[0], t[1], t[2]],
+                    range_mm: a.tracker_range,
+                    max_incidence_deg: a.max_incidence,
+                }),
+                thresholds: a.threshold.clone(),
+                target_mm: target,
+                seed: a.problem.seed,
+                ..PlanOptions::default()
+            };
+            let bar = Progress::new(a.reports.quiet, "plan", "steps");
+            bar.update(0, 2);
+            let mut p = plan::plan(&model, &task, &opts).map_err(plan_error)?;
+            bar.update(1, 2);
+            let problem =
+                plan::prediction_problem(&p, &task, a.problem.seed).map_err(plan_error)?;
+            let rows = problem_rows(&a.problem, &problem);
+            let (mut ev, notes) = a.problem.backend.evaluator(problem)?;
+            if !a.reports.quiet {
+                for n in &notes {
+                    eprintln!("note: {n}");
+                }
+            }
+            p.prediction =
+                Some(plan::predict(ev.as_mut(), a.draws, &a.threshold).map_err(plan_error)?);
+            bar.update(2, 2);
+            bar.finish();
+            Ok((p, rows))
+        })?;
+        outputs.stage_file("--out", plan.design_csv())?;
+        write_reports(outputs, &plan, &a.reports, &rows)
+    }
+}
