@@ -112,6 +112,9 @@ fn plan_error(e: PlanError) -> anyhow::Error {
         PlanError::Setting { field, message } => {
             anyhow::anyhow!("{} ({}): {message}", field, flag(field))
         }
+        PlanError::NotIdentifiable(m) => anyhow::anyhow!(
+            "the candidates do not identify the model (--target, --candidates): {m}"
+        ),
         other => other.into(),
     }
 }

@@ -21,6 +21,7 @@ mod map_shards;
 mod mc_known_answers;
 mod module_cycles;
 mod placement_analyses;
+mod plan;
 mod reports;
 mod sensitivity;
 mod study;

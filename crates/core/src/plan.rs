@@ -237,6 +237,8 @@ pub struct Plan {
     pub planned: DesignFigures,
     /// The greedy log-det (D-optimal) design's figures.
     pub log_det_design: DesignFigures,
+    /// The log-det design's poses, degrees (greedy order), to measure it for comparison.
+    pub log_det_design_deg: Vec<[f64; JOINTS]>,
     /// Medians over the random designs, figure by figure.
     pub random_median: DesignFigures,
     /// Random designs compared.
@@ -354,7 +356,10 @@ impl Geometry {
         match Cholesky::new(m.clone()) {
             Some(c) => {
                 let inv = c.inverse();
-                self.grams.iter().map(|g| inv.dot(g).powi(4)).sum()
+                self.grams
+                    .iter()
+                    .map(|g| inv.dot(g).powi(SCREEN_POWER))
+                    .sum()
             }
             None => f64::INFINITY,
         }
@@ -413,6 +418,8 @@ impl Geometry {
 
 /// Swaps per design pose judged by q95 after the screen.
 const JUDGED: usize = 8;
+/// Power of the task points' expected squared errors in the screen.
+const SCREEN_POWER: i32 = 4;
 
 /// Standard-normal vectors behind every reported linearised figure.
 pub const EVAL_DRAWS: usize = 2000;
@@ -942,6 +949,7 @@ pub fn plan(
         travel_deg,
         planned,
         log_det_design,
+        log_det_design_deg: dopt.iter().map(|&i| cands[i]).collect(),
         random_median,
         random_designs: o.random_designs,
         curve,
@@ -1038,44 +1046,4 @@ pub fn prediction_problem(
         &Reference::Calibrated,
         seed,
     )?)
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::kinematics::tx60;
-
-    #[test]
-    #[ignore]
-    fn smoke() {
-        let m = tx60();
-        let task = crate::points::generate(&m, 50, &Default::default(), 1).unwrap();
-        let o = PlanOptions {
-            thresholds: vec![0.02, 0.03],
-            ..PlanOptions::default()
-        };
-        let p = plan(&m, &task, &o).unwrap();
-        eprintln!(
-            "{:.2} s  planned {:?}\n logdet {:?}\n random {:?}\n search {:?}\n travel {}",
-            p.seconds, p.planned, p.log_det_design, p.random_median, p.search, p.travel_deg
-        );
-        for c in &p.curve {
-            eprintln!("{} {:.4} {:?}", c.poses, c.q95_mm, c.reliability);
-        }
-        for i in 0..N_FIT_INPUTS {
-            let v = p.covariance[i * N_FIT_INPUTS + i];
-            if v > 0.0 {
-                eprint!(
-                    "{}={:.3e} ",
-                    fit_input_name(i),
-                    v.sqrt() * crate::identify::chain_fit::fit_input_to_report(i)
-                );
-            }
-        }
-        eprintln!();
-        let pb = prediction_problem(&p, &task, 3).unwrap();
-        let mut ev = crate::engine::CpuEvaluator::new(pb);
-        let pr = predict(&mut ev, 100_000, &o.thresholds).unwrap();
-        eprintln!("{pr:?}");
-    }
 }
