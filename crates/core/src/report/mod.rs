@@ -18,7 +18,6 @@ pub mod json;
 pub mod map;
 pub mod markdown;
 pub mod outputs;
-pub mod plan;
 pub mod run;
 pub mod sensitivity;
 pub mod svg;

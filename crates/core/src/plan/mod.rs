@@ -20,6 +20,10 @@
 //! covariance, placement in the measurement frame) for the engine's Monte Carlo at the task
 //! points ([`predict`]).
 
+mod report;
+
+pub use report::render_text;
+
 use crate::engine::{BackendInfo, EngineError, Evaluator, Problem, ProblemError, Reference};
 use crate::identify::chain::{nominal_state, state_model, Placement};
 use crate::identify::chain_fit::{

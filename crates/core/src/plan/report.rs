@@ -1,12 +1,12 @@
 //! Reports of a calibration plan ([`Plan`]): the terminal summary, the JSON document (the plan's
 //! own serde form), the comparison and the curve as CSV, the curve as SVG and the HTML page.
 
-use super::html::pages::{add_settings, link_all};
-use super::html::{Figure, Page, Table};
-use super::svg::{LinePlot, Series};
-use super::text::fmt_g;
-use super::{Layout, Report};
-use crate::plan::{DesignFigures, Plan};
+use super::{DesignFigures, Plan};
+use crate::report::html::pages::{add_settings, link_all};
+use crate::report::html::{Figure, Page, Table};
+use crate::report::svg::{LinePlot, Series};
+use crate::report::text::fmt_g;
+use crate::report::{Layout, Report};
 use std::fmt::Write;
 
 /// The JSON document in a report directory.
