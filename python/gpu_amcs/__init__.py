@@ -17,6 +17,9 @@ NumPy, OpenTURNS and SALib users:
   the command line's flags, with its defaults; ``.to_dict()`` / ``.to_json()`` are the document
   ``--json`` writes, ``.to_text()`` the table it prints, ``.to_csv()`` / ``.to_pandas()`` the
   CSV ``--csv`` writes (pandas needed for the DataFrame).
+* ``plan(...)`` -> ``PlanResult``: the poses to measure for a calibration (``.design``,
+  ``.design_csv()`` as ``gpu-amcs plan --out`` writes it) and the reliability they are predicted
+  to give at the task points (``.reliability``, ``.to_dict()`` = the ``--json`` document).
 * ``identify(sweeps, ...)`` -> ``IdentifyResult``: ``.model`` (``.to_toml()`` is the file
   ``gpu-amcs identify --out`` writes), ``.warnings``, ``.to_text()``.
 * ``model.salib_problem()`` -> SALib's problem dict (independent normals, ``bounds`` = [mean,
@@ -32,6 +35,7 @@ from ._gpu_amcs import (  # noqa: F401
     IdentifyResult,
     MapResult,
     Model,
+    PlanResult,
     RunResult,
     SensitivityResult,
     TailResult,
@@ -41,11 +45,13 @@ from ._gpu_amcs import (  # noqa: F401
     identify,
     map,  # noqa: A004 (gpu_amcs.map, the command line's `map`)
     mcs,
+    plan,
     presets,
     sensitivity,
     tail,
 )
 
 __all__ = ["Model", "RunResult", "SensitivityResult", "TailResult", "MapResult",
-           "IdentifyResult", "adapters", "amcs", "mcs", "sensitivity", "tail", "map",
+           "IdentifyResult", "PlanResult", "adapters", "amcs", "mcs", "sensitivity", "tail",
+           "map", "plan",
            "identify", "presets", "N_PARAMS", "N_UNCERTAIN", "__version__"]

@@ -26,7 +26,7 @@ use gpu_amcs_core::spec::{self, GeneratedPoints, ModelSource, DEFAULT_PRESET};
 use pyo3::prelude::*;
 
 /// `json` parsed by Python's `json` module: a dict of plain values.
-fn parse_json<'py>(py: Python<'py>, json: String) -> PyResult<Bound<'py, PyAny>> {
+pub(crate) fn parse_json<'py>(py: Python<'py>, json: String) -> PyResult<Bound<'py, PyAny>> {
     py.import("json")?.call_method1("loads", (json,))
 }
 

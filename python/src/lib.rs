@@ -10,6 +10,7 @@ mod arrays;
 mod errors;
 mod identify;
 mod model;
+mod planning;
 mod problem;
 mod run;
 
@@ -56,6 +57,8 @@ fn _gpu_amcs(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<analyses::PyMapResult>()?;
     m.add_function(wrap_pyfunction!(analyses::sensitivity, m)?)?;
     m.add_function(wrap_pyfunction!(analyses::tail, m)?)?;
+    m.add_class::<planning::PyPlan>()?;
+    m.add_function(wrap_pyfunction!(planning::plan, m)?)?;
     m.add_function(wrap_pyfunction!(analyses::workspace_map, m)?)?;
     m.add_class::<identify::PyIdentifyResult>()?;
     m.add_function(wrap_pyfunction!(identify::identify, m)?)?;

@@ -295,3 +295,30 @@ def test_problem_errors_name_the_keyword(tmp_path):
         gpu_amcs.map(orientation=[180, 0, 0], free_orientation=True)
     with pytest.raises(ValueError, match="fit: unknown fit"):
         gpu_amcs.identify("x.csv", fit="circle")
+
+
+def test_plan_equals_cli(cli, tmp_path):
+    """gpu_amcs.plan: the document, summary and design file of `gpu-amcs plan`."""
+    design = tmp_path / "design.csv"
+    args = ["--points", 12, "--poses", 14, "--candidates", 300, "--draws", 5000,
+            "--threshold", "0.02,0.04", "--backend", "cpu", "--seed", 3]
+    out = tmp_path / "plan.json"
+    r = run_ok(cli, "plan", *args, "--out", design, "--json", out)
+    doc = json.loads(out.read_text())
+    res = gpu_amcs.plan(points=12, poses=14, candidates=300, draws=5000, threshold=[0.02, 0.04],
+                        backend="cpu", seed=3)
+    assert without_timing(res.to_dict()) == without_timing(doc)
+    assert untimed(res.to_text()) == untimed(r.stdout)
+    assert res.design_csv() == design.read_text()
+    assert len(res.design) == 14
+    assert res.reliability == [(x["threshold"], x["r"]) for x in doc["prediction"]["reliability"]]
+
+
+def test_plan_errors_name_the_keyword(cli):
+    msg = cli_error(cli, "plan", "--points", 5, "--poses", 8, "--backend", "cpu",
+                    "--out", "never.csv")
+    assert "--poses" in msg
+    with pytest.raises(ValueError, match=r"\(poses\)"):
+        gpu_amcs.plan(points=5, poses=8, backend="cpu")
+    with pytest.raises(ValueError, match=r"tracker_at"):
+        gpu_amcs.plan(points=5, tracker_at=[1, 2], backend="cpu")

@@ -1,0 +1,185 @@
+//! `gpu_amcs.plan`: the command line's `plan` (choose the poses of a calibration for the task
+//! points and predict the reliability they give), with its defaults, its library calls and its
+//! report: `to_dict()` / `to_json()` are the document `--json` writes, `to_text()` the summary
+//! it prints, `design_csv()` the file `--out` writes.
+
+use crate::analyses::parse_json;
+use crate::errors::value_error;
+use crate::problem::{check_estimate, problem_function, BYTES_PER_POINT};
+use gpu_amcs_core::kinematics::JOINTS;
+use gpu_amcs_core::memory::Estimate;
+use gpu_amcs_core::plan::{self as planner, Plan, PlanError, PlanField, PlanOptions, TrackerSite};
+use gpu_amcs_core::report::Report;
+use pyo3::prelude::*;
+
+/// The keyword of a plan setting.
+fn keyword(f: PlanField) -> &'static str {
+    match f {
+        PlanField::Poses => "poses",
+        PlanField::Candidates => "candidates",
+        PlanField::Sigma => "tracker_sigma",
+        PlanField::Tracker => "tracker_at",
+        PlanField::Thresholds => "threshold",
+        PlanField::Search => "draws",
+        PlanField::TaskPoints => "q_deg",
+        PlanField::Target => "target",
+    }
+}
+
+fn plan_error(e: PlanError) -> PyErr {
+    match e {
+        PlanError::Setting { field, message } => {
+            value_error(format!("{field} ({}): {message}", keyword(field)))
+        }
+        PlanError::NotIdentifiable(m) => value_error(format!(
+            "the candidates do not identify the model (target, candidates): {m}"
+        )),
+        other => value_error(other.to_string()),
+    }
+}
+
+/// A calibration plan (`gpu_amcs.plan`).
+#[pyclass(module = "gpu_amcs", name = "PlanResult", frozen)]
+pub struct PyPlan {
+    plan: Plan,
+    notes: Vec<String>,
+}
+
+#[pymethods]
+impl PyPlan {
+    /// The JSON document the command line writes with `--json`.
+    fn to_json(&self) -> String {
+        self.plan.json()
+    }
+
+    /// `to_json()` parsed: a dict of plain Python values.
+    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
+        parse_json(py, self.to_json())
+    }
+
+    /// The summary the command line prints.
+    fn to_text(&self) -> String {
+        self.plan.text()
+    }
+
+    /// The design as the command line writes it with `--out`: q1..q6 in degrees, one pose a
+    /// line, in visiting order.
+    fn design_csv(&self) -> String {
+        self.plan.design_csv()
+    }
+
+    /// The poses to measure, degrees, in visiting order.
+    #[getter]
+    fn design(&self) -> Vec<[f64; JOINTS]> {
+        self.plan.design_deg.clone()
+    }
+
+    /// `(L, R(L))` predicted at the task points by the engine's Monte Carlo.
+    #[getter]
+    fn reliability(&self) -> Vec<(f64, f64)> {
+        self.plan
+            .prediction
+            .as_ref()
+            .map(|p| p.reliability.iter().map(|r| (r.threshold, r.r)).collect())
+            .unwrap_or_default()
+    }
+
+    /// Notes on the backend choice (the command line prints them to stderr).
+    #[getter]
+    fn notes(&self) -> Vec<String> {
+        self.notes.clone()
+    }
+
+    fn __repr__(&self) -> String {
+        format!(
+            "gpu_amcs.PlanResult(poses={}, q95_mm={:.5}, reliability={:?})",
+            self.plan.design_deg.len(),
+            self.plan.planned.q95_mm,
+            self.reliability()
+        )
+    }
+}
+
+/// Three numbers, or `None`.
+fn triple(v: Option<Vec<f64>>, name: &str) -> PyResult<Option<[f64; 3]>> {
+    match v {
+        None => Ok(None),
+        Some(v) if v.len() == 3 => Ok(Some([v[0], v[1], v[2]])),
+        Some(v) => Err(value_error(format!(
+            "{name}: expected x, y, z (mm), got {} numbers",
+            v.len()
+        ))),
+    }
+}
+
+problem_function! {
+    /// Plans a calibration (`gpu-amcs plan`): `poses` poses out of `candidates` candidate
+    /// configurations, for tracker noise `tracker_sigma` (mm per coordinate), the target
+    /// `target` on the flange (x, y, z mm; default the model's tool unless at the flange origin,
+    /// else 30, -20, 80) and, with `tracker_at` (x, y, z mm), candidates within `tracker_range`
+    /// that face the tracker within `max_incidence` degrees; predicts R(L) at `threshold` (mm)
+    /// with `draws` draws of the planned model at the task points (the problem's points).
+    /// Problem arguments as `mcs`. Returns a `PlanResult`.
+    fn plan(
+        poses: usize = 30,
+        tracker_sigma: f64 = 0.01,
+        tracker_at: Option<Vec<f64>> = None,
+        tracker_range: f64 = 20_000.0,
+        max_incidence: f64 = 60.0,
+        target: Option<Vec<f64>> = None,
+        threshold: Option<Vec<f64>> = None,
+        candidates: usize = 2000,
+        draws: usize = 100_000
+    ) -> PyPlan |py, problem| {
+        if !(100..=100_000_000).contains(&draws) {
+            return Err(value_error(format!("draws: must be 100 … 100000000, got {draws}")));
+        }
+        let tracker_at = triple(tracker_at, "tracker_at")?;
+        let target = triple(target, "target")?;
+        let thresholds = threshold.unwrap_or_else(|| vec![0.02, 0.03, 0.05]);
+        let seed = problem.seed;
+        let spec = problem.spec()?;
+        let budget = problem.budget()?;
+        let estimate = |m: u64| {
+            check_estimate(
+                &budget,
+                &Estimate::new(format!("a calibration plan with {draws} draws"), "use fewer draws")
+                    .plus(&[draws as u64, 8])
+                    .plus(&[candidates as u64, 64 * 27 * 8])
+                    .plus(&[m, BYTES_PER_POINT]),
+            )
+        };
+        spec.check(&estimate)?;
+        let built = spec.build(&estimate)?;
+        let evaluators = spec.evaluators();
+        let (result, notes) = py.detach(|| -> PyResult<_> {
+            let model = built.problem.model.clone();
+            let task: Vec<[f64; JOINTS]> =
+                built.problem.points.iter().map(|q| q.map(f64::to_degrees)).collect();
+            let opts = PlanOptions {
+                poses,
+                candidates,
+                sigma_mm: tracker_sigma,
+                tracker: tracker_at.map(|t| TrackerSite {
+                    position_mm: t,
+                    range_mm: tracker_range,
+                    max_incidence_deg: max_incidence,
+                }),
+                thresholds: thresholds.clone(),
+                target_mm: target.unwrap_or(if model.tool != [0.0; 3] {
+                    model.tool
+                } else {
+                    PlanOptions::default().target_mm
+                }),
+                seed,
+                ..PlanOptions::default()
+            };
+            let mut p = planner::plan(&model, &task, &opts).map_err(plan_error)?;
+            let problem = planner::prediction_problem(&p, &task, seed).map_err(plan_error)?;
+            let (mut ev, notes) = evaluators.make(problem)?;
+            p.prediction = Some(planner::predict(ev.as_mut(), draws, &thresholds).map_err(plan_error)?);
+            Ok((p, notes))
+        })?;
+        Ok(PyPlan { plan: result, notes })
+    }
+}
