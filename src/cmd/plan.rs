@@ -86,6 +86,11 @@ pub struct PlanArgs {
     /// Draws of the engine's Monte Carlo of the planned model at the task points.
     #[arg(long, default_value_t = 100_000, value_name = "N")]
     pub draws: usize,
+    /// Plan for the ISO 9283 test poses P1–P5 (as `points --iso9283` places them, tool
+    /// pointing down) instead of task points; the text and page then give each pose's
+    /// Pr[AP_j ≤ L], the certificate.
+    #[arg(long, conflicts_with = "points_file")]
+    pub iso9283: bool,
     /// Write the design (q1..q6 in degrees, in visiting order) to FILE.
     #[arg(long, short, value_name = "FILE")]
     pub out: PathBuf,
@@ -133,12 +138,19 @@ impl Run for PlanArgs {
         let (plan, rows) = pool.install(|| -> Result<_> {
             let built = a.problem.build()?;
             let model = built.problem.model.clone();
-            let task: Vec<[f64; 6]> = built
-                .problem
-                .points
-                .iter()
-                .map(|q| q.map(f64::to_degrees))
-                .collect();
+            let task: Vec<[f64; 6]> = if a.iso9283 {
+                let rpy = gpu_amcs::map::tool_down_rpy_deg(&model);
+                let cube = gpu_amcs::iso9283::test_cube(&model, Some(rpy))
+                    .map_err(|e| anyhow::anyhow!("--iso9283: {}", e.0))?;
+                cube.poses_q_deg.to_vec()
+            } else {
+                built
+                    .problem
+                    .points
+                    .iter()
+                    .map(|q| q.map(f64::to_degrees))
+                    .collect()
+            };
             let target = match &a.target {
                 Some(t) => [t[0], t[1], t[2]],
                 None if model.tool != [0.0; 3] => model.tool,

@@ -16,8 +16,27 @@ const BYTES_PER_POINT: u64 = 48 + 2 * 128;
 #[derive(Args, Debug, Clone)]
 pub struct PointsArgs {
     /// Number of test points.
-    #[arg(value_name = "N")]
-    pub n: usize,
+    #[arg(value_name = "N", required_unless_present = "iso9283")]
+    pub n: Option<usize>,
+    /// Instead: the five ISO 9283 test poses P1–P5 on the diagonal plane of the largest test
+    /// cube in the working space (edges parallel to the base frame; P1 at the centre, P2–P5 at
+    /// 10 % of the diagonal from the corners), one flange orientation for all (default: the
+    /// tool pointing down). The cube is printed to stderr.
+    #[arg(long, conflicts_with_all = ["n", "points_seed"])]
+    pub iso9283: bool,
+    /// With --iso9283: the flange orientation of the poses, roll,pitch,yaw in degrees.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        num_args = 3,
+        value_name = "R,P,Y",
+        requires = "iso9283",
+        allow_hyphen_values = true
+    )]
+    pub iso_rpy: Option<Vec<f64>>,
+    /// With --iso9283: place the poses by position alone (any flange orientation).
+    #[arg(long, requires = "iso9283", conflicts_with = "iso_rpy")]
+    pub position_only: bool,
     #[command(flatten)]
     pub model: ModelArgs,
     /// Seed.
@@ -37,19 +56,51 @@ impl Run for PointsArgs {
         let mut outputs = Outputs::new(self.model.model.as_deref().map(|m| ("--model", m)));
         outputs.file("--out", self.out.as_deref())?;
         self.workspace.check()?;
-        if self.n > points::MAX_POINTS {
-            return Err(anyhow::Error::new(points::PointsError::TooMany(self.n)).context("N"));
+        if self.iso9283 {
+            let model = self.model.load()?;
+            let rpy = match (&self.iso_rpy, self.position_only) {
+                (_, true) => None,
+                (Some(r), _) => {
+                    if r.iter().any(|v| !v.is_finite()) {
+                        anyhow::bail!("--iso-rpy: roll, pitch, yaw must be finite degrees");
+                    }
+                    Some([r[0], r[1], r[2]])
+                }
+                (None, false) => Some(gpu_amcs::map::tool_down_rpy_deg(&model)),
+            };
+            let cube = gpu_amcs::iso9283::test_cube(&model, rpy)
+                .map_err(|e| anyhow::anyhow!("--iso9283: {}", e.0))?;
+            let c = cube.centre_mm;
+            eprintln!(
+                "ISO 9283 test cube: centre ({:.1}, {:.1}, {:.1}) mm, edge {:.1} mm, base frame; {}",
+                c[0],
+                c[1],
+                c[2],
+                cube.edge_mm,
+                match cube.rpy_deg {
+                    Some(r) => format!("flange rpy ({}, {}, {})°", r[0], r[1], r[2]),
+                    None => "position only".into(),
+                }
+            );
+            for (k, p) in cube.poses_mm.iter().enumerate() {
+                eprintln!("  P{}  ({:.1}, {:.1}, {:.1}) mm", k + 1, p[0], p[1], p[2]);
+            }
+            return outputs.write_or_print("--out", points::to_csv(&cube.poses_q_deg));
+        }
+        let n = self.n.unwrap_or(0);
+        if n > points::MAX_POINTS {
+            return Err(anyhow::Error::new(points::PointsError::TooMany(n)).context("N"));
         }
         self.memory.check(
             &Estimate::new(
-                format!("{} test points", self.n),
+                format!("{n} test points"),
                 "generate fewer points, or raise --memory-limit",
             )
-            .plus(&[self.n as u64, BYTES_PER_POINT]),
+            .plus(&[n as u64, BYTES_PER_POINT]),
         )?;
         let model = self.model.load()?;
         let bx = self.workspace.workspace(&model)?;
-        let pts = points::generate(&model, self.n, &bx, self.points_seed)?;
+        let pts = points::generate(&model, n, &bx, self.points_seed)?;
         outputs.write_or_print("--out", points::to_csv(&pts))
     }
 }

@@ -267,3 +267,42 @@ fn plan_cli_writes_the_design_and_refuses_bad_input() {
     }
     let _ = std::fs::remove_dir_all(&d);
 }
+
+#[test]
+fn plan_for_the_iso9283_poses_gives_each_poses_certificate() {
+    let d = tmpdir("plan-iso");
+    let j = d.join("plan.json");
+    let o = run(&[
+        "plan",
+        "--iso9283",
+        "--candidates",
+        "500",
+        "--draws",
+        "20000",
+        "--threshold",
+        "0.01,0.015",
+        "--backend",
+        "cpu",
+        "--out",
+        d.join("design.csv").to_str().unwrap(),
+        "--json",
+        j.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", common::stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("P5  L = 0.01:"), "{text}");
+    let v: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(&j).unwrap()).unwrap();
+    assert_eq!(v["task_points"], 5);
+    let pr = &v["prediction"];
+    let per_point = pr["per_point"].as_array().unwrap();
+    assert_eq!(per_point.len(), 5);
+    // All five poses within L together is rarer than any one of them; each is a probability.
+    for (t, all) in pr["reliability"].as_array().unwrap().iter().enumerate() {
+        let r_all = all["r"].as_f64().unwrap();
+        for row in per_point {
+            let r = row[t]["r"].as_f64().unwrap();
+            assert!(r >= r_all && r <= 1.0, "{r} vs {r_all}");
+        }
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -258,6 +258,46 @@ pub fn render(figures: &[PoseFigures]) -> String {
 
 #[cfg(test)]
 mod tests {
+    #[test]
+    fn the_test_cube_is_reachable_maximal_and_its_poses_sit_where_the_standard_puts_them() {
+        let m = crate::kinematics::tx60();
+        let rpy = crate::map::tool_down_rpy_deg(&m);
+        let cube = test_cube(&m, Some(rpy)).unwrap();
+        eprintln!("{cube:?}");
+        assert!(cube.edge_mm > 100.0, "{cube:?}");
+        let (corners, poses) = cube_points(cube.centre_mm, cube.edge_mm);
+        let dist = |a: [f64; 3], b: [f64; 3]| {
+            ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt()
+        };
+        // P2 … P5 at 10 % of the plane's diagonal (a space diagonal, edge·√3) from C1, C2, C7, C8.
+        for (k, c) in [corners[0], corners[1], corners[6], corners[7]]
+            .iter()
+            .enumerate()
+        {
+            let d = dist(poses[k + 1], *c);
+            assert!(
+                (d - 0.1 * 3f64.sqrt() * cube.edge_mm).abs() < 1e-9,
+                "P{}: {d}",
+                k + 2
+            );
+        }
+        assert_eq!(poses[0], cube.centre_mm);
+        // Each configuration puts the tool point on its pose (forward kinematics).
+        for (q, p) in cube.poses_q_deg.iter().zip(&cube.poses_mm) {
+            let x = position(&m.params, &m.tool, &q.map(f64::to_radians));
+            assert!(dist(x, *p) < 1e-3, "{x:?} vs {p:?}");
+        }
+        // Largest at its centre, to the bisection's resolution: 3 % larger fails.
+        let ik = crate::map::ik::Ik::new(
+            &m,
+            crate::map::default_reference_deg(&m).map(f64::to_radians),
+            0,
+        );
+        let rot = Some(crate::map::ik::rpy_rotation(rpy));
+        assert!(cube_solution(&ik, rot, cube.centre_mm, cube.edge_mm).is_some());
+        assert!(cube_solution(&ik, rot, cube.centre_mm, 1.03 * cube.edge_mm).is_none());
+    }
+
     use super::*;
     use crate::kinematics::tx60;
 
@@ -349,4 +389,178 @@ mod tests {
         }
         assert!(render_certificate(&c).contains("all"));
     }
+}
+
+/// The ISO 9283 test cube placed in a robot's working space, and its five test poses.
+///
+/// What the standard's public descriptions say, and what is assumed here where they are thin:
+/// the cube is the largest one in the working space with its edges parallel to the base frame
+/// (searched with its centre in the x–z half-plane in front of the robot, y = 0); the poses lie
+/// on the diagonal plane through the cube's corners C1 = (−,−,−), C2 = (+,−,−), C7 = (+,+,+) and
+/// C8 = (−,+,+) (half-edges from the centre); P1 is the centre and P2 … P5 lie on that plane's
+/// diagonals at 10 % of a diagonal's length from C1, C2, C7 and C8; every pose has one stated
+/// flange orientation (default: the tool pointing down), and all eight corners must be
+/// reachable with it too.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct TestCube {
+    /// Centre, mm, base frame.
+    pub centre_mm: [f64; 3],
+    /// Edge length, mm.
+    pub edge_mm: f64,
+    /// Flange orientation of every pose (roll, pitch, yaw in degrees), `None` for position
+    /// only.
+    pub rpy_deg: Option<[f64; 3]>,
+    /// P1 … P5, mm, base frame.
+    pub poses_mm: [[f64; 3]; 5],
+    /// P1 … P5 as joint angles, degrees.
+    pub poses_q_deg: [[f64; JOINTS]; 5],
+}
+
+/// The corners C1, C2, C7, C8 of the test plane and P1 … P5 of a cube.
+fn cube_points(c: [f64; 3], edge: f64) -> ([[f64; 3]; 8], [[f64; 3]; 5]) {
+    let h = edge / 2.0;
+    let corner = |sx: f64, sy: f64, sz: f64| [c[0] + sx * h, c[1] + sy * h, c[2] + sz * h];
+    let all = [
+        corner(-1.0, -1.0, -1.0),
+        corner(1.0, -1.0, -1.0),
+        corner(1.0, 1.0, -1.0),
+        corner(-1.0, 1.0, -1.0),
+        corner(-1.0, -1.0, 1.0),
+        corner(1.0, -1.0, 1.0),
+        corner(1.0, 1.0, 1.0),
+        corner(-1.0, 1.0, 1.0),
+    ];
+    // The plane's corners C1, C2, C7, C8; 10 % of the diagonal from a corner is a fifth of the
+    // way to the centre.
+    let plane = [all[0], all[1], all[6], all[7]];
+    let towards = |p: [f64; 3]| std::array::from_fn(|k| p[k] + 0.2 * (c[k] - p[k]));
+    (
+        all,
+        [
+            c,
+            towards(plane[0]),
+            towards(plane[1]),
+            towards(plane[2]),
+            towards(plane[3]),
+        ],
+    )
+}
+
+/// The IK solutions of the five poses when all eight corners and the five poses are reachable.
+fn cube_solution(
+    ik: &crate::map::ik::Ik,
+    rotation: Option<crate::map::ik::Rot3>,
+    c: [f64; 3],
+    edge: f64,
+) -> Option<[[f64; JOINTS]; 5]> {
+    let (corners, poses) = cube_points(c, edge);
+    let solve = |p: [f64; 3]| {
+        ik.solve(
+            &crate::map::ik::IkTarget {
+                position: p,
+                rotation,
+            },
+            &[],
+        )
+    };
+    if !corners.iter().all(|&p| solve(p).is_some()) {
+        return None;
+    }
+    let mut q = [[0.0; JOINTS]; 5];
+    for (k, p) in poses.iter().enumerate() {
+        q[k] = solve(*p)?.q.map(f64::to_degrees);
+    }
+    Some(q)
+}
+
+/// Places the ISO 9283 test cube of `model` (see [`TestCube`]) with the flange orientation
+/// `rpy_deg` (`None`: position only): a coarse search over centres in front of the robot, the
+/// largest edge at each by bisection, then a finer search around the best centre.
+///
+/// # Errors
+///
+/// [`CertificateError`] when no cube of at least 1 mm has all its corners and poses reachable.
+pub fn test_cube(
+    model: &RobotModel,
+    rpy_deg: Option<[f64; 3]>,
+) -> Result<TestCube, CertificateError> {
+    let reference = crate::map::default_reference_deg(model).map(f64::to_radians);
+    let ik = crate::map::ik::Ik::new(model, reference, 0);
+    let rotation = rpy_deg.map(crate::map::ik::rpy_rotation);
+    let reach = crate::map::ik::reach_bound(model).max(1.0);
+    let d1 = model.params[1];
+    let largest = |c: [f64; 3], hi: f64, steps: usize| -> f64 {
+        let (mut lo, mut hi) = (0.0, hi);
+        if cube_solution(&ik, rotation, c, 1.0).is_none() {
+            return 0.0;
+        }
+        for _ in 0..steps {
+            let mid = 0.5 * (lo + hi);
+            if cube_solution(&ik, rotation, c, mid).is_some() {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        lo
+    };
+    use rayon::prelude::*;
+    let coarse: Vec<[f64; 3]> = (0..8)
+        .flat_map(|i| {
+            (0..9).map(move |k| {
+                [
+                    reach * (0.15 + 0.1 * i as f64),
+                    0.0,
+                    d1 + reach * (-0.4 + 0.1 * k as f64),
+                ]
+            })
+        })
+        .collect();
+    let best = |centres: &[[f64; 3]], steps: usize| {
+        centres
+            .par_iter()
+            .map(|&c| (largest(c, reach, steps), c))
+            .max_by(|a, b| a.0.total_cmp(&b.0).then(b.1[0].total_cmp(&a.1[0])))
+            .unwrap_or((0.0, [0.0; 3]))
+    };
+    // Coarse: the edge to reach/64; fine: to reach/1024.
+    let (edge0, c0) = best(&coarse, 6);
+    let step = 0.1 * reach;
+    let fine: Vec<[f64; 3]> = (-2..=2)
+        .flat_map(|i| {
+            (-2..=2).map(move |k| {
+                [
+                    c0[0] + 0.25 * step * i as f64,
+                    0.0,
+                    c0[2] + 0.25 * step * k as f64,
+                ]
+            })
+        })
+        .collect();
+    let (edge1, c1) = best(&fine, 10);
+    let (edge, centre) = if edge1 >= edge0 {
+        (edge1, c1)
+    } else {
+        (edge0, c0)
+    };
+    if edge < 1.0 {
+        return Err(CertificateError(format!(
+            "no test cube of 1 mm or more with every corner and pose reachable{}",
+            if rpy_deg.is_some() {
+                " at the stated orientation"
+            } else {
+                ""
+            }
+        )));
+    }
+    let q = cube_solution(&ik, rotation, centre, edge).ok_or_else(|| {
+        CertificateError("the cube found is not reachable on a second solve".into())
+    })?;
+    Ok(TestCube {
+        centre_mm: centre,
+        edge_mm: edge,
+        rpy_deg,
+        poses_mm: cube_points(centre, edge).1,
+        poses_q_deg: q,
+    })
 }

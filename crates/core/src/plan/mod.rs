@@ -224,6 +224,9 @@ pub struct Prediction {
     pub q95_mm: f64,
     /// Mean of w, mm.
     pub mean_mm: f64,
+    /// Per task point j, `Pr[e_j < L]` per threshold with its 95 % interval: for ISO 9283 test
+    /// poses, the probability that pose accuracy AP_j meets L (the certificate, Method §16).
+    pub per_point: Vec<Vec<Reliability>>,
     /// The evaluator.
     pub backend: BackendInfo,
 }
@@ -419,6 +422,9 @@ impl Geometry {
         }
     }
 }
+
+/// Draws per evaluation call of the prediction.
+const PREDICTION_CHUNK: usize = 1 << 16;
 
 /// Swaps per design pose judged by q95 after the screen.
 const JUDGED: usize = 8;
@@ -1019,9 +1025,41 @@ pub fn predict(
             format!("the prediction needs at least 100 draws, got {draws}"),
         ));
     }
+    let m = ev.n_points();
     let mut w = vec![0.0; draws];
-    ev.evaluate(0, &mut w, None)?;
+    // Per-point errors chunk by chunk (one chunk's m errors a draw kept at a time).
+    let chunk = PREDICTION_CHUNK.min(draws);
+    let mut e = vec![0.0; chunk * m];
+    let mut below = vec![0u64; m * thresholds.len()];
+    let mut first = 0;
+    while first < draws {
+        let n = chunk.min(draws - first);
+        ev.evaluate(
+            first as u64,
+            &mut w[first..first + n],
+            Some(&mut e[..n * m]),
+        )?;
+        for row in e[..n * m].chunks(m) {
+            for (j, x) in row.iter().enumerate() {
+                for (t, l) in thresholds.iter().enumerate() {
+                    below[j * thresholds.len() + t] += u64::from(x < l);
+                }
+            }
+        }
+        first += n;
+    }
     w.par_sort_unstable_by(f64::total_cmp);
+    let per_point = (0..m)
+        .map(|j| {
+            thresholds
+                .iter()
+                .enumerate()
+                .map(|(t, &l)| {
+                    Reliability::from_count(l, below[j * thresholds.len() + t], draws as u64)
+                })
+                .collect()
+        })
+        .collect();
     Ok(Prediction {
         draws,
         reliability: thresholds
@@ -1030,6 +1068,7 @@ pub fn predict(
             .collect(),
         q95_mm: quantile(&w, 0.95),
         mean_mm: w.iter().sum::<f64>() / draws as f64,
+        per_point,
         backend: ev.info(),
     })
 }

@@ -9,6 +9,9 @@ use crate::report::text::fmt_g;
 use crate::report::{Layout, Report};
 use std::fmt::Write;
 
+/// Task points up to which the text and the page show each point's reliability.
+const CERTIFICATE_POINTS: usize = 10;
+
 /// The JSON document in a report directory.
 const JSON: &str = "plan.json";
 /// The three designs side by side.
@@ -167,6 +170,19 @@ pub fn render_text(p: &Plan) -> String {
                 r.ci_high
             );
         }
+        if pr.per_point.len() <= CERTIFICATE_POINTS {
+            let _ = writeln!(
+                s,
+                "  per task point (for ISO 9283 poses: Pr[AP_j ≤ L], the certificate):"
+            );
+            for (j, rows) in pr.per_point.iter().enumerate() {
+                let cells: Vec<String> = rows
+                    .iter()
+                    .map(|r| format!("L = {}: {:.4}", fmt_g(r.threshold), r.r))
+                    .collect();
+                let _ = writeln!(s, "    P{}  {}", j + 1, cells.join("   "));
+            }
+        }
     }
     let _ = writeln!(
         s,
@@ -272,6 +288,33 @@ fn plan_page(p: &Plan, settings: &[(String, String)], files: &[(String, String)]
                 &format!("{:.4} [{:.4}, {:.4}]", r.r, r.ci_low, r.ci_high),
             );
         }
+    }
+    if let Some(pr) = p
+        .prediction
+        .as_ref()
+        .filter(|pr| pr.per_point.len() <= CERTIFICATE_POINTS)
+    {
+        page.heading("Per task point");
+        let mut header = vec!["point".to_string()];
+        header.extend(
+            p.thresholds
+                .iter()
+                .map(|t| format!("Pr[e_j < {} mm]", fmt_g(*t))),
+        );
+        let h: Vec<&str> = header.iter().map(String::as_str).collect();
+        page.table(Table::new(
+            "The predicted probability that each task point's error stays below L; at ISO 9283 test poses, that pose accuracy AP_j meets L (the certificate)",
+            &h,
+            pr.per_point
+                .iter()
+                .enumerate()
+                .map(|(j, rows)| {
+                    std::iter::once(format!("P{}", j + 1))
+                        .chain(rows.iter().map(|r| format!("{:.4} [{:.4}, {:.4}]", r.r, r.ci_low, r.ci_high)))
+                        .collect()
+                })
+                .collect(),
+        ));
     }
     page.heading("Designs compared");
     let header = compare_header(p);
