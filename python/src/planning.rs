@@ -166,11 +166,7 @@ problem_function! {
                     max_incidence_deg: max_incidence,
                 }),
                 thresholds: thresholds.clone(),
-                target_mm: target.unwrap_or(if model.tool != [0.0; 3] {
-                    model.tool
-                } else {
-                    PlanOptions::default().target_mm
-                }),
+                target_mm: target.unwrap_or_else(|| PlanOptions::default_target(&model)),
                 seed,
                 ..PlanOptions::default()
             };

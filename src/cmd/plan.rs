@@ -153,8 +153,7 @@ impl Run for PlanArgs {
             };
             let target = match &a.target {
                 Some(t) => [t[0], t[1], t[2]],
-                None if model.tool != [0.0; 3] => model.tool,
-                None => PlanOptions::default().target_mm,
+                None => PlanOptions::default_target(&model),
             };
             let opts = PlanOptions {
                 poses: a.poses,

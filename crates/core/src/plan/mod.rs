@@ -85,6 +85,19 @@ pub struct PlanOptions {
     pub seed: u64,
 }
 
+impl PlanOptions {
+    /// The target a plan of `model` assumes when none is given: the model's tool unless it is
+    /// the flange origin (which hides joint 5's parameters), else the default (30, −20, 80) mm,
+    /// the simulator's design target.
+    pub fn default_target(model: &RobotModel) -> [f64; 3] {
+        if model.tool != [0.0; 3] {
+            model.tool
+        } else {
+            PlanOptions::default().target_mm
+        }
+    }
+}
+
 impl Default for PlanOptions {
     fn default() -> Self {
         PlanOptions {
