@@ -1499,14 +1499,8 @@ fn import_prints_the_base_it_inferred() {
 #[test]
 fn ur5e_from_its_ros_urdf_exports_the_factory_calibration() {
     let factory = ur_yaml_joints(UR5E_CALIBRATION);
-    let names = [
-        "shoulder",
-        "upper_arm",
-        "forearm",
-        "wrist_1",
-        "wrist_2",
-        "wrist_3",
-    ];
+    // The URDF's links are named after the calibration file's joints.
+    let names = gpu_amcs::import::ur::UR_JOINTS;
     let joints = [
         "shoulder_pan",
         "shoulder_lift",
