@@ -191,6 +191,9 @@ fn setting(field: PlanField, message: impl Into<String>) -> PlanError {
 pub struct DesignFigures {
     /// 95 % quantile of w at the task points, mm.
     pub q95_mm: f64,
+    /// Predicted RMS of the position error over the task points, mm: `σ·√(Σ_j E‖e_j‖² / m)`
+    /// from the covariance alone (no Monte Carlo).
+    pub rms_mm: f64,
     /// Predicted R(L) per threshold.
     pub reliability: Vec<f64>,
     /// `log det` of the scaled information matrix.
@@ -263,6 +266,10 @@ pub struct Plan {
     pub random_median: DesignFigures,
     /// Random designs compared.
     pub random_designs: usize,
+    /// No design of as many poses from these candidates can bring the predicted RMS at the task
+    /// points ([`DesignFigures::rms_mm`]) below this, mm: the approximate-design bound of
+    /// Method §17.
+    pub rms_bound_mm: f64,
     /// Predicted figures against the number of poses.
     pub curve: Vec<CurvePoint>,
     /// Candidates kept.
@@ -314,6 +321,8 @@ impl Plan {
 struct Geometry {
     /// Per candidate, its 3 × p scaled Jacobian.
     cand: Vec<DMatrix<f64>>,
+    /// The same rows stacked, 3M × p.
+    stacked: DMatrix<f64>,
     /// Per candidate, `JᵀJ` (p × p).
     info: Vec<DMatrix<f64>>,
     /// 3m × p scaled task Jacobian.
@@ -385,6 +394,79 @@ impl Geometry {
         }
     }
 
+    /// Mean over the task points of the expected squared error (units of σ²) under information
+    /// `m`; +∞ when `m` is singular.
+    fn mean_sq(&self, m: &DMatrix<f64>) -> f64 {
+        match Cholesky::new(m.clone()) {
+            Some(c) => {
+                let inv = c.inverse();
+                self.grams.iter().map(|g| inv.dot(g)).sum::<f64>() / self.grams.len() as f64
+            }
+            None => f64::INFINITY,
+        }
+    }
+
+    /// A lower bound (units of σ²) on [`Geometry::mean_sq`] of every design of `n` poses
+    /// from the candidates, repeats allowed (Method §17): the bound of approximate design
+    /// theory for the linear criterion `Φ(M) = tr(A M⁻¹)`, `A = Σ_j G_j / m`. For weights `w`
+    /// (`Σ w_i = n`) with `M = Σ w_i I_i` and `d_i = tr(I_i M⁻¹ A M⁻¹)`, convexity and
+    /// `Φ(cM) = Φ(M)/c` give `Φ(M*) ≥ Φ(M)² / (n · max_i d_i)` for the best `M*` of any
+    /// weights, hence of any exact design. The weights are improved by the multiplicative
+    /// algorithm `w_i ← w_i·√(n·d_i/Φ)`; every iterate's bound is valid, the iterations only
+    /// tighten it. Returns the bound and the criterion of the best weights found.
+    fn mean_sq_bound(&self, n: usize, iterations: usize) -> (f64, f64) {
+        let k = self.info.len();
+        let p = self.p();
+        let a = self
+            .grams
+            .iter()
+            .fold(DMatrix::<f64>::zeros(p, p), |acc, g| acc + g)
+            / self.grams.len() as f64;
+        let nf = n as f64;
+        let mut w = vec![nf / k as f64; k];
+        let (mut bound, mut best) = (0.0f64, f64::INFINITY);
+        let mut weighted = self.stacked.clone();
+        for _ in 0..iterations {
+            // M = Σ w_i J_iᵀ J_i as one product of the stacked rows scaled by √w_i.
+            for (i, wi) in w.iter().enumerate() {
+                let r = wi.sqrt();
+                for row in 3 * i..3 * i + 3 {
+                    for c in 0..p {
+                        weighted[(row, c)] = self.stacked[(row, c)] * r;
+                    }
+                }
+            }
+            let m = weighted.tr_mul(&weighted);
+            let Some(c) = Cholesky::new(m) else {
+                break;
+            };
+            let minv = c.inverse();
+            let b = &minv * &a * &minv;
+            let phi = a.dot(&minv);
+            // d_i = tr(J_i B J_iᵀ): the row sums of (J B) ∘ J, three rows per candidate.
+            let jb = (&self.stacked * &b).component_mul(&self.stacked);
+            let rows: Vec<f64> = jb.column_sum().iter().copied().collect();
+            let d: Vec<f64> = (0..k)
+                .map(|i| rows[3 * i] + rows[3 * i + 1] + rows[3 * i + 2])
+                .collect();
+            let dmax = d.iter().cloned().fold(0.0, f64::max);
+            if !(phi.is_finite() && dmax > 0.0) {
+                break;
+            }
+            bound = bound.max(phi * phi / (nf * dmax));
+            best = best.min(phi);
+            if bound >= best * (1.0 - BOUND_GAP) {
+                break;
+            }
+            for (wi, di) in w.iter_mut().zip(&d) {
+                *wi *= (nf * di / phi).sqrt();
+            }
+            let total: f64 = w.iter().sum();
+            w.iter_mut().for_each(|wi| *wi *= nf / total);
+        }
+        (bound, best)
+    }
+
     /// q95 (units of σ) for information `m`, +∞ when singular.
     fn q95(&self, m: &DMatrix<f64>) -> f64 {
         match self.w(m, &self.z) {
@@ -412,6 +494,7 @@ impl Geometry {
                 }
             })
             .collect();
+        let rms_mm = self.mean_sq(&m).sqrt() * sigma;
         let ev = SymmetricEigen::new(m).eigenvalues;
         let (lo, hi) = ev
             .iter()
@@ -424,6 +507,7 @@ impl Geometry {
             } else {
                 quantile(&w, 0.95) * sigma
             },
+            rms_mm,
             reliability,
             log_det,
             o1: (log_det / (2.0 * p)).exp() / (design.len() as f64).sqrt(),
@@ -443,6 +527,11 @@ const PREDICTION_CHUNK: usize = 1 << 16;
 const JUDGED: usize = 8;
 /// Power of the task points' expected squared errors in the screen.
 const SCREEN_POWER: i32 = 4;
+
+/// Iterations of the multiplicative algorithm behind [`Plan::rms_bound_mm`].
+const BOUND_ITERATIONS: usize = 200;
+/// Relative gap between the bound and the best weights' criterion at which the algorithm stops.
+const BOUND_GAP: f64 = 2e-3;
 
 /// Standard-normal vectors behind every reported linearised figure.
 pub const EVAL_DRAWS: usize = 2000;
@@ -801,6 +890,7 @@ pub fn plan(
     let task_j = scaled(tj);
     let g = Geometry {
         cand,
+        stacked: cj,
         info,
         grams: (0..task.len())
             .map(|j| {
@@ -931,6 +1021,7 @@ pub fn plan(
         .map(|d| g.figures(d, o.sigma_mm))
         .collect();
     let random_median = median_figures(&randoms, o.thresholds.len());
+    let rms_bound_mm = g.mean_sq_bound(o.poses, BOUND_ITERATIONS).0.sqrt() * o.sigma_mm;
 
     // The curve: prefixes of the design in its own D-optimal order.
     let ordered = greedy(&g, &design, &[], design.len());
@@ -975,6 +1066,7 @@ pub fn plan(
         log_det_design_deg: dopt.iter().map(|&i| cands[i]).collect(),
         random_median,
         random_designs: o.random_designs,
+        rms_bound_mm,
         curve,
         candidates: cands.len(),
         candidates_drawn: drawn,
@@ -1012,6 +1104,7 @@ fn median_figures(v: &[DesignFigures], thresholds: usize) -> DesignFigures {
     };
     DesignFigures {
         q95_mm: med(&|f| f.q95_mm),
+        rms_mm: med(&|f| f.rms_mm),
         reliability: (0..thresholds)
             .map(|t| med(&|f| f.reliability[t]))
             .collect(),
@@ -1102,4 +1195,78 @@ pub fn prediction_problem(
         &Reference::Calibrated,
         seed,
     )?)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A geometry of `k` random 3 × p candidate blocks and `m` random task blocks.
+    fn toy(k: usize, m: usize, p: usize, seed: u64) -> Geometry {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let stacked = DMatrix::from_fn(3 * k, p, |_, _| standard_normal(&mut rng));
+        let task = DMatrix::from_fn(3 * m, p, |_, _| standard_normal(&mut rng));
+        let cand: Vec<DMatrix<f64>> = (0..k)
+            .map(|i| stacked.rows(3 * i, 3).into_owned())
+            .collect();
+        Geometry {
+            info: cand.iter().map(|j| j.transpose() * j).collect(),
+            cand,
+            stacked,
+            grams: (0..m)
+                .map(|j| {
+                    let r = task.rows(3 * j, 3);
+                    r.transpose() * r
+                })
+                .collect(),
+            task,
+            z: DMatrix::zeros(p, 1),
+            z_eval: DMatrix::zeros(p, 1),
+            scale: vec![1.0; p],
+            thresholds_sigma: Vec::new(),
+        }
+    }
+
+    /// Every multiset of `n` of `0..k`, in order.
+    fn multisets(k: usize, n: usize) -> Vec<Vec<usize>> {
+        if n == 0 {
+            return vec![Vec::new()];
+        }
+        let mut out = Vec::new();
+        for rest in multisets(k, n - 1) {
+            let from = rest.last().copied().unwrap_or(0);
+            for i in from..k {
+                let mut d = rest.clone();
+                d.push(i);
+                out.push(d);
+            }
+        }
+        out
+    }
+
+    #[test]
+    fn the_design_bound_is_below_every_exact_design_and_near_the_best() {
+        for seed in 1..=5 {
+            let (k, n) = (8, 6);
+            let g = toy(k, 4, 5, seed);
+            let (bound, best_weights) = g.mean_sq_bound(n, 2000);
+            // Brute force over every design of n poses, repeats allowed (1716 of them).
+            let best_exact = multisets(k, n)
+                .iter()
+                .map(|d| g.mean_sq(&g.information(d)))
+                .fold(f64::INFINITY, f64::min);
+            eprintln!("seed {seed}: bound {bound:.5}, best weights {best_weights:.5}, best exact {best_exact:.5}");
+            assert!(bound.is_finite() && bound > 0.0);
+            assert!(
+                bound <= best_exact * (1.0 + 1e-12),
+                "seed {seed}: bound {bound} above the best exact design {best_exact}"
+            );
+            assert!(bound <= best_weights * (1.0 + 1e-12));
+            // Rounding n = 6 weights to whole poses costs little here: the bound is not vacuous.
+            assert!(
+                bound >= 0.8 * best_exact,
+                "seed {seed}: bound {bound}, best exact {best_exact}"
+            );
+        }
+    }
 }

@@ -83,7 +83,11 @@ fn designs(p: &Plan) -> [(String, &DesignFigures); 3] {
 }
 
 fn compare_header(p: &Plan) -> Vec<String> {
-    let mut h = vec!["design".to_string(), "q95 of w (mm)".to_string()];
+    let mut h = vec![
+        "design".to_string(),
+        "q95 of w (mm)".to_string(),
+        "RMS at task points (mm)".to_string(),
+    ];
     h.extend(p.thresholds.iter().map(|t| format!("R({} mm)", fmt_g(*t))));
     h.extend(["log det".into(), "O1".into(), "condition".into()]);
     h
@@ -93,7 +97,11 @@ fn compare_rows(p: &Plan) -> Vec<Vec<String>> {
     designs(p)
         .iter()
         .map(|(name, f)| {
-            let mut r = vec![name.clone(), format!("{:.5}", f.q95_mm)];
+            let mut r = vec![
+                name.clone(),
+                format!("{:.5}", f.q95_mm),
+                format!("{:.5}", f.rms_mm),
+            ];
             r.extend(f.reliability.iter().map(|v| format!("{v:.4}")));
             r.extend([
                 format!("{:.3}", f.log_det),
@@ -215,6 +223,7 @@ pub fn render_text(p: &Plan) -> String {
             .collect();
         let _ = writeln!(s, "  {}", cells.join("  "));
     }
+    let _ = writeln!(s, "  {}", bound_sentence(p));
     if let (Some(first), Some(last)) = (p.curve.first(), p.curve.last()) {
         let _ = writeln!(
             s,
@@ -223,6 +232,17 @@ pub fn render_text(p: &Plan) -> String {
         );
     }
     s
+}
+
+/// What the bound of Method §17 says about this plan.
+fn bound_sentence(p: &Plan) -> String {
+    format!(
+        "no design of {} of these candidates can bring the RMS at the task points below {:.5} mm \
+         (the planned design is {:.1} % above it)",
+        p.design_deg.len(),
+        p.rms_bound_mm,
+        100.0 * (p.planned.rms_mm / p.rms_bound_mm - 1.0)
+    )
 }
 
 fn render_compare_csv(p: &Plan) -> String {
@@ -280,6 +300,14 @@ fn plan_page(p: &Plan, settings: &[(String, String)], files: &[(String, String)]
         .summary(
             "q95 of w, random designs",
             &format!("{:.5} mm", p.random_median.q95_mm),
+        )
+        .summary(
+            "RMS at task points, planned",
+            &format!("{:.5} mm", p.planned.rms_mm),
+        )
+        .summary(
+            "RMS at task points, any design (bound)",
+            &format!("≥ {:.5} mm", p.rms_bound_mm),
         );
     if let Some(pr) = &p.prediction {
         for r in &pr.reliability {
@@ -324,6 +352,7 @@ fn plan_page(p: &Plan, settings: &[(String, String)], files: &[(String, String)]
         &h,
         compare_rows(p),
     ));
+    page.paragraph(&format!("{}.", bound_sentence(p)));
     page.heading("Poses in visiting order");
     page.table(Table::new(
         "Joint angles (degrees), as design.csv holds them",
