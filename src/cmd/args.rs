@@ -350,6 +350,16 @@ impl BoxArgs {
     }
 }
 
+/// The three finite numbers a flag of the form `A,B,C` was given; `what` names them
+/// ("x, y, z mm").
+pub fn three_values(flag: &str, what: &str, v: &[f64]) -> Result<[f64; 3]> {
+    match v {
+        [a, b, c] if v.iter().all(|x| x.is_finite()) => Ok([*a, *b, *c]),
+        [_, _, _] => bail!("{flag}: {what} must be finite numbers"),
+        _ => bail!("{flag} needs three numbers ({what}), got {}", v.len()),
+    }
+}
+
 /// A flag of three numbers x,y,z (mm), when given.
 fn three(v: Option<&[f64]>, field: SpecField) -> Result<Option<[f64; 3]>> {
     match v {

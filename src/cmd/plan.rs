@@ -1,7 +1,7 @@
 //! `plan`: choose the poses to measure for a calibration and predict the reliability they give
 //! at the task points, before the tracker is switched on.
 
-use super::args::{thread_pool, ProblemArgs};
+use super::args::{thread_pool, three_values, ProblemArgs};
 use super::outputs::Outputs;
 use super::progress::Progress;
 use super::reports::{problem_rows, write_reports, ReportFlags};
@@ -39,7 +39,6 @@ pub struct PlanArgs {
     #[arg(
         long,
         value_delimiter = ',',
-        num_args = 3,
         value_name = "X,Y,Z",
         allow_hyphen_values = true
     )]
@@ -66,7 +65,6 @@ pub struct PlanArgs {
     #[arg(
         long,
         value_delimiter = ',',
-        num_args = 3,
         value_name = "X,Y,Z",
         allow_hyphen_values = true
     )]
@@ -152,15 +150,20 @@ impl Run for PlanArgs {
                     .collect()
             };
             let target = match &a.target {
-                Some(t) => [t[0], t[1], t[2]],
+                Some(t) => three_values("--target", "x, y, z in mm", t)?,
                 None => PlanOptions::default_target(&model),
             };
+            let tracker_at = a
+                .tracker_at
+                .as_deref()
+                .map(|t| three_values("--tracker-at", "x, y, z in mm", t))
+                .transpose()?;
             let opts = PlanOptions {
                 poses: a.poses,
                 candidates: a.candidates,
                 sigma_mm: a.tracker_sigma,
-                tracker: a.tracker_at.as_ref().map(|t| TrackerSite {
-                    position_mm: [t[0], t[1], t[2]],
+                tracker: tracker_at.map(|t| TrackerSite {
+                    position_mm: t,
                     range_mm: a.tracker_range,
                     max_incidence_deg: a.max_incidence,
                 }),

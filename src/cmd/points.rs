@@ -2,7 +2,7 @@
 
 use super::outputs::Outputs;
 use super::Run;
-use crate::cmd::args::{BoxArgs, MemoryArgs, ModelArgs};
+use crate::cmd::args::{three_values, BoxArgs, MemoryArgs, ModelArgs};
 use anyhow::Result;
 use clap::Args;
 use gpu_amcs::memory::Estimate;
@@ -28,7 +28,6 @@ pub struct PointsArgs {
     #[arg(
         long,
         value_delimiter = ',',
-        num_args = 3,
         value_name = "R,P,Y",
         requires = "iso9283",
         allow_hyphen_values = true
@@ -60,12 +59,7 @@ impl Run for PointsArgs {
             let model = self.model.load()?;
             let rpy = match (&self.iso_rpy, self.position_only) {
                 (_, true) => None,
-                (Some(r), _) => {
-                    if r.iter().any(|v| !v.is_finite()) {
-                        anyhow::bail!("--iso-rpy: roll, pitch, yaw must be finite degrees");
-                    }
-                    Some([r[0], r[1], r[2]])
-                }
+                (Some(r), _) => Some(three_values("--iso-rpy", "roll, pitch, yaw in degrees", r)?),
                 (None, false) => Some(gpu_amcs::map::tool_down_rpy_deg(&model)),
             };
             let cube = gpu_amcs::iso9283::test_cube(&model, rpy)

@@ -4,7 +4,7 @@
 
 use super::outputs::Outputs;
 use super::Run;
-use crate::cmd::args::{FactorArgs, MemoryArgs};
+use crate::cmd::args::{three_values, FactorArgs, MemoryArgs};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use gpu_amcs::memory::Estimate;
@@ -45,7 +45,7 @@ pub struct SimulateArgs {
     pub placement: Option<PlacementArg>,
     /// Target on the flange, mm (default: the design target 30,-20,80 of the sweep simulation;
     /// replaced by --truth's).
-    #[arg(long, value_delimiter = ',', num_args = 3, value_name = "X,Y,Z")]
+    #[arg(long, value_delimiter = ',', value_name = "X,Y,Z")]
     pub target: Option<Vec<f64>>,
     /// With --poses: plain tracker noise σ per coordinate, mm, instead of the AT960 model.
     #[arg(long, value_name = "MM", requires = "poses")]
@@ -64,10 +64,11 @@ impl Run for SimulateArgs {
         outputs.file("--truth-out", a.truth_out.as_deref())?;
         let (mut exp, f) = a.factors.experiment()?;
         if let Some(t) = &a.target {
-            if t.iter().any(|v| !v.is_finite() || v.abs() > 1e5) {
-                bail!("--target: x, y, z must be finite mm within ±100 m");
+            let t = three_values("--target", "x, y, z in mm", t)?;
+            if t.iter().any(|v| v.abs() > 1e5) {
+                bail!("--target: x, y, z must be within ±100 m");
             }
-            exp.truth.tool = [t[0], t[1], t[2]];
+            exp.truth.tool = t;
             exp.nominal.tool = exp.truth.tool;
         }
         let poses = a.poses.is_some();

@@ -278,6 +278,11 @@ fn plan_cli_writes_the_design_and_refuses_bad_input() {
         "plan",
         "--points",
         "20",
+        // Three-number flags amid others, negative values included.
+        "--target",
+        "30,-20,80",
+        "--tracker-at",
+        "-2500,0,500",
         "--poses",
         "20",
         "--candidates",
@@ -301,6 +306,13 @@ fn plan_cli_writes_the_design_and_refuses_bad_input() {
     let j: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(d.join("plan.json")).unwrap()).unwrap();
     assert_eq!(j["design_deg"].as_array().unwrap().len(), 20);
+    assert_eq!(j["target_mm"], serde_json::json!([30.0, -20.0, 80.0]));
+    assert_eq!(
+        j["tracker"]["position_mm"],
+        serde_json::json!([-2500.0, 0.0, 500.0])
+    );
+    let bound = j["rms_bound_mm"].as_f64().unwrap();
+    assert!(bound > 0.0 && bound <= j["planned"]["rms_mm"].as_f64().unwrap());
     let r = &j["prediction"]["reliability"];
     assert_eq!(r.as_array().unwrap().len(), 3);
     assert!(
@@ -323,6 +335,11 @@ fn plan_cli_writes_the_design_and_refuses_bad_input() {
         (vec!["--tracker-sigma", "0"], "--tracker-sigma"),
         (vec!["--tracker-at", "100,0,300"], "--tracker-at"),
         (vec!["--target", "0,0,0"], "--target"),
+        (vec!["--target", "1,2", "--poses", "20"], "--target"),
+        (
+            vec!["--tracker-at", "-3000,0", "--poses", "20"],
+            "--tracker-at",
+        ),
     ] {
         let out = p("bad.csv");
         let mut a = vec![
