@@ -47,6 +47,19 @@ const SVG: &str = "--svg";
 const HTML: &str = "--html";
 
 impl ReportFlags {
+    /// The first report flag given, for commands that write reports only in some modes.
+    pub fn given(&self) -> Option<&'static str> {
+        [
+            (JSON, self.json.is_some()),
+            (CSV, self.csv.is_some()),
+            (SVG, self.svg.is_some()),
+            (HTML, self.html.is_some()),
+        ]
+        .into_iter()
+        .find(|(_, given)| *given)
+        .map(|(flag, _)| flag)
+    }
+
     /// Declares and checks the outputs these flags ask for, before any work: `--json`, and
     /// `--csv`, `--svg` and `--html` directories that may write the files `layout` names.
     pub fn declare(&self, outputs: &mut Outputs, layout: &Layout) -> Result<()> {

@@ -1,6 +1,8 @@
 //! `validate`: positioning accuracy of a model against measured positions.
 
 use super::args::load_model;
+use super::outputs::Outputs;
+use super::reports::{write_reports, ReportFlags};
 use super::Run;
 use anyhow::{Context, Result};
 use clap::Args;
@@ -40,6 +42,9 @@ pub struct ValidateArgs {
     /// Draws of the certificate's Monte Carlo run.
     #[arg(long, default_value_t = 100_000, value_name = "N", requires = "spec")]
     pub draws: u64,
+    /// With --iso9283: the report files (JSON, CSV, SVG, HTML).
+    #[command(flatten)]
+    pub reports: ReportFlags,
 }
 
 /// The frame of the measurements.
@@ -73,6 +78,9 @@ impl Run for ValidateArgs {
         if a.iso9283 {
             return iso9283(&a, &model, &m, frame);
         }
+        if let Some(flag) = a.reports.given() {
+            anyhow::bail!("{flag}: only validate --iso9283 writes report files");
+        }
         let v =
             identify::validate_in(&model, &m, nominal.as_ref(), frame).map_err(|e| match e {
                 // The library names the line; the file is named here.
@@ -82,15 +90,17 @@ impl Run for ValidateArgs {
                 e => e.into(),
             })?;
         let mut text = identify::render_validation(&v);
-        text.push_str(&format!(
-            "frame: {}\n",
-            match frame {
-                identify::Placement::Identify => "measurement (the model's placement applies)",
-                identify::Placement::Known => "robot base",
-            }
-        ));
+        text.push_str(&format!("frame: {}\n", frame_words(frame)));
         crate::cmd::stdout::print(&text)?;
         Ok(())
+    }
+}
+
+/// The frame of the measurements, in words.
+fn frame_words(frame: gpu_amcs::identify::Placement) -> &'static str {
+    match frame {
+        gpu_amcs::identify::Placement::Identify => "measurement (the model's placement applies)",
+        gpu_amcs::identify::Placement::Known => "robot base",
     }
 }
 
@@ -103,18 +113,41 @@ fn iso9283(
     frame: gpu_amcs::identify::Placement,
 ) -> Result<()> {
     use gpu_amcs::iso9283;
-    let figures =
-        iso9283::pose_figures(model, m, frame).with_context(|| a.measured.display().to_string())?;
-    let mut text = iso9283::render(&figures);
+    let mut outputs = Outputs::new([
+        ("MEASURED.csv", a.measured.as_path()),
+        ("--model", a.model.as_path()),
+    ]);
+    a.reports
+        .declare(&mut outputs, &iso9283::PoseReport::planned_layout())?;
     if let Some(spec) = a.spec {
         if !(spec.is_finite() && spec > 0.0) {
             anyhow::bail!("--spec: {spec} is not a length > 0 (mm)");
         }
-        let poses: Vec<_> = figures.iter().map(|f| f.q_deg).collect();
-        let c =
-            iso9283::certificate(model, &poses, spec, frame, a.draws, 2025).context("--spec")?;
-        text.push_str(&iso9283::render_certificate(&c));
     }
-    crate::cmd::stdout::print(&text)?;
-    Ok(())
+    let figures =
+        iso9283::pose_figures(model, m, frame).with_context(|| a.measured.display().to_string())?;
+    let certificate = match a.spec {
+        Some(spec) => {
+            let poses: Vec<_> = figures.iter().map(|f| f.q_deg).collect();
+            Some(
+                iso9283::certificate(model, &poses, spec, frame, a.draws, 2025)
+                    .context("--spec")?,
+            )
+        }
+        None => None,
+    };
+    let report = iso9283::PoseReport {
+        model_name: model.name.clone(),
+        frame: frame_words(frame).into(),
+        poses: figures,
+        certificate,
+    };
+    let settings = vec![
+        (
+            "measured cycles".to_string(),
+            a.measured.display().to_string(),
+        ),
+        ("model file".to_string(), a.model.display().to_string()),
+    ];
+    write_reports(outputs, &report, &a.reports, &settings)
 }

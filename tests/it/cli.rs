@@ -661,9 +661,50 @@ fn validate_iso9283_reports_ap_rp_and_the_certificate() {
         "0.05",
         "--draws",
         "20000",
+        "--json",
+        &arg(&d, "iso.json"),
+        "--html",
+        &arg(&d, "html"),
     ]);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = stdout(&o);
+    // The JSON and the HTML report hold the same figures.
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(d.join("iso.json")).unwrap()).unwrap();
+    let jp = j["poses"].as_array().unwrap();
+    assert_eq!(jp.len(), 5);
+    for (p, o) in jp.iter().zip(&offsets) {
+        let ap = (o[0] * o[0] + o[1] * o[1] + o[2] * o[2]).sqrt();
+        assert!((p["ap_mm"].as_f64().unwrap() - ap).abs() < 1e-6, "{p}");
+        assert!((p["rp_mm"].as_f64().unwrap() - 0.015).abs() < 1e-6, "{p}");
+        for k in 0..3 {
+            assert!(
+                (p["ap_xyz_mm"][k].as_f64().unwrap() - o[k]).abs() < 1e-6,
+                "{p}"
+            );
+        }
+    }
+    assert_eq!(j["certificate"]["per_pose"].as_array().unwrap().len(), 5);
+    for f in [
+        "index.html",
+        "iso9283.json",
+        "iso9283_poses.csv",
+        "iso9283_certificate.csv",
+        "iso9283_ap_rp.svg",
+    ] {
+        assert!(d.join("html").join(f).is_file(), "{f}");
+    }
+    let page = std::fs::read_to_string(d.join("html/index.html")).unwrap();
+    assert!(
+        page.contains("Certificate") && page.contains("P5"),
+        "{page}"
+    );
+    let cert_csv = std::fs::read_to_string(d.join("html/iso9283_certificate.csv")).unwrap();
+    assert_eq!(cert_csv.lines().count(), 7, "{cert_csv}");
+    assert!(
+        cert_csv.lines().last().unwrap().starts_with("all,0.05,"),
+        "{cert_csv}"
+    );
     let rows: Vec<Vec<f64>> = out
         .lines()
         .filter(|l| l.trim_start().starts_with('P') && l.split_whitespace().count() == 9)
@@ -689,6 +730,17 @@ fn validate_iso9283_reports_ap_rp_and_the_certificate() {
         .collect();
     assert_eq!(cert.len(), 6, "{out}");
     assert!(cert[..5].iter().all(|&p| p >= cert[5] && p <= 1.0), "{out}");
+    // Report files belong to --iso9283 only.
+    let o = run(&[
+        "validate",
+        "--model",
+        &model,
+        &cycles,
+        "--json",
+        &arg(&d, "v.json"),
+    ]);
+    common::assert_fails_naming(&o, "--json", "");
+    assert!(!d.join("v.json").exists());
     // One cycle at a sixth pose: refused, naming it.
     std::fs::write(&cycles, format!("{csv}1,2,3,4,5,6,0,0,0\n")).unwrap();
     let o = run(&["validate", "--model", &model, &cycles, "--iso9283"]);

@@ -20,6 +20,10 @@
 //! `Pr[e_j ≤ s]`, and at all poses together `R(s)` with the poses as the test points: the
 //! engine's own quantities, which the command line computes at the test poses.
 
+mod report;
+
+pub use report::PoseReport;
+
 use crate::engine::{CpuEvaluator, Problem, Reference};
 use crate::identify::validate::Measurement;
 use crate::identify::Placement;
