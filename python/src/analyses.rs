@@ -616,7 +616,8 @@ pub fn workspace_map<'py>(
             eval,
             ev.info(),
             timings,
-        );
+        )
+        .with_base_origin(model.base_origin_mm());
         Ok((result, notes))
     })?;
     Ok(PyMapResult { result, notes })

@@ -314,7 +314,8 @@ impl Run for MapArgs {
                 eval,
                 run.backend,
                 run.timings,
-            ))
+            )
+            .with_base_origin(model.base_origin_mm()))
         })?;
         let rows = [
             ("model source".to_string(), model_source(&a.model)),
@@ -422,5 +423,6 @@ fn run_shard(a: &MapArgs, model: &RobotModel, spec: &MapSpec, shard: Shard) -> R
         e.errors,
         e.backend,
         e.timings,
-    ))
+    )
+    .with_base_origin(model.base_origin_mm()))
 }

@@ -703,3 +703,59 @@ fn base_turned_robot_maps_in_the_world_frame() {
     let n: usize = line.split_whitespace().nth(1).unwrap().parse().unwrap();
     assert!(n >= 100, "{line}");
 }
+
+/// The heat map marks the base frame's origin where the model's `[base]` puts it: the TX60
+/// moved to (500, 300, 200) mm and mapped on the plane y = 300 gives the same picture, marker
+/// included, as the TX60 at the origin mapped on y = 0 (the default grid follows the base), and
+/// the JSON records the origin.
+#[test]
+fn heat_map_marks_an_offset_base_where_it_stands() {
+    let d = tmpdir("map-base");
+    let plain = arg(&d, "tx.toml");
+    let text = stdout(&run(&["model"]));
+    std::fs::write(&plain, &text).unwrap();
+    let shifted = arg(&d, "shifted.toml");
+    std::fs::write(
+        &shifted,
+        format!("{text}\n[base]\nxyz = [500.0, 300.0, 200.0]\nrpy = [0.0, 0.0, 0.0]\n"),
+    )
+    .unwrap();
+    let marker = |model: &str, at: &str, name: &str| {
+        let (svg, json) = (arg(&d, name), arg(&d, &format!("{name}.json")));
+        let o = run(&[
+            "map",
+            "--model",
+            model,
+            "--plane",
+            "xz",
+            "--at",
+            at,
+            "--cells",
+            "8,8",
+            "--backend",
+            "cpu",
+            "-q",
+            "--svg",
+            &svg,
+            "--json",
+            &json,
+        ]);
+        assert!(o.status.success(), "{}", common::stderr(&o));
+        let page = std::fs::read_to_string(d.join(name).join("map_e95.svg")).unwrap();
+        let m = page
+            .split("<circle ")
+            .nth(1)
+            .and_then(|s| s.split(" r=\"8\"").next())
+            .unwrap_or_else(|| panic!("no base marker in {page}"))
+            .to_string();
+        let j: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+        (m, j["map"]["base_origin_mm"].clone())
+    };
+    let (a, ja) = marker(&plain, "0", "plain");
+    let (b, jb) = marker(&shifted, "300", "shifted");
+    assert_eq!(a, b);
+    assert_eq!(ja, serde_json::json!([0.0, 0.0, 0.0]));
+    assert_eq!(jb, serde_json::json!([500.0, 300.0, 200.0]));
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -131,6 +131,12 @@ pub struct RobotModel {
 }
 
 impl RobotModel {
+    /// Where the base frame's origin lies in the description's frame, mm (the origin itself
+    /// without a [`RobotModel::base`]).
+    pub fn base_origin_mm(&self) -> [f64; 3] {
+        self.base.map_or([0.0; 3], |b| b.xyz)
+    }
+
     /// Tool-point position (mm) at joint angles `q` (radians) in the description's frame: the
     /// MDH chain's [`super::position`], then the [`RobotModel::base`] transform.
     pub fn world_position(&self, q: &[f64; JOINTS]) -> [f64; 3] {

@@ -24,6 +24,9 @@ pub struct MapCell {
 pub struct MapResult {
     /// Model name.
     pub model: String,
+    /// The origin of the robot's base frame in the frame of the map's positions (the
+    /// description's frame), mm.
+    pub base_origin_mm: [f64; 3],
     /// What was asked.
     pub spec: MapSpec,
     /// Seed of the parameter draws.
@@ -89,6 +92,7 @@ impl MapResult {
             .collect();
         MapResult {
             model: model.to_string(),
+            base_origin_mm: [0.0; 3],
             spec: spec.clone(),
             seed,
             draws: eval.draws,
@@ -101,6 +105,13 @@ impl MapResult {
             backend,
             timings,
         }
+    }
+
+    /// The map with the base frame's origin at `origin` (mm, the description's frame;
+    /// [`RobotModel::base_origin_mm`]).
+    pub fn with_base_origin(mut self, origin: [f64; 3]) -> MapResult {
+        self.base_origin_mm = origin;
+        self
     }
 }
 

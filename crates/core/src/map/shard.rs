@@ -42,6 +42,10 @@ pub struct MapShard {
     pub provenance: Provenance,
     /// This shard: K and N (K from 0).
     pub shard: [u64; 2],
+    /// The origin of the robot's base frame in the description's frame, mm (absent from
+    /// shards of versions before it: the origin).
+    #[serde(default)]
+    pub base_origin_mm: [f64; 3],
     /// What the map asks for.
     pub spec: MapSpec,
     /// Thresholds l_c, mm.
@@ -140,6 +144,7 @@ impl MapShard {
             kind: Self::KIND.to_string(),
             provenance,
             shard,
+            base_origin_mm: [0.0; 3],
             spec: spec.clone(),
             thresholds: thresholds.to_vec(),
             reached_hash: reached_hash(reached().map(|(i, _)| i)),
@@ -150,6 +155,12 @@ impl MapShard {
             cells,
             w_bits: errors.w,
         }
+    }
+
+    /// The shard with the base frame's origin at `origin` (mm, the description's frame).
+    pub fn with_base_origin(mut self, origin: [f64; 3]) -> MapShard {
+        self.base_origin_mm = origin;
+        self
     }
 
     /// The shard as JSON, with the bits of every float (`float_bits`).
@@ -331,5 +342,6 @@ pub fn merge(named: &[(String, MapShard)]) -> Result<MapResult, SummaryError> {
             driver,
         },
         timings,
-    ))
+    )
+    .with_base_origin(first.base_origin_mm))
 }

@@ -139,8 +139,9 @@ fn heat_map(
     let norm = |v: f64| (v - lo) / (hi - lo);
     let title = format!("{} — {}", r.model, q.name);
     let unreachable = layer.iter().filter(|c| c.stats.is_none()).count();
-    let base_h = 0.0;
-    let base_v = 0.0;
+    // The base frame's origin, projected onto the plane.
+    let base_h = r.base_origin_mm[axes[0]];
+    let base_v = r.base_origin_mm[axes[1]];
     let base_in = (hx.0..=hx.1).contains(&base_h) && (vx.0..=vx.1).contains(&base_v);
     let mut desc = format!(
         "Heat map of the {} over the {}, {} × {} cells of {} × {} mm; {} of {} cells reached ({}); hatched cells are unreachable.",
@@ -284,7 +285,7 @@ fn heat_map(
         TOP + ph / 2.0,
         AXIS[axes[1]]
     );
-    // The base: where the first joint axis meets the plane's origin coordinates.
+    // The base frame's origin, projected onto the plane.
     if base_in {
         let (x, y) = (sx(base_h), sy(base_v));
         let _ = writeln!(
