@@ -1582,3 +1582,105 @@ fn ur5e_from_its_ros_urdf_exports_the_factory_calibration() {
         );
     }
 }
+
+/// The KUKA KR 210 L150 as ROS-Industrial describes it (kuka_experimental,
+/// `kuka_kr210_support/urdf/kr210l150_macro.xacro`, prefix ""; joint origins in m, limits in
+/// degrees): a CAD-derived chain whose A1 axis stands 2.796 mm off the description's origin and
+/// whose consecutive axes are offset sideways by tens of millimetres. The import infers the base
+/// (a translation to the A1 axis), equals the URDF's own forward kinematics (tool0 at
+/// (0.0375, 0, −0.00023924) m on link 6) within 1e-9 mm, and round-trips through the export.
+#[test]
+fn kuka_kr210_l150_from_its_ros_industrial_description() {
+    let joints: [([f64; 3], [f64; 3], (f64, f64)); 6] = [
+        (
+            [-0.00262, 0.00097586, 0.33099],
+            [0.0, 0.0, 1.0],
+            (-185.0, 185.0),
+        ),
+        ([0.35277, -0.037476, 0.4192], [0.0, 1.0, 0.0], (-45.0, 85.0)),
+        (
+            [-9.8483e-05, -0.1475, 1.2499],
+            [0.0, 1.0, 0.0],
+            (-210.0, 65.0),
+        ),
+        (
+            [0.95795, 0.184, -0.055059],
+            [1.0, 0.0, 0.0],
+            (-350.0, 350.0),
+        ),
+        ([0.542, 0.0, 0.0], [0.0, 1.0, 0.0], (-125.0, 125.0)),
+        ([0.1925, 0.0, 0.0], [1.0, 0.0, 0.0], (-350.0, 350.0)),
+    ];
+    let tool0 = [0.0375, 0.0, -0.00023924];
+    let mut s = String::from(
+        "<?xml version=\"1.0\"?>\n<robot name=\"kuka_kr210l150\">\n  <link name=\"base_link\"/>\n",
+    );
+    for k in 1..=6 {
+        s.push_str(&format!("  <link name=\"link_{k}\"/>\n"));
+    }
+    s.push_str("  <link name=\"tool0\"/>\n  <link name=\"Link1\"/>\n");
+    for (k, (xyz, axis, (lo, hi))) in joints.iter().enumerate() {
+        let parent = if k == 0 {
+            "base_link".to_string()
+        } else {
+            format!("link_{k}")
+        };
+        s.push_str(&format!(
+            "  <joint name=\"joint_{}\" type=\"revolute\">\n    <origin xyz=\"{} {} {}\" rpy=\"0 0 0\"/>\n    <parent link=\"{parent}\"/>\n    <child link=\"link_{}\"/>\n    <axis xyz=\"{} {} {}\"/>\n    <limit lower=\"{}\" upper=\"{}\" effort=\"0\" velocity=\"2\"/>\n  </joint>\n",
+            k + 1,
+            xyz[0],
+            xyz[1],
+            xyz[2],
+            k + 1,
+            axis[0],
+            axis[1],
+            axis[2],
+            lo.to_radians(),
+            hi.to_radians()
+        ));
+    }
+    s.push_str(&format!(
+        "  <joint name=\"link_6-tool0\" type=\"fixed\">\n    <parent link=\"link_6\"/>\n    <child link=\"tool0\"/>\n    <origin xyz=\"{} {} {}\" rpy=\"0 0 0\"/>\n  </joint>\n",
+        tool0[0], tool0[1], tool0[2]
+    ));
+    // The description's compatibility link, a second leaf off link 1.
+    s.push_str("  <joint name=\"Link1-link_1\" type=\"fixed\">\n    <parent link=\"link_1\"/>\n    <child link=\"Link1\"/>\n    <origin xyz=\"0 0 0\" rpy=\"0 0 0\"/>\n  </joint>\n</robot>\n");
+    let dir = tmpdir("kr210");
+    let imp = import(&write(&dir, "kr210l150.urdf", &s)).unwrap();
+    assert!(imp.max_deviation_mm < 1e-9, "{}", imp.max_deviation_mm);
+    // The base stands on the A1 axis: 2.796 mm from the origin, not turned.
+    let b = imp.model.base.expect("a base transform");
+    let off = (b.xyz[0].powi(2) + b.xyz[1].powi(2)).sqrt();
+    assert!((off - 2.795_836_679_707_883).abs() < 1e-9, "{b:?}");
+    let mm = |v: [f64; 3]| v.map(|x| 1000.0 * x);
+    let chain: Vec<([f64; 3], [f64; 3], [f64; 3])> = joints
+        .iter()
+        .map(|(x, a, _)| (mm(*x), [0.0; 3], *a))
+        .collect();
+    let tip = {
+        let t = mm(tool0);
+        trans(t[0], t[1], t[2])
+    };
+    let dev = max_dev(&imp.model, |q| urdf_fk(&chain, &tip, q));
+    assert!(dev < 1e-9, "{dev}");
+    for (j, (_, _, (lo, hi))) in joints.iter().enumerate() {
+        assert!(
+            (imp.model.limits_deg[j].0 - lo).abs() < 1e-9
+                && (imp.model.limits_deg[j].1 - hi).abs() < 1e-9
+        );
+    }
+    let back = import(&write(
+        &dir,
+        "back.urdf",
+        &export::to_urdf(&imp.model, None),
+    ))
+    .unwrap()
+    .model;
+    let rt = max_dev(&back, |q| imp.model.world_position(q));
+    assert!(rt < 1e-9, "{rt}");
+    eprintln!(
+        "KR 210 L150: proof {:.3e} mm, vs URDF FK {dev:.3e} mm, round trip {rt:.3e} mm, base {:?}",
+        imp.max_deviation_mm, b
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
