@@ -1591,7 +1591,9 @@ fn ur5e_from_its_ros_urdf_exports_the_factory_calibration() {
 /// (0.0375, 0, −0.00023924) m on link 6) within 1e-9 mm, and round-trips through the export.
 #[test]
 fn kuka_kr210_l150_from_its_ros_industrial_description() {
-    let joints: [([f64; 3], [f64; 3], (f64, f64)); 6] = [
+    // (origin xyz in m, axis, limits in degrees) per joint.
+    type Joint = ([f64; 3], [f64; 3], (f64, f64));
+    let joints: [Joint; 6] = [
         (
             [-0.00262, 0.00097586, 0.33099],
             [0.0, 0.0, 1.0],
