@@ -617,7 +617,7 @@ pub fn workspace_map<'py>(
             ev.info(),
             timings,
         )
-        .with_base_origin(model.base_origin_mm());
+        .of_model(&model);
         Ok((result, notes))
     })?;
     Ok(PyMapResult { result, notes })

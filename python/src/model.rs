@@ -229,11 +229,13 @@ impl PyModel {
     /// calibration .yaml, chosen by extension) as `gpu-amcs import` does, with the proof that
     /// the model reproduces it. `base`/`tip` pick the URDF chain. For a .xacro file,
     /// `packages` maps package names to directories for `$(find NAME)` and `xacro_args` sets
-    /// `$(arg NAME)` values. The model has zero uncertainty. A tip chosen among several leaves
-    /// (tool0, then flange, then the deepest leaf of the longest revolute chain) is named in a
-    /// `UserWarning`, as the command line's note.
+    /// `$(arg NAME)` values. `hold_joints` maps joint names (or 1-based numbers as strings) to
+    /// angles in degrees at which they are held: a seven-axis arm with one joint held imports as
+    /// a six-axis model. The model has zero uncertainty. A tip chosen among several leaves
+    /// (tool0, then flange, then the deepest leaf of the longest revolute chain) and each joint
+    /// held are named in a `UserWarning`, as the command line's notes.
     #[staticmethod]
-    #[pyo3(signature = (path, base = None, tip = None, name = None, packages = None, xacro_args = None))]
+    #[pyo3(signature = (path, base = None, tip = None, name = None, packages = None, xacro_args = None, hold_joints = None))]
     #[allow(clippy::too_many_arguments)]
     fn from_urdf(
         py: Python<'_>,
@@ -243,6 +245,7 @@ impl PyModel {
         name: Option<String>,
         packages: Option<std::collections::BTreeMap<String, PathBuf>>,
         xacro_args: Option<std::collections::BTreeMap<String, String>>,
+        hold_joints: Option<std::collections::BTreeMap<String, f64>>,
     ) -> PyResult<Self> {
         let opts = gpu_amcs_core::import::ImportOptions {
             base,
@@ -250,6 +253,11 @@ impl PyModel {
             name,
             packages: packages.unwrap_or_default(),
             xacro_args: xacro_args.unwrap_or_default(),
+            held: hold_joints
+                .unwrap_or_default()
+                .into_iter()
+                .map(|(joint, angle_deg)| gpu_amcs_core::import::JointHold { joint, angle_deg })
+                .collect(),
         };
         let imported = gpu_amcs_core::import::import_file(&path, &opts).map_err(lib_error)?;
         for n in &imported.notes {

@@ -114,3 +114,26 @@ def test_from_urdf_applies_the_model_rules(tmp_path):
     f.write_text(text[:at] + bad + text[end:])
     with pytest.raises(ValueError, match=r"joint 'joint_3': limits.*720"):
         gpu_amcs.Model.from_urdf(f, tip="tool0")
+
+
+def test_from_urdf_holds_a_joint_of_a_seven_axis_arm(tmp_path, cli):
+    # The LBR iiwa 14 R820's standard DH table (KUKA's figures), seven rows: refused as it is,
+    # imported as a six-axis model with joint 3 held, the same as the command line's import.
+    rows = [(360, -90), (0, 90), (420, 90), (0, -90), (400, -90), (0, 90), (126, 0)]
+    limits = [170, 120, 170, 120, 170, 120, 175]
+    text = "convention,standard\nunits,mm-deg\nname,iiwa14\ntheta,d,a,alpha,lower,upper\n"
+    text += "".join(f"0,{d},0,{al},{-l},{l}\n" for (d, al), l in zip(rows, limits))
+    f = tmp_path / "iiwa14.csv"
+    f.write_text(text)
+    with pytest.raises(ValueError, match=r"7 revolute joints.*hold 1 of them"):
+        gpu_amcs.Model.from_urdf(f)
+    with pytest.raises(ValueError, match=r"joint 'joint 3' cannot be held at 175"):
+        gpu_amcs.Model.from_urdf(f, hold_joints={"3": 175.0})
+    with pytest.warns(UserWarning, match=r"joint 'joint 3' held at 20°"):
+        m = gpu_amcs.Model.from_urdf(f, hold_joints={"joint 3": 20.0})
+    out = tmp_path / "iiwa.toml"
+    r = cli("import", f, "-o", out, "--hold-joint", "3=20")
+    assert r.returncode == 0, r.stderr
+    np.testing.assert_array_equal(m.params, gpu_amcs.Model.from_file(out).params)
+    # At q = 0 the arm stands straight up: 360 + 420 + 400 + 126 mm.
+    np.testing.assert_allclose(m.fk(np.zeros((1, 6)))[0], [0, 0, 1306], atol=1e-9)

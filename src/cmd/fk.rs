@@ -21,6 +21,16 @@ impl Run for FkArgs {
     fn run(self) -> Result<()> {
         let model = self.model.load()?;
         let pts = points::read_csv(&self.points_file)?;
+        // As every analysis: a configuration the robot cannot take is an error, not a position.
+        for (i, q) in pts.iter().enumerate() {
+            if let Err(m) = model.check_limits(q) {
+                anyhow::bail!(
+                    "--points-file: {}: configuration {}: {m}",
+                    self.points_file.display(),
+                    i + 1
+                );
+            }
+        }
         let mut s = String::from("q1,q2,q3,q4,q5,q6,x,y,z\n");
         for q in &pts {
             let p = model.world_position(&q.map(f64::to_radians));

@@ -4,7 +4,7 @@ use super::outputs::Outputs;
 use super::Run;
 use anyhow::Result;
 use clap::Args;
-use gpu_amcs::import::{import_file, ImportError, ImportOptions};
+use gpu_amcs::import::{import_file, ImportError, ImportOptions, JointHold};
 use std::path::PathBuf;
 
 /// `import` options.
@@ -33,6 +33,21 @@ pub struct ImportArgs {
     /// xacro: set `$(arg NAME)` to VALUE, overriding the file's default (repeatable).
     #[arg(long = "xacro-arg", value_name = "NAME:=VALUE", value_parser = xacro_arg_pair)]
     pub xacro_args: Vec<(String, String)>,
+    /// Hold joint JOINT (its name in the description, or its number along the chain) at DEG
+    /// degrees: a seven-axis arm with one joint held imports as a six-axis model (repeatable).
+    #[arg(long = "hold-joint", value_name = "JOINT=DEG", value_parser = hold_pair)]
+    pub hold: Vec<(String, f64)>,
+}
+
+/// `JOINT=DEG`.
+fn hold_pair(s: &str) -> Result<(String, f64), String> {
+    match s.rsplit_once('=') {
+        Some((j, d)) if !j.trim().is_empty() => match d.trim().parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok((j.trim().to_string(), v)),
+            _ => Err(format!("'{d}' is not an angle in degrees")),
+        },
+        _ => Err(format!("expected JOINT=DEG, got '{s}'")),
+    }
 }
 
 /// `NAME=DIR`.
@@ -78,9 +93,20 @@ impl Run for ImportArgs {
             name: a.name.clone(),
             packages: unique(&a.packages, "--package")?,
             xacro_args: unique(&a.xacro_args, "--xacro-arg")?,
+            held: a
+                .hold
+                .iter()
+                .map(|(joint, angle_deg)| JointHold {
+                    joint: joint.clone(),
+                    angle_deg: *angle_deg,
+                })
+                .collect(),
         };
         let imported = import_file(&a.source, &opts).map_err(|e| match e {
             ImportError::Branching { .. } => anyhow::anyhow!("{e} (--tip LINK)"),
+            ImportError::Chain { ref message, .. } if message.contains("hold") => {
+                anyhow::anyhow!("{e} (--hold-joint JOINT=DEG)")
+            }
             _ => e.into(),
         })?;
         outputs.stage_file("--out", imported.to_toml())?;

@@ -315,7 +315,7 @@ impl Run for MapArgs {
                 run.backend,
                 run.timings,
             )
-            .with_base_origin(model.base_origin_mm()))
+            .of_model(&model))
         })?;
         let rows = [
             ("model source".to_string(), model_source(&a.model)),

@@ -152,6 +152,96 @@ fn points_and_fk_commands() {
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.starts_with("q1,q2,q3,q4,q5,q6,x,y,z"));
     assert_eq!(out.lines().count(), 8);
+    // A configuration outside the joint limits (the TX60's q3 stops at 142.5°) is refused as
+    // every analysis refuses it, naming the row and the joint.
+    std::fs::write(&f, "q1,q2,q3,q4,q5,q6\n0,0,90,0,0,0\n0,0,170,0,0,0\n").unwrap();
+    let o = run(&["fk", "--points-file", f.to_str().unwrap()]);
+    assert_eq!(o.status.code(), Some(2));
+    let e = stderr(&o);
+    assert!(
+        e.contains("configuration 2") && e.contains("q3 = 170") && e.contains("limits"),
+        "{e}"
+    );
+    assert!(o.stdout.is_empty());
+}
+
+/// A model without any spread (a preset from a published table, an import) says so in `mcs`,
+/// `amcs` and `map`, in the text, the JSON and the HTML page; a model with spread does not.
+#[test]
+fn a_model_without_uncertainty_says_so_everywhere() {
+    let d = tmpdir("zero-sigma");
+    let said = "carries no uncertainty";
+    for cmd in ["mcs", "amcs"] {
+        let (json, html) = (
+            arg(&d, &format!("{cmd}.json")),
+            arg(&d, &format!("{cmd}-html")),
+        );
+        let mut args = vec![
+            cmd,
+            "--preset",
+            "ur5e",
+            "--points",
+            "5",
+            "--backend",
+            "cpu",
+            "--json",
+            &json,
+            "--html",
+            &html,
+        ];
+        if cmd == "mcs" {
+            args.extend(["--draws", "2000"]);
+        }
+        let o = run(&args);
+        assert!(o.status.success(), "{cmd}: {}", stderr(&o));
+        assert!(stdout(&o).contains(said), "{cmd}: {}", stdout(&o));
+        assert!(
+            std::fs::read_to_string(&json).unwrap().contains(said),
+            "{cmd} json"
+        );
+        let page = std::fs::read_to_string(d.join(format!("{cmd}-html/index.html"))).unwrap();
+        assert!(page.contains(said), "{cmd} html");
+    }
+    let (json, html) = (arg(&d, "map.json"), arg(&d, "map-html"));
+    let o = run(&[
+        "map",
+        "--preset",
+        "ur5e",
+        "--plane",
+        "xz",
+        "--at",
+        "0",
+        "--cells",
+        "3,3",
+        "--backend",
+        "cpu",
+        "--json",
+        &json,
+        "--html",
+        &html,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains(said), "{}", stdout(&o));
+    assert!(std::fs::read_to_string(&json).unwrap().contains(said));
+    assert!(std::fs::read_to_string(d.join("map-html/index.html"))
+        .unwrap()
+        .contains(said));
+    // The TX60 has σ: no such note.
+    let o = run(&[
+        "mcs",
+        "--points",
+        "5",
+        "--draws",
+        "2000",
+        "--backend",
+        "cpu",
+    ]);
+    assert!(
+        o.status.success() && !stdout(&o).contains(said),
+        "{}",
+        stdout(&o)
+    );
+    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]

@@ -8,6 +8,7 @@
 
 use crate::common;
 
+mod held;
 mod xacro;
 
 use common::{arg, bin, run, stderr, tmpdir};
@@ -76,7 +77,7 @@ fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
 }
 
 /// Standard DH, rows `[θ, d, a, α]` (mm, rad), q in rad.
-fn dh_standard(rows: &[[f64; 4]; 6], q: &[f64; 6]) -> [f64; 3] {
+fn dh_standard(rows: &[[f64; 4]], q: &[f64]) -> [f64; 3] {
     let mut t = eye();
     for (r, qi) in rows.iter().zip(q) {
         let z = [0.0, 0.0, 1.0];
@@ -489,7 +490,7 @@ fn dh_table_errors_name_the_field() {
         ),
         (
             good.replace("0,80,0,0,-10,10\n", ""),
-            "expected 6 rows, found 5",
+            "5 revolute joints (joint 1, joint 2, joint 3, joint 4, joint 5); the model needs exactly 6",
         ),
         (
             good.replace("0,80,0,0,-10,10", "0,80,0,0,10,-10"),
@@ -992,10 +993,13 @@ fn the_proof_catches_a_wrong_conversion() {
     let table = import::dh::DhTable {
         name: "ur5e".into(),
         convention: import::dh::Convention::Standard,
-        rows: rows.map(|r| import::dh::DhRow {
-            params: r,
-            limits_deg: (-360.0, 360.0),
-        }),
+        rows: rows
+            .iter()
+            .map(|r| import::dh::DhRow {
+                params: *r,
+                limits_deg: (-360.0, 360.0),
+            })
+            .collect(),
         tool: [0.0; 3],
     };
     let chain = table.to_chain();

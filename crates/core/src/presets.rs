@@ -25,10 +25,12 @@ fn ur_dh(name: &str, d: [f64; JOINTS], a: [f64; JOINTS], alpha: [f64; JOINTS]) -
     let table = DhTable {
         name: name.into(),
         convention: Convention::Standard,
-        rows: std::array::from_fn(|j| DhRow {
-            params: [0.0, d[j] * 1000.0, a[j] * 1000.0, alpha[j]],
-            limits_deg: (-360.0, 360.0),
-        }),
+        rows: (0..JOINTS)
+            .map(|j| DhRow {
+                params: [0.0, d[j] * 1000.0, a[j] * 1000.0, alpha[j]],
+                limits_deg: (-360.0, 360.0),
+            })
+            .collect(),
         tool: [0.0; 3],
     };
     converted(&table.to_chain())
@@ -212,8 +214,10 @@ fn urdf_preset(name: &str, figures: &[UrdfJointFigures; JOINTS]) -> RobotModel {
         name: name.into(),
         format: SourceFormat::Urdf,
         joints,
+        what: format!("the {name} preset's chain"),
         tip: Isometry3::identity(),
-        note: None,
+        notes: Vec::new(),
+        held: Vec::new(),
         arm_frame: None,
     })
 }

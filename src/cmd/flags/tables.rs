@@ -293,6 +293,7 @@ pub const IMPORT_OPTIONS: Table = Table {
         ("name", Flags(&["--name"])),
         ("packages", Flags(&["--package"])),
         ("xacro_args", Flags(&["--xacro-arg"])),
+        ("held", Flags(&["--hold-joint"])),
     ],
 };
 

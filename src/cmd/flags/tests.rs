@@ -175,7 +175,8 @@ fn every_field_of_every_options_struct_has_an_entry() {
         tip,
         name,
         packages,
-        xacro_args
+        xacro_args,
+        held
     });
     same_fields(&IMPORT_OPTIONS, &import);
     // The serialised forms agree where the structs are serialisable (a field renamed for

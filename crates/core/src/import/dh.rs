@@ -1,6 +1,7 @@
 //! DH table reader: standard (distal) and Craig's modified (proximal) Denavit–Hartenberg tables.
 //!
-//! Six rows, one per joint, each `theta, d, a, alpha, lower, upper` (θ the joint-angle offset at
+//! One row per joint (six for the model; a seven-axis arm's seven, with one joint held at a fixed
+//! angle on import, [`super::JointHold`]), each `theta, d, a, alpha, lower, upper` (θ the joint-angle offset at
 //! q = 0, lower/upper the joint limits). The file states its convention and units:
 //!
 //! * `convention`: `standard` — `T_i = Rz(θ_i + q_i)·Tz(d_i)·Tx(a_i)·Rx(α_i)`; or `modified`
@@ -22,7 +23,7 @@
 //! TOML form: top-level `convention`, `units`, optional `name` and `tool`, and six `[[joint]]`
 //! tables with `theta`, `d`, `a`, `alpha`, `limits = [lower, upper]`.
 
-use super::{ImportError, SourceChain, SourceFormat, SourceJoint, JOINTS};
+use super::{ImportError, SourceChain, SourceFormat, SourceJoint, JOINTS, MAX_SOURCE_JOINTS};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 
@@ -51,8 +52,8 @@ pub struct DhTable {
     pub name: String,
     /// Convention.
     pub convention: Convention,
-    /// The six rows.
-    pub rows: [DhRow; JOINTS],
+    /// The rows, base to tip.
+    pub rows: Vec<DhRow>,
     /// Tool point in the last frame, mm.
     pub tool: [f64; 3],
 }
@@ -81,7 +82,7 @@ impl DhTable {
         // Standard: T_i = Rz(q_i)·B_i with B_i = Rz(θ)Tz(d)Tx(a)Rx(α): joint i's origin is
         // B_{i−1}. Modified: T_i = A_i·Rz(q_i)·C_i with A_i = Rx(α)Tx(a)Rz(θ), C_i = Tz(d):
         // joint i's origin is C_{i−1}·A_i.
-        let mut joints = Vec::with_capacity(JOINTS);
+        let mut joints = Vec::with_capacity(self.rows.len());
         let mut carry = Isometry3::identity();
         for (i, r) in self.rows.iter().enumerate() {
             let [theta, d, a, alpha] = r.params;
@@ -111,7 +112,9 @@ impl DhTable {
             },
             joints,
             tip: carry * tr(self.tool[0], self.tool[1], self.tool[2]),
-            note: None,
+            what: "the table".into(),
+            notes: Vec::new(),
+            held: Vec::new(),
             arm_frame: None,
         }
     }
@@ -270,13 +273,16 @@ pub fn parse_csv(text: &str, path: &str, default_name: &str) -> Result<SourceCha
     let conv =
         conv.ok_or_else(|| syntax(1, format!("missing 'convention' line ({CONVENTION_HELP})")))?;
     let unit = unit.ok_or_else(|| syntax(1, format!("missing 'units' line ({UNITS_HELP})")))?;
-    if raws.len() != JOINTS {
+    if raws.is_empty() || raws.len() > MAX_SOURCE_JOINTS {
         return Err(ImportError::Chain {
             path: path.into(),
-            message: format!("expected {JOINTS} rows, found {}", raws.len()),
+            message: format!(
+                "expected {JOINTS} rows (up to {MAX_SOURCE_JOINTS} with joints held), found {}",
+                raws.len()
+            ),
         });
     }
-    let mut rows = Vec::with_capacity(JOINTS);
+    let mut rows = Vec::with_capacity(raws.len());
     for (j, (raw, line)) in raws.iter().enumerate() {
         let bad = |element: String, message: String| ImportError::Element {
             path: path.into(),
@@ -341,16 +347,16 @@ pub fn parse_toml(text: &str, path: &str, default_name: &str) -> Result<SourceCh
     })?;
     let unit = units(&t.units)
         .ok_or_else(|| bad("units".into(), format!("'{}' {UNITS_HELP}", t.units)))?;
-    if t.joint.len() != JOINTS {
+    if t.joint.is_empty() || t.joint.len() > MAX_SOURCE_JOINTS {
         return Err(bad(
             "joint".into(),
             format!(
-                "expected {JOINTS} [[joint]] tables, found {}",
+                "expected {JOINTS} [[joint]] tables (up to {MAX_SOURCE_JOINTS} with joints held), found {}",
                 t.joint.len()
             ),
         ));
     }
-    let mut rows = Vec::with_capacity(JOINTS);
+    let mut rows = Vec::with_capacity(t.joint.len());
     for (j, jt) in t.joint.iter().enumerate() {
         let [lo, hi] = jt.limits[..] else {
             return Err(bad(
@@ -402,7 +408,7 @@ fn finish(
     let table = DhTable {
         name,
         convention,
-        rows: std::array::from_fn(|j| rows[j]),
+        rows,
         tool: tool_raw.map(|v| v * len),
     };
     Ok(table.to_chain())

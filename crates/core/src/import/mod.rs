@@ -96,20 +96,38 @@ pub struct SourceJoint {
     pub limits_deg: (f64, f64),
 }
 
-/// A serial chain of six revolute joints as a file describes it (lengths in mm).
+/// Most revolute joints a description may have before joints are held ([`JointHold`]).
+pub const MAX_SOURCE_JOINTS: usize = 12;
+
+/// A joint held at a fixed angle on import: a seven-axis arm with one joint held becomes a
+/// six-axis model (the held joint's rotation joins the fixed transform to the next joint).
+#[derive(Clone, Debug, PartialEq)]
+pub struct JointHold {
+    /// The joint: its name in the description (a URDF joint name, `joint 3` of a DH table) or
+    /// its 1-based number along the chain.
+    pub joint: String,
+    /// The angle it is held at, degrees (within its limits).
+    pub angle_deg: f64,
+}
+
+/// A serial chain of revolute joints as a file describes it (lengths in mm); the model needs six.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SourceChain {
     /// Model name.
     pub name: String,
     /// Where it came from.
     pub format: SourceFormat,
-    /// The six joints, base to tip.
+    /// The revolute joints, base to tip.
     pub joints: Vec<SourceJoint>,
+    /// The chain in words for messages ("the chain from 'base_link' to 'tool0'", "the table").
+    pub what: String,
     /// Fixed transform from the last joint's frame (after its rotation) to the tip.
     pub tip: Isometry3<f64>,
     /// What the reader chose that the user did not say (the tip link of a URDF given without
-    /// one), for the user to see.
-    pub note: Option<String>,
+    /// one) and the joints held, for the user to see, one line each.
+    pub notes: Vec<String>,
+    /// The joints held ([`SourceChain::hold`]), one line each (also in `notes`).
+    pub held: Vec<String>,
     /// The arm's own base frame in the description's frame, when the description names one
     /// (UR's `base_link_inertia`, `base_link` turned half a turn about z, which UR's calibration
     /// files are relative to). Used as the model's base frame when its z is joint 1's axis.
@@ -117,6 +135,86 @@ pub struct SourceChain {
 }
 
 impl SourceChain {
+    /// Holds the joints `holds` name at their angles: each one's rotation is composed into the
+    /// fixed transform that follows it (the next joint's origin, or the tip), and the joint
+    /// leaves the chain. `path` names the source in errors.
+    ///
+    /// # Errors
+    ///
+    /// [`ImportError::Chain`] for a joint the chain does not have, one named twice, or an angle
+    /// that is not finite or outside the joint's limits.
+    pub fn hold(&mut self, holds: &[JointHold], path: &str) -> Result<(), ImportError> {
+        let refuse = |message: String| ImportError::Chain {
+            path: path.into(),
+            message,
+        };
+        let mut held = vec![None; self.joints.len()];
+        for h in holds {
+            let k = self
+                .joints
+                .iter()
+                .position(|j| j.name == h.joint)
+                .or_else(|| {
+                    h.joint
+                        .parse::<usize>()
+                        .ok()
+                        .filter(|&n| (1..=self.joints.len()).contains(&n))
+                        .map(|n| n - 1)
+                })
+                .ok_or_else(|| {
+                    let names: Vec<&str> = self.joints.iter().map(|j| j.name.as_str()).collect();
+                    refuse(format!(
+                        "joint '{}' to hold is not in {} (its revolute joints: {}; or a number 1 to {})",
+                        h.joint,
+                        self.what,
+                        names.join(", "),
+                        self.joints.len()
+                    ))
+                })?;
+            let j = &self.joints[k];
+            let (lo, hi) = j.limits_deg;
+            if !h.angle_deg.is_finite() || h.angle_deg < lo || h.angle_deg > hi {
+                return Err(refuse(format!(
+                    "joint '{}' cannot be held at {}°: its limits are {}° to {}°",
+                    j.name,
+                    fmt_plain(h.angle_deg),
+                    fmt_plain(lo),
+                    fmt_plain(hi)
+                )));
+            }
+            if held[k].is_some() {
+                return Err(refuse(format!("joint '{}' is held twice", j.name)));
+            }
+            held[k] = Some(h.angle_deg);
+        }
+        let mut kept: Vec<SourceJoint> = Vec::with_capacity(self.joints.len());
+        // The fixed transform since the last kept joint's rotation.
+        let mut pending: Option<Isometry3<f64>> = None;
+        for (j, angle) in self.joints.drain(..).zip(held) {
+            let origin = pending.take().map_or(j.origin, |p| p * j.origin);
+            match angle {
+                Some(a) => {
+                    pending =
+                        Some(origin * UnitQuaternion::from_axis_angle(&j.axis, a.to_radians()));
+                    self.held.push(format!(
+                        "joint '{}' held at {}° (its limits {}° to {}°)",
+                        j.name,
+                        fmt_plain(a),
+                        fmt_plain(j.limits_deg.0),
+                        fmt_plain(j.limits_deg.1)
+                    ));
+                }
+                None => kept.push(SourceJoint { origin, ..j }),
+            }
+        }
+        if let Some(p) = pending {
+            self.tip = p * self.tip;
+        }
+        self.joints = kept;
+        self.notes.extend(self.held.iter().cloned());
+        Ok(())
+    }
+
     /// Tip transform at joint angles `q` (radians), composed from the source's own transforms.
     pub fn transform(&self, q: &[f64; JOINTS]) -> Isometry3<f64> {
         let mut t = Isometry3::identity();
@@ -238,8 +336,12 @@ pub struct Imported {
     pub configurations: usize,
     /// What looks wrong but converts (a reach that suggests the wrong units), one line each.
     pub warnings: Vec<String>,
-    /// What the reader chose on the user's behalf (the tip link), one line each.
+    /// What the reader chose on the user's behalf (the tip link) and the joints held, one line
+    /// each.
     pub notes: Vec<String>,
+    /// The joints held at a fixed angle, one line each (also in `notes`); the model file's
+    /// header records them.
+    pub held: Vec<String>,
 }
 
 /// Reach below which an imported arm is suspected of lengths in the wrong unit, mm.
@@ -287,6 +389,9 @@ impl Imported {
             "# Proof: max tool-point deviation source vs MDH model = {:e} mm over {} configurations within the limits (limit {:e} mm).",
             self.max_deviation_mm, self.configurations, PROOF_TOLERANCE_MM
         );
+        for n in &self.held {
+            let _ = writeln!(s, "# Note: {n}.");
+        }
         let _ = writeln!(
             s,
             "# The description carries no uncertainty: every sigma is 0 until calibrated."
@@ -311,11 +416,26 @@ impl Imported {
 /// kinematics deviates from the source's by more than [`PROOF_TOLERANCE_MM`].
 pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError> {
     if chain.joints.len() != JOINTS {
+        let names: Vec<&str> = chain.joints.iter().map(|j| j.name.as_str()).collect();
         return Err(ImportError::Chain {
             path: path.into(),
             message: format!(
-                "expected {JOINTS} revolute joints, found {}",
-                chain.joints.len()
+                "{} has {} revolute joints ({}); the model needs exactly {JOINTS}{}",
+                chain.what,
+                chain.joints.len(),
+                if names.is_empty() {
+                    "none".to_string()
+                } else {
+                    names.join(", ")
+                },
+                if chain.joints.len() > JOINTS {
+                    format!(
+                        ": hold {} of them at a fixed angle to import the arm as a six-axis model",
+                        chain.joints.len() - JOINTS
+                    )
+                } else {
+                    String::new()
+                }
             ),
         });
     }
@@ -395,7 +515,8 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         max_deviation_mm,
         configurations,
         warnings,
-        notes: chain.note.iter().cloned().collect(),
+        notes: chain.notes.clone(),
+        held: chain.held.clone(),
     })
 }
 
@@ -595,7 +716,7 @@ pub enum FileKind {
 }
 
 /// Options of [`import_file`].
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Debug, Default, PartialEq)]
 pub struct ImportOptions {
     /// URDF: the base link (default: the root link).
     pub base: Option<String>,
@@ -609,6 +730,8 @@ pub struct ImportOptions {
     pub packages: std::collections::BTreeMap<String, std::path::PathBuf>,
     /// xacro: `$(arg NAME)` values that override the file's `<xacro:arg>` defaults.
     pub xacro_args: std::collections::BTreeMap<String, String>,
+    /// Joints held at a fixed angle ([`SourceChain::hold`]).
+    pub held: Vec<JointHold>,
 }
 
 /// The reader for `path` by its extension.
@@ -652,6 +775,7 @@ pub fn import_file(path: &std::path::Path, opts: &ImportOptions) -> Result<Impor
         if let Some(n) = &opts.name {
             chain.name = n.clone();
         }
+        chain.hold(&opts.held, &p)?;
         return convert(&chain, &p);
     }
     let text = crate::input::read_text(
@@ -682,6 +806,7 @@ pub fn import_file(path: &std::path::Path, opts: &ImportOptions) -> Result<Impor
     if let Some(n) = &opts.name {
         chain.name = n.clone();
     }
+    chain.hold(&opts.held, &p)?;
     convert(&chain, &p)
 }
 

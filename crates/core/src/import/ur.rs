@@ -186,7 +186,9 @@ pub fn parse(text: &str, path: &str, name: &str) -> Result<SourceChain, ImportEr
         format: SourceFormat::UrCalibration,
         joints,
         tip: Isometry3::identity(),
-        note: None,
+        what: "the calibration file".into(),
+        notes: Vec::new(),
+        held: Vec::new(),
         arm_frame: None,
     })
 }

@@ -292,24 +292,25 @@ pub fn parse(
         });
         pending = Isometry3::identity();
     }
-    if out.len() != super::JOINTS {
-        let names: Vec<&str> = out.iter().map(|j| j.name.as_str()).collect();
+    if out.len() > super::MAX_SOURCE_JOINTS {
         return Err(ImportError::Chain {
             path: path.into(),
             message: format!(
-                "the chain from '{base}' to '{tip}' has {} revolute joints ({}); the model needs exactly {}",
+                "the chain from '{base}' to '{tip}' has {} revolute joints; at most {} can be read",
                 out.len(),
-                if names.is_empty() { "none".to_string() } else { names.join(", ") },
-                super::JOINTS
+                super::MAX_SOURCE_JOINTS
             ),
         });
     }
+    // The joint count is checked after any joints are held (`convert`).
     Ok(SourceChain {
         name: robot_name,
         format: SourceFormat::Urdf,
         joints: out,
+        what: format!("the chain from '{base}' to '{tip}'"),
         tip: pending,
-        note: tip_note,
+        notes: tip_note.into_iter().collect(),
+        held: Vec::new(),
         arm_frame,
     })
 }

@@ -27,6 +27,8 @@ pub struct MapResult {
     /// The origin of the robot's base frame in the frame of the map's positions (the
     /// description's frame), mm.
     pub base_origin_mm: [f64; 3],
+    /// What the report should say about the model (a model without spread), one line each.
+    pub notes: Vec<String>,
     /// What was asked.
     pub spec: MapSpec,
     /// Seed of the parameter draws.
@@ -93,6 +95,7 @@ impl MapResult {
         MapResult {
             model: model.to_string(),
             base_origin_mm: [0.0; 3],
+            notes: Vec::new(),
             spec: spec.clone(),
             seed,
             draws: eval.draws,
@@ -112,6 +115,14 @@ impl MapResult {
     pub fn with_base_origin(mut self, origin: [f64; 3]) -> MapResult {
         self.base_origin_mm = origin;
         self
+    }
+
+    /// The map of `model`: its base origin ([`MapResult::with_base_origin`]) and the notes
+    /// about it ([`crate::report::model_notes`]).
+    pub fn of_model(self, model: &RobotModel) -> MapResult {
+        let mut r = self.with_base_origin(model.base_origin_mm());
+        r.notes = crate::report::model_notes(model);
+        r
     }
 }
 

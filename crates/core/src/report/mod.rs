@@ -128,10 +128,28 @@ pub fn write_files(dir: &Path, files: &[(String, String)]) -> Result<(), ReportE
     Ok(())
 }
 
-/// What a report should say about the analysed model beyond its name: an uncertain tool point
-/// (its σ enters every draw, docs/METHOD.md §14). The command line and the
+/// The note for a model without any spread (every σ of the parameters, the tool and the
+/// placement 0, as in an imported description or a preset from a published table): its draws
+/// all equal the calibrated model, so w = 0 and R = 1 at every threshold say nothing about the
+/// robot. `None` when some input is uncertain.
+pub fn no_uncertainty_note(m: &RobotModel) -> Option<String> {
+    let base = m.base_sigmas().iter().any(|&s| s > 0.0);
+    (m.free_inputs().is_empty() && !base).then(|| {
+        format!(
+            "the model '{}' carries no uncertainty (every σ is 0, as in an imported description or a published table): every draw is the model itself, so w = 0 and R = 1 say nothing about the robot; identify it from measurements or give σ in the model file",
+            m.name
+        )
+    })
+}
+
+/// What a report should say about the analysed model beyond its name: that it has no spread at
+/// all ([`no_uncertainty_note`]), or an uncertain tool point (its σ enters every draw,
+/// docs/METHOD.md §14). The command line and the
 /// Python package put these first among a run report's notes.
 pub fn model_notes(m: &RobotModel) -> Vec<String> {
+    if let Some(n) = no_uncertainty_note(m) {
+        return vec![n];
+    }
     if !m.tool_uncertain() {
         return Vec::new();
     }

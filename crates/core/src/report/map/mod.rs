@@ -75,6 +75,9 @@ pub fn render_text(r: &MapResult) -> String {
     let _ = writeln!(s, "Workspace reliability map — {}", r.model);
     let _ = writeln!(s, "grid       {}", grid_label(r));
     let _ = writeln!(s, "task       {}", r.spec.task());
+    for n in &r.notes {
+        let _ = writeln!(s, "note       {n}");
+    }
     let q = r.spec.reference_q_deg.map(fmt_g).join(", ");
     let _ = writeln!(
         s,

@@ -29,6 +29,9 @@ fn split_text_alternative(svg: &str) -> (String, String) {
 pub fn map_page(r: &MapResult, settings: &[(String, String)], _files: &[(String, String)]) -> Page {
     let svgs = render_svgs(r);
     let mut page = Page::new(&format!("Workspace reliability map of {}", r.model));
+    for n in &r.notes {
+        page.note(n);
+    }
     page.summary("grid", &grid_label(r))
         .summary("task", &r.spec.task())
         .summary(
