@@ -10,7 +10,7 @@
 # and run `BIN=.devbin OUT=/tmp/gpu-figures bash scripts/gpu-hardware-bench.sh` where the GPU is.
 # Everything goes to $OUT/log.txt (and the terminal); the last lines are a summary table.
 # Optional: GPU_ONLY_STEPS="tests mcs9" runs only the steps named (tests evaluators mcs mcs9
-# mcs9cpu sensitivity20 analyses throughput; all by default); GPU_BENCH_DEADLINE=seconds.
+# mcs9cpu sensitivity20 analyses plan throughput; all by default); GPU_BENCH_DEADLINE=seconds.
 set -u
 BIN=${BIN:-.devbin}
 OUT=${OUT:-/tmp/gpu-figures}
@@ -138,6 +138,16 @@ if want analyses; then
             --backend "$backend" -q --json "$JS/sens-$backend.json"
         step "tail 0.3 $backend" 120 "$GPU_AMCS_BIN" tail --threshold 0.3 \
             --backend "$backend" -q --json "$JS/tail-$backend.json"
+    done
+fi
+if want plan; then
+    # The calibration planner: 30 of 2000 candidates, its prediction with 10^6 draws of the
+    # planned model on each backend.
+    for backend in gpu cpu; do
+        step "plan 30 of 2000, 1e6 prediction draws, $backend" 120 "$GPU_AMCS_BIN" plan \
+            --points 50 --poses 30 --tracker-sigma 0.01 --draws 1000000 --backend "$backend" \
+            -q --out "$JS/design-$backend.csv" --json "$JS/plan-$backend.json"
+        say "    $(grep -o '"seconds": [0-9.e-]*' "$JS/plan-$backend.json" | head -1)"
     done
 fi
 if want throughput; then
