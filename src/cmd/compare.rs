@@ -99,7 +99,9 @@ impl Run for CompareArgs {
                 built.problem.seed,
             );
             let rows = problem_rows(&a.problem, &built.problem);
-            let (mut ev, _notes) = a.problem.backend.evaluator(built.problem)?;
+            let model_notes = report::model_notes(&built.problem.model);
+            let (mut ev, notes) = a.problem.backend.evaluator(built.problem)?;
+            let notes = [model_notes, notes].concat();
             let bar = Progress::new(a.reports.quiet, "MCS", "draws");
             let cb = |done: u64, total: u64| bar.update(done, total);
             let mcs = mc::run_mcs(
@@ -128,6 +130,7 @@ impl Run for CompareArgs {
                 seed,
                 mcs,
                 amcs,
+                notes,
             };
             Ok((c, rows))
         })?;

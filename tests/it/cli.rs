@@ -166,7 +166,8 @@ fn points_and_fk_commands() {
 }
 
 /// A model without any spread (a preset from a published table, an import) says so in `mcs`,
-/// `amcs` and `map`, in the text, the JSON and the HTML page; a model with spread does not.
+/// `amcs` and `map`, in the text, the JSON and the HTML page, and in `compare`; a model with
+/// spread does not.
 #[test]
 fn a_model_without_uncertainty_says_so_everywhere() {
     let d = tmpdir("zero-sigma");
@@ -226,6 +227,24 @@ fn a_model_without_uncertainty_says_so_everywhere() {
     assert!(std::fs::read_to_string(d.join("map-html/index.html"))
         .unwrap()
         .contains(said));
+    // compare too, in its table and its Markdown.
+    let md = arg(&d, "compare.md");
+    let o = run(&[
+        "compare",
+        "--preset",
+        "ur5e",
+        "--points",
+        "3",
+        "--draws",
+        "20000",
+        "--backend",
+        "cpu",
+        "--markdown",
+        &md,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(stdout(&o).contains(said), "{}", stdout(&o));
+    assert!(std::fs::read_to_string(&md).unwrap().contains(said));
     // The TX60 has σ: no such note.
     let o = run(&[
         "mcs",

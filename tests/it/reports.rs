@@ -128,6 +128,7 @@ fn runs_and_comparisons_write_what_their_layout_names() {
         seed: 2025,
         mcs,
         amcs: vec![(0.05, amcs, mre)],
+        notes: vec!["a note".into()],
     };
     check(&c, Comparison::planned_layout(), "comparison");
 }

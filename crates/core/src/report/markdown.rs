@@ -46,8 +46,9 @@ pub fn comparison_rows(c: &Comparison) -> Vec<Vec<String>> {
 
 /// The comparison as the paper's Table 2 row block.
 pub fn render_comparison(c: &Comparison) -> String {
+    let notes: String = c.notes.iter().map(|n| format!("> Note: {n}\n\n")).collect();
     format!(
-        "### {} — {} test points (seed {})\n\n{}",
+        "### {} — {} test points (seed {})\n\n{notes}{}",
         c.model,
         c.points,
         c.seed,

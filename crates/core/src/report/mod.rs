@@ -61,6 +61,8 @@ pub struct Comparison {
     pub mcs: McResult,
     /// `(δ, AMCS result, maximum relative error of M1–M4 against MCS in %)`.
     pub amcs: Vec<(f64, McResult, f64)>,
+    /// What the reader should know: about the model ([`model_notes`]) and the backend.
+    pub notes: Vec<String>,
 }
 
 /// Maximum relative error of M1–M4 of `r` against `base`, in percent (the paper's MRE), over

@@ -137,6 +137,9 @@ pub fn render_comparison(c: &Comparison) -> String {
         "MCS vs AMCS — {} — {} test points — seed {}",
         c.model, c.points, c.seed
     );
+    for n in &c.notes {
+        let _ = writeln!(s, "note: {n}");
+    }
     let _ = writeln!(
         s,
         "{:<14} {:>10} {:>12} {:>9} {:>9} {:>8} {:>10} {:>10}",

@@ -76,6 +76,9 @@ pub fn comparison_page(
     let table = comparison_table(c);
     let plots = comparison_plots(c);
     let mut page = Page::new(&format!("MCS against AMCS — {}", c.model));
+    for n in &c.notes {
+        page.note(n);
+    }
     let worst = c
         .amcs
         .iter()
