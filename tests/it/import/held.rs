@@ -316,3 +316,115 @@ fn seven_joint_urdf_with_a_held_joint_on_the_command_line() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// The held iiwa runs every analysis: `calibrate` (simulated sweeps, identification, σ), then
+/// `amcs`, `sensitivity`, `tail` and `map` on the calibrated model, and `plan` on the nominal one.
+#[test]
+fn held_iiwa_runs_every_analysis() {
+    let dir = tmpdir("iiwa-all");
+    let path = write(&dir, "iiwa14.csv", &iiwa_csv());
+    let p = |n: &str| dir.join(n).display().to_string();
+    let ok = |args: &[&str]| {
+        let r = run(args);
+        assert!(r.status.success(), "{args:?}: {}", stderr(&r));
+        crate::common::stdout(&r)
+    };
+    ok(&[
+        "import",
+        path.to_str().unwrap(),
+        "-o",
+        &p("iiwa.toml"),
+        "--hold-joint",
+        "3=0",
+    ]);
+    let cal = ok(&[
+        "calibrate",
+        "--model",
+        &p("iiwa.toml"),
+        "--runs",
+        "2",
+        "--step",
+        "10",
+        "-o",
+        &p("cal.toml"),
+    ]);
+    assert!(cal.contains("improvement"), "{cal}");
+    let m = p("cal.toml");
+    ok(&[
+        "amcs",
+        "--model",
+        &m,
+        "--points",
+        "10",
+        "--backend",
+        "cpu",
+        "-q",
+    ]);
+    ok(&[
+        "sensitivity",
+        "--model",
+        &m,
+        "--points",
+        "5",
+        "--draws",
+        "64",
+        "--backend",
+        "cpu",
+        "-q",
+    ]);
+    ok(&[
+        "tail",
+        "--model",
+        &m,
+        "--points",
+        "5",
+        "--threshold",
+        "0.3",
+        "--backend",
+        "cpu",
+        "-q",
+    ]);
+    let map = ok(&[
+        "map",
+        "--model",
+        &m,
+        "--plane",
+        "xz",
+        "--at",
+        "0",
+        "--cells",
+        "5,5",
+        "--backend",
+        "cpu",
+        "--free-orientation",
+    ]);
+    assert!(!map.contains("reached    0 of"), "{map}");
+    ok(&[
+        "plan",
+        "--model",
+        &p("iiwa.toml"),
+        "--target",
+        "100,50,80",
+        "--poses",
+        "20",
+        "--candidates",
+        "400",
+        "--tracker-sigma",
+        "0.01",
+        "--draws",
+        "20000",
+        "--backend",
+        "cpu",
+        "-q",
+        "--out",
+        &p("design.csv"),
+    ]);
+    assert_eq!(
+        std::fs::read_to_string(dir.join("design.csv"))
+            .unwrap()
+            .lines()
+            .count(),
+        21
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -935,8 +935,9 @@ pub fn plan(
             .collect();
         names.sort_by(|a, b| b.0.total_cmp(&a.0));
         return Err(PlanError::NotIdentifiable(format!(
-            "{} move the target together (condition {:.1e}); a target on the flange origin or on \
-             the last joint's axis hides them: place it off the axis",
+            "{} move the target together (condition {:.1e}): this target does not separate them \
+             (one on the flange origin or on the last joint's axis never does); place it elsewhere \
+             on the flange",
             names
                 .iter()
                 .map(|n| n.1.as_str())
