@@ -151,6 +151,15 @@ fn import(path: &Path) -> Result<import::Imported, ImportError> {
     import::import_file(path, &ImportOptions::default())
 }
 
+/// Largest deviation between `model` and the model imported back from its URDF export (written
+/// into `dir`), mm.
+fn urdf_round_trip(dir: &Path, model: &RobotModel) -> f64 {
+    let back = import(&write(dir, "back.urdf", &export::to_urdf(model, None)))
+        .unwrap()
+        .model;
+    max_dev(&back, |q| model.world_position(q))
+}
+
 /// The one-line error of importing `text` written as `dir/name`.
 fn import_err(dir: &Path, name: &str, text: &str) -> String {
     let e = import(&write(dir, name, text)).unwrap_err().to_string();
@@ -735,14 +744,7 @@ fn kuka_first_axis_off_the_origin_imports() {
     joints[0].0[0] = off * 1000.0;
     let dev = max_dev(&imp.model, |q| urdf_fk(&joints, &eye(), q));
     assert!(dev < 1e-9, "{dev}");
-    let back = import(&write(
-        &dir,
-        "back.urdf",
-        &export::to_urdf(&imp.model, None),
-    ))
-    .unwrap()
-    .model;
-    let rt = max_dev(&back, |q| imp.model.world_position(q));
+    let rt = urdf_round_trip(&dir, &imp.model);
     assert!(rt < 1e-9, "{rt}");
     // The same chain through the origin keeps the MDH parameters: the offset is all in the base.
     let centred = import(&write(&dir, "c.urdf", &kr6_urdf("0 0 -1")))
@@ -1675,14 +1677,7 @@ fn kuka_kr210_l150_from_its_ros_industrial_description() {
                 && (imp.model.limits_deg[j].1 - hi).abs() < 1e-9
         );
     }
-    let back = import(&write(
-        &dir,
-        "back.urdf",
-        &export::to_urdf(&imp.model, None),
-    ))
-    .unwrap()
-    .model;
-    let rt = max_dev(&back, |q| imp.model.world_position(q));
+    let rt = urdf_round_trip(&dir, &imp.model);
     assert!(rt < 1e-9, "{rt}");
     eprintln!(
         "KR 210 L150: proof {:.3e} mm, vs URDF FK {dev:.3e} mm, round trip {rt:.3e} mm, base {:?}",

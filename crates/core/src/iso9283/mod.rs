@@ -60,6 +60,21 @@ pub struct PoseFigures {
     pub first_line: u64,
 }
 
+impl PoseFigures {
+    /// The figures in table order: AP, AP_x, AP_y, AP_z, l̄, S_l, RP (mm).
+    pub fn values(&self) -> [f64; 7] {
+        [
+            self.ap_mm,
+            self.ap_xyz_mm[0],
+            self.ap_xyz_mm[1],
+            self.ap_xyz_mm[2],
+            self.l_mean_mm,
+            self.s_l_mm,
+            self.rp_mm,
+        ]
+    }
+}
+
 /// Errors of the ISO 9283 figures.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum Iso9283Error {
@@ -244,18 +259,11 @@ pub fn render(figures: &[PoseFigures]) -> String {
         "ISO 9283 pose accuracy and repeatability (positions, mm)\n  pose  cycles        AP      AP_x      AP_y      AP_z        l̄       S_l        RP\n",
     );
     for f in figures {
-        s.push_str(&format!(
-            "  P{:<4}{:>6}{:>10.4}{:>10.4}{:>10.4}{:>10.4}{:>10.4}{:>10.4}{:>10.4}\n",
-            f.pose,
-            f.cycles,
-            f.ap_mm,
-            f.ap_xyz_mm[0],
-            f.ap_xyz_mm[1],
-            f.ap_xyz_mm[2],
-            f.l_mean_mm,
-            f.s_l_mm,
-            f.rp_mm
-        ));
+        s.push_str(&format!("  P{:<4}{:>6}", f.pose, f.cycles));
+        for v in f.values() {
+            s.push_str(&format!("{v:>10.4}"));
+        }
+        s.push('\n');
     }
     s
 }

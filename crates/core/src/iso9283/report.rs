@@ -82,19 +82,10 @@ fn poses_csv(poses: &[PoseFigures]) -> String {
         "pose,cycles,AP_mm,AP_x_mm,AP_y_mm,AP_z_mm,l_mean_mm,S_l_mm,RP_mm,q1,q2,q3,q4,q5,q6,first_line\n",
     );
     for f in poses {
-        let _ = write!(
-            s,
-            "P{},{},{:.9},{:.9},{:.9},{:.9},{:.9},{:.9},{:.9}",
-            f.pose,
-            f.cycles,
-            f.ap_mm,
-            f.ap_xyz_mm[0],
-            f.ap_xyz_mm[1],
-            f.ap_xyz_mm[2],
-            f.l_mean_mm,
-            f.s_l_mm,
-            f.rp_mm
-        );
+        let _ = write!(s, "P{},{}", f.pose, f.cycles);
+        for v in f.values() {
+            let _ = write!(s, ",{v:.9}");
+        }
         for q in f.q_deg {
             let _ = write!(s, ",{q}");
         }
@@ -183,19 +174,7 @@ fn page(r: &PoseReport, settings: &[(String, String)], files: &[(String, String)
             .iter()
             .map(|p| {
                 let mut row = vec![format!("P{}", p.pose), p.cycles.to_string()];
-                row.extend(
-                    [
-                        p.ap_mm,
-                        p.ap_xyz_mm[0],
-                        p.ap_xyz_mm[1],
-                        p.ap_xyz_mm[2],
-                        p.l_mean_mm,
-                        p.s_l_mm,
-                        p.rp_mm,
-                    ]
-                    .iter()
-                    .map(|v| format!("{v:.4}")),
-                );
+                row.extend(p.values().iter().map(|v| format!("{v:.4}")));
                 row
             })
             .collect(),
