@@ -115,8 +115,8 @@ fn triple(v: Option<Vec<f64>>, name: &str) -> PyResult<Option<[f64; 3]>> {
 problem_function! {
     /// Plans a calibration (`gpu-amcs plan`): `poses` poses out of `candidates` candidate
     /// configurations, for tracker noise `tracker_sigma` (mm per coordinate), the target
-    /// `target` on the flange (x, y, z mm; default the model's tool unless at the flange origin,
-    /// else 30, -20, 80) and, with `tracker_at` (x, y, z mm), candidates within `tracker_range`
+    /// `target` on the flange (x, y, z mm; default the model's tool unless within 1 mm of the
+    /// last joint's axis, else 30, -20, 80) and, with `tracker_at` (x, y, z mm), candidates within `tracker_range`
     /// that face the tracker within `max_incidence` degrees; predicts R(L) at `threshold` (mm)
     /// with `draws` draws of the planned model at the task points (the problem's points).
     /// Problem arguments as `mcs`. Returns a `PlanResult`.

@@ -60,8 +60,8 @@ pub struct PlanArgs {
         requires = "tracker_at"
     )]
     pub max_incidence: f64,
-    /// The target on the flange, mm (default: the model's tool when it is not the flange origin,
-    /// else 30,-20,80 as `simulate` uses).
+    /// The target on the flange, mm (default: the model's tool when it is at least 1 mm off the
+    /// last joint's axis, else 30,-20,80 as `simulate` uses).
     #[arg(
         long,
         value_delimiter = ',',

@@ -85,12 +85,17 @@ pub struct PlanOptions {
     pub seed: u64,
 }
 
+/// Distance from the last joint's axis below which a model's tool is not taken as the plan's
+/// target by default, mm.
+pub const MIN_TARGET_OFFSET_MM: f64 = 1.0;
+
 impl PlanOptions {
-    /// The target a plan of `model` assumes when none is given: the model's tool unless it is
-    /// the flange origin (which hides joint 5's parameters), else the default (30, −20, 80) mm,
-    /// the simulator's design target.
+    /// The target a plan of `model` assumes when none is given: the model's tool unless it lies
+    /// on the last joint's axis (within [`MIN_TARGET_OFFSET_MM`]; the flange origin, or an
+    /// imported tool0 whose x and y are rounding noise), where it would hide joint 5's
+    /// parameters, else the default (30, −20, 80) mm, the simulator's design target.
     pub fn default_target(model: &RobotModel) -> [f64; 3] {
-        if model.tool != [0.0; 3] {
+        if model.tool[0].hypot(model.tool[1]) >= MIN_TARGET_OFFSET_MM {
             model.tool
         } else {
             PlanOptions::default().target_mm
