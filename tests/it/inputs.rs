@@ -481,8 +481,9 @@ fn undefined_moments_are_reported_as_undefined_on_every_backend() {
 
 /// Every command on every robot: for each preset other than the TX60, `calibrate --preset`
 /// gives a model with σ (tool included); `points`, `fk`, `amcs`, `mcs`, `sensitivity`, `tail`,
-/// `export` run on it; `simulate --preset` writes sweeps that `identify --nominal` reads back.
-/// Each must succeed with finite numbers; small settings keep it fast (CPU backend).
+/// `export` run on it; `simulate --preset` writes sweeps that `identify --nominal` reads back;
+/// `plan --preset` plans with its default target. Each must succeed with finite numbers; small
+/// settings keep it fast (CPU backend).
 #[test]
 fn every_command_runs_on_every_preset() {
     let dir = tmpdir("every-preset");
@@ -574,6 +575,31 @@ fn every_command_runs_on_every_preset() {
         ]);
         assert!(
             std::fs::read_to_string(&id).unwrap().contains("tool_sigma"),
+            "{preset}"
+        );
+        // plan with its default target: the preset's tool0 is a rounding error off the flange
+        // axis, which would hide joint 5, so the off-axis default is taken.
+        let design = p("design.csv");
+        ok(&[
+            "plan",
+            "--preset",
+            preset,
+            "--poses",
+            "20",
+            "--candidates",
+            "400",
+            "--draws",
+            "20000",
+            "--tracker-sigma",
+            "0.01",
+            "--backend",
+            "cpu",
+            "--out",
+            design.to_str().unwrap(),
+        ]);
+        assert_eq!(
+            std::fs::read_to_string(&design).unwrap().lines().count(),
+            21,
             "{preset}"
         );
     }
