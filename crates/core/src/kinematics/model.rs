@@ -137,6 +137,49 @@ impl RobotModel {
         self.base.map_or([0.0; 3], |b| b.xyz)
     }
 
+    /// The note for a model without any spread (every σ of the parameters, the tool and the
+    /// placement 0, as in an imported description or a preset from a published table): its
+    /// draws all equal the calibrated model, so w = 0 and R = 1 at every threshold say nothing
+    /// about the robot. `None` when some input is uncertain.
+    pub fn no_uncertainty_note(&self) -> Option<String> {
+        let base = self.base_sigmas().iter().any(|&s| s > 0.0);
+        (self.free_inputs().is_empty() && !base).then(|| {
+            format!(
+                "the model '{}' carries no uncertainty (every σ is 0, as in an imported description or a published table): every draw is the model itself, so w = 0 and R = 1 say nothing about the robot; identify it from measurements or give σ in the model file",
+                self.name
+            )
+        })
+    }
+
+    /// What a report should say about the analysed model beyond its name: that it has no
+    /// spread at all ([`RobotModel::no_uncertainty_note`]), or an uncertain tool point (its σ
+    /// enters every draw, docs/METHOD.md §14).
+    pub fn report_notes(&self) -> Vec<String> {
+        if let Some(n) = self.no_uncertainty_note() {
+            return vec![n];
+        }
+        if !self.tool_uncertain() {
+            return Vec::new();
+        }
+        let s = self.input_sigmas();
+        let t = &s[N_PARAMS..];
+        // Four significant digits: σ is an uncertainty, its 17th digit says nothing.
+        let g = |v: f64| format!("{v:.4e}").parse::<f64>().unwrap_or(v);
+        vec![format!(
+            "tool point uncertain: σ = ({}, {}, {}) mm{}",
+            g(t[0]),
+            g(t[1]),
+            g(t[2]),
+            match self.uncertainty.dim() {
+                N_UNCERTAIN => ", correlated with the parameters (33 × 33 covariance)",
+                N_WITH_BASE => {
+                    ", correlated with the parameters and the base placement (39 × 39 covariance)"
+                }
+                _ => "",
+            }
+        )]
+    }
+
     /// Tool-point position (mm) at joint angles `q` (radians) in the description's frame: the
     /// MDH chain's [`super::position`], then the [`RobotModel::base`] transform.
     pub fn world_position(&self, q: &[f64; JOINTS]) -> [f64; 3] {

@@ -118,10 +118,10 @@ impl MapResult {
     }
 
     /// The map of `model`: its base origin ([`MapResult::with_base_origin`]) and the notes
-    /// about it ([`crate::report::model_notes`]).
+    /// about it ([`RobotModel::report_notes`]).
     pub fn of_model(self, model: &RobotModel) -> MapResult {
         let mut r = self.with_base_origin(model.base_origin_mm());
-        r.notes = crate::report::model_notes(model);
+        r.notes = model.report_notes();
         r
     }
 }

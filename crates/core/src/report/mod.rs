@@ -26,7 +26,7 @@ pub mod text;
 
 pub use outputs::{Layout, Report, INDEX};
 
-use crate::kinematics::{RobotModel, N_PARAMS, N_UNCERTAIN};
+use crate::kinematics::RobotModel;
 use crate::mc::McResult;
 use serde::Serialize;
 use std::path::Path;
@@ -130,46 +130,9 @@ pub fn write_files(dir: &Path, files: &[(String, String)]) -> Result<(), ReportE
     Ok(())
 }
 
-/// The note for a model without any spread (every σ of the parameters, the tool and the
-/// placement 0, as in an imported description or a preset from a published table): its draws
-/// all equal the calibrated model, so w = 0 and R = 1 at every threshold say nothing about the
-/// robot. `None` when some input is uncertain.
-pub fn no_uncertainty_note(m: &RobotModel) -> Option<String> {
-    let base = m.base_sigmas().iter().any(|&s| s > 0.0);
-    (m.free_inputs().is_empty() && !base).then(|| {
-        format!(
-            "the model '{}' carries no uncertainty (every σ is 0, as in an imported description or a published table): every draw is the model itself, so w = 0 and R = 1 say nothing about the robot; identify it from measurements or give σ in the model file",
-            m.name
-        )
-    })
-}
-
-/// What a report should say about the analysed model beyond its name: that it has no spread at
-/// all ([`no_uncertainty_note`]), or an uncertain tool point (its σ enters every draw,
-/// docs/METHOD.md §14). The command line and the
-/// Python package put these first among a run report's notes.
+/// What a report should say about the analysed model beyond its name
+/// ([`RobotModel::report_notes`]). The command line and the Python package put these first among
+/// a run report's notes.
 pub fn model_notes(m: &RobotModel) -> Vec<String> {
-    if let Some(n) = no_uncertainty_note(m) {
-        return vec![n];
-    }
-    if !m.tool_uncertain() {
-        return Vec::new();
-    }
-    let s = m.input_sigmas();
-    let t = &s[N_PARAMS..];
-    // Four significant digits: σ is an uncertainty, its 17th digit says nothing.
-    let g = |v: f64| format!("{v:.4e}").parse::<f64>().unwrap_or(v);
-    vec![format!(
-        "tool point uncertain: σ = ({}, {}, {}) mm{}",
-        g(t[0]),
-        g(t[1]),
-        g(t[2]),
-        match m.uncertainty.dim() {
-            N_UNCERTAIN => ", correlated with the parameters (33 × 33 covariance)",
-            crate::kinematics::N_WITH_BASE => {
-                ", correlated with the parameters and the base placement (39 × 39 covariance)"
-            }
-            _ => "",
-        }
-    )]
+    m.report_notes()
 }
