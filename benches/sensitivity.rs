@@ -25,7 +25,7 @@
 
 use gpu_amcs::engine::{CpuEvaluator, Evaluator, PickFreeze, Problem, Reference};
 use gpu_amcs::gpu::{GpuEvaluator, GpuOptions};
-use gpu_amcs::kinematics::{tx60, N_UNCERTAIN};
+use gpu_amcs::kinematics::{tx60, MAX_UNCERTAIN};
 use gpu_amcs::mc::sensitivity::{run_outputs, SensitivityOptions, B_DRAW_OFFSET};
 use gpu_amcs::sampling::ALL_NORMALS;
 use std::time::Instant;
@@ -69,12 +69,14 @@ fn pass(ev: &mut dyn Evaluator, pb: &Problem, masks: &[u64], generated: bool) ->
         if generated {
             ev.evaluate_pick_freeze(&request, &mut w).unwrap();
         } else {
-            let mut rows = vec![0.0; request.rows() * N_UNCERTAIN];
-            for (r, row) in rows.chunks_exact_mut(N_UNCERTAIN).enumerate() {
+            let n_uncertain = pb.model.layout().n_uncertain();
+            let mut rows = vec![0.0; request.rows() * n_uncertain];
+            for (r, row) in rows.chunks_exact_mut(n_uncertain).enumerate() {
                 let (a, b, m) = request.row(r);
-                let mut d = [0.0; N_UNCERTAIN];
-                pb.sampler.pick_freeze_deltas(a, b, m, &mut d);
-                row.copy_from_slice(&d);
+                let mut d = [0.0; MAX_UNCERTAIN];
+                pb.sampler
+                    .pick_freeze_deltas(a, b, m, &mut d[..n_uncertain]);
+                row.copy_from_slice(&d[..n_uncertain]);
             }
             ev.evaluate_offsets(&rows, &mut w, None).unwrap();
         }
@@ -101,6 +103,7 @@ fn bench(label: &str, ev: &mut dyn Evaluator, pb: &Problem, masks: &[u64], reps:
     }
     let (g, u) = (median(tg), median(tu));
     let per_call = CHUNK * masks.len();
+    let n_uncertain = pb.model.layout().n_uncertain();
     println!(
         "{label}: {rows} rows ({} matrices × {BASE_SAMPLES}), medians of {reps}: generated {g:.3} s \
          ({:.2e} rows/s), offset matrix {u:.3} s ({:.2e} rows/s), ratio {:.2}; per call: masks {} \
@@ -110,8 +113,8 @@ fn bench(label: &str, ev: &mut dyn Evaluator, pb: &Problem, masks: &[u64], reps:
         rows as f64 / u,
         u / g,
         8 * masks.len(),
-        8 * per_call * N_UNCERTAIN,
-        4 * per_call * N_UNCERTAIN,
+        8 * per_call * n_uncertain,
+        4 * per_call * n_uncertain,
     );
 }
 

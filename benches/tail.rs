@@ -10,7 +10,7 @@
 //! every run and the medians.
 
 use gpu_amcs::engine::{CpuEvaluator, Problem, Reference};
-use gpu_amcs::kinematics::{tx60, RobotModel, Uncertainty, N_PARAMS};
+use gpu_amcs::kinematics::{tx60, Params, RobotModel, Uncertainty};
 use gpu_amcs::mc::tail::{normal_quantile, run_tail, ChainProposal, TailOptions, TailResult};
 
 const SIGMA_DEG: f64 = 0.01;
@@ -78,7 +78,7 @@ fn main() {
     let theta1: Vec<TailResult> = (0..reps)
         .map(|seed| {
             let mut m = tx60();
-            let mut s = [0.0; N_PARAMS];
+            let mut s = Params::filled(m.layout().n_params(), 0.0);
             s[0] = sigma;
             m.uncertainty = Uncertainty::Independent(s);
             let pb = problem(m, 20, 100 + seed);

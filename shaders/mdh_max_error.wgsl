@@ -1,10 +1,13 @@
 // Maximum point error of MDH parameter vectors (docs/METHOD.md §3, paper eqs. 12 and 17).
-// Composed after philox.wgsl. One invocation per parameter vector, three entry points that share
+// Composed after philox.wgsl and a line `const N_JOINTS: u32 = n;` giving the model's joint
+// count (4 to 7; the host compiles one module per count it meets). The counts below are for
+// six joints, the paper's TX60: 30 parameters, 33 inputs, 39 with the placement.
+// One invocation per parameter vector, three entry points that share
 // the kinematics (point_errors):
 //   max_point_error: counter draws first + i,
 //     1. normals of the draw (Philox blocks 0–8 the free inputs use, Box–Muller; input i uses
-//        normal i: parameters 0–29, tool x, y, z 30–32),
-//     2. offsets δ of the 33 inputs: independent δ_i = σ_i z_i, or correlated
+//        normal i: parameters 0 … 5n−1, tool x, y, z 5n … 5n+2),
+//     2. offsets δ of the 5n + 3 inputs: independent δ_i = σ_i z_i, or correlated
 //        δ_free[a] = Σ_{b<=a} L[a][b] z[free[b]];
 //   max_point_error_offsets: δ read from row i of the offset matrix (N_INPUTS f32 per row, N_PLACED
 //   in mode 2);
@@ -13,7 +16,7 @@
 //     offsets of step 2 (so the rows of A, B and A_B are generated here, never uploaded);
 // then at every test point the deviation Δ of the end position from the mean-parameter chain,
 // propagated from the tool to the base, starting from the tool point's own offset
-// Δ_7 = δ_tool = (δ_30, δ_31, δ_32) (see src/engine/deviation.rs for the formulation and its
+// Δ_{n+1} = δ_tool = (δ_5n, δ_5n+1, δ_5n+2) (see src/engine/deviation.rs for the formulation and its
 // error budget), e_j = |Δ_1 + o_j|, w = max_j e_j.
 // Only small quantities (offsets, rotation differences, deviations) are formed in f32; the
 // ~1000 mm nominal positions enter only multiplied by small rotation differences.
@@ -21,8 +24,8 @@
 struct Config {
     key: vec2<u32>,
     m: u32,
-    // 0: independent (spread = σ[33]); 1: correlated (spread = L, nfree × nfree row-major);
-    // 2: correlated over the 39 inputs with the base placement (spread = L, then 15 constants:
+    // 0: independent (spread = σ[N_INPUTS]); 1: correlated (spread = L, nfree × nfree
+    // row-major); 2: correlated over the N_PLACED inputs with the base placement (spread = L, then 15 constants:
     // a_y, a_p, the rows of R̂ᵀ; docs/METHOD.md §2.8)
     mode: u32,
     nfree: u32,
@@ -48,26 +51,30 @@ struct Chunk {
 @group(0) @binding(0) var<uniform> cfg: Config;
 @group(0) @binding(1) var<uniform> chunk: Chunk;
 // per joint: (cos α, sin α, cos β, sin β) of the mean parameters
-@group(0) @binding(2) var<storage, read> joint_trig: array<vec4<f32>, 6>;
+@group(0) @binding(2) var<storage, read> joint_trig: array<vec4<f32>, N_JOINTS>;
 @group(0) @binding(3) var<storage, read> spread: array<f32>;
 @group(0) @binding(4) var<storage, read> free_idx: array<u32>;
-// per point 13 vec4: joint i (0-based) at 2i: (u0_i, cos φ_i), 2i+1: (p0_{i+1}, sin φ_i);
-// 12: (o_j, 0) with o_j = P(mean, q_j) − P_ref,j
+// per point WORDS_PER_POINT = 2n + 1 vec4: joint i (0-based) at 2i: (u0_i, cos φ_i), 2i+1:
+// (p0_{i+1}, sin φ_i); 2n: (o_j, 0) with o_j = P(mean, q_j) − P_ref,j
 @group(0) @binding(5) var<storage, read> pts: array<vec4<f32>>;
 @group(0) @binding(6) var<storage, read_write> w_out: array<f32>;
 @group(0) @binding(7) var<storage, read_write> e_out: array<f32>;
 // offset path: row i = δ of parameter vector i, N_INPUTS entries (mm, rad; tool last), then in
 // mode 2 the placement's six (x, y, z mm; roll, pitch, yaw rad)
 @group(0) @binding(8) var<storage, read> offsets_in: array<f32>;
-// pick-freeze path: per matrix, the 36-bit mask of normals taken from the B draw, (lo, hi) words
+// pick-freeze path: per matrix, the mask of normals (one bit per normal) taken from the B draw, (lo, hi) words
 @group(0) @binding(9) var<storage, read> masks: array<vec2<u32>>;
 
-const WORDS_PER_POINT: u32 = 13u;
-const N_INPUTS: u32 = 33u;
-// With the base placement: 39 inputs (33–38: base x, y, z, roll, pitch, yaw)
-const N_PLACED: u32 = 39u;
-// Philox blocks of 4 normals per draw: 9 cover the 33 inputs, 10 the 39
-const N_BLOCKS: u32 = 10u;
+const WORDS_PER_POINT: u32 = 2u * N_JOINTS + 1u;
+// Parameters: 5 per joint; then the tool's x, y, z
+const N_PARAMS: u32 = 5u * N_JOINTS;
+const N_INPUTS: u32 = N_PARAMS + 3u;
+// With the base placement: 6 more inputs (base x, y, z, roll, pitch, yaw)
+const N_PLACED: u32 = N_INPUTS + 6u;
+// Philox blocks of 4 normals per draw covering the inputs with the placement (10 for six
+// joints, 11 for seven)
+const N_BLOCKS: u32 = (N_PLACED + 3u) / 4u;
+const N_NORMALS: u32 = 4u * N_BLOCKS;
 const WORKGROUP_SIZE: u32 = 64u;
 
 // Offsets of one joint's rotations for a draw: α' and β' as (cos', sin', cos' − cos,
@@ -133,8 +140,8 @@ fn joint_step(dv: vec3<f32>, A: vec4<f32>, B: vec4<f32>, tr: vec4<f32>, o: Joint
 
 // Standard normals of draw `draw` from the Philox blocks whose bit is set in `blocks` (zero
 // elsewhere; the CPU sampler's definition, in f32).
-fn draw_normals(draw: vec2<u32>, blocks: u32) -> array<f32, 40> {
-    var z: array<f32, 40>;
+fn draw_normals(draw: vec2<u32>, blocks: u32) -> array<f32, N_NORMALS> {
+    var z: array<f32, N_NORMALS>;
     for (var b = 0u; b < N_BLOCKS; b++) {
         if ((blocks & (1u << b)) != 0u) {
             let v = normals_block(draw, b, 0u, cfg.key);
@@ -152,10 +159,10 @@ fn draw_normals(draw: vec2<u32>, blocks: u32) -> array<f32, 40> {
     return z;
 }
 
-// Offsets δ of the 33 inputs (39 with the placement; 0 beyond) from standard normals:
-// independent δ_i = σ_i z_i, or correlated δ_free[a] = Σ_{b<=a} L[a][b] z[free[b]].
-fn spread_offsets(z: array<f32, 40>) -> array<f32, 39> {
-    var d: array<f32, 39>;
+// Offsets δ of the N_INPUTS inputs (N_PLACED with the placement; 0 beyond) from standard
+// normals: independent δ_i = σ_i z_i, or correlated δ_free[a] = Σ_{b<=a} L[a][b] z[free[b]].
+fn spread_offsets(z: array<f32, N_NORMALS>) -> array<f32, N_PLACED> {
+    var d: array<f32, N_PLACED>;
     for (var p = 0u; p < N_PLACED; p++) {
         d[p] = 0.0;
     }
@@ -177,7 +184,7 @@ fn spread_offsets(z: array<f32, 40>) -> array<f32, 39> {
 }
 
 // Offsets δ of counter draw `draw`.
-fn draw_offsets(draw: vec2<u32>) -> array<f32, 39> {
+fn draw_offsets(draw: vec2<u32>) -> array<f32, N_PLACED> {
     return spread_offsets(draw_normals(draw, cfg.block_mask));
 }
 
@@ -188,11 +195,11 @@ fn draw_plus(base: vec2<u32>, r: u32) -> vec2<u32> {
 }
 
 // Standard normals of a pick-freeze row: per Philox block, the four normals of draw `a`, with
-// those whose bit is set in `mask` (36 bits, (lo, hi) words) taken from draw `b`. A block is
+// those whose bit is set in `mask` (N_NORMALS bits, (lo, hi) words) taken from draw `b`. A block is
 // computed for a draw only when some of its normals come from that draw; a row with mask 0
 // does exactly what draw_normals(a, cfg.block_mask) does.
-fn pick_freeze_normals(a: vec2<u32>, b: vec2<u32>, mask: vec2<u32>) -> array<f32, 40> {
-    var z: array<f32, 40>;
+fn pick_freeze_normals(a: vec2<u32>, b: vec2<u32>, mask: vec2<u32>) -> array<f32, N_NORMALS> {
+    var z: array<f32, N_NORMALS>;
     for (var blk = 0u; blk < N_BLOCKS; blk++) {
         var v = vec4<f32>(0.0);
         if ((cfg.block_mask & (1u << blk)) != 0u) {
@@ -236,14 +243,14 @@ fn rot_inc(a: vec3<f32>, delta: f32, v: vec3<f32>) -> vec3<f32> {
 // The deviation in the mean placement's base frame with the placement drawn (mode 2):
 // Δ_0 = ΔR (x0 + Δ_1) − x0 + R̂ᵀ δt, ΔR = Rot(a_y, δyaw) Rot(a_p, δpitch) Rot(x, δroll), applied
 // as increments so that the ~1000 mm x0 enters only multiplied by small sines.
-fn placement_step(dv: vec3<f32>, x0: vec3<f32>, d: array<f32, 39>) -> vec3<f32> {
+fn placement_step(dv: vec3<f32>, x0: vec3<f32>, d: array<f32, N_PLACED>) -> vec3<f32> {
     let c = cfg.nfree * cfg.nfree;
     let a_y = vec3<f32>(spread[c], spread[c + 1u], spread[c + 2u]);
     let a_p = vec3<f32>(spread[c + 3u], spread[c + 4u], spread[c + 5u]);
-    let i1 = rot_inc(vec3<f32>(1.0, 0.0, 0.0), d[36], x0 + dv);
-    let i2 = rot_inc(a_p, d[37], x0 + dv + i1);
-    let i3 = rot_inc(a_y, d[38], x0 + dv + i1 + i2);
-    let t = vec3<f32>(d[33], d[34], d[35]);
+    let i1 = rot_inc(vec3<f32>(1.0, 0.0, 0.0), d[N_INPUTS + 3u], x0 + dv);
+    let i2 = rot_inc(a_p, d[N_INPUTS + 4u], x0 + dv + i1);
+    let i3 = rot_inc(a_y, d[N_INPUTS + 5u], x0 + dv + i1 + i2);
+    let t = vec3<f32>(d[N_INPUTS], d[N_INPUTS + 1u], d[N_INPUTS + 2u]);
     let rt = vec3<f32>(
         spread[c + 6u] * t.x + spread[c + 7u] * t.y + spread[c + 8u] * t.z,
         spread[c + 9u] * t.x + spread[c + 10u] * t.y + spread[c + 11u] * t.z,
@@ -254,34 +261,28 @@ fn placement_step(dv: vec3<f32>, x0: vec3<f32>, d: array<f32, 39>) -> vec3<f32> 
 
 // Errors of the parameter vector mean + d at every test point: e_out row i (if asked for) and
 // w_out[i] = max_j e_j.
-fn point_errors(i: u32, d: array<f32, 39>) {
+fn point_errors(i: u32, d: array<f32, N_PLACED>) {
     // Per joint: α' and β' as (cos', sin', cos' − cos, sin' − sin); θ as (sin h, cos h) with
-    // h = δθ/2; and (δa, δd). Constant indices throughout, so these stay in registers.
-    let j0 = joint_offsets(0u, d[0], d[1], d[2], d[3], d[4]);
-    let j1 = joint_offsets(1u, d[5], d[6], d[7], d[8], d[9]);
-    let j2 = joint_offsets(2u, d[10], d[11], d[12], d[13], d[14]);
-    let j3 = joint_offsets(3u, d[15], d[16], d[17], d[18], d[19]);
-    let j4 = joint_offsets(4u, d[20], d[21], d[22], d[23], d[24]);
-    let j5 = joint_offsets(5u, d[25], d[26], d[27], d[28], d[29]);
-    let t0 = joint_trig[0];
-    let t1 = joint_trig[1];
-    let t2 = joint_trig[2];
-    let t3 = joint_trig[3];
-    let t4 = joint_trig[4];
-    let t5 = joint_trig[5];
+    // h = δθ/2; and (δa, δd). The loops have constant bounds, so a compiler can unroll them and
+    // keep these in registers.
+    var jo: array<JointOffsets, N_JOINTS>;
+    var jt: array<vec4<f32>, N_JOINTS>;
+    for (var k = 0u; k < N_JOINTS; k++) {
+        let o = 5u * k;
+        jo[k] = joint_offsets(k, d[o], d[o + 1u], d[o + 2u], d[o + 3u], d[o + 4u]);
+        jt[k] = joint_trig[k];
+    }
 
     let m = cfg.m;
     var w = 0.0;
     for (var pj = 0u; pj < m; pj++) {
         let base = pj * WORDS_PER_POINT;
-        // Δ_7: the tool point's offset in the flange frame
-        var dv = vec3<f32>(d[30], d[31], d[32]);
-        dv = joint_step(dv, pts[base + 10u], pts[base + 11u], t5, j5);
-        dv = joint_step(dv, pts[base + 8u], pts[base + 9u], t4, j4);
-        dv = joint_step(dv, pts[base + 6u], pts[base + 7u], t3, j3);
-        dv = joint_step(dv, pts[base + 4u], pts[base + 5u], t2, j2);
-        dv = joint_step(dv, pts[base + 2u], pts[base + 3u], t1, j1);
-        dv = joint_step(dv, pts[base], pts[base + 1u], t0, j0);
+        // Δ_{n+1}: the tool point's offset in the flange frame
+        var dv = vec3<f32>(d[N_PARAMS], d[N_PARAMS + 1u], d[N_PARAMS + 2u]);
+        for (var k = 0u; k < N_JOINTS; k++) {
+            let j = N_JOINTS - 1u - k;
+            dv = joint_step(dv, pts[base + 2u * j], pts[base + 2u * j + 1u], jt[j], jo[j]);
+        }
         if (cfg.mode == 2u) {
             // x0 = Rz(φ_0) u0_0, the mean chain's position (f32 is enough: it only multiplies
             // small sines)
@@ -290,7 +291,7 @@ fn point_errors(i: u32, d: array<f32, 39>) {
             let x0 = vec3<f32>(u.w * u.x - sp * u.y, sp * u.x + u.w * u.y, u.z);
             dv = placement_step(dv, x0, d);
         }
-        let o = pts[base + 12u];
+        let o = pts[base + 2u * N_JOINTS];
         let ex = dv.x + o.x;
         let ey = dv.y + o.y;
         let ez = dv.z + o.z;
@@ -320,7 +321,7 @@ fn max_point_error_offsets(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= chunk.count) {
         return;
     }
-    var d: array<f32, 39>;
+    var d: array<f32, N_PLACED>;
     for (var p = 0u; p < N_PLACED; p++) {
         d[p] = 0.0;
     }

@@ -75,7 +75,7 @@ subcommands! {
     Map(cmd::map::MapArgs),
     /// Print a built-in model as a model file (TOML) to start from.
     Model(cmd::model::ModelCmdArgs),
-    /// Generate test points and write them as CSV (q1..q6 in degrees).
+    /// Generate test points and write them as CSV (q1..qn in degrees, one column per joint).
     #[command(allow_negative_numbers = true)]
     Points(cmd::points::PointsArgs),
     /// Forward kinematics: tool positions (mm) of the configurations in a CSV.

@@ -1,25 +1,31 @@
-"""gpu_amcs: positioning-accuracy reliability of calibrated 6R robots by adaptive Monte Carlo.
+"""gpu_amcs: positioning-accuracy reliability of calibrated serial robots (4 to 7 revolute
+joints, such as the six-axis TX60 or the seven-axis KUKA LBR iiwa) by adaptive Monte Carlo.
 
 The engine of the ``gpu-amcs`` command line (Rust; rayon CPU and wgpu GPU evaluators) for
 NumPy, OpenTURNS and SALib users:
 
 * ``Model.preset("tx60")``, ``Model.from_file(path)``, ``Model.from_urdf(path)``,
-  ``Model.from_toml(text)``; ``model.params``, ``model.sigma``, ``model.covariance`` (mm, deg)
-  over the ``N_UNCERTAIN`` = 33 uncertain inputs: the 30 MDH parameters (theta1 … beta6), then
-  the tool point's x, y, z (tool_x, tool_y, tool_z; mm, flange frame).
-* ``model.fk(q_deg)`` -> (m, 3) tool positions, mm.
+  ``Model.from_toml(text)``; ``model.joints`` (n); ``model.params``, ``model.sigma``,
+  ``model.covariance`` (mm, deg) over the model's 5n + 3 uncertain inputs: the 5n MDH
+  parameters (theta1 … beta<n>), then the tool point's x, y, z (tool_x, tool_y, tool_z; mm,
+  flange frame). ``N_PARAMS`` = 30 and ``N_UNCERTAIN`` = 33 are the six-joint counts; a
+  seven-joint model has 35 and 38 (``len(model.param_names)``). Every shape below is the
+  model's own: n columns of joint angles, 5n + 3 (or 5n) columns of inputs.
+* ``model.fk(q_deg)`` -> (m, 3) tool positions, mm, for q_deg of shape (m, n).
 * ``model.max_error(params, q_deg, ...)`` -> (N,) maximum point errors of caller-chosen
-  input rows (N × 33; N × 30 = the parameters with the tool at the model's tool; or the
-  inputs named by ``columns``), or (N, m) with ``per_point=True``, without the GIL.
-* ``model.draws(n, seed=...)`` -> the input draws (N × 33) a run evaluates.
+  input rows (N × (5n + 3), N × 33 for six joints; N × 5n = the parameters with the tool at
+  the model's tool; or the inputs named by ``columns``), or (N, m) with ``per_point=True``,
+  without the GIL.
+* ``model.draws(n, seed=...)`` -> the input draws (N × (5n + 3)) a run evaluates.
 * ``mcs(...)``, ``amcs(...)`` -> ``RunResult``; ``sensitivity(...)`` -> ``SensitivityResult``,
   ``tail(...)`` -> ``TailResult``, ``map(...)`` -> ``MapResult``: keyword arguments spelled as
   the command line's flags, with its defaults; ``.to_dict()`` / ``.to_json()`` are the document
   ``--json`` writes, ``.to_text()`` the table it prints, ``.to_csv()`` / ``.to_pandas()`` the
   CSV ``--csv`` writes (pandas needed for the DataFrame).
-* ``plan(...)`` -> ``PlanResult``: the poses to measure for a calibration (``.design``,
-  ``.design_csv()`` as ``gpu-amcs plan --out`` writes it) and the reliability they are predicted
-  to give at the task points (``.reliability``, ``.to_dict()`` = the ``--json`` document).
+* ``plan(...)`` -> ``PlanResult``: the poses to measure for a calibration (``.design``, n
+  angles a pose; ``.design_csv()`` as ``gpu-amcs plan --out`` writes it) and the reliability
+  they are predicted to give at the task points (``.reliability``, ``.to_dict()`` = the
+  ``--json`` document).
 * ``identify(sweeps, ...)`` -> ``IdentifyResult``: ``.model`` (``.to_toml()`` is the file
   ``gpu-amcs identify --out`` writes), ``.warnings``, ``.to_text()``.
 * ``model.salib_problem()`` -> SALib's problem dict (independent normals, ``bounds`` = [mean,

@@ -55,8 +55,8 @@ def _input_indices(model, inputs):
     for c in inputs:
         if isinstance(c, str):
             if c not in names:
-                raise ValueError(f"inputs: unknown input '{c}' (expected theta1 … beta6, "
-                                 "tool_x, tool_y or tool_z)")
+                raise ValueError(f"inputs: unknown input '{c}' (expected theta1 … "
+                                 f"beta{model.joints}, tool_x, tool_y or tool_z)")
             out.append(names.index(c))
         else:
             out.append(int(c))

@@ -9,7 +9,7 @@ use crate::errors::{arg_error, lib_error, value_error};
 use crate::model::PyModel;
 use crate::problem::{check_estimate, keyword, problem_function, BYTES_PER_POINT};
 use gpu_amcs_core::engine::{Problem, Reference};
-use gpu_amcs_core::kinematics::JOINTS;
+use gpu_amcs_core::kinematics::Joints;
 use gpu_amcs_core::map::{
     self, default_reference_deg, tool_down_rpy_deg, Evaluation, Grid, MapError, MapResult,
     MapSetting, MapSpec, Plane, Timings,
@@ -560,7 +560,17 @@ pub fn workspace_map<'py>(
         (None, false) => Some(tool_down_rpy_deg(&model)),
     };
     let reference_q_deg = match reference_q {
-        Some(q) => exactly::<JOINTS>(&q, "reference_q", "q1..q6 in degrees")?,
+        Some(q) => {
+            let n = model.joints();
+            if q.len() != n {
+                return Err(value_error(format!(
+                    "reference_q needs {n} numbers (q1..q{n} in degrees, one per joint of the \
+                     model), got {}",
+                    q.len()
+                )));
+            }
+            Joints::from_slice(&q)
+        }
         None => default_reference_deg(&model),
     };
     let workspace = GeneratedPoints {

@@ -3,6 +3,7 @@
 //! naming the argument, the row and the column.
 
 use crate::errors::value_error;
+use gpu_amcs_core::kinematics::Joints;
 use numpy::ndarray::ArrayView2;
 use numpy::{PyArrayDyn, PyArrayMethods, PyReadonlyArrayDyn, PyUntypedArrayMethods};
 use pyo3::prelude::*;
@@ -27,7 +28,7 @@ impl<'py> Matrix<'py> {
 
 /// Reads `obj` as a 2-D array of numbers whose column count is one of `cols` (any count when
 /// `cols` is empty); `what` describes the expected shape for the message (e.g. "(m, 6) joint
-/// angles in degrees").
+/// angles in degrees" for a six-joint model).
 pub fn read<'py>(
     obj: &Bound<'py, PyAny>,
     name: &str,
@@ -76,13 +77,19 @@ pub fn check_finite(
     Ok(())
 }
 
-/// Joint configurations `q_deg` (m × 6, degrees), finite, as rows.
-pub fn joint_rows(obj: &Bound<'_, PyAny>, name: &str) -> PyResult<Vec<[f64; 6]>> {
-    let m = read(obj, name, &[6], "(m, 6) joint angles in degrees")?;
+/// Joint configurations `q_deg` (m × `joints`, degrees: one column per joint of the model),
+/// finite, as rows.
+pub fn joint_rows(obj: &Bound<'_, PyAny>, name: &str, joints: usize) -> PyResult<Vec<Joints>> {
+    let m = read(
+        obj,
+        name,
+        &[joints],
+        &format!("(m, {joints}) joint angles in degrees"),
+    )?;
     let v = m.view();
     check_finite(&v, name, |c| format!("q{}", c + 1))?;
     Ok(v.rows()
         .into_iter()
-        .map(|r| std::array::from_fn(|j| r[j]))
+        .map(|r| Joints::from_fn(joints, |j| r[j]))
         .collect())
 }

@@ -107,12 +107,13 @@ impl PyIdentifyResult {
 }
 
 /// Identifies the MDH parameters, target and placement from laser-tracker data
-/// (`gpu-amcs identify`): `data` is the CSV, sweeps (joint,q1..q6,x,y,z) or poses
-/// (q1..q6,x,y,z, optionally sx,sy,sz), either optionally with a run column; degrees and mm, in
+/// (`gpu-amcs identify`): `data` is the CSV, sweeps (joint,q1..qn,x,y,z) or poses
+/// (q1..qn,x,y,z, optionally sx,sy,sz; one q column per joint of the nominal model, q1..q6 for
+/// six joints), either optionally with a run column; degrees and mm, in
 /// any measurement frame. The nominal model giving the structure is `nominal` (a `Model`, or a
 /// model file or robot description path), else the preset `preset`. `base_known=True` takes the
 /// data as robot-base-frame data (no placement identified). `fix`: parameter names held at their
-/// nominal values (theta1…beta6, tool_x…, base_x…base_yaw). Noise: `tracker_sigma` (mm per
+/// nominal values (theta1…beta`n`, tool_x…, base_x…base_yaw). Noise: `tracker_sigma` (mm per
 /// coordinate) or `tracker_mpe` ([A, B] or [A, B, R]: µm, µm/m, µm) with `tracker_at` (mm;
 /// default the data frame's origin), else the data's sx,sy,sz or the residuals.
 /// `uncertainty`: "linearised" or "montecarlo" (`mc_draws` re-identifications from `seed`).

@@ -45,9 +45,12 @@ fn presets() -> Vec<&'static str> {
 #[pymodule]
 fn _gpu_amcs(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add("__version__", env!("CARGO_PKG_VERSION"))?;
-    // Widths of a parameter row: the 30 MDH parameters, and all 33 inputs (then the tool).
-    m.add("N_PARAMS", gpu_amcs_core::kinematics::N_PARAMS)?;
-    m.add("N_UNCERTAIN", gpu_amcs_core::kinematics::N_UNCERTAIN)?;
+    // Widths of a parameter row of a six-joint model: the 30 MDH parameters, and all 33 inputs
+    // (then the tool). A model of n joints has its own, 5n and 5n + 3 (`Model.joints`,
+    // `len(Model.param_names)`).
+    let six = gpu_amcs_core::kinematics::Layout::SIX;
+    m.add("N_PARAMS", six.n_params())?;
+    m.add("N_UNCERTAIN", six.n_uncertain())?;
     m.add_class::<model::PyModel>()?;
     m.add_class::<run::RunResult>()?;
     m.add_function(wrap_pyfunction!(run::mcs, m)?)?;

@@ -2,17 +2,17 @@
 //! forward kinematics, the maximum point error of caller-chosen parameter rows, and the run's
 //! own parameter draws. Python sees the model file's units: mm and degrees.
 //!
-//! A draw has [`N_UNCERTAIN`] = 33 uncertain inputs (docs/METHOD.md §14): the 30 MDH
+//! A model has `n` = 4 to 7 joints; a draw has the model's `5n + 3` uncertain inputs
+//! ([`Layout::n_uncertain`]; 33 for six joints, 38 for seven; docs/METHOD.md §14): the `5n` MDH
 //! parameters, then the tool point's x, y, z (mm, flange frame). Every per-input array here
 //! (`param_names`, `params`, `sigma`, `covariance`, `free`, `draws`, the columns of
-//! `max_error`) follows that order.
+//! `max_error`) follows that order, and every shape is the model's own.
 
 use crate::arrays;
 use crate::errors::{lib_error, value_error};
 use gpu_amcs_core::engine::{BackendChoice, MAX_ANGLE_OFFSET};
 use gpu_amcs_core::kinematics::{
-    input_name, input_to_internal, param_kind, RobotModel, Uncertainty, JOINTS, MAX_LENGTH_MM,
-    N_PARAMS, N_UNCERTAIN,
+    param_kind, Layout, RobotModel, Uncertainty, MAX_LENGTH_MM, MAX_UNCERTAIN,
 };
 use gpu_amcs_core::memory::Estimate;
 use gpu_amcs_core::number::fmt_plain;
@@ -25,24 +25,24 @@ use rayon::prelude::*;
 use std::path::PathBuf;
 
 /// Rows of `params` converted and evaluated at a time: bounds the offset buffer (8.25 MiB per
-/// 2^15 rows of 33) whatever N is, and is large enough that the per-call overhead of an evaluator
-/// call is negligible.
+/// 2^15 rows of 33 inputs, 9.5 MiB of 38) whatever N is, and is large enough that the per-call
+/// overhead of an evaluator call is negligible.
 const ROWS_PER_CALL: usize = 1 << 15;
 
 /// Factor from file units (mm, degrees) to internal units (mm, radians) of input `i` (of the
-/// [`N_UNCERTAIN`]).
-fn unit(i: usize) -> f64 {
-    input_to_internal(i)
+/// [`Layout::n_uncertain`] inputs of `lay`).
+fn unit(lay: Layout, i: usize) -> f64 {
+    lay.input_to_internal(i)
 }
 
-/// Whether input `i` is an angle (θ, α, β; the tool coordinates are lengths).
-fn is_angle(i: usize) -> bool {
-    i < N_PARAMS && param_kind(i).is_angle()
+/// Whether input `i` of `lay` is an angle (θ, α, β; the tool coordinates are lengths).
+fn is_angle(lay: Layout, i: usize) -> bool {
+    i < lay.n_params() && param_kind(i).is_angle()
 }
 
-/// A robot model: 30 MDH parameters `[θ, d, a, α, β]` per joint (mm, degrees), joint limits,
-/// the tool (tracker target) and the uncertainty of the 33 inputs (the parameters, then the
-/// tool's x, y, z).
+/// A robot model of `n` = 4 to 7 joints: the MDH parameters `[θ, d, a, α, β]` of each joint
+/// (`5n`, 30 for six joints; mm, degrees), joint limits, the tool (tracker target) and the
+/// uncertainty of the `5n + 3` inputs (the parameters, then the tool's x, y, z).
 #[pyclass(module = "gpu_amcs", name = "Model", frozen)]
 #[derive(Clone)]
 pub struct PyModel {
@@ -53,16 +53,20 @@ pub struct PyModel {
 }
 
 impl PyModel {
-    /// The model's values of the [`N_UNCERTAIN`] inputs in file units (mm, degrees): the 30
-    /// parameters, then the tool point.
-    fn input_values(&self) -> [f64; N_UNCERTAIN] {
-        std::array::from_fn(|i| {
-            if i < N_PARAMS {
-                self.model.params[i] / unit(i)
-            } else {
-                self.model.tool[i - N_PARAMS]
-            }
-        })
+    /// The model's values of its [`Layout::n_uncertain`] inputs in file units (mm, degrees):
+    /// the `5n` parameters, then the tool point.
+    fn input_values(&self) -> Vec<f64> {
+        let lay = self.model.layout();
+        let np = lay.n_params();
+        (0..lay.n_uncertain())
+            .map(|i| {
+                if i < np {
+                    self.model.params[i] / unit(lay, i)
+                } else {
+                    self.model.tool[i - np]
+                }
+            })
+            .collect()
     }
 }
 
@@ -86,10 +90,11 @@ pub fn check_memory(
     crate::problem::check_estimate(&crate::problem::memory_budget(memory_limit)?, &e)
 }
 
-/// Which of the [`N_UNCERTAIN`] inputs the columns of a `params` matrix hold, as `cols` names
-/// them (indices or names); `None` when not given (the matrix's width then decides: all 33 in
-/// order, or the 30 parameters with the tool at the model's value).
-fn columns(cols: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<usize>>> {
+/// Which of the [`Layout::n_uncertain`] inputs of `lay` the columns of a `params` matrix hold,
+/// as `cols` names them (indices or names); `None` when not given (the matrix's width then
+/// decides: all `5n + 3` in order, or the `5n` parameters with the tool at the model's value).
+fn columns(cols: Option<&Bound<'_, PyAny>>, lay: Layout) -> PyResult<Option<Vec<usize>>> {
+    let nu = lay.n_uncertain();
     let Some(cols) = cols else {
         return Ok(None);
     };
@@ -99,31 +104,30 @@ fn columns(cols: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<usize>>> {
         let i = if let Ok(i) = item.extract::<usize>() {
             i
         } else if let Ok(s) = item.extract::<String>() {
-            (0..N_UNCERTAIN)
-                .find(|&i| input_name(i) == s)
-                .ok_or_else(|| {
-                    value_error(format!(
-                        "columns[{c}]: unknown input '{s}' (expected theta1 … beta6, tool_x, \
-                     tool_y or tool_z)"
-                    ))
-                })?
+            (0..nu).find(|&i| lay.input_name(i) == s).ok_or_else(|| {
+                value_error(format!(
+                    "columns[{c}]: unknown input '{s}' (expected theta1 … beta{}, tool_x, \
+                     tool_y or tool_z)",
+                    lay.joints()
+                ))
+            })?
         } else {
             return Err(value_error(format!(
                 "columns[{c}]: expected an input index 0…{} or a name such as 'theta1' or \
                  'tool_x'",
-                N_UNCERTAIN - 1
+                nu - 1
             )));
         };
-        if i >= N_UNCERTAIN {
+        if i >= nu {
             return Err(value_error(format!(
                 "columns[{c}]: input index {i} is out of range 0…{}",
-                N_UNCERTAIN - 1
+                nu - 1
             )));
         }
         if out.contains(&i) {
             return Err(value_error(format!(
                 "columns[{c}]: input {} appears twice",
-                input_name(i)
+                lay.input_name(i)
             )));
         }
         out.push(i);
@@ -134,13 +138,14 @@ fn columns(cols: Option<&Bound<'_, PyAny>>) -> PyResult<Option<Vec<usize>>> {
     Ok(Some(out))
 }
 
-/// Fills `buf` (`rows × 33`, internal units) with the offsets from the mean of rows
-/// `first .. first + rows` of `params`; entries of inputs not in `cols` are 0. Rows are
+/// Fills `buf` (`rows × n_uncertain` of `lay`, internal units) with the offsets from the mean
+/// of rows `first .. first + rows` of `params`; entries of inputs not in `cols` are 0. Rows are
 /// converted in parallel; an error names the first bad row.
 fn offsets_of(
+    lay: Layout,
     params: &numpy::ndarray::ArrayView2<'_, f64>,
     cols: &[usize],
-    mean_file: &[f64; N_UNCERTAIN],
+    mean_file: &[f64],
     are_offsets: bool,
     first: usize,
     buf: &mut [f64],
@@ -150,12 +155,18 @@ fn offsets_of(
         let row = params.row(first + r);
         for (c, &p) in cols.iter().enumerate() {
             let v = row[c];
-            let here = || format!("params: row {}, column {c} ({})", first + r, input_name(p));
+            let here = || {
+                format!(
+                    "params: row {}, column {c} ({})",
+                    first + r,
+                    lay.input_name(p)
+                )
+            };
             if !v.is_finite() {
                 return Err(format!("{}: {v} is not a finite number", here()));
             }
             let off = if are_offsets { v } else { v - mean_file[p] };
-            if is_angle(p) && off.abs() > MAX_ANGLE_OFFSET.to_degrees() {
+            if is_angle(lay, p) && off.abs() > MAX_ANGLE_OFFSET.to_degrees() {
                 return Err(format!(
                     "{}: {v} deg is {off:.4} deg from the model's value {}; the evaluator \
                      accepts angular offsets up to {:.0} deg",
@@ -166,7 +177,7 @@ fn offsets_of(
             }
             // Lengths within the bound every model file is checked against: beyond it the
             // forward kinematics overflows to inf, never an answer.
-            if !is_angle(p) && off.abs() > MAX_LENGTH_MM {
+            if !is_angle(lay, p) && off.abs() > MAX_LENGTH_MM {
                 return Err(format!(
                     "{}: {} mm is {} mm from the model's value {}; lengths may move at \
                      most {} mm",
@@ -177,19 +188,20 @@ fn offsets_of(
                     fmt_plain(MAX_LENGTH_MM),
                 ));
             }
-            out[p] = off * unit(p);
+            out[p] = off * unit(lay, p);
         }
         Ok(())
     };
+    let nu = lay.n_uncertain();
     let parallel = buf
-        .par_chunks_exact_mut(N_UNCERTAIN)
+        .par_chunks_exact_mut(nu)
         .enumerate()
         .try_for_each(|(r, out)| row(r, out));
     match parallel {
         Ok(()) => Ok(()),
         // Another thread may have stopped at a later bad row: name the first one.
         Err(_) => buf
-            .chunks_exact_mut(N_UNCERTAIN)
+            .chunks_exact_mut(nu)
             .enumerate()
             .try_for_each(|(r, out)| row(r, out)),
     }
@@ -230,10 +242,11 @@ impl PyModel {
     /// the model reproduces it. `base`/`tip` pick the URDF chain. For a .xacro file,
     /// `packages` maps package names to directories for `$(find NAME)` and `xacro_args` sets
     /// `$(arg NAME)` values. `hold_joints` maps joint names (or 1-based numbers as strings) to
-    /// angles in degrees at which they are held: a seven-axis arm with one joint held imports as
-    /// a six-axis model. The model has zero uncertainty. A tip chosen among several leaves
-    /// (tool0, then flange, then the deepest leaf of the longest revolute chain) and each joint
-    /// held are named in a `UserWarning`, as the command line's notes.
+    /// angles in degrees at which they are held: each hold takes one joint off the model (a
+    /// seven-axis arm imports as a seven-joint model, or with one joint held as a six-axis
+    /// one). The model has zero uncertainty. A tip chosen among several leaves (tool0, then
+    /// flange, then the deepest leaf of the longest revolute chain) and each joint held are
+    /// named in a `UserWarning`, as the command line's notes.
     #[staticmethod]
     #[pyo3(signature = (path, base = None, tip = None, name = None, packages = None, xacro_args = None, hold_joints = None))]
     #[allow(clippy::too_many_arguments)]
@@ -287,43 +300,56 @@ impl PyModel {
         &self.model.name
     }
 
-    /// Input names in order: theta1, d1, a1, alpha1, beta1, …, beta6, then tool_x, tool_y,
-    /// tool_z (33).
+    /// The number of joints `n` (4 to 7): the model has `5n` parameters (`len(param_names) - 3`)
+    /// and `5n + 3` uncertain inputs.
+    #[getter]
+    fn joints(&self) -> usize {
+        self.model.joints()
+    }
+
+    /// Input names in order: theta1, d1, a1, alpha1, beta1, …, beta`n`, then tool_x, tool_y,
+    /// tool_z (`5n + 3`: 33 for six joints, 38 for seven).
     #[getter]
     fn param_names(&self) -> Vec<String> {
-        (0..N_UNCERTAIN).map(input_name).collect()
+        let lay = self.model.layout();
+        (0..lay.n_uncertain()).map(|i| lay.input_name(i)).collect()
     }
 
-    /// The values of the 33 inputs (mm, degrees): the 30 parameters, then the tool point
-    /// (`params[30:]` equals `tool`).
+    /// The values of the `5n + 3` inputs (mm, degrees): the `5n` parameters, then the tool
+    /// point (`params[5n:]` equals `tool`; `params[30:]` for six joints).
     #[getter]
     fn params<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        self.input_values().to_vec().into_pyarray(py)
+        self.input_values().into_pyarray(py)
     }
 
-    /// Standard deviations of the 33 inputs (mm, degrees; 0 = exactly known): the parameters,
-    /// then the tool's x, y, z (the model file's `tool_sigma`).
+    /// Standard deviations of the `5n + 3` inputs (mm, degrees; 0 = exactly known): the
+    /// parameters, then the tool's x, y, z (the model file's `tool_sigma`).
     #[getter]
     fn sigma<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
+        let lay = self.model.layout();
         let s = self.model.input_sigmas();
-        let v: Vec<f64> = (0..N_UNCERTAIN).map(|i| s[i] / unit(i)).collect();
+        let v: Vec<f64> = (0..lay.n_uncertain())
+            .map(|i| s[i] / unit(lay, i))
+            .collect();
         v.into_pyarray(py)
     }
 
-    /// The 33 × 33 covariance (mm², mm·deg, deg²) of the inputs of a correlated model (a
-    /// 30 × 30 file matrix extended by the independent tool variances `tool_sigma²`), else
-    /// `None`.
+    /// The `(5n + 3) × (5n + 3)` covariance (mm², mm·deg, deg²; 33 × 33 for six joints) of the
+    /// inputs of a correlated model (a `5n × 5n` file matrix extended by the independent tool
+    /// variances `tool_sigma²`), else `None`.
     #[getter]
     fn covariance<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
+        let lay = self.model.layout();
+        let nu = lay.n_uncertain();
         let c = self.model.full_covariance()?;
-        let a = Array2::from_shape_fn((N_UNCERTAIN, N_UNCERTAIN), |(i, k)| {
-            c[i * N_UNCERTAIN + k] / (unit(i) * unit(k))
+        let a = Array2::from_shape_fn((nu, nu), |(i, k)| {
+            c[i * nu + k] / (unit(lay, i) * unit(lay, k))
         });
         Some(a.into_pyarray(py))
     }
 
-    /// Indices (of the 33 inputs) with nonzero spread: the ones a sampler varies; 30, 31, 32
-    /// are the tool's x, y, z.
+    /// Indices (of the `5n + 3` inputs) with nonzero spread: the ones a sampler varies; the
+    /// last three (30, 31, 32 for six joints) are the tool's x, y, z.
     #[getter]
     fn free(&self) -> Vec<usize> {
         self.model.free_inputs()
@@ -335,22 +361,23 @@ impl PyModel {
         self.model.tool.to_vec().into_pyarray(py)
     }
 
-    /// Joint limits, degrees: 6 × 2 (min, max).
+    /// Joint limits, degrees: n × 2 (min, max), one row per joint.
     #[getter]
     fn limits<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray2<f64>> {
         let l = &self.model.limits_deg;
-        Array2::from_shape_fn((JOINTS, 2), |(j, k)| if k == 0 { l[j].0 } else { l[j].1 })
+        Array2::from_shape_fn((l.len(), 2), |(j, k)| if k == 0 { l[j].0 } else { l[j].1 })
             .into_pyarray(py)
     }
 
-    /// Tool positions (mm) at joint configurations `q_deg` (m × 6, degrees): m × 3, in the
-    /// description's frame (the model's base transform applied, as `gpu-amcs fk` does).
+    /// Tool positions (mm) at joint configurations `q_deg` (m × n, degrees, one column per
+    /// joint): m × 3, in the description's frame (the model's base transform applied, as
+    /// `gpu-amcs fk` does).
     fn fk<'py>(
         &self,
         py: Python<'py>,
         q_deg: &Bound<'py, PyAny>,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let q = arrays::joint_rows(q_deg, "q_deg")?;
+        let q = arrays::joint_rows(q_deg, "q_deg", self.model.joints())?;
         let model = &self.model;
         let out = py.detach(|| {
             let mut out = Array2::zeros((q.len(), 3));
@@ -365,12 +392,12 @@ impl PyModel {
 
     /// The maximum point error `w = max_j ‖P(params_i, q_j) − P_ref,j‖` (mm) of each row of
     /// `params` (N × D, mm and degrees: absolute values, or offsets from the model's values
-    /// with `offsets=True`) at the configurations `q_deg` (m × 6): an array of N, or N × m
-    /// per-point errors with `per_point=True`. The columns are the 33 inputs in order (the 30
-    /// parameters, then the tool point's x, y, z in the flange frame, mm), or the 30 parameters
-    /// alone (a 30-column matrix: the tool stays at the model's tool), or those named by
-    /// `columns` (indices 0…32 or names such as "theta1", "tool_x"; the others stay at the
-    /// model's values).
+    /// with `offsets=True`) at the configurations `q_deg` (m × n, one column per joint): an
+    /// array of N, or N × m per-point errors with `per_point=True`. The columns are the model's
+    /// `5n + 3` inputs in order (the `5n` parameters, then the tool point's x, y, z in the
+    /// flange frame, mm; 33 for six joints), or the `5n` parameters alone (a `5n`-column
+    /// matrix: the tool stays at the model's tool), or those named by `columns` (indices
+    /// 0…5n+2 or names such as "theta1", "tool_x"; the others stay at the model's values).
     /// `reference`: "calibrated" (the model's own prediction) or "nominal" (`nominal`, by
     /// default the preset the model came from, else tx60). Runs on `backend` ("auto", "cpu",
     /// "gpu") without the GIL.
@@ -391,16 +418,15 @@ impl PyModel {
         offsets: bool,
         memory_limit: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
-        let named = self::columns(columns)?;
+        let lay = self.model.layout();
+        let (nu, np) = (lay.n_uncertain(), lay.n_params());
+        let named = self::columns(columns, lay)?;
         let (widths, shape) = match &named {
             Some(c) => (vec![c.len()], format!("(N, {})", c.len())),
-            None => (
-                vec![N_UNCERTAIN, N_PARAMS],
-                format!("(N, {N_UNCERTAIN}) or (N, {N_PARAMS})"),
-            ),
+            None => (vec![nu, np], format!("(N, {nu}) or (N, {np})")),
         };
         let matrix = arrays::read(params, "params", &widths, &shape)?;
-        let q = arrays::joint_rows(q_deg, "q_deg")?;
+        let q = arrays::joint_rows(q_deg, "q_deg", lay.joints())?;
         let m = q.len();
         let choice = self::backend(backend)?;
         let spec = crate::problem::given_points(self, q, reference, nominal.as_deref(), choice)?;
@@ -416,7 +442,7 @@ impl PyModel {
             &[
                 &[n as u64, 8],
                 &[n as u64, if per_point { m as u64 } else { 0 }, 8],
-                &[ROWS_PER_CALL as u64, N_UNCERTAIN as u64, 8],
+                &[ROWS_PER_CALL as u64, nu as u64, 8],
             ],
         )?;
         let mean_file = self.input_values();
@@ -427,11 +453,12 @@ impl PyModel {
                 return Ok((w, e));
             }
             let (mut ev, _) = evaluators.make(problem)?;
-            let mut buf = vec![0.0; ROWS_PER_CALL.min(n) * N_UNCERTAIN];
+            let mut buf = vec![0.0; ROWS_PER_CALL.min(n) * nu];
             for first in (0..n).step_by(ROWS_PER_CALL) {
                 let rows = ROWS_PER_CALL.min(n - first);
-                let buf = &mut buf[..rows * N_UNCERTAIN];
-                offsets_of(&view, &cols, &mean_file, offsets, first, buf).map_err(value_error)?;
+                let buf = &mut buf[..rows * nu];
+                offsets_of(lay, &view, &cols, &mean_file, offsets, first, buf)
+                    .map_err(value_error)?;
                 let pp = per_point.then(|| &mut e[first * m..(first + rows) * m]);
                 ev.evaluate_offsets(buf, &mut w[first..first + rows], pp)
                     .map_err(|e| value_error(crate::errors::one_line(&e)))?;
@@ -448,9 +475,10 @@ impl PyModel {
         })
     }
 
-    /// The input vectors (N × 33, mm and degrees: the 30 parameters, then the tool point) of
-    /// draws `first … first + n − 1` of a run with `seed`: the draws `mcs`/`amcs` evaluate (a
-    /// draw is a function of the seed and its index, the same on every backend).
+    /// The input vectors (N × (5n + 3), mm and degrees: the `5n` parameters, then the tool
+    /// point; N × 33 for six joints, N × 38 for seven) of draws `first … first + n − 1` of a
+    /// run with `seed`: the draws `mcs`/`amcs` evaluate (a draw is a function of the seed and
+    /// its index, the same on every backend).
     #[pyo3(signature = (n, *, seed = 2025, first = 0, memory_limit = None))]
     fn draws<'py>(
         &self,
@@ -469,11 +497,13 @@ impl PyModel {
             }
             Err(_) => return Err(value_error("n: expected a whole number of draws")),
         };
+        let lay = self.model.layout();
+        let nu = lay.n_uncertain();
         check_memory(
             memory_limit,
             format!("{n} parameter draws"),
             "ask for fewer draws at a time (use first)",
-            &[&[n as u64, N_UNCERTAIN as u64, 8]],
+            &[&[n as u64, nu as u64, 8]],
         )?;
         if first.checked_add(n as u64).is_none() {
             return Err(value_error("first: first + n exceeds the draw index range"));
@@ -481,12 +511,12 @@ impl PyModel {
         let sampler = ParamSampler::new(&self.model, seed).map_err(lib_error)?;
         let mean = self.input_values();
         let out = py.detach(|| {
-            let mut out = Array2::zeros((n, N_UNCERTAIN));
-            let mut d = [0.0; N_UNCERTAIN];
+            let mut out = Array2::zeros((n, nu));
+            let mut d = [0.0; MAX_UNCERTAIN];
             for (k, mut row) in out.rows_mut().into_iter().enumerate() {
                 sampler.deltas(first + k as u64, &mut d);
-                for i in 0..N_UNCERTAIN {
-                    row[i] = mean[i] + d[i] / unit(i);
+                for i in 0..nu {
+                    row[i] = mean[i] + d[i] / unit(lay, i);
                 }
             }
             out
@@ -534,9 +564,10 @@ impl PyModel {
             Uncertainty::Covariance(_) => "covariance",
         };
         format!(
-            "gpu_amcs.Model('{}', {} free inputs of {N_UNCERTAIN}, {form})",
+            "gpu_amcs.Model('{}', {} free inputs of {}, {form})",
             self.model.name,
-            self.model.free_inputs().len()
+            self.model.free_inputs().len(),
+            self.model.layout().n_uncertain()
         )
     }
 }

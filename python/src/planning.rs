@@ -6,7 +6,7 @@
 use crate::analyses::parse_json;
 use crate::errors::value_error;
 use crate::problem::{check_estimate, problem_function, BYTES_PER_POINT};
-use gpu_amcs_core::kinematics::JOINTS;
+use gpu_amcs_core::kinematics::Joints;
 use gpu_amcs_core::memory::Estimate;
 use gpu_amcs_core::plan::{self as planner, Plan, PlanError, PlanField, PlanOptions, TrackerSite};
 use gpu_amcs_core::report::Report;
@@ -62,16 +62,16 @@ impl PyPlan {
         self.plan.text()
     }
 
-    /// The design as the command line writes it with `--out`: q1..q6 in degrees, one pose a
-    /// line, in visiting order.
+    /// The design as the command line writes it with `--out`: q1..qn in degrees (one column per
+    /// joint), one pose a line, in visiting order.
     fn design_csv(&self) -> String {
         self.plan.design_csv()
     }
 
-    /// The poses to measure, degrees, in visiting order.
+    /// The poses to measure, degrees (one angle per joint), in visiting order.
     #[getter]
-    fn design(&self) -> Vec<[f64; JOINTS]> {
-        self.plan.design_deg.clone()
+    fn design(&self) -> Vec<Vec<f64>> {
+        self.plan.design_deg.iter().map(|q| q.to_vec()).collect()
     }
 
     /// `(L, R(L))` predicted at the task points by the engine's Monte Carlo.
@@ -154,7 +154,7 @@ problem_function! {
         let evaluators = spec.evaluators();
         let (result, notes) = py.detach(|| -> PyResult<_> {
             let model = built.problem.model.clone();
-            let task: Vec<[f64; JOINTS]> =
+            let task: Vec<Joints> =
                 built.problem.points.iter().map(|q| q.map(f64::to_degrees)).collect();
             let opts = PlanOptions {
                 poses,

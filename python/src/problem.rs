@@ -93,11 +93,11 @@ pub fn reference_source(
     }
 }
 
-/// The spec of an evaluation of the in-memory `model` at the configurations `q` (degrees) on
-/// `backend`, with seed 0 (`Model.max_error`, which gives its own parameter rows).
+/// The spec of an evaluation of the in-memory `model` at the configurations `q` (degrees, one
+/// angle per joint of the model) on `backend`, with seed 0 (`Model.max_error`, which gives its own parameter rows).
 pub fn given_points(
     model: &PyModel,
-    q: Vec<[f64; gpu_amcs_core::kinematics::JOINTS]>,
+    q: Vec<gpu_amcs_core::kinematics::Joints>,
     reference: &str,
     nominal: Option<&PyModel>,
     backend: gpu_amcs_core::engine::BackendChoice,
@@ -114,7 +114,7 @@ pub fn given_points(
             adapter: None,
         },
         nominal_from_preset,
-        // Parameter rows carry the 33 inputs: the robot's own frame.
+        // Parameter rows carry the 5n + 3 inputs (no placement): the robot's own frame.
         frame: Frame::Base,
     })
 }
@@ -258,21 +258,6 @@ impl ProblemKw<'_> {
     /// The spec these keywords give.
     pub fn spec(&self) -> PyResult<Spec> {
         let backend = model::backend(&self.backend)?;
-        let points = match (&self.q_deg, &self.points_file) {
-            (Some(_), Some(_)) => {
-                return Err(value_error(
-                    "q_deg and points_file exclude each other: give one",
-                ))
-            }
-            (Some(q), None) => PointsSource::Given(arrays::joint_rows(q, "q_deg")?),
-            (None, Some(f)) => PointsSource::File(f.clone()),
-            (None, None) => PointsSource::Generate(GeneratedPoints {
-                count: self.points,
-                seed: self.points_seed,
-                box_center: self.box_center,
-                box_size: self.box_size,
-            }),
-        };
         let model = match &self.model {
             Some(m) => ModelSource::Model(Box::new(m.model.clone())),
             None => ModelSource::Preset(
@@ -280,6 +265,31 @@ impl ProblemKw<'_> {
                     .clone()
                     .unwrap_or_else(|| DEFAULT_PRESET.to_string()),
             ),
+        };
+        let points = match (&self.q_deg, &self.points_file) {
+            (Some(_), Some(_)) => {
+                return Err(value_error(
+                    "q_deg and points_file exclude each other: give one",
+                ))
+            }
+            (Some(q), None) => {
+                // One column per joint of the model (the preset's, when no model is given).
+                let joints = match &self.model {
+                    Some(m) => m.model.joints(),
+                    None => model
+                        .load()
+                        .map_err(|e| arg_error(keyword(model.field()), e))?
+                        .joints(),
+                };
+                PointsSource::Given(arrays::joint_rows(q, "q_deg", joints)?)
+            }
+            (None, Some(f)) => PointsSource::File(f.clone()),
+            (None, None) => PointsSource::Generate(GeneratedPoints {
+                count: self.points,
+                seed: self.points_seed,
+                box_center: self.box_center,
+                box_size: self.box_size,
+            }),
         };
         let default_preset = || {
             self.preset

@@ -238,10 +238,10 @@ fn mcs_chunk(draws: u64) -> u64 {
 
 problem_function! {
     /// Classic Monte Carlo with `draws` draws (`gpu-amcs mcs`). The model is `model` (a
-    /// `Model`) or the preset `preset` (default tx60); the test points are `q_deg` (m × 6
-    /// degrees), the CSV `points_file`, or `points` generated with `points_seed` in the box
-    /// `box_center`/`box_size` (mm; by default the robot's own box, scaled with its reach as
-    /// the command line's). Returns a `RunResult`; errors are `ValueError` naming the
+    /// `Model`) or the preset `preset` (default tx60); the test points are `q_deg` (m × n
+    /// degrees, one column per joint of the model), the CSV `points_file`, or `points`
+    /// generated with `points_seed` in the box `box_center`/`box_size` (mm; by default the
+    /// robot's own box, scaled with its reach as the command line's). Returns a `RunResult`; errors are `ValueError` naming the
     /// argument.
     fn mcs(
         draws: u64 = 1_000_000,

@@ -9,7 +9,12 @@ from gpu_amcs.numpy_fk import fk as fk_numpy
 
 
 def test_presets_and_units():
-    assert gpu_amcs.presets() == ["tx60", "ur5e", "ur10e", "irb2400", "kr6r700sixx"]
+    assert gpu_amcs.presets() == [
+        "tx60", "ur5e", "ur10e", "irb2400", "kr6r700sixx", "iiwa14", "panda",
+    ]
+    for name in ("iiwa14", "panda"):
+        p = gpu_amcs.Model.preset(name)
+        assert p.joints == 7 and p.params.shape == (38,) and p.limits.shape == (7, 2)
     m = gpu_amcs.Model.preset("tx60")
     assert m.name == "Staubli TX60"
     assert m.params.shape == (33,) and m.sigma.shape == (33,)
@@ -117,16 +122,22 @@ def test_from_urdf_applies_the_model_rules(tmp_path):
 
 
 def test_from_urdf_holds_a_joint_of_a_seven_axis_arm(tmp_path, cli):
-    # The LBR iiwa 14 R820's standard DH table (KUKA's figures), seven rows: refused as it is,
-    # imported as a six-axis model with joint 3 held, the same as the command line's import.
+    # The LBR iiwa 14 R820's standard DH table (KUKA's figures), seven rows: a seven-joint
+    # model as it is, a six-axis model with joint 3 held, the same as the command line's import.
     rows = [(360, -90), (0, 90), (420, 90), (0, -90), (400, -90), (0, 90), (126, 0)]
     limits = [170, 120, 170, 120, 170, 120, 175]
     text = "convention,standard\nunits,mm-deg\nname,iiwa14\ntheta,d,a,alpha,lower,upper\n"
     text += "".join(f"0,{d},0,{al},{-l},{l}\n" for (d, al), l in zip(rows, limits))
     f = tmp_path / "iiwa14.csv"
     f.write_text(text)
-    with pytest.raises(ValueError, match=r"7 revolute joints.*hold 1 of them"):
-        gpu_amcs.Model.from_urdf(f)
+    seven = gpu_amcs.Model.from_urdf(f)
+    assert seven.joints == 7 and seven.params.shape == (38,)
+    np.testing.assert_allclose(seven.fk(np.zeros((1, 7)))[0], [0, 0, 1306], atol=1e-9)
+    # Eight rows are refused, naming how many joints to hold.
+    f8 = tmp_path / "eight.csv"
+    f8.write_text(text + "0,100,0,0,-170,170\n")
+    with pytest.raises(ValueError, match=r"8 revolute joints.*hold 1 of them"):
+        gpu_amcs.Model.from_urdf(f8)
     with pytest.raises(ValueError, match=r"joint 'joint 3' cannot be held at 175"):
         gpu_amcs.Model.from_urdf(f, hold_joints={"3": 175.0})
     with pytest.warns(UserWarning, match=r"joint 'joint 3' held at 20°"):
@@ -136,4 +147,5 @@ def test_from_urdf_holds_a_joint_of_a_seven_axis_arm(tmp_path, cli):
     assert r.returncode == 0, r.stderr
     np.testing.assert_array_equal(m.params, gpu_amcs.Model.from_file(out).params)
     # At q = 0 the arm stands straight up: 360 + 420 + 400 + 126 mm.
+    assert m.joints == 6
     np.testing.assert_allclose(m.fk(np.zeros((1, 6)))[0], [0, 0, 1306], atol=1e-9)

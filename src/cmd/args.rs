@@ -175,7 +175,7 @@ pub struct ProblemArgs {
     /// Number of generated test points (ignored with --points-file).
     #[arg(long, default_value_t = 50, value_name = "N")]
     pub points: usize,
-    /// Test points from a CSV (header q1..q6, degrees).
+    /// Test points from a CSV (header q1..qn, one column per joint of the model; degrees).
     #[arg(long, value_name = "CSV")]
     pub points_file: Option<PathBuf>,
     /// Seed of the generated test points.

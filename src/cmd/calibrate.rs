@@ -56,9 +56,9 @@ impl Run for CalibrateArgs {
             "{} runs identified in {:.2} s ({})\n",
             f.runs, cal.seconds, cal.independent.name
         );
-        let sig = cal.independent.uncertainty.sigmas();
+        let sig = cal.independent.param_sigmas();
         text.push_str("σ of the identified parameters (mm, deg):\n");
-        for j in 0..6 {
+        for j in 0..cal.independent.joints() {
             let row: Vec<String> = ParamKind::ALL
                 .iter()
                 .map(|kind| {

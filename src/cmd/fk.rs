@@ -10,7 +10,7 @@ use std::path::PathBuf;
 /// `fk` options.
 #[derive(Args, Debug, Clone)]
 pub struct FkArgs {
-    /// Configurations (header q1..q6, degrees).
+    /// Configurations (header q1..qn for an n-joint model, degrees).
     #[arg(long, value_name = "CSV")]
     pub points_file: PathBuf,
     #[command(flatten)]
@@ -20,7 +20,7 @@ pub struct FkArgs {
 impl Run for FkArgs {
     fn run(self) -> Result<()> {
         let model = self.model.load()?;
-        let pts = points::read_csv(&self.points_file)?;
+        let pts = points::read_csv(&self.points_file, model.joints())?;
         // As every analysis: a configuration the robot cannot take is an error, not a position.
         for (i, q) in pts.iter().enumerate() {
             if let Err(m) = model.check_limits(q) {
@@ -31,7 +31,10 @@ impl Run for FkArgs {
                 );
             }
         }
-        let mut s = String::from("q1,q2,q3,q4,q5,q6,x,y,z\n");
+        let mut s = (1..=model.joints())
+            .map(|j| format!("q{j},"))
+            .collect::<String>();
+        s.push_str("x,y,z\n");
         for q in &pts {
             let p = model.world_position(&q.map(f64::to_radians));
             let qs: Vec<String> = q.iter().map(|v| format!("{v}")).collect();

@@ -49,8 +49,8 @@ pub enum UncertaintyArg {
 )]
 #[command(group(clap::ArgGroup::new("noise").args(["tracker_sigma", "tracker_mpe"])))]
 pub struct IdentifyArgs {
-    /// Tracker data CSV, told apart by the header: sweeps (joint,q1..q6,x,y,z) or poses
-    /// (q1..q6,x,y,z, optionally sx,sy,sz); either may have a run column; degrees and mm, in any
+    /// Tracker data CSV, told apart by the header: sweeps (joint,q1..qn,x,y,z) or poses
+    /// (q1..qn,x,y,z, optionally sx,sy,sz; n = the model's joints); either may have a run column; degrees and mm, in any
     /// measurement frame.
     #[arg(value_name = "DATA.csv")]
     pub sweeps: PathBuf,

@@ -78,7 +78,7 @@ pub struct MapArgs {
     /// Position only (3-DOF task): any flange orientation.
     #[arg(long)]
     pub free_orientation: bool,
-    /// Reference configuration q1..q6 (degrees): each cell takes the solution nearest it
+    /// Reference configuration q1..qn (degrees, one per joint of the model): each cell takes the solution nearest it
     /// (default: mid-range, joints 2, 3 and 5 turned 30°).
     #[arg(
         long,
@@ -188,7 +188,12 @@ impl MapArgs {
             (None, false) => Some(tool_down_rpy_deg(model)),
         };
         let reference_q_deg = match &self.reference_q {
-            Some(q) => exactly::<6>(q, "--reference-q", "q1..q6 in degrees")?,
+            Some(q) if q.len() == model.joints() => gpu_amcs::kinematics::Joints::from_slice(q),
+            Some(q) => anyhow::bail!(
+                "--reference-q needs {n} numbers (q1..q{n} in degrees, one per joint of the model), got {}",
+                q.len(),
+                n = model.joints()
+            ),
             None => default_reference_deg(model),
         };
         Ok(MapSpec {

@@ -89,7 +89,7 @@ pub struct PlanArgs {
     /// Pr[AP_j ≤ L], the certificate.
     #[arg(long, conflicts_with = "points_file")]
     pub iso9283: bool,
-    /// Write the design (q1..q6 in degrees, in visiting order) to FILE.
+    /// Write the design (q1..qn in degrees, in visiting order) to FILE.
     #[arg(long, short, value_name = "FILE")]
     pub out: PathBuf,
     #[command(flatten)]
@@ -136,7 +136,7 @@ impl Run for PlanArgs {
         let (plan, rows) = pool.install(|| -> Result<_> {
             let built = a.problem.build()?;
             let model = built.problem.model.clone();
-            let task: Vec<[f64; 6]> = if a.iso9283 {
+            let task: Vec<gpu_amcs::kinematics::Joints> = if a.iso9283 {
                 let rpy = gpu_amcs::map::tool_down_rpy_deg(&model);
                 let cube = gpu_amcs::iso9283::test_cube(&model, Some(rpy))
                     .map_err(|e| anyhow::anyhow!("--iso9283: {}", e.0))?;

@@ -136,8 +136,7 @@ fn announce(
     let per_row = t.elapsed().as_secs_f64() / PILOT_ROWS as f64;
     let free = problem
         .model
-        .uncertainty
-        .sigmas()
+        .param_sigmas()
         .iter()
         .filter(|s| **s > 0.0)
         .count();

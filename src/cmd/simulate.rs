@@ -32,10 +32,10 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "FILE")]
     pub truth_out: Option<PathBuf>,
     /// Measure the target at N random configurations within the joint limits (pose data: one
-    /// run, q1..q6,x,y,z) instead of circle-point sweeps.
+    /// run, q1..qn,x,y,z) instead of circle-point sweeps.
     #[arg(long, value_name = "N")]
     pub poses: Option<usize>,
-    /// With --poses: the configurations to measure at (CSV of q1..q6, degrees) instead of random
+    /// With --poses: the configurations to measure at (CSV of q1..qn, degrees) instead of random
     /// ones.
     #[arg(long, value_name = "FILE", requires = "poses")]
     pub points_file: Option<PathBuf>,
@@ -92,7 +92,7 @@ impl Run for SimulateArgs {
         let (text, what) = match a.poses {
             Some(n) => {
                 let configs = match &a.points_file {
-                    Some(p) => gpu_amcs::points::read_csv(p)
+                    Some(p) => gpu_amcs::points::read_csv(p, exp.truth.joints())
                         .with_context(|| format!("--points-file {}", p.display()))?,
                     None => {
                         if n == 0 || n > 10_000_000 {

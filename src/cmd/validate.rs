@@ -12,7 +12,7 @@ use std::path::PathBuf;
 /// `validate` options.
 #[derive(Args, Debug, Clone)]
 pub struct ValidateArgs {
-    /// Measured positions: q1..q6,x,y,z (degrees, mm).
+    /// Measured positions: q1..qn,x,y,z (one column per joint of the model; degrees, mm).
     #[arg(value_name = "MEASURED.csv")]
     pub measured: PathBuf,
     /// Model to check (TOML).

@@ -903,7 +903,7 @@ fn box_of_a_base_turned_robot_is_in_the_world_frame() {
             let p = [v[6], v[7], v[8]];
             let c = [400.0, 0.0, 600.0];
             assert!((0..3).all(|k| (p[k] - c[k]).abs() <= 150.0), "{line}");
-            let w = m.world_position(&std::array::from_fn(|j| v[j].to_radians()));
+            let w = m.world_position(&std::array::from_fn::<_, 6, _>(|j| v[j].to_radians()));
             assert!((0..3).all(|k| (w[k] - p[k]).abs() < 1e-6), "{line}");
         }
     }

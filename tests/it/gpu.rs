@@ -18,7 +18,7 @@ use gpu_amcs::engine::{
     deviation, BackendChoice, CpuEvaluator, EngineError, Evaluator, PickFreeze, Problem, Reference,
 };
 use gpu_amcs::gpu::{self, philox_on_gpu, GpuEvaluator, GpuOptions};
-use gpu_amcs::kinematics::{tx60, RobotModel, Uncertainty, N_PARAMS, N_UNCERTAIN};
+use gpu_amcs::kinematics::{tx60, Joints, Layout, RobotModel, Uncertainty, MAX_JOINTS, MIN_JOINTS};
 use gpu_amcs::mc::Moments;
 use gpu_amcs::sampling::{normals_block, philox4x32_10, Philox, ALL_NORMALS};
 
@@ -36,7 +36,13 @@ const MOMENT_TOL: f64 = 1e-5;
 /// are not aligned with z^(k−1) stay far under it (measured ≤ 4e-7).
 const STANDARDISED_MOMENT_TOL: f64 = 1e-5;
 
-fn points(model: &RobotModel, n: usize) -> Vec<[f64; 6]> {
+/// The six-joint TX60's parameter count (30), uncertain inputs (33) and inputs with the
+/// placement (39).
+const N_PARAMS: usize = Layout::SIX.n_params();
+const N_UNCERTAIN: usize = Layout::SIX.n_uncertain();
+const N_WITH_BASE: usize = Layout::SIX.n_with_base();
+
+fn points(model: &RobotModel, n: usize) -> Vec<Joints> {
     gpu_amcs::points::generate(model, n, &Default::default(), 11).expect("points")
 }
 
@@ -125,7 +131,7 @@ fn assert_moments_agree(label: &str, cpu: &[f64; 4], gpu: &[f64; 4]) {
 
 fn correlated_tx60() -> RobotModel {
     let mut m = tx60();
-    let s = m.uncertainty.sigmas();
+    let s = m.param_sigmas();
     let mut c = vec![0.0; N_PARAMS * N_PARAMS];
     for i in 0..N_PARAMS {
         c[i * N_PARAMS + i] = s[i] * s[i];
@@ -158,7 +164,7 @@ fn tool_covariance_tx60() -> RobotModel {
     for (k, s) in ts.iter().enumerate() {
         c[(N_PARAMS + k) * (n + 1)] = s * s;
     }
-    let s = m.uncertainty.sigmas();
+    let s = m.param_sigmas();
     for (t, p, rho) in [(N_PARAMS, 7, 0.5), (N_PARAMS + 2, 16, -0.4)] {
         c[t * n + p] = rho * ts[t - N_PARAMS] * s[p];
         c[p * n + t] = c[t * n + p];
@@ -185,7 +191,7 @@ fn parse_and_validate(name: &str, src: &str) -> naga::Module {
 #[test]
 fn shaders_validate_with_naga() {
     parse_and_validate("philox test", &gpu::philox_test_source());
-    let src = gpu::shader_source();
+    let src = gpu::shader_source(6);
     let module = parse_and_validate("evaluator", &src);
 
     // Every entry point exists with the Rust workgroup size.
@@ -248,33 +254,59 @@ fn shaders_validate_with_naga() {
     }
 
     // Shader constants equal the Rust ones.
-    let constant = |name: &str| -> u32 {
-        let c = module
-            .constants
-            .iter()
-            .find(|(_, c)| c.name.as_deref() == Some(name))
-            .unwrap_or_else(|| panic!("no constant {name}"))
-            .1;
-        match module.global_expressions[c.init] {
-            naga::Expression::Literal(naga::Literal::U32(v)) => v,
-            ref e => panic!("{name}: {e:?}"),
-        }
-    };
+    let constant = |name: &str| shader_constant(&module, name);
     assert_eq!(constant("N_INPUTS") as usize, N_UNCERTAIN);
-    assert_eq!(
-        constant("N_PLACED") as usize,
-        gpu_amcs::kinematics::N_WITH_BASE
-    );
+    assert_eq!(constant("N_PLACED") as usize, N_WITH_BASE);
     // Ten Philox blocks of four normals: the 33 inputs and the placement's six.
-    assert_eq!(
-        constant("N_BLOCKS") as usize * 4,
-        gpu_amcs::sampling::MAX_NORMALS
-    );
+    assert_eq!(constant("N_BLOCKS"), 10);
+    assert!(constant("N_BLOCKS") as usize * 4 <= gpu_amcs::sampling::MAX_NORMALS);
     assert_eq!(
         constant("WORDS_PER_POINT") as usize,
-        deviation::WORDS_PER_POINT
+        deviation::words_per_point(6)
     );
     assert_eq!(constant("WORKGROUP_SIZE") as usize, gpu::WORKGROUP);
+
+    // Every joint count composes a valid shader whose sizes are the Rust layout's; seven joints
+    // use all the normals a draw has (eleven blocks: the 38 inputs and the placement's six).
+    for joints in MIN_JOINTS..=MAX_JOINTS {
+        let lay = Layout::new(joints);
+        let module = parse_and_validate(
+            &format!("evaluator, {joints} joints"),
+            &gpu::shader_source(joints),
+        );
+        let constant = |name: &str| shader_constant(&module, name) as usize;
+        assert_eq!(constant("N_JOINTS"), joints);
+        assert_eq!(constant("N_INPUTS"), lay.n_uncertain(), "{joints} joints");
+        assert_eq!(constant("N_PLACED"), lay.n_with_base(), "{joints} joints");
+        assert_eq!(
+            constant("N_BLOCKS"),
+            lay.n_with_base().div_ceil(4),
+            "{joints} joints"
+        );
+        assert!(constant("N_BLOCKS") * 4 <= gpu_amcs::sampling::MAX_NORMALS);
+        if joints == MAX_JOINTS {
+            assert_eq!(constant("N_BLOCKS") * 4, gpu_amcs::sampling::MAX_NORMALS);
+        }
+        assert_eq!(
+            constant("WORDS_PER_POINT"),
+            deviation::words_per_point(joints),
+            "{joints} joints"
+        );
+    }
+}
+
+/// The value of the shader's `u32` constant `name`.
+fn shader_constant(module: &naga::Module, name: &str) -> u32 {
+    let c = module
+        .constants
+        .iter()
+        .find(|(_, c)| c.name.as_deref() == Some(name))
+        .unwrap_or_else(|| panic!("no constant {name}"))
+        .1;
+    match module.global_expressions[c.init] {
+        naga::Expression::Literal(naga::Literal::U32(v)) => v,
+        ref e => panic!("{name}: {e:?}"),
+    }
 }
 
 #[test]
@@ -393,7 +425,7 @@ fn chi3_cdf(x: f64) -> f64 {
 fn tool_only_uncertainty_gives_chi3() {
     let s = 0.005;
     let mut m = tx60();
-    m.uncertainty = Uncertainty::Independent([0.0; N_PARAMS]);
+    m.uncertainty = Uncertainty::Independent([0.0; N_PARAMS].into());
     m.tool = [10.0, -20.0, 80.0];
     m.tool_sigma = [s; 3];
     let pts = points(&m, 20);
@@ -742,17 +774,18 @@ fn pick_freeze_rows_match_cpu() {
 
 /// Rows of the sampler's own offsets δ for draws `first … first + n − 1`.
 fn draw_rows(problem: &Problem, first: u64, n: usize) -> Vec<f64> {
-    let mut rows = vec![0.0; n * N_UNCERTAIN];
-    for (i, row) in rows.chunks_exact_mut(N_UNCERTAIN).enumerate() {
-        let mut d = [0.0; N_UNCERTAIN];
+    let width = problem.sampler.n_inputs();
+    let mut rows = vec![0.0; n * width];
+    for (i, row) in rows.chunks_exact_mut(width).enumerate() {
+        let mut d = [0.0; gpu_amcs::kinematics::MAX_UNCERTAIN];
         problem.sampler.deltas(first + i as u64, &mut d);
-        row.copy_from_slice(&d);
+        row.copy_from_slice(&d[..width]);
     }
     rows
 }
 
 fn evaluate_offsets(ev: &mut dyn Evaluator, rows: &[f64]) -> (Vec<f64>, Vec<f64>) {
-    let n = rows.len() / N_UNCERTAIN;
+    let n = rows.len() / ev.offset_width();
     let mut w = vec![0.0; n];
     let mut e = vec![0.0; n * ev.n_points()];
     ev.evaluate_offsets(rows, &mut w, Some(&mut e))
@@ -1014,6 +1047,25 @@ fn library_probe_is_quiet_without_xdg_runtime_dir() {
     assert!(!err.contains("XDG_RUNTIME_DIR"), "{err}");
 }
 
+/// `n` random poses of `truth` measured in its placement's frame with 0.02 mm of tracker noise
+/// per coordinate (seeded).
+fn tracker_poses(truth: &RobotModel, n: usize) -> Vec<gpu_amcs::identify::MeasuredPoint> {
+    let configs = gpu_amcs::simulate::random_poses(truth, n, 5);
+    let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(9);
+    configs
+        .iter()
+        .enumerate()
+        .map(|(k, q)| gpu_amcs::identify::MeasuredPoint {
+            q_deg: *q,
+            position_mm: truth
+                .world_position(&q.map(f64::to_radians))
+                .map(|v| v + 0.02 * gpu_amcs::sampling::standard_normal(&mut rng)),
+            sigma_mm: None,
+            line: k as u64 + 2,
+        })
+        .collect()
+}
+
 /// A model identified from poses in a tracker frame (39 × 39 covariance, the placement
 /// correlated with the parameters): the GPU draws the placement as the CPU's exact f64 path does,
 /// sample by sample within the deviation form's budget and in the moments; `--frame base` (the
@@ -1025,29 +1077,14 @@ fn gpu_draws_the_base_placement_as_the_cpu_does() {
     }
     use gpu_amcs::engine::{cpu_evaluator, PlacementSpread};
     use gpu_amcs::identify::chain::{chain_model, identify_chain, ChainOptions};
-    use gpu_amcs::identify::MeasuredPoint;
     use gpu_amcs::kinematics::BaseTransform;
-    use gpu_amcs::kinematics::N_WITH_BASE;
     let mut truth = tx60();
     truth.tool = [30.0, -20.0, 80.0];
     truth.base = Some(BaseTransform {
         xyz: [2300.0, -700.0, 250.0],
         rpy: [0.08, -0.12, 2.4],
     });
-    let configs = gpu_amcs::simulate::random_poses(&truth, 30, 5);
-    let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(9);
-    let data: Vec<MeasuredPoint> = configs
-        .iter()
-        .enumerate()
-        .map(|(k, q)| MeasuredPoint {
-            q_deg: *q,
-            position_mm: truth
-                .world_position(&q.map(f64::to_radians))
-                .map(|v| v + 0.02 * gpu_amcs::sampling::standard_normal(&mut rng)),
-            sigma_mm: None,
-            line: k as u64 + 2,
-        })
-        .collect();
+    let data = tracker_poses(&truth, 30);
     let r = identify_chain(&data, &tx60(), None, None, &ChainOptions::default()).unwrap();
     let model = chain_model(&tx60(), &r, "identified".into());
     assert!(model.base_uncertain());
@@ -1085,7 +1122,7 @@ fn gpu_draws_the_base_placement_as_the_cpu_does() {
     let gen = gpu_amcs::sampling::Philox::new(problem.seed);
     let rows = 2000;
     let offsets: Vec<f64> = (0..rows as u64)
-        .flat_map(|k| spread.deltas(&gen, 500 + k))
+        .flat_map(|k| spread.deltas(&gen, 500 + k)[..N_WITH_BASE].to_vec())
         .collect();
     let (mut oc, mut og) = (vec![0.0; rows], vec![0.0; rows]);
     cpu.evaluate_offsets(&offsets, &mut oc, None).unwrap();
@@ -1121,4 +1158,148 @@ fn gpu_draws_the_base_placement_as_the_cpu_does() {
     assert!(d <= SAMPLE_TOL_MM, "{d}");
     // Mask 0 is the draws themselves.
     assert!(max_diff(&pc[..1000], &wc[..1000]) <= 1e-10);
+}
+
+/// The LBR iiwa 14 preset (seven joints) with a calibration-sized spread on every free
+/// parameter: 0.01 mm on lengths, 0.002° on angles.
+fn iiwa14_with_spread() -> RobotModel {
+    use gpu_amcs::kinematics::{param_kind, Params};
+    let mut m = gpu_amcs::presets::iiwa14();
+    let np = m.layout().n_params();
+    let s = Params::from_fn(np, |i| {
+        let kind = param_kind(i);
+        if m.fixed[i / 5].kind() == kind {
+            0.0
+        } else if kind.is_angle() {
+            0.002f64.to_radians()
+        } else {
+            0.01
+        }
+    });
+    m.uncertainty = Uncertainty::Independent(s);
+    m.tool = [30.0, -20.0, 80.0];
+    m.check().expect("valid seven-joint model");
+    m
+}
+
+/// Seven-joint models on the GPU as on the CPU, draw by draw and per point within the same
+/// budget as six-joint ones: independent σ, a correlated 38 × 38 covariance with the tool, a
+/// nominal reference, explicit offset rows and pick-freeze rows (the shader compiled for seven
+/// joints), and the base placement drawn (44 inputs) from a whole-chain fit of a seven-joint
+/// robot measured in a tracker frame.
+#[test]
+fn seven_joint_models_agree_on_gpu_and_cpu() {
+    if !have_adapter("seven_joint_models_agree_on_gpu_and_cpu") {
+        return;
+    }
+    let m = iiwa14_with_spread();
+    let pts = points(&m, 40);
+    assert_eq!(pts[0].len(), 7);
+    let pb = Problem::new(m.clone(), &pts, &Reference::Calibrated, 77).expect("problem");
+    compare(
+        pb.clone(),
+        (1u64 << 32) - 20_000,
+        40_000,
+        "iiwa 14, independent",
+    );
+
+    // Correlated, with the tool: a 38 × 38 covariance.
+    let lay = m.layout();
+    let n = lay.n_uncertain();
+    assert_eq!(n, 38);
+    let s = m.input_sigmas();
+    let mut c = vec![0.0; n * n];
+    for i in 0..lay.n_params() {
+        c[i * n + i] = s[i] * s[i];
+    }
+    let ts = [0.003, 0.005, 0.002];
+    for (k, t) in ts.iter().enumerate() {
+        c[lay.tool_index(k) * (n + 1)] = t * t;
+    }
+    // θ2–θ3 and a6–α6 (the seventh joint's neighbours) correlated, the tool with d7.
+    for (i, j, rho) in [(5, 10, 0.7), (27, 28, -0.5), (lay.tool_index(2), 31, 0.4)] {
+        let v = rho * c[i * n + i].sqrt() * c[j * n + j].sqrt();
+        c[i * n + j] = v;
+        c[j * n + i] = v;
+    }
+    let mut mc = m.clone();
+    mc.uncertainty = Uncertainty::Covariance(c);
+    mc.tool_sigma = ts;
+    mc.check().expect("valid 38 × 38 model");
+    let pbc = Problem::new(mc, &pts, &Reference::Calibrated, 78).expect("problem");
+    compare(
+        pbc,
+        1_000,
+        30_000,
+        "iiwa 14, 38 × 38 covariance with the tool",
+    );
+
+    // A nominal reference: the same robot with moved parameters analysed against its nominal.
+    let mut moved = m.clone();
+    moved.params[7] += 0.4;
+    moved.params[31] -= 0.3;
+    let pbn =
+        Problem::new(moved, &pts, &Reference::Nominal(Box::new(m.clone())), 79).expect("problem");
+    compare(pbn, 0, 20_000, "iiwa 14, nominal reference");
+
+    // Explicit offset rows (38 per row) equal the draws on both backends.
+    let rows = draw_rows(&pb, 500, 3_000);
+    assert_eq!(rows.len(), 3_000 * 38);
+    let mut gpu = gpu_without_prefetch(pb.clone());
+    let mut cpu = CpuEvaluator::new(pb.clone());
+    let (wg, _) = evaluate_offsets(&mut gpu, &rows);
+    let (wc, _) = evaluate_offsets(&mut cpu, &rows);
+    let (wd, _) = evaluate(&mut cpu, 500, 3_000);
+    assert_eq!(wc, wd, "CPU offset rows are the draws, to the bit");
+    assert!(max_diff(&wg, &wc) <= SAMPLE_TOL_MM);
+    // Pick-freeze rows over the seven-joint normals.
+    let masks = [0, ALL_NORMALS, 1 << 33, (1 << 5) | (1 << 36)];
+    let request = PickFreeze {
+        first: 10_000,
+        b_first: 1 << 40,
+        count: 2_000,
+        masks: &masks,
+    };
+    let pg = evaluate_pick_freeze(&mut gpu, &request);
+    let pc = evaluate_pick_freeze(&mut cpu, &request);
+    let dp = max_diff(&pg, &pc);
+    eprintln!(
+        "iiwa 14: offsets max |Δw| = {:.3e} mm, pick-freeze max |Δw| = {dp:.3e} mm",
+        max_diff(&wg, &wc)
+    );
+    assert!(dp <= SAMPLE_TOL_MM, "{dp}");
+
+    // The placement drawn: a seven-joint robot measured in a tracker frame, fitted whole.
+    use gpu_amcs::engine::{cpu_evaluator, PlacementSpread};
+    use gpu_amcs::identify::chain::{chain_model, identify_chain, ChainOptions};
+    use gpu_amcs::kinematics::BaseTransform;
+    let nominal = gpu_amcs::presets::iiwa14();
+    let mut truth = m.clone();
+    truth.params[2] += 0.2;
+    truth.params[13] += 0.001;
+    truth.base = Some(BaseTransform {
+        xyz: [2100.0, -500.0, 300.0],
+        rpy: [0.05, -0.1, 2.2],
+    });
+    let data = tracker_poses(&truth, 60);
+    let r = identify_chain(&data, &nominal, None, None, &ChainOptions::default()).unwrap();
+    let model = chain_model(&nominal, &r, "identified".into());
+    assert_eq!(model.joints(), 7);
+    assert!(model.base_uncertain());
+    assert_eq!(model.uncertainty.dim(), 44);
+    let pts = gpu_amcs::simulate::random_poses(&model, 20, 7);
+    let problem = Problem::new(model, &pts, &Reference::Calibrated, 11).unwrap();
+    assert!(PlacementSpread::of(&problem).unwrap().is_some());
+    let (mut cpu, _) = cpu_evaluator(problem.clone(), None);
+    let mut gpu = GpuEvaluator::new(problem, &GpuOptions::default()).unwrap();
+    let n = 20_000;
+    let (wc, ec) = evaluate(cpu.as_mut(), 0, n);
+    let (wg, eg) = evaluate(&mut gpu, 0, n);
+    let (dw, de) = (max_diff(&wc, &wg), max_diff(&ec, &eg));
+    eprintln!(
+        "iiwa 14, placement drawn (44 inputs): max |Δw| = {dw:.3e} mm, max |Δe| = {de:.3e} mm"
+    );
+    assert!(dw <= SAMPLE_TOL_MM && de <= SAMPLE_TOL_MM, "{dw} {de}");
+    assert_moments_agree("iiwa 14, placement drawn", &moments(&wc), &moments(&wg));
+    assert_eq!(gpu.offset_width(), 44);
 }

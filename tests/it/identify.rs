@@ -8,7 +8,7 @@ use gpu_amcs::identify::{
     render_validation, validate, write_sweeps, CircleFitMethod, IdentifyOptions, IdentifyWarning,
     SweepData,
 };
-use gpu_amcs::kinematics::{param_index, position, tx60, ParamKind, RobotModel};
+use gpu_amcs::kinematics::{param_index, position, tx60, Joints, ParamKind, RobotModel};
 use gpu_amcs::simulate::{
     measure_positions, perturbed_model, random_configurations, simulate_sweeps, ParameterErrors,
     SweepPlan,
@@ -23,14 +23,14 @@ const SIGMA_MM: f64 = 0.010;
 
 /// A perturbed TX60 (0.3 mm / 0.03° class errors on every free parameter, β on J2∥J3) and 100
 /// held-out configurations within the joint limits.
-fn robot(seed: u64) -> (RobotModel, Vec<[f64; 6]>) {
+fn robot(seed: u64) -> (RobotModel, Vec<Joints>) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let truth = perturbed_model(&tx60(), &ParameterErrors::default(), TOOL, &mut rng);
     let configs = random_configurations(&tx60().limits_deg, 100, &mut rng);
     (truth, configs)
 }
 
-fn max_error(model: &RobotModel, truth: &RobotModel, configs: &[[f64; 6]]) -> f64 {
+fn max_error(model: &RobotModel, truth: &RobotModel, configs: &[Joints]) -> f64 {
     configs
         .iter()
         .map(|q| {
@@ -202,7 +202,7 @@ fn csv_round_trip_and_one_model_per_run() {
     }
     let stats = parameter_statistics(&ids.iter().map(|i| i.model.clone()).collect::<Vec<_>>())
         .expect("three runs");
-    let s = stats.uncertainty.sigmas();
+    let s = stats.param_sigmas();
     assert!(s[param_index(1, ParamKind::A)] > 0.0);
     assert_eq!(s[param_index(1, ParamKind::D)], 0.0);
     RobotModel::from_toml(&stats.to_toml(), "stats.toml").unwrap();

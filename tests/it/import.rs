@@ -9,14 +9,18 @@
 use crate::common;
 
 mod held;
+mod seven;
 mod xacro;
 
 use common::{arg, bin, run, stderr, tmpdir};
 use gpu_amcs::import::{self, export, ImportError, ImportOptions, SourceFormat};
-use gpu_amcs::kinematics::{self, position, RobotModel, JOINTS};
+use gpu_amcs::kinematics::{self, position, Joints, RobotModel};
 use gpu_amcs::presets;
 use std::f64::consts::{FRAC_PI_2, PI};
 use std::path::{Path, PathBuf};
+
+/// Joints of the six-axis robots these tests import.
+const JOINTS: usize = 6;
 
 type M4 = [[f64; 4]; 4];
 
@@ -89,7 +93,7 @@ fn dh_standard(rows: &[[f64; 4]], q: &[f64]) -> [f64; 3] {
 }
 
 /// Craig's modified DH, rows `[θ_i, d_i, a_{i−1}, α_{i−1}]` (mm, rad).
-fn dh_modified(rows: &[[f64; 4]; 6], q: &[f64; 6]) -> [f64; 3] {
+fn dh_modified(rows: &[[f64; 4]; 6], q: &[f64]) -> [f64; 3] {
     let mut t = eye();
     for (r, qi) in rows.iter().zip(q) {
         t = mul(&t, &rot([1.0, 0.0, 0.0], r[3]));
@@ -101,7 +105,7 @@ fn dh_modified(rows: &[[f64; 4]; 6], q: &[f64; 6]) -> [f64; 3] {
 }
 
 /// URDF-style chain: per joint origin (xyz mm, rpy), axis; then the tip transform.
-fn urdf_fk(joints: &[([f64; 3], [f64; 3], [f64; 3])], tip: &M4, q: &[f64; 6]) -> [f64; 3] {
+fn urdf_fk(joints: &[([f64; 3], [f64; 3], [f64; 3])], tip: &M4, q: &[f64]) -> [f64; 3] {
     let mut t = eye();
     for ((xyz, r, axis), qi) in joints.iter().zip(q) {
         t = mul(&t, &trans(xyz[0], xyz[1], xyz[2]));
@@ -111,8 +115,9 @@ fn urdf_fk(joints: &[([f64; 3], [f64; 3], [f64; 3])], tip: &M4, q: &[f64; 6]) ->
     pos(&mul(&t, tip))
 }
 
-/// Deterministic configurations within the model's limits (a small LCG: no crate randomness).
-fn configs(model: &RobotModel, n: usize, seed: u64) -> Vec<[f64; 6]> {
+/// Deterministic configurations within the model's limits (a small LCG: no crate randomness),
+/// radians, one angle per joint of the model.
+fn configs(model: &RobotModel, n: usize, seed: u64) -> Vec<Joints> {
     let mut s = seed
         .wrapping_mul(6364136223846793005)
         .wrapping_add(1442695040888963407);
@@ -124,7 +129,7 @@ fn configs(model: &RobotModel, n: usize, seed: u64) -> Vec<[f64; 6]> {
     };
     (0..n)
         .map(|_| {
-            std::array::from_fn(|j| {
+            Joints::from_fn(model.joints(), |j| {
                 let (lo, hi) = model.limits_deg[j];
                 (lo + (hi - lo) * next()).to_radians()
             })
@@ -133,9 +138,9 @@ fn configs(model: &RobotModel, n: usize, seed: u64) -> Vec<[f64; 6]> {
 }
 
 /// Max deviation of the model's FK from `reference` over 1000 configurations and q = 0.
-fn max_dev(model: &RobotModel, reference: impl Fn(&[f64; 6]) -> [f64; 3]) -> f64 {
+fn max_dev(model: &RobotModel, reference: impl Fn(&[f64]) -> [f64; 3]) -> f64 {
     let mut qs = configs(model, 1000, 7);
-    qs.push([0.0; 6]);
+    qs.push(model.joints_at(0.0));
     qs.iter()
         .map(|q| dist(model.world_position(q), reference(q)))
         .fold(0.0, f64::max)
@@ -498,8 +503,11 @@ fn dh_table_errors_name_the_field() {
             "missing 'convention'",
         ),
         (
-            good.replace("0,80,0,0,-10,10\n", ""),
-            "5 revolute joints (joint 1, joint 2, joint 3, joint 4, joint 5); the model needs exactly 6",
+            good.replace(
+                "0,100,0,90,-10,10\n0,100,0,-90,-10,10\n0,80,0,0,-10,10\n",
+                "",
+            ),
+            "3 revolute joints (joint 1, joint 2, joint 3); the model needs 4 to 7",
         ),
         (
             good.replace("0,80,0,0,-10,10", "0,80,0,0,10,-10"),
@@ -868,14 +876,27 @@ fn the_refusals_name_the_element() {
             vec!["xacro", "run xacro first", ":2"],
         ),
         (
-            "five.urdf",
-            with_joint(&base, "j6", revolute, "type=\"fixed\""),
-            vec!["5 revolute joints", "j1, j2, j3, j4, j5", "exactly 6"],
+            "three.urdf",
+            with_joint(
+                &with_joint(
+                    &with_joint(&base, "j6", revolute, "type=\"fixed\""),
+                    "j5",
+                    revolute,
+                    "type=\"fixed\"",
+                ),
+                "j4",
+                revolute,
+                "type=\"fixed\"",
+            ),
+            vec!["3 revolute joints", "j1, j2, j3", "4 to 7"],
         ),
         (
-            "seven.urdf",
-            extra_joint("j7", "revolute", "l6", "l7"),
-            vec!["7 revolute joints", "j7"],
+            "eight.urdf",
+            simple_urdf(concat!(
+                "  <link name=\"l7\"/>\n  <joint name=\"j7\" type=\"revolute\"><parent link=\"l6\"/><child link=\"l7\"/><axis xyz=\"1 0 0\"/><limit lower=\"-1\" upper=\"1\"/></joint>\n",
+                "  <link name=\"l8\"/>\n  <joint name=\"j8\" type=\"revolute\"><origin xyz=\"0 0 0.05\"/><parent link=\"l7\"/><child link=\"l8\"/><axis xyz=\"0 1 0\"/><limit lower=\"-1\" upper=\"1\"/></joint>\n",
+            )),
+            vec!["8 revolute joints", "j7, j8", "hold 1 of them"],
         ),
         (
             // Two links hang off the last one: which is the tip cannot be told.
@@ -894,6 +915,24 @@ fn the_refusals_name_the_element() {
     ];
     for (name, text, want) in &cases {
         refused(name, text, want);
+    }
+    // Five and seven revolute joints are within the 4 to 7 a model takes: each imports as a
+    // model of as many joints.
+    for (name, text, joints) in [
+        (
+            "five.urdf",
+            with_joint(&base, "j6", revolute, "type=\"fixed\""),
+            5,
+        ),
+        ("seven.urdf", extra_joint("j7", "revolute", "l6", "l7"), 7),
+    ] {
+        let imp = import(&write(&tmpdir(&format!("count-{name}")), name, &text)).unwrap();
+        assert_eq!(imp.model.joints(), joints, "{name}");
+        assert!(
+            imp.max_deviation_mm < 1e-9,
+            "{name}: {}",
+            imp.max_deviation_mm
+        );
     }
     // Off the chain, a prismatic gripper finger is no concern once the tip is named.
     let p = write(

@@ -4,11 +4,14 @@
 use crate::common;
 use gpu_amcs::engine::{Problem, ProblemError, Reference};
 use gpu_amcs::kinematics::{
-    param_index, position, tx60, ParamKind, RobotModel, Uncertainty, N_PARAMS,
+    param_index, position, tx60, Joints, Layout, ParamKind, Params, RobotModel, Uncertainty,
 };
 
 use common::{run, stderr, stdout, tmpdir};
 use std::path::{Path, PathBuf};
+
+/// Parameters of the six-joint robots these tests use.
+const N_PARAMS: usize = Layout::SIX.n_params();
 
 fn s(p: &Path) -> &str {
     p.to_str().unwrap()
@@ -115,7 +118,7 @@ fn nominal_reference_measures_the_models_own_target() {
 fn indefinite_covariance_names_the_model_file_and_field() {
     let d = tmpdir("indefinite");
     let mut m = tx60();
-    let s0 = m.uncertainty.sigmas();
+    let s0 = m.param_sigmas();
     let mut c = vec![0.0; N_PARAMS * N_PARAMS];
     for i in 0..N_PARAMS {
         c[i * N_PARAMS + i] = s0[i] * s0[i];
@@ -219,7 +222,7 @@ fn absurd_magnitudes_are_refused_naming_the_field() {
     assert!(json(&j)["result"]["estimate"].as_f64().unwrap().is_finite());
     // A model built in code is held to the same rules.
     let mut m = tx60();
-    let mut sg = m.uncertainty.sigmas();
+    let mut sg = m.param_sigmas();
     sg[param_index(0, ParamKind::D)] = 1e100;
     m.uncertainty = Uncertainty::Independent(sg);
     let q = [[0.0; 6]];
@@ -297,8 +300,8 @@ fn crlf_files_give_the_line_an_editor_shows() {
     let good = "\u{feff}q1,q2,q3,q4,q5,q6\r\n10,20,30,40,50,60\r\n";
     let f = write(&d, "good.csv", good);
     assert_eq!(
-        gpu_amcs::points::read_csv(&f).unwrap(),
-        vec![[10.0, 20.0, 30.0, 40.0, 50.0, 60.0]]
+        gpu_amcs::points::read_csv(&f, 6).unwrap(),
+        vec![Joints::from([10.0, 20.0, 30.0, 40.0, 50.0, 60.0])]
     );
 }
 
@@ -342,7 +345,7 @@ fn each_cause_is_printed_once() {
     assert_eq!(e.matches("UTF-8").count(), 1, "{e}");
 
     assert_each_cause_once(&RobotModel::from_file(&missing).unwrap_err());
-    assert_each_cause_once(&gpu_amcs::points::read_csv(&missing).unwrap_err());
+    assert_each_cause_once(&gpu_amcs::points::read_csv(&missing, 6).unwrap_err());
     assert_each_cause_once(&RobotModel::from_file(&f).unwrap_err());
     let identify = gpu_amcs::simulate::SimulateError::Identify {
         run: 3,
@@ -401,7 +404,7 @@ fn oversized_inputs_are_refused_naming_the_limit() {
 /// A preset whose every σ is 0: every draw is the mean.
 fn zero_spread(dir: &Path) -> PathBuf {
     let mut m = tx60();
-    m.uncertainty = Uncertainty::Independent([0.0; N_PARAMS]);
+    m.uncertainty = Uncertainty::Independent(Params::filled(N_PARAMS, 0.0));
     write(dir, "zero.toml", &m.to_toml())
 }
 

@@ -9,7 +9,7 @@ use crate::common;
 
 use common::{arg, check_svg_finite, fails_leaving_nothing, have_adapter, run, stdout, tmpdir};
 use gpu_amcs::engine::{BackendChoice, CpuEvaluator, Evaluator, Problem, Reference};
-use gpu_amcs::kinematics::{tx60, RobotModel, Uncertainty, N_PARAMS};
+use gpu_amcs::kinematics::{tx60, Params, RobotModel, Uncertainty};
 use gpu_amcs::map::{
     default_reference_deg, evaluate, ik, round_trip_error, test_points, tool_down_rpy_deg,
     Evaluation, Grid, MapResult, MapSpec, Plane, Timings,
@@ -144,7 +144,7 @@ const SIGMA: f64 = 0.005 * std::f64::consts::PI / 180.0;
 
 fn theta1_model() -> RobotModel {
     let mut m = tx60();
-    let mut s = [0.0; N_PARAMS];
+    let mut s = Params::filled(m.layout().n_params(), 0.0);
     s[0] = SIGMA;
     m.uncertainty = Uncertainty::Independent(s);
     m

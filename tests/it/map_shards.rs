@@ -10,7 +10,7 @@ use crate::common;
 
 use common::{arg, assert_fails_naming, bin, fails_leaving_nothing, have_adapter, run, tmpdir};
 use gpu_amcs::engine::{BackendChoice, Problem, Reference};
-use gpu_amcs::kinematics::tx60;
+use gpu_amcs::kinematics::{tx60, Joints};
 use gpu_amcs::map::shard::{self, MapShard};
 use gpu_amcs::map::{
     batch_size, default_reference_deg, evaluate, evaluate_cells, memory_estimate, test_points,
@@ -312,7 +312,7 @@ fn library_shards_match(backend: BackendChoice, n: usize) {
     let points = test_points(&sol);
     let r = points.len();
     assert!(r > n, "{r}");
-    let pb = |pts: &[[f64; 6]]| Problem::new(m.clone(), pts, &Reference::Calibrated, seed).unwrap();
+    let pb = |pts: &[Joints]| Problem::new(m.clone(), pts, &Reference::Calibrated, seed).unwrap();
     let (mut ev, _) = gpu_amcs::backends()
         .make_evaluator(pb(&points), backend, None)
         .unwrap();

@@ -3,7 +3,7 @@
 //! the robot with only θ_1 uncertain, whose reliability has a closed form.
 
 use gpu_amcs::engine::{CpuEvaluator, FnEvaluator, Problem, Reference};
-use gpu_amcs::kinematics::{tx60, Uncertainty, N_PARAMS};
+use gpu_amcs::kinematics::{tx60, Params, Uncertainty};
 use gpu_amcs::mc::{
     run_amcs, run_mcs, AmcsOptions, IntervalKind, McsOptions, RunSettings, Tolerance,
 };
@@ -166,7 +166,7 @@ fn only_theta1_uncertain_matches_closed_form() {
     // R(l) = Pr[|δ| < 2 asin(l / (2 r_max))] = 2Φ(a/σ) − 1.
     let mut m = tx60();
     let sigma = 0.005f64.to_radians();
-    let mut s = [0.0; N_PARAMS];
+    let mut s = Params::filled(m.layout().n_params(), 0.0);
     s[0] = sigma;
     m.uncertainty = Uncertainty::Independent(s);
     let pts = gpu_amcs::points::generate(&m, 20, &Default::default(), 5).unwrap();

@@ -3,18 +3,25 @@
 //! properties of the pick-freeze rows.
 
 use gpu_amcs::engine::{CpuEvaluator, Evaluator, PickFreeze, PlacementSpread, Problem, Reference};
-use gpu_amcs::kinematics::{
-    tx60, BaseTransform, RobotModel, Uncertainty, N_UNCERTAIN, N_WITH_BASE,
-};
+use gpu_amcs::kinematics::{tx60, BaseTransform, Joints, Layout, RobotModel, Uncertainty};
 use gpu_amcs::mc::sensitivity::{run_sensitivity, SensitivityOptions};
 use gpu_amcs::mc::tail::{run_tail, TailOptions};
 use gpu_amcs::sampling::{Philox, ALL_NORMALS};
+
+/// The six-joint TX60's uncertain inputs (33) and inputs with the placement (39).
+const N_UNCERTAIN: usize = Layout::SIX.n_uncertain();
+const N_WITH_BASE: usize = Layout::SIX.n_with_base();
 
 const POINTS: [[f64; 6]; 3] = [
     [10.0, -20.0, 90.0, 0.0, 30.0, 0.0],
     [-40.0, 10.0, 60.0, 20.0, -30.0, 50.0],
     [70.0, 30.0, 100.0, -45.0, 60.0, -90.0],
 ];
+
+/// [`POINTS`] as configurations.
+fn points() -> Vec<Joints> {
+    POINTS.iter().map(|&q| q.into()).collect()
+}
 
 /// The TX60 placed 2 m from the tracker and turned, with the 39 × 39 covariance `c` (internal
 /// units: mm and radians).
@@ -58,7 +65,7 @@ fn placement_inputs_have_their_closed_forms() {
     let mut c = vec![0.0; n * n];
     c[33 * n + 33] = sx * sx;
     c[34 * n + 34] = sy * sy;
-    let pb = Problem::new(placed(c), &POINTS, &Reference::Calibrated, 5).unwrap();
+    let pb = Problem::new(placed(c), &points(), &Reference::Calibrated, 5).unwrap();
     // w is the length of the translation at every draw.
     let spread = PlacementSpread::of(&pb).unwrap().unwrap();
     let gen = Philox::new(pb.seed);
@@ -176,7 +183,7 @@ fn correlated() -> Vec<f64> {
 fn placement_rows_are_consistent() {
     let mut m = placed(correlated());
     m.tool_sigma = [0.0, 0.01, 0.0];
-    let pb = Problem::new(m, &POINTS, &Reference::Calibrated, 9).unwrap();
+    let pb = Problem::new(m, &points(), &Reference::Calibrated, 9).unwrap();
     let spread = PlacementSpread::of(&pb).unwrap().unwrap();
     let gen = Philox::new(pb.seed);
     let mut ev = CpuEvaluator::new(pb.clone());
@@ -184,7 +191,7 @@ fn placement_rows_are_consistent() {
     let mut wd = vec![0.0; rows];
     ev.evaluate(100, &mut wd, None).unwrap();
     let offsets: Vec<f64> = (0..rows as u64)
-        .flat_map(|k| spread.deltas(&gen, 100 + k))
+        .flat_map(|k| spread.deltas(&gen, 100 + k)[..N_WITH_BASE].to_vec())
         .collect();
     let mut wo = vec![0.0; rows];
     ev.evaluate_offsets(&offsets, &mut wo, None).unwrap();
@@ -225,12 +232,17 @@ fn placement_rows_are_consistent() {
             let d = spread.pick_freeze_deltas(&gen, a, b, mask);
             let keep = if from_b { &db } else { &da };
             assert_eq!(d[..N_UNCERTAIN], keep[..N_UNCERTAIN], "row {r}");
-            assert_ne!(d[N_UNCERTAIN..], keep[N_UNCERTAIN..], "row {r}");
+            assert_ne!(
+                d[N_UNCERTAIN..N_WITH_BASE],
+                keep[N_UNCERTAIN..N_WITH_BASE],
+                "row {r}"
+            );
         }
         // Matrix 2's rows are the offsets of those deltas.
         let d = spread.pick_freeze_deltas(&gen, a, b, placement_bits);
         let mut one = [0.0];
-        ev.evaluate_offsets(&d, &mut one, None).unwrap();
+        ev.evaluate_offsets(&d[..N_WITH_BASE], &mut one, None)
+            .unwrap();
         assert!((pf[2 * rows + r] - one[0]).abs() < 1e-10);
     }
 }

@@ -8,7 +8,7 @@ use gpu_amcs::engine::CpuEvaluator;
 use gpu_amcs::identify::chain::{identify_chain, nominal_state, ChainOptions, MeasuredPoint};
 use gpu_amcs::identify::chain_fit::{default_free, fit_input_is_angle, ChainState};
 use gpu_amcs::identify::NoiseModel;
-use gpu_amcs::kinematics::{tx60, RobotModel, JOINTS, N_PARAMS};
+use gpu_amcs::kinematics::{tx60, Joints, RobotModel};
 use gpu_amcs::plan::{plan, predict, prediction_problem, Plan, PlanOptions};
 use gpu_amcs::sampling::standard_normal;
 use rand::{Rng, SeedableRng};
@@ -25,9 +25,10 @@ fn with_target(mut m: RobotModel, o: &PlanOptions) -> RobotModel {
 fn truth(nominal: &RobotModel, seed: u64) -> ChainState {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
     let mut t = nominal_state(nominal);
+    let lay = nominal.layout();
     for i in default_free(&nominal.fixed, true) {
-        if i < N_PARAMS {
-            let size = if fit_input_is_angle(i) {
+        if i < lay.n_params() {
+            let size = if fit_input_is_angle(lay, i) {
                 0.01f64.to_radians()
             } else {
                 0.2
@@ -40,7 +41,7 @@ fn truth(nominal: &RobotModel, seed: u64) -> ChainState {
 }
 
 /// Tracker readings of `t`'s target at `q` (degrees) with noise σ per coordinate.
-fn measure(t: &ChainState, q: &[[f64; JOINTS]], rng: &mut impl Rng) -> Vec<MeasuredPoint> {
+fn measure(t: &ChainState, q: &[Joints], rng: &mut impl Rng) -> Vec<MeasuredPoint> {
     q.iter()
         .enumerate()
         .map(|(k, q)| {
@@ -59,8 +60,8 @@ fn measure(t: &ChainState, q: &[[f64; JOINTS]], rng: &mut impl Rng) -> Vec<Measu
 fn calibrate(
     nominal: &RobotModel,
     t: &ChainState,
-    design: &[[f64; JOINTS]],
-    task: &[[f64; JOINTS]],
+    design: &[Joints],
+    task: &[Joints],
     seed: u64,
 ) -> Vec<f64> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
@@ -89,7 +90,7 @@ fn median(mut v: Vec<f64>) -> f64 {
     }
 }
 
-fn task(model: &RobotModel) -> Vec<[f64; JOINTS]> {
+fn task(model: &RobotModel) -> Vec<Joints> {
     gpu_amcs::points::generate(model, 50, &Default::default(), 1).expect("task points")
 }
 
@@ -176,15 +177,15 @@ fn compare_designs(nominal: RobotModel, seeds: u64) -> Comparison {
             p.rms_bound_mm
         );
         let t = truth(&nominal, 100 + s);
-        let rms = |design: &[[f64; JOINTS]]| {
+        let rms = |design: &[Joints]| {
             let e = calibrate(&nominal, &t, design, &task, 900 + s);
             (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt()
         };
         // A random design within the joint limits less the planner's margin.
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(77 + s);
-        let rand_design: Vec<[f64; JOINTS]> = (0..o.poses)
+        let rand_design: Vec<Joints> = (0..o.poses)
             .map(|_| {
-                std::array::from_fn(|j| {
+                Joints::from_fn(nominal.joints(), |j| {
                     let (lo, hi) = nominal.limits_deg[j];
                     let (lo, hi) = (lo.max(-360.0) + 5.0, hi.min(360.0) - 5.0);
                     rng.random_range(lo..hi)

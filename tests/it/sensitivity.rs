@@ -17,12 +17,15 @@ use common::have_adapter;
 use gpu_amcs::engine::{CpuEvaluator, Evaluator, Problem, Reference};
 #[cfg(feature = "gpu")]
 use gpu_amcs::gpu::{GpuEvaluator, GpuOptions};
-use gpu_amcs::kinematics::{param_index, tx60, ParamKind, RobotModel, Uncertainty, N_PARAMS};
+use gpu_amcs::kinematics::{param_index, tx60, Layout, ParamKind, RobotModel, Uncertainty};
 use gpu_amcs::mc::sensitivity::{
     pick_freeze, run_sensitivity, InputGroup, InputKind, Quantity, QuantityIndices,
     SensitivityError, SensitivityOptions, SensitivitySetting, SobolIndex,
 };
 use gpu_amcs::sampling::{normals_block, uniform_open, Philox};
+
+/// The six-joint TX60's parameter count (30).
+const N_PARAMS: usize = Layout::SIX.n_params();
 
 /// Standard errors an estimate may be from the analytic value.
 const K_SE: f64 = 4.0;
@@ -247,7 +250,7 @@ fn quadrature_indices(
 }
 
 /// The covariance of standard deviations `s` with correlations `(i, j, ρ_ij)`.
-fn covariance(s: &[f64; N_PARAMS], corr: &[(usize, usize, f64)]) -> Uncertainty {
+fn covariance(s: &[f64], corr: &[(usize, usize, f64)]) -> Uncertainty {
     let mut c = vec![0.0; N_PARAMS * N_PARAMS];
     for (i, si) in s.iter().enumerate() {
         c[i * N_PARAMS + i] = si * si;
@@ -273,7 +276,7 @@ fn theta1_d1_problem(correlation: Option<f64>) -> Problem {
     s[t] = SIGMA_THETA1;
     s[d] = SIGMA_D1;
     m.uncertainty = match correlation {
-        None => Uncertainty::Independent(s),
+        None => Uncertainty::Independent(s.into()),
         Some(rho) => covariance(&s, &[(t, d, rho)]),
     };
     let pts = gpu_amcs::points::generate(&m, 8, &Default::default(), 3).unwrap();
@@ -361,7 +364,7 @@ fn robot_correlated_uses_cholesky_innovations() {
 #[test]
 fn diagonal_covariance_gives_the_independent_indices() {
     let m = tx60();
-    let s = m.uncertainty.sigmas();
+    let s = m.param_sigmas();
     let mut mc = m.clone();
     mc.uncertainty = covariance(&s, &[]);
     let o = SensitivityOptions {
@@ -455,7 +458,7 @@ fn bad_input_is_a_typed_error() {
     };
     assert_eq!(field(t, &mut ev), SensitivitySetting::Thresholds);
     let mut m = tx60();
-    m.uncertainty = Uncertainty::Independent([0.0; N_PARAMS]);
+    m.uncertainty = Uncertainty::Independent([0.0; N_PARAMS].into());
     let pts = gpu_amcs::points::generate(&m, 3, &Default::default(), 1).unwrap();
     let pb0 = Problem::new(m, &pts, &Reference::Calibrated, 1).unwrap();
     let e = run_sensitivity(&pb0, &mut CpuEvaluator::new(pb0.clone()), &opts(64)).unwrap_err();

@@ -2,10 +2,14 @@
 //! (issue 5), plus the check that the baked TX60 σ is what the simulator produces.
 
 use crate::common;
-use gpu_amcs::kinematics::{tx60, ParamKind, RobotModel, Uncertainty, N_PARAMS};
+use gpu_amcs::kinematics::{tx60, Layout, ParamKind, RobotModel, Uncertainty};
 use gpu_amcs::simulate::{calibrate, Experiment, Factors};
 
 use common::*;
+
+/// The six-joint TX60's parameter count (30) and uncertain inputs (33).
+const N_PARAMS: usize = Layout::SIX.n_params();
+const N_UNCERTAIN: usize = Layout::SIX.n_uncertain();
 
 /// Well-formed SVG with at least one curve.
 fn check_xml(text: &str, name: &str) {
@@ -223,7 +227,7 @@ fn simulated_sweeps_identify_and_calibrate_writes_a_covariance_model() {
         panic!("no covariance")
     };
     // The tracker target varies between the runs: 33 rows, the parameters then the tool.
-    let n = gpu_amcs::kinematics::N_UNCERTAIN;
+    let n = N_UNCERTAIN;
     assert_eq!(c.len(), n * n);
     assert!(m.tool_uncertain(), "the tool's run-to-run σ is estimated");
     // the written model is usable by the main job
@@ -244,8 +248,8 @@ fn simulated_sweeps_identify_and_calibrate_writes_a_covariance_model() {
 #[test]
 fn baked_tx60_sigma_matches_the_simulator() {
     let c = calibrate(&Experiment::tx60(2025), &Factors::default(), 1).unwrap();
-    let sim = c.independent.uncertainty.sigmas();
-    let baked = tx60().uncertainty.sigmas();
+    let sim = c.independent.param_sigmas();
+    let baked = tx60().param_sigmas();
     for i in 0..N_PARAMS {
         let unit = ParamKind::ALL[i % 5].to_internal();
         let (s, b) = (sim[i] / unit, baked[i] / unit);

@@ -13,11 +13,14 @@ use common::have_adapter;
 use gpu_amcs::engine::{CpuEvaluator, Evaluator, Problem, Reference};
 #[cfg(feature = "gpu")]
 use gpu_amcs::gpu::{GpuEvaluator, GpuOptions};
-use gpu_amcs::kinematics::{tx60, RobotModel, Uncertainty, N_PARAMS};
+use gpu_amcs::kinematics::{tx60, Layout, RobotModel, Uncertainty};
 use gpu_amcs::mc::tail::{
     normal_quantile, run_tail, ChainProposal, TailError, TailMethod, TailOptions, TailOutcome,
     TailResult, TailSetting,
 };
+
+/// The six-joint TX60's parameter count (30).
+const N_PARAMS: usize = Layout::SIX.n_params();
 
 /// `1 − Φ(x)` for x ≥ 0 by composite Simpson integration of the density over [x, x + 12]
 /// (truncation below φ(12) ≈ 2e-32; 6000 panels give a relative error far below 1e-9).
@@ -40,7 +43,7 @@ fn theta1_problem(seed: u64) -> (Problem, f64) {
     let mut m = tx60();
     let mut s = [0.0; N_PARAMS];
     s[0] = SIGMA;
-    m.uncertainty = Uncertainty::Independent(s);
+    m.uncertainty = Uncertainty::Independent(s.into());
     let pb = problem(m, 20, seed);
     let r_max = pb
         .reference
@@ -483,7 +486,7 @@ fn bad_settings_name_the_field() {
     assert!(ok.check().is_ok());
     // No uncertain parameter: a typed error, not a run.
     let mut m = tx60();
-    m.uncertainty = Uncertainty::Independent([0.0; N_PARAMS]);
+    m.uncertainty = Uncertainty::Independent([0.0; N_PARAMS].into());
     let pb = problem(m, 5, 1);
     let r = run_tail(&mut CpuEvaluator::new(pb.clone()), &pb, &ok, None);
     assert!(matches!(r, Err(TailError::NoUncertainty)), "{r:?}");
@@ -528,7 +531,7 @@ fn gpu_matches_cpu() {
 #[test]
 fn diagonal_covariance_equals_sigma_list() {
     let m = tx60();
-    let s = m.uncertainty.sigmas();
+    let s = m.param_sigmas();
     let mut mc = m.clone();
     let mut c = vec![0.0; N_PARAMS * N_PARAMS];
     for i in 0..N_PARAMS {

@@ -5,12 +5,15 @@
 
 use gpu_amcs::identify::chain::{chain_model, identify_chain, ChainOptions, ChainResult};
 use gpu_amcs::identify::{MeasuredPoint, NoiseModel, Placement, UncertaintyMethod};
-use gpu_amcs::kinematics::{BaseTransform, RobotModel, JOINTS};
+use gpu_amcs::kinematics::{BaseTransform, Joints, RobotModel};
 use gpu_amcs::presets::preset;
 use gpu_amcs::simulate::{perturbed_model, random_configurations, ParameterErrors};
 use nalgebra::{Rotation3, Unit, Vector3};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+
+/// Joints of the presets these tests identify (all six-joint arms).
+const JOINTS: usize = 6;
 
 /// A tracker placement 1.5–4 m from the base, any yaw, roll and pitch within ±10°.
 fn placement(rng: &mut ChaCha8Rng) -> BaseTransform {
@@ -53,9 +56,9 @@ fn true_robot(name: &str, rng: &mut ChaCha8Rng) -> RobotModel {
 }
 
 /// Configurations within the limits, kept 10° inside them.
-fn configs(m: &RobotModel, n: usize, rng: &mut ChaCha8Rng) -> Vec<[f64; JOINTS]> {
+fn configs(m: &RobotModel, n: usize, rng: &mut ChaCha8Rng) -> Vec<Joints> {
     let mut lim = m.limits_deg;
-    for l in &mut lim {
+    for l in lim.iter_mut() {
         *l = (l.0 + 10.0, l.1 - 10.0);
     }
     random_configurations(&lim, n, rng)
@@ -63,7 +66,7 @@ fn configs(m: &RobotModel, n: usize, rng: &mut ChaCha8Rng) -> Vec<[f64; JOINTS]>
 
 fn measure(
     truth: &RobotModel,
-    qs: &[[f64; JOINTS]],
+    qs: &[Joints],
     sigma: f64,
     rng: &mut ChaCha8Rng,
 ) -> Vec<MeasuredPoint> {
@@ -141,7 +144,8 @@ struct Poe {
 }
 
 impl Poe {
-    fn predict(&self, q: &[f64; JOINTS]) -> Vector3<f64> {
+    fn predict(&self, q: &[f64]) -> Vector3<f64> {
+        assert_eq!(q.len(), JOINTS);
         let mut p = self.p0;
         for i in (0..JOINTS).rev() {
             let rot = Rotation3::from_axis_angle(&Unit::new_normalize(self.dirs[i]), q[i]);
@@ -243,7 +247,7 @@ fn held_out_error_matches_an_independent_fit() {
         let (model, _) = identify(name, &data, &ChainOptions::default());
         let poe = Poe::fit(&truth, &data, &mut rng);
         let held = configs(&truth, 500, &mut rng);
-        let rms = |f: &dyn Fn(&[f64; JOINTS]) -> [f64; 3]| {
+        let rms = |f: &dyn Fn(&[f64]) -> [f64; 3]| {
             (held
                 .iter()
                 .map(|q| {
@@ -276,8 +280,9 @@ fn predicted_sigma(
     file: &RobotModel,
     f: &dyn Fn(&gpu_amcs::identify::chain_fit::ChainState) -> f64,
 ) -> f64 {
-    use gpu_amcs::identify::chain_fit::{fit_input_is_angle, N_FIT_INPUTS};
-    let n = N_FIT_INPUTS;
+    use gpu_amcs::identify::chain_fit::{fit_input_is_angle, n_fit_inputs};
+    let lay = file.layout();
+    let n = n_fit_inputs(lay);
     let gpu_amcs::kinematics::Uncertainty::Covariance(cov) = &file.uncertainty else {
         panic!("an identified model carries a covariance")
     };
@@ -287,7 +292,11 @@ fn predicted_sigma(
             if cov[i * n + i] == 0.0 {
                 return 0.0;
             }
-            let h = if fit_input_is_angle(i) { 1e-7 } else { 1e-4 };
+            let h = if fit_input_is_angle(lay, i) {
+                1e-7
+            } else {
+                1e-4
+            };
             let (mut a, mut b) = (r.state, r.state);
             a.set(i, a.get(i) + h);
             b.set(i, b.get(i) - h);
@@ -507,7 +516,7 @@ fn predicted_reliability_is_honest(
 }
 
 /// The largest error at `held` between two models' positions (`base`: with their placements).
-fn largest_error(a: &RobotModel, b: &RobotModel, held: &[[f64; JOINTS]], base: bool) -> f64 {
+fn largest_error(a: &RobotModel, b: &RobotModel, held: &[Joints], base: bool) -> f64 {
     use gpu_amcs::kinematics::position;
     held.iter()
         .map(|q| {

@@ -10,10 +10,11 @@
 use std::io::Read;
 use std::path::Path;
 
-/// Largest model file read: a model with a full 30 × 30 covariance is 15–30 KiB.
+/// Largest model file read: a six-joint model with a full 30 × 30 covariance is 15–30 KiB, a
+/// seven-joint one with 35 × 35 about a third more.
 pub const MODEL_FILE_LIMIT: u64 = 1 << 20;
-/// Largest CSV file read (test points, sweeps, measurements): about two million rows of six
-/// angles, far more than any analysis uses.
+/// Largest CSV file read (test points, sweeps, measurements): about two million rows of six or
+/// seven angles, far more than any analysis uses.
 pub const CSV_FILE_LIMIT: u64 = 128 << 20;
 /// Largest robot description read by the importer (URDF, DH table, UR calibration): a URDF with
 /// inertials and visual elements is tens of kilobytes.

@@ -3,9 +3,10 @@
 //! How reliably does a calibrated industrial robot hit its targets? gpu-amcs estimates the
 //! probability that the end-effector's position error stays under a threshold at every one of m
 //! test points (the *positioning-accuracy reliability* of Wen et al., after GUM Supplement 1):
-//! the robot's 30 geometric (MDH) parameters are drawn from their calibrated distribution, the
-//! forward kinematics is evaluated at every test point, and the maximum point error
-//! `w = max_j ‖P(μ, q_j) − P_ref,j‖` is summarised by classic or adaptive Monte Carlo.
+//! the robot's 5n geometric (MDH) parameters (n = 4 to 7 joints; 30 for a six-axis arm) are
+//! drawn from their calibrated distribution, the forward kinematics is evaluated at every test
+//! point, and the maximum point error `w = max_j ‖P(μ, q_j) − P_ref,j‖` is summarised by classic
+//! or adaptive Monte Carlo.
 //!
 //! ## Data flow
 //! ```text

@@ -5,10 +5,10 @@
 //! ([`WorkspaceBox::for_robot`]): the paper's 900 × 1200 × 800 mm box centred at (250, 0, 200) mm
 //! for the TX60, scaled with the arm's reach for any other robot. The box, like every position
 //! given or reported, is in the description's (world) frame, after a model's base transform.
-//! Sets can also be read from and written to CSV (`q1..q6` in degrees, one configuration per
-//! row).
+//! Sets can also be read from and written to CSV (`q1..qn` in degrees for an `n`-joint model, one
+//! configuration per row).
 
-use crate::kinematics::{param_index, position_deg, ParamKind, RobotModel, JOINTS};
+use crate::kinematics::{param_index, position_deg, Joints, ParamKind, RobotModel};
 use rand::{Rng, SeedableRng};
 
 /// An axis-aligned box in the description's (world) frame, mm: the frame `fk` reports in, after
@@ -41,12 +41,12 @@ const TX60_SHOULDER_MM: f64 = 375.0;
 /// micrometres) gets the same box as its nominal robot.
 const BOX_GRID_MM: f64 = 50.0;
 
-/// The arm's reach beyond joint 1, mm: `Σ_{i=2..6} √(a_i² + d_i²)`, the sum of the link
+/// The arm's reach beyond joint 1, mm: `Σ_{i=2..n} √(a_i² + d_i²)`, the sum of the link
 /// translations after the first joint, which bounds the distance of the flange from the
 /// shoulder (frame 1's origin) by the triangle inequality. The tracker target is left out: it
 /// is small and differs between calibrations of one robot.
 pub fn reach_mm(model: &RobotModel) -> f64 {
-    (1..JOINTS)
+    (1..model.joints())
         .map(|j| {
             let a = model.params[param_index(j, ParamKind::A)];
             let d = model.params[param_index(j, ParamKind::D)];
@@ -150,7 +150,7 @@ pub fn generate(
     n: usize,
     bx: &WorkspaceBox,
     seed: u64,
-) -> Result<Vec<[f64; JOINTS]>, PointsError> {
+) -> Result<Vec<Joints>, PointsError> {
     if n == 0 {
         return Err(PointsError::Zero);
     }
@@ -180,7 +180,7 @@ pub fn generate(
             });
         }
         tries += 1;
-        let q: [f64; JOINTS] = std::array::from_fn(|j| {
+        let q = Joints::from_fn(model.joints(), |j| {
             let (lo, hi) = model.limits_deg[j];
             rng.random_range(lo..=hi)
         });
@@ -199,15 +199,16 @@ pub fn generate(
     Ok(out)
 }
 
-/// Reads configurations from a CSV with header `q1..q6` (degrees), at most
-/// [`crate::input::CSV_FILE_LIMIT`] bytes.
+/// Reads configurations of a `joints`-joint model from a CSV with header `q1..qn` (degrees), at
+/// most [`crate::input::CSV_FILE_LIMIT`] bytes.
 ///
 /// # Errors
 ///
 /// [`PointsError::Read`] when the file cannot be read, is too large or is not UTF-8, and
 /// [`PointsError::Csv`] (naming the line as an editor counts it, also for CRLF files) for a missing
-/// header, a malformed row, a value that is not a finite number, or no rows.
-pub fn read_csv(path: &std::path::Path) -> Result<Vec<[f64; JOINTS]>, PointsError> {
+/// header, a column for a joint the model does not have (`q7` for six joints), a malformed row,
+/// a value that is not a finite number, or no rows.
+pub fn read_csv(path: &std::path::Path, joints: usize) -> Result<Vec<Joints>, PointsError> {
     let p = path.display().to_string();
     let err = |message: String| PointsError::Csv {
         path: p.clone(),
@@ -218,7 +219,11 @@ pub fn read_csv(path: &std::path::Path) -> Result<Vec<[f64; JOINTS]>, PointsErro
         .trim(csv::Trim::All)
         .from_reader(text.as_bytes());
     let headers = rdr.headers().map_err(|e| err(e.to_string()))?.clone();
-    let cols: Vec<usize> = (1..=JOINTS)
+    let expected = (1..=joints)
+        .map(|j| format!("q{j}"))
+        .collect::<Vec<_>>()
+        .join(",");
+    let cols: Vec<usize> = (1..=joints)
         .map(|j| {
             let name = format!("q{j}");
             headers
@@ -226,11 +231,17 @@ pub fn read_csv(path: &std::path::Path) -> Result<Vec<[f64; JOINTS]>, PointsErro
                 .position(|h| h.eq_ignore_ascii_case(&name))
                 .ok_or_else(|| {
                     err(format!(
-                        "header has no column '{name}' (expected q1,q2,q3,q4,q5,q6)"
+                        "header has no column '{name}' (expected {expected} for a {joints}-joint model)"
                     ))
                 })
         })
         .collect::<Result<_, _>>()?;
+    let extra = format!("q{}", joints + 1);
+    if headers.iter().any(|h| h.eq_ignore_ascii_case(&extra)) {
+        return Err(err(format!(
+            "header has a column '{extra}', but the model has {joints} joints (expected {expected})"
+        )));
+    }
     let mut out = Vec::new();
     for rec in rdr.records() {
         let rec = rec.map_err(|e| {
@@ -245,7 +256,7 @@ pub fn read_csv(path: &std::path::Path) -> Result<Vec<[f64; JOINTS]>, PointsErro
                 "line {line}: more than {MAX_POINTS} configurations (the most a set may have)"
             )));
         }
-        let mut q = [0.0; JOINTS];
+        let mut q = Joints::filled(joints, 0.0);
         for (j, &c) in cols.iter().enumerate() {
             let s = rec.get(c).unwrap_or("");
             q[j] = s
@@ -267,11 +278,17 @@ pub fn read_csv(path: &std::path::Path) -> Result<Vec<[f64; JOINTS]>, PointsErro
     Ok(out)
 }
 
-/// Writes configurations as CSV with header `q1..q6`.
-pub fn to_csv(points: &[[f64; JOINTS]]) -> String {
-    let mut s = String::from("q1,q2,q3,q4,q5,q6\n");
+/// Writes configurations as CSV with header `q1..qn` (`n` = the configurations' length, 6 when
+/// there are none).
+pub fn to_csv<P: AsRef<[f64]>>(points: &[P]) -> String {
+    let n = points.first().map_or(6, |q| q.as_ref().len());
+    let mut s = (1..=n)
+        .map(|j| format!("q{j}"))
+        .collect::<Vec<_>>()
+        .join(",");
+    s.push('\n');
     for q in points {
-        let row: Vec<String> = q.iter().map(|v| format!("{v:.6}")).collect();
+        let row: Vec<String> = q.as_ref().iter().map(|v| format!("{v:.6}")).collect();
         s.push_str(&row.join(","));
         s.push('\n');
     }

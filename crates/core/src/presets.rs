@@ -11,21 +11,37 @@
 
 use crate::import::dh::{Convention, DhRow, DhTable};
 use crate::import::{convert, SourceChain, SourceFormat, SourceJoint};
-use crate::kinematics::{ModelError, RobotModel, JOINTS};
+use crate::kinematics::{ModelError, RobotModel};
 use nalgebra::{Isometry3, Unit, Vector3};
 use std::f64::consts::FRAC_PI_2;
 
 pub use crate::kinematics::tx60;
 
 /// Names of the built-in presets.
-pub const PRESETS: &[&str] = &["tx60", "ur5e", "ur10e", "irb2400", "kr6r700sixx"];
+pub const PRESETS: &[&str] = &[
+    "tx60",
+    "ur5e",
+    "ur10e",
+    "irb2400",
+    "kr6r700sixx",
+    "iiwa14",
+    "panda",
+];
+
+/// Joints of the UR arms.
+const UR_JOINTS: usize = 6;
 
 /// A UR-style standard DH table `(d, a, α)` in metres and radians, θ = 0, limits ±360°.
-fn ur_dh(name: &str, d: [f64; JOINTS], a: [f64; JOINTS], alpha: [f64; JOINTS]) -> RobotModel {
+fn ur_dh(
+    name: &str,
+    d: [f64; UR_JOINTS],
+    a: [f64; UR_JOINTS],
+    alpha: [f64; UR_JOINTS],
+) -> RobotModel {
     let table = DhTable {
         name: name.into(),
         convention: Convention::Standard,
-        rows: (0..JOINTS)
+        rows: (0..UR_JOINTS)
             .map(|j| DhRow {
                 params: [0.0, d[j] * 1000.0, a[j] * 1000.0, alpha[j]],
                 limits_deg: (-360.0, 360.0),
@@ -44,7 +60,7 @@ fn converted(chain: &SourceChain) -> RobotModel {
 }
 
 /// Standard DH of the UR arms' α column (rad): UR's published tables.
-const UR_ALPHA: [f64; JOINTS] = [FRAC_PI_2, 0.0, 0.0, FRAC_PI_2, -FRAC_PI_2, 0.0];
+const UR_ALPHA: [f64; UR_JOINTS] = [FRAC_PI_2, 0.0, 0.0, FRAC_PI_2, -FRAC_PI_2, 0.0];
 
 /// Universal Robots UR5e from UR's published standard DH parameters (Universal Robots, "DH
 /// parameters for calculations of kinematics and dynamics"; m, rad):
@@ -103,7 +119,7 @@ const fn urdf_joint(
 /// URDF (`urdf/irb2400_macro.xacro`). `tool0` sits on `link_6` with no offset: at q = 0 it is
 /// at (940, 0, 1455) mm. (±3.1416 is the file's figure, not π.)
 #[allow(clippy::approx_constant)]
-pub const IRB2400_URDF: [UrdfJointFigures; JOINTS] = [
+pub const IRB2400_URDF: [UrdfJointFigures; 6] = [
     urdf_joint(
         "joint_1",
         [0.0, 0.0, 0.0],
@@ -147,7 +163,7 @@ pub const IRB2400_URDF: [UrdfJointFigures; JOINTS] = [
 /// revolute `rpy` 0; `joint_a6 → flange` fixed identity, `flange → tool0` fixed rpy (0, 90°, 0),
 /// so `tool0` sits at the flange centre: (785, 0, 435) mm at q = 0). Joint A1 turns about −z:
 /// the model holds that with its base transform Rx(180°) ([`crate::kinematics::BaseTransform`]).
-pub const KR6R700SIXX_URDF: [UrdfJointFigures; JOINTS] = [
+pub const KR6R700SIXX_URDF: [UrdfJointFigures; 6] = [
     urdf_joint(
         "joint_a1",
         [0.0, 0.0, 0.4],
@@ -199,8 +215,9 @@ pub fn irb2400() -> RobotModel {
     urdf_preset("ABB IRB 2400", &IRB2400_URDF)
 }
 
-/// A preset from URDF joint figures (origins with rpy 0), tip at the last joint's frame.
-fn urdf_preset(name: &str, figures: &[UrdfJointFigures; JOINTS]) -> RobotModel {
+/// A preset from URDF joint figures (origins with rpy 0, one per joint of the model), tip at the
+/// last joint's frame.
+fn urdf_preset(name: &str, figures: &[UrdfJointFigures]) -> RobotModel {
     let joints = figures
         .iter()
         .map(|j| SourceJoint {
@@ -222,6 +239,94 @@ fn urdf_preset(name: &str, figures: &[UrdfJointFigures; JOINTS]) -> RobotModel {
     })
 }
 
+/// A seven-joint DH table `[θ, d, a, α]` (mm, degrees) with limits (degrees) and a tool point in
+/// the last frame (mm).
+fn dh7(
+    name: &str,
+    convention: Convention,
+    rows: [[f64; 4]; 7],
+    limits_deg: [(f64, f64); 7],
+    tool: [f64; 3],
+) -> RobotModel {
+    let table = DhTable {
+        name: name.into(),
+        convention,
+        rows: rows
+            .iter()
+            .zip(limits_deg)
+            .map(|(r, l)| DhRow {
+                params: [r[0].to_radians(), r[1], r[2], r[3].to_radians()],
+                limits_deg: l,
+            })
+            .collect(),
+        tool,
+    };
+    converted(&table.to_chain())
+}
+
+/// KUKA LBR iiwa 14 R820, a seven-axis arm with all seven joints free, from its standard DH
+/// table (KUKA's figures: base to shoulder 360 mm, shoulder to elbow 420 mm, elbow to wrist
+/// 400 mm, wrist to flange 126 mm; α = −90°, 90°, 90°, −90°, −90°, 90°, 0°; θ offsets 0),
+/// limits ±170°, ±120°, ±170°, ±120°, ±170°, ±120°, ±175°. Tool point: the flange centre, at
+/// (0, 0, 1306) mm at q = 0.
+pub fn iiwa14() -> RobotModel {
+    dh7(
+        "KUKA LBR iiwa 14 R820",
+        Convention::Standard,
+        [
+            [0.0, 360.0, 0.0, -90.0],
+            [0.0, 0.0, 0.0, 90.0],
+            [0.0, 420.0, 0.0, 90.0],
+            [0.0, 0.0, 0.0, -90.0],
+            [0.0, 400.0, 0.0, -90.0],
+            [0.0, 0.0, 0.0, 90.0],
+            [0.0, 126.0, 0.0, 0.0],
+        ],
+        [
+            (-170.0, 170.0),
+            (-120.0, 120.0),
+            (-170.0, 170.0),
+            (-120.0, 120.0),
+            (-170.0, 170.0),
+            (-120.0, 120.0),
+            (-175.0, 175.0),
+        ],
+        [0.0; 3],
+    )
+}
+
+/// Franka Emika Panda, seven joints, from Franka's published modified (Craig) DH table
+/// `[θ_i, d_i, a_{i−1}, α_{i−1}]`: d = (333, 0, 316, 0, 384, 0, 0) mm, a = (0, 0, 0, 82.5,
+/// −82.5, 0, 88) mm, α = (0, −90°, 90°, 90°, −90°, 90°, 90°), the flange 107 mm along joint 7's
+/// axis; limits (Franka's radians in degrees) ±166.0°, ±101.0°, ±166.0°, −176.0…−4.0°,
+/// ±166.0°, −1.0…215.0°, ±166.0°. Tool point: the flange centre.
+pub fn panda() -> RobotModel {
+    let r = |v: f64| v.to_degrees();
+    dh7(
+        "Franka Emika Panda",
+        Convention::Modified,
+        [
+            [0.0, 333.0, 0.0, 0.0],
+            [0.0, 0.0, 0.0, -90.0],
+            [0.0, 316.0, 0.0, 90.0],
+            [0.0, 0.0, 82.5, 90.0],
+            [0.0, 384.0, -82.5, -90.0],
+            [0.0, 0.0, 0.0, 90.0],
+            [0.0, 0.0, 88.0, 90.0],
+        ],
+        [
+            (r(-2.8973), r(2.8973)),
+            (r(-1.7628), r(1.7628)),
+            (r(-2.8973), r(2.8973)),
+            (r(-3.0718), r(-0.0698)),
+            (r(-2.8973), r(2.8973)),
+            (r(-0.0175), r(3.7525)),
+            (r(-2.8973), r(2.8973)),
+        ],
+        [0.0, 0.0, 107.0],
+    )
+}
+
 /// A preset by name.
 ///
 /// # Errors
@@ -234,6 +339,8 @@ pub fn preset(name: &str) -> Result<RobotModel, ModelError> {
         "ur10e" => Ok(ur10e()),
         "irb2400" => Ok(irb2400()),
         "kr6r700sixx" => Ok(kr6r700sixx()),
+        "iiwa14" => Ok(iiwa14()),
+        "panda" => Ok(panda()),
         _ => Err(ModelError::UnknownPreset {
             name: name.to_string(),
             known: PRESETS,
@@ -260,6 +367,23 @@ pub fn preset_named(model_name: &str) -> Option<&'static str> {
 mod tests {
     use super::*;
 
+    /// The seven-axis presets have seven joints and their published zero poses: the iiwa
+    /// upright, 360 + 420 + 400 + 126 mm; the Panda's flange 88 mm forward and
+    /// 333 + 316 + 384 − 107 mm up.
+    #[test]
+    fn seven_axis_presets_have_their_zero_poses() {
+        for (m, want) in [
+            (iiwa14(), [0.0, 0.0, 1306.0]),
+            (panda(), [88.0, 0.0, 926.0]),
+        ] {
+            assert_eq!(m.joints(), 7, "{}", m.name);
+            let p = m.world_position(&m.joints_at(0.0));
+            let d = (0..3).map(|k| (p[k] - want[k]).powi(2)).sum::<f64>().sqrt();
+            assert!(d < 1e-9, "{}: {p:?}", m.name);
+            m.check().unwrap();
+        }
+    }
+
     #[test]
     fn every_name_resolves_and_an_unknown_one_lists_them() {
         for name in PRESETS {
@@ -267,7 +391,7 @@ mod tests {
         }
         assert_eq!(
             preset("tx90").unwrap_err().to_string(),
-            "unknown preset 'tx90' (known: tx60, ur5e, ur10e, irb2400, kr6r700sixx)"
+            "unknown preset 'tx90' (known: tx60, ur5e, ur10e, irb2400, kr6r700sixx, iiwa14, panda)"
         );
     }
 }

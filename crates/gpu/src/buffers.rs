@@ -61,6 +61,8 @@ pub(crate) struct ProblemBuffers {
     pub(crate) m: usize,
     /// The draws include the base placement (counter draws only).
     pub(crate) placed: bool,
+    /// The model's input layout (its joint count).
+    pub(crate) layout: gpu_amcs_core::kinematics::Layout,
 }
 
 impl ProblemBuffers {
@@ -92,6 +94,7 @@ impl ProblemBuffers {
             points: gpu.storage_init("points", bytemuck::cast_slice(&pts)),
             m,
             placed: packing.placement,
+            layout: problem.model.layout(),
         }
     }
 }
@@ -195,7 +198,7 @@ impl Slot {
 pub(crate) enum Rows<'a> {
     /// Counter draws from this index on.
     Draws(u64),
-    /// An offset matrix of the given width (`N_UNCERTAIN`, or `N_WITH_BASE` for a problem
+    /// An offset matrix of the given width (`Layout::n_uncertain`, or `n_with_base` for a problem
     /// that draws its placement) per row, from its first row on.
     Offsets(&'a [f64], usize),
     /// The rows of a pick-freeze request from this row on (its masks already uploaded).

@@ -31,13 +31,20 @@ pub fn devices_opened() -> usize {
 pub struct GpuContext {
     pub(super) gpu: Gpu,
     pub(super) layout: BindGroupLayout,
+    /// The pipelines per joint count: the six-joint ones compiled when the device opens, any
+    /// other count when a model with it first asks ([`GpuContext::kernels`]).
+    kernels: Mutex<Vec<(usize, Arc<Kernels>)>>,
+    failed: AtomicBool,
+}
+
+/// The evaluator's three pipelines for one joint count (the shader is specialised by it).
+pub struct Kernels {
     /// Entry point [`ENTRY_POINT`]: counter draws.
     pub(super) draws: ComputePipeline,
     /// Entry point [`OFFSETS_ENTRY_POINT`]: explicit offset rows.
     pub(super) offsets: ComputePipeline,
     /// Entry point [`PICK_FREEZE_ENTRY_POINT`]: pick-freeze rows.
     pub(super) pick_freeze: ComputePipeline,
-    failed: AtomicBool,
 }
 
 /// The evaluator shader's bind group 0, by name.
@@ -86,30 +93,36 @@ impl GpuContext {
         Ok(ctx)
     }
 
-    /// Opens a device on `entry` and compiles the evaluator's pipelines.
+    /// Opens a device on `entry` and compiles the evaluator's six-joint pipelines.
     fn open(entry: device::AdapterEntry) -> Result<Self, EngineError> {
         let gpu = Gpu::open(entry).map_err(gpu_err)?;
         DEVICES_OPENED.fetch_add(1, Ordering::SeqCst);
         let layout = gpu.layout(&LAYOUT);
-        let mut p = gpu
-            .pipelines(
-                &shader_source(),
-                &[ENTRY_POINT, OFFSETS_ENTRY_POINT, PICK_FREEZE_ENTRY_POINT],
-                &layout,
-            )
-            .map_err(gpu_err)?;
-        let (pick_freeze, offsets, draws) = match (p.pop(), p.pop(), p.pop()) {
-            (Some(f), Some(o), Some(d)) => (f, o, d),
-            _ => return Err(gpu_err("the evaluator shader gave no pipelines")),
-        };
+        let six = Arc::new(compile(&gpu, &layout, 6)?);
         Ok(GpuContext {
             gpu,
             layout,
-            draws,
-            offsets,
-            pick_freeze,
+            kernels: Mutex::new(vec![(6, six)]),
             failed: AtomicBool::new(false),
         })
+    }
+
+    /// The pipelines for models of `joints` joints, compiled on first use.
+    ///
+    /// # Errors
+    ///
+    /// [`EngineError::Gpu`] when the specialised shader does not compile.
+    pub(super) fn kernels(&self, joints: usize) -> Result<Arc<Kernels>, EngineError> {
+        let mut list = self
+            .kernels
+            .lock()
+            .map_err(|_| gpu_err("the GPU pipeline cache was poisoned by a panic"))?;
+        if let Some((_, k)) = list.iter().find(|(n, _)| *n == joints) {
+            return Ok(Arc::clone(k));
+        }
+        let k = Arc::new(compile(&self.gpu, &self.layout, joints)?);
+        list.push((joints, Arc::clone(&k)));
+        Ok(k)
     }
 
     /// Adapter name.
@@ -137,5 +150,24 @@ impl GpuContext {
     /// Marks the device unusable: the next [`GpuContext::shared`] opens a fresh one.
     pub(super) fn mark_failed(&self) {
         self.failed.store(true, Ordering::SeqCst);
+    }
+}
+
+/// Compiles the evaluator shader specialised for `joints` joints into its three pipelines.
+fn compile(gpu: &Gpu, layout: &BindGroupLayout, joints: usize) -> Result<Kernels, EngineError> {
+    let mut p = gpu
+        .pipelines(
+            &shader_source(joints),
+            &[ENTRY_POINT, OFFSETS_ENTRY_POINT, PICK_FREEZE_ENTRY_POINT],
+            layout,
+        )
+        .map_err(gpu_err)?;
+    match (p.pop(), p.pop(), p.pop()) {
+        (Some(pick_freeze), Some(offsets), Some(draws)) => Ok(Kernels {
+            draws,
+            offsets,
+            pick_freeze,
+        }),
+        _ => Err(gpu_err("the evaluator shader gave no pipelines")),
     }
 }

@@ -3,10 +3,10 @@
 //! (see the crate docs, "Batching").
 
 use crate::buffers::{words, ChunkUniform, InFlight, ProblemBuffers, Rows, Slot};
+use crate::context::Kernels;
 use crate::device::{self, Buffer, Gpu};
 use crate::{gpu_err, GpuContext, GpuOptions, GpuTimings, WORKGROUP};
 use gpu_amcs_core::engine::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
-use gpu_amcs_core::kinematics::{N_UNCERTAIN, N_WITH_BASE};
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Instant;
@@ -14,6 +14,8 @@ use std::time::Instant;
 /// The wgpu evaluator (see the module docs).
 pub struct GpuEvaluator {
     ctx: Arc<GpuContext>,
+    /// The pipelines for the problem's joint count.
+    kernels: Arc<Kernels>,
     problem: ProblemBuffers,
     slots: Vec<Slot>,
     /// Masks of the last pick-freeze request (shared by both slots), and its capacity.
@@ -58,7 +60,9 @@ impl GpuEvaluator {
         let gpu = &ctx.gpu;
         let chunk = opts.chunk.max(1).min(ctx.max_chunk()).max(1);
         let by_bytes = ctx.max_binding_words();
-        let chunk_o = chunk.min((by_bytes / N_WITH_BASE).max(1));
+        // Rows of any model fit: the widest row has MAX_WITH_BASE entries.
+        let chunk_o = chunk.min((by_bytes / gpu_amcs_core::kinematics::MAX_WITH_BASE).max(1));
+        let kernels = ctx.kernels(problem.model.joints())?;
         let problem_bufs = ProblemBuffers::new(gpu, problem);
         let timestamps = opts.timestamps && gpu.timestamps;
         let masks = gpu.storage("masks (unused)", 8);
@@ -71,6 +75,7 @@ impl GpuEvaluator {
         let chunk_e = Self::chunk_e_for(&ctx, chunk, problem_bufs.m);
         Ok(GpuEvaluator {
             ctx,
+            kernels,
             problem: problem_bufs,
             slots,
             masks,
@@ -107,7 +112,9 @@ impl GpuEvaluator {
             self.guard(|s| s.discard(f))?;
         }
         let m_old = self.problem.m;
+        let kernels = self.ctx.kernels(problem.model.joints())?;
         self.problem = ProblemBuffers::new(&self.ctx.gpu, problem);
+        self.kernels = kernels;
         if self.problem.m != m_old {
             self.chunk_e = Self::chunk_e_for(&self.ctx, self.chunk, self.problem.m);
             if self.e_ready {
@@ -259,14 +266,14 @@ impl GpuEvaluator {
         let pipeline = match rows {
             Rows::Draws(k0) => {
                 cu.first = words(k0);
-                &self.ctx.draws
+                &self.kernels.draws
             }
             Rows::Offsets(o, width) => {
                 self.staging_f32.clear();
                 self.staging_f32
                     .extend(o[..count * width].iter().map(|&v| v as f32));
                 gpu.write(&slot.offsets, bytemuck::cast_slice(&self.staging_f32));
-                &self.ctx.offsets
+                &self.kernels.offsets
             }
             Rows::PickFreeze(pf, row) => {
                 // `run` checked that rows and the matrix length fit in u32.
@@ -274,7 +281,7 @@ impl GpuEvaluator {
                 cu.b_first = words(pf.b_first);
                 cu.per_matrix = pf.count as u32;
                 cu.row0 = row as u32;
-                &self.ctx.pick_freeze
+                &self.kernels.pick_freeze
             }
         };
         gpu.write(&slot.chunk, bytemuck::bytes_of(&cu));
@@ -456,11 +463,15 @@ impl Evaluator for GpuEvaluator {
         self.request(Rows::Draws(first), w, per_point)
     }
 
+    fn layout(&self) -> gpu_amcs_core::kinematics::Layout {
+        self.problem.layout
+    }
+
     fn offset_width(&self) -> usize {
         if self.problem.placed {
-            N_WITH_BASE
+            self.problem.layout.n_with_base()
         } else {
-            N_UNCERTAIN
+            self.problem.layout.n_uncertain()
         }
     }
 

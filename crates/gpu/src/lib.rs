@@ -34,7 +34,7 @@
 //! and the Monte Carlo drivers ask for consecutive batches, so the next batch is already
 //! computing while the caller sorts this one ([`GpuOptions::prefetch`]). Memory is per chunk,
 //! never per request: an MCS of 10^8 draws needs the caller's output slice and two chunks of GPU
-//! buffers; an offset request of n rows uploads `N_UNCERTAIN` f32 per row (`N_WITH_BASE` when the
+//! buffers; an offset request of n rows uploads `Layout::n_uncertain` f32 per row (`n_with_base` when the
 //! problem draws its placement), one chunk at a time.
 #![warn(clippy::missing_errors_doc)]
 
@@ -90,16 +90,17 @@ pub mod binding {
     pub const W: u32 = 6;
     /// Output: e_j per parameter vector and point (`e_out`).
     pub const E: u32 = 7;
-    /// Input of the offset path: `N_UNCERTAIN` offsets per row (`N_WITH_BASE` with the
-    /// placement; `offsets_in`).
+    /// Input of the offset path: `Layout::n_uncertain` offsets per row (`Layout::n_with_base`
+    /// with the placement; `offsets_in`).
     pub const OFFSETS: u32 = 8;
     /// Input of the pick-freeze path: one mask of normals per matrix, (lo, hi) words (`masks`).
     pub const MASKS: u32 = 9;
 }
 
-/// The evaluator shader: [`PHILOX_WGSL`] followed by [`MDH_WGSL`].
-pub fn shader_source() -> String {
-    format!("{PHILOX_WGSL}\n{MDH_WGSL}")
+/// The evaluator shader for an `joints`-joint model: [`PHILOX_WGSL`], the joint count as the
+/// constant `N_JOINTS`, then [`MDH_WGSL`].
+pub fn shader_source(joints: usize) -> String {
+    format!("{PHILOX_WGSL}\nconst N_JOINTS: u32 = {joints}u;\n{MDH_WGSL}")
 }
 
 /// The Philox test shader: [`PHILOX_WGSL`] followed by [`PHILOX_KAT_WGSL`].

@@ -97,7 +97,7 @@ mod tests {
             },
             ProblemSpec {
                 model: ModelSource::Model(Box::new(tx60())),
-                points: PointsSource::Given(vec![[0.0; 6]]),
+                points: PointsSource::Given(vec![[0.0; 6].into()]),
                 reference: ReferenceSource::Nominal(Some(ModelSource::File("n.toml".into()))),
                 ..base
             },
@@ -167,7 +167,7 @@ mod tests {
         let e = spec_error(e);
         assert_eq!(
             format!("{e:#}"),
-            "--preset: unknown preset 'tx90' (known: tx60, ur5e, ur10e, irb2400, kr6r700sixx)"
+            "--preset: unknown preset 'tx90' (known: tx60, ur5e, ur10e, irb2400, kr6r700sixx, iiwa14, panda)"
         );
     }
 }

@@ -1,7 +1,8 @@
 //! Seven-axis arms imported with one joint held at a fixed angle: the KUKA LBR iiwa 14 R820 and
 //! the Franka Emika Panda from their published DH tables, and a seven-joint URDF, each proved
 //! against the seven-joint forward kinematics (written out here, no crate code) with the held
-//! joint at its angle; and the refusals.
+//! joint at its angle; the iiwa without a hold as a seven-axis model; and the refusals (eight
+//! joints, too many held, bad holds).
 
 use super::{dh_standard, dist, eye, import, mul, pos, rot, trans, write, M4};
 use crate::common::{run, stderr, tmpdir};
@@ -12,7 +13,7 @@ use std::f64::consts::FRAC_PI_2;
 /// The LBR iiwa 14 R820, standard DH `[θ, d, a, α]` in mm and rad (KUKA's figures: base to
 /// shoulder 360 mm, shoulder to elbow 420 mm, elbow to wrist 400 mm, wrist to flange 126 mm),
 /// limits ±170°, ±120°, ±170°, ±120°, ±170°, ±120°, ±175°.
-const IIWA: [[f64; 4]; 7] = [
+pub(super) const IIWA: [[f64; 4]; 7] = [
     [0.0, 360.0, 0.0, -FRAC_PI_2],
     [0.0, 0.0, 0.0, FRAC_PI_2],
     [0.0, 420.0, 0.0, FRAC_PI_2],
@@ -26,7 +27,7 @@ const IIWA_LIMITS: [f64; 7] = [170.0, 120.0, 170.0, 120.0, 170.0, 120.0, 175.0];
 /// The Panda, Craig's modified DH `[θ_i, d_i, a_{i−1}, α_{i−1}]` in mm and rad, as Franka
 /// publishes it, the flange 107 mm along joint 7's axis; limits in degrees (Franka's radians:
 /// ±2.8973, ±1.7628, ±2.8973, −3.0718…−0.0698, ±2.8973, −0.0175…3.7525, ±2.8973).
-const PANDA: [[f64; 4]; 7] = [
+pub(super) const PANDA: [[f64; 4]; 7] = [
     [0.0, 333.0, 0.0, 0.0],
     [0.0, 0.0, 0.0, -FRAC_PI_2],
     [0.0, 316.0, 0.0, FRAC_PI_2],
@@ -46,7 +47,7 @@ const PANDA_LIMITS: [(f64, f64); 7] = [
 ];
 
 /// Modified DH with a tip point `tool` in the last frame.
-fn dh_modified7(rows: &[[f64; 4]], q: &[f64], tool: [f64; 3]) -> [f64; 3] {
+pub(super) fn dh_modified7(rows: &[[f64; 4]], q: &[f64], tool: [f64; 3]) -> [f64; 3] {
     let mut t: M4 = eye();
     for (r, qi) in rows.iter().zip(q) {
         t = mul(&t, &rot([1.0, 0.0, 0.0], r[3]));
@@ -58,7 +59,8 @@ fn dh_modified7(rows: &[[f64; 4]], q: &[f64], tool: [f64; 3]) -> [f64; 3] {
 }
 
 /// The six model joints' angles put back into seven, the held joint `k` (0-based) at `held`.
-fn seven(q: &[f64; 6], k: usize, held: f64) -> [f64; 7] {
+fn seven(q: &[f64], k: usize, held: f64) -> [f64; 7] {
+    assert_eq!(q.len(), 6);
     let mut out = [0.0; 7];
     let mut it = q.iter();
     for (j, v) in out.iter_mut().enumerate() {
@@ -69,7 +71,7 @@ fn seven(q: &[f64; 6], k: usize, held: f64) -> [f64; 7] {
 
 /// Largest distance between the model and `reference` at 1000 configurations within the
 /// model's limits and at the middle of its limits.
-fn deviation(model: &RobotModel, reference: impl Fn(&[f64; 6]) -> [f64; 3]) -> f64 {
+fn deviation(model: &RobotModel, reference: impl Fn(&[f64]) -> [f64; 3]) -> f64 {
     super::max_dev(model, reference)
 }
 
@@ -86,7 +88,7 @@ fn opts(holds: &[(&str, f64)]) -> ImportOptions {
     }
 }
 
-fn iiwa_csv() -> String {
+pub(super) fn iiwa_csv() -> String {
     let mut s = String::from(
         "convention,standard\nunits,mm-deg\nname,LBR iiwa 14 R820\ntheta,d,a,alpha,lower,upper\n",
     );
@@ -108,10 +110,21 @@ fn iiwa_csv() -> String {
 fn lbr_iiwa_with_joint_3_held_imports_as_a_six_axis_model() {
     let dir = tmpdir("iiwa");
     let path = write(&dir, "iiwa14.csv", &iiwa_csv());
-    // Seven joints without a hold: refused, saying what to do.
-    let e = import(&path).unwrap_err().to_string();
+    // Seven joints without a hold: a seven-axis model, proved against the seven-joint DH FK.
+    let imp = import(&path).unwrap();
+    assert_eq!(imp.model.joints(), 7);
+    assert!(imp.max_deviation_mm < 1e-9, "{}", imp.max_deviation_mm);
+    let dev = deviation(&imp.model, |q| dh_standard(&IIWA, q));
+    assert!(dev < 1e-9, "seven axes: {dev}");
+    // Eight joints: refused, naming the count and saying what to do.
+    let eight = write(
+        &dir,
+        "iiwa8.csv",
+        &format!("{}0,0,60,90,-170,170\n", iiwa_csv()),
+    );
+    let e = import(&eight).unwrap_err().to_string();
     assert!(
-        e.contains("7 revolute joints") && e.contains("hold 1 of them"),
+        e.contains("8 revolute joints") && e.contains("hold 1 of them"),
         "{e}"
     );
     for held in [0.0, 30.0, -95.0] {
@@ -142,9 +155,8 @@ fn lbr_iiwa_with_joint_3_held_imports_as_a_six_axis_model() {
     let _ = std::fs::remove_dir_all(&dir);
 }
 
-#[test]
-fn panda_with_joint_7_held_imports_as_a_six_axis_model() {
-    let dir = tmpdir("panda");
+/// The Panda's modified DH table as a DH TOML file, with its 107 mm flange as the tool.
+pub(super) fn panda_toml() -> String {
     let mut s = String::from(
         "convention = \"modified\"\nunits = \"mm-deg\"\nname = \"Panda\"\ntool = [0.0, 0.0, 107.0]\n",
     );
@@ -159,7 +171,13 @@ fn panda_with_joint_7_held_imports_as_a_six_axis_model() {
             l.1.to_degrees()
         ));
     }
-    let path = write(&dir, "panda.toml", &s);
+    s
+}
+
+#[test]
+fn panda_with_joint_7_held_imports_as_a_six_axis_model() {
+    let dir = tmpdir("panda");
+    let path = write(&dir, "panda.toml", &panda_toml());
     for held in [0.0, 45.0] {
         let imp = import_file(&path, &opts(&[("7", held)])).unwrap();
         assert!(imp.max_deviation_mm < 1e-9, "{}", imp.max_deviation_mm);
@@ -237,7 +255,7 @@ fn seven_joint_urdf_with_a_held_joint_on_the_command_line() {
             (v(origins[k]).map(|x| 1000.0 * x), v(rpys[k]), v(axes[k]))
         })
         .collect();
-    let fk7 = |q: &[f64; 7]| -> [f64; 3] {
+    let fk7 = |q: &[f64]| -> [f64; 3] {
         let mut t = eye();
         for ((xyz, r, axis), qi) in joints.iter().zip(q) {
             t = mul(&t, &trans(xyz[0], xyz[1], xyz[2]));
@@ -256,6 +274,43 @@ fn seven_joint_urdf_with_a_held_joint_on_the_command_line() {
     let model = RobotModel::from_file(&out).unwrap();
     let dev = deviation(&model, |q| fk7(&seven(q, 2, 20f64.to_radians())));
     assert!(dev < 1e-9, "{dev}");
+    // Without a hold: a seven-axis model, the URDF's FK at all seven joints.
+    let out7 = dir.join("iiwa7.toml");
+    let r = run(&["import", u, "-o", out7.to_str().unwrap()]);
+    assert!(r.status.success(), "{}", stderr(&r));
+    let model7 = RobotModel::from_file(&out7).unwrap();
+    assert_eq!(model7.joints(), 7);
+    let dev = deviation(&model7, |q| fk7(q));
+    assert!(dev < 1e-9, "seven axes: {dev}");
+    // An eighth revolute joint past the flange: refused in one line naming the count and the
+    // flag that holds a joint, no file written.
+    let eight = write(
+        &dir,
+        "iiwa8.urdf",
+        &s.replace(
+            "</robot>\n",
+            "  <link name=\"iiwa_link_8\"/>\n  <joint name=\"iiwa_joint_8\" type=\"revolute\">\n    <parent link=\"iiwa_link_ee\"/>\n    <child link=\"iiwa_link_8\"/>\n    <origin xyz=\"0 0 0.05\" rpy=\"0 0 0\"/>\n    <axis xyz=\"1 0 0\"/>\n    <limit lower=\"-2.0\" upper=\"2.0\" effort=\"1\" velocity=\"1\"/>\n  </joint>\n</robot>\n",
+        ),
+    );
+    let out8 = dir.join("iiwa8.toml");
+    let r = run(&[
+        "import",
+        eight.to_str().unwrap(),
+        "-o",
+        out8.to_str().unwrap(),
+    ]);
+    assert_eq!(r.status.code(), Some(2), "{}", stderr(&r));
+    let e = stderr(&r);
+    assert_eq!(e.trim().lines().count(), 1, "{e}");
+    for w in [
+        "8 revolute joints",
+        "iiwa_joint_8",
+        "hold 1 of them",
+        "--hold-joint",
+    ] {
+        assert!(e.contains(w), "expected '{w}' in {e}");
+    }
+    assert!(!out8.exists(), "an eight-joint chain wrote a file");
     // The six-axis model runs the engine (σ = 0 until calibrated: w = 0, and a note says so).
     let r = run(&[
         "mcs",
@@ -279,10 +334,6 @@ fn seven_joint_urdf_with_a_held_joint_on_the_command_line() {
     let b = bad.to_str().unwrap();
     for (args, want) in [
         (
-            vec![],
-            vec!["7 revolute joints", "iiwa_joint_7", "--hold-joint"],
-        ),
-        (
             vec!["--hold-joint", "iiwa_joint_9=0"],
             vec!["'iiwa_joint_9'", "iiwa_joint_1"],
         ),
@@ -295,8 +346,17 @@ fn seven_joint_urdf_with_a_held_joint_on_the_command_line() {
             vec!["held twice"],
         ),
         (
-            vec!["--hold-joint", "3=0", "--hold-joint", "5=0"],
-            vec!["5 revolute joints", "exactly 6"],
+            vec![
+                "--hold-joint",
+                "2=0",
+                "--hold-joint",
+                "3=0",
+                "--hold-joint",
+                "4=0",
+                "--hold-joint",
+                "5=0",
+            ],
+            vec!["3 revolute joints", "4 to 7"],
         ),
         (
             vec!["--hold-joint", "3=abc"],

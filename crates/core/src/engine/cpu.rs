@@ -19,7 +19,7 @@
 //! `δ_tool = 0` and `p_tool + 0 = p_tool` exactly, so the results keep their bits.
 
 use super::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
-use crate::kinematics::{param_index, ParamKind, JOINTS, N_PARAMS, N_UNCERTAIN};
+use crate::kinematics::{param_index, Capped, ParamKind, MAX_JOINTS, MAX_UNCERTAIN};
 use rayon::prelude::*;
 
 /// Draws per vector block.
@@ -30,21 +30,27 @@ const CHUNK: usize = 256;
 /// Per-point constants: cos/sin of the commanded joint angles and the reference position.
 #[derive(Clone, Copy, Debug)]
 struct PointPre {
-    cq: [f64; JOINTS],
-    sq: [f64; JOINTS],
+    /// cos/sin of each joint's angle (the slots beyond the model's joints are unused; plain
+    /// arrays, so the kernels' joint loops index them without bounds checks).
+    cq: [f64; MAX_JOINTS],
+    sq: [f64; MAX_JOINTS],
     r: [f64; 3],
 }
 
-/// Per-draw joint constants for a block of lanes: `[cθ, sθ, cα, sα, cβ, sβ, a, d][lane]`.
-type JointLanes = [[[f64; LANES]; 8]; JOINTS];
+/// Per-draw joint constants for a block of lanes: `[cθ, sθ, cα, sα, cβ, sβ, a, d][lane]`, for
+/// the model's joints (the slots beyond them are unused).
+type JointLanes = [[[f64; LANES]; 8]; MAX_JOINTS];
+
+/// Offsets of a block of lanes: `d[input][lane]`, the model's inputs first (zero beyond).
+type OffsetLanes = [[f64; LANES]; MAX_UNCERTAIN];
 
 /// Where the parameter offsets δ of a range of evaluations come from.
 #[derive(Clone, Copy)]
 enum Source<'a> {
     /// Counter draws from this index on.
     Draws(u64),
-    /// Rows of an `n × N_UNCERTAIN` offset matrix, from the first row on.
-    Offsets(&'a [f64]),
+    /// Rows of an offset matrix of this many entries per row, from the first row on.
+    Offsets(&'a [f64], usize),
     /// Rows of a pick-freeze request from this row on.
     PickFreeze(PickFreeze<'a>, usize),
 }
@@ -55,7 +61,9 @@ impl<'a> Source<'a> {
     fn skip(self, n: usize) -> Source<'a> {
         match self {
             Source::Draws(k) => Source::Draws(k + n as u64),
-            Source::Offsets(rows) => Source::Offsets(&rows[(n * N_UNCERTAIN).min(rows.len())..]),
+            Source::Offsets(rows, width) => {
+                Source::Offsets(&rows[(n * width).min(rows.len())..], width)
+            }
             Source::PickFreeze(pf, row) => Source::PickFreeze(pf, row + n),
         }
     }
@@ -63,13 +71,13 @@ impl<'a> Source<'a> {
     /// Offsets of the first [`LANES`] evaluations, lane-wise (lanes past the end of an offset
     /// matrix are zero; past the end of a request they are computed and then discarded).
     #[inline(always)]
-    fn lanes(self, sampler: &crate::sampling::ParamSampler, d: &mut [[f64; LANES]; N_UNCERTAIN]) {
+    fn lanes(self, sampler: &crate::sampling::ParamSampler, d: &mut OffsetLanes) {
         match self {
             Source::Draws(k) => sampler.deltas_lanes::<LANES>(k, d),
-            Source::Offsets(rows) => {
-                *d = [[0.0; LANES]; N_UNCERTAIN];
-                for (l, row) in rows.chunks_exact(N_UNCERTAIN).take(LANES).enumerate() {
-                    for i in 0..N_UNCERTAIN {
+            Source::Offsets(rows, width) => {
+                *d = [[0.0; LANES]; MAX_UNCERTAIN];
+                for (l, row) in rows.chunks_exact(width).take(LANES).enumerate() {
+                    for i in 0..width {
                         d[i][l] = row[i];
                     }
                 }
@@ -92,7 +100,9 @@ pub struct CpuEvaluator {
     problem: Problem,
     points: Vec<PointPre>,
     /// sin/cos of the mean θ, α, β per joint.
-    mean_trig: [[(f64, f64); 3]; JOINTS],
+    mean_trig: Capped<[(f64, f64); 3], MAX_JOINTS>,
+    /// Number of joints of the model.
+    joints: usize,
     avx2: bool,
     /// The base placement's draws, for a model whose placement is uncertain.
     placement: Option<PlacementLanes>,
@@ -101,11 +111,11 @@ pub struct CpuEvaluator {
     exact: Option<Box<super::PlacementEvaluator>>,
 }
 
-/// The placement's offsets of a draw from its other 33 (docs/METHOD.md §2.8). With the joint
-/// Cholesky factor `L = [[L_aa, 0], [L_ba, L_bb]]` (the 33 inputs first, as the sampler's factor
-/// is the leading block), `δ_b = L_ba z_a + L_bb z_b = M δ_a + L_bb z_b` with `M = L_ba L_aa⁻¹`:
-/// the sampler's own δ_a plus the placement's normals 33–38, so the draws equal
-/// [`super::PlacementEvaluator`]'s.
+/// The placement's offsets of a draw from its other inputs (33 for six joints; docs/METHOD.md
+/// §2.8). With the joint Cholesky factor `L = [[L_aa, 0], [L_ba, L_bb]]` (the other inputs
+/// first, as the sampler's factor is the leading block), `δ_b = L_ba z_a + L_bb z_b = M δ_a +
+/// L_bb z_b` with `M = L_ba L_aa⁻¹`: the sampler's own δ_a plus the placement's normals (33–38
+/// for six joints), so the draws equal [`super::PlacementEvaluator`]'s.
 #[derive(Clone, Debug)]
 struct PlacementLanes {
     /// `M` as (base input k, input i, coefficient), nonzero entries only.
@@ -119,13 +129,16 @@ struct PlacementLanes {
     /// `R̂ᵀ`, row-major.
     r_mean_t: [[f64; 3]; 3],
     gen: crate::sampling::Philox,
+    /// Number of inputs before the placement's.
+    n_inputs: usize,
 }
 
 impl PlacementLanes {
     fn new(problem: &Problem) -> Option<PlacementLanes> {
         let sp = super::PlacementSpread::of(problem).ok()??;
         let p = sp.free.len();
-        let na = sp.free.iter().filter(|&&i| i < N_UNCERTAIN).count();
+        let nu = sp.layout.n_uncertain();
+        let na = sp.free.iter().filter(|&&i| i < nu).count();
         let l = nalgebra::DMatrix::from_fn(p, p, |a, b| sp.chol[a * p + b]);
         let laa = l.view((0, 0), (na, na)).into_owned();
         let lba = l.view((na, 0), (p - na, na)).into_owned();
@@ -140,11 +153,11 @@ impl PlacementLanes {
             for (ka, &ia) in sp.free[..na].iter().enumerate() {
                 let v = mt[(ka, kb)];
                 if v != 0.0 {
-                    m.push((ib - N_UNCERTAIN, ia, v));
+                    m.push((ib - nu, ia, v));
                 }
             }
             for (kb2, &ib2) in sp.free[na..].iter().enumerate().take(kb + 1) {
-                lbb.push((ib - N_UNCERTAIN, ib2 - N_UNCERTAIN, l[(na + kb, na + kb2)]));
+                lbb.push((ib - nu, ib2 - nu, l[(na + kb, na + kb2)]));
             }
         }
         let mut blocks: Vec<u32> = sp.free[na..].iter().map(|&i| (i / 4) as u32).collect();
@@ -158,16 +171,17 @@ impl PlacementLanes {
             base: sp.base,
             r_mean_t: std::array::from_fn(|r| std::array::from_fn(|c| rt[(r, c)])),
             gen: crate::sampling::Philox::new(problem.seed),
+            n_inputs: nu,
         })
     }
 
     /// `ΔB = B̂⁻¹B'` of draws `first … first + LANES − 1` with offsets `d`: per lane the rows
     /// of `[ΔR | Δt]`.
-    fn transforms(&self, first: u64, d: &[[f64; LANES]; N_UNCERTAIN]) -> [[[f64; LANES]; 4]; 3] {
+    fn transforms(&self, first: u64, d: &OffsetLanes) -> [[[f64; LANES]; 4]; 3] {
         let mut out = [[[0.0; LANES]; 4]; 3];
         for l in 0..LANES {
             let k = first + l as u64;
-            let mut z = [0.0; 40];
+            let mut z = [0.0; crate::sampling::MAX_NORMALS];
             for &b in &self.blocks {
                 let v =
                     crate::sampling::normals_block(&self.gen, k, b, crate::sampling::PARAM_STREAM);
@@ -178,7 +192,7 @@ impl PlacementLanes {
                 db[kb] += v * d[i][l];
             }
             for &(kb, kb2, v) in &self.lbb {
-                db[kb] += v * z[N_UNCERTAIN + kb2];
+                db[kb] += v * z[self.n_inputs + kb2];
             }
             let r = nalgebra::Rotation3::from_euler_angles(
                 self.base[3] + db[3],
@@ -195,6 +209,38 @@ impl PlacementLanes {
         }
         out
     }
+}
+
+/// Runs `$f` with the first `$n` joints' lanes of `$jl` as an array of that length (the kernels
+/// are compiled once per joint count, 4 to 7).
+macro_rules! with_joints {
+    ($n:expr, $jl:expr, |$j:ident| $f:expr) => {
+        match $n {
+            4 => {
+                let $j: &[[[f64; LANES]; 8]; 4] = first_joints($jl);
+                $f
+            }
+            5 => {
+                let $j: &[[[f64; LANES]; 8]; 5] = first_joints($jl);
+                $f
+            }
+            6 => {
+                let $j: &[[[f64; LANES]; 8]; 6] = first_joints($jl);
+                $f
+            }
+            _ => {
+                let $j: &[[[f64; LANES]; 8]; 7] = first_joints($jl);
+                $f
+            }
+        }
+    };
+}
+
+/// The first `N` joints of `jl`.
+#[inline(always)]
+fn first_joints<const N: usize>(jl: &JointLanes) -> &[[[f64; LANES]; 8]; N] {
+    const { assert!(N <= MAX_JOINTS) };
+    jl[..N].try_into().expect("N ≤ MAX_JOINTS")
 }
 
 /// Offsets at or above this (radians) use `sin_cos` instead of the series.
@@ -231,13 +277,14 @@ impl CpuEvaluator {
             .iter()
             .zip(&problem.reference)
             .map(|(q, r)| PointPre {
-                cq: q.map(f64::cos),
-                sq: q.map(f64::sin),
+                cq: std::array::from_fn(|j| q.get(j).map_or(1.0, |v| v.cos())),
+                sq: std::array::from_fn(|j| q.get(j).map_or(0.0, |v| v.sin())),
                 r: *r,
             })
             .collect();
         let p = &problem.sampler.mean;
-        let mean_trig = std::array::from_fn(|j| {
+        let joints = problem.model.joints();
+        let mean_trig = Capped::from_fn(joints, |j| {
             [
                 p[param_index(j, ParamKind::Theta)].sin_cos(),
                 p[param_index(j, ParamKind::Alpha)].sin_cos(),
@@ -257,6 +304,7 @@ impl CpuEvaluator {
             problem,
             points,
             mean_trig,
+            joints,
             avx2,
             placement,
             exact,
@@ -270,9 +318,9 @@ impl CpuEvaluator {
 
     /// Joint constants of the [`LANES`] parameter vectors `mean + d[..][l]`.
     #[inline(always)]
-    fn fill_lanes(&self, d: &[[f64; LANES]; N_UNCERTAIN], jl: &mut JointLanes) {
+    fn fill_lanes(&self, d: &OffsetLanes, jl: &mut JointLanes) {
         let mean = &self.problem.sampler.mean;
-        for (j, lanes) in jl.iter_mut().enumerate() {
+        for (j, lanes) in jl.iter_mut().enumerate().take(self.joints) {
             let t = &self.mean_trig[j];
             for (slot, (idx, base)) in [
                 (0, (param_index(j, ParamKind::Theta), t[0])),
@@ -322,15 +370,16 @@ impl CpuEvaluator {
     #[inline(always)]
     fn eval_chunk_impl(&self, src: Source, w: &mut [f64], mut e: Option<&mut [f64]>) {
         let m = self.points.len();
-        let mut jl: JointLanes = [[[0.0; LANES]; 8]; JOINTS];
-        let mut d = [[0.0; LANES]; N_UNCERTAIN];
+        let mut jl: JointLanes = [[[0.0; LANES]; 8]; MAX_JOINTS];
+        let mut d: OffsetLanes = [[0.0; LANES]; MAX_UNCERTAIN];
+        let np = self.problem.sampler.n_params();
         let mut e_lanes = vec![0.0; if e.is_some() { LANES * m } else { 0 }];
         for (b, wb) in w.chunks_mut(LANES).enumerate() {
             src.skip(b * LANES).lanes(&self.problem.sampler, &mut d);
             self.fill_lanes(&d, &mut jl);
             let tool = &self.problem.model.tool;
             let tl: [[f64; LANES]; 3] =
-                std::array::from_fn(|k| std::array::from_fn(|l| tool[k] + d[N_PARAMS + k][l]));
+                std::array::from_fn(|k| std::array::from_fn(|l| tool[k] + d[np + k][l]));
             let mut w2 = [0.0f64; LANES];
             let el = if e.is_some() {
                 Some(e_lanes.as_mut_slice())
@@ -343,7 +392,14 @@ impl CpuEvaluator {
             };
             match &place {
                 None => self.run_block(&jl, &tl, &mut w2, el),
-                Some(t) => block_kernel_placed(&jl, &tl, &self.points, t, &mut w2, el),
+                Some(t) => with_joints!(self.joints, &jl, |j| block_kernel_placed(
+                    j,
+                    &tl,
+                    &self.points,
+                    t,
+                    &mut w2,
+                    el
+                )),
             }
             for (l, v) in wb.iter_mut().enumerate() {
                 *v = w2[l].sqrt();
@@ -363,15 +419,21 @@ impl CpuEvaluator {
         w2: &mut [f64; LANES],
         e: Option<&mut [f64]>,
     ) {
-        block_kernel(jl, tool, &self.points, w2, e);
+        with_joints!(self.joints, jl, |j| block_kernel(
+            j,
+            tool,
+            &self.points,
+            w2,
+            e
+        ));
     }
 }
 
 /// [`block_kernel`] with each lane's end position moved by its placement offset `ΔB` (rows of
 /// `[ΔR | Δt]` per lane) before it is compared with the reference.
 #[inline(always)]
-fn block_kernel_placed(
-    jl: &JointLanes,
+fn block_kernel_placed<const N: usize>(
+    jl: &[[[f64; LANES]; 8]; N],
     tool: &[[f64; LANES]; 3],
     pts: &[PointPre],
     t: &[[[f64; LANES]; 4]; 3],
@@ -398,17 +460,18 @@ fn block_kernel_placed(
     }
 }
 
-/// The end positions of `LANES` draws at point `p` (the chain from the tool to the base).
+/// The end positions of `LANES` draws at point `p` (the chain from the tool to the base; one
+/// entry of `jl` per joint, `N` of them, so that the joint loop's bound is known when compiled).
 #[inline(always)]
-fn chain_lanes(
-    jl: &JointLanes,
+fn chain_lanes<const N: usize>(
+    jl: &[[[f64; LANES]; 8]; N],
     tool: &[[f64; LANES]; 3],
     p: &PointPre,
 ) -> ([f64; LANES], [f64; LANES], [f64; LANES]) {
     let mut x = tool[0];
     let mut y = tool[1];
     let mut z = tool[2];
-    for i in (0..JOINTS).rev() {
+    for i in (0..N).rev() {
         let [ct, st, ca, sa, cb, sb, a, d] = &jl[i];
         let (cq, sq) = (p.cq[i], p.sq[i]);
         for l in 0..LANES {
@@ -433,8 +496,8 @@ fn chain_lanes(
 /// Squared maximum point error of `LANES` draws (and per-point errors, lane-major); `tool` is
 /// each lane's tool point in the flange frame.
 #[inline(always)]
-fn block_kernel(
-    jl: &JointLanes,
+fn block_kernel<const N: usize>(
+    jl: &[[[f64; LANES]; 8]; N],
     tool: &[[f64; LANES]; 3],
     pts: &[PointPre],
     w2: &mut [f64; LANES],
@@ -488,10 +551,14 @@ impl Evaluator for CpuEvaluator {
         Ok(())
     }
 
+    fn layout(&self) -> crate::kinematics::Layout {
+        self.problem.model.layout()
+    }
+
     fn offset_width(&self) -> usize {
         match &self.exact {
             Some(ev) => ev.offset_width(),
-            None => N_UNCERTAIN,
+            None => self.problem.model.layout().n_uncertain(),
         }
     }
 
@@ -504,7 +571,8 @@ impl Evaluator for CpuEvaluator {
         match &mut self.exact {
             Some(ev) => ev.eval_offsets(offsets, w, per_point),
             None => {
-                self.run(Source::Offsets(offsets), w, per_point);
+                let width = self.problem.sampler.n_inputs();
+                self.run(Source::Offsets(offsets, width), w, per_point);
                 Ok(())
             }
         }
@@ -541,6 +609,8 @@ impl CpuEvaluator {
 #[cfg(test)]
 mod tests {
     use super::*;
+    const NP: usize = 30;
+    const NU: usize = 33;
     use crate::engine::Reference;
     use crate::kinematics::tx60;
 
@@ -561,7 +631,7 @@ mod tests {
     fn errors_are_invariant_to_the_base_transform() {
         let mut m = crate::presets::kr6r700sixx();
         assert!(m.base.is_some());
-        let mut s = [0.0; N_PARAMS];
+        let mut s = crate::kinematics::Params::filled(NP, 0.0);
         for (i, v) in s.iter_mut().enumerate() {
             if m.fixed[i / 5].kind() != crate::kinematics::param_kind(i) {
                 *v = if crate::kinematics::param_kind(i).is_angle() {
@@ -665,9 +735,9 @@ mod tests {
         let pb = problem();
         let mut ev = CpuEvaluator::new(pb.clone());
         let (first, n, m) = (5_000u64, 2 * CHUNK + 13, 3);
-        let mut rows = vec![0.0; n * N_UNCERTAIN];
-        for (i, row) in rows.chunks_exact_mut(N_UNCERTAIN).enumerate() {
-            let mut d = [0.0; N_UNCERTAIN];
+        let mut rows = vec![0.0; n * NU];
+        for (i, row) in rows.chunks_exact_mut(NU).enumerate() {
+            let mut d = [0.0; NU];
             pb.sampler.deltas(first + i as u64, &mut d);
             row.copy_from_slice(&d);
         }
@@ -698,10 +768,10 @@ mod tests {
             masks: &masks,
         };
         let n = request.rows();
-        let mut rows = vec![0.0; n * N_UNCERTAIN];
-        for (r, row) in rows.chunks_exact_mut(N_UNCERTAIN).enumerate() {
+        let mut rows = vec![0.0; n * NU];
+        for (r, row) in rows.chunks_exact_mut(NU).enumerate() {
             let (a, b, m) = request.row(r);
-            let mut d = [0.0; N_UNCERTAIN];
+            let mut d = [0.0; NU];
             pb.sampler.pick_freeze_deltas(a, b, m, &mut d);
             row.copy_from_slice(&d);
         }
@@ -722,16 +792,16 @@ mod tests {
     fn large_offsets_match_direct_forward_kinematics() {
         let pb = problem();
         let mut ev = CpuEvaluator::new(pb.clone());
-        let mut rows = vec![0.0; 2 * N_UNCERTAIN];
+        let mut rows = vec![0.0; 2 * NU];
         rows[5] = 0.3; // θ2, rad
-        rows[N_UNCERTAIN + 13] = -0.02; // α3, rad
-        rows[N_UNCERTAIN + 7] = 1.5; // a2, mm
-        rows[N_UNCERTAIN + N_PARAMS + 1] = -0.7; // tool y, mm
+        rows[NU + 13] = -0.02; // α3, rad
+        rows[NU + 7] = 1.5; // a2, mm
+        rows[NU + NP + 1] = -0.7; // tool y, mm
         let (mut w, mut e) = (vec![0.0; 2], vec![0.0; 6]);
         ev.evaluate_offsets(&rows, &mut w, Some(&mut e)).unwrap();
-        for (i, row) in rows.chunks_exact(N_UNCERTAIN).enumerate() {
-            let params: [f64; N_PARAMS] = std::array::from_fn(|p| pb.sampler.mean[p] + row[p]);
-            let tool = std::array::from_fn(|k| row[N_PARAMS + k]);
+        for (i, row) in rows.chunks_exact(NU).enumerate() {
+            let params: [f64; NP] = std::array::from_fn(|p| pb.sampler.mean[p] + row[p]);
+            let tool = std::array::from_fn(|k| row[NP + k]);
             let direct = pb.point_errors_at(&params, &tool);
             for j in 0..3 {
                 assert!((direct[j] - e[i * 3 + j]).abs() < 1e-9, "{i} {j}");

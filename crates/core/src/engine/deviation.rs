@@ -51,21 +51,27 @@
 //! relative; the normals to 1.1e-7·(1+|z|). The tests assert 1e-5 mm per sample.
 
 use super::Problem;
-use crate::kinematics::{param_index, ParamKind, JOINTS, N_UNCERTAIN};
+use crate::kinematics::{param_index, ParamKind};
 
-/// Vec4 words per test point in [`point_constants`].
-pub const WORDS_PER_POINT: usize = 13;
+/// Vec4 words per test point in [`point_constants`] for an `n`-joint model: `2n + 1` (13 for
+/// six joints).
+pub const fn words_per_point(joints: usize) -> usize {
+    2 * joints + 1
+}
 
-/// Per-point constants of the mean-parameter chain (f64, then f32), [`WORDS_PER_POINT`] vec4
+/// Per-point constants of the mean-parameter chain (f64, then f32), [`words_per_point`] vec4
 /// per point: for joint `i` (0-based) word `2i` is `(u0_i, cos φ_i)` and word `2i+1` is
-/// `(p0_{i+1}, sin φ_i)`; word 12 is `(o_j, 0)` with `o_j = P(mean, q_j) − P_ref,j`.
+/// `(p0_{i+1}, sin φ_i)`; word `2n` (12 for six joints) is `(o_j, 0)` with
+/// `o_j = P(mean, q_j) − P_ref,j`.
 pub fn point_constants(problem: &Problem) -> Vec<[f32; 4]> {
     let mean = &problem.sampler.mean;
-    let mut out = Vec::with_capacity(problem.points.len() * WORDS_PER_POINT);
+    let n = problem.model.joints();
+    let wpp = words_per_point(n);
+    let mut out = Vec::with_capacity(problem.points.len() * wpp);
     for (q, r) in problem.points.iter().zip(&problem.reference) {
-        let mut words = [[0f32; 4]; WORDS_PER_POINT];
+        let mut words = vec![[0f32; 4]; wpp];
         let mut p = problem.model.tool;
-        for i in (0..JOINTS).rev() {
+        for i in (0..n).rev() {
             let [th, d, a, al, be] = [
                 mean[5 * i],
                 mean[5 * i + 1],
@@ -83,7 +89,7 @@ pub fn point_constants(problem: &Problem) -> Vec<[f32; 4]> {
             words[2 * i + 1] = [p[0] as f32, p[1] as f32, p[2] as f32, sp as f32];
             p = [cp * u0[0] - sp * u0[1], sp * u0[0] + cp * u0[1], u0[2]];
         }
-        words[12] = [
+        words[2 * n] = [
             (p[0] - r[0]) as f32,
             (p[1] - r[1]) as f32,
             (p[2] - r[2]) as f32,
@@ -95,32 +101,35 @@ pub fn point_constants(problem: &Problem) -> Vec<[f32; 4]> {
 }
 
 /// Per joint `(cos α, sin α, cos β, sin β)` of the mean parameters, f32.
-pub fn joint_trig(problem: &Problem) -> [[f32; 4]; JOINTS] {
+pub fn joint_trig(problem: &Problem) -> Vec<[f32; 4]> {
     let mean = &problem.sampler.mean;
-    std::array::from_fn(|j| {
-        let (sa, ca) = mean[param_index(j, ParamKind::Alpha)].sin_cos();
-        let (sb, cb) = mean[param_index(j, ParamKind::Beta)].sin_cos();
-        [ca as f32, sa as f32, cb as f32, sb as f32]
-    })
+    (0..problem.model.joints())
+        .map(|j| {
+            let (sa, ca) = mean[param_index(j, ParamKind::Alpha)].sin_cos();
+            let (sb, cb) = mean[param_index(j, ParamKind::Beta)].sin_cos();
+            [ca as f32, sa as f32, cb as f32, sb as f32]
+        })
+        .collect()
 }
 
 /// How a kernel turns the normals `z` of a counter draw into offsets δ (`docs/METHOD.md §6`),
 /// packed for f32.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SpreadPacking {
-    /// `false`: independent, `δ_i = spread[i]·z_i` ([`N_UNCERTAIN`] entries: the parameters,
-    /// then the tool's x, y, z); `true`: correlated,
+    /// `false`: independent, `δ_i = spread[i]·z_i` (one entry per uncertain input: the
+    /// parameters, then the tool's x, y, z); `true`: correlated,
     /// `δ_free[a] = Σ_{b≤a} spread[a·n + b]·z_free[b]` with `n` = `free.len()` (row-major lower
     /// Cholesky factor).
     pub correlated: bool,
     /// σ per parameter, or the Cholesky factor of the free parameters.
     pub spread: Vec<f32>,
-    /// Free-input indices of the [`N_UNCERTAIN`] inputs (correlated); `[0]` otherwise, so the
+    /// Free-input indices of the uncertain inputs (correlated); `[0]` otherwise, so the
     /// buffer is never empty.
     pub free: Vec<u32>,
-    /// Bit `b` set: Philox block `b` (normals `4b … 4b+3`, `b ≤ 9`) feeds some free input.
+    /// Bit `b` set: Philox block `b` (normals `4b … 4b+3`, `b ≤ 10`) feeds some free input.
     pub block_mask: u32,
-    /// The draws include the base placement (correlated over all 39 inputs, §2.8): `spread`
+    /// The draws include the base placement (correlated over all inputs with the placement, 39
+    /// for six joints, §2.8): `spread`
     /// then ends with [`PLACEMENT_WORDS`] constants after the Cholesky factor.
     pub placement: bool,
 }
@@ -173,7 +182,7 @@ impl SpreadPacking {
             }
             (None, None) => SpreadPacking {
                 correlated: false,
-                spread: vec![0.0; N_UNCERTAIN],
+                spread: vec![0.0; problem.model.layout().n_uncertain()],
                 free: vec![0],
                 block_mask,
                 placement: false,
@@ -240,10 +249,11 @@ mod tests {
     fn point_words_rebuild_the_mean_chain() {
         let pb = problem(Reference::Nominal(Box::new(tx60())));
         let words = point_constants(&pb);
-        assert_eq!(words.len(), 2 * WORDS_PER_POINT);
+        let wpp = words_per_point(6);
+        assert_eq!(words.len(), 2 * wpp);
         for (j, q) in pb.points.iter().enumerate() {
-            let w = &words[j * WORDS_PER_POINT..(j + 1) * WORDS_PER_POINT];
-            for i in 0..JOINTS {
+            let w = &words[j * wpp..(j + 1) * wpp];
+            for i in 0..6 {
                 let (u, (c, s)) = (w[2 * i], (w[2 * i][3], w[2 * i + 1][3]));
                 assert!((f64::from(c).hypot(f64::from(s)) - 1.0).abs() < 1e-6);
                 let p = [c * u[0] - s * u[1], s * u[0] + c * u[1], u[2]];
@@ -278,7 +288,7 @@ mod tests {
         assert_eq!(p.spread, s.map(|v| v as f32).to_vec());
         assert_eq!(p.block_mask & (1 << 8), 0, "no tool spread, no block 8");
         for b in 0..9 {
-            let used = (4 * b..(4 * b + 4).min(N_UNCERTAIN)).any(|i| s[i] != 0.0);
+            let used = (4 * b..(4 * b + 4).min(s.len())).any(|i| s[i] != 0.0);
             assert_eq!(p.block_mask & (1 << b) != 0, used, "block {b}");
         }
     }

@@ -23,7 +23,7 @@
 //! * **Counter draws** ([`Evaluator::evaluate`]): draws `first … first + n − 1` of the run's
 //!   Philox stream (`docs/METHOD.md §6`), generated inside the
 //!   backend, so a batch costs no host-to-device traffic. This is what AMCS and MCS use.
-//! * **Explicit offsets** ([`Evaluator::evaluate_offsets`]): an `n × N_UNCERTAIN` row-major
+//! * **Explicit offsets** ([`Evaluator::evaluate_offsets`]): an `n ×` [`Layout::n_uncertain`] row-major
 //!   matrix of deviations `δ = μ − μ̄` from the model's values, in internal units (mm,
 //!   radians): the 30 parameters, then the tool point's x, y, z in the flange frame (mm). This is the extension point for methods whose parameter vectors are not i.i.d.
 //!   draws: pick-freeze matrices for Sobol indices, MCMC states for subset simulation, extra
@@ -57,7 +57,7 @@ pub use cpu::CpuEvaluator;
 pub use placement::{Frame, PlacementEvaluator, PlacementSpread};
 pub use problem::{Problem, ProblemError, Reference};
 
-use crate::kinematics::{input_name, param_kind, N_PARAMS, N_UNCERTAIN};
+use crate::kinematics::{param_kind, Layout};
 use crate::sampling::{Philox, ALL_NORMALS, MAX_NORMALS};
 
 /// Largest accepted angular offset (θ, α, β) in an offset matrix, radians: a quarter turn.
@@ -164,11 +164,18 @@ pub trait Evaluator: Send {
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError>;
 
-    /// Entries per row of [`Evaluator::evaluate_offsets`]: [`N_UNCERTAIN`], or [`N_WITH_BASE`](crate::kinematics::N_WITH_BASE)
-    /// for an evaluator that draws the model's uncertain base placement (the six placement
-    /// offsets x, y, z in mm and roll, pitch, yaw in radians follow the 33 inputs).
+    /// How the inputs of the evaluated model are laid out (its joint count); the default, for
+    /// evaluators without a robot model, is the six-joint layout.
+    fn layout(&self) -> Layout {
+        Layout::SIX
+    }
+
+    /// Entries per row of [`Evaluator::evaluate_offsets`]: [`Layout::n_uncertain`], or
+    /// [`Layout::n_with_base`] for an evaluator that draws the model's uncertain base placement
+    /// (the six placement offsets x, y, z in mm and roll, pitch, yaw in radians follow the
+    /// other inputs).
     fn offset_width(&self) -> usize {
-        N_UNCERTAIN
+        self.layout().n_uncertain()
     }
 
     /// Backend part of [`Evaluator::evaluate_offsets`]: `offsets` has `w.len() ·`
@@ -265,7 +272,7 @@ pub trait Evaluator: Send {
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
-        check_offsets(offsets, w.len(), self.offset_width())?;
+        check_offsets(self.layout(), offsets, w.len(), self.offset_width())?;
         check_buffers(self.n_points(), w, per_point.as_deref())?;
         self.eval_offsets(offsets, w, per_point)
     }
@@ -350,7 +357,12 @@ fn check_buffers(m: usize, w: &[f64], per_point: Option<&[f64]>) -> Result<(), E
 }
 
 /// Checks an offset matrix of `rows` rows: its length, finiteness, and the angle bound.
-fn check_offsets(offsets: &[f64], rows: usize, width: usize) -> Result<(), EngineError> {
+fn check_offsets(
+    lay: Layout,
+    offsets: &[f64],
+    rows: usize,
+    width: usize,
+) -> Result<(), EngineError> {
     let expected = rows * width;
     if offsets.len() != expected {
         return Err(EngineError::OffsetsShape {
@@ -361,8 +373,8 @@ fn check_offsets(offsets: &[f64], rows: usize, width: usize) -> Result<(), Engin
     }
     for (x, &v) in offsets.iter().enumerate() {
         let (row, p) = (x / width, x % width);
-        // The placement's roll, pitch and yaw (inputs 36–38) are angles too.
-        let angle = (p < N_PARAMS && param_kind(p).is_angle()) || p >= N_UNCERTAIN + 3;
+        // The placement's roll, pitch and yaw (inputs 36–38 of six joints) are angles too.
+        let angle = (p < lay.n_params() && param_kind(p).is_angle()) || p >= lay.n_uncertain() + 3;
         let message = if !v.is_finite() {
             format!("{v} is not finite")
         } else if angle && v.abs() > MAX_ANGLE_OFFSET {
@@ -372,7 +384,7 @@ fn check_offsets(offsets: &[f64], rows: usize, width: usize) -> Result<(), Engin
         };
         return Err(EngineError::BadOffset {
             row,
-            param: input_name(p),
+            param: lay.input_name(p),
             message,
         });
     }
@@ -430,7 +442,10 @@ impl<F: Fn(&Philox, u64) -> f64 + Send + Sync> Evaluator for FnEvaluator<F> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kinematics::N_WITH_BASE;
+    const L6: Layout = Layout::SIX;
+    const NP: usize = L6.n_params();
+    const NU: usize = L6.n_uncertain();
+    const NB: usize = L6.n_with_base();
 
     fn scalar() -> FnEvaluator<impl Fn(&Philox, u64) -> f64 + Send + Sync> {
         FnEvaluator::new(1, |_: &Philox, k: u64| k as f64)
@@ -456,7 +471,7 @@ mod tests {
     fn scalar_evaluator_has_no_offset_path() {
         let mut ev = scalar();
         let mut w = vec![0.0; 2];
-        let r = ev.evaluate_offsets(&[0.0; 2 * N_UNCERTAIN], &mut w, None);
+        let r = ev.evaluate_offsets(&[0.0; 2 * NU], &mut w, None);
         assert!(
             matches!(r, Err(EngineError::OffsetsUnsupported { .. })),
             "{r:?}"
@@ -508,8 +523,8 @@ mod tests {
 
     #[test]
     fn offset_matrices_are_checked() {
-        assert!(check_offsets(&[0.0; 3 * N_UNCERTAIN], 3, N_UNCERTAIN).is_ok());
-        match check_offsets(&[0.0; 3 * N_UNCERTAIN - 1], 3, N_UNCERTAIN) {
+        assert!(check_offsets(L6, &[0.0; 3 * NU], 3, NU).is_ok());
+        match check_offsets(L6, &[0.0; 3 * NU - 1], 3, NU) {
             Err(EngineError::OffsetsShape {
                 rows,
                 expected,
@@ -517,26 +532,26 @@ mod tests {
             }) => assert_eq!((rows, expected, got), (3, 99, 98)),
             r => panic!("{r:?}"),
         }
-        let mut m = vec![0.0; 2 * N_UNCERTAIN];
-        m[N_UNCERTAIN + N_PARAMS + 2] = f64::NAN; // row 1, tool z
-        match check_offsets(&m, 2, N_UNCERTAIN) {
+        let mut m = vec![0.0; 2 * NU];
+        m[NU + NP + 2] = f64::NAN; // row 1, tool z
+        match check_offsets(L6, &m, 2, NU) {
             Err(EngineError::BadOffset { row, param, .. }) => {
                 assert_eq!((row, param.as_str()), (1, "tool_z"))
             }
             r => panic!("{r:?}"),
         }
-        m[N_UNCERTAIN + N_PARAMS + 2] = 2.0; // a tool offset is a length: no angle bound
-        m[N_UNCERTAIN + 7] = f64::NAN; // row 1, a of joint 2
-        match check_offsets(&m, 2, N_UNCERTAIN) {
+        m[NU + NP + 2] = 2.0; // a tool offset is a length: no angle bound
+        m[NU + 7] = f64::NAN; // row 1, a of joint 2
+        match check_offsets(L6, &m, 2, NU) {
             Err(EngineError::BadOffset { row, param, .. }) => {
                 assert_eq!((row, param.as_str()), (1, "a2"))
             }
             r => panic!("{r:?}"),
         }
-        m[N_UNCERTAIN + 7] = 1e3; // lengths have no bound
-        assert!(check_offsets(&m, 2, N_UNCERTAIN).is_ok());
+        m[NU + 7] = 1e3; // lengths have no bound
+        assert!(check_offsets(L6, &m, 2, NU).is_ok());
         m[3] = -2.0; // α1 beyond a quarter turn
-        match check_offsets(&m, 2, N_UNCERTAIN) {
+        match check_offsets(L6, &m, 2, NU) {
             Err(EngineError::BadOffset {
                 row,
                 param,
@@ -549,17 +564,17 @@ mod tests {
         }
         m[3] = f64::INFINITY;
         assert!(matches!(
-            check_offsets(&m, 2, N_UNCERTAIN),
+            check_offsets(L6, &m, 2, NU),
             Err(EngineError::BadOffset { .. })
         ));
         // Rows with the placement: 39 entries, the base's angles bounded, its lengths not.
-        let mut p = vec![0.0; 2 * N_WITH_BASE];
-        assert!(check_offsets(&p, 2, N_WITH_BASE).is_ok());
-        assert!(check_offsets(&p, 2, N_UNCERTAIN).is_err());
-        p[N_WITH_BASE + N_UNCERTAIN] = 500.0; // row 1, base x
-        assert!(check_offsets(&p, 2, N_WITH_BASE).is_ok());
-        p[N_WITH_BASE + N_UNCERTAIN + 5] = 2.0; // row 1, base yaw
-        match check_offsets(&p, 2, N_WITH_BASE) {
+        let mut p = vec![0.0; 2 * NB];
+        assert!(check_offsets(L6, &p, 2, NB).is_ok());
+        assert!(check_offsets(L6, &p, 2, NU).is_err());
+        p[NB + NU] = 500.0; // row 1, base x
+        assert!(check_offsets(L6, &p, 2, NB).is_ok());
+        p[NB + NU + 5] = 2.0; // row 1, base yaw
+        match check_offsets(L6, &p, 2, NB) {
             Err(EngineError::BadOffset { row, param, .. }) => {
                 assert_eq!((row, param.as_str()), (1, "base_yaw"))
             }

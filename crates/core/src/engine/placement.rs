@@ -1,8 +1,9 @@
 //! Reliability in the measurement frame: draws that include the robot's placement
 //! (docs/METHOD.md §2.8).
 //!
-//! A model identified from data in a tracker's frame carries a 39 × 39 covariance: the 33 inputs
-//! of every draw, then the placement's x, y, z and roll, pitch, yaw, correlated with them. A
+//! A model identified from data in a tracker's frame carries a covariance with the placement
+//! (39 × 39 for six joints): the inputs of every draw (33), then the placement's x, y, z and
+//! roll, pitch, yaw, correlated with them. A
 //! target given in the measurement frame is missed by
 //!
 //! ```text
@@ -20,8 +21,8 @@
 //! one.
 
 use super::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
-use crate::kinematics::{position_with_trig, twist_trig, N_PARAMS, N_UNCERTAIN, N_WITH_BASE};
-use crate::sampling::{normals_block, Philox, PARAM_STREAM};
+use crate::kinematics::{position_with_trig, twist_trig, Layout, Params, MAX_WITH_BASE};
+use crate::sampling::{normals_block, Philox, MAX_NORMALS, PARAM_STREAM};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -68,10 +69,13 @@ impl Problem {
     }
 }
 
-/// The joint distribution of all 39 inputs of a model with an uncertain placement.
+/// The joint distribution of all inputs (39 for six joints) of a model with an uncertain
+/// placement.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PlacementSpread {
-    /// Inputs (of the 39) with nonzero variance.
+    /// How the inputs are laid out (the model's joint count).
+    pub layout: Layout,
+    /// Inputs (of [`Layout::n_with_base`]) with nonzero variance.
     pub free: Vec<usize>,
     /// Lower Cholesky factor of their covariance, row-major.
     pub chol: Vec<f64>,
@@ -91,7 +95,7 @@ impl PlacementSpread {
         if !m.base_uncertain() {
             return Ok(None);
         }
-        let n = N_WITH_BASE;
+        let n = m.layout().n_with_base();
         let c = |i: usize, k: usize| m.uncertainty.entry(i, k);
         let free: Vec<usize> = (0..n).filter(|&i| c(i, i) > 0.0).collect();
         let p = free.len();
@@ -106,18 +110,19 @@ impl PlacementSpread {
             .map(|b| [b.xyz[0], b.xyz[1], b.xyz[2], b.rpy[0], b.rpy[1], b.rpy[2]])
             .unwrap_or([0.0; 6]);
         Ok(Some(PlacementSpread {
+            layout: m.layout(),
             free,
             chol: (0..p * p).map(|x| l[(x / p, x % p)]).collect(),
             base,
         }))
     }
 
-    /// The 39 offsets of draw `k` (internal units).
-    pub fn deltas(&self, gen: &Philox, k: u64) -> [f64; N_WITH_BASE] {
+    /// The offsets of draw `k` (internal units; [`Layout::n_with_base`] of them, zero beyond).
+    pub fn deltas(&self, gen: &Philox, k: u64) -> [f64; MAX_WITH_BASE] {
         self.pick_freeze_deltas(gen, k, k, 0)
     }
 
-    /// The 39 offsets of a pick-freeze row: normal `i` from draw `b` where bit `i` of `mask` is
+    /// The offsets of a pick-freeze row: normal `i` from draw `b` where bit `i` of `mask` is
     /// set, from draw `a` elsewhere (mask 0 is draw `a` itself, as [`Self::deltas`]).
     pub fn pick_freeze_deltas(
         &self,
@@ -125,9 +130,9 @@ impl PlacementSpread {
         a: u64,
         b: u64,
         mask: u64,
-    ) -> [f64; N_WITH_BASE] {
-        let mut z = [0.0; 40];
-        let mut done = [false; 10];
+    ) -> [f64; MAX_WITH_BASE] {
+        let mut z = [0.0; MAX_NORMALS];
+        let mut done = [false; MAX_NORMALS / 4];
         for &i in &self.free {
             let blk = i / 4;
             if done[blk] {
@@ -148,9 +153,9 @@ impl PlacementSpread {
         self.offsets_of_normals(&z)
     }
 
-    /// The 39 offsets `δ_free[a] = Σ_{b ≤ a} L[a][b] z[free[b]]` of the normals `z`.
-    fn offsets_of_normals(&self, z: &[f64; 40]) -> [f64; N_WITH_BASE] {
-        let mut d = [0.0; N_WITH_BASE];
+    /// The offsets `δ_free[a] = Σ_{b ≤ a} L[a][b] z[free[b]]` of the normals `z`.
+    fn offsets_of_normals(&self, z: &[f64; MAX_NORMALS]) -> [f64; MAX_WITH_BASE] {
+        let mut d = [0.0; MAX_WITH_BASE];
         let p = self.free.len();
         for a in 0..p {
             let mut acc = 0.0;
@@ -195,14 +200,15 @@ impl PlacementEvaluator {
         e
     }
 
-    /// `e_j` at every test point of the inputs `mean + d` (the 33, then the placement's six;
-    /// internal units) into `e`; returns their maximum `w`.
-    pub fn errors_of(&self, d: &[f64; N_WITH_BASE], e: &mut [f64]) -> f64 {
+    /// `e_j` at every test point of the inputs `mean + d` (the parameters and the tool, then
+    /// the placement's six; internal units) into `e`; returns their maximum `w`.
+    pub fn errors_of(&self, d: &[f64], e: &mut [f64]) -> f64 {
         let m = &self.problem.model;
-        let params: [f64; N_PARAMS] = std::array::from_fn(|i| m.params[i] + d[i]);
-        let tool: [f64; 3] = std::array::from_fn(|i| m.tool[i] + d[N_PARAMS + i]);
+        let lay = self.spread.layout;
+        let params = Params::from_fn(lay.n_params(), |i| m.params[i] + d[i]);
+        let tool: [f64; 3] = std::array::from_fn(|i| m.tool[i] + d[lay.tool_index(i)]);
         let b = &self.spread.base;
-        let drawn: [f64; 6] = std::array::from_fn(|i| b[i] + d[N_UNCERTAIN + i]);
+        let drawn: [f64; 6] = std::array::from_fn(|i| b[i] + d[lay.base_index(i)]);
         // ΔB = B̂⁻¹ B': rotation R̂ᵀR', translation R̂ᵀ(t' − t̂).
         let dr = self.r_mean_t * rotation(&drawn[3..]);
         let dt = self.r_mean_t * Vector3::new(drawn[0] - b[0], drawn[1] - b[1], drawn[2] - b[2]);
@@ -226,7 +232,7 @@ impl PlacementEvaluator {
     /// `w` (and, when `per_point` is given, every `e_j`) of row `i` of `rows`, in parallel.
     fn eval_rows(
         &self,
-        rows: impl Fn(usize) -> [f64; N_WITH_BASE] + Sync,
+        rows: impl Fn(usize) -> [f64; MAX_WITH_BASE] + Sync,
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) {
@@ -272,8 +278,12 @@ impl Evaluator for PlacementEvaluator {
         Ok(())
     }
 
+    fn layout(&self) -> Layout {
+        self.spread.layout
+    }
+
     fn offset_width(&self) -> usize {
-        N_WITH_BASE
+        self.spread.layout.n_with_base()
     }
 
     fn eval_offsets(
@@ -282,8 +292,9 @@ impl Evaluator for PlacementEvaluator {
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
-        let row = |i: usize| -> [f64; N_WITH_BASE] {
-            std::array::from_fn(|p| offsets[i * N_WITH_BASE + p])
+        let nb = self.spread.layout.n_with_base();
+        let row = |i: usize| -> [f64; MAX_WITH_BASE] {
+            std::array::from_fn(|p| if p < nb { offsets[i * nb + p] } else { 0.0 })
         };
         self.eval_rows(row, w, per_point);
         Ok(())

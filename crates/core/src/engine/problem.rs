@@ -10,7 +10,7 @@
 //! it was measured with; using the nominal model's own tool would add the tool offset (tens of
 //! mm) to every error.
 
-use crate::kinematics::{position, RobotModel, JOINTS};
+use crate::kinematics::{position, Joints, RobotModel};
 use crate::sampling::{ParamSampler, SamplerError};
 
 /// What the errors are measured against.
@@ -75,8 +75,8 @@ pub enum ProblemError {
 pub struct Problem {
     /// The model whose parameter spread is analysed.
     pub model: RobotModel,
-    /// Joint configurations of the test points, radians.
-    pub points: Vec<[f64; JOINTS]>,
+    /// Joint configurations of the test points, radians (one angle per joint of the model).
+    pub points: Vec<Joints>,
     /// Reference position of each test point, mm.
     pub reference: Vec<[f64; 3]>,
     /// Parameter sampler (mean = model values, seed).
@@ -95,9 +95,9 @@ impl Problem {
     /// test points, [`ProblemError::BadPoint`] for a test point that is not finite or outside the
     /// joint limits, and [`ProblemError::Sampler`] when the covariance has no Cholesky factor on
     /// the free parameters.
-    pub fn new(
+    pub fn new<P: AsRef<[f64]>>(
         model: RobotModel,
-        points_deg: &[[f64; JOINTS]],
+        points_deg: &[P],
         reference: &Reference,
         seed: u64,
     ) -> Result<Self, ProblemError> {
@@ -111,14 +111,16 @@ impl Problem {
         }
         for (i, q) in points_deg.iter().enumerate() {
             model
-                .check_limits(q)
+                .check_limits(q.as_ref())
                 .map_err(|message| ProblemError::BadPoint {
                     index: i + 1,
                     message,
                 })?;
         }
-        let points: Vec<[f64; JOINTS]> =
-            points_deg.iter().map(|q| q.map(f64::to_radians)).collect();
+        let points: Vec<Joints> = points_deg
+            .iter()
+            .map(|q| q.as_ref().iter().map(|v| v.to_radians()).collect())
+            .collect();
         let reference = points
             .iter()
             .map(|q| match reference {
@@ -143,16 +145,12 @@ impl Problem {
 
     /// Per-point errors `e_j` of one parameter vector, straight from [`position`] (slow; for
     /// tests and spot checks).
-    pub fn point_errors(&self, params: &[f64; crate::kinematics::N_PARAMS]) -> Vec<f64> {
+    pub fn point_errors(&self, params: &[f64]) -> Vec<f64> {
         self.point_errors_at(params, &[0.0; 3])
     }
 
     /// [`Self::point_errors`] with the tool point moved by `tool_offset` (mm, flange frame).
-    pub fn point_errors_at(
-        &self,
-        params: &[f64; crate::kinematics::N_PARAMS],
-        tool_offset: &[f64; 3],
-    ) -> Vec<f64> {
+    pub fn point_errors_at(&self, params: &[f64], tool_offset: &[f64; 3]) -> Vec<f64> {
         let tool: [f64; 3] = std::array::from_fn(|k| self.model.tool[k] + tool_offset[k]);
         self.points
             .iter()

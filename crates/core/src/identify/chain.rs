@@ -5,9 +5,9 @@
 //! linearisation (GUM Supplement 2 style).
 
 use super::chain_fit::{
-    default_free, fit, fit_input_index, fit_input_is_angle, fit_input_name, fit_input_to_report,
-    initial_state, jacobian, position_residuals, residuals, ChainState, Observation, Prior,
-    BASE_INPUT, N_FIT_INPUTS,
+    base_input, default_free, fit, fit_input_index, fit_input_is_angle, fit_input_name,
+    fit_input_to_report, initial_state, jacobian, n_fit_inputs, position_residuals, residuals,
+    ChainState, Observation, Prior,
 };
 use super::identifiability::{
     advice, analyse, fix_null_directions, Identifiability, CONDITION_LIMIT,
@@ -15,7 +15,7 @@ use super::identifiability::{
 use super::noise::{chi2_upper_tail, NoiseModel};
 use super::pipeline::NominalPrior;
 use super::IdentifyError;
-use crate::kinematics::{RobotModel, Uncertainty, JOINTS, N_PARAMS};
+use crate::kinematics::{Joints, RobotModel, Uncertainty};
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use rand::SeedableRng;
 use serde::Serialize;
@@ -74,8 +74,8 @@ impl Default for ChainOptions {
 /// A measured point as the whole-chain fit takes it.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct MeasuredPoint {
-    /// Commanded joint angles, degrees.
-    pub q_deg: [f64; JOINTS],
+    /// Commanded joint angles, degrees, one per joint.
+    pub q_deg: Joints,
     /// Measured target position, mm, in the data's frame.
     pub position_mm: [f64; 3],
     /// Stated standard uncertainty per coordinate, mm, if the data have it.
@@ -164,13 +164,13 @@ pub struct ChainReport {
     pub warnings: Vec<String>,
 }
 
-/// The result: values, covariance over all [`N_FIT_INPUTS`] inputs (internal units, zero rows
+/// The result: values, covariance over all [`n_fit_inputs`] inputs (internal units, zero rows
 /// for fixed inputs) and the report.
 #[derive(Clone, Debug)]
 pub struct ChainResult {
     /// The identified values.
     pub state: ChainState,
-    /// Row-major [`N_FIT_INPUTS`]² covariance, internal units (mm, rad).
+    /// Row-major [`n_fit_inputs`]² covariance (39 × 39 for six joints), internal units (mm, rad).
     pub covariance: Vec<f64>,
     /// The report.
     pub report: ChainReport,
@@ -191,15 +191,18 @@ pub fn nominal_state(nominal: &RobotModel) -> ChainState {
 
 /// The prior of [`NominalPrior`] on the MDH parameters (not on the target or the placement).
 fn nominal_prior(nominal: &ChainState, p: &NominalPrior) -> Prior {
-    let sigma = std::array::from_fn(|i| {
-        if i >= N_PARAMS {
-            0.0
-        } else if fit_input_is_angle(i) {
-            p.angle_sigma_deg.to_radians()
-        } else {
-            p.length_sigma_mm
-        }
-    });
+    let lay = nominal.layout();
+    let sigma = (0..n_fit_inputs(lay))
+        .map(|i| {
+            if i >= lay.n_params() {
+                0.0
+            } else if fit_input_is_angle(lay, i) {
+                p.angle_sigma_deg.to_radians()
+            } else {
+                p.length_sigma_mm
+            }
+        })
+        .collect();
     Prior {
         centre: *nominal,
         sigma,
@@ -240,8 +243,10 @@ pub fn observations(
 ///
 /// # Errors
 ///
-/// [`IdentifyError::NoData`] for no points or a name in `fix` that is not an input, and
-/// [`IdentifyError::NoData`] when σ is to be estimated and there are no degrees of freedom left.
+/// [`IdentifyError::NoData`] for no points or a name in `fix` that is not an input,
+/// [`IdentifyError::JointCount`] when a point does not have one angle per joint of `nominal` (or
+/// `start` has another number of parameters), and [`IdentifyError::NoData`] when σ is to be
+/// estimated and there are no degrees of freedom left.
 pub fn identify_chain(
     points: &[MeasuredPoint],
     nominal: &RobotModel,
@@ -251,6 +256,24 @@ pub fn identify_chain(
 ) -> Result<ChainResult, IdentifyError> {
     if points.is_empty() {
         return Err(IdentifyError::NoData("no measured points".into()));
+    }
+    let lay = nominal.layout();
+    if let Some(p) = points.iter().find(|p| p.q_deg.len() != lay.joints()) {
+        return Err(IdentifyError::JointCount(format!(
+            "line {}: {} joint angles, the nominal model {} has {} joints",
+            p.line,
+            p.q_deg.len(),
+            nominal.name,
+            lay.joints()
+        )));
+    }
+    if let Some(s) = start.filter(|s| s.params.len() != lay.n_params()) {
+        return Err(IdentifyError::JointCount(format!(
+            "the start has {} parameters, the nominal model {} has {}",
+            s.params.len(),
+            nominal.name,
+            lay.n_params()
+        )));
     }
     let mut nominal_s = nominal_state(nominal);
     if opts.placement == Placement::Known {
@@ -272,19 +295,20 @@ pub fn identify_chain(
     }
     let mut fixed_by_user = Vec::new();
     for name in &opts.fix {
-        let i = fit_input_index(name).ok_or_else(|| {
+        let i = fit_input_index(lay, name).ok_or_else(|| {
             IdentifyError::NoData(format!(
-                "cannot fix '{name}': not a parameter name (theta1…beta6, tool_x…tool_z, base_x…base_yaw)"
+                "cannot fix '{name}': not a parameter name (theta1…beta{}, tool_x…tool_z, base_x…base_yaw)",
+                lay.joints()
             ))
         })?;
-        if i >= BASE_INPUT && opts.placement == Placement::Known {
+        if i >= base_input(lay) && opts.placement == Placement::Known {
             return Err(IdentifyError::NoData(format!(
                 "cannot fix '{name}': the placement is not identified for base-frame data"
             )));
         }
         free.retain(|&k| k != i);
         state.set(i, nominal_s.get(i));
-        fixed_by_user.push(fit_input_name(i));
+        fixed_by_user.push(fit_input_name(lay, i));
     }
     // Directions the data cannot determine, found at the start and fixed at nominal.
     let mut nulls = fix_null_directions(&obs, &mut state, &nominal_s, &mut free);
@@ -382,10 +406,11 @@ pub fn identify_chain(
         }
     });
     let chosen = monte_carlo_cov.as_ref().unwrap_or(&cov_free);
-    let mut covariance = vec![0.0; N_FIT_INPUTS * N_FIT_INPUTS];
+    let nf = n_fit_inputs(lay);
+    let mut covariance = vec![0.0; nf * nf];
     for (a_k, &ia) in free.iter().enumerate() {
         for (b_k, &ib) in free.iter().enumerate() {
-            covariance[ia * N_FIT_INPUTS + ib] = chosen[(a_k, b_k)];
+            covariance[ia * nf + ib] = chosen[(a_k, b_k)];
         }
     }
     // Report rows.
@@ -394,22 +419,25 @@ pub fn identify_chain(
         move |i: usize| !all.contains(&i)
     };
     let shown = if opts.placement == Placement::Identify {
-        N_FIT_INPUTS
+        nf
     } else {
-        BASE_INPUT
+        base_input(lay)
     };
     let parameters: Vec<ParameterRow> = (0..shown)
         .map(|i| {
-            let f = fit_input_to_report(i);
+            let f = fit_input_to_report(lay, i);
             let k = free.iter().position(|&x| x == i);
             let status = if k.is_some() {
                 "identified".to_string()
-            } else if identifiability.fixed_by_user.contains(&fit_input_name(i)) {
+            } else if identifiability
+                .fixed_by_user
+                .contains(&fit_input_name(lay, i))
+            {
                 "fixed: by request".to_string()
             } else if identifiability
                 .null_directions
                 .iter()
-                .any(|n| n.fixed == fit_input_name(i))
+                .any(|n| n.fixed == fit_input_name(lay, i))
             {
                 "fixed: not identifiable".to_string()
             } else if conventional(i) {
@@ -418,12 +446,16 @@ pub fn identify_chain(
                 "fixed".to_string()
             };
             ParameterRow {
-                name: fit_input_name(i),
+                name: fit_input_name(lay, i),
                 nominal: nominal_s.get(i) * f,
                 value: state.get(i) * f,
                 sigma: k.map_or(0.0, |k| chosen[(k, k)].max(0.0).sqrt() * f),
                 sigma_monte_carlo: k.and_then(|k| mc_sigma.as_ref().map(|m| m[k] * f)),
-                unit: if fit_input_is_angle(i) { "deg" } else { "mm" },
+                unit: if fit_input_is_angle(lay, i) {
+                    "deg"
+                } else {
+                    "mm"
+                },
                 status,
             }
         })
@@ -620,8 +652,8 @@ fn monte_carlo_covariance(
 
 /// The identified model of a chain result: `nominal`'s structure and limits with the identified
 /// parameters, target and (for [`Placement::Identify`]) placement, and the covariance as the
-/// model file's `[covariance]`: 39 × 39 with the placement (rows 34–39: x, y, z, roll, pitch,
-/// yaw), 33 × 33 without.
+/// model file's `[covariance]`: `(5n + 9)²` with the placement (the last six rows x, y, z, roll,
+/// pitch, yaw; 39 × 39, rows 34–39, for six joints), `(5n + 3)²` (33 × 33) without.
 pub fn chain_model(nominal: &RobotModel, result: &ChainResult, name: String) -> RobotModel {
     state_model(
         nominal,
@@ -632,9 +664,9 @@ pub fn chain_model(nominal: &RobotModel, result: &ChainResult, name: String) -> 
     )
 }
 
-/// The model of chain state `s` with `covariance` (row-major [`N_FIT_INPUTS`]², internal units,
+/// The model of chain state `s` with `covariance` (row-major [`n_fit_inputs`]², internal units,
 /// zero rows for inputs held fixed) in `frame`: what [`chain_model`] makes of an identification,
-/// and what a calibration plan predicts before any data exist.
+/// and what a calibration plan predicts before any data exist. `s` has `nominal`'s joint count.
 pub fn state_model(
     nominal: &RobotModel,
     s: &ChainState,
@@ -642,15 +674,18 @@ pub fn state_model(
     frame: Placement,
     name: String,
 ) -> RobotModel {
+    let lay = s.layout();
+    debug_assert_eq!(lay, nominal.layout());
+    let nf = n_fit_inputs(lay);
     let n = if frame == Placement::Identify {
-        N_FIT_INPUTS
+        nf
     } else {
-        BASE_INPUT
+        base_input(lay)
     };
     let mut cov = vec![0.0; n * n];
     for a in 0..n {
         for b in 0..n {
-            cov[a * n + b] = covariance[a * N_FIT_INPUTS + b];
+            cov[a * n + b] = covariance[a * nf + b];
         }
     }
     RobotModel {
@@ -660,8 +695,8 @@ pub fn state_model(
         limits_deg: nominal.limits_deg,
         tool: s.tool,
         tool_sigma: std::array::from_fn(|k| {
-            let i = N_PARAMS + k;
-            covariance[i * N_FIT_INPUTS + i].max(0.0).sqrt()
+            let i = lay.tool_index(k);
+            covariance[i * nf + i].max(0.0).sqrt()
         }),
         uncertainty: Uncertainty::Covariance(cov),
         base: match frame {
@@ -689,9 +724,14 @@ mod tests {
             tool: [30.0, -20.0, 80.0],
             base: [2600.0, 500.0, -200.0, 0.03, -0.05, 2.3],
         };
+        let six = crate::kinematics::Layout::SIX;
         for (k, i) in default_free(&nominal.fixed, true).into_iter().enumerate() {
-            if i < N_PARAMS {
-                let size = if fit_input_is_angle(i) { 5e-4 } else { 0.3 };
+            if i < six.n_params() {
+                let size = if fit_input_is_angle(six, i) {
+                    5e-4
+                } else {
+                    0.3
+                };
                 t.set(i, t.get(i) + size * [1.0, -0.6, 0.8, -1.0, 0.5][k % 5]);
             }
         }
@@ -703,7 +743,7 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         (0..n)
             .map(|k| {
-                let q_deg: [f64; JOINTS] = std::array::from_fn(|j| {
+                let q_deg = Joints::from_fn(m.joints(), |j| {
                     let (lo, hi) = m.limits_deg[j];
                     rng.random_range(lo.max(-170.0)..hi.min(170.0))
                 });
@@ -782,9 +822,11 @@ mod target_tests {
         };
         let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(4);
         use rand::Rng;
-        let configs: Vec<[f64; JOINTS]> = (0..60)
+        let configs: Vec<Joints> = (0..60)
             .map(|_| {
-                std::array::from_fn(|j| rng.random_range(m.limits_deg[j].0..m.limits_deg[j].1))
+                Joints::from_fn(m.joints(), |j| {
+                    rng.random_range(m.limits_deg[j].0..m.limits_deg[j].1)
+                })
             })
             .collect();
         let pts: Vec<MeasuredPoint> = configs

@@ -2,11 +2,12 @@
 //! base placement, the MDH parameters and the target on the flange, from positions measured in
 //! the tracker's own frame (docs/METHOD.md §2.4).
 //!
-//! The unknowns are the 39 *fit inputs* ([`N_FIT_INPUTS`]): the 30 MDH parameters joint-major,
-//! the target's x, y, z in the flange frame, then the placement's x, y, z (mm) and roll, pitch,
-//! yaw (radians; `p_meas = Trans(xyz)·Rz(yaw)·Ry(pitch)·Rx(roll)·p_base`, the model's `base`
-//! convention). Position data cannot separate all of them ([`default_free`] states what is held
-//! at its nominal value and why); the identifiability analysis ([`super::identifiability`])
+//! The unknowns are the `5n + 9` *fit inputs* of an `n`-joint chain ([`n_fit_inputs`]; 39 for six
+//! joints), laid out as [`Layout`]'s inputs with the placement: the `5n` MDH parameters
+//! joint-major, the target's x, y, z in the flange frame, then the placement's x, y, z (mm) and
+//! roll, pitch, yaw (radians; `p_meas = Trans(xyz)·Rz(yaw)·Ry(pitch)·Rx(roll)·p_base`, the model's
+//! `base` convention). Position data cannot separate all of them ([`default_free`] states what is
+//! held at its nominal value and why); the identifiability analysis ([`super::identifiability`])
 //! finds any further combination the data leave free.
 //!
 //! The fit minimises `Σ_k ‖W_k (B·P(θ, t, q_k) − p_k)‖² + Σ_i ((x_i − x̄_i)/σ_i)²` by
@@ -16,59 +17,68 @@
 
 use super::lm::levenberg_marquardt;
 use crate::kinematics::{
-    param_index, param_joint, param_kind, position, transform, FixedParam, ParamKind, JOINTS,
-    N_PARAMS,
+    param_index, param_joint, param_kind, position, transform, FixedParam, Joints, Layout,
+    ParamKind, Params,
 };
 use nalgebra::{DMatrix, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
-/// The fit inputs: 30 MDH parameters, the target's 3 coordinates, the placement's 6.
-pub const N_FIT_INPUTS: usize = N_PARAMS + 3 + 6;
-/// Index of the first placement input (base x).
-pub const BASE_INPUT: usize = N_PARAMS + 3;
+/// The number of fit inputs of a chain of layout `lay`: its `5n` MDH parameters, the target's 3
+/// coordinates, the placement's 6 ([`Layout::n_with_base`]; 39 for six joints).
+pub const fn n_fit_inputs(lay: Layout) -> usize {
+    lay.n_with_base()
+}
 
-/// The name of fit input `i` as reports and `--fix` spell it: `theta2`, `d3`, …, `tool_x`,
-/// `base_x`, `base_roll`, ….
-pub fn fit_input_name(i: usize) -> String {
+/// Index of the first placement input (base x) of a chain of layout `lay`
+/// ([`Layout::base_index`]`(0)`; 33 for six joints).
+pub const fn base_input(lay: Layout) -> usize {
+    lay.base_index(0)
+}
+
+/// The name of fit input `i` of a chain of layout `lay` as reports and `--fix` spell it:
+/// `theta2`, `d3`, …, `tool_x`, `base_x`, `base_roll`, … ([`Layout::input_name`]).
+pub fn fit_input_name(lay: Layout, i: usize) -> String {
+    let np = lay.n_params();
     match i {
-        i if i < N_PARAMS => format!("{}{}", param_kind(i).name(), param_joint(i) + 1),
-        i if i < BASE_INPUT => format!("tool_{}", ["x", "y", "z"][i - N_PARAMS]),
+        i if i < np => format!("{}{}", param_kind(i).name(), param_joint(i) + 1),
+        i if i < base_input(lay) => format!("tool_{}", ["x", "y", "z"][i - np]),
         i => format!(
             "base_{}",
-            ["x", "y", "z", "roll", "pitch", "yaw"][i - BASE_INPUT]
+            ["x", "y", "z", "roll", "pitch", "yaw"][i - base_input(lay)]
         ),
     }
 }
 
-/// The fit input a name denotes (case-insensitive), if any.
-pub fn fit_input_index(name: &str) -> Option<usize> {
+/// The fit input of a chain of layout `lay` that a name denotes (case-insensitive), if any.
+pub fn fit_input_index(lay: Layout, name: &str) -> Option<usize> {
     let n = name.trim().to_ascii_lowercase();
-    (0..N_FIT_INPUTS).find(|&i| fit_input_name(i) == n)
+    (0..n_fit_inputs(lay)).find(|&i| fit_input_name(lay, i) == n)
 }
 
-/// Whether fit input `i` is an angle (radians inside, degrees in files and reports).
-pub fn fit_input_is_angle(i: usize) -> bool {
+/// Whether fit input `i` of a chain of layout `lay` is an angle (radians inside, degrees in
+/// files and reports).
+pub fn fit_input_is_angle(lay: Layout, i: usize) -> bool {
     match i {
-        i if i < N_PARAMS => param_kind(i).is_angle(),
-        i if i < BASE_INPUT => false,
-        i => i >= BASE_INPUT + 3,
+        i if i < lay.n_params() => param_kind(i).is_angle(),
+        i if i < base_input(lay) => false,
+        i => i >= base_input(lay) + 3,
     }
 }
 
 /// Factor from internal units to report units of input `i` (rad → deg for angles).
-pub fn fit_input_to_report(i: usize) -> f64 {
-    if fit_input_is_angle(i) {
+pub fn fit_input_to_report(lay: Layout, i: usize) -> f64 {
+    if fit_input_is_angle(lay, i) {
         180.0 / std::f64::consts::PI
     } else {
         1.0
     }
 }
 
-/// The joint whose data move input `i` (1-based; the target counts as joint 6's), `None` for the
-/// placement.
-pub fn fit_input_joint(i: usize) -> Option<usize> {
+/// The joint whose data move input `i` (1-based; the target counts as the last joint's, J6's of a
+/// six-axis arm), `None` for the placement.
+pub fn fit_input_joint(lay: Layout, i: usize) -> Option<usize> {
     match i {
-        i if i < N_PARAMS => Some(param_joint(i) + 1),
-        i if i < BASE_INPUT => Some(JOINTS),
+        i if i < lay.n_params() => Some(param_joint(i) + 1),
+        i if i < base_input(lay) => Some(lay.joints()),
         _ => None,
     }
 }
@@ -76,8 +86,8 @@ pub fn fit_input_joint(i: usize) -> Option<usize> {
 /// Values of all fit inputs.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ChainState {
-    /// MDH parameters, mm and radians.
-    pub params: [f64; N_PARAMS],
+    /// MDH parameters (`5n` of an `n`-joint chain), mm and radians.
+    pub params: Params,
     /// Target in the flange frame, mm.
     pub tool: [f64; 3],
     /// Placement: x, y, z (mm), roll, pitch, yaw (radians).
@@ -85,21 +95,37 @@ pub struct ChainState {
 }
 
 impl ChainState {
+    /// The layout of the chain's inputs (its joint count is that of `params`).
+    ///
+    /// # Panics
+    ///
+    /// When `params` does not hold the parameters of 4 to 7 joints.
+    pub fn layout(&self) -> Layout {
+        Layout::new(self.params.len() / crate::kinematics::PARAMS_PER_JOINT)
+    }
+
+    /// Number of fit inputs ([`n_fit_inputs`]).
+    pub fn n_inputs(&self) -> usize {
+        self.params.len() + 9
+    }
+
     /// Input `i`.
     pub fn get(&self, i: usize) -> f64 {
+        let np = self.params.len();
         match i {
-            i if i < N_PARAMS => self.params[i],
-            i if i < BASE_INPUT => self.tool[i - N_PARAMS],
-            i => self.base[i - BASE_INPUT],
+            i if i < np => self.params[i],
+            i if i < np + 3 => self.tool[i - np],
+            i => self.base[i - np - 3],
         }
     }
 
     /// Sets input `i`.
     pub fn set(&mut self, i: usize, v: f64) {
+        let np = self.params.len();
         match i {
-            i if i < N_PARAMS => self.params[i] = v,
-            i if i < BASE_INPUT => self.tool[i - N_PARAMS] = v,
-            i => self.base[i - BASE_INPUT] = v,
+            i if i < np => self.params[i] = v,
+            i if i < np + 3 => self.tool[i - np] = v,
+            i => self.base[i - np - 3] = v,
         }
     }
 
@@ -109,7 +135,7 @@ impl ChainState {
     }
 
     /// The target's position in the measurement frame at joint angles `q` (radians).
-    pub fn predict(&self, q: &[f64; JOINTS]) -> [f64; 3] {
+    pub fn predict(&self, q: &[f64]) -> [f64; 3] {
         let r = self.rotation();
         let p = Vector3::from(position(&self.params, &self.tool, q));
         let v = r * p + Vector3::new(self.base[0], self.base[1], self.base[2]);
@@ -120,8 +146,8 @@ impl ChainState {
 /// One measured point: commanded angles, measured position and its noise whitening.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Observation {
-    /// Commanded joint angles, radians.
-    pub q: [f64; JOINTS],
+    /// Commanded joint angles, radians, one per joint.
+    pub q: Joints,
     /// Measured position in the measurement frame, mm.
     pub p: [f64; 3],
     /// `W` with `Wᵀ W` the inverse of the point's noise covariance (mm⁻¹); the identity for
@@ -135,15 +161,21 @@ pub struct Observation {
 /// * θ1 and d1 when the placement is free: a rotation about and a shift along J1's axis are the
 ///   placement's yaw and z (with the placement known, J1's axis is the base z axis and both stay
 ///   identifiable);
-/// * all of J6's: the target is a point, so its three coordinates already say everything J6's
-///   parameters could (its radius about J6's axis, height along it and phase);
+/// * all of the last joint's (J6's of a six-axis arm): the target is a point, so its three
+///   coordinates already say everything the last joint's parameters could (its radius about that
+///   axis, height along it and phase);
 ///
-/// and the target's x, y, z. A 6R chain with non-parallel J1/J2 then has 27 free inputs with the
-/// placement free (Everett's 4R + 2P + 6 minus the 3 of a point's missing orientation) and 23
-/// with it known.
-pub fn default_free(fixed: &[FixedParam; JOINTS], base_free: bool) -> Vec<usize> {
+/// and the target's x, y, z. `fixed` has one entry per joint. A 6R chain with non-parallel J1/J2
+/// then has 27 free inputs with the placement free (Everett's 4R + 2P + 6 minus the 3 of a
+/// point's missing orientation) and 23 with it known; each further revolute joint adds four.
+///
+/// # Panics
+///
+/// When `fixed` does not have 4 to 7 entries.
+pub fn default_free(fixed: &[FixedParam], base_free: bool) -> Vec<usize> {
+    let lay = Layout::new(fixed.len());
     let mut free: Vec<usize> = Vec::new();
-    for (j, f) in fixed.iter().enumerate().take(JOINTS - 1) {
+    for (j, f) in fixed.iter().enumerate().take(lay.joints() - 1) {
         for kind in ParamKind::ALL {
             if kind == f.kind() {
                 continue;
@@ -154,16 +186,16 @@ pub fn default_free(fixed: &[FixedParam; JOINTS], base_free: bool) -> Vec<usize>
             free.push(param_index(j, kind));
         }
     }
-    free.extend(N_PARAMS..BASE_INPUT);
+    free.extend(lay.n_params()..base_input(lay));
     if base_free {
-        free.extend(BASE_INPUT..N_FIT_INPUTS);
+        free.extend(base_input(lay)..n_fit_inputs(lay));
     }
     free
 }
 
-/// Finite-difference step of input `i` for the Jacobian.
-fn step(i: usize) -> f64 {
-    if fit_input_is_angle(i) {
+/// Finite-difference step of input `i` of a chain of layout `lay` for the Jacobian.
+fn step(lay: Layout, i: usize) -> f64 {
+    if fit_input_is_angle(lay, i) {
         1e-8
     } else {
         1e-5
@@ -196,11 +228,12 @@ pub fn position_residuals(obs: &[Observation], s: &ChainState) -> Vec<[f64; 3]> 
 /// Jacobian of the whitened residuals by central differences, one column per input of `free`.
 pub fn jacobian(obs: &[Observation], s: &ChainState, free: &[usize]) -> DMatrix<f64> {
     let m = 3 * obs.len();
+    let lay = s.layout();
     let cols: Vec<Vec<f64>> = {
         use rayon::prelude::*;
         free.par_iter()
             .map(|&i| {
-                let h = step(i);
+                let h = step(lay, i);
                 let mut a = *s;
                 a.set(i, s.get(i) + h);
                 let mut b = *s;
@@ -222,8 +255,8 @@ pub fn jacobian(obs: &[Observation], s: &ChainState, free: &[usize]) -> DMatrix<
 pub struct Prior {
     /// The values the prior pulls towards (the nominal geometry).
     pub centre: ChainState,
-    /// σ per fit input, internal units; 0 = none.
-    pub sigma: [f64; N_FIT_INPUTS],
+    /// σ per fit input ([`n_fit_inputs`] of them), internal units; 0 = none.
+    pub sigma: Vec<f64>,
 }
 
 /// Minimises the whitened residuals (plus the prior's rows) over the inputs `free`, from `start`.
@@ -233,7 +266,8 @@ pub fn fit(
     free: &[usize],
     prior: Option<&Prior>,
 ) -> ChainState {
-    let steps: Vec<f64> = free.iter().map(|&i| step(i)).collect();
+    let lay = start.layout();
+    let steps: Vec<f64> = free.iter().map(|&i| step(lay, i)).collect();
     let apply = |s: &ChainState, d: &[f64]| -> ChainState {
         let mut n = *s;
         for (k, &i) in free.iter().enumerate() {
@@ -279,8 +313,9 @@ fn kabsch(from: &[Vector3<f64>], to: &[Vector3<f64>]) -> (Matrix3<f64>, Vector3<
 /// A start for the fit when the placement is unknown: alternately a rigid alignment (Kabsch) of
 /// the chain's predicted points onto the measured ones and a linear least-squares solve for the
 /// target and the placement's translation given its rotation (the positions are linear in both),
-/// ten rounds from the nominal parameters and `tool`.
-pub fn initial_state(obs: &[Observation], params: &[f64; N_PARAMS], tool: &[f64; 3]) -> ChainState {
+/// ten rounds from the nominal parameters (`5n`, one joint angle per joint in every observation)
+/// and `tool`.
+pub fn initial_state(obs: &[Observation], params: &[f64], tool: &[f64; 3]) -> ChainState {
     let frames: Vec<([[f64; 4]; 4], Vector3<f64>)> = obs
         .iter()
         .map(|o| (transform(params, &o.q), Vector3::from(o.p)))
@@ -322,7 +357,7 @@ pub fn initial_state(obs: &[Observation], params: &[f64; N_PARAMS], tool: &[f64;
     }
     let (roll, pitch, yaw) = Rotation3::from_matrix_unchecked(rot).euler_angles();
     ChainState {
-        params: *params,
+        params: Params::from_slice(params),
         tool: [tool.x, tool.y, tool.z],
         base: [trans.x, trans.y, trans.z, roll, pitch, yaw],
     }
@@ -331,7 +366,7 @@ pub fn initial_state(obs: &[Observation], params: &[f64; N_PARAMS], tool: &[f64;
 /// The target (flange frame) that best fits base-frame data with the placement known and the
 /// parameters `params`: positions are linear in it (`R_f(q)·t + o_f(q) = p`). `None` when the
 /// data do not determine it (all points at one flange orientation).
-pub fn initial_tool(obs: &[Observation], params: &[f64; N_PARAMS]) -> Option<[f64; 3]> {
+pub fn initial_tool(obs: &[Observation], params: &[f64]) -> Option<[f64; 3]> {
     let mut ata = Matrix3::<f64>::zeros();
     let mut atb = Vector3::<f64>::zeros();
     for o in obs {
@@ -362,7 +397,7 @@ mod tests {
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         (0..n)
             .map(|_| {
-                let q: [f64; JOINTS] = std::array::from_fn(|_| rng.random_range(-2.0..2.0));
+                let q = Joints::from_fn(6, |_| rng.random_range(-2.0..2.0));
                 Observation {
                     q,
                     p: truth.predict(&q),
@@ -374,13 +409,21 @@ mod tests {
 
     #[test]
     fn names_round_trip() {
-        assert_eq!(fit_input_name(0), "theta1");
-        assert_eq!(fit_input_name(31), "tool_y");
-        assert_eq!(fit_input_name(38), "base_yaw");
-        for i in 0..N_FIT_INPUTS {
-            assert_eq!(fit_input_index(&fit_input_name(i)), Some(i));
+        let six = Layout::SIX;
+        assert_eq!(fit_input_name(six, 0), "theta1");
+        assert_eq!(fit_input_name(six, 31), "tool_y");
+        assert_eq!(fit_input_name(six, 38), "base_yaw");
+        for n in 4..=7 {
+            let lay = Layout::new(n);
+            for i in 0..n_fit_inputs(lay) {
+                assert_eq!(fit_input_name(lay, i), lay.input_name(i));
+                assert_eq!(fit_input_index(lay, &fit_input_name(lay, i)), Some(i));
+            }
+            assert_eq!(fit_input_joint(lay, lay.tool_index(0)), Some(n));
         }
-        assert_eq!(fit_input_index("nope"), None);
+        assert_eq!(fit_input_index(six, "nope"), None);
+        assert_eq!(fit_input_index(six, "theta7"), None);
+        assert_eq!(fit_input_name(Layout::new(7), 36), "tool_y");
     }
 
     #[test]
@@ -402,8 +445,12 @@ mod tests {
         };
         let free = default_free(&nominal.fixed, true);
         for (k, &i) in free.iter().enumerate() {
-            if i < N_PARAMS {
-                let size = if fit_input_is_angle(i) { 5e-4 } else { 0.3 };
+            if i < Layout::SIX.n_params() {
+                let size = if fit_input_is_angle(Layout::SIX, i) {
+                    5e-4
+                } else {
+                    0.3
+                };
                 truth.set(i, truth.get(i) + size * if k % 2 == 0 { 1.0 } else { -0.7 });
             }
         }
@@ -414,7 +461,7 @@ mod tests {
             assert!(
                 (got.get(i) - truth.get(i)).abs() < 1e-6,
                 "{}: {} vs {}",
-                fit_input_name(i),
+                fit_input_name(Layout::SIX, i),
                 got.get(i),
                 truth.get(i)
             );

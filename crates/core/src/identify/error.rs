@@ -23,7 +23,7 @@ pub enum IdentifyError {
     #[error(transparent)]
     Read(#[from] crate::input::ReadError),
     /// A malformed CSV row: wrong number of fields, a field that is not a (finite) number, a
-    /// joint number outside 1–6. Fix the named line.
+    /// joint number outside 1–n (n the number of `q` columns). Fix the named line.
     #[error("{origin}: line {line}: {message}")]
     Csv {
         /// The file.
@@ -50,7 +50,7 @@ pub enum IdentifyError {
         origin: String,
     },
     /// A run has no sweep of a joint.
-    #[error("joint {joint}{run}: no sweep of this joint (every joint 1–6 needs one)")]
+    #[error("joint {joint}{run}: no sweep of this joint (every joint of the model needs one)")]
     MissingJoint {
         /// 1-based joint.
         joint: usize,
@@ -100,6 +100,10 @@ pub enum IdentifyError {
         /// Which joint, its value and the limits.
         message: String,
     },
+    /// The data (or a second model) have another number of joints than the model; the message
+    /// names the line or model and both counts.
+    #[error("{0}")]
+    JointCount(String),
     /// Nothing to evaluate.
     #[error("{0}")]
     NoData(String),

@@ -19,7 +19,7 @@
 //! combination and the joint ranges the data actually cover.
 
 use super::chain_fit::{fit_input_joint, fit_input_name, jacobian, ChainState, Observation};
-use crate::kinematics::JOINTS;
+use crate::kinematics::{Layout, MAX_JOINTS, MIN_JOINTS};
 use nalgebra::DMatrix;
 use serde::Serialize;
 
@@ -33,9 +33,9 @@ pub const RANK_TOLERANCE: f64 = 1e-6;
 /// determined one (in the scaled units), so κ says how much worse than the tracker's own noise the
 /// worst direction is known. Schröer's rule for calibration designs is κ < 100 and robotkinecal's
 /// field procedure accepts a tracker calibration up to 100–1000. Measured here (σ = 10 µm, target
-/// 96 mm off the flange centre, TX60 / UR5e / IRB 2400 / KR 6): random poses within the limits
-/// give κ = 16–40 from 30 poses on and 58–514 with 10; the simulator's circle-point sweeps (50 %
-/// of the measuring ranges) 210; a target on the J6 axis κ ≈ 10⁵ at any pose count, mirrored data
+/// 96 mm off the flange centre, TX60 / UR5e / IRB 2400 / KR 6): random poses within the limits give
+/// κ = 16–40 from 30 poses on and 58–514 with 10; the simulator's circle-point sweeps (50 % of the
+/// measuring ranges) 210; a target on the last (J6) axis κ ≈ 10⁵ at any pose count, mirrored data
 /// (two columns swapped) 10⁵. The warning is at 1000, the upper end of the accepted range, so that
 /// it marks data that cannot be trusted; the report calls 100–1000 "weak" ([`WEAK_CONDITION`]).
 pub const CONDITION_LIMIT: f64 = 1000.0;
@@ -99,9 +99,10 @@ pub struct Identifiability {
     pub fixed_by_user: Vec<String>,
     /// Pairs with |ρ| above [`CORRELATION_LIMIT`].
     pub correlated: Vec<Correlation>,
-    /// Span of each joint's commanded angle in the data, degrees.
-    pub joint_spans_deg: [f64; JOINTS],
-    /// Distance of the target from the J6 axis, mm: near 0 its phase about J6 is invisible.
+    /// Span of each joint's commanded angle in the data, degrees, one per joint.
+    pub joint_spans_deg: Vec<f64>,
+    /// Distance of the target from the last joint's axis (J6's of a six-axis arm), mm: near 0
+    /// its phase about that axis is invisible.
     pub target_axis_distance_mm: f64,
 }
 
@@ -125,7 +126,8 @@ pub fn scaled_svd(j: &DMatrix<f64>) -> ScaledSvd {
             s.column_mut(c).scale_mut(1.0 / n);
         }
     }
-    // Jᵀ J's eigen-decomposition is enough (p ≤ 39) and avoids an m × p SVD of a tall matrix.
+    // Jᵀ J's eigen-decomposition is enough (p ≤ 5n + 9, 44 at most) and avoids an m × p SVD of
+    // a tall matrix.
     let eig = (s.transpose() * &s).symmetric_eigen();
     let mut order: Vec<usize> = (0..eig.eigenvalues.len()).collect();
     order.sort_by(|&a, &b| eig.eigenvalues[b].total_cmp(&eig.eigenvalues[a]));
@@ -143,9 +145,10 @@ pub fn scaled_svd(j: &DMatrix<f64>) -> ScaledSvd {
     }
 }
 
-/// A direction (scaled coordinates over `free`) written as a named combination: the terms of at
-/// least a tenth of the largest, largest first, with the largest's coefficient 1.
-pub fn combination(v: &[f64], free: &[usize]) -> String {
+/// A direction (scaled coordinates over `free`, fit inputs of a chain of layout `lay`) written as
+/// a named combination: the terms of at least a tenth of the largest, largest first, with the
+/// largest's coefficient 1.
+pub fn combination(lay: Layout, v: &[f64], free: &[usize]) -> String {
     let max = v.iter().fold(0.0f64, |m, x| m.max(x.abs()));
     if max == 0.0 {
         return String::new();
@@ -161,7 +164,7 @@ pub fn combination(v: &[f64], free: &[usize]) -> String {
     let mut s = String::new();
     for (n, (k, x)) in terms.iter().enumerate() {
         let c = sign * x / max;
-        let name = fit_input_name(free[*k]);
+        let name = fit_input_name(lay, free[*k]);
         if n == 0 {
             s.push_str(&name);
         } else {
@@ -186,15 +189,16 @@ pub fn fix_null_directions(
     nominal: &ChainState,
     free: &mut Vec<usize>,
 ) -> Vec<NullDirection> {
+    let lay = state.layout();
     let mut found = Vec::new();
     while !free.is_empty() {
         let j = jacobian(obs, state, free);
         let svd = scaled_svd(&j);
         if let Some(c) = svd.norms.iter().position(|&n| n == 0.0) {
             found.push(NullDirection {
-                combination: fit_input_name(free[c]),
+                combination: fit_input_name(lay, free[c]),
                 relative_singular_value: 0.0,
-                fixed: fit_input_name(free[c]),
+                fixed: fit_input_name(lay, free[c]),
             });
             state.set(free[c], nominal.get(free[c]));
             free.remove(c);
@@ -213,9 +217,9 @@ pub fn fix_null_directions(
             .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))
             .unwrap_or((0, &0.0));
         found.push(NullDirection {
-            combination: combination(&v, free),
+            combination: combination(lay, &v, free),
             relative_singular_value: rel,
-            fixed: fit_input_name(free[k]),
+            fixed: fit_input_name(lay, free[k]),
         });
         state.set(free[k], nominal.get(free[k]));
         free.remove(k);
@@ -233,6 +237,7 @@ pub fn analyse(
     null_directions: Vec<NullDirection>,
     fixed_by_user: Vec<String>,
 ) -> Identifiability {
+    let lay = state.layout();
     let j = jacobian(obs, state, free);
     let svd = scaled_svd(&j);
     let p = svd.values.len();
@@ -251,7 +256,7 @@ pub fn analyse(
     };
     let weakest = if p > 0 {
         let v: Vec<f64> = svd.vectors.column(p - 1).iter().copied().collect();
-        combination(&v, free)
+        combination(lay, &v, free)
     } else {
         String::new()
     };
@@ -263,8 +268,8 @@ pub fn analyse(
                 let rho = covariance[(a, b)] / d;
                 if rho.abs() > CORRELATION_LIMIT {
                     correlated.push(Correlation {
-                        a: fit_input_name(free[a]),
-                        b: fit_input_name(free[b]),
+                        a: fit_input_name(lay, free[a]),
+                        b: fit_input_name(lay, free[b]),
                         rho,
                     });
                 }
@@ -272,7 +277,7 @@ pub fn analyse(
         }
     }
     correlated.sort_by(|x, y| y.rho.abs().total_cmp(&x.rho.abs()));
-    let mut spans = [0.0; JOINTS];
+    let mut spans = vec![0.0; lay.joints()];
     for (j, span) in spans.iter_mut().enumerate() {
         let (lo, hi) = obs
             .iter()
@@ -303,24 +308,27 @@ pub fn analyse(
     }
 }
 
-/// Distance of the target from the J6 axis (frame 5's z axis), mm.
+/// Distance of the target from the last joint's axis (frame n − 1's z axis; J6's, frame 5's, of a
+/// six-axis arm), mm.
 pub fn target_axis_distance(state: &ChainState) -> f64 {
-    let p = &state.params[5 * (JOINTS - 1)..5 * JOINTS];
-    // J6's own transform applied to the target, in frame 5: q6 and θ6 only turn it about z.
+    let n = state.layout().joints();
+    let p = &state.params[5 * (n - 1)..5 * n];
+    // The last joint's own transform applied to the target, in frame n − 1: q_n and θ_n only
+    // turn it about z.
     let t = crate::kinematics::joint_transform(0.0, p[1], p[2], p[3], p[4], 0.0);
     let v: [f64; 3] =
         std::array::from_fn(|r| (0..3).map(|c| t[r][c] * state.tool[c]).sum::<f64>() + t[r][3]);
     (v[0] * v[0] + v[1] * v[1]).sqrt()
 }
 
-/// Joints (1-based) whose parameters appear in a named combination, and whether the placement
-/// does.
-fn joints_in(combination: &str) -> (Vec<usize>, bool) {
+/// Joints (1-based) whose parameters appear in a named combination of the fit inputs of a chain
+/// of layout `lay`, and whether the placement does.
+fn joints_in(lay: Layout, combination: &str) -> (Vec<usize>, bool) {
     let mut joints = Vec::new();
     let mut base = false;
     for term in combination.split([' ', '+', '−']).filter(|t| !t.is_empty()) {
-        if let Some(i) = super::chain_fit::fit_input_index(term) {
-            match fit_input_joint(i) {
+        if let Some(i) = super::chain_fit::fit_input_index(lay, term) {
+            match fit_input_joint(lay, i) {
                 Some(j) => {
                     if !joints.contains(&j) {
                         joints.push(j);
@@ -344,8 +352,11 @@ pub fn advice(combination: &str, a: &Identifiability) -> String {
             a.parameters + null_count(a)
         );
     }
+    // One span per joint of the chain.
+    let n = a.joint_spans_deg.len();
+    let lay = Layout::new(n.clamp(MIN_JOINTS, MAX_JOINTS));
     // A joint that barely moved explains most weak directions by itself.
-    let still: Vec<String> = (0..JOINTS)
+    let still: Vec<String> = (0..n)
         .filter(|&j| a.joint_spans_deg[j] < STILL_JOINT_DEG)
         .map(|j| format!("J{} {:.1}°", j + 1, a.joint_spans_deg[j]))
         .collect();
@@ -355,16 +366,16 @@ pub fn advice(combination: &str, a: &Identifiability) -> String {
             still.join(", ")
         );
     }
-    let (joints, base) = joints_in(combination);
+    let (joints, base) = joints_in(lay, combination);
     let tool_fixed = a
         .null_directions
         .iter()
         .map(|n| n.fixed.as_str())
         .chain(a.fixed_by_user.iter().map(String::as_str))
         .any(|n| n.starts_with("tool_"));
-    if !tool_fixed && joints.iter().any(|&j| j >= JOINTS - 1) && a.target_axis_distance_mm < 10.0 {
+    if !tool_fixed && joints.iter().any(|&j| j + 1 >= n) && a.target_axis_distance_mm < 10.0 {
         return format!(
-            "mount the target away from the J6 axis (it is {:.1} mm from it; at 50 mm or more J6's rotation shows in the data)",
+            "mount the target away from the J{n} axis (it is {:.1} mm from it; at 50 mm or more J{n}'s rotation shows in the data)",
             a.target_axis_distance_mm
         );
     }
@@ -408,15 +419,25 @@ mod tests {
     #[test]
     fn combination_names_terms() {
         // free = d2 (index 6), d3 (11), a2 (7)
-        let s = combination(&[0.7, -0.7, 0.1], &[6, 11, 7]);
+        let six = Layout::SIX;
+        let s = combination(six, &[0.7, -0.7, 0.1], &[6, 11, 7]);
         assert_eq!(s, "d2 − d3 + 0.14 a2");
-        let s = combination(&[-0.5, 0.01, 0.0], &[6, 11, 7]);
+        let s = combination(six, &[-0.5, 0.01, 0.0], &[6, 11, 7]);
         assert_eq!(s, "d2");
     }
 
     #[test]
     fn joints_of_a_combination() {
-        assert_eq!(joints_in("d2 − d3 + 0.14 tool_x"), (vec![2, 3, 6], false));
-        assert_eq!(joints_in("base_z + 0.3 a1"), (vec![1], true));
+        let six = Layout::SIX;
+        assert_eq!(
+            joints_in(six, "d2 − d3 + 0.14 tool_x"),
+            (vec![2, 3, 6], false)
+        );
+        assert_eq!(joints_in(six, "base_z + 0.3 a1"), (vec![1], true));
+        let seven = Layout::new(7);
+        assert_eq!(
+            joints_in(seven, "d7 − d3 + 0.14 tool_x"),
+            (vec![3, 7], false)
+        );
     }
 }

@@ -21,7 +21,7 @@ use super::pipeline::{identify_run, Identification, IdentifyOptions, IdentifyRep
 use super::poses::{PoseData, TrackerData};
 use super::sweeps::{SweepData, SweepRun};
 use super::{mdh, IdentifyError, IdentifyWarning};
-use crate::kinematics::{param_index, ParamKind, RobotModel, JOINTS};
+use crate::kinematics::{param_index, ParamKind, RobotModel};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 
 /// An identification report for data without circle fits (poses): the whole-chain report and
@@ -151,6 +151,7 @@ fn sweep_points(run: &SweepRun) -> Vec<MeasuredPoint> {
 ///
 /// # Errors
 ///
+/// [`IdentifyError::JointCount`] when the points do not have one angle per joint of `nominal`,
 /// [`IdentifyError::MissingJoint`] when the run has no J1 or J2 sweep, [`IdentifyError::Fit`]
 /// when a circle fit fails, [`IdentifyError::Geometry`] when the two axes are parallel.
 pub fn placement_from_axes(
@@ -158,6 +159,7 @@ pub fn placement_from_axes(
     nominal: &RobotModel,
     method: CircleFitMethod,
 ) -> Result<[f64; 6], IdentifyError> {
+    super::pipeline::check_joint_count(run, nominal)?;
     let mut lines = Vec::new();
     let mut homes = Vec::new();
     for j in 1..=2 {
@@ -168,7 +170,7 @@ pub fn placement_from_axes(
         });
         homes.push(home);
     }
-    let nominal_line = |j: usize, home: &[f64; JOINTS]| {
+    let nominal_line = |j: usize, home: &crate::kinematics::Joints| {
         let (r, t) = mdh::frame(&nominal.params, j, &home.map(f64::to_radians));
         Line {
             point: t,

@@ -6,7 +6,9 @@
 //! ([`render_identify_report`] formats it, [`render_identify_summary`] summarises the runs). Per
 //! run and joint: the sweep is checked ([`check_sweep`]), a circle is fitted
 //! ([`circle::fit_circle`], by [`CircleFitMethod`]) giving the joint's axis line in the base frame;
-//! consecutive axes give the MDH parameters ([`mdh`]) and the J6 sweep the tool point. The
+//! consecutive axes give the MDH parameters ([`mdh`]) and the last joint's sweep (J6 of a
+//! six-axis arm) the tool point. Every step works for the 4 to 7 joints a model may have: the
+//! data have one sweep per joint and one `q` column per joint. The
 //! conventions for what point measurements cannot separate are documented in [`mdh`]. By default
 //! ([`IdentifyOptions::default`]) two further steps use the commanded angles and the design:
 //! a prior that keeps poorly determined quantities near the nominal geometry ([`NominalPrior`],
@@ -43,7 +45,8 @@
 //!
 //! The identified model copies the nominal model's name (suffixed), joint limits and structure
 //! (`fixed`, except where [`mdh::PARALLEL_THRESHOLD_DEG`] switches a pair to the `β` form). Its
-//! uncertainty is `Uncertainty::Independent([0.0; 30])`: one run says nothing about the spread;
+//! uncertainty is independent σ of zero for all `5n` parameters (30 for six joints): one run says
+//! nothing about the spread;
 //! statistics over repeated runs ([`parameter_statistics`]) or a simulation supply it.
 //!
 //! ```

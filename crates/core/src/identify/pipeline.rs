@@ -8,7 +8,7 @@ use super::quality::{quality_warnings, IdentifyWarning, QualityLimits};
 use super::sweeps::{self, Sweep, SweepData, SweepRun};
 use super::{mdh, refine, IdentifyError};
 use crate::kinematics::{
-    param_index, FixedParam, ParamKind, RobotModel, Uncertainty, JOINTS, N_PARAMS,
+    param_index, FixedParam, Joints, ParamKind, Params, RobotModel, Uncertainty,
 };
 use nalgebra::Vector3;
 
@@ -93,7 +93,7 @@ pub struct JointReport {
     pub nominal: [f64; 5],
     /// Which of d / β is fixed in the identified model.
     pub fixed: FixedParam,
-    /// Angle between this joint's axis and the next, degrees (`None` for J6).
+    /// Angle between this joint's axis and the next, degrees (`None` for the last joint).
     pub axis_angle_deg: Option<f64>,
 }
 
@@ -139,7 +139,7 @@ pub struct Identification {
 /// [`CircleFitError::TooFewPoints`]) for fewer than [`circle::MIN_POINTS`] points, and
 /// [`IdentifyError::OtherJointMoved`] when a joint other than the swept one leaves the home pose by
 /// more than [`HOME_TOLERANCE_DEG`].
-pub fn check_sweep(sweep: &Sweep, run: Option<&str>) -> Result<[f64; JOINTS], IdentifyError> {
+pub fn check_sweep(sweep: &Sweep, run: Option<&str>) -> Result<Joints, IdentifyError> {
     let label = sweeps::run_label(run);
     let Some(first) = sweep.points.first() else {
         return Err(IdentifyError::MissingJoint {
@@ -226,8 +226,8 @@ pub(crate) fn fit_sweep(
     run: &SweepRun,
     j: usize,
     method: CircleFitMethod,
-    prior: impl Fn(&[f64; JOINTS]) -> Option<circle::AxisPrior>,
-) -> Result<(&Sweep, [f64; JOINTS], circle::CircleFit), IdentifyError> {
+    prior: impl Fn(&Joints) -> Option<circle::AxisPrior>,
+) -> Result<(&Sweep, Joints, circle::CircleFit), IdentifyError> {
     let label = run.label();
     let sweep = run.sweep(j).ok_or_else(|| IdentifyError::MissingJoint {
         joint: j,
@@ -258,18 +258,22 @@ pub(crate) fn fit_sweep(
 ///
 /// # Errors
 ///
-/// [`IdentifyError::MissingJoint`] when a joint has no sweep, the errors of [`check_sweep`] for a
-/// bad sweep, [`IdentifyError::Fit`] when a circle fit fails (naming the joint and run), and
-/// [`IdentifyError::Geometry`] when the fitted axes cannot be turned into a joint's parameters.
+/// [`IdentifyError::JointCount`] when the sweeps' points do not have one angle per joint of
+/// `nominal`, [`IdentifyError::MissingJoint`] when a joint has no sweep, the errors of
+/// [`check_sweep`] for a bad sweep, [`IdentifyError::Fit`] when a circle fit fails (naming the
+/// joint and run), and [`IdentifyError::Geometry`] when the fitted axes cannot be turned into a
+/// joint's parameters.
 pub fn identify_run(
     run: &SweepRun,
     nominal: &RobotModel,
     options: &IdentifyOptions,
 ) -> Result<Identification, IdentifyError> {
     let label = run.label();
-    let mut fits = Vec::with_capacity(JOINTS);
-    let mut axes = Vec::with_capacity(JOINTS);
-    for j in 1..=JOINTS {
+    let n = nominal.joints();
+    check_joint_count(run, nominal)?;
+    let mut fits = Vec::with_capacity(n);
+    let mut axes = Vec::with_capacity(n);
+    for j in 1..=n {
         let (sweep, home, fit) = fit_sweep(run, j, options.method, |home| {
             options.nominal_prior.map(|pr| {
                 let (r, _) = mdh::frame(&nominal.params, j - 1, &home.map(f64::to_radians));
@@ -288,9 +292,8 @@ pub fn identify_run(
         });
         fits.push((sweep.points.len(), fit));
     }
-    let axes: [mdh::MeasuredAxis; JOINTS] = std::array::from_fn(|i| axes[i]);
-    let tool_points: Vec<([f64; JOINTS], Vector3<f64>)> = run
-        .sweep(JOINTS)
+    let tool_points: Vec<(Joints, Vector3<f64>)> = run
+        .sweep(n)
         .map(|s| {
             s.points
                 .iter()
@@ -302,7 +305,7 @@ pub fn identify_run(
     if options.refine {
         let prior = options.nominal_prior.map(|p| {
             (
-                &nominal.params,
+                &nominal.params[..],
                 p.length_sigma_mm,
                 p.angle_sigma_deg.to_radians(),
             )
@@ -325,13 +328,13 @@ pub fn identify_run(
         limits_deg: nominal.limits_deg,
         tool: chain.tool,
         tool_sigma: [0.0; 3],
-        uncertainty: Uncertainty::Independent([0.0; N_PARAMS]),
+        uncertainty: Uncertainty::Independent(Params::filled(nominal.layout().n_params(), 0.0)),
         // The chain is expressed in the measurements' frame with J1 along its z, the nominal
         // model's base frame; the nominal's placement in its description's frame (e.g. the
         // KUKA KR 6's Rx(180°)) carries over, so `fk` and `export` of the result match it.
         base: nominal.base,
     };
-    let to_file = |p: &[f64; N_PARAMS], j: usize| -> [f64; 5] {
+    let to_file = |p: &[f64], j: usize| -> [f64; 5] {
         ParamKind::ALL.map(|kind| p[param_index(j, kind)] / kind.to_internal())
     };
     let joints = fits
@@ -365,4 +368,27 @@ pub fn identify_run(
     };
     report.warnings = quality_warnings(&report, &QualityLimits::default());
     Ok(Identification { model, report })
+}
+
+/// Checks that every point of `run` has one commanded angle per joint of `nominal`.
+///
+/// # Errors
+///
+/// [`IdentifyError::JointCount`] naming the first point's line, sweep and both counts.
+pub(crate) fn check_joint_count(run: &SweepRun, nominal: &RobotModel) -> Result<(), IdentifyError> {
+    let n = nominal.joints();
+    for s in &run.sweeps {
+        if let Some(p) = s.points.iter().find(|p| p.q_deg.len() != n) {
+            return Err(IdentifyError::JointCount(format!(
+                "line {} (joint {} sweep{}): {} joint angles, the nominal model {} has {} joints",
+                p.line,
+                s.joint,
+                run.label(),
+                p.q_deg.len(),
+                nominal.name,
+                n
+            )));
+        }
+    }
+    Ok(())
 }

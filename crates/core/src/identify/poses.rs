@@ -1,33 +1,43 @@
 //! Pose data (the target measured at many configurations) and its CSV format, and the reader
 //! that tells pose and sweep files apart by their header.
 //!
-//! Header `q1,q2,q3,q4,q5,q6,x,y,z`, optionally with `run` (any position, any label) and with
-//! per-point standard uncertainties `sx,sy,sz` (mm; all three or none). The angles are commanded
+//! Header `q1,…,qn,x,y,z` for an `n`-joint robot (`n` = 4 to 7; `q1,q2,q3,q4,q5,q6,x,y,z` for a
+//! six-axis arm), optionally with `run` (any position, any label) and with per-point standard
+//! uncertainties `sx,sy,sz` (mm; all three or none). The angles are commanded
 //! joint angles in degrees, `x,y,z` the measured target position in mm in any measurement frame.
 //! [`read_tracker_data`] reads either this or a sweep file (a `joint` column); the checks that
 //! need the nominal model (joint limits, units that look like metres) are made by
-//! [`check_tracker_data`]. Every error is one line naming the file, the line and the column.
+//! [`check_tracker_data`] (which also checks that the data have the model's number of joints).
+//! Every error is one line naming the file, the line and the column.
 
 use super::sweeps::{
-    column_indices, csv_error, csv_reader, open_input, parse_number, parse_sweeps, run_label,
-    SweepData,
+    column_indices, csv_error, csv_reader, joint_count, open_input, parse_number, parse_sweeps,
+    run_label, SweepData, Q_COLUMNS,
 };
 use super::IdentifyError;
-use crate::kinematics::{RobotModel, JOINTS};
+use crate::kinematics::{Joints, RobotModel, MAX_JOINTS, MIN_JOINTS};
 use std::collections::HashMap;
 use std::io::{Read, Write};
 use std::path::Path;
 
-/// The columns a pose file must have.
-pub const POSE_COLUMNS: [&str; 9] = ["q1", "q2", "q3", "q4", "q5", "q6", "x", "y", "z"];
+/// The columns a pose file of an `joints`-joint robot must have: `q1` to `q{joints}`, `x`, `y`,
+/// `z`.
+pub fn pose_columns(joints: usize) -> Vec<&'static str> {
+    let mut c = Q_COLUMNS[..joints.min(MAX_JOINTS)].to_vec();
+    c.extend_from_slice(&["x", "y", "z"]);
+    c
+}
+
+/// The accepted headers, for the error of a file that has neither.
+const FORMATS: &str = "joint,q1,…,qn,x,y,z (sweeps) or q1,…,qn,x,y,z [,sx,sy,sz] (poses), one q column per joint (4 to 7), each optionally with run";
 /// The optional per-point standard uncertainty columns.
 pub const SIGMA_COLUMNS: [&str; 3] = ["sx", "sy", "sz"];
 
 /// One measured pose.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PosePoint {
-    /// Commanded joint angles, degrees.
-    pub q_deg: [f64; JOINTS],
+    /// Commanded joint angles, degrees, one per joint.
+    pub q_deg: Joints,
     /// Measured target position, mm, in the data's frame.
     pub position_mm: [f64; 3],
     /// Stated standard uncertainty per coordinate, mm.
@@ -82,7 +92,7 @@ impl TrackerData {
     }
 
     /// Every measured point with its commanded angles, position and line.
-    fn rows(&self) -> Vec<([f64; JOINTS], [f64; 3], u64)> {
+    fn rows(&self) -> Vec<(Joints, [f64; 3], u64)> {
         match self {
             TrackerData::Sweeps(d) => d
                 .runs
@@ -105,14 +115,17 @@ impl TrackerData {
 ///
 /// # Errors
 ///
-/// [`IdentifyError::MissingColumn`] for a missing required column (or one of `sx,sy,sz` while
-/// another is present), [`IdentifyError::Csv`] for a malformed row, a value that is not a finite
-/// number, a σ that is not positive, or a row that repeats an earlier one exactly (same run,
-/// angles and position), naming its line; [`IdentifyError::Empty`] for no data rows.
+/// [`IdentifyError::MissingColumn`] for a missing required column (fewer than four `q` columns or a
+/// gap in them, or one of `sx,sy,sz` while another is present), [`IdentifyError::Csv`] for a
+/// malformed row, a value that is not a finite number, a σ that is not positive, or a row that
+/// repeats an earlier one exactly (same run, angles and position), naming its line;
+/// [`IdentifyError::Empty`] for no data rows.
 pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, IdentifyError> {
     let mut rdr = csv_reader(reader);
     let header = rdr.headers().map_err(|e| csv_error(e, origin))?.clone();
-    let cols = column_indices(&header, &POSE_COLUMNS, origin)?;
+    let n = joint_count(&header, origin, FORMATS)?;
+    let columns = pose_columns(n);
+    let cols = column_indices(&header, &columns, origin)?;
     let find = |name: &str| {
         header
             .iter()
@@ -126,15 +139,16 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
         None
     };
     let mut data = PoseData::default();
-    let mut seen: HashMap<(Option<String>, [u64; 9]), u64> = HashMap::new();
+    let mut seen: HashMap<(Option<String>, Vec<u64>), u64> = HashMap::new();
     for rec in rdr.records() {
         let rec = rec.map_err(|e| csv_error(e, origin))?;
         let line = rec.position().map(|p| p.line()).unwrap_or(0);
         let run = run_col.map(|c| rec.get(c).unwrap_or("").trim().to_string());
         let context = run_label(run.as_deref());
-        let mut v = [0.0; 9];
+        let mut v = [0.0; MAX_JOINTS + 3];
+        let v = &mut v[..n + 3];
         for (k, x) in v.iter_mut().enumerate() {
-            *x = parse_number(&rec, cols[k], POSE_COLUMNS[k], line, origin, &context)?;
+            *x = parse_number(&rec, cols[k], columns[k], line, origin, &context)?;
         }
         let sigma_mm = match &sigma_cols {
             None => None,
@@ -156,7 +170,7 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
                 Some(s)
             }
         };
-        let key = (run.clone(), v.map(f64::to_bits));
+        let key = (run.clone(), v.iter().map(|x| x.to_bits()).collect());
         if let Some(first) = seen.insert(key, line) {
             return Err(IdentifyError::Csv {
                 origin: origin.to_string(),
@@ -167,8 +181,8 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
             });
         }
         let point = PosePoint {
-            q_deg: [v[0], v[1], v[2], v[3], v[4], v[5]],
-            position_mm: [v[6], v[7], v[8]],
+            q_deg: Joints::from_slice(&v[..n]),
+            position_mm: [v[n], v[n + 1], v[n + 2]],
             sigma_mm,
             line,
         };
@@ -200,7 +214,7 @@ pub fn read_poses(path: &Path) -> Result<PoseData, IdentifyError> {
 }
 
 /// Reads sweep or pose data, told apart by the header: a `joint` column means sweeps, otherwise
-/// the pose columns are required.
+/// the pose columns are required (`q1` to `qn` for 4 to 7 joints, `x`, `y`, `z`).
 ///
 /// # Errors
 ///
@@ -228,15 +242,16 @@ pub fn parse_tracker_data(text: &str, origin: &str) -> Result<TrackerData, Ident
     if names.iter().any(|n| n == "joint") {
         return Ok(TrackerData::Sweeps(parse_sweeps(text.as_bytes(), origin)?));
     }
-    if !POSE_COLUMNS.iter().all(|c| names.iter().any(|n| n == c)) {
+    let required = pose_columns(MIN_JOINTS);
+    if let Some(missing) = required
+        .iter()
+        .copied()
+        .find(|c| !names.iter().any(|n| n == c))
+    {
         return Err(IdentifyError::MissingColumn {
             origin: origin.to_string(),
-            column: POSE_COLUMNS
-                .iter()
-                .find(|c| !names.iter().any(|n| n == *c))
-                .copied()
-                .unwrap_or("q1"),
-            expected: "joint,q1,…,q6,x,y,z (sweeps) or q1,…,q6,x,y,z [,sx,sy,sz] (poses), each optionally with run".into(),
+            column: missing,
+            expected: FORMATS.into(),
         });
     }
     Ok(TrackerData::Poses(parse_poses(text.as_bytes(), origin)?))
@@ -246,13 +261,14 @@ pub fn parse_tracker_data(text: &str, origin: &str) -> Result<TrackerData, Ident
 /// so all coordinates within ±10 with a spread under 10 are metres, not millimetres.
 const METRES_LIMIT: f64 = 10.0;
 
-/// Checks data against the nominal model: every row's angles within the joint limits, and
-/// positions that are not in metres.
+/// Checks data against the nominal model: every row with one angle per joint of the model, within
+/// the joint limits, and positions that are not in metres.
 ///
 /// # Errors
 ///
-/// [`IdentifyError::Csv`] naming the first row outside the limits (joint, value, limits) or the
-/// first row of data that look like metres.
+/// [`IdentifyError::Csv`] naming the first row with another number of joint angles than the
+/// model has joints or outside the limits (joint, value, limits), or the first row of data that
+/// look like metres.
 pub fn check_tracker_data(
     data: &TrackerData,
     nominal: &RobotModel,
@@ -260,6 +276,19 @@ pub fn check_tracker_data(
 ) -> Result<(), IdentifyError> {
     let rows = data.rows();
     for (q, _, line) in &rows {
+        if q.len() != nominal.joints() {
+            return Err(IdentifyError::Csv {
+                origin: origin.to_string(),
+                line: *line,
+                message: format!(
+                    "has {} joint angles (q1–q{}), the nominal model {} has {} joints",
+                    q.len(),
+                    q.len(),
+                    nominal.name,
+                    nominal.joints()
+                ),
+            });
+        }
         nominal
             .check_limits(q)
             .map_err(|message| IdentifyError::Csv {
@@ -295,11 +324,13 @@ pub fn check_tracker_data(
 }
 
 /// Writes pose data in the format [`parse_poses`] reads: a `run` column when any run has a label,
-/// `sx,sy,sz` when every point has them.
+/// `sx,sy,sz` when every point has them. The `q` columns are those of the first pose's joints
+/// (six without poses).
 ///
 /// # Errors
 ///
-/// [`IdentifyError::Io`] when writing fails.
+/// [`IdentifyError::Io`] when writing fails, or when the poses do not all have the same number
+/// of joint angles.
 pub fn write_poses<W: Write>(data: &PoseData, writer: W) -> Result<(), IdentifyError> {
     let io = |e: csv::Error| IdentifyError::Io {
         path: "<pose output>".into(),
@@ -310,19 +341,29 @@ pub fn write_poses<W: Write>(data: &PoseData, writer: W) -> Result<(), IdentifyE
         .runs
         .iter()
         .all(|r| r.points.iter().all(|p| p.sigma_mm.is_some()));
+    let mut points = data.runs.iter().flat_map(|r| &r.points);
+    let n = points.clone().next().map_or(6, |p| p.q_deg.len());
+    if points.any(|p| p.q_deg.len() != n) {
+        return Err(IdentifyError::Io {
+            path: "<pose output>".into(),
+            cause: std::io::Error::other(
+                "the poses do not all have the same number of joint angles",
+            ),
+        });
+    }
     let mut w = csv::Writer::from_writer(writer);
     let mut header: Vec<&str> = Vec::new();
     if with_run {
         header.push("run");
     }
-    header.extend_from_slice(&POSE_COLUMNS);
+    header.extend(pose_columns(n));
     if with_sigma {
         header.extend_from_slice(&SIGMA_COLUMNS);
     }
     w.write_record(&header).map_err(io)?;
     for r in &data.runs {
         for p in &r.points {
-            let mut row: Vec<String> = Vec::with_capacity(13);
+            let mut row: Vec<String> = Vec::with_capacity(n + 7);
             if with_run {
                 row.push(r.run.clone().unwrap_or_default());
             }
@@ -360,7 +401,7 @@ mod tests {
         let mut out = Vec::new();
         write_poses(&d, &mut out).unwrap();
         let back = parse_poses(out.as_slice(), "o").unwrap();
-        type Row = ([f64; 6], [f64; 3], Option<[f64; 3]>);
+        type Row = (Joints, [f64; 3], Option<[f64; 3]>);
         let strip = |d: &PoseData| -> Vec<(Option<String>, Vec<Row>)> {
             d.runs
                 .iter()
@@ -426,6 +467,27 @@ mod tests {
                 "{e}"
             );
         }
+    }
+
+    #[test]
+    fn seven_joint_poses_and_the_joint_count_check() {
+        let text = "q1,q2,q3,q4,q5,q6,q7,x,y,z\n0,1,2,3,4,5,6,1000,200,300\n";
+        let d = parse_tracker_data(text, "f.csv").unwrap();
+        let TrackerData::Poses(p) = &d else {
+            panic!("not poses")
+        };
+        assert_eq!(p.runs[0].points[0].q_deg.len(), 7);
+        let mut out = Vec::new();
+        write_poses(p, &mut out).unwrap();
+        assert_eq!(&parse_poses(out.as_slice(), "o").unwrap(), p);
+        let e = check_tracker_data(&d, &tx60(), "f.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 2") && e.contains("7 joint angles"), "{e}");
+        let e = parse_tracker_data("q1,q2,q3,x,y,z\n0,0,0,1,2,3\n", "f.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("'q4'"), "{e}");
     }
 
     #[test]

@@ -15,7 +15,7 @@
 //!   columns are swapped (which mirrors the robot and turns base z sideways).
 
 use super::pipeline::{Identification, IdentifyReport};
-use crate::kinematics::{ParamKind, JOINTS};
+use crate::kinematics::ParamKind;
 use std::fmt;
 
 /// Default largest plausible circle-fit RMS residual, mm.
@@ -222,8 +222,9 @@ pub fn quality_warnings(report: &IdentifyReport, limits: &QualityLimits) -> Vec<
                 limit_mm: limits.max_rms_residual_mm,
             });
         }
-        // J6's parameters are held at nominal (the tool point absorbs the rest).
-        if j.joint == JOINTS {
+        // The last joint's parameters (J6's of a six-axis arm) are held at nominal (the tool
+        // point absorbs the rest); the report has one entry per joint.
+        if j.joint == report.joints.len() {
             continue;
         }
         for (k, kind) in ParamKind::ALL.into_iter().enumerate() {

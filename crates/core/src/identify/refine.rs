@@ -5,21 +5,21 @@
 //! predicts) and the fact that every sweep passes the same home-pose target are thrown away.
 //! This step keeps the circle-point result as the start and minimises
 //! `Σ_k ‖P(params, q_k) − p_k‖²` over all points of all sweeps of the run, at the commanded
-//! angles, by Levenberg–Marquardt over the identifiable parameters: θ, a, α of joints 1–5, `d`
-//! where β is fixed, β where `d` is fixed, and the tool point (J6's parameters stay nominal, J1's
-//! axis stays base z, as in [`super::mdh`]). It is the maximum-likelihood estimate for isotropic
-//! tracker noise given the same data and conventions.
+//! angles, by Levenberg–Marquardt over the identifiable parameters: θ, a, α of joints 1 to
+//! n − 1, `d` where β is fixed, β where `d` is fixed, and the tool point (the last joint's
+//! parameters stay nominal, J1's axis stays base z, as in [`super::mdh`]). It is the
+//! maximum-likelihood estimate for isotropic tracker noise given the same data and conventions.
 
 use super::lm::levenberg_marquardt;
 use super::sweeps::SweepRun;
-use crate::kinematics::{param_index, position, FixedParam, ParamKind, JOINTS, N_PARAMS};
+use crate::kinematics::{param_index, position, FixedParam, Joints, ParamKind, Params};
 
 /// The parameters the refinement adjusts: `(joint (0-based), kind)` in storage order.
-fn refined(fixed: &[FixedParam; JOINTS]) -> Vec<(usize, ParamKind)> {
+fn refined(fixed: &[FixedParam]) -> Vec<(usize, ParamKind)> {
     fixed
         .iter()
         .enumerate()
-        .take(JOINTS - 1)
+        .take(fixed.len().saturating_sub(1))
         .flat_map(|(j, f)| {
             ParamKind::ALL
                 .into_iter()
@@ -29,8 +29,9 @@ fn refined(fixed: &[FixedParam; JOINTS]) -> Vec<(usize, ParamKind)> {
         .collect()
 }
 
-/// Indices (into the 30-vector) of the parameters the refinement adjusts.
-pub fn refined_params(fixed: &[FixedParam; JOINTS]) -> Vec<usize> {
+/// Indices (into the `5n` parameters, one [`FixedParam`] per joint in `fixed`) of the parameters
+/// the refinement adjusts.
+pub fn refined_params(fixed: &[FixedParam]) -> Vec<usize> {
     refined(fixed)
         .into_iter()
         .map(|(j, kind)| param_index(j, kind))
@@ -41,11 +42,7 @@ pub fn refined_params(fixed: &[FixedParam; JOINTS]) -> Vec<usize> {
 /// into the solver) so that the forward kinematics is inlined here and the sines and cosines of the
 /// parameters, the same for every point, are computed once per call.
 #[inline(never)]
-fn point_residuals(
-    params: &[f64; N_PARAMS],
-    tool: &[f64; 3],
-    points: &[([f64; JOINTS], [f64; 3])],
-) -> Vec<f64> {
+fn point_residuals(params: &[f64], tool: &[f64; 3], points: &[(Joints, [f64; 3])]) -> Vec<f64> {
     let mut r = Vec::with_capacity(3 * points.len());
     for (q, p) in points {
         let x = position(params, tool, q);
@@ -63,20 +60,20 @@ fn point_residuals(
 /// the data leave some combinations almost free and the nominal geometry is then the better guess.
 pub fn refine_chain(
     run: &SweepRun,
-    params: &[f64; N_PARAMS],
-    fixed: &[FixedParam; JOINTS],
+    params: &[f64],
+    fixed: &[FixedParam],
     tool: &[f64; 3],
-    prior: Option<(&[f64; N_PARAMS], f64, f64)>,
-) -> ([f64; N_PARAMS], [f64; 3], f64) {
+    prior: Option<(&[f64], f64, f64)>,
+) -> (Params, [f64; 3], f64) {
     let kinds = refined(fixed);
     let free = refined_params(fixed);
-    let points: Vec<([f64; JOINTS], [f64; 3])> = run
+    let points: Vec<(Joints, [f64; 3])> = run
         .sweeps
         .iter()
         .flat_map(|s| s.points.iter())
         .map(|p| (p.q_deg.map(f64::to_radians), p.position_mm))
         .collect();
-    type State = ([f64; N_PARAMS], [f64; 3]);
+    type State = (Params, [f64; 3]);
     let residuals = |s: &State| point_residuals(&s.0, &s.1, &points);
     let apply = |s: &State, d: &[f64]| -> State {
         let mut n = *s;
@@ -93,7 +90,12 @@ pub fn refine_chain(
         .map(|&(_, kind)| if kind.is_angle() { 1e-8 } else { 1e-5 })
         .collect();
     steps.extend_from_slice(&[1e-5; 3]);
-    let mut s = levenberg_marquardt((*params, *tool), &steps, apply, residuals);
+    let mut s = levenberg_marquardt(
+        (Params::from_slice(params), *tool),
+        &steps,
+        apply,
+        residuals,
+    );
     if let Some((nominal, length_sigma, angle_sigma)) = prior {
         let r = residuals(&s);
         let dof = r.len().saturating_sub(steps.len()).max(1) as f64;
@@ -117,7 +119,12 @@ pub fn refine_chain(
             r
         };
         if weights.iter().all(|w| w.is_finite()) {
-            s = levenberg_marquardt((*params, *tool), &steps, apply, regularised);
+            s = levenberg_marquardt(
+                (Params::from_slice(params), *tool),
+                &steps,
+                apply,
+                regularised,
+            );
         }
     }
     let r = residuals(&s);

@@ -8,7 +8,7 @@ use super::chain_outputs::{
     PARAMETERS_CSV, POSE_RESIDUALS_SVG,
 };
 use super::{sweeps, AccuracyStats, Identification, IdentifyReport, Validation};
-use crate::kinematics::{ParamKind, JOINTS};
+use crate::kinematics::{ParamKind, MAX_JOINTS};
 use crate::report::html::pages::{add_settings, link_all};
 use crate::report::html::{Figure, Page, Table};
 use crate::report::svg::{LinePlot, Series};
@@ -62,10 +62,12 @@ pub fn render_identify_report(report: &IdentifyReport) -> String {
         "{:>3} {:>24} {:>24} {:>24} {:>24} {:>24}",
         "J", "theta", "d", "a", "alpha", "beta"
     );
+    // One entry per joint: the last (J6 of a six-axis arm) keeps its nominal parameters.
+    let last = report.joints.len();
     for j in &report.joints {
         let mut row = format!("{:>3}", j.joint);
         for (k, kind) in ParamKind::ALL.iter().enumerate() {
-            let fixed = j.fixed.kind() == *kind || j.joint == JOINTS;
+            let fixed = j.fixed.kind() == *kind || j.joint == last;
             let cell = if fixed {
                 format!("{:.4} [fixed]", j.identified[k])
             } else {
@@ -88,7 +90,7 @@ pub fn render_identify_report(report: &IdentifyReport) -> String {
     );
     let _ = writeln!(
         s,
-        "J6: theta, d, a, alpha kept nominal; the tool point absorbs the rest."
+        "J{last}: theta, d, a, alpha kept nominal; the tool point absorbs the rest."
     );
     let _ = writeln!(
         s,
@@ -464,7 +466,7 @@ impl Report for IdentifyReports {
 fn residual_plot(r: &IdentifyReports) -> LinePlot {
     let n = r.runs.len().max(1) as f64;
     let per_joint = |f: &dyn Fn(&[f64]) -> f64| -> Vec<(f64, f64)> {
-        (0..JOINTS)
+        (0..MAX_JOINTS)
             .filter_map(|j| {
                 let v: Vec<f64> = r
                     .runs
@@ -526,8 +528,8 @@ fn identify_page(
     }
     page.paragraph(
         "Each run's sweeps move one joint at a time; a circle fitted to the tracker's points gives \
-         the joint's axis line, consecutive axes give the MDH parameters and the J6 sweep the \
-         tool point. The values are in joints.csv and runs.csv.",
+         the joint's axis line, consecutive axes give the MDH parameters and the last joint's \
+         sweep the tool point. The values are in joints.csv and runs.csv.",
     );
     page.heading("Circle fits");
     let mut rows = Vec::new();

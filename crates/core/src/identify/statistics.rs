@@ -3,45 +3,50 @@
 //! ([`correlated_statistics`]).
 //!
 //! The tool point (tracker target) is identified in every run, so it has a run-to-run spread
-//! too: its σ goes into [`RobotModel::tool_sigma`], and the full covariance becomes 33 × 33 (the
-//! 30 parameters, then the tool's x, y, z) when the tool varies between the runs.
+//! too: its σ goes into [`RobotModel::tool_sigma`], and the full covariance becomes
+//! `(5n + 3)²` (the `5n` parameters, then the tool's x, y, z; 33 × 33 for six joints) when the
+//! tool varies between the runs.
 
 use super::{Identification, IdentifyError};
-use crate::kinematics::{param_index, RobotModel, Uncertainty, N_PARAMS, N_UNCERTAIN};
+use crate::kinematics::{param_index, Inputs, Params, RobotModel, Uncertainty};
 
 /// Relative ridge added to the diagonal of a sample covariance: with R runs of ~24 free
 /// parameters the covariance is singular when R is at most the number of free parameters, and the
 /// ridge gives it a Cholesky factor (draws stay within 10⁻³ σ of the sample covariance's subspace).
 pub const COVARIANCE_RIDGE: f64 = 1e-6;
 
-/// The [`N_UNCERTAIN`] inputs of a model: its 30 parameters, then the tool's x, y, z.
-fn inputs(m: &RobotModel) -> [f64; N_UNCERTAIN] {
-    std::array::from_fn(|i| {
-        if i < N_PARAMS {
-            m.params[i]
-        } else {
-            m.tool[i - N_PARAMS]
-        }
-    })
+/// The [`Layout::n_uncertain`](crate::kinematics::Layout::n_uncertain) inputs of a model: its
+/// `5n` parameters, then the tool's x, y, z.
+fn inputs(m: &RobotModel) -> Inputs {
+    let np = m.params.len();
+    Inputs::from_fn(
+        np + 3,
+        |i| if i < np { m.params[i] } else { m.tool[i - np] },
+    )
 }
 
-/// Sample covariance (n − 1) of the parameters and tool coordinates of `models`, row-major
-/// 33 × 33 ([`N_UNCERTAIN`]: the 30 parameters, then the tool's x, y, z), internal units.
+/// Sample covariance (n − 1) of the parameters and tool coordinates of `models` (all with the
+/// first model's joint count), row-major `(5n + 3)²` (the `5n` parameters, then the tool's x, y,
+/// z; 33 × 33 for six joints), internal units; empty for no models.
 pub fn sample_covariance(models: &[RobotModel]) -> Vec<f64> {
+    let Some(first) = models.first() else {
+        return Vec::new();
+    };
+    let nu = first.layout().n_uncertain();
     let n = models.len() as f64;
-    let mut mean = [0.0; N_UNCERTAIN];
+    let mut mean = vec![0.0; nu];
     for m in models {
         for (s, v) in mean.iter_mut().zip(&inputs(m)) {
             *s += v / n;
         }
     }
-    let mut c = vec![0.0; N_UNCERTAIN * N_UNCERTAIN];
+    let mut c = vec![0.0; nu * nu];
     for m in models {
         let x = inputs(m);
-        for i in 0..N_UNCERTAIN {
+        for i in 0..nu {
             let di = x[i] - mean[i];
-            for k in 0..N_UNCERTAIN {
-                c[i * N_UNCERTAIN + k] += di * (x[k] - mean[k]) / (n - 1.0);
+            for k in 0..nu {
+                c[i * nu + k] += di * (x[k] - mean[k]) / (n - 1.0);
             }
         }
     }
@@ -50,29 +55,32 @@ pub fn sample_covariance(models: &[RobotModel]) -> Vec<f64> {
 
 /// [`parameter_statistics`] with the full sample covariance instead of independent σ: rows and
 /// columns of fixed parameters (and of a tool coordinate without spread) are zero and the
-/// diagonal carries the [`COVARIANCE_RIDGE`]. The matrix is 33 × 33 when the tool varies between
-/// the runs, else the parameters' 30 × 30 block (the tool then has σ 0).
+/// diagonal carries the [`COVARIANCE_RIDGE`]. The matrix is `(5n + 3)²` (33 × 33 for six joints)
+/// when the tool varies between the runs, else the parameters' `5n × 5n` block (30 × 30; the tool
+/// then has σ 0).
 pub fn correlated_statistics(models: &[RobotModel]) -> Option<RobotModel> {
     let mut m = parameter_statistics(models)?;
+    let lay = m.layout();
+    let nu = lay.n_uncertain();
     let sig = m.input_sigmas();
     let full = sample_covariance(models);
     let n = if m.tool_uncertain() {
-        N_UNCERTAIN
+        nu
     } else {
-        N_PARAMS
+        lay.n_params()
     };
     let mut cov = vec![0.0; n * n];
     for i in 0..n {
         for k in 0..n {
             if sig[i] != 0.0 && sig[k] != 0.0 {
-                cov[i * n + k] = full[i * N_UNCERTAIN + k];
+                cov[i * n + k] = full[i * nu + k];
             }
         }
         cov[i * n + i] *= 1.0 + COVARIANCE_RIDGE;
     }
-    if n == N_UNCERTAIN {
+    if n == nu {
         for k in 0..3 {
-            let i = N_PARAMS + k;
+            let i = lay.tool_index(k);
             m.tool_sigma[k] = cov[i * n + i].sqrt();
         }
     }
@@ -83,20 +91,26 @@ pub fn correlated_statistics(models: &[RobotModel]) -> Option<RobotModel> {
 /// Mean parameters and tool point and their sample standard deviations over the models of
 /// repeated runs (`n − 1` divisor): a model whose uncertainty is `Independent(σ)` and whose
 /// `tool_sigma` is the tool's run-to-run σ. The first model supplies the structure, limits and
-/// name; `None` for fewer than two models or differing structures.
+/// name; `None` for fewer than two models or differing structures (joint counts included).
 pub fn parameter_statistics(models: &[RobotModel]) -> Option<RobotModel> {
     let first = models.first()?;
-    if models.len() < 2 || models.iter().any(|m| m.fixed != first.fixed) {
+    if models.len() < 2
+        || models
+            .iter()
+            .any(|m| m.fixed != first.fixed || m.params.len() != first.params.len())
+    {
         return None;
     }
+    let lay = first.layout();
+    let np = lay.n_params();
     let n = models.len() as f64;
-    let mut mean = [0.0; N_UNCERTAIN];
+    let mut mean = vec![0.0; lay.n_uncertain()];
     for m in models {
         for (s, v) in mean.iter_mut().zip(&inputs(m)) {
             *s += v / n;
         }
     }
-    let mut sigma = [0.0; N_UNCERTAIN];
+    let mut sigma = vec![0.0; lay.n_uncertain()];
     for (i, s) in sigma.iter_mut().enumerate() {
         let var = models
             .iter()
@@ -111,12 +125,12 @@ pub fn parameter_statistics(models: &[RobotModel]) -> Option<RobotModel> {
     }
     Some(RobotModel {
         name: format!("{} (mean of {} runs)", first.name, models.len()),
-        params: std::array::from_fn(|i| mean[i]),
+        params: Params::from_slice(&mean[..np]),
         fixed: first.fixed,
         limits_deg: first.limits_deg,
-        tool: std::array::from_fn(|k| mean[N_PARAMS + k]),
-        tool_sigma: std::array::from_fn(|k| sigma[N_PARAMS + k]),
-        uncertainty: Uncertainty::Independent(std::array::from_fn(|i| sigma[i])),
+        tool: std::array::from_fn(|k| mean[np + k]),
+        tool_sigma: std::array::from_fn(|k| sigma[np + k]),
+        uncertainty: Uncertainty::Independent(Params::from_slice(&sigma[..np])),
         base: first.base,
     })
 }
@@ -213,7 +227,7 @@ pub fn identified_model(
 fn compare_with_single_run(runs: &[Identification], stats: &RobotModel) -> Option<String> {
     let spread = stats.input_sigmas();
     let mut ratios = Vec::new();
-    for i in 0..N_UNCERTAIN {
+    for i in 0..spread.len() {
         let single: Vec<f64> = runs
             .iter()
             .filter_map(|r| match &r.model.uncertainty {
@@ -250,7 +264,8 @@ mod tests {
     use crate::kinematics::tx60;
 
     /// Three runs whose tool differs: the tool's mean and σ are those of the three values
-    /// (closed form), the covariance is 33 × 33 with the tool's variance on its diagonal, and
+    /// (closed form), the covariance is 33 × 33 (six joints) with the tool's variance on its
+    /// diagonal, and
     /// the model passes its own checks.
     #[test]
     fn tool_spread_over_runs() {
@@ -272,8 +287,9 @@ mod tests {
         assert!((m.tool_sigma[2] - 0.002 * s).abs() < 1e-12);
         m.check().unwrap();
         let c = correlated_statistics(&runs).unwrap();
-        assert_eq!(c.uncertainty.dim(), N_UNCERTAIN);
-        let (x, z) = (N_PARAMS, N_PARAMS + 2);
+        let six = crate::kinematics::Layout::SIX;
+        assert_eq!(c.uncertainty.dim(), six.n_uncertain());
+        let (x, z) = (six.tool_index(0), six.tool_index(2));
         let ridge = 1.0 + COVARIANCE_RIDGE;
         assert!((c.uncertainty.entry(x, x) - (0.003 * s).powi(2) * ridge).abs() < 1e-15);
         // tool x and z are perfectly anti-correlated, as are tool x and a1
@@ -281,7 +297,7 @@ mod tests {
         assert!(c.uncertainty.entry(x, 2) > 0.0);
         assert!((c.tool_sigma[0] - (0.003 * s) * ridge.sqrt()).abs() < 1e-15);
         let back = RobotModel::from_toml(&c.to_toml(), "x").unwrap();
-        assert_eq!(back.uncertainty.dim(), N_UNCERTAIN);
+        assert_eq!(back.uncertainty.dim(), six.n_uncertain());
         assert!((back.tool_sigma[2] - c.tool_sigma[2]).abs() < 1e-15);
         // runs with one tool keep the 30 × 30 matrix and no tool spread
         let same: Vec<RobotModel> = runs
@@ -292,7 +308,7 @@ mod tests {
             })
             .collect();
         let c = correlated_statistics(&same).unwrap();
-        assert_eq!(c.uncertainty.dim(), N_PARAMS);
+        assert_eq!(c.uncertainty.dim(), six.n_params());
         assert!(!c.tool_uncertain());
     }
 }

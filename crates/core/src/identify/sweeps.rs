@@ -1,27 +1,68 @@
 //! Sweep data (the tracker measurements of the circle-point method) and its CSV format.
 //!
-//! Header `joint,q1,q2,q3,q4,q5,q6,x,y,z`, optionally with a `run` column (any position, any
-//! label): `joint` is the joint (1–6) swept in that row, `q1..q6` the commanded joint angles in
-//! degrees, `x,y,z` the measured target position in mm in the robot base frame. The rows of one
-//! joint (within one run) form that joint's sweep; all other joints stay at the sweep's home
-//! pose. Reading checks the syntax and that every number is finite, naming the line; the
-//! structural checks (enough points, only the swept joint moving, every joint present) are made
-//! by [`crate::identify::identify`] so that simulated data passes the same checks.
-//! [`write_sweeps`] writes the same format, so real and simulated data go through one reader.
+//! Header `joint,q1,…,qn,x,y,z` for an `n`-joint robot (`n` = 4 to 7;
+//! `joint,q1,q2,q3,q4,q5,q6,x,y,z` for a six-axis arm), optionally with a `run` column (any
+//! position, any label): `joint` is the joint (1–n) swept in that row, `q1..qn` the commanded joint
+//! angles in degrees, `x,y,z` the measured target position in mm in the robot base frame. The
+//! number of joints is the number of `q` columns; [`crate::identify::identify`] checks that it is
+//! the nominal model's. The rows of one joint (within one run) form that joint's sweep; all other
+//! joints stay at the sweep's home pose. Reading checks the syntax and that every number is finite,
+//! naming the line; the structural checks (enough points, only the swept joint moving, every joint
+//! present) are made by [`crate::identify::identify`] so that simulated data passes the same
+//! checks. [`write_sweeps`] writes the same format, so real and simulated data go through one
+//! reader.
 
 use super::IdentifyError;
-use crate::kinematics::JOINTS;
+use crate::kinematics::{Joints, MAX_JOINTS, MIN_JOINTS};
 use std::io::{Read, Write};
 use std::path::Path;
 
-/// The columns a sweep file must have (besides the optional `run`).
-pub const SWEEP_COLUMNS: [&str; 10] = ["joint", "q1", "q2", "q3", "q4", "q5", "q6", "x", "y", "z"];
+/// The joint-angle columns, `q1` to `q7`; a file of an `n`-joint robot has the first `n`.
+pub const Q_COLUMNS: [&str; MAX_JOINTS] = ["q1", "q2", "q3", "q4", "q5", "q6", "q7"];
+
+/// The columns a sweep file of an `joints`-joint robot must have (besides the optional `run`):
+/// `joint`, `q1` to `q{joints}`, `x`, `y`, `z`.
+pub fn sweep_columns(joints: usize) -> Vec<&'static str> {
+    let mut c = vec!["joint"];
+    c.extend_from_slice(&Q_COLUMNS[..joints.min(MAX_JOINTS)]);
+    c.extend_from_slice(&["x", "y", "z"]);
+    c
+}
+
+/// The number of joints of a data file: the `q` columns of its header, `q1` up to the highest
+/// present. All of `q1` to `q{n}` must be there, and `n` is [`MIN_JOINTS`] to [`MAX_JOINTS`];
+/// `formats` lists the accepted headers for the error.
+pub(crate) fn joint_count(
+    header: &csv::StringRecord,
+    origin: &str,
+    formats: &str,
+) -> Result<usize, IdentifyError> {
+    let has = |name: &str| header.iter().any(|h| h.trim().eq_ignore_ascii_case(name));
+    let n = (1..=MAX_JOINTS)
+        .rev()
+        .find(|&k| has(Q_COLUMNS[k - 1]))
+        .unwrap_or(0);
+    let beyond = format!("q{}", MAX_JOINTS + 1);
+    if has(&beyond) {
+        return Err(IdentifyError::JointCount(format!(
+            "{origin}: the header has a column '{beyond}', but a model has at most {MAX_JOINTS} joints"
+        )));
+    }
+    match (0..n.max(MIN_JOINTS)).find(|&k| !has(Q_COLUMNS[k])) {
+        Some(k) => Err(IdentifyError::MissingColumn {
+            origin: origin.to_string(),
+            column: Q_COLUMNS[k],
+            expected: formats.to_string(),
+        }),
+        None => Ok(n),
+    }
+}
 
 /// One measured point of a sweep.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SweepPoint {
-    /// Commanded joint angles, degrees.
-    pub q_deg: [f64; JOINTS],
+    /// Commanded joint angles, degrees, one per joint.
+    pub q_deg: Joints,
     /// Measured target position in the base frame, mm.
     pub position_mm: [f64; 3],
     /// Line number in the CSV file (for simulated data: the line it has when written).
@@ -199,12 +240,19 @@ pub(crate) fn csv_error(e: csv::Error, origin: &str) -> IdentifyError {
 /// # Errors
 ///
 /// [`IdentifyError::Csv`] for a malformed row (wrong number of fields, a field that is not a finite
-/// number, a joint outside 1–6), naming its line; [`IdentifyError::MissingColumn`] when the header
-/// lacks a required column; [`IdentifyError::Empty`] when there are no data rows.
+/// number, a joint outside 1–n), naming its line; [`IdentifyError::MissingColumn`] when the header
+/// lacks a required column (fewer than four `q` columns, or a gap in them);
+/// [`IdentifyError::Empty`] when there are no data rows.
 pub fn parse_sweeps<R: Read>(reader: R, origin: &str) -> Result<SweepData, IdentifyError> {
     let mut rdr = csv_reader(reader);
     let header = rdr.headers().map_err(|e| csv_error(e, origin))?.clone();
-    let cols = column_indices(&header, &SWEEP_COLUMNS, origin)?;
+    let n = joint_count(
+        &header,
+        origin,
+        "joint,q1,…,qn,x,y,z (one q column per joint, 4 to 7)",
+    )?;
+    let columns = sweep_columns(n);
+    let cols = column_indices(&header, &columns, origin)?;
     let run_col = header
         .iter()
         .position(|h| h.trim().eq_ignore_ascii_case("run"));
@@ -216,31 +264,25 @@ pub fn parse_sweeps<R: Read>(reader: R, origin: &str) -> Result<SweepData, Ident
         rows += 1;
         let jtext = rec.get(cols[0]).unwrap_or("").trim();
         let joint = match jtext.parse::<usize>() {
-            Ok(j) if (1..=JOINTS).contains(&j) => j,
+            Ok(j) if (1..=n).contains(&j) => j,
             _ => {
                 return Err(IdentifyError::Csv {
                     origin: origin.to_string(),
                     line,
-                    message: format!("column joint: '{jtext}' is not a joint number 1–{JOINTS}"),
+                    message: format!("column joint: '{jtext}' is not a joint number 1–{n}"),
                 })
             }
         };
         let run = run_col.map(|c| rec.get(c).unwrap_or("").trim().to_string());
         let context = format!(" (joint {joint} sweep{})", run_label(run.as_deref()));
-        let mut vals = [0.0; 9];
+        let mut vals = [0.0; MAX_JOINTS + 3];
+        let vals = &mut vals[..n + 3];
         for (k, v) in vals.iter_mut().enumerate() {
-            *v = parse_number(
-                &rec,
-                cols[k + 1],
-                SWEEP_COLUMNS[k + 1],
-                line,
-                origin,
-                &context,
-            )?;
+            *v = parse_number(&rec, cols[k + 1], columns[k + 1], line, origin, &context)?;
         }
         let point = SweepPoint {
-            q_deg: [vals[0], vals[1], vals[2], vals[3], vals[4], vals[5]],
-            position_mm: [vals[6], vals[7], vals[8]],
+            q_deg: Joints::from_slice(&vals[..n]),
+            position_mm: [vals[n], vals[n + 1], vals[n + 2]],
             line,
         };
         let ri = match data.runs.iter().position(|r| r.run == run) {
@@ -274,28 +316,43 @@ pub fn parse_sweeps<R: Read>(reader: R, origin: &str) -> Result<SweepData, Ident
 }
 
 /// Writes sweep data in the format [`parse_sweeps`] reads; the `run` column is written when any
-/// run has a label.
+/// run has a label. The `q` columns are those of the first point's joints (six without points).
 ///
 /// # Errors
 ///
-/// [`IdentifyError::Io`] when writing to `writer` fails.
+/// [`IdentifyError::Io`] when writing to `writer` fails, or when the points do not all have the
+/// same number of joint angles.
 pub fn write_sweeps<W: Write>(data: &SweepData, writer: W) -> Result<(), IdentifyError> {
     let io = |e: csv::Error| IdentifyError::Io {
         path: "<sweep output>".into(),
         cause: std::io::Error::other(e.to_string()),
     };
     let with_run = data.runs.iter().any(|r| r.run.is_some());
+    let mut points = data
+        .runs
+        .iter()
+        .flat_map(|r| &r.sweeps)
+        .flat_map(|s| &s.points);
+    let n = points.clone().next().map_or(6, |p| p.q_deg.len());
+    if points.any(|p| p.q_deg.len() != n) {
+        return Err(IdentifyError::Io {
+            path: "<sweep output>".into(),
+            cause: std::io::Error::other(
+                "the sweep points do not all have the same number of joint angles",
+            ),
+        });
+    }
     let mut w = csv::Writer::from_writer(writer);
     let mut header: Vec<&str> = Vec::new();
     if with_run {
         header.push("run");
     }
-    header.extend_from_slice(&SWEEP_COLUMNS);
+    header.extend(sweep_columns(n));
     w.write_record(&header).map_err(io)?;
     for r in &data.runs {
         for s in &r.sweeps {
             for p in &s.points {
-                let mut row: Vec<String> = Vec::with_capacity(11);
+                let mut row: Vec<String> = Vec::with_capacity(n + 5);
                 if with_run {
                     row.push(r.run.clone().unwrap_or_default());
                 }
@@ -315,6 +372,16 @@ pub fn write_sweeps<W: Write>(data: &SweepData, writer: W) -> Result<(), Identif
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A column for an eighth joint is refused, not silently dropped.
+    #[test]
+    fn a_column_beyond_seven_joints_is_refused() {
+        let text = "joint,q1,q2,q3,q4,q5,q6,q7,q8,x,y,z\n1,0,0,0,0,0,0,0,0,1,2,3\n";
+        let e = parse_sweeps(text.as_bytes(), "t.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("'q8'") && e.contains("at most 7"), "{e}");
+    }
 
     #[test]
     fn reads_runs_and_joints() {
@@ -337,6 +404,34 @@ mod tests {
             back.runs[1].sweeps[0].points[0].position_mm,
             [1.0, 2.0, 3.0]
         );
+    }
+
+    #[test]
+    fn the_q_columns_give_the_joint_count() {
+        let text = "joint,q1,q2,q3,q4,q5,q6,q7,x,y,z,run\n\
+                    7,0,0,0,0,0,0,5,1,2,3,a\n\
+                    7,0,0,0,0,0,0,6,1,2,4,a\n";
+        let d = parse_sweeps(text.as_bytes(), "t.csv").unwrap();
+        let p = &d.runs[0].sweeps[0].points[1];
+        assert_eq!(&*p.q_deg, &[0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 6.0]);
+        assert_eq!(p.position_mm, [1.0, 2.0, 4.0]);
+        let mut out = Vec::new();
+        write_sweeps(&d, &mut out).unwrap();
+        assert!(String::from_utf8_lossy(&out).starts_with("run,joint,q1,q2,q3,q4,q5,q6,q7,x,y,z\n"));
+        assert_eq!(parse_sweeps(out.as_slice(), "o").unwrap(), d);
+        let four =
+            parse_sweeps("joint,q1,q2,q3,q4,x,y,z\n4,0,0,0,9,1,2,3\n".as_bytes(), "t").unwrap();
+        assert_eq!(four.runs[0].sweeps[0].points[0].q_deg.len(), 4);
+        for (header, missing) in [
+            ("joint,q1,q2,q3,x,y,z\n", "'q4'"),
+            ("joint,q1,q2,q3,q5,x,y,z\n", "'q4'"),
+        ] {
+            let e = parse_sweeps(header.as_bytes(), "t").unwrap_err();
+            assert!(e.to_string().contains(missing), "{e}");
+        }
+        let e =
+            parse_sweeps("joint,q1,q2,q3,q4,x,y,z\n5,0,0,0,9,1,2,3\n".as_bytes(), "t").unwrap_err();
+        assert!(e.to_string().contains("1–4"), "{e}");
     }
 
     #[test]

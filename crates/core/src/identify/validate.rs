@@ -1,26 +1,31 @@
 //! Positioning accuracy of a model against measured positions (the paper's accuracy check,
 //! docs/METHOD.md §5: mean absolute positioning error before and after calibration).
 //!
-//! Input CSV header `q1,q2,q3,q4,q5,q6,x,y,z`: commanded joint angles (deg) and the measured
+//! Input CSV header `q1,…,qn,x,y,z` (`q1,q2,q3,q4,q5,q6,x,y,z` for a six-axis arm; 4 to 7 joints,
+//! as many as the model has): commanded joint angles (deg) and the measured
 //! target position (mm, in the robot base frame, or with [`validate_in`] in the measurement frame
 //! of an identified placement). The error at a point is `‖P(model, q) − p_measured‖`;
 //! [`validate`] reports its mean, RMS and maximum for a model and optionally for a nominal model,
 //! with the improvement in percent ([`Validation::improvement_percent`]).
 
-use super::sweeps::{column_indices, csv_error, csv_reader, open_input, parse_number};
+use super::poses::pose_columns;
+use super::sweeps::{column_indices, csv_error, csv_reader, joint_count, open_input, parse_number};
 use super::{IdentifyError, Placement};
-use crate::kinematics::{position, RobotModel, JOINTS};
+use crate::kinematics::{position, Joints, RobotModel, MAX_JOINTS};
 use std::io::{Read, Write};
 use std::path::Path;
 
-/// The columns of a measurement file.
-pub const MEASUREMENT_COLUMNS: [&str; 9] = ["q1", "q2", "q3", "q4", "q5", "q6", "x", "y", "z"];
+/// The columns of a measurement file of an `joints`-joint robot: `q1` to `q{joints}`, `x`, `y`,
+/// `z` (the columns of a pose file).
+pub fn measurement_columns(joints: usize) -> Vec<&'static str> {
+    pose_columns(joints)
+}
 
 /// A measured position at commanded joint angles.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Measurement {
-    /// Commanded joint angles, degrees.
-    pub q_deg: [f64; JOINTS],
+    /// Commanded joint angles, degrees, one per joint.
+    pub q_deg: Joints,
     /// Measured target position, mm, base frame.
     pub position_mm: [f64; 3],
     /// Line in the CSV file (for generated data: the line it has when written).
@@ -44,25 +49,33 @@ pub fn read_measurements(path: &Path) -> Result<Vec<Measurement>, IdentifyError>
 ///
 /// [`IdentifyError::Csv`] for a malformed row (wrong number of fields, a field that is not a finite
 /// number), naming its line; [`IdentifyError::MissingColumn`] when the header lacks a required
-/// column; [`IdentifyError::Empty`] when there are no data rows.
+/// column (fewer than four `q` columns, or a gap in them); [`IdentifyError::Empty`] when there
+/// are no data rows.
 pub fn parse_measurements<R: Read>(
     reader: R,
     origin: &str,
 ) -> Result<Vec<Measurement>, IdentifyError> {
     let mut rdr = csv_reader(reader);
     let header = rdr.headers().map_err(|e| csv_error(e, origin))?.clone();
-    let cols = column_indices(&header, &MEASUREMENT_COLUMNS, origin)?;
+    let n = joint_count(
+        &header,
+        origin,
+        "q1,…,qn,x,y,z (one q column per joint, 4 to 7)",
+    )?;
+    let columns = measurement_columns(n);
+    let cols = column_indices(&header, &columns, origin)?;
     let mut out = Vec::new();
     for rec in rdr.records() {
         let rec = rec.map_err(|e| csv_error(e, origin))?;
         let line = rec.position().map(|p| p.line()).unwrap_or(0);
-        let mut v = [0.0; 9];
+        let mut v = [0.0; MAX_JOINTS + 3];
+        let v = &mut v[..n + 3];
         for (k, x) in v.iter_mut().enumerate() {
-            *x = parse_number(&rec, cols[k], MEASUREMENT_COLUMNS[k], line, origin, "")?;
+            *x = parse_number(&rec, cols[k], columns[k], line, origin, "")?;
         }
         out.push(Measurement {
-            q_deg: [v[0], v[1], v[2], v[3], v[4], v[5]],
-            position_mm: [v[6], v[7], v[8]],
+            q_deg: Joints::from_slice(&v[..n]),
+            position_mm: [v[n], v[n + 1], v[n + 2]],
             line,
         });
     }
@@ -74,18 +87,29 @@ pub fn parse_measurements<R: Read>(
     Ok(out)
 }
 
-/// Writes measurements in the format [`parse_measurements`] reads.
+/// Writes measurements in the format [`parse_measurements`] reads; the `q` columns are those of
+/// the first measurement's joints (six without measurements).
 ///
 /// # Errors
 ///
-/// [`IdentifyError::Io`] when writing to `writer` fails.
+/// [`IdentifyError::Io`] when writing to `writer` fails, or when the measurements do not all have
+/// the same number of joint angles.
 pub fn write_measurements<W: Write>(m: &[Measurement], writer: W) -> Result<(), IdentifyError> {
     let io = |e: csv::Error| IdentifyError::Io {
         path: "<measurement output>".into(),
         cause: std::io::Error::other(e.to_string()),
     };
+    let n = m.first().map_or(6, |p| p.q_deg.len());
+    if m.iter().any(|p| p.q_deg.len() != n) {
+        return Err(IdentifyError::Io {
+            path: "<measurement output>".into(),
+            cause: std::io::Error::other(
+                "the measurements do not all have the same number of joint angles",
+            ),
+        });
+    }
     let mut w = csv::Writer::from_writer(writer);
-    w.write_record(MEASUREMENT_COLUMNS).map_err(io)?;
+    w.write_record(measurement_columns(n)).map_err(io)?;
     for p in m {
         let row: Vec<String> = p
             .q_deg
@@ -199,8 +223,10 @@ impl Validation {
 ///
 /// # Errors
 ///
-/// [`IdentifyError::NoData`] when there are no measurements, [`IdentifyError::OutsideLimits`] when
-/// a measurement's angles are outside the model's joint limits (naming its line and joint).
+/// [`IdentifyError::NoData`] when there are no measurements, [`IdentifyError::JointCount`] when a
+/// measurement does not have one angle per joint of the model or the nominal model has another
+/// number of joints, [`IdentifyError::OutsideLimits`] when a measurement's angles are outside the
+/// model's joint limits (naming its line and joint).
 pub fn validate(
     model: &RobotModel,
     measurements: &[Measurement],
@@ -228,7 +254,25 @@ pub fn validate_in(
             "no measurements to validate against".into(),
         ));
     }
+    if let Some(n) = nominal.filter(|n| n.joints() != model.joints()) {
+        return Err(IdentifyError::JointCount(format!(
+            "the nominal model {} has {} joints, the model {} has {}",
+            n.name,
+            n.joints(),
+            model.name,
+            model.joints()
+        )));
+    }
     for m in measurements {
+        if m.q_deg.len() != model.joints() {
+            return Err(IdentifyError::JointCount(format!(
+                "line {}: {} joint angles, the model {} has {} joints",
+                m.line,
+                m.q_deg.len(),
+                model.name,
+                model.joints()
+            )));
+        }
         model
             .check_limits(&m.q_deg)
             .map_err(|message| IdentifyError::OutsideLimits {
@@ -269,7 +313,7 @@ mod tests {
     #[test]
     fn round_trip_and_stats() {
         let m = tx60();
-        let q = [10.0, 20.0, 30.0, 40.0, 50.0, 60.0];
+        let q = Joints::from([10.0, 20.0, 30.0, 40.0, 50.0, 60.0]);
         let p = position(&m.params, &m.tool, &q.map(f64::to_radians));
         let meas = vec![
             Measurement {

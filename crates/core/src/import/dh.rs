@@ -1,7 +1,8 @@
 //! DH table reader: standard (distal) and Craig's modified (proximal) Denavit–Hartenberg tables.
 //!
-//! One row per joint (six for the model; a seven-axis arm's seven, with one joint held at a fixed
-//! angle on import, [`super::JointHold`]), each `theta, d, a, alpha, lower, upper` (θ the joint-angle offset at
+//! One row per joint (4 to 7 for the model, [`MIN_JOINTS`] to [`MAX_JOINTS`]: six for a six-axis
+//! arm, seven for a seven-axis one; more with joints held at a fixed angle on import,
+//! [`super::JointHold`]), each `theta, d, a, alpha, lower, upper` (θ the joint-angle offset at
 //! q = 0, lower/upper the joint limits). The file states its convention and units:
 //!
 //! * `convention`: `standard` — `T_i = Rz(θ_i + q_i)·Tz(d_i)·Tx(a_i)·Rx(α_i)`; or `modified`
@@ -20,10 +21,11 @@
 //! 0,0.1625,0,1.5707963267948966,-6.283185307179586,6.283185307179586
 //! ...
 //! ```
-//! TOML form: top-level `convention`, `units`, optional `name` and `tool`, and six `[[joint]]`
-//! tables with `theta`, `d`, `a`, `alpha`, `limits = [lower, upper]`.
+//! TOML form: top-level `convention`, `units`, optional `name` and `tool`, and one `[[joint]]`
+//! table per joint with `theta`, `d`, `a`, `alpha`, `limits = [lower, upper]`.
 
-use super::{ImportError, SourceChain, SourceFormat, SourceJoint, JOINTS, MAX_SOURCE_JOINTS};
+use super::{ImportError, SourceChain, SourceFormat, SourceJoint, MAX_SOURCE_JOINTS};
+use crate::kinematics::{MAX_JOINTS, MIN_JOINTS};
 use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use serde::Deserialize;
 
@@ -176,7 +178,9 @@ fn row(
 ///
 /// [`ImportError::Syntax`] for a line that is not the CSV form (naming it),
 /// [`ImportError::Element`] for a missing or unknown convention or unit, or a value that is not a
-/// finite number or out of range, and [`ImportError::Chain`] when the table does not have six rows.
+/// finite number or out of range, and [`ImportError::Chain`] when the table has no rows or more
+/// than [`MAX_SOURCE_JOINTS`] (the count of the model, 4 to 7 after any joints held, is checked
+/// by [`super::convert`]).
 pub fn parse_csv(text: &str, path: &str, default_name: &str) -> Result<SourceChain, ImportError> {
     let mut conv = None;
     let mut unit = None;
@@ -277,7 +281,7 @@ pub fn parse_csv(text: &str, path: &str, default_name: &str) -> Result<SourceCha
         return Err(ImportError::Chain {
             path: path.into(),
             message: format!(
-                "expected {JOINTS} rows (up to {MAX_SOURCE_JOINTS} with joints held), found {}",
+                "expected {MIN_JOINTS} to {MAX_JOINTS} rows (up to {MAX_SOURCE_JOINTS} with joints held), found {}",
                 raws.len()
             ),
         });
@@ -321,7 +325,9 @@ struct TomlTable {
 ///
 /// [`ImportError::Syntax`] for malformed TOML or unknown keys (naming the line),
 /// [`ImportError::Element`] for an unknown convention or unit or a value that is not a finite
-/// number or out of range, and [`ImportError::Chain`] when the table does not have six joints.
+/// number or out of range, and [`ImportError::Element`] when the table has no joints or more
+/// than [`MAX_SOURCE_JOINTS`] (the count of the model, 4 to 7 after any joints held, is checked
+/// by [`super::convert`]).
 pub fn parse_toml(text: &str, path: &str, default_name: &str) -> Result<SourceChain, ImportError> {
     let t: TomlTable = toml::from_str(text).map_err(|e| {
         let line = e.span().map_or(1, |s| {
@@ -351,7 +357,7 @@ pub fn parse_toml(text: &str, path: &str, default_name: &str) -> Result<SourceCh
         return Err(bad(
             "joint".into(),
             format!(
-                "expected {JOINTS} [[joint]] tables (up to {MAX_SOURCE_JOINTS} with joints held), found {}",
+                "expected {MIN_JOINTS} to {MAX_JOINTS} [[joint]] tables (up to {MAX_SOURCE_JOINTS} with joints held), found {}",
                 t.joint.len()
             ),
         ));

@@ -1,10 +1,13 @@
 //! Robot descriptions from other tools to the MDH model and back (docs/METHOD.md §1).
 //!
-//! Every reader ([`urdf`], [`dh`], [`ur`]) turns its file into a [`SourceChain`]: six revolute
+//! Every reader ([`urdf`], [`dh`], [`ur`]) turns its file into a [`SourceChain`]: `n` revolute
 //! joints, each a fixed transform from the previous joint's frame followed by a rotation about
-//! its axis, and the fixed transform from the last joint's frame to the tip. [`convert`] then
+//! its axis, and the fixed transform from the last joint's frame to the tip. A chain of
+//! [`MIN_JOINTS`] to [`MAX_JOINTS`] joints (4 to 7: a six-axis industrial arm, a seven-axis
+//! KUKA LBR iiwa or Franka Panda) becomes a model of as many joints; joints held at a fixed
+//! angle ([`SourceChain::hold`]) leave the chain first. [`convert`] then
 //!
-//! 1. places every joint axis in the base frame at q = 0 and hands the six lines and the tip
+//! 1. places every joint axis in the base frame at q = 0 and hands the `n` lines and the tip
 //!    point to the lines → MDH conversion the identification uses too
 //!    ([`crate::kinematics::mdh::chain_from_zero_pose`]): one conversion for measured and
 //!    imported axes;
@@ -32,13 +35,17 @@
 
 pub mod dh;
 pub mod export;
+#[cfg(test)]
+mod tests;
 pub mod ur;
 pub mod urdf;
 pub mod xacro;
 
 use crate::kinematics::lines::Line;
 use crate::kinematics::mdh::{chain_from_zero_pose, GeometryError};
-use crate::kinematics::{BaseTransform, RobotModel, Uncertainty, JOINTS, N_PARAMS};
+use crate::kinematics::{
+    BaseTransform, Joints, Layout, Limits, Params, RobotModel, Uncertainty, MAX_JOINTS, MIN_JOINTS,
+};
 use crate::number::fmt_plain;
 use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
@@ -99,8 +106,10 @@ pub struct SourceJoint {
 /// Most revolute joints a description may have before joints are held ([`JointHold`]).
 pub const MAX_SOURCE_JOINTS: usize = 12;
 
-/// A joint held at a fixed angle on import: a seven-axis arm with one joint held becomes a
-/// six-axis model (the held joint's rotation joins the fixed transform to the next joint).
+/// A joint held at a fixed angle on import: the held joint's rotation joins the fixed transform
+/// to the next joint, so each hold takes one joint off the model (a seven-axis arm with one joint
+/// held becomes a six-axis model; a description of more than [`MAX_JOINTS`] revolute joints
+/// needs holds to import at all).
 #[derive(Clone, Debug, PartialEq)]
 pub struct JointHold {
     /// The joint: its name in the description (a URDF joint name, `joint 3` of a DH table) or
@@ -110,7 +119,8 @@ pub struct JointHold {
     pub angle_deg: f64,
 }
 
-/// A serial chain of revolute joints as a file describes it (lengths in mm); the model needs six.
+/// A serial chain of revolute joints as a file describes it (lengths in mm); a model takes
+/// [`MIN_JOINTS`] to [`MAX_JOINTS`] of them.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SourceChain {
     /// Model name.
@@ -215,8 +225,10 @@ impl SourceChain {
         Ok(())
     }
 
-    /// Tip transform at joint angles `q` (radians), composed from the source's own transforms.
-    pub fn transform(&self, q: &[f64; JOINTS]) -> Isometry3<f64> {
+    /// Tip transform at joint angles `q` (radians, one per joint of the chain), composed from
+    /// the source's own transforms.
+    pub fn transform(&self, q: &[f64]) -> Isometry3<f64> {
+        debug_assert_eq!(q.len(), self.joints.len());
         let mut t = Isometry3::identity();
         for (j, qj) in self.joints.iter().zip(q) {
             t = t * j.origin * UnitQuaternion::from_axis_angle(&j.axis, *qj);
@@ -224,8 +236,8 @@ impl SourceChain {
         t * self.tip
     }
 
-    /// Tip position (mm) at joint angles `q` (radians).
-    pub fn position(&self, q: &[f64; JOINTS]) -> [f64; 3] {
+    /// Tip position (mm) at joint angles `q` (radians, one per joint of the chain).
+    pub fn position(&self, q: &[f64]) -> [f64; 3] {
         let p = self.transform(q).translation.vector;
         [p.x, p.y, p.z]
     }
@@ -271,7 +283,8 @@ pub enum ImportError {
         /// What is wrong.
         message: String,
     },
-    /// The chain between base and tip is not six revolute joints, or cannot be found.
+    /// The chain between base and tip is not [`MIN_JOINTS`] to [`MAX_JOINTS`] revolute joints
+    /// (after any held), or cannot be found.
     #[error("{path}: {message}")]
     Chain {
         /// The path given.
@@ -306,8 +319,8 @@ pub enum ImportError {
         path: String,
         /// The deviation found, mm.
         deviation_mm: f64,
-        /// The configuration, degrees.
-        q_deg: [f64; JOINTS],
+        /// The configuration, degrees (one angle per joint).
+        q_deg: Joints,
     },
 }
 
@@ -357,7 +370,9 @@ pub fn reach_warning(model: &RobotModel) -> Option<String> {
     // The reach beyond joint 1 (as `points::reach_mm`, which this module cannot use: points
     // depend on the presets, which are imported).
     let p = &model.params;
-    let reach: f64 = (1..JOINTS).map(|j| p[5 * j + 1].hypot(p[5 * j + 2])).sum();
+    let reach: f64 = (1..model.joints())
+        .map(|j| p[5 * j + 1].hypot(p[5 * j + 2]))
+        .sum();
     if reach < MIN_PLAUSIBLE_REACH_MM {
         Some(format!(
             "the arm reaches only {} mm beyond joint 1; if its lengths are in metres, say so (a DH table's 'units,m-rad', a URDF is always in metres)",
@@ -410,28 +425,29 @@ impl Imported {
 ///
 /// # Errors
 ///
-/// [`ImportError::Chain`] when the chain does not have six joints,
+/// [`ImportError::Chain`] when the chain does not have [`MIN_JOINTS`] to [`MAX_JOINTS`] joints
+/// (naming the count and the range, and how many to hold when there are too many),
 /// [`ImportError::NotRepresentable`] naming the joint whose geometry has no exact MDH form
 /// (coinciding axes, …), and [`ImportError::Proof`] when the model's forward
 /// kinematics deviates from the source's by more than [`PROOF_TOLERANCE_MM`].
 pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError> {
-    if chain.joints.len() != JOINTS {
+    let n = chain.joints.len();
+    if !(MIN_JOINTS..=MAX_JOINTS).contains(&n) {
         let names: Vec<&str> = chain.joints.iter().map(|j| j.name.as_str()).collect();
         return Err(ImportError::Chain {
             path: path.into(),
             message: format!(
-                "{} has {} revolute joints ({}); the model needs exactly {JOINTS}{}",
+                "{} has {n} revolute joints ({}); the model needs {MIN_JOINTS} to {MAX_JOINTS}{}",
                 chain.what,
-                chain.joints.len(),
                 if names.is_empty() {
                     "none".to_string()
                 } else {
                     names.join(", ")
                 },
-                if chain.joints.len() > JOINTS {
+                if n > MAX_JOINTS {
                     format!(
-                        ": hold {} of them at a fixed angle to import the arm as a six-axis model",
-                        chain.joints.len() - JOINTS
+                        ": hold {} of them at a fixed angle to import the arm as a {MAX_JOINTS}-axis model (or more of them for fewer axes)",
+                        n - MAX_JOINTS
                     )
                 } else {
                     String::new()
@@ -441,16 +457,13 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
     }
     // Axis lines at q = 0 in the base frame.
     let mut frame = Isometry3::identity();
-    let mut axes = [Line {
-        point: Vector3::zeros(),
-        dir: Vector3::z(),
-    }; JOINTS];
-    for (j, joint) in chain.joints.iter().enumerate() {
+    let mut axes = Vec::with_capacity(n);
+    for joint in &chain.joints {
         frame *= joint.origin;
-        axes[j] = Line {
+        axes.push(Line {
             point: frame.translation.vector,
             dir: frame.rotation * joint.axis.into_inner(),
-        };
+        });
     }
     let mut tip = (frame * chain.tip).translation.vector;
     // The model's base frame B: the arm's own base frame when the description names one whose z
@@ -499,10 +512,10 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         name: chain.name.clone(),
         params: c.params,
         fixed: c.fixed,
-        limits_deg: std::array::from_fn(|j| chain.joints[j].limits_deg),
+        limits_deg: Limits::from_fn(n, |j| chain.joints[j].limits_deg),
         tool: c.tool,
         tool_sigma: [0.0; 3],
-        uncertainty: Uncertainty::Independent([0.0; N_PARAMS]),
+        uncertainty: Uncertainty::Independent(Params::filled(Layout::new(n).n_params(), 0.0)),
         base,
     };
     check_model(&model, chain, path)?;
@@ -661,24 +674,37 @@ fn check_base(axis: &Line, joint: &str, path: &str) -> Result<(), ImportError> {
 }
 
 /// Maximum tool-point deviation source vs model at q = 0 and [`PROOF_CONFIGURATIONS`] uniform
-/// random configurations within the limits;
+/// random configurations within the limits, for a chain and model of any joint count (the
+/// model's: one angle per joint, drawn joint by joint);
 ///
 /// # Errors
 ///
 /// [`ImportError::Proof`] naming the configuration where the deviation exceeds
-/// [`PROOF_TOLERANCE_MM`].
+/// [`PROOF_TOLERANCE_MM`], and [`ImportError::Chain`] when the chain and the model do not have
+/// the same number of joints.
 pub fn prove(
     chain: &SourceChain,
     model: &RobotModel,
     path: &str,
 ) -> Result<(f64, usize), ImportError> {
+    let n = model.joints();
+    if chain.joints.len() != n {
+        return Err(ImportError::Chain {
+            path: path.into(),
+            message: format!(
+                "{} has {} revolute joints, the model to prove against it {n}",
+                chain.what,
+                chain.joints.len()
+            ),
+        });
+    }
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(PROOF_SEED);
-    let mut worst = (0.0_f64, [0.0; JOINTS]);
+    let mut worst = (0.0_f64, Joints::filled(n, 0.0));
     for k in 0..=PROOF_CONFIGURATIONS {
-        let q_deg: [f64; JOINTS] = if k == 0 {
-            [0.0; JOINTS]
+        let q_deg = if k == 0 {
+            Joints::filled(n, 0.0)
         } else {
-            std::array::from_fn(|j| {
+            Joints::from_fn(n, |j| {
                 let (lo, hi) = model.limits_deg[j];
                 lo + (hi - lo) * rng.random::<f64>()
             })

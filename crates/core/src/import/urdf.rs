@@ -7,8 +7,9 @@
 //!
 //! Refused, naming the element and its line: prismatic, floating and planar joints on the chain,
 //! mimic joints, revolute joints without `<limit>`, zero or non-finite axes and numbers, a chain
-//! that is not exactly six revolute joints, a branching tree with no tip named, malformed XML and
-//! unexpanded xacro.
+//! of more revolute joints than can be read ([`super::MAX_SOURCE_JOINTS`]; the model's 4 to 7,
+//! after any joints held, are checked by [`super::convert`]), a branching tree with no tip named,
+//! malformed XML and unexpanded xacro.
 
 use super::{ImportError, SourceChain, SourceFormat, SourceJoint};
 use nalgebra::{Isometry3, Quaternion, Translation3, Unit, UnitQuaternion, Vector3};
@@ -38,7 +39,7 @@ struct JointEl {
 /// xacro macros, [`ImportError::Element`] for a wrong or unsupported element or attribute (naming
 /// it and its line), [`ImportError::Branching`] when the chain branches below the base and no tip
 /// was named, and [`ImportError::Chain`] when base or tip is not in the file, the tip is not below
-/// the base, or the chain between them is not six revolute joints.
+/// the base, or the chain between them has more than [`super::MAX_SOURCE_JOINTS`] revolute joints.
 pub fn parse(
     text: &str,
     path: &str,
@@ -243,7 +244,7 @@ pub fn parse(
         };
         if j.mimic {
             return Err(refuse(
-                "mimic joints are not supported: the model's six joints move independently".into(),
+                "mimic joints are not supported: the model's joints move independently".into(),
             ));
         }
         match j.kind.as_str() {

@@ -27,7 +27,7 @@ pub use report::PoseReport;
 use crate::engine::{CpuEvaluator, Problem, Reference};
 use crate::identify::validate::Measurement;
 use crate::identify::Placement;
-use crate::kinematics::{position, RobotModel, JOINTS};
+use crate::kinematics::{position, Joints, RobotModel};
 use crate::mc::{run_mcs, McsOptions, Reliability, RunSettings};
 
 /// Fewest cycles per pose (the standard asks for 30; two give a spread).
@@ -38,8 +38,8 @@ pub const MIN_CYCLES: usize = 2;
 pub struct PoseFigures {
     /// 1-based pose number, in the order the poses first appear.
     pub pose: usize,
-    /// The commanded configuration, degrees.
-    pub q_deg: [f64; JOINTS],
+    /// The commanded configuration, degrees (one angle per joint).
+    pub q_deg: Joints,
     /// Number of cycles.
     pub cycles: usize,
     /// Commanded position (the model's forward kinematics).
@@ -190,7 +190,7 @@ pub struct Certificate {
 /// fails (e.g. a threshold that is not a positive length).
 pub fn certificate(
     model: &RobotModel,
-    poses: &[[f64; JOINTS]],
+    poses: &[Joints],
     spec_mm: f64,
     frame: Placement,
     draws: u64,
@@ -313,7 +313,7 @@ mod tests {
     use super::*;
     use crate::kinematics::tx60;
 
-    fn cycle(q: [f64; JOINTS], p: [f64; 3], line: u64) -> Measurement {
+    fn cycle(q: Joints, p: [f64; 3], line: u64) -> Measurement {
         Measurement {
             q_deg: q,
             position_mm: p,
@@ -329,8 +329,8 @@ mod tests {
     #[test]
     fn known_offset_and_spread_give_the_hand_figures() {
         let m = tx60();
-        let q1 = [10.0, -20.0, 90.0, 0.0, 30.0, 0.0];
-        let q2 = [-30.0, 10.0, 70.0, 20.0, -40.0, 60.0];
+        let q1 = Joints::from([10.0, -20.0, 90.0, 0.0, 30.0, 0.0]);
+        let q2 = Joints::from([-30.0, 10.0, 70.0, 20.0, -40.0, 60.0]);
         let c1 = position(&m.params, &m.tool, &q1.map(f64::to_radians));
         let c2 = position(&m.params, &m.tool, &q2.map(f64::to_radians));
         let mut rows = Vec::new();
@@ -386,12 +386,14 @@ mod tests {
     #[test]
     fn certificate_of_a_tool_spread_has_its_closed_form() {
         let mut m = tx60();
-        m.uncertainty = crate::kinematics::Uncertainty::Independent([0.0; 30]);
+        m.uncertainty = crate::kinematics::Uncertainty::Independent(
+            crate::kinematics::Params::filled(m.layout().n_params(), 0.0),
+        );
         m.tool_sigma = [0.01, 0.0, 0.0];
-        let poses = [
-            [10.0, -20.0, 90.0, 0.0, 30.0, 0.0],
-            [-30.0, 10.0, 70.0, 20.0, -40.0, 60.0],
-            [40.0, 0.0, 100.0, -10.0, 50.0, 0.0],
+        let poses: [Joints; 3] = [
+            [10.0, -20.0, 90.0, 0.0, 30.0, 0.0].into(),
+            [-30.0, 10.0, 70.0, 20.0, -40.0, 60.0].into(),
+            [40.0, 0.0, 100.0, -10.0, 50.0, 0.0].into(),
         ];
         let c = certificate(&m, &poses, 0.0196, Placement::Known, 100_000, 7).unwrap();
         assert_eq!(c.per_pose.len(), 3);
@@ -424,8 +426,8 @@ pub struct TestCube {
     pub rpy_deg: Option<[f64; 3]>,
     /// P1 … P5, mm, base frame.
     pub poses_mm: [[f64; 3]; 5],
-    /// P1 … P5 as joint angles, degrees.
-    pub poses_q_deg: [[f64; JOINTS]; 5],
+    /// P1 … P5 as joint angles, degrees (one angle per joint).
+    pub poses_q_deg: [Joints; 5],
 }
 
 /// The corners C1, C2, C7, C8 of the test plane and P1 … P5 of a cube.
@@ -464,7 +466,7 @@ fn cube_solution(
     rotation: Option<crate::map::ik::Rot3>,
     c: [f64; 3],
     edge: f64,
-) -> Option<[[f64; JOINTS]; 5]> {
+) -> Option<[Joints; 5]> {
     let (corners, poses) = cube_points(c, edge);
     let solve = |p: [f64; 3]| {
         ik.solve(
@@ -478,7 +480,8 @@ fn cube_solution(
     if !corners.iter().all(|&p| solve(p).is_some()) {
         return None;
     }
-    let mut q = [[0.0; JOINTS]; 5];
+    // Every slot is set below (a solution has one angle per joint of the model).
+    let mut q = [Joints::default(); 5];
     for (k, p) in poses.iter().enumerate() {
         q[k] = solve(*p)?.q.map(f64::to_degrees);
     }

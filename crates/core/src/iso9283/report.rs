@@ -77,10 +77,15 @@ impl Report for PoseReport {
     }
 }
 
+/// One row per pose: the figures, the commanded angles `q1` … `qn` (one column per joint of the
+/// model, `n` = 4 to 7) and the pose's first line.
 fn poses_csv(poses: &[PoseFigures]) -> String {
-    let mut s = String::from(
-        "pose,cycles,AP_mm,AP_x_mm,AP_y_mm,AP_z_mm,l_mean_mm,S_l_mm,RP_mm,q1,q2,q3,q4,q5,q6,first_line\n",
-    );
+    let joints = poses.first().map_or(0, |f| f.q_deg.len());
+    let mut s = String::from("pose,cycles,AP_mm,AP_x_mm,AP_y_mm,AP_z_mm,l_mean_mm,S_l_mm,RP_mm,");
+    for j in 1..=joints {
+        let _ = write!(s, "q{j},");
+    }
+    s.push_str("first_line\n");
     for f in poses {
         let _ = write!(s, "P{},{}", f.pose, f.cycles);
         for v in f.values() {

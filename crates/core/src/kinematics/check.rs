@@ -2,8 +2,8 @@
 //! enforces. An error names the field as the model file spells it ([`InvalidField`]).
 
 use super::index::{
-    param_index, param_joint, param_kind, tool_index, FixedParam, ParamKind, BASE_COORDS, JOINTS,
-    N_PARAMS, N_UNCERTAIN, N_WITH_BASE, TOOL_COORDS,
+    param_index, param_joint, param_kind, FixedParam, Layout, ParamKind, BASE_COORDS, MAX_JOINTS,
+    MIN_JOINTS, PARAMS_PER_JOINT, TOOL_COORDS,
 };
 use super::model::{RobotModel, Uncertainty};
 
@@ -37,9 +37,9 @@ pub struct InvalidField {
 
 /// The field of input `i` as the model file spells its spread: `joint[2].sigma.d` or
 /// `tool_sigma[1]` (0-based coordinate, as TOML arrays are read).
-pub(super) fn input_sigma_field(i: usize) -> String {
-    if i >= N_PARAMS {
-        format!("tool_sigma[{}]", i - N_PARAMS)
+pub(super) fn input_sigma_field(lay: Layout, i: usize) -> String {
+    if i >= lay.n_params() {
+        format!("tool_sigma[{}]", i - lay.n_params())
     } else {
         format!(
             "{}.sigma.{}",
@@ -62,6 +62,42 @@ impl RobotModel {
     /// [`InvalidField`] for the first value that breaks a rule above, naming its field
     /// (`joint[2].sigma.d`, `tool[0]`, `covariance.matrix[3][1]`, …).
     pub fn check(&self) -> Result<(), InvalidField> {
+        let n_joints = self.fixed.len();
+        if !(MIN_JOINTS..=MAX_JOINTS).contains(&n_joints) {
+            return Err(InvalidField {
+                field: "joint".into(),
+                message: format!(
+                    "{n_joints} joints: a model has {MIN_JOINTS} to {MAX_JOINTS} [[joint]] tables"
+                ),
+            });
+        }
+        let lay = self.layout();
+        if self.params.len() != lay.n_params() || self.limits_deg.len() != n_joints {
+            return Err(InvalidField {
+                field: "joint".into(),
+                message: format!(
+                    "{} parameters and {} limits for {n_joints} joints (expected {} and \
+                     {n_joints})",
+                    self.params.len(),
+                    self.limits_deg.len(),
+                    lay.n_params()
+                ),
+            });
+        }
+        let dim = self.uncertainty.dim();
+        let dims = [lay.n_params(), lay.n_uncertain(), lay.n_with_base()];
+        let square = matches!(&self.uncertainty, Uncertainty::Covariance(c) if c.len() == dim * dim)
+            || matches!(&self.uncertainty, Uncertainty::Independent(_));
+        if !dims.contains(&dim) || !square {
+            return Err(InvalidField {
+                field: "covariance.matrix".into(),
+                message: format!(
+                    "must have {} rows (the parameters), {} (then the tool's x, y, z) or {} \
+                     (then the base's x, y, z, roll, pitch, yaw) for {n_joints} joints, found {dim}",
+                    dims[0], dims[1], dims[2]
+                ),
+            });
+        }
         for (k, &v) in self.tool.iter().enumerate() {
             check_magnitude(&format!("tool[{k}]"), v, MAX_LENGTH_MM, "mm")?;
         }
@@ -73,7 +109,7 @@ impl RobotModel {
                 check_magnitude(&format!("base.rpy[{k}]"), deg, MAX_ANGLE_DEG, "deg")?;
             }
         }
-        for j in 0..JOINTS {
+        for j in 0..n_joints {
             for kind in ParamKind::ALL {
                 let v = self.params[param_index(j, kind)] / kind.to_internal();
                 let (max, unit) = if kind.is_angle() {
@@ -98,11 +134,11 @@ impl RobotModel {
             Uncertainty::Independent(s) => check_sigmas(s, &self.fixed),
             Uncertainty::Covariance(c) => {
                 check_covariance(c, &self.fixed)?;
-                check_sigmas(&self.uncertainty.sigmas(), &self.fixed)?;
-                let n = self.uncertainty.dim();
-                if n >= N_UNCERTAIN {
+                check_sigmas(&self.param_sigmas(), &self.fixed)?;
+                let n = dim;
+                if n >= lay.n_uncertain() {
                     let diag: [f64; 3] = std::array::from_fn(|k| {
-                        let i = tool_index(k);
+                        let i = lay.tool_index(k);
                         self.uncertainty.entry(i, i).sqrt()
                     });
                     check_tool_sigma(&diag)?;
@@ -121,13 +157,13 @@ impl RobotModel {
                 }
                 let mut free: Vec<usize> =
                     self.free_inputs().into_iter().filter(|&i| i < n).collect();
-                if n == N_WITH_BASE {
+                if n == lay.n_with_base() {
                     for k in 0..BASE_COORDS {
-                        let i = N_UNCERTAIN + k;
+                        let i = lay.base_index(k);
                         let v = c[i * n + i];
                         if v > 0.0 {
                             check_magnitude(
-                                &input_field(i),
+                                &input_field(lay, i),
                                 v.sqrt(),
                                 if k < 3 {
                                     MAX_SIGMA_MM
@@ -140,18 +176,18 @@ impl RobotModel {
                         }
                     }
                 }
-                check_positive_definite(c, n, &free)
+                check_positive_definite(lay, c, n, &free)
             }
         }
     }
 }
 
 /// Input `i` as the file names it: `joint[2].d` or `tool[0]`.
-fn input_field(i: usize) -> String {
-    if i >= N_UNCERTAIN {
-        format!("covariance.matrix[{}] ({})", i + 1, super::input_name(i))
-    } else if i >= N_PARAMS {
-        format!("tool[{}]", i - N_PARAMS)
+fn input_field(lay: Layout, i: usize) -> String {
+    if i >= lay.n_uncertain() {
+        format!("covariance.matrix[{}] ({})", i + 1, lay.input_name(i))
+    } else if i >= lay.n_params() {
+        format!("tool[{}]", i - lay.n_params())
     } else {
         format!("{}.{}", joint_field(param_joint(i)), param_kind(i).name())
     }
@@ -200,11 +236,19 @@ fn check_magnitude(field: &str, v: f64, max: f64, unit: &str) -> Result<(), Inva
 }
 
 /// Standard deviations (internal units): finite, ≥ 0, within the limits, 0 on fixed parameters.
-pub(super) fn check_sigmas(
-    s: &[f64; N_PARAMS],
-    fixed: &[FixedParam; JOINTS],
-) -> Result<(), InvalidField> {
-    for j in 0..JOINTS {
+pub(super) fn check_sigmas(s: &[f64], fixed: &[FixedParam]) -> Result<(), InvalidField> {
+    if s.len() != PARAMS_PER_JOINT * fixed.len() {
+        return Err(InvalidField {
+            field: "joint".into(),
+            message: format!(
+                "{} standard deviations for {} joints (expected {})",
+                s.len(),
+                fixed.len(),
+                PARAMS_PER_JOINT * fixed.len()
+            ),
+        });
+    }
+    for j in 0..fixed.len() {
         for kind in ParamKind::ALL {
             let v = s[param_index(j, kind)] / kind.to_internal();
             let field = format!("{}.sigma.{}", joint_field(j), kind.name());
@@ -278,27 +322,9 @@ pub(super) fn check_tool_sigma(s: &[f64; 3]) -> Result<(), InvalidField> {
 }
 
 /// A covariance in internal units: finite, symmetric, variances ≥ 0, fixed parameters' rows 0.
-fn check_covariance(c: &[f64], fixed: &[FixedParam; JOINTS]) -> Result<(), InvalidField> {
+fn check_covariance(c: &[f64], fixed: &[FixedParam]) -> Result<(), InvalidField> {
     let cell = |i: usize, k: usize| format!("covariance.matrix[{}][{}]", i + 1, k + 1);
-    let n = if c.len() == N_WITH_BASE * N_WITH_BASE {
-        N_WITH_BASE
-    } else if c.len() == N_UNCERTAIN * N_UNCERTAIN {
-        N_UNCERTAIN
-    } else {
-        N_PARAMS
-    };
-    if c.len() != n * n {
-        return Err(InvalidField {
-            field: "covariance.matrix".into(),
-            message: format!(
-                "must have {}, {} or {} entries, found {}",
-                N_PARAMS * N_PARAMS,
-                N_UNCERTAIN * N_UNCERTAIN,
-                N_WITH_BASE * N_WITH_BASE,
-                c.len()
-            ),
-        });
-    }
+    let n = (c.len() as f64).sqrt().round() as usize;
     if let Some(x) = c.iter().position(|v| !v.is_finite()) {
         return Err(InvalidField {
             field: cell(x / n, x % n),
@@ -345,7 +371,12 @@ fn check_covariance(c: &[f64], fixed: &[FixedParam; JOINTS]) -> Result<(), Inval
 
 /// The covariance restricted to the `free` parameters has a Cholesky factor (the same test the
 /// sampler makes); otherwise names the first row where the factorisation fails.
-fn check_positive_definite(c: &[f64], n: usize, free: &[usize]) -> Result<(), InvalidField> {
+fn check_positive_definite(
+    lay: Layout,
+    c: &[f64],
+    n: usize,
+    free: &[usize],
+) -> Result<(), InvalidField> {
     let factors = |k: usize| {
         let sub = nalgebra::DMatrix::from_fn(k, k, |a, b| c[free[a] * n + free[b]]);
         nalgebra::linalg::Cholesky::new(sub).is_some()
@@ -366,7 +397,7 @@ fn check_positive_definite(c: &[f64], n: usize, free: &[usize]) -> Result<(), In
              factorisation fails at row {} ({}), which the rows before it (with nonzero \
              variance) make dependent or indefinite",
             i + 1,
-            input_field(i)
+            input_field(lay, i)
         ),
     })
 }

@@ -7,10 +7,9 @@ use std::fmt::Write as _;
 
 use super::check::{check_sigmas, check_tool_sigma, input_sigma_field, joint_field, InvalidField};
 use super::index::{
-    input_to_internal, param_index, tool_index, FixedParam, ParamKind, JOINTS, N_PARAMS,
-    N_UNCERTAIN, N_WITH_BASE,
+    param_index, FixedParam, Inputs, Layout, ParamKind, Params, MAX_JOINTS, MIN_JOINTS,
 };
-use super::model::{BaseTransform, RobotModel, Uncertainty};
+use super::model::{BaseTransform, FixedParams, Limits, RobotModel, Uncertainty};
 
 /// Errors reading or checking a model.
 #[derive(Debug, thiserror::Error)]
@@ -118,8 +117,8 @@ impl RobotModel {
     /// # Errors
     ///
     /// [`ModelError::Syntax`] for malformed TOML or unknown, missing or mistyped keys (naming line
-    /// and column), and [`ModelError::Invalid`] for a value out of range, a wrong count (6 joints,
-    /// 3 tool coordinates, 2 limits), a covariance that is not symmetric and positive definite, or
+    /// and column), and [`ModelError::Invalid`] for a value out of range, a wrong count (4 to 7
+    /// joints, 3 tool coordinates, 2 limits), a covariance that is not symmetric and positive definite, or
     /// per-joint `sigma` (and `tool_sigma`) that differ from the covariance's diagonal; the error
     /// names the field.
     pub fn from_toml(text: &str, origin: &str) -> Result<Self, ModelError> {
@@ -138,15 +137,17 @@ impl RobotModel {
                 message,
             })
         };
-        if file.joint.len() != JOINTS {
+        let n_joints = file.joint.len();
+        if !(MIN_JOINTS..=MAX_JOINTS).contains(&n_joints) {
             return Err(bad(
                 "joint",
                 format!(
-                    "expected {JOINTS} [[joint]] tables, found {}",
-                    file.joint.len()
+                    "expected {MIN_JOINTS} to {MAX_JOINTS} [[joint]] tables (one per joint), \
+                     found {n_joints}"
                 ),
             ));
         }
+        let lay = Layout::new(n_joints);
         let tool: [f64; 3] = file.tool.as_slice().try_into().map_err(|_| {
             bad(
                 "tool",
@@ -187,10 +188,10 @@ impl RobotModel {
                 })
             }
         };
-        let mut params = [0.0; N_PARAMS];
-        let mut sigma = [0.0; N_PARAMS];
-        let mut fixed = [FixedParam::Beta; JOINTS];
-        let mut limits = [(0.0, 0.0); JOINTS];
+        let mut params = Params::filled(lay.n_params(), 0.0);
+        let mut sigma = Params::filled(lay.n_params(), 0.0);
+        let mut fixed = FixedParams::filled(n_joints, FixedParam::Beta);
+        let mut limits = Limits::filled(n_joints, (0.0, 0.0));
         for (j, jf) in file.joint.iter().enumerate() {
             let vals = [jf.theta, jf.d, jf.a, jf.alpha, jf.beta];
             let s = &jf.sigma;
@@ -218,7 +219,7 @@ impl RobotModel {
             Some(c) => {
                 // The `sigma` tables are checked on their own: the model keeps only the matrix.
                 check_sigmas(&sigma, &fixed).map_err(invalid)?;
-                Uncertainty::Covariance(covariance_from_file(&c.matrix).map_err(invalid)?)
+                Uncertainty::Covariance(covariance_from_file(lay, &c.matrix).map_err(invalid)?)
             }
         };
         if let Some(ts) = tool_sigma_file {
@@ -234,12 +235,12 @@ impl RobotModel {
             uncertainty,
             base,
         };
-        // A 33 × 33 covariance carries the tool's spread; `tool_sigma`, when given, must repeat
-        // its diagonal.
-        let full = model.uncertainty.dim() >= N_UNCERTAIN;
+        // A covariance with the tool carries the tool's spread; `tool_sigma`, when given, must
+        // repeat its diagonal.
+        let full = model.uncertainty.dim() >= lay.n_uncertain();
         if full {
             model.tool_sigma = std::array::from_fn(|k| {
-                let i = tool_index(k);
+                let i = lay.tool_index(k);
                 model.uncertainty.entry(i, i).max(0.0).sqrt()
             });
         }
@@ -248,19 +249,20 @@ impl RobotModel {
         // of the file is not misled.
         if let Uncertainty::Covariance(_) = &model.uncertainty {
             let diag = model.input_sigmas();
-            let given: [f64; N_UNCERTAIN] = std::array::from_fn(|i| {
-                if i < N_PARAMS {
+            let np = lay.n_params();
+            let given = Inputs::from_fn(lay.n_uncertain(), |i| {
+                if i < np {
                     sigma[i]
                 } else {
-                    tool_sigma_file.map_or(diag[i], |t| t[i - N_PARAMS])
+                    tool_sigma_file.map_or(diag[i], |t| t[i - np])
                 }
             });
-            let n = if full { N_UNCERTAIN } else { N_PARAMS };
+            let n = if full { lay.n_uncertain() } else { np };
             for i in 0..n {
                 if (diag[i] - given[i]).abs() > 1e-6 * diag[i].max(given[i]).max(1e-300) {
-                    let f = input_to_internal(i);
+                    let f = lay.input_to_internal(i);
                     return Err(bad(
-                        &input_sigma_field(i),
+                        &input_sigma_field(lay, i),
                         format!(
                             "differs from sqrt of covariance diagonal ({} vs {})",
                             given[i] / f,
@@ -275,7 +277,8 @@ impl RobotModel {
 
     /// Writes the model as TOML (mm, degrees) with explanatory comments.
     pub fn to_toml(&self) -> String {
-        let sig = self.uncertainty.sigmas();
+        let sig = self.param_sigmas();
+        let lay = self.layout();
         let mut s = String::new();
         let _ = writeln!(
             s,
@@ -332,7 +335,7 @@ impl RobotModel {
                 fnum(self.tool_sigma[2])
             );
         }
-        for j in 0..JOINTS {
+        for j in 0..self.joints() {
             let v = |k: ParamKind| self.params[param_index(j, k)] / k.to_internal();
             let sv = |k: ParamKind| sig[param_index(j, k)] / k.to_internal();
             let _ = writeln!(s, "\n[[joint]] # J{}", j + 1);
@@ -357,12 +360,13 @@ impl RobotModel {
             let n = self.uncertainty.dim();
             let _ = writeln!(
                 s,
-                "\n# Full covariance of the 30 parameters, joint-major [theta, d, a, alpha, beta],"
+                "\n# Full covariance of the {} parameters, joint-major [theta, d, a, alpha, beta],",
+                lay.n_params()
             );
-            if n >= N_UNCERTAIN {
+            if n >= lay.n_uncertain() {
                 let _ = writeln!(s, "# then the tool's x, y, z,");
             }
-            if n == N_WITH_BASE {
+            if n == lay.n_with_base() {
                 let _ = writeln!(
                     s,
                     "# then the base placement's x, y, z and roll, pitch, yaw (the `base` field's convention),"
@@ -373,7 +377,7 @@ impl RobotModel {
             for i in 0..n {
                 let row: Vec<String> = (0..n)
                     .map(|k| {
-                        let f = input_to_internal(i) * input_to_internal(k);
+                        let f = lay.input_to_internal(i) * lay.input_to_internal(k);
                         fnum(c[i * n + k] / f)
                     })
                     .collect();
@@ -399,17 +403,18 @@ fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
     }
 }
 
-/// The covariance matrix of the file (30 rows of 30, 33 of 33 with the tool, or 39 of 39 with
-/// the tool and the base placement; file units) in internal units.
-fn covariance_from_file(m: &[Vec<f64>]) -> Result<Vec<f64>, InvalidField> {
+/// The covariance matrix of the file (the parameters: 30 rows of 30 for six joints; 33 of 33
+/// with the tool; 39 of 39 with the tool and the base placement; file units) in internal units.
+fn covariance_from_file(lay: Layout, m: &[Vec<f64>]) -> Result<Vec<f64>, InvalidField> {
     let n = m.len();
-    if n != N_PARAMS && n != N_UNCERTAIN && n != N_WITH_BASE {
+    let (np, nu, nb) = (lay.n_params(), lay.n_uncertain(), lay.n_with_base());
+    if n != np && n != nu && n != nb {
         return Err(InvalidField {
             field: "covariance.matrix".into(),
             message: format!(
-                "must have {N_PARAMS} rows (the parameters), {N_UNCERTAIN} (the parameters, \
-                 then the tool's x, y, z) or {N_WITH_BASE} (then the base's x, y, z, roll, pitch, \
-                 yaw), found {n}"
+                "must have {np} rows (the parameters of {} joints), {nu} (the parameters, then \
+                 the tool's x, y, z) or {nb} (then the base's x, y, z, roll, pitch, yaw), found {n}",
+                lay.joints()
             ),
         });
     }
@@ -422,7 +427,7 @@ fn covariance_from_file(m: &[Vec<f64>]) -> Result<Vec<f64>, InvalidField> {
             });
         }
         for (k, &v) in row.iter().enumerate() {
-            c[i * n + k] = v * input_to_internal(i) * input_to_internal(k);
+            c[i * n + k] = v * lay.input_to_internal(i) * lay.input_to_internal(k);
         }
     }
     Ok(c)

@@ -1,11 +1,11 @@
 //! Forward kinematics of the MDH chain in f64 (docs/METHOD.md §1, paper eq. 2).
 //!
 //! [`position`] applies the joint transforms to the tool point from the flange back to the base,
-//! `p ← Rz(θ_i+q_i)·(Rx(α_i)·Ry(β_i)·p + (a_i, 0, d_i))` for i = 6…1, which is the same product as
-//! `T_1 ⋯ T_6 · p_tool` without forming 4×4 matrices. [`transform`] forms the full homogeneous
+//! `p ← Rz(θ_i+q_i)·(Rx(α_i)·Ry(β_i)·p + (a_i, 0, d_i))` for i = n…1, which is the same product as
+//! `T_1 ⋯ T_n · p_tool` without forming 4×4 matrices. [`transform`] forms the full homogeneous
 //! transforms for callers that need frames (identification, tests).
 
-use super::index::{JOINTS, N_PARAMS};
+use super::index::Joints;
 
 /// Row-major homogeneous 4×4 transform.
 pub type Mat4 = [[f64; 4]; 4];
@@ -45,9 +45,10 @@ fn mul(a: &Mat4, b: &Mat4) -> Mat4 {
     r
 }
 
-/// Flange transform `T_1(q_1)⋯T_6(q_6)` for the 30 parameters (radians, mm) and joint angles
-/// (radians). The tool point is not applied.
-pub fn transform(params: &[f64; N_PARAMS], q: &[f64; JOINTS]) -> Mat4 {
+/// Flange transform `T_1(q_1)⋯T_n(q_n)` for the `5n` parameters (radians, mm) and `n` joint
+/// angles (radians). The tool point is not applied.
+pub fn transform(params: &[f64], q: &[f64]) -> Mat4 {
+    debug_assert_eq!(params.len(), 5 * q.len());
     let mut t = [[0.0; 4]; 4];
     for (i, row) in t.iter_mut().enumerate() {
         row[i] = 1.0;
@@ -61,29 +62,34 @@ pub fn transform(params: &[f64; N_PARAMS], q: &[f64; JOINTS]) -> Mat4 {
 
 /// End position `P(q) = T(q)·p_tool` in mm, for parameters in radians/mm and `q` in radians.
 #[inline(always)]
-pub fn position(params: &[f64; N_PARAMS], tool: &[f64; 3], q: &[f64; JOINTS]) -> [f64; 3] {
+pub fn position(params: &[f64], tool: &[f64; 3], q: &[f64]) -> [f64; 3] {
     position_with_trig(params, &twist_trig(params), tool, q)
 }
 
 /// `[(sin α_i, cos α_i), (sin β_i, cos β_i)]` per joint: the part of [`position`]'s trigonometry
 /// that does not depend on the joint angles, for callers that evaluate many configurations of
 /// one parameter vector.
+pub type TwistTrig = super::Capped<[(f64, f64); 2], { super::MAX_JOINTS }>;
+
+/// [`TwistTrig`] of a parameter vector.
 #[inline(always)]
-pub fn twist_trig(params: &[f64; N_PARAMS]) -> [[(f64, f64); 2]; JOINTS] {
-    std::array::from_fn(|i| [params[5 * i + 3].sin_cos(), params[5 * i + 4].sin_cos()])
+pub fn twist_trig(params: &[f64]) -> TwistTrig {
+    TwistTrig::from_fn(params.len() / 5, |i| {
+        [params[5 * i + 3].sin_cos(), params[5 * i + 4].sin_cos()]
+    })
 }
 
 /// [`position`] with the twists' sines and cosines given ([`twist_trig`]): the same arithmetic,
 /// so the same bits.
 #[inline(always)]
 pub fn position_with_trig(
-    params: &[f64; N_PARAMS],
-    trig: &[[(f64, f64); 2]; JOINTS],
+    params: &[f64],
+    trig: &TwistTrig,
     tool: &[f64; 3],
-    q: &[f64; JOINTS],
+    q: &[f64],
 ) -> [f64; 3] {
     let [mut x, mut y, mut z] = *tool;
-    for i in (0..JOINTS).rev() {
+    for i in (0..q.len()).rev() {
         let p = &params[5 * i..5 * i + 5];
         let [(sa, ca), (sb, cb)] = trig[i];
         let (sz, cz) = (p[0] + q[i]).sin_cos();
@@ -103,8 +109,12 @@ pub fn position_with_trig(
 }
 
 /// [`position`] with joint angles in degrees.
-pub fn position_deg(params: &[f64; N_PARAMS], tool: &[f64; 3], q_deg: &[f64; JOINTS]) -> [f64; 3] {
-    position(params, tool, &q_deg.map(f64::to_radians))
+pub fn position_deg(params: &[f64], tool: &[f64; 3], q_deg: &[f64]) -> [f64; 3] {
+    position(
+        params,
+        tool,
+        &Joints::from_fn(q_deg.len(), |i| q_deg[i].to_radians()),
+    )
 }
 
 #[cfg(test)]

@@ -27,13 +27,16 @@
 //!   parameters; its tilt and offset from base z are reported as a diagnostic. With a tracker
 //!   frame that is the robot base frame (as the data format requires) they are zero up to noise.
 //!   `θ_1, d_1, a_1, α_1` come from the common normal of base z and the J2 axis.
-//! * **Joint 6 and the tool**: `θ_6, d_6, a_6, α_6, β_6` keep their nominal values; only the
-//!   target's position relative to the J6 axis is observable (three numbers), and it is absorbed
-//!   in the tool point, estimated as the mean of the J6 sweep points mapped into the flange frame.
+//! * **The last joint (J6 of a six-axis arm) and the tool**: `θ_n, d_n, a_n, α_n, β_n` keep their
+//!   nominal values; only the target's position relative to the last axis is observable (three
+//!   numbers), and it is absorbed in the tool point, estimated as the mean of the last sweep's
+//!   points mapped into the flange frame.
 //! * A fixed `β` is fixed at 0 (docs/METHOD.md §1); a fixed `d` at its nominal value.
 
 use super::lines::{common_normal, Line};
-use super::{joint_transform, param_index, FixedParam, ParamKind, RobotModel, JOINTS, N_PARAMS};
+use super::{
+    joint_transform, param_index, FixedParam, FixedParams, Joints, ParamKind, Params, RobotModel,
+};
 use nalgebra::{Matrix3, Vector3};
 
 /// Consecutive axes closer to parallel than this (degrees) are identified with `β` instead of
@@ -142,11 +145,7 @@ pub fn joint_from_next_axis(
 }
 
 /// Rotation and translation of frame `k` (after the first `k` joints) in the base frame.
-pub fn frame(
-    params: &[f64; N_PARAMS],
-    k: usize,
-    q_rad: &[f64; JOINTS],
-) -> (Matrix3<f64>, Vector3<f64>) {
+pub fn frame(params: &[f64], k: usize, q_rad: &[f64]) -> (Matrix3<f64>, Vector3<f64>) {
     let mut r = Matrix3::identity();
     let mut t = Vector3::zeros();
     for (j, q) in q_rad.iter().enumerate().take(k) {
@@ -167,38 +166,41 @@ pub struct MeasuredAxis {
     /// The axis line in the base frame.
     pub line: Line,
     /// The sweep's home pose, degrees (the swept joint's entry is not used).
-    pub home_deg: [f64; JOINTS],
+    pub home_deg: Joints,
 }
 
 /// The identified chain.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Chain {
-    /// The 30 parameters, mm and radians.
-    pub params: [f64; N_PARAMS],
+    /// The `5n` parameters, mm and radians.
+    pub params: Params,
     /// Per joint, which of d / β is fixed.
-    pub fixed: [FixedParam; JOINTS],
+    pub fixed: FixedParams,
     /// Tool point in the flange frame, mm.
     pub tool: [f64; 3],
-    /// Angle between axis i and i+1 (degrees), for joints 1–5.
-    pub axis_angles_deg: [f64; JOINTS - 1],
+    /// Angle between axis i and i+1 (degrees), for joints 1 to n − 1.
+    pub axis_angles_deg: Vec<f64>,
 }
 
-/// Builds the chain from the measured axes of joints 1–6 (`axes[0]` is not used, see the module
-/// docs) and the J6 sweep points `(q_deg, position)`.
+/// Builds the chain from the measured axes of joints 1 to n (`axes[0]` is not used, see the
+/// module docs; one axis per joint of `nominal`) and the last sweep's points `(q_deg, position)`.
 ///
 /// # Errors
 ///
 /// [`GeometryError`] naming the joint when its next axis cannot be turned into parameters
-/// ([`joint_from_next_axis`]), or joint 6 when there are no tool points.
+/// ([`joint_from_next_axis`]), or the last joint when there are no tool points.
 pub fn axes_to_chain(
     nominal: &RobotModel,
-    axes: &[MeasuredAxis; JOINTS],
-    tool_points: &[([f64; JOINTS], Vector3<f64>)],
+    axes: &[MeasuredAxis],
+    tool_points: &[(Joints, Vector3<f64>)],
 ) -> Result<Chain, GeometryError> {
+    let n = nominal.joints();
+    debug_assert_eq!(axes.len(), n);
+    let last = n - 1;
     let mut params = nominal.params;
     let mut fixed = nominal.fixed;
-    let mut axis_angles_deg = [0.0; JOINTS - 1];
-    for i in 0..JOINTS - 1 {
+    let mut axis_angles_deg = vec![0.0; last];
+    for i in 0..last {
         let next = &axes[i + 1];
         let q = next.home_deg.map(f64::to_radians);
         let (r, t) = frame(&params, i, &q);
@@ -219,23 +221,24 @@ pub fn axes_to_chain(
         fixed[i] = g.fixed;
         axis_angles_deg[i] = g.axis_angle_deg;
     }
-    // Joint 6 keeps its nominal parameters (fixed β at 0); the tool absorbs the rest.
-    if fixed[5] == FixedParam::Beta {
-        params[29] = 0.0;
+    // The last joint keeps its nominal parameters (fixed β at 0); the tool absorbs the rest.
+    if fixed[last] == FixedParam::Beta {
+        params[param_index(last, ParamKind::Beta)] = 0.0;
     }
     if tool_points.is_empty() {
         return Err(GeometryError {
-            joint: 6,
+            joint: n,
             message: "no points to place the tool".into(),
         });
     }
-    let p6 = &params[25..30];
+    let mut p6 = [0.0; 5];
+    p6.copy_from_slice(&params[5 * last..5 * last + 5]);
     let mut w = Vector3::zeros();
     for (q_deg, p) in tool_points {
         let q = q_deg.map(f64::to_radians);
-        let (r, t) = frame(&params, 5, &q);
+        let (r, t) = frame(&params, last, &q);
         let local = r.transpose() * (p - t);
-        let (s, c) = (-(p6[0] + q[5])).sin_cos();
+        let (s, c) = (-(p6[0] + q[last])).sin_cos();
         w += Vector3::new(
             c * local.x - s * local.y,
             s * local.x + c * local.y,
@@ -262,8 +265,8 @@ pub fn axes_to_chain(
 ///
 /// * every `θ_i` is chosen nearest 0 and every `α_i` nearest 0 (the sign of the common normal);
 /// * consecutive axes within [`PARALLEL_THRESHOLD_DEG`] of parallel get `β_i` free and `d_i = 0`;
-/// * joint 6 keeps `θ_6 = a_6 = α_6 = β_6 = 0`; the tip's offset along the joint-6 axis goes into
-///   `d_6` and the rest into the tool point, so a flange on the axis gives a zero tool point.
+/// * the last joint n keeps `θ_n = a_n = α_n = β_n = 0`; the tip's offset along its axis goes
+///   into `d_n` and the rest into the tool point, so a flange on the axis gives a zero tool point.
 ///
 /// `axes[0]` must be the base z axis (the model has no parameters before `Rz(θ_1 + q_1)`); the
 /// caller checks that (this function cannot see it: [`axes_to_chain`] does not use `axes[0]`).
@@ -272,28 +275,29 @@ pub fn axes_to_chain(
 ///
 /// [`GeometryError`] naming the joint whose next axis cannot be turned into parameters (see
 /// [`axes_to_chain`]).
-pub fn chain_from_zero_pose(
-    axes: &[Line; JOINTS],
-    tip: Vector3<f64>,
-) -> Result<Chain, GeometryError> {
+pub fn chain_from_zero_pose(axes: &[Line], tip: Vector3<f64>) -> Result<Chain, GeometryError> {
+    let n = axes.len();
     let reference = RobotModel {
         name: String::new(),
-        params: [0.0; N_PARAMS],
-        fixed: [FixedParam::Beta; JOINTS],
-        limits_deg: [(-180.0, 180.0); JOINTS],
+        params: Params::filled(5 * n, 0.0),
+        fixed: FixedParams::filled(n, FixedParam::Beta),
+        limits_deg: crate::kinematics::Limits::filled(n, (-180.0, 180.0)),
         tool: [0.0; 3],
         tool_sigma: [0.0; 3],
         base: None,
-        uncertainty: crate::kinematics::Uncertainty::Independent([0.0; N_PARAMS]),
+        uncertainty: crate::kinematics::Uncertainty::Independent(Params::filled(5 * n, 0.0)),
     };
-    let measured = axes.map(|line| MeasuredAxis {
-        line,
-        home_deg: [0.0; JOINTS],
-    });
-    let mut chain = axes_to_chain(&reference, &measured, &[([0.0; JOINTS], tip)])?;
-    // With θ6 = a6 = α6 = β6 = 0, T6·p = Rz(q6)·(p + (0, 0, d6)): the along-axis part of the tool
-    // point is d6, exactly.
-    chain.params[26] = chain.tool[2];
+    let measured: Vec<MeasuredAxis> = axes
+        .iter()
+        .map(|&line| MeasuredAxis {
+            line,
+            home_deg: Joints::filled(n, 0.0),
+        })
+        .collect();
+    let mut chain = axes_to_chain(&reference, &measured, &[(Joints::filled(n, 0.0), tip)])?;
+    // With θn = an = αn = βn = 0, Tn·p = Rz(qn)·(p + (0, 0, dn)): the along-axis part of the tool
+    // point is dn, exactly.
+    chain.params[param_index(n - 1, ParamKind::D)] = chain.tool[2];
     chain.tool[2] = 0.0;
     Ok(chain)
 }
@@ -332,7 +336,7 @@ mod tests {
     #[test]
     fn nominal_chain_from_its_own_axes() {
         let m = tx60();
-        let home = [10.0, 40.0, 50.0, 20.0, 60.0, 0.0];
+        let home = Joints::from([10.0, 40.0, 50.0, 20.0, 60.0, 0.0]);
         let q = home.map(f64::to_radians);
         let mut axes = [MeasuredAxis {
             line: Line {
@@ -340,7 +344,7 @@ mod tests {
                 dir: Vector3::z(),
             },
             home_deg: home,
-        }; JOINTS];
+        }; 6];
         for (i, ax) in axes.iter_mut().enumerate() {
             let (r, t) = frame(&m.params, i, &q);
             ax.line = Line {
@@ -358,7 +362,7 @@ mod tests {
             })
             .collect();
         let c = axes_to_chain(&m, &axes, &pts).unwrap();
-        for k in 0..N_PARAMS {
+        for k in 0..m.params.len() {
             assert!((c.params[k] - m.params[k]).abs() < 1e-9, "param {k}");
         }
         for (a, b) in c.tool.iter().zip(&tool) {

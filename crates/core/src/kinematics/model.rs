@@ -1,32 +1,41 @@
-//! The robot model: 30 MDH parameters, which of `d`/`β` is fixed per joint, joint limits, the
-//! tool point and the parameter uncertainty. Its TOML file format is in `file`, the checks of
+//! The robot model: 5 MDH parameters per joint (4 to 7 joints), which of `d`/`β` is fixed per
+//! joint, joint limits, the tool point and the parameter uncertainty. Its TOML file format is in `file`, the checks of
 //! its values in `check`.
 
-use super::index::{FixedParam, BASE_COORDS, JOINTS, N_PARAMS, N_UNCERTAIN, N_WITH_BASE};
+use super::index::{FixedParam, Inputs, Joints, Layout, Params, BASE_COORDS, MAX_JOINTS};
+
+/// Joint limits in degrees, `(min, max)`, one per joint.
+pub type Limits = super::Capped<(f64, f64), MAX_JOINTS>;
+/// Which of `d`/`β` each joint keeps fixed.
+pub type FixedParams = super::Capped<FixedParam, MAX_JOINTS>;
 
 /// Spread of the parameters about their values (internal units: mm, rad). The tool point's
-/// spread is [`RobotModel::tool_sigma`], except with a 33 × 33 covariance, which covers it.
+/// spread is [`RobotModel::tool_sigma`], except with a covariance that includes the tool point
+/// ([`Layout::n_uncertain`] rows), which covers it.
 #[derive(Clone, Debug, PartialEq)]
 #[allow(clippy::large_enum_variant)] // one per model; boxing buys nothing
 pub enum Uncertainty {
-    /// Independent normals with these standard deviations (0 = exactly known).
-    Independent([f64; N_PARAMS]),
-    /// Full covariance, row-major, either 30 × 30 (the parameters; the tool's spread is then
-    /// [`RobotModel::tool_sigma`], independent of them), 33 × 33 ([`N_UNCERTAIN`]: the
-    /// parameters, then the tool's x, y, z in mm) or 39 × 39 ([`N_WITH_BASE`]: then the
-    /// placement's x, y, z in mm and roll, pitch, yaw in rad, as identified from data in a
-    /// tracker frame).
+    /// Independent normals with these standard deviations (0 = exactly known), one per
+    /// parameter.
+    Independent(Params),
+    /// Full covariance, row-major, of either the parameters (the tool's spread is then
+    /// [`RobotModel::tool_sigma`], independent of them; 30 × 30 for six joints), the
+    /// parameters and then the tool's x, y, z in mm ([`Layout::n_uncertain`], 33 × 33), or
+    /// those and then the placement's x, y, z in mm and roll, pitch, yaw in rad, as identified
+    /// from data in a tracker frame ([`Layout::n_with_base`], 39 × 39).
     Covariance(Vec<f64>),
 }
 
 impl Uncertainty {
-    /// Rows of the covariance: [`N_WITH_BASE`] for a 39 × 39 matrix, [`N_UNCERTAIN`] for a
-    /// 33 × 33 one, else [`N_PARAMS`] (also for independent σ).
+    /// Rows of the covariance (the number of parameters for independent σ).
     pub fn dim(&self) -> usize {
         match self {
-            Self::Covariance(c) if c.len() == N_WITH_BASE * N_WITH_BASE => N_WITH_BASE,
-            Self::Covariance(c) if c.len() == N_UNCERTAIN * N_UNCERTAIN => N_UNCERTAIN,
-            _ => N_PARAMS,
+            Self::Independent(s) => s.len(),
+            Self::Covariance(c) => {
+                let n = (c.len() as f64).sqrt().round() as usize;
+                debug_assert_eq!(n * n, c.len());
+                n
+            }
         }
     }
 
@@ -45,11 +54,12 @@ impl Uncertainty {
         }
     }
 
-    /// Standard deviation of each parameter (the covariance's diagonal, square-rooted).
-    pub fn sigmas(&self) -> [f64; N_PARAMS] {
+    /// Standard deviation of each of the `n_params` parameters (the covariance's diagonal,
+    /// square-rooted).
+    pub fn sigmas(&self, n_params: usize) -> Params {
         match self {
             Self::Independent(s) => *s,
-            Self::Covariance(_) => std::array::from_fn(|i| self.entry(i, i).max(0.0).sqrt()),
+            Self::Covariance(_) => Params::from_fn(n_params, |i| self.entry(i, i).max(0.0).sqrt()),
         }
     }
 }
@@ -112,17 +122,17 @@ pub fn rpy_of(rotation: &nalgebra::UnitQuaternion<f64>) -> [f64; 3] {
 pub struct RobotModel {
     /// Name shown in reports.
     pub name: String,
-    /// The 30 parameters, joint-major `[θ, d, a, α, β]`, mm and radians.
-    pub params: [f64; N_PARAMS],
+    /// The `5n` parameters, joint-major `[θ, d, a, α, β]`, mm and radians.
+    pub params: Params,
     /// Per joint, which of d / β is fixed.
-    pub fixed: [FixedParam; JOINTS],
-    /// Joint limits in degrees, `(min, max)`.
-    pub limits_deg: [(f64, f64); JOINTS],
+    pub fixed: FixedParams,
+    /// Joint limits in degrees, `(min, max)`, one per joint.
+    pub limits_deg: Limits,
     /// Tracker target in the flange frame, mm.
     pub tool: [f64; 3],
     /// Standard deviation of the tool point's coordinates in the flange frame, mm (0 = exactly
-    /// known), independent of the parameters. With a 33 × 33 covariance it equals the square
-    /// roots of the covariance's last three diagonal entries ([`RobotModel::check`] says so).
+    /// known), independent of the parameters. With a covariance that includes the tool it
+    /// equals the square roots of the tool's diagonal entries ([`RobotModel::check`] says so).
     pub tool_sigma: [f64; 3],
     /// Parameter uncertainty.
     pub uncertainty: Uncertainty,
@@ -131,6 +141,27 @@ pub struct RobotModel {
 }
 
 impl RobotModel {
+    /// Number of joints.
+    pub fn joints(&self) -> usize {
+        self.fixed.len()
+    }
+
+    /// How the inputs of this model's draws are laid out.
+    pub fn layout(&self) -> Layout {
+        Layout::new(self.joints())
+    }
+
+    /// A configuration of this model with every joint at `value` (radians or degrees, as the
+    /// caller uses).
+    pub fn joints_at(&self, value: f64) -> Joints {
+        Joints::filled(self.joints(), value)
+    }
+
+    /// Standard deviation of each parameter ([`Uncertainty::sigmas`]).
+    pub fn param_sigmas(&self) -> Params {
+        self.uncertainty.sigmas(self.params.len())
+    }
+
     /// Where the base frame's origin lies in the description's frame, mm (the origin itself
     /// without a [`RobotModel::base`]).
     pub fn base_origin_mm(&self) -> [f64; 3] {
@@ -162,7 +193,8 @@ impl RobotModel {
             return Vec::new();
         }
         let s = self.input_sigmas();
-        let t = &s[N_PARAMS..];
+        let lay = self.layout();
+        let t = &s[lay.n_params()..];
         // Four significant digits: σ is an uncertainty, its 17th digit says nothing.
         let g = |v: f64| format!("{v:.4e}").parse::<f64>().unwrap_or(v);
         vec![format!(
@@ -171,18 +203,20 @@ impl RobotModel {
             g(t[1]),
             g(t[2]),
             match self.uncertainty.dim() {
-                N_UNCERTAIN => ", correlated with the parameters (33 × 33 covariance)",
-                N_WITH_BASE => {
-                    ", correlated with the parameters and the base placement (39 × 39 covariance)"
+                n if n == lay.n_uncertain() => {
+                    format!(", correlated with the parameters ({n} × {n} covariance)")
                 }
-                _ => "",
+                n if n == lay.n_with_base() => format!(
+                    ", correlated with the parameters and the base placement ({n} × {n} covariance)"
+                ),
+                _ => String::new(),
             }
         )]
     }
 
     /// Tool-point position (mm) at joint angles `q` (radians) in the description's frame: the
     /// MDH chain's [`super::position`], then the [`RobotModel::base`] transform.
-    pub fn world_position(&self, q: &[f64; JOINTS]) -> [f64; 3] {
+    pub fn world_position(&self, q: &[f64]) -> [f64; 3] {
         let p = super::position(&self.params, &self.tool, q);
         match &self.base {
             None => p,
@@ -200,40 +234,44 @@ impl RobotModel {
         self.tool_sigma.iter().any(|&s| s > 0.0)
     }
 
-    /// Standard deviations of all [`N_UNCERTAIN`] inputs: the 30 parameters, then the tool.
-    pub fn input_sigmas(&self) -> [f64; N_UNCERTAIN] {
-        let p = self.uncertainty.sigmas();
-        std::array::from_fn(|i| {
-            if i < N_PARAMS {
+    /// Standard deviations of all [`Layout::n_uncertain`] inputs: the parameters, then the
+    /// tool.
+    pub fn input_sigmas(&self) -> Inputs {
+        let p = self.param_sigmas();
+        let np = p.len();
+        Inputs::from_fn(self.layout().n_uncertain(), |i| {
+            if i < np {
                 p[i]
             } else {
-                self.tool_sigma[i - N_PARAMS]
+                self.tool_sigma[i - np]
             }
         })
     }
 
-    /// Indices (of the [`N_UNCERTAIN`] inputs) with nonzero spread: [`Self::free_params`],
-    /// then the uncertain tool coordinates.
+    /// Indices (of the [`Layout::n_uncertain`] inputs) with nonzero spread:
+    /// [`Self::free_params`], then the uncertain tool coordinates.
     pub fn free_inputs(&self) -> Vec<usize> {
         let s = self.input_sigmas();
-        (0..N_UNCERTAIN).filter(|&i| s[i] > 0.0).collect()
+        (0..s.len()).filter(|&i| s[i] > 0.0).collect()
     }
 
-    /// The covariance of all [`N_UNCERTAIN`] inputs, row-major 33 × 33, for a correlated model
-    /// (a 30 × 30 matrix is extended by the independent tool variances `tool_sigma²`, a 39 × 39
-    /// one cut to its first 33 rows); `None` for independent σ.
+    /// The covariance of all [`Layout::n_uncertain`] inputs, row-major, for a correlated model
+    /// (a matrix of the parameters alone is extended by the independent tool variances
+    /// `tool_sigma²`, one with the placement cut to its first rows); `None` for independent σ.
     pub fn full_covariance(&self) -> Option<Vec<f64>> {
         match &self.uncertainty {
             Uncertainty::Independent(_) => None,
             Uncertainty::Covariance(_) => {
-                let n = self.uncertainty.dim().min(N_UNCERTAIN);
-                let mut c = vec![0.0; N_UNCERTAIN * N_UNCERTAIN];
-                for i in 0..N_UNCERTAIN {
-                    for k in 0..N_UNCERTAIN {
-                        c[i * N_UNCERTAIN + k] = if i < n && k < n {
+                let nu = self.layout().n_uncertain();
+                let np = self.layout().n_params();
+                let n = self.uncertainty.dim().min(nu);
+                let mut c = vec![0.0; nu * nu];
+                for i in 0..nu {
+                    for k in 0..nu {
+                        c[i * nu + k] = if i < n && k < n {
                             self.uncertainty.entry(i, k)
                         } else if i == k {
-                            self.tool_sigma[i - N_PARAMS].powi(2)
+                            self.tool_sigma[i - np].powi(2)
                         } else {
                             0.0
                         };
@@ -245,11 +283,12 @@ impl RobotModel {
     }
 
     /// Standard deviations of the placement (x, y, z mm; roll, pitch, yaw rad): the last six
-    /// diagonal entries of a 39 × 39 covariance, else zeros.
+    /// diagonal entries of a covariance with the placement, else zeros.
     pub fn base_sigmas(&self) -> [f64; BASE_COORDS] {
-        if self.uncertainty.dim() == N_WITH_BASE {
+        let lay = self.layout();
+        if self.uncertainty.dim() == lay.n_with_base() {
             std::array::from_fn(|k| {
-                let i = N_UNCERTAIN + k;
+                let i = lay.base_index(k);
                 self.uncertainty.entry(i, i).max(0.0).sqrt()
             })
         } else {
@@ -262,16 +301,17 @@ impl RobotModel {
         self.base_sigmas().iter().any(|&s| s > 0.0)
     }
 
-    /// The model in the robot's base frame: a 39 × 39 covariance cut to its first 33 rows (the
-    /// placement's spread and its correlations dropped); any other model unchanged.
+    /// The model in the robot's base frame: a covariance with the placement cut to its first
+    /// [`Layout::n_uncertain`] rows (the placement's spread and its correlations dropped); any
+    /// other model unchanged.
     pub fn without_base_uncertainty(&self) -> RobotModel {
         let mut m = self.clone();
+        let lay = self.layout();
         if let Uncertainty::Covariance(c) = &self.uncertainty {
-            if self.uncertainty.dim() == N_WITH_BASE {
-                let n = N_UNCERTAIN;
-                let cut = (0..n * n)
-                    .map(|x| c[(x / n) * N_WITH_BASE + x % n])
-                    .collect();
+            if self.uncertainty.dim() == lay.n_with_base() {
+                let n = lay.n_uncertain();
+                let nb = lay.n_with_base();
+                let cut = (0..n * n).map(|x| c[(x / n) * nb + x % n]).collect();
                 m.uncertainty = Uncertainty::Covariance(cut);
             }
         }
@@ -280,8 +320,8 @@ impl RobotModel {
 
     /// Indices of the parameters with nonzero spread.
     pub fn free_params(&self) -> Vec<usize> {
-        let s = self.uncertainty.sigmas();
-        (0..N_PARAMS).filter(|&i| s[i] > 0.0).collect()
+        let s = self.param_sigmas();
+        (0..s.len()).filter(|&i| s[i] > 0.0).collect()
     }
 
     /// Checks a joint configuration (degrees) against the limits; names the joint if outside.
@@ -289,7 +329,14 @@ impl RobotModel {
     /// # Errors
     ///
     /// A message naming the first joint whose angle is not finite or lies outside its limits.
-    pub fn check_limits(&self, q_deg: &[f64; JOINTS]) -> Result<(), String> {
+    pub fn check_limits(&self, q_deg: &[f64]) -> Result<(), String> {
+        if q_deg.len() != self.joints() {
+            return Err(format!(
+                "has {} joint angles, the model has {} joints",
+                q_deg.len(),
+                self.joints()
+            ));
+        }
         for (j, (&q, &(lo, hi))) in q_deg.iter().zip(&self.limits_deg).enumerate() {
             if !q.is_finite() {
                 return Err(format!("q{} = {q} is not a finite number", j + 1));

@@ -3,6 +3,13 @@
 use super::*;
 use crate::kinematics::tx60;
 
+// The TX60's counts: six joints.
+const N_PARAMS: usize = Layout::SIX.n_params();
+const N_UNCERTAIN: usize = Layout::SIX.n_uncertain();
+fn tool_index(k: usize) -> usize {
+    Layout::SIX.tool_index(k)
+}
+
 #[test]
 fn toml_round_trip() {
     let m = tx60();
@@ -12,15 +19,15 @@ fn toml_round_trip() {
         assert!((m.params[i] - back.params[i]).abs() < 1e-15);
     }
     assert_eq!(
-        m.uncertainty.sigmas().map(|v| (v * 1e12).round()),
-        back.uncertainty.sigmas().map(|v| (v * 1e12).round())
+        m.param_sigmas().map(|v| (v * 1e12).round()),
+        back.param_sigmas().map(|v| (v * 1e12).round())
     );
 }
 
 #[test]
 fn covariance_round_trip() {
     let mut m = tx60();
-    let s = m.uncertainty.sigmas();
+    let s = m.param_sigmas();
     let mut c = vec![0.0; N_PARAMS * N_PARAMS];
     for i in 0..N_PARAMS {
         c[i * N_PARAMS + i] = s[i] * s[i];
@@ -60,7 +67,7 @@ fn values_exactly_at_the_limits_pass_and_just_past_fail() {
         };
         *p = sign * max * kind.to_internal();
     }
-    let mut s = [0.0; N_PARAMS];
+    let mut s = Params::filled(N_PARAMS, 0.0);
     for (i, v) in s.iter_mut().enumerate() {
         let kind = param_kind(i);
         let fixed = match m.fixed[param_joint(i)] {
@@ -76,7 +83,7 @@ fn values_exactly_at_the_limits_pass_and_just_past_fail() {
         }
     }
     m.uncertainty = Uncertainty::Independent(s);
-    m.limits_deg = [(-MAX_LIMIT_DEG, MAX_LIMIT_DEG); JOINTS];
+    m.limits_deg = Limits::filled(6, (-MAX_LIMIT_DEG, MAX_LIMIT_DEG));
     m.tool = [MAX_LENGTH_MM, -MAX_LENGTH_MM, 0.0];
     m.check().unwrap();
     RobotModel::from_toml(&m.to_toml(), "m.toml").unwrap();
@@ -114,7 +121,7 @@ fn tool_sigma_in_the_file() {
     );
     // 33 × 33: the tool's variances from the matrix
     let n = N_UNCERTAIN;
-    let s = m.uncertainty.sigmas();
+    let s = m.param_sigmas();
     let mut c = vec![0.0; n * n];
     for i in 0..N_PARAMS {
         c[i * n + i] = s[i] * s[i];

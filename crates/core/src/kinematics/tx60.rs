@@ -18,11 +18,11 @@
 //! identification keeps them nominal and lets the tool point absorb them (`kinematics::mdh`), so the
 //! parameter model carries no spread for them; β is fixed except on J2 (J2 ∥ J3).
 
-use super::{param_index, FixedParam, ParamKind, RobotModel, Uncertainty, JOINTS, N_PARAMS};
+use super::{param_index, FixedParam, ParamKind, Params, RobotModel, Uncertainty};
 
 /// The default σ of every parameter, `[θ (deg), d (mm), a (mm), α (deg), β (deg)]` per joint:
 /// the baseline calibration of the simulator (see the module docs), 4 significant digits.
-pub const TX60_SIGMA: [[f64; 5]; JOINTS] = [
+pub const TX60_SIGMA: [[f64; 5]; 6] = [
     [3.216e-3, 5.056e-3, 7.175e-3, 1.995e-3, 0.0],
     [1.664e-3, 0.0, 8.480e-3, 4.335e-3, 2.208e-3],
     [2.176e-3, 1.183e-2, 6.683e-3, 3.526e-3, 0.0],
@@ -34,7 +34,7 @@ pub const TX60_SIGMA: [[f64; 5]; JOINTS] = [
 /// The Staubli TX60 with its default uncertainty; tool point at the flange centre.
 pub fn tx60() -> RobotModel {
     // θ, d, a, α, β (deg, mm)
-    let table: [[f64; 5]; JOINTS] = [
+    let table: [[f64; 5]; 6] = [
         [0.0, 375.0, 0.0, -90.0, 0.0],
         [-90.0, 0.0, 290.0, 0.0, 0.0],
         [90.0, 20.0, 0.0, 90.0, 0.0],
@@ -50,9 +50,9 @@ pub fn tx60() -> RobotModel {
         FixedParam::Beta,
         FixedParam::Beta,
     ];
-    let mut params = [0.0; N_PARAMS];
-    let mut sigma = [0.0; N_PARAMS];
-    for j in 0..JOINTS {
+    let mut params = Params::filled(30, 0.0);
+    let mut sigma = Params::filled(30, 0.0);
+    for j in 0..6 {
         for (k, kind) in ParamKind::ALL.iter().enumerate() {
             let i = param_index(j, *kind);
             params[i] = table[j][k] * kind.to_internal();
@@ -62,7 +62,7 @@ pub fn tx60() -> RobotModel {
     RobotModel {
         name: "Staubli TX60".into(),
         params,
-        fixed,
+        fixed: fixed.into(),
         limits_deg: [
             (-180.0, 180.0),
             (-127.5, 127.5),
@@ -70,7 +70,8 @@ pub fn tx60() -> RobotModel {
             (-270.0, 270.0),
             (-122.5, 132.5),
             (-270.0, 270.0),
-        ],
+        ]
+        .into(),
         tool: [0.0, 0.0, 0.0],
         tool_sigma: [0.0; 3],
         base: None,

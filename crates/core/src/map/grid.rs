@@ -4,7 +4,7 @@
 
 use super::ik::{self, Ik, IkTarget};
 use super::{setting, MapError, MapSetting, MAX_CELLS};
-use crate::kinematics::{RobotModel, JOINTS};
+use crate::kinematics::{Joints, RobotModel};
 use crate::points::WorkspaceBox;
 use serde::{Deserialize, Serialize};
 
@@ -62,8 +62,9 @@ pub struct MapSpec {
     /// Fixed flange orientation as roll, pitch, yaw in degrees about the fixed x, y, z axes, or
     /// `None` for a position-only task.
     pub orientation_rpy_deg: Option<[f64; 3]>,
-    /// The configuration (degrees) whose nearest solution each cell takes.
-    pub reference_q_deg: [f64; JOINTS],
+    /// The configuration (degrees, one angle per joint of the model) whose nearest solution
+    /// each cell takes.
+    pub reference_q_deg: Joints,
     /// Seeds spread over the joint ranges besides the reference and the neighbours.
     pub ik_seeds: usize,
 }
@@ -74,13 +75,13 @@ pub const TOOL_DOWN_RPY_DEG: [f64; 3] = [180.0, 0.0, 0.0];
 
 /// The flange orientation (roll, pitch, yaw in degrees, world frame) that points `model`'s tool
 /// down. The tool points away from the wrist along the last joint axis: along +z of the last
-/// frame when the flange (`d6` plus the tool's z) lies on its positive side, as for the TX60,
-/// UR and ABB presets, and along −z when it lies on the negative side, as for a joint axis
-/// imported with the opposite sign (the KUKA KR 6's A6 axis is −x of its flange): then the
-/// last frame's z axis must point up (roll 0).
+/// frame when the flange (the last joint's `d`, `d6` of a six-joint arm, plus the tool's z) lies
+/// on its positive side, as for the TX60, UR and ABB presets, and along −z when it lies on the
+/// negative side, as for a joint axis imported with the opposite sign (the KUKA KR 6's A6 axis
+/// is −x of its flange): then the last frame's z axis must point up (roll 0).
 pub fn tool_down_rpy_deg(model: &RobotModel) -> [f64; 3] {
-    let d6 = model.params[(JOINTS - 1) * crate::kinematics::PARAMS_PER_JOINT + 1];
-    if d6 + model.tool[2] < 0.0 {
+    let d_last = model.params[(model.joints() - 1) * crate::kinematics::PARAMS_PER_JOINT + 1];
+    if d_last + model.tool[2] < 0.0 {
         [0.0, 0.0, 0.0]
     } else {
         TOOL_DOWN_RPY_DEG
@@ -90,15 +91,26 @@ pub fn tool_down_rpy_deg(model: &RobotModel) -> [f64; 3] {
 /// Most extra inverse-kinematics seeds per cell.
 pub const MAX_IK_SEEDS: usize = 1000;
 
-/// The default reference configuration of `model`: the middle of each joint's range, with
-/// joints 2, 3 and 5 turned 30° towards their upper limits (clamped), which takes the arm out of
-/// the stretched or upright zero pose most models have at mid-range, where elbow and wrist
-/// branches tie.
-pub fn default_reference_deg(model: &RobotModel) -> [f64; JOINTS] {
-    std::array::from_fn(|i| {
+/// The default reference configuration of `model` (degrees): the middle of each joint's range,
+/// with the bending joints turned 30° towards their upper limits (clamped), which takes the arm
+/// out of the stretched or upright zero pose most models have at mid-range, where elbow and
+/// wrist branches tie. The bending joints are 2, 3 and 5 (shoulder, elbow, wrist pitch of a
+/// six-joint arm, and those of them an arm of four or five joints has) and, for seven joints,
+/// 2, 4 and 6 (the shoulder, elbow and wrist of an arm whose roll and pitch axes alternate,
+/// such as the KUKA LBR iiwa or the Franka Panda).
+pub fn default_reference_deg(model: &RobotModel) -> Joints {
+    let n = model.joints();
+    let bends = |i: usize| {
+        if n == 7 {
+            matches!(i, 1 | 3 | 5)
+        } else {
+            matches!(i, 1 | 2 | 4)
+        }
+    };
+    Joints::from_fn(n, |i| {
         let (lo, hi) = model.limits_deg[i];
         let mid = 0.5 * (lo + hi);
-        let turn = if matches!(i, 1 | 2 | 4) { 30.0 } else { 0.0 };
+        let turn = if bends(i) { 30.0 } else { 0.0 };
         (mid + turn).clamp(lo, hi)
     })
 }
@@ -115,13 +127,13 @@ pub struct CellTarget {
 /// The configuration that reaches a cell.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CellIk {
-    /// Joint angles, degrees (the test point of the evaluation).
-    pub q_deg: [f64; JOINTS],
+    /// Joint angles, degrees, one per joint of the model (the test point of the evaluation).
+    pub q_deg: Joints,
     /// Distance between the tool point at `q_deg` and the target, mm (≤ 1e-9).
     pub position_residual_mm: f64,
     /// Angle between the flange orientation and the target's, radians (`None` when free).
     pub orientation_residual_rad: Option<f64>,
-    /// Condition number of the 3 × 6 position Jacobian (`None` at a position singularity).
+    /// Condition number of the 3 × n position Jacobian (`None` at a position singularity).
     pub jacobian_condition: Option<f64>,
 }
 
@@ -312,7 +324,7 @@ impl MapSpec {
                 [v.x, v.y, v.z]
             }
         };
-        let mut solved: Vec<Option<[f64; JOINTS]>> = vec![None; targets.len()];
+        let mut solved: Vec<Option<Joints>> = vec![None; targets.len()];
         let mut out: Vec<Option<CellIk>> = vec![None; targets.len()];
         let flat = |i: usize, j: usize, k: usize| (k * n[1] + j) * n[0] + i;
         for k in 0..n[2] {
@@ -369,14 +381,8 @@ impl MapSpec {
 
     /// The test point of a solution: degrees within the limits, with its residuals recomputed
     /// from the degrees (what the evaluation uses) and checked again.
-    fn accept(
-        &self,
-        model: &RobotModel,
-        ik: &Ik,
-        target: &IkTarget,
-        q: &[f64; JOINTS],
-    ) -> Option<CellIk> {
-        let q_deg: [f64; JOINTS] = std::array::from_fn(|i| {
+    fn accept(&self, model: &RobotModel, ik: &Ik, target: &IkTarget, q: &[f64]) -> Option<CellIk> {
+        let q_deg = Joints::from_fn(q.len(), |i| {
             q[i].to_degrees()
                 .clamp(model.limits_deg[i].0, model.limits_deg[i].1)
         });

@@ -8,6 +8,22 @@
 //! otherwise (λ grows tenfold). Every iterate is projected into the joint limits. Several
 //! seeds are tried; of the configurations that reach the target the one nearest a reference
 //! configuration is kept, which picks one branch (elbow, wrist, shoulder) for the whole map.
+//! With more task constraints than joints (a fixed orientation for an arm of four or five
+//! joints) the step solves the damped normal equations `(JᵀJ + λ I) Δq = Jᵀ e` instead, the
+//! same step written for the smaller system.
+//!
+//! **Redundancy.** An arm of `n` joints has `n − m` degrees of freedom left by a task of `m`
+//! constraints (3 for a position, 6 with the orientation): a seven-joint arm keeps one with a
+//! fixed orientation and four without. There a configuration that reaches the target is slid
+//! along the set of configurations that reach it (the self-motion) to the one locally nearest
+//! the reference: each step moves `q` by the projection of `q_ref − q` on the null space of
+//! `J`, `(I − Jᵀ (J Jᵀ)⁻¹ J)(q_ref − q)` (a first-order step of `min ‖q − q_ref‖` subject to
+//! reaching the target, at most [`NULL_STEP_RAD`] long), then returns to the target with the
+//! damped least squares above, and is kept when it reached the target nearer the reference
+//! (else the step is shortened), until the distance no longer shrinks. The seeds then choose
+//! among the local minima as for any arm. A six-joint arm keeps its earlier solver unchanged
+//! (for a position-only task it chooses among the configurations its seeds descend to, without
+//! sliding), so its maps do not change.
 //!
 //! The Jacobian is exact: joint i turns about the z axis of frame i − 1 (`T_i = Rz(θ_i + q_i)·…`),
 //! so its column is `z × (p − o)` for the position and `z` for the orientation, with `z` and
@@ -20,7 +36,9 @@ mod geometry;
 
 pub use geometry::{position_condition, position_jacobian, rotation_angle, rpy_rotation, Rot3};
 
-use crate::kinematics::{position, RobotModel, JOINTS};
+#[cfg(test)]
+use crate::kinematics::Capped;
+use crate::kinematics::{position, Joints, RobotModel};
 use geometry::{frames, norm, orientation_error, solve, Frames};
 
 /// Largest accepted distance between the tool point of a solution and its target, mm.
@@ -37,6 +55,15 @@ pub const BUILT_IN_SEEDS: usize = 64;
 const MAX_ITERATIONS: usize = 200;
 /// Iterations after which a seed that gained less than 1 % is given up.
 const STALL_WINDOW: usize = 10;
+/// Longest step along the self-motion of a redundant arm, radians (see the module docs).
+pub const NULL_STEP_RAD: f64 = 0.25;
+/// Most steps along the self-motion from one configuration.
+const MAX_NULL_STEPS: usize = 200;
+/// Largest Barzilai–Borwein factor of a step along the self-motion.
+const MAX_NULL_FACTOR: f64 = 1e3;
+/// The self-motion stops when its step (the projection of `q_ref − q` on the null space) is
+/// shorter than this, radians: the configuration is then nearest the reference to first order.
+const NULL_TOL_RAD: f64 = 1e-9;
 
 /// What a cell asks of the robot: a tool-point position and, optionally, a flange orientation.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -50,8 +77,8 @@ pub struct IkTarget {
 /// A configuration that reaches its target.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct IkSolution {
-    /// Joint angles, radians, within the limits.
-    pub q: [f64; JOINTS],
+    /// Joint angles, radians, within the limits (one per joint of the model).
+    pub q: Joints,
     /// Distance between the tool point and the target, mm.
     pub position_residual: f64,
     /// Angle between the flange orientation and the target's, radians (`None` for a
@@ -64,17 +91,18 @@ pub struct IkSolution {
 #[derive(Clone, Debug)]
 pub struct Ik<'a> {
     model: &'a RobotModel,
-    lo: [f64; JOINTS],
-    hi: [f64; JOINTS],
-    reference: [f64; JOINTS],
+    lo: Joints,
+    hi: Joints,
+    reference: Joints,
     /// The built-in seeds ([`BUILT_IN_SEEDS`]), tried wherever no neighbour's branch reaches.
-    seeds: Vec<[f64; JOINTS]>,
+    seeds: Vec<Joints>,
     /// The caller's extra seeds, tried only where the built-in ones reach nothing.
-    extra: Vec<[f64; JOINTS]>,
+    extra: Vec<Joints>,
     /// Where the tool point can be at most: the point on joint 1's axis at height d1 and the
     /// radius around it (see [`Ik::within_reach`]).
     reach: ([f64; 3], f64),
-    /// The radius frame 5's origin stays within around the same point.
+    /// The radius the origin of frame `n − 1` (on the last joint's axis; frame 5 of a six-joint
+    /// arm) stays within around the same point.
     reach5: f64,
     /// Length (mm) that turns orientation errors (rad) into mm: half the reach bound.
     scale: f64,
@@ -83,35 +111,38 @@ pub struct Ik<'a> {
 /// A bound on the distance from the base origin the tool point can reach, mm: every link
 /// length and offset and the tool added up.
 pub fn reach_bound(model: &RobotModel) -> f64 {
-    (0..JOINTS)
+    (0..model.joints())
         .map(|i| model.params[5 * i + 1].abs() + model.params[5 * i + 2].abs())
         .sum::<f64>()
         + norm(&model.tool)
 }
 
 impl<'a> Ik<'a> {
-    /// A solver for `model` choosing solutions nearest `reference` (radians, within the limits),
-    /// with [`BUILT_IN_SEEDS`] seeds spread over the joint ranges besides the reference (a fixed
-    /// low-discrepancy set, so a map is reproducible), and `extra_seeds` more of the same
-    /// sequence tried only where those reach nothing, so that the branch a cell gets does not
-    /// depend on the extra count.
-    pub fn new(model: &'a RobotModel, reference: [f64; JOINTS], extra_seeds: usize) -> Self {
+    /// A solver for `model` choosing solutions nearest `reference` (radians, within the limits,
+    /// one per joint of the model), with [`BUILT_IN_SEEDS`] seeds spread over the joint ranges
+    /// besides the reference (a fixed low-discrepancy set, so a map is reproducible), and
+    /// `extra_seeds` more of the same sequence tried only where those reach nothing, so that the
+    /// branch a cell gets does not depend on the extra count.
+    pub fn new(model: &'a RobotModel, reference: Joints, extra_seeds: usize) -> Self {
+        let n = model.joints();
+        debug_assert_eq!(reference.len(), n);
         let lo = model.limits_deg.map(|l| l.0.to_radians());
         let hi = model.limits_deg.map(|l| l.1.to_radians());
-        // Additive recurrence with the generalised golden ratio of dimension 6 (a Kronecker
-        // sequence; M. Roberts, "The unreasonable effectiveness of quasirandom sequences", 2018).
+        // Additive recurrence with the generalised golden ratio of dimension n, the root of
+        // x^(n+1) = x + 1 (a Kronecker sequence; M. Roberts, "The unreasonable effectiveness of
+        // quasirandom sequences", 2018).
         let g = {
             let mut x: f64 = 2.0;
             for _ in 0..64 {
-                x = (1.0 + x).powf(1.0 / 7.0);
+                x = (1.0 + x).powf(1.0 / (n + 1) as f64);
             }
             x
         };
-        let alpha: [f64; JOINTS] = std::array::from_fn(|i| 1.0 / g.powi(i as i32 + 1));
-        let mut seeds: Vec<[f64; JOINTS]> = (1..=BUILT_IN_SEEDS + extra_seeds)
-            .map(|n| {
-                std::array::from_fn(|i| {
-                    let u = (0.5 + alpha[i] * n as f64).fract();
+        let alpha = Joints::from_fn(n, |i| 1.0 / g.powi(i as i32 + 1));
+        let mut seeds: Vec<Joints> = (1..=BUILT_IN_SEEDS + extra_seeds)
+            .map(|k| {
+                Joints::from_fn(n, |i| {
+                    let u = (0.5 + alpha[i] * k as f64).fract();
                     // Stay off the limits themselves: the middle 90 % of each range.
                     lo[i] + (hi[i] - lo[i]) * (0.05 + 0.9 * u)
                 })
@@ -122,8 +153,8 @@ impl<'a> Ik<'a> {
         // moves the next origin by √(a² + d²), and the tool point is |tool| from the flange.
         let p = &model.params;
         let link = |j: usize| p[5 * j + 1].hypot(p[5 * j + 2]);
-        let reach5 = p[2].abs() + (1..JOINTS - 1).map(link).sum::<f64>();
-        let radius = reach5 + link(JOINTS - 1) + norm(&model.tool);
+        let reach5 = p[2].abs() + (1..n - 1).map(link).sum::<f64>();
+        let radius = reach5 + link(n - 1) + norm(&model.tool);
         Ik {
             model,
             lo,
@@ -142,10 +173,12 @@ impl<'a> Ik<'a> {
     /// within the sum of the later links' lengths and the tool's of it. A target outside is
     /// unreachable whatever the seeds: a proof, not a failed search.
     ///
-    /// With the flange orientation `R6` fixed, frame 5's origin is fixed too: the last joint
-    /// `T_6 = Rz(φ)·Tz(d6)·Tx(a6)·Rx(α6)·Ry(β6)` gives `R6 = R5·Rz(φ)·Rx(α6)·Ry(β6)` and
-    /// `o6 = o5 + R5·Rz(φ)·(a6, 0, d6)`, so with `M = R6·(Rx(α6)·Ry(β6))ᵀ`,
-    /// `o5 = p − R6·tool − M·(a6, 0, d6)`, which must lie within the links 1…5's ball.
+    /// With the flange orientation `R6` fixed, the origin of the frame before the last joint is
+    /// fixed too. Written for six joints (frame 5; for `n` joints frame `n − 1` and the last
+    /// joint's parameters): the last joint `T_6 = Rz(φ)·Tz(d6)·Tx(a6)·Rx(α6)·Ry(β6)` gives
+    /// `R6 = R5·Rz(φ)·Rx(α6)·Ry(β6)` and `o6 = o5 + R5·Rz(φ)·(a6, 0, d6)`, so with
+    /// `M = R6·(Rx(α6)·Ry(β6))ᵀ`, `o5 = p − R6·tool − M·(a6, 0, d6)`, which must lie within the
+    /// links 1…5's ball.
     pub fn within_reach(&self, target: &IkTarget) -> bool {
         let (c, r) = self.reach;
         let dist = |v: [f64; 3]| norm(&[v[0] - c[0], v[1] - c[1], v[2] - c[2]]);
@@ -159,11 +192,11 @@ impl<'a> Ik<'a> {
         dist(self.wrist_origin(target.position, r6)) <= slack(self.reach5)
     }
 
-    /// Frame 5's origin of every configuration whose tool point is at `position` with the
-    /// flange rotation `r6` (see [`Ik::within_reach`]).
+    /// The origin of frame `n − 1` (frame 5 of a six-joint arm) of every configuration whose
+    /// tool point is at `position` with the flange rotation `r6` (see [`Ik::within_reach`]).
     fn wrist_origin(&self, position: [f64; 3], r6: &Rot3) -> [f64; 3] {
         let p = &self.model.params;
-        let j = 5 * (JOINTS - 1);
+        let j = 5 * (self.model.joints() - 1);
         let (d6, a6, alpha, beta) = (p[j + 1], p[j + 2], p[j + 3], p[j + 4]);
         let (sa, ca) = alpha.sin_cos();
         let (sb, cb) = beta.sin_cos();
@@ -185,8 +218,8 @@ impl<'a> Ik<'a> {
         })
     }
 
-    fn clamp(&self, q: &mut [f64; JOINTS]) {
-        for i in 0..JOINTS {
+    fn clamp(&self, q: &mut [f64]) {
+        for i in 0..q.len() {
             q[i] = q[i].clamp(self.lo[i], self.hi[i]);
         }
     }
@@ -201,9 +234,10 @@ impl<'a> Ik<'a> {
     }
 
     /// Task Jacobian rows matching [`Ik::error`].
-    fn jacobian(&self, target: &IkTarget, f: &Frames) -> Vec<[f64; JOINTS]> {
-        let mut rows = vec![[0.0; JOINTS]; if target.rotation.is_some() { 6 } else { 3 }];
-        for i in 0..JOINTS {
+    fn jacobian(&self, target: &IkTarget, f: &Frames) -> Vec<Joints> {
+        let n = self.model.joints();
+        let mut rows = vec![Joints::filled(n, 0.0); task_dim(target)];
+        for i in 0..n {
             let c = f.position_column(i);
             for k in 0..3 {
                 rows[k][i] = c[k];
@@ -216,7 +250,7 @@ impl<'a> Ik<'a> {
     }
 
     /// Residuals of `q` against `target`: position (mm) and orientation (rad).
-    pub fn residuals(&self, target: &IkTarget, q: &[f64; JOINTS]) -> (f64, Option<f64>) {
+    pub fn residuals(&self, target: &IkTarget, q: &[f64]) -> (f64, Option<f64>) {
         let f = frames(self.model, q);
         let p = norm(&[
             f.tool[0] - target.position[0],
@@ -226,9 +260,9 @@ impl<'a> Ik<'a> {
         (p, target.rotation.map(|d| rotation_angle(&f.rot, &d)))
     }
 
-    fn accepted(&self, target: &IkTarget, q: &[f64; JOINTS]) -> Option<IkSolution> {
+    fn accepted(&self, target: &IkTarget, q: &Joints) -> Option<IkSolution> {
         let (p, o) = self.residuals(target, q);
-        let in_limits = (0..JOINTS).all(|i| q[i] >= self.lo[i] && q[i] <= self.hi[i]);
+        let in_limits = (0..q.len()).all(|i| q[i] >= self.lo[i] && q[i] <= self.hi[i]);
         (in_limits && p <= POSITION_TOL_MM && o.is_none_or(|o| o <= ORIENTATION_TOL_RAD)).then_some(
             IkSolution {
                 q: *q,
@@ -239,7 +273,8 @@ impl<'a> Ik<'a> {
     }
 
     /// Damped least squares from one seed; the configuration it ends at.
-    fn descend(&self, target: &IkTarget, seed: &[f64; JOINTS]) -> [f64; JOINTS] {
+    fn descend(&self, target: &IkTarget, seed: &Joints) -> Joints {
+        DESCENDS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let mut q = *seed;
         self.clamp(&mut q);
         let mut f = frames(self.model, &q);
@@ -263,24 +298,13 @@ impl<'a> Ik<'a> {
                 break;
             }
             let j = self.jacobian(target, &f);
-            let m = j.len();
-            let a: Vec<Vec<f64>> = (0..m)
-                .map(|r| {
-                    (0..m)
-                        .map(|c| {
-                            (0..JOINTS).map(|k| j[r][k] * j[c][k]).sum::<f64>()
-                                + if r == c { lambda } else { 0.0 }
-                        })
-                        .collect()
-                })
-                .collect();
-            let Some(y) = solve(a, e.clone()) else {
+            let Some(dq) = damped_step(&j, &e, lambda) else {
                 lambda *= 10.0;
                 continue;
             };
             let mut next = q;
-            for k in 0..JOINTS {
-                next[k] += (0..m).map(|r| j[r][k] * y[r]).sum::<f64>();
+            for k in 0..next.len() {
+                next[k] += dq[k];
             }
             self.clamp(&mut next);
             let nf = frames(self.model, &next);
@@ -301,9 +325,9 @@ impl<'a> Ik<'a> {
 
     /// Moves joints whose range exceeds a full turn by whole turns towards the reference,
     /// staying within the limits (the same pose, the branch nearest the reference).
-    fn unwrap_turns(&self, q: &mut [f64; JOINTS]) {
+    fn unwrap_turns(&self, q: &mut [f64]) {
         let tau = std::f64::consts::TAU;
-        for i in 0..JOINTS {
+        for i in 0..q.len() {
             loop {
                 let d = q[i] - self.reference[i];
                 let step = if d > 0.5 * tau {
@@ -327,7 +351,7 @@ impl<'a> Ik<'a> {
     /// `seed` itself when the tool point or the target lies on the base axis. Joint 1 turns
     /// the whole arm about the base z axis (`T_1 = Rz(θ_1 + q_1)·…`), so this keeps the seed's
     /// reach and height and only aims it.
-    fn turned_towards(&self, seed: &[f64; JOINTS], target: &IkTarget) -> Vec<[f64; JOINTS]> {
+    fn turned_towards(&self, seed: &Joints, target: &IkTarget) -> Vec<Joints> {
         let p = position(&self.model.params, &self.model.tool, seed);
         let t = target.position;
         if p[0].hypot(p[1]) < 1e-6 || t[0].hypot(t[1]) < 1e-6 {
@@ -353,10 +377,91 @@ impl<'a> Ik<'a> {
             .collect()
     }
 
-    fn distance(&self, q: &[f64; JOINTS]) -> f64 {
-        norm(&std::array::from_fn::<f64, JOINTS, _>(|i| {
-            q[i] - self.reference[i]
+    fn distance(&self, q: &[f64]) -> f64 {
+        norm(&Joints::from_fn(q.len(), |i| q[i] - self.reference[i]))
+    }
+
+    /// Whether a configuration that reaches `target` is slid along its self-motion to the one
+    /// nearest the reference (see the module docs): the task leaves some joint freedom and the
+    /// arm has other than six joints.
+    fn resolves_redundancy(&self, target: &IkTarget) -> bool {
+        let n = self.model.joints();
+        n != 6 && n > task_dim(target)
+    }
+
+    /// The projection of `q_ref − q` on the null space of the task Jacobian at `q`,
+    /// `d − Jᵀ (J Jᵀ)⁻¹ J d` with `d = q_ref − q` (lightly damped, so a singular configuration
+    /// still projects): the direction along the self-motion that brings `q` nearest the
+    /// reference to first order. `None` when the system is singular even so.
+    fn null_direction(&self, target: &IkTarget, q: &Joints) -> Option<Joints> {
+        let n = q.len();
+        let f = frames(self.model, q);
+        let j = self.jacobian(target, &f);
+        let d = Joints::from_fn(n, |k| self.reference[k] - q[k]);
+        let m = j.len();
+        let jd: Vec<f64> = (0..m)
+            .map(|r| (0..n).map(|k| j[r][k] * d[k]).sum())
+            .collect();
+        let y = solve(gram(&j, 1e-12 * self.scale * self.scale), jd)?;
+        Some(Joints::from_fn(n, |k| {
+            d[k] - (0..m).map(|r| j[r][k] * y[r]).sum::<f64>()
         }))
+    }
+
+    /// From `start`, a configuration that reaches `target` within the limits, steps along the
+    /// self-motion towards the reference while they bring the configuration nearer it (see
+    /// the module docs); the configuration where they stop, which reaches `target` too.
+    ///
+    /// A step is `t·p` with `p` the [`Ik::null_direction`] and `t` the Barzilai–Borwein factor
+    /// `sᵀs / sᵀy` of the last accepted step `s` and the change `y` of `−p` over it (1 where
+    /// the self-motion is straight; larger where it curves so that `p` shrinks slowly), at
+    /// most [`NULL_STEP_RAD`] long; a step that does not end nearer the reference on the
+    /// target is shortened fourfold.
+    fn toward_reference(&self, target: &IkTarget, start: &Joints) -> Joints {
+        SLIDES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        let n = start.len();
+        let mut q = *start;
+        let mut dist = self.distance(&q);
+        let Some(mut p) = self.null_direction(target, &q) else {
+            return q;
+        };
+        let mut factor = 1.0;
+        let mut cap = NULL_STEP_RAD;
+        for _ in 0..MAX_NULL_STEPS {
+            STEPS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let len = norm(&p);
+            if len <= NULL_TOL_RAD {
+                break;
+            }
+            let tried = (factor * len).min(cap);
+            let t = tried / len;
+            let mut next = Joints::from_fn(n, |k| q[k] + t * p[k]);
+            self.clamp(&mut next);
+            let next = self.descend(target, &next);
+            let nd = self.distance(&next);
+            if nd < dist && self.accepted(target, &next).is_some() {
+                let Some(np) = self.null_direction(target, &next) else {
+                    return next;
+                };
+                let s = Joints::from_fn(n, |k| next[k] - q[k]);
+                let (ss, sy) = (0..n).fold((0.0, 0.0), |(ss, sy), k| {
+                    (ss + s[k] * s[k], sy + s[k] * (p[k] - np[k]))
+                });
+                factor = if sy > 0.0 {
+                    (ss / sy).clamp(1.0, MAX_NULL_FACTOR)
+                } else {
+                    1.0
+                };
+                (q, dist, p) = (next, nd, np);
+                cap = (2.0 * cap).min(NULL_STEP_RAD);
+            } else {
+                cap = 0.25 * tried;
+                if cap < NULL_TOL_RAD {
+                    break;
+                }
+            }
+        }
+        q
     }
 
     /// Solves for `target`: first from the `neighbours`' configurations (already solved
@@ -364,11 +469,11 @@ impl<'a> Ik<'a> {
     /// cell of a region, or no neighbours), from the reference and the fixed seeds. Of the
     /// configurations that reach the target within the limits, the one nearest the reference.
     /// `None` when no seed reaches it.
-    pub fn solve(&self, target: &IkTarget, neighbours: &[[f64; JOINTS]]) -> Option<IkSolution> {
+    pub fn solve(&self, target: &IkTarget, neighbours: &[Joints]) -> Option<IkSolution> {
         if !self.within_reach(target) {
             return None;
         }
-        let aimed = |seeds: &mut dyn Iterator<Item = &[f64; JOINTS]>| -> Vec<[f64; JOINTS]> {
+        let aimed = |seeds: &mut dyn Iterator<Item = &Joints>| -> Vec<Joints> {
             seeds.flat_map(|s| self.turned_towards(s, target)).collect()
         };
         self.nearest(target, neighbours.to_vec())
@@ -379,9 +484,12 @@ impl<'a> Ik<'a> {
             .or_else(|| self.nearest(target, aimed(&mut self.extra.iter())))
     }
 
-    /// Of the configurations the `seeds` descend to that reach `target`, the one nearest the
-    /// reference.
-    fn nearest(&self, target: &IkTarget, seeds: Vec<[f64; JOINTS]>) -> Option<IkSolution> {
+    /// Of the configurations the `seeds` descend to that reach `target` (for a redundant arm
+    /// slid along the self-motion towards the reference, [`Ik::toward_reference`]), the one
+    /// nearest the reference.
+    fn nearest(&self, target: &IkTarget, seeds: Vec<Joints>) -> Option<IkSolution> {
+        NEAREST.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        SEEDS.fetch_add(seeds.len(), std::sync::atomic::Ordering::Relaxed);
         use rayon::prelude::*;
         // Seeds descend independently (in parallel); the choice among the results is made in
         // seed order, so it does not depend on the thread count.
@@ -390,7 +498,13 @@ impl<'a> Ik<'a> {
             .map(|seed| {
                 let mut q = self.descend(target, seed);
                 self.unwrap_turns(&mut q);
-                self.accepted(target, &q)
+                let found = self.accepted(target, &q);
+                if found.is_none() || !self.resolves_redundancy(target) {
+                    return found;
+                }
+                let mut q = self.toward_reference(target, &q);
+                self.unwrap_turns(&mut q);
+                self.accepted(target, &q).or(found)
             })
             .collect();
         let mut best: Option<(f64, IkSolution)> = None;
@@ -404,30 +518,189 @@ impl<'a> Ik<'a> {
     }
 }
 
+pub static SLIDES: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+pub static STEPS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+pub static DESCENDS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+pub static NEAREST: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+pub static SEEDS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
+/// Rows of the task of `target`: 3 for a position, 6 with the orientation.
+fn task_dim(target: &IkTarget) -> usize {
+    if target.rotation.is_some() {
+        6
+    } else {
+        3
+    }
+}
+
+/// `J Jᵀ + λ I` of the task Jacobian rows `j`.
+fn gram(j: &[Joints], lambda: f64) -> Vec<Vec<f64>> {
+    let m = j.len();
+    (0..m)
+        .map(|r| {
+            (0..m)
+                .map(|c| {
+                    (0..j[r].len()).map(|k| j[r][k] * j[c][k]).sum::<f64>()
+                        + if r == c { lambda } else { 0.0 }
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// The damped least-squares step `Δq` for the task error `e` with the task Jacobian rows `j`:
+/// `Jᵀ (J Jᵀ + λ I)⁻¹ e`, or, with more rows than joints, the same step from the smaller system
+/// `(JᵀJ + λ I) Δq = Jᵀ e`. `None` when the system is singular.
+fn damped_step(j: &[Joints], e: &[f64], lambda: f64) -> Option<Joints> {
+    let m = j.len();
+    let n = j[0].len();
+    if m <= n {
+        let y = solve(gram(j, lambda), e.to_vec())?;
+        Some(Joints::from_fn(n, |k| {
+            (0..m).map(|r| j[r][k] * y[r]).sum::<f64>()
+        }))
+    } else {
+        let a = (0..n)
+            .map(|r| {
+                (0..n)
+                    .map(|c| {
+                        (0..m).map(|k| j[k][r] * j[k][c]).sum::<f64>()
+                            + if r == c { lambda } else { 0.0 }
+                    })
+                    .collect()
+            })
+            .collect();
+        let g = (0..n)
+            .map(|r| (0..m).map(|k| j[k][r] * e[k]).sum())
+            .collect();
+        solve(a, g).map(|dq| Joints::from_slice(&dq))
+    }
+}
+
 #[cfg(test)]
 mod tests {
+    use super::*;
+    use crate::kinematics::{FixedParam, Params, Uncertainty};
+    use crate::presets::{preset, PRESETS};
+
+    /// A model of the MDH rows `[θ, d, a, α, β]` (degrees, mm) with the given limits (degrees).
+    fn chain(name: &str, rows: &[[f64; 5]], limits: &[(f64, f64)]) -> RobotModel {
+        let n = rows.len();
+        let params = Params::from_fn(5 * n, |i| {
+            let v = rows[i / 5][i % 5];
+            if matches!(i % 5, 1 | 2) {
+                v
+            } else {
+                v.to_radians()
+            }
+        });
+        RobotModel {
+            name: name.into(),
+            params,
+            fixed: Capped::filled(n, FixedParam::Beta),
+            limits_deg: Capped::from_slice(limits),
+            tool: [0.0; 3],
+            tool_sigma: [0.0; 3],
+            uncertainty: Uncertainty::Independent(Params::filled(5 * n, 0.0)),
+            base: None,
+        }
+    }
+
+    /// A seven-joint arm of the KUKA LBR iiwa 14 R820's geometry (shoulder 360 mm, upper arm
+    /// 420 mm, forearm 400 mm, flange 126 mm; alternate roll and pitch axes) and limits.
+    pub(crate) fn seven_joint() -> RobotModel {
+        crate::presets::iiwa14()
+    }
+
+    /// A five-joint arm (the TX60's arm with a pitch wrist) and a four-joint one.
+    fn short_arms() -> [RobotModel; 2] {
+        [
+            chain(
+                "five-joint arm",
+                &[
+                    [0.0, 375.0, 0.0, -90.0, 0.0],
+                    [-90.0, 0.0, 290.0, 0.0, 0.0],
+                    [90.0, 20.0, 0.0, 90.0, 0.0],
+                    [0.0, 310.0, 0.0, -90.0, 0.0],
+                    [0.0, 70.0, 0.0, 0.0, 0.0],
+                ],
+                &[
+                    (-180.0, 180.0),
+                    (-127.5, 127.5),
+                    (-142.5, 142.5),
+                    (-270.0, 270.0),
+                    (-120.0, 120.0),
+                ],
+            ),
+            chain(
+                "four-joint arm",
+                &[
+                    [0.0, 375.0, 0.0, -90.0, 0.0],
+                    [-90.0, 0.0, 290.0, 0.0, 0.0],
+                    [90.0, 0.0, 310.0, 0.0, 0.0],
+                    [0.0, 0.0, 70.0, 90.0, 0.0],
+                ],
+                &[
+                    (-180.0, 180.0),
+                    (-127.5, 127.5),
+                    (-142.5, 142.5),
+                    (-180.0, 180.0),
+                ],
+            ),
+        ]
+    }
+
+    /// The presets (six joints) and the arms of four, five and seven joints.
+    fn models() -> Vec<RobotModel> {
+        let mut m: Vec<RobotModel> = PRESETS.iter().map(|p| preset(p).unwrap()).collect();
+        m.push(seven_joint());
+        m.extend(short_arms());
+        m
+    }
+
+    /// The middle of each joint's range, radians.
+    fn mid(m: &RobotModel) -> Joints {
+        m.limits_deg.map(|l| (0.5 * (l.0 + l.1)).to_radians())
+    }
+
+    /// Length of the projection of `reference − q` on the null space of the task Jacobian at
+    /// `q`: 0 where `q` is nearest the reference among the nearby configurations that reach the
+    /// same target.
+    fn null_gradient(ik: &Ik, target: &IkTarget, q: &Joints) -> f64 {
+        let f = frames(ik.model, q);
+        let j = ik.jacobian(target, &f);
+        let n = q.len();
+        let d = Joints::from_fn(n, |k| ik.reference[k] - q[k]);
+        let jd: Vec<f64> = (0..j.len())
+            .map(|r| (0..n).map(|k| j[r][k] * d[k]).sum())
+            .collect();
+        let y = solve(gram(&j, 0.0), jd).unwrap();
+        norm(&Joints::from_fn(n, |k| {
+            d[k] - (0..j.len()).map(|r| j[r][k] * y[r]).sum::<f64>()
+        }))
+    }
 
     #[test]
     fn the_wrist_origin_of_a_pose_is_that_of_its_configurations() {
         use rand::{Rng, SeedableRng};
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
-        for name in PRESETS {
-            let mut m = preset(name).unwrap();
+        for mut m in models() {
+            let n = m.joints();
+            let name = m.name.clone();
             // β on the last joint and a tool off every axis, so every term of the formula counts.
-            m.params[5 * 5 + 4] = 0.01;
+            m.params[5 * (n - 1) + 4] = 0.01;
             m.tool = [12.0, -7.0, 95.0];
-            let ik = Ik::new(&m, [0.0; JOINTS], 0);
+            let ik = Ik::new(&m, m.joints_at(0.0), 0);
             for _ in 0..50 {
-                let q: [f64; JOINTS] = std::array::from_fn(|i| {
+                let q = Joints::from_fn(n, |i| {
                     let (lo, hi) = m.limits_deg[i];
                     rng.random_range(lo..hi).to_radians()
                 });
                 let f = frames(&m, &q);
                 let o5 = ik.wrist_origin(f.tool, &f.rot);
                 let d = norm(&[
-                    o5[0] - f.origin[5][0],
-                    o5[1] - f.origin[5][1],
-                    o5[2] - f.origin[5][2],
+                    o5[0] - f.origin[n - 1][0],
+                    o5[1] - f.origin[n - 1][1],
+                    o5[2] - f.origin[n - 1][2],
                 ]);
                 assert!(d < 1e-9, "{name}: {d} mm");
                 let target = IkTarget {
@@ -445,19 +718,37 @@ mod tests {
             }
         }
     }
-    use super::*;
-    use crate::presets::{preset, PRESETS};
+
+    /// Two configurations of `m` (radians): for a six-joint arm the fixed ones this test has
+    /// always used; for another joint count the same shares of each joint's range (a seven-axis
+    /// preset's joint may exclude 0, as the Panda's fourth).
+    fn known_configurations(m: &RobotModel) -> Vec<Joints> {
+        if m.joints() == 6 {
+            return vec![
+                Joints::from([0.2, -0.4, 0.8, 0.3, 0.9, -0.5]),
+                Joints::from([-1.0, 0.3, -0.6, 1.2, -0.8, 2.0]),
+            ];
+        }
+        [
+            [0.1, -0.2, 0.3, 0.15, 0.25, -0.2, 0.3],
+            [-0.3, 0.15, -0.25, 0.3, -0.2, 0.3, -0.15],
+        ]
+        .iter()
+        .map(|f| {
+            Joints::from_fn(m.joints(), |i| {
+                let (lo, hi) = m.limits_deg[i];
+                (0.5 * (lo + hi) + f[i] * (hi - lo)).to_radians()
+            })
+        })
+        .collect()
+    }
 
     #[test]
     fn round_trip_from_known_configurations() {
         for name in PRESETS {
             let m = preset(name).unwrap();
-            let mid = m.limits_deg.map(|l| (0.5 * (l.0 + l.1)).to_radians());
-            let ik = Ik::new(&m, mid, 8);
-            for q in [
-                [0.2, -0.4, 0.8, 0.3, 0.9, -0.5],
-                [-1.0, 0.3, -0.6, 1.2, -0.8, 2.0],
-            ] {
+            let ik = Ik::new(&m, mid(&m), 8);
+            for q in known_configurations(&m) {
                 let f = frames(&m, &q);
                 for rotation in [Some(f.rot), None] {
                     let t = IkTarget {
@@ -471,5 +762,113 @@ mod tests {
                 }
             }
         }
+    }
+
+    /// Arms of four, five and seven joints reach poses of their own configurations, with and
+    /// without the orientation (more constraints than joints for four and five).
+    #[test]
+    fn round_trip_for_other_joint_counts() {
+        let mut models = vec![seven_joint()];
+        models.extend(short_arms());
+        for m in &models {
+            let n = m.joints();
+            let ik = Ik::new(m, mid(m), 8);
+            for q in [
+                [0.2, -0.4, 0.8, 0.3, 0.9, -0.5, 0.6],
+                [-1.0, 0.3, -0.6, 1.2, -0.8, 1.1, -0.3],
+            ] {
+                let q = Joints::from_slice(&q[..n]);
+                let f = frames(m, &q);
+                for rotation in [Some(f.rot), None] {
+                    let t = IkTarget {
+                        position: f.tool,
+                        rotation,
+                    };
+                    let s = ik
+                        .solve(&t, &[])
+                        .unwrap_or_else(|| panic!("{} {q:?} {}", m.name, rotation.is_some()));
+                    assert_eq!(s.q.len(), n);
+                    let (p, o) = ik.residuals(&t, &s.q);
+                    assert!(p <= POSITION_TOL_MM, "{}: {p}", m.name);
+                    assert!(
+                        o.is_none_or(|o| o <= ORIENTATION_TOL_RAD),
+                        "{}: {o:?}",
+                        m.name
+                    );
+                }
+            }
+        }
+    }
+
+    /// A redundant arm's solution is the configuration nearest the reference among those that
+    /// reach the target nearby (the projection of `q_ref − q` on the Jacobian's null space
+    /// vanishes), and no farther from it than the configuration the target was made from.
+    #[test]
+    fn a_redundant_arm_resolves_towards_the_reference() {
+        let mut models = vec![seven_joint()];
+        models.extend(short_arms());
+        for m in &models {
+            let n = m.joints();
+            let reference = Joints::from_fn(n, |i| [0.1, 0.5, -0.2, -1.2, 0.3, 0.8, 0.0][i]);
+            let ik = Ik::new(m, reference, 0);
+            for offset in [
+                [0.3, -0.2, 0.4, 0.2, -0.3, 0.1, 0.2],
+                [-0.2, 0.1, -0.5, 0.3, 0.2, -0.2, 0.4],
+            ] {
+                let q0 = Joints::from_fn(n, |i| reference[i] + offset[i]);
+                let f = frames(m, &q0);
+                for rotation in [Some(f.rot), None] {
+                    let t = IkTarget {
+                        position: f.tool,
+                        rotation,
+                    };
+                    if n <= task_dim(&t) {
+                        continue;
+                    }
+                    let s = ik.solve(&t, &[]).unwrap();
+                    let g = null_gradient(&ik, &t, &s.q);
+                    assert!(g < 1e-6, "{} {}: {g}", m.name, rotation.is_some());
+                    let (d, d0) = (ik.distance(&s.q), ik.distance(&q0));
+                    assert!(
+                        d <= d0 + 1e-9,
+                        "{} {}: {d} vs {d0}",
+                        m.name,
+                        rotation.is_some()
+                    );
+                    // From a neighbour's configuration (the map's seeds) it slides there too.
+                    let s2 = ik.solve(&t, &[q0]).unwrap();
+                    let g2 = null_gradient(&ik, &t, &s2.q);
+                    assert!(
+                        g2 < 1e-6,
+                        "{} {}: {g2} at {:?} (from {:?}, first {:?} at {d})",
+                        m.name,
+                        rotation.is_some(),
+                        s2.q,
+                        q0,
+                        s.q
+                    );
+                }
+            }
+        }
+    }
+
+    /// A six-joint arm's position-only task keeps the earlier solver: the configuration its
+    /// seeds descend to, not slid along the self-motion.
+    #[test]
+    fn six_joints_keep_the_earlier_solver() {
+        let m = preset("tx60").unwrap();
+        let ik = Ik::new(&m, mid(&m), 0);
+        let t = IkTarget {
+            position: [400.0, 100.0, 500.0],
+            rotation: None,
+        };
+        assert!(!ik.resolves_redundancy(&t));
+        assert!(!ik.resolves_redundancy(&IkTarget {
+            rotation: Some(rpy_rotation([180.0, 0.0, 0.0])),
+            ..t
+        }));
+        let seven = seven_joint();
+        let ik7 = Ik::new(&seven, mid(&seven), 0);
+        assert!(ik7.resolves_redundancy(&t));
     }
 }

@@ -3,7 +3,7 @@
 
 use super::{CellIk, CellStats, CellTarget, Evaluation, MapSpec};
 use crate::engine::BackendInfo;
-use crate::kinematics::{RobotModel, JOINTS};
+use crate::kinematics::{Joints, RobotModel};
 use crate::mc::Reliability;
 use serde::{Deserialize, Serialize};
 
@@ -54,7 +54,7 @@ pub struct MapResult {
 }
 
 /// The reached cells' configurations in degrees, the test points of the evaluation.
-pub fn test_points(solutions: &[Option<CellIk>]) -> Vec<[f64; JOINTS]> {
+pub fn test_points(solutions: &[Option<CellIk>]) -> Vec<Joints> {
     solutions.iter().flatten().map(|s| s.q_deg).collect()
 }
 

@@ -27,9 +27,9 @@ pub use report::render_text;
 use crate::engine::{BackendInfo, EngineError, Evaluator, Problem, ProblemError, Reference};
 use crate::identify::chain::{nominal_state, state_model, Placement};
 use crate::identify::chain_fit::{
-    default_free, fit_input_name, jacobian, ChainState, Observation, N_FIT_INPUTS,
+    default_free, fit_input_name, jacobian, n_fit_inputs, ChainState, Observation,
 };
-use crate::kinematics::{transform, RobotModel, JOINTS};
+use crate::kinematics::{transform, Joints, RobotModel};
 use crate::mc::stats::Reliability;
 use crate::sampling::standard_normal;
 use nalgebra::{Cholesky, DMatrix, Matrix3, SymmetricEigen, Vector3};
@@ -62,7 +62,7 @@ pub struct PlanOptions {
     pub tracker: Option<TrackerSite>,
     /// Margin kept from each joint limit, degrees.
     pub margin_deg: f64,
-    /// Largest condition number of the target's 3 × 6 position Jacobian a candidate may have
+    /// Largest condition number of the target's 3 × n position Jacobian a candidate may have
     /// (keeps away from singularities).
     pub max_condition: f64,
     /// Thresholds L at which R(L) is reported, mm.
@@ -92,8 +92,8 @@ pub const MIN_TARGET_OFFSET_MM: f64 = 1.0;
 impl PlanOptions {
     /// The target a plan of `model` assumes when none is given: the model's tool unless it lies
     /// on the last joint's axis (within [`MIN_TARGET_OFFSET_MM`]; the flange origin, or an
-    /// imported tool0 whose x and y are rounding noise), where it would hide joint 5's
-    /// parameters, else the default (30, −20, 80) mm, the simulator's design target.
+    /// imported tool0 whose x and y are rounding noise), where it would hide the parameters of
+    /// the joint before the last (joint 5 of a six-joint arm), else the default (30, −20, 80) mm, the simulator's design target.
     pub fn default_target(model: &RobotModel) -> [f64; 3] {
         if model.tool[0].hypot(model.tool[1]) >= MIN_TARGET_OFFSET_MM {
             model.tool
@@ -257,8 +257,8 @@ pub struct Prediction {
 pub struct Plan {
     /// The robot.
     pub model_name: String,
-    /// Poses to measure, joint angles in degrees, in visiting order.
-    pub design_deg: Vec<[f64; JOINTS]>,
+    /// Poses to measure, joint angles in degrees (one per joint), in visiting order.
+    pub design_deg: Vec<Joints>,
     /// Joint travel along the visiting order: Σ max_j |Δq_j| between consecutive poses, degrees.
     pub travel_deg: f64,
     /// The plan's figures.
@@ -266,7 +266,7 @@ pub struct Plan {
     /// The greedy log-det (D-optimal) design's figures.
     pub log_det_design: DesignFigures,
     /// The log-det design's poses, degrees (greedy order), to measure it for comparison.
-    pub log_det_design_deg: Vec<[f64; JOINTS]>,
+    pub log_det_design_deg: Vec<Joints>,
     /// Medians over the random designs, figure by figure.
     pub random_median: DesignFigures,
     /// Random designs compared.
@@ -299,7 +299,8 @@ pub struct Plan {
     pub seconds: f64,
     /// The engine's Monte Carlo of the planned model, when run.
     pub prediction: Option<Prediction>,
-    /// The planned model's covariance over the [`N_FIT_INPUTS`] inputs, internal units.
+    /// The planned model's covariance over the [`n_fit_inputs`] inputs (39 for six joints),
+    /// row-major, internal units.
     #[serde(skip)]
     pub covariance: Vec<f64>,
     /// The nominal model.
@@ -547,7 +548,7 @@ fn quantile(sorted: &[f64], q: f64) -> f64 {
     sorted[k - 1]
 }
 
-fn check(model: &RobotModel, task: &[[f64; JOINTS]], o: &PlanOptions) -> Result<(), PlanError> {
+fn check(model: &RobotModel, task: &[Joints], o: &PlanOptions) -> Result<(), PlanError> {
     if !(o.sigma_mm.is_finite() && o.sigma_mm > 0.0) {
         return Err(setting(
             PlanField::Sigma,
@@ -609,6 +610,21 @@ fn check(model: &RobotModel, task: &[[f64; JOINTS]], o: &PlanOptions) -> Result<
     if task.is_empty() {
         return Err(setting(PlanField::TaskPoints, "none given"));
     }
+    if let Some((k, q)) = task
+        .iter()
+        .enumerate()
+        .find(|(_, q)| q.len() != model.joints())
+    {
+        return Err(setting(
+            PlanField::TaskPoints,
+            format!(
+                "point {} has {} joint angles, the model has {} joints",
+                k + 1,
+                q.len(),
+                model.joints()
+            ),
+        ));
+    }
     if let Some(t) = &o.tracker {
         if !(t.position_mm.iter().all(|v| v.is_finite())
             && t.range_mm.is_finite()
@@ -632,9 +648,9 @@ fn check(model: &RobotModel, task: &[[f64; JOINTS]], o: &PlanOptions) -> Result<
 fn target_and_facing(
     model: &RobotModel,
     s: &ChainState,
-    q_deg: &[f64; JOINTS],
+    q_deg: &[f64],
 ) -> (Vector3<f64>, Vector3<f64>) {
-    let q = q_deg.map(f64::to_radians);
+    let q = Joints::from_fn(q_deg.len(), |j| q_deg[j].to_radians());
     let p = Vector3::from(s.predict(&q));
     let t = transform(&model.params, &q);
     let z = Vector3::new(t[0][2], t[1][2], t[2][2]);
@@ -648,7 +664,7 @@ fn candidates(
     model: &RobotModel,
     s: &ChainState,
     o: &PlanOptions,
-) -> Result<(Vec<[f64; JOINTS]>, usize), PlanError> {
+) -> Result<(Vec<Joints>, usize), PlanError> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(o.seed);
     let ranges: Vec<(f64, f64)> = model
         .limits_deg
@@ -664,8 +680,9 @@ fn candidates(
         let origin = Vector3::new(s.base[0], s.base[1], s.base[2]);
         let reach = (0..200)
             .map(|_| {
-                let q: [f64; JOINTS] =
-                    std::array::from_fn(|j| rng.random_range(ranges[j].0..=ranges[j].1));
+                let q = Joints::from_fn(ranges.len(), |j| {
+                    rng.random_range(ranges[j].0..=ranges[j].1)
+                });
                 (target_and_facing(model, s, &q).0 - origin).norm()
             })
             .fold(0.0, f64::max);
@@ -689,7 +706,9 @@ fn candidates(
         .map(|t| t.max_incidence_deg.to_radians().cos());
     while out.len() < o.candidates && drawn < max_draws {
         drawn += 1;
-        let q: [f64; JOINTS] = std::array::from_fn(|j| rng.random_range(ranges[j].0..=ranges[j].1));
+        let q = Joints::from_fn(ranges.len(), |j| {
+            rng.random_range(ranges[j].0..=ranges[j].1)
+        });
         match crate::map::ik::position_condition(model, &q.map(f64::to_radians)) {
             Some(c) if c <= o.max_condition => {}
             _ => continue,
@@ -723,7 +742,7 @@ fn candidates(
 }
 
 /// Unit-weight observations of the nominal chain's own predictions at `q_deg`.
-fn observations(s: &ChainState, q_deg: &[[f64; JOINTS]]) -> Vec<Observation> {
+fn observations(s: &ChainState, q_deg: &[Joints]) -> Vec<Observation> {
     q_deg
         .iter()
         .map(|q| {
@@ -781,10 +800,10 @@ fn greedy(g: &Geometry, pool: &[usize], start: &[usize], n: usize) -> Vec<usize>
 }
 
 /// The visiting order: nearest neighbour in joint space (largest joint move), then 2-opt.
-fn visiting_order(q: &[[f64; JOINTS]]) -> (Vec<usize>, f64) {
+fn visiting_order(q: &[Joints]) -> (Vec<usize>, f64) {
     let n = q.len();
     let d = |a: usize, b: usize| {
-        (0..JOINTS)
+        (0..q[a].len())
             .map(|j| (q[a][j] - q[b][j]).abs())
             .fold(0.0, f64::max)
     };
@@ -846,11 +865,7 @@ fn visiting_order(q: &[[f64; JOINTS]]) -> (Vec<usize>, f64) {
 /// than candidates, σ or a threshold ≤ 0, a tracker within the robot's reach, too few
 /// candidates found), [`PlanError::NotIdentifiable`] when no design of the candidates
 /// determines every input.
-pub fn plan(
-    model: &RobotModel,
-    task: &[[f64; JOINTS]],
-    o: &PlanOptions,
-) -> Result<Plan, PlanError> {
+pub fn plan(model: &RobotModel, task: &[Joints], o: &PlanOptions) -> Result<Plan, PlanError> {
     check(model, task, o)?;
     if !o.target_mm.iter().all(|v| v.is_finite()) {
         return Err(setting(
@@ -863,6 +878,7 @@ pub fn plan(
     let model = &model;
     let start = std::time::Instant::now();
     let s = nominal_state(model);
+    let lay = model.layout();
     let free = default_free(&model.fixed, true);
     let p = free.len();
     let (cands, drawn) = candidates(model, &s, o)?;
@@ -935,7 +951,7 @@ pub fn plan(
         let mut names: Vec<(f64, String)> = free
             .iter()
             .enumerate()
-            .map(|(a, &i)| (v[a].abs(), fit_input_name(i)))
+            .map(|(a, &i)| (v[a].abs(), fit_input_name(lay, i)))
             .filter(|(x, _)| *x > 0.1)
             .collect();
         names.sort_by(|a, b| b.0.total_cmp(&a.0));
@@ -1052,16 +1068,17 @@ pub fn plan(
     let minv = Cholesky::new(g.information(&design))
         .map(|c| c.inverse())
         .ok_or_else(|| PlanError::NotIdentifiable("the planned design is singular".into()))?;
-    let mut covariance = vec![0.0; N_FIT_INPUTS * N_FIT_INPUTS];
+    let nf = n_fit_inputs(lay);
+    let mut covariance = vec![0.0; nf * nf];
     let s2 = o.sigma_mm * o.sigma_mm;
     for (a, &ia) in free.iter().enumerate() {
         for (b, &ib) in free.iter().enumerate() {
             // Symmetric to the last bit, as a model file's covariance must be.
             let v = 0.5 * (minv[(a, b)] + minv[(b, a)]);
-            covariance[ia * N_FIT_INPUTS + ib] = s2 * v / (g.scale[a] * g.scale[b]);
+            covariance[ia * nf + ib] = s2 * v / (g.scale[a] * g.scale[b]);
         }
     }
-    let design_q: Vec<[f64; JOINTS]> = design.iter().map(|&i| cands[i]).collect();
+    let design_q: Vec<Joints> = design.iter().map(|&i| cands[i]).collect();
     let (order, travel_deg) = visiting_order(&design_q);
     Ok(Plan {
         model_name: model.name.clone(),
@@ -1076,7 +1093,7 @@ pub fn plan(
         curve,
         candidates: cands.len(),
         candidates_drawn: drawn,
-        identified: free.iter().map(|&i| fit_input_name(i)).collect(),
+        identified: free.iter().map(|&i| fit_input_name(lay, i)).collect(),
         sigma_mm: o.sigma_mm,
         target_mm: o.target_mm,
         tracker: o.tracker.clone(),
@@ -1190,11 +1207,7 @@ pub fn predict(
 /// # Errors
 ///
 /// [`PlanError::Problem`] when the problem cannot be built.
-pub fn prediction_problem(
-    plan: &Plan,
-    task: &[[f64; JOINTS]],
-    seed: u64,
-) -> Result<Problem, PlanError> {
+pub fn prediction_problem(plan: &Plan, task: &[Joints], seed: u64) -> Result<Problem, PlanError> {
     Ok(Problem::new(
         plan.model(),
         task,

@@ -27,9 +27,11 @@ impl Plan {
         Layout::new(JSON, &[COMPARE_CSV, CURVE_CSV], &[CURVE_SVG], &[])
     }
 
-    /// The design as CSV: `q1..q6` in degrees, one pose a line, in visiting order.
+    /// The design as CSV: `q1..qn` (one column per joint) in degrees, one pose a line, in
+    /// visiting order.
     pub fn design_csv(&self) -> String {
-        let mut s = String::from("q1,q2,q3,q4,q5,q6\n");
+        let mut s = joint_names(self.nominal.joints()).join(",");
+        s.push('\n');
         for q in &self.design_deg {
             let row: Vec<String> = q.iter().map(|v| format!("{v:.6}")).collect();
             let _ = writeln!(s, "{}", row.join(","));
@@ -354,9 +356,12 @@ fn plan_page(p: &Plan, settings: &[(String, String)], files: &[(String, String)]
     ));
     page.paragraph(&format!("{}.", bound_sentence(p)));
     page.heading("Poses in visiting order");
+    let header_q: Vec<String> = std::iter::once("#".to_string())
+        .chain(joint_names(p.nominal.joints()))
+        .collect();
     page.table(Table::new(
         "Joint angles (degrees), as design.csv holds them",
-        &["#", "q1", "q2", "q3", "q4", "q5", "q6"],
+        &header_q.iter().map(String::as_str).collect::<Vec<_>>(),
         p.design_deg
             .iter()
             .enumerate()
@@ -385,4 +390,9 @@ fn plan_page(p: &Plan, settings: &[(String, String)], files: &[(String, String)]
     }
     link_all(&mut page, files);
     page
+}
+
+/// The column names `q1` … `qn` of `n` joints' angles.
+fn joint_names(n: usize) -> Vec<String> {
+    (1..=n).map(|j| format!("q{j}")).collect()
 }

@@ -9,21 +9,22 @@
 //!
 //! Draw `k` of a run keyed by the seed is the Philox-4×32-10 counter
 //! `(k mod 2³², k div 2³², b, PARAM_STREAM)` for blocks `b = 0 … 8`; block `b` gives the four
-//! normals `4b … 4b + 3` (Box–Muller of word pairs 0–1 and 2–3). The [`N_UNCERTAIN`] inputs use
-//! normals `0 … 32` one to one: the 30 parameters `0 … 29` (blocks 0–7, as before the tool had
-//! a spread), then the tool's x, y, z `30, 31, 32` (the last two normals of block 7 and the
-//! first of block 8). Only blocks that feed an input with nonzero spread are computed, so a
+//! normals `4b … 4b + 3` (Box–Muller of word pairs 0–1 and 2–3). The uncertain inputs
+//! ([`crate::kinematics::Layout::n_uncertain`]) use normals `0 … 5n + 2` one to one: for a
+//! six-joint model the 30 parameters `0 … 29` (blocks 0–7, as before the tool had a spread),
+//! then the tool's x, y, z `30, 31, 32` (the last two normals of block 7 and the first of block
+//! 8); for seven joints the 35 parameters, then the tool at `35, 36, 37`. Only blocks that feed an input with nonzero spread are computed, so a
 //! model whose tool has no spread draws exactly the bits it drew before, and the tool's draws
 //! never shift a parameter's normal.
 
 use super::normal::box_muller;
 use super::philox::{philox4x32_10_lanes, Philox};
-use crate::kinematics::{RobotModel, N_PARAMS, N_UNCERTAIN};
+use crate::kinematics::{Params, RobotModel, MAX_UNCERTAIN, MAX_WITH_BASE};
 
-/// Normals available per draw (10 Philox blocks of 4): the [`N_UNCERTAIN`] inputs use the first
-/// 33, and a model with an uncertain base placement draws its six inputs from normals 33–38
-/// ([`crate::engine::PlacementSpread`]).
-pub const MAX_NORMALS: usize = 40;
+/// Normals available per draw (11 Philox blocks of 4): the uncertain inputs use the first
+/// `5n + 3` (33 for six joints), and a model with an uncertain base placement draws its six
+/// inputs from the next six (33–38 for six joints; [`crate::engine::PlacementSpread`]).
+pub const MAX_NORMALS: usize = MAX_WITH_BASE;
 
 /// A pick-freeze mask that takes every normal from the second draw (bits `0 … MAX_NORMALS − 1`).
 pub const ALL_NORMALS: u64 = (1 << MAX_NORMALS) - 1;
@@ -39,7 +40,9 @@ pub enum SamplerError {
 #[derive(Clone, Debug)]
 #[allow(clippy::large_enum_variant)] // one per run; boxing buys nothing
 enum Form {
-    Independent([f64; N_UNCERTAIN]),
+    /// σ of each input, zero beyond the model's inputs (a plain array, so the loop over the
+    /// inputs has a bound known when compiled).
+    Independent([f64; MAX_UNCERTAIN]),
     Correlated {
         free: Vec<usize>,
         /// Lower-triangular factor, row-major `free.len()²`.
@@ -51,7 +54,9 @@ enum Form {
 #[derive(Clone, Debug)]
 pub struct ParamSampler {
     /// Parameter means (the model's values), mm and radians.
-    pub mean: [f64; N_PARAMS],
+    pub mean: Params,
+    /// Number of uncertain inputs (parameters, then the tool point).
+    n_inputs: usize,
     gen: Philox,
     form: Form,
     blocks: Vec<u32>,
@@ -71,11 +76,14 @@ impl ParamSampler {
     pub fn new(model: &RobotModel, seed: u64) -> Result<Self, SamplerError> {
         let free = model.free_inputs();
         let form = match model.full_covariance() {
-            None => Form::Independent(model.input_sigmas()),
+            None => {
+                let s = model.input_sigmas();
+                Form::Independent(std::array::from_fn(|i| s.get(i).copied().unwrap_or(0.0)))
+            }
             Some(c) => {
                 let n = free.len();
-                let sub =
-                    nalgebra::DMatrix::from_fn(n, n, |a, b| c[free[a] * N_UNCERTAIN + free[b]]);
+                let nu = model.layout().n_uncertain();
+                let sub = nalgebra::DMatrix::from_fn(n, n, |a, b| c[free[a] * nu + free[b]]);
                 let l = nalgebra::linalg::Cholesky::new(sub)
                     .ok_or(SamplerError::NotPositiveDefinite)?
                     .l();
@@ -90,6 +98,7 @@ impl ParamSampler {
         blocks.dedup();
         Ok(ParamSampler {
             mean: model.params,
+            n_inputs: model.layout().n_uncertain(),
             gen: Philox::new(seed),
             form,
             blocks,
@@ -101,16 +110,26 @@ impl ParamSampler {
         self.gen.key
     }
 
-    /// Independent standard deviations of the [`N_UNCERTAIN`] inputs, or `None` for a
+    /// Number of uncertain inputs of a draw: the parameters, then the tool point.
+    pub fn n_inputs(&self) -> usize {
+        self.n_inputs
+    }
+
+    /// Number of parameters.
+    pub fn n_params(&self) -> usize {
+        self.mean.len()
+    }
+
+    /// Independent standard deviations of the [`Self::n_inputs`] inputs, or `None` for a
     /// correlated sampler.
-    pub fn sigmas(&self) -> Option<&[f64; N_UNCERTAIN]> {
+    pub fn sigmas(&self) -> Option<&[f64]> {
         match &self.form {
-            Form::Independent(s) => Some(s),
+            Form::Independent(s) => Some(&s[..self.n_inputs]),
             Form::Correlated { .. } => None,
         }
     }
 
-    /// Free-input indices (of the [`N_UNCERTAIN`] inputs) and the row-major lower Cholesky
+    /// Free-input indices (of the [`Self::n_inputs`] inputs) and the row-major lower Cholesky
     /// factor, for a correlated sampler.
     pub fn cholesky(&self) -> Option<(&[usize], &[f64])> {
         match &self.form {
@@ -124,11 +143,12 @@ impl ParamSampler {
         &self.blocks
     }
 
-    /// Offsets `δ = μ_k − μ` of draw `k` from the mean (mm, radians): the 30 parameters, then
-    /// the tool's x, y, z (mm).
+    /// Offsets `δ = μ_k − μ` of draw `k` from the mean (mm, radians): the parameters, then
+    /// the tool's x, y, z (mm); `out` has at least [`Self::n_inputs`] entries (those beyond are
+    /// set to 0).
     #[inline]
-    pub fn deltas(&self, k: u64, out: &mut [f64; N_UNCERTAIN]) {
-        let mut lanes = [[0.0; 1]; N_UNCERTAIN];
+    pub fn deltas(&self, k: u64, out: &mut [f64]) {
+        let mut lanes = [[0.0; 1]; MAX_UNCERTAIN];
         self.deltas_lanes::<1>(k, &mut lanes);
         for (o, l) in out.iter_mut().zip(&lanes) {
             *o = l[0];
@@ -139,7 +159,7 @@ impl ParamSampler {
     /// `first + l` (the lane layout vectorises; [`Self::deltas`] is the one-lane case, so both
     /// give the same bits).
     #[inline(always)]
-    pub fn deltas_lanes<const L: usize>(&self, first: u64, out: &mut [[f64; L]; N_UNCERTAIN]) {
+    pub fn deltas_lanes<const L: usize>(&self, first: u64, out: &mut [[f64; L]; MAX_UNCERTAIN]) {
         let draws: [u64; L] = std::array::from_fn(|l| first + l as u64);
         let mut z = [[0.0; L]; MAX_NORMALS];
         self.normals_lanes(&draws, |_| true, &mut z);
@@ -150,8 +170,8 @@ impl ParamSampler {
     /// `i` of `mask` is set and of draw `a` elsewhere, then mapped like a draw (`σ_i z_i`, or
     /// `L z` on the free inputs). `mask = 0` gives [`Self::deltas`] of `a` and a mask with every
     /// free input's bit (e.g. [`ALL_NORMALS`]) that of `b`, to the bit.
-    pub fn pick_freeze_deltas(&self, a: u64, b: u64, mask: u64, out: &mut [f64; N_UNCERTAIN]) {
-        let mut lanes = [[0.0; 1]; N_UNCERTAIN];
+    pub fn pick_freeze_deltas(&self, a: u64, b: u64, mask: u64, out: &mut [f64]) {
+        let mut lanes = [[0.0; 1]; MAX_UNCERTAIN];
         self.pick_freeze_lanes::<1>(&[a], &[b], &[mask], &mut lanes);
         for (o, l) in out.iter_mut().zip(&lanes) {
             *o = l[0];
@@ -167,7 +187,7 @@ impl ParamSampler {
         a: &[u64; L],
         b: &[u64; L],
         masks: &[u64; L],
-        out: &mut [[f64; L]; N_UNCERTAIN],
+        out: &mut [[f64; L]; MAX_UNCERTAIN],
     ) {
         let nibble = |m: u64, block: u32| (m >> (4 * block)) & 0xf;
         let (mut za, mut zb) = ([[0.0; L]; MAX_NORMALS], [[0.0; L]; MAX_NORMALS]);
@@ -213,18 +233,19 @@ impl ParamSampler {
     fn spread_lanes<const L: usize>(
         &self,
         z: &[[f64; L]; MAX_NORMALS],
-        out: &mut [[f64; L]; N_UNCERTAIN],
+        out: &mut [[f64; L]; MAX_UNCERTAIN],
     ) {
         match &self.form {
             Form::Independent(s) => {
-                for i in 0..N_UNCERTAIN {
+                // σ = 0 beyond the model's inputs: their offsets are ±0 and never read.
+                for i in 0..MAX_UNCERTAIN {
                     for l in 0..L {
                         out[i][l] = s[i] * z[i][l];
                     }
                 }
             }
             Form::Correlated { free, chol } => {
-                *out = [[0.0; L]; N_UNCERTAIN];
+                *out = [[0.0; L]; MAX_UNCERTAIN];
                 let n = free.len();
                 for a in 0..n {
                     let mut acc = [0.0; L];
@@ -242,24 +263,28 @@ impl ParamSampler {
 
     /// The full parameter vector of draw `k` (the tool's offsets are
     /// [`Self::tool_deltas`]).
-    pub fn draw(&self, k: u64) -> [f64; N_PARAMS] {
-        let mut d = [0.0; N_UNCERTAIN];
+    pub fn draw(&self, k: u64) -> Params {
+        let mut d = [0.0; MAX_UNCERTAIN];
         self.deltas(k, &mut d);
-        std::array::from_fn(|i| self.mean[i] + d[i])
+        Params::from_fn(self.mean.len(), |i| self.mean[i] + d[i])
     }
 
     /// The tool point's offsets (mm, flange frame) of draw `k`.
     pub fn tool_deltas(&self, k: u64) -> [f64; 3] {
-        let mut d = [0.0; N_UNCERTAIN];
+        let mut d = [0.0; MAX_UNCERTAIN];
         self.deltas(k, &mut d);
-        std::array::from_fn(|i| d[N_PARAMS + i])
+        std::array::from_fn(|i| d[self.mean.len() + i])
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kinematics::{tx60, Uncertainty};
+    use crate::kinematics::{tx60, Layout, Uncertainty};
+
+    // The TX60's counts: six joints.
+    const N_PARAMS: usize = Layout::SIX.n_params();
+    const N_UNCERTAIN: usize = Layout::SIX.n_uncertain();
 
     /// A tool spread adds draws without touching the parameters' bits (existing seeds keep
     /// their results), and the tool's offsets have the stated σ: 4·10^4 draws, the relative
@@ -302,7 +327,7 @@ mod tests {
     #[test]
     fn full_covariance_correlates_the_tool() {
         let mut m = tx60();
-        let s = m.uncertainty.sigmas();
+        let s = m.param_sigmas();
         let n = N_UNCERTAIN;
         let mut c = vec![0.0; n * n];
         for i in 0..N_PARAMS {
@@ -337,7 +362,7 @@ mod tests {
     #[test]
     fn pick_freeze_rows_mix_two_draws_by_mask() {
         let mut mc = tx60();
-        let s = mc.uncertainty.sigmas();
+        let s = mc.param_sigmas();
         let mut c = vec![0.0; N_PARAMS * N_PARAMS];
         for i in 0..N_PARAMS {
             c[i * N_PARAMS + i] = s[i] * s[i];
@@ -402,7 +427,7 @@ mod tests {
     #[test]
     fn diagonal_covariance_equals_sigma_list() {
         let m = tx60();
-        let s = m.uncertainty.sigmas();
+        let s = m.param_sigmas();
         let mut mc = m.clone();
         let mut c = vec![0.0; N_PARAMS * N_PARAMS];
         for i in 0..N_PARAMS {
@@ -426,7 +451,7 @@ mod tests {
         // Two correlated parameters, ρ = 0.8; 2·10^5 draws: the correlation estimate's standard
         // error is (1−ρ²)/√n ≈ 8e-4, bound 5 standard errors.
         let mut m = tx60();
-        let s = m.uncertainty.sigmas();
+        let s = m.param_sigmas();
         let mut c = vec![0.0; N_PARAMS * N_PARAMS];
         for i in 0..N_PARAMS {
             c[i * N_PARAMS + i] = s[i] * s[i];

@@ -28,14 +28,15 @@ use crate::identify::{
     correlated_statistics, identify_run, parameter_statistics, validate, IdentifyOptions,
     Measurement, Sweep, SweepData, SweepPoint, SweepRun, Validation,
 };
-use crate::kinematics::{position, tx60, RobotModel, JOINTS};
+use crate::kinematics::{position, tx60, Joints, RobotModel};
 use crate::points::{self, WorkspaceBox};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-/// The tracker target in the flange frame of the simulated TX60, mm (off-axis, so J6's circle has
-/// a radius of √(30² + 20²) ≈ 36 mm).
+/// The tracker target in the flange frame of the simulated TX60 (and of any robot of
+/// [`Experiment::for_robot`]), mm (off-axis, so the last joint's circle — J6's — has a radius of
+/// √(30² + 20²) ≈ 36 mm).
 pub const DESIGN_TOOL_MM: [f64; 3] = [30.0, -20.0, 80.0];
 
 /// The fixed part of a calibration experiment.
@@ -49,7 +50,8 @@ pub struct Experiment {
     pub tracker: TrackerModel,
     /// Repeatability, dynamics and backlash of the robot.
     pub robot: RobotErrorModel,
-    /// Home pose and measuring ranges (its fraction and step are replaced by the factors).
+    /// Home pose and measuring ranges (its fraction and step are replaced by the factors; fitted
+    /// to the nominal model's joint count and limits by [`SweepPlan::within`]).
     pub plan: SweepPlan,
     /// Identification options.
     pub identify: IdentifyOptions,
@@ -81,20 +83,24 @@ impl Experiment {
         Self::with_truth(nominal, truth)
     }
 
-    /// An experiment on a given true robot (its structure must match `nominal`'s).
+    /// An experiment on a given true robot (its structure must match `nominal`'s): the AT960,
+    /// the TX60's error model ([`RobotErrorModel::for_joints`] of the robot's joint count) and
+    /// the paper's plan (fitted to the robot by [`Experiment::plan_for`]).
     pub fn with_truth(nominal: RobotModel, truth: RobotModel) -> Self {
+        let robot = RobotErrorModel::for_joints(nominal.joints());
         Experiment {
             nominal,
             truth,
             tracker: TrackerModel::default(),
-            robot: RobotErrorModel::default(),
+            robot,
             plan: SweepPlan::default(),
             identify: IdentifyOptions::default(),
             placement: None,
         }
     }
 
-    /// The sweep plan of a factor setting.
+    /// The sweep plan of a factor setting: [`Self::plan`] fitted into the nominal model's joint
+    /// limits (and so resized to its joint count) with the factors' fraction and step.
     pub fn plan_for(&self, f: &Factors) -> SweepPlan {
         SweepPlan {
             range_fraction: f.range_fraction,
@@ -103,7 +109,8 @@ impl Experiment {
         }
     }
 
-    /// One simulated calibration run (all six sweeps) from generator `rng`.
+    /// One simulated calibration run (one sweep per joint of the nominal model, six for the TX60)
+    /// from generator `rng`.
     pub fn sweep_run(&self, f: &Factors, label: Option<String>, rng: &mut ChaCha8Rng) -> SweepRun {
         let plan = self.plan_for(f);
         let tracker = match &self.placement {
@@ -118,7 +125,7 @@ impl Experiment {
             Some(b) => b.apply(p),
         };
         let dir = f.direction.sign();
-        let sweeps = (1..=JOINTS)
+        let sweeps = (1..=plan.joints())
             .map(|j| {
                 let mut configs = plan.sweep_configurations(j);
                 if dir < 0.0 {
@@ -179,9 +186,9 @@ impl Experiment {
         data
     }
 
-    /// Positions of `truth` at `configs` (degrees) as the tracker measures them (static poses:
-    /// repeatability scatter and tracker noise), lines numbered as written.
-    pub fn measure(&self, configs: &[[f64; JOINTS]], rng: &mut ChaCha8Rng) -> Vec<Measurement> {
+    /// Positions of `truth` at `configs` (degrees, one angle per joint) as the tracker measures
+    /// them (static poses: repeatability scatter and tracker noise), lines numbered as written.
+    pub fn measure(&self, configs: &[Joints], rng: &mut ChaCha8Rng) -> Vec<Measurement> {
         configs
             .iter()
             .enumerate()

@@ -11,12 +11,12 @@
 //! | joint range (`range_fraction`) | 10–100 % of the measuring range | the centred fraction of each joint's measuring range swept: shorter arcs fix the axis worse (sagitta effect, see [`crate::identify`]) |
 //! | step (`step_deg`) | 1–5° | angle between measured points: fewer points per arc at larger steps |
 //! | speed (`speed_fraction`) | 10–100 % of rated | dynamic/settling error at each stop. Stable-point measurement waits for the target to settle, but what is left grows with the speed the joint stopped from: a residual vibration of the end point, isotropic Gaussian with σ = 25 µm · s² (s = speed fraction; kinetic energy ∝ s²), and a servo settling error of the moving joint, Gaussian with σ = 0.002° · s |
-//! | start position (`direction`) | negative→positive limit or positive→negative | joint backlash/hysteresis b_j (0.004° on J1–J3, 0.008° on J4–J6, harmonic/cycloid class gearing). Moving in direction d the output lags the command by d·b/2 (a systematic offset the calibration absorbs into θ). Where gravity pulls the distal links the way the joint moves (an overrunning load), the gear teeth float inside the backlash at every stop: the lost motion is uniform in [0, b] instead of b/2. Where gravity opposes the motion (or has no torque about the axis, e.g. J1) the driving flank stays engaged and only 10 % of b scatters. The gravity torque's sign is computed at each point from the nominal model, with the distal mass lumped at the target. So which direction is better depends on the pose, not on a rule written in here |
+//! | start position (`direction`) | negative→positive limit or positive→negative | joint backlash/hysteresis b_j (0.004° on J1–J3, 0.008° on J4–J6, harmonic/cycloid class gearing; a seventh joint is a wrist joint, 0.008°, see [`RobotErrorModel::for_joints`]). Moving in direction d the output lags the command by d·b/2 (a systematic offset the calibration absorbs into θ). Where gravity pulls the distal links the way the joint moves (an overrunning load), the gear teeth float inside the backlash at every stop: the lost motion is uniform in [0, b] instead of b/2. Where gravity opposes the motion (or has no torque about the axis, e.g. J1) the driving flank stays engaged and only 10 % of b scatters. The gravity torque's sign is computed at each point from the nominal model, with the distal mass lumped at the target. So which direction is better depends on the pose, not on a rule written in here |
 //!
 //! Defaults are the paper's baseline: 20 runs, 50 % range, 2° step, 25 % speed, negative→positive.
 
 use super::standard_normal;
-use crate::kinematics::{position, transform, RobotModel, JOINTS};
+use crate::kinematics::{position, transform, Joints, RobotModel};
 use rand::Rng;
 
 /// The order in which a joint's sweep visits its points.
@@ -212,8 +212,9 @@ pub struct RobotErrorModel {
     pub vibration_at_rated_mm: f64,
     /// σ of the moving joint's settling error at rated speed, degrees (scales with speed).
     pub settling_at_rated_deg: f64,
-    /// Backlash of each joint, degrees.
-    pub backlash_deg: [f64; JOINTS],
+    /// Backlash of each joint, degrees (one per joint; a joint beyond the list takes the last
+    /// entry, see [`RobotErrorModel::backlash`]).
+    pub backlash_deg: Joints,
     /// Fraction of the backlash that scatters when the driving flank stays engaged.
     pub engaged_scatter: f64,
 }
@@ -222,28 +223,61 @@ pub struct RobotErrorModel {
 /// (Maxwell distribution: mean 1.596 σ, standard deviation 0.673 σ).
 pub const RP_IN_SIGMAS: f64 = 1.595_769 + 3.0 * 0.673_4;
 
+/// Backlash of the TX60's main axes J1–J3, degrees.
+pub const MAIN_AXIS_BACKLASH_DEG: f64 = 0.004;
+/// Backlash of the TX60's wrist axes J4–J6, degrees.
+pub const WRIST_BACKLASH_DEG: f64 = 0.008;
+
 impl Default for RobotErrorModel {
+    /// The TX60's error model ([`RobotErrorModel::for_joints`] of six joints).
     fn default() -> Self {
-        RobotErrorModel {
-            repeatability_mm: 0.02,
-            vibration_at_rated_mm: 0.025,
-            settling_at_rated_deg: 0.002,
-            backlash_deg: [0.004, 0.004, 0.004, 0.008, 0.008, 0.008],
-            engaged_scatter: 0.1,
-        }
+        Self::for_joints(6)
     }
 }
 
 impl RobotErrorModel {
+    /// The default error model for a robot of `joints` joints (at most
+    /// [`crate::kinematics::MAX_JOINTS`]): the TX60's repeatability and dynamics, and the
+    /// backlash of its gearing class per joint, [`MAIN_AXIS_BACKLASH_DEG`] on J1–J3 and
+    /// [`WRIST_BACKLASH_DEG`] from J4 on. The published classes are the six TX60 joints'; a
+    /// seventh joint (a seven-axis arm's last wrist joint) is given the wrist class, and a
+    /// four- or five-joint arm keeps the first entries.
+    pub fn for_joints(joints: usize) -> Self {
+        RobotErrorModel {
+            repeatability_mm: 0.02,
+            vibration_at_rated_mm: 0.025,
+            settling_at_rated_deg: 0.002,
+            backlash_deg: Joints::from_fn(joints, |j| {
+                if j < 3 {
+                    MAIN_AXIS_BACKLASH_DEG
+                } else {
+                    WRIST_BACKLASH_DEG
+                }
+            }),
+            engaged_scatter: 0.1,
+        }
+    }
+
     /// No error at all (for tests).
     pub fn none() -> Self {
         RobotErrorModel {
             repeatability_mm: 0.0,
             vibration_at_rated_mm: 0.0,
             settling_at_rated_deg: 0.0,
-            backlash_deg: [0.0; JOINTS],
+            backlash_deg: Joints::filled(6, 0.0),
             engaged_scatter: 0.0,
         }
+    }
+
+    /// Backlash of joint `joint` (0-based), degrees: its entry of [`Self::backlash_deg`], or for
+    /// a joint beyond the list the last entry (the wrist class of [`Self::for_joints`]), 0 for an
+    /// empty list. So the six-joint default serves a seven-axis arm too.
+    pub fn backlash(&self, joint: usize) -> f64 {
+        self.backlash_deg
+            .get(joint)
+            .or(self.backlash_deg.last())
+            .copied()
+            .unwrap_or(0.0)
     }
 
     /// σ per coordinate of the pose repeatability scatter, mm.
@@ -251,16 +285,12 @@ impl RobotErrorModel {
         self.repeatability_mm / RP_IN_SIGMAS
     }
 
-    /// Whether gravity pulls joint `joint` (0-based) of `nominal` at `q_rad` in the direction
-    /// `dir` (+1 / −1): the sign of the gravity torque about the joint axis, distal mass lumped at
-    /// the target. Torques below 1 % of the lever arm count as none.
-    pub fn gravity_assists(
-        nominal: &RobotModel,
-        joint: usize,
-        q_rad: &[f64; JOINTS],
-        dir: f64,
-    ) -> bool {
-        let mut partial = [0.0; JOINTS];
+    /// Whether gravity pulls joint `joint` (0-based) of `nominal` at `q_rad` (one angle per joint
+    /// of `nominal`) in the direction `dir` (+1 / −1): the sign of the gravity torque about the
+    /// joint axis, distal mass lumped at the target. Torques below 1 % of the lever arm count as
+    /// none.
+    pub fn gravity_assists(nominal: &RobotModel, joint: usize, q_rad: &[f64], dir: f64) -> bool {
+        let mut partial = Joints::filled(q_rad.len(), 0.0);
         partial[..joint].copy_from_slice(&q_rad[..joint]);
         // Frame of joint `joint`: product of the transforms before it, rotated by its q about z.
         let t = if joint == 0 {
@@ -293,18 +323,19 @@ impl RobotErrorModel {
     }
 
     /// The actual angle error (degrees) of the moving joint `joint` (0-based) at a stop reached
-    /// in direction `dir` at speed fraction `speed`: backlash lost motion plus settling error.
+    /// in direction `dir` at speed fraction `speed` (commanded angles `q_cmd_deg`, one per joint
+    /// of `nominal`): backlash lost motion plus settling error.
     pub fn joint_error_deg(
         &self,
         nominal: &RobotModel,
         joint: usize,
-        q_cmd_deg: &[f64; JOINTS],
+        q_cmd_deg: &[f64],
         dir: f64,
         speed: f64,
         rng: &mut impl Rng,
     ) -> f64 {
-        let b = self.backlash_deg[joint];
-        let q_rad = q_cmd_deg.map(f64::to_radians);
+        let b = self.backlash(joint);
+        let q_rad = Joints::from_fn(q_cmd_deg.len(), |i| q_cmd_deg[i].to_radians());
         let lost = if b == 0.0 {
             0.0
         } else if Self::gravity_assists(nominal, joint, &q_rad, dir) {
@@ -376,6 +407,13 @@ mod tests {
     fn repeatability_sigma_and_gravity() {
         let m = RobotErrorModel::default();
         assert!((m.repeatability_sigma_mm() - 0.02 / 3.616).abs() < 1e-4);
+        assert_eq!(
+            &*m.backlash_deg,
+            &[0.004, 0.004, 0.004, 0.008, 0.008, 0.008]
+        );
+        assert_eq!(m.backlash(6), 0.008);
+        assert_eq!(RobotErrorModel::for_joints(7).backlash_deg[6], 0.008);
+        assert_eq!(RobotErrorModel::for_joints(4).backlash_deg.len(), 4);
         let n = crate::kinematics::tx60();
         let q = [0.0, 61.0f64, 68.5, 0.0, 60.0, 0.0].map(f64::to_radians);
         // J1 is vertical: gravity never assists it.

@@ -14,6 +14,8 @@
 
 pub mod calibrate;
 pub mod factors;
+#[cfg(test)]
+mod joint_counts;
 pub mod poses;
 pub mod robot;
 pub mod sweep;

@@ -10,7 +10,7 @@
 
 use super::tracker::TrackerModel;
 use crate::identify::{PoseData, PosePoint, PoseRun};
-use crate::kinematics::{BaseTransform, RobotModel, JOINTS};
+use crate::kinematics::{BaseTransform, Joints, RobotModel};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 
@@ -45,12 +45,13 @@ pub fn random_placement(seed: u64) -> BaseTransform {
     }
 }
 
-/// Measures `truth`'s target at `configs` (degrees) from a tracker whose frame holds the robot
+/// Measures `truth`'s target at `configs` (degrees, one angle per joint of `truth`) from a
+/// tracker whose frame holds the robot
 /// base at `placement`: the true position `placement · P(θ, t, q)` plus noise. One run, line
 /// numbers as [`crate::identify::write_poses`] writes them.
 pub fn simulate_poses(
     truth: &RobotModel,
-    configs: &[[f64; JOINTS]],
+    configs: &[Joints],
     placement: &BaseTransform,
     noise: &TrackerNoise,
     seed: u64,
@@ -84,8 +85,9 @@ pub fn simulate_poses(
     }
 }
 
-/// `n` configurations uniform within `model`'s joint limits, seeded (degrees).
-pub fn random_poses(model: &RobotModel, n: usize, seed: u64) -> Vec<[f64; JOINTS]> {
+/// `n` configurations uniform within `model`'s joint limits, seeded (degrees, one angle per
+/// joint).
+pub fn random_poses(model: &RobotModel, n: usize, seed: u64) -> Vec<Joints> {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     super::random_configurations(&model.limits_deg, n, &mut rng)
 }
@@ -119,7 +121,7 @@ mod tests {
         let mut m = tx60();
         m.tool = [30.0, -20.0, 80.0];
         let b = random_placement(3);
-        let qs = [[10.0, -20.0, 90.0, 30.0, 40.0, -50.0]];
+        let qs = [Joints::from([10.0, -20.0, 90.0, 30.0, 40.0, -50.0])];
         let d = simulate_poses(&m, &qs, &b, &TrackerNoise::Isotropic(0.0), 1);
         m.base = Some(b);
         let want = m.world_position(&qs[0].map(f64::to_radians));

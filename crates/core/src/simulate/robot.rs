@@ -7,7 +7,7 @@
 
 use super::add_tracker_noise;
 use crate::identify::Measurement;
-use crate::kinematics::{param_index, position, ParamKind, RobotModel, JOINTS};
+use crate::kinematics::{param_index, position, Joints, ParamKind, RobotModel};
 use rand::Rng;
 
 /// Sizes of the parameter errors of a simulated robot.
@@ -40,7 +40,7 @@ pub fn perturbed_model(
     let mut m = nominal.clone();
     m.name = format!("{} (simulated true robot)", nominal.name);
     m.tool = tool;
-    for j in 0..JOINTS {
+    for j in 0..nominal.joints() {
         for kind in ParamKind::ALL {
             if nominal.fixed[j].kind() == kind {
                 continue;
@@ -57,15 +57,15 @@ pub fn perturbed_model(
     m
 }
 
-/// `n` configurations uniform within `limits_deg`, degrees.
+/// `n` configurations uniform within `limits_deg` (one `(min, max)` per joint), degrees.
 pub fn random_configurations(
-    limits_deg: &[(f64, f64); JOINTS],
+    limits_deg: &[(f64, f64)],
     n: usize,
     rng: &mut impl Rng,
-) -> Vec<[f64; JOINTS]> {
+) -> Vec<Joints> {
     (0..n)
         .map(|_| {
-            std::array::from_fn(|j| {
+            Joints::from_fn(limits_deg.len(), |j| {
                 let (lo, hi) = limits_deg[j];
                 lo + (hi - lo) * rng.random::<f64>()
             })
@@ -73,10 +73,11 @@ pub fn random_configurations(
         .collect()
 }
 
-/// Measures `truth` at the configurations (degrees) with Gaussian noise `sigma_mm` per coordinate.
+/// Measures `truth` at the configurations (degrees, one angle per joint of `truth`) with Gaussian
+/// noise `sigma_mm` per coordinate.
 pub fn measure_positions(
     truth: &RobotModel,
-    configs: &[[f64; JOINTS]],
+    configs: &[Joints],
     sigma_mm: f64,
     rng: &mut impl Rng,
 ) -> Vec<Measurement> {

@@ -7,15 +7,21 @@
 //! ranges, home pose at the centre of every measuring range ([`TX60_HOME_DEG`]). With the
 //! off-axis tool point (30, −20, 80) mm that pose keeps the target at least ~36 mm from every
 //! axis (J6's radius is fixed by the tool offset: √(30² + 20²); J1–J5 are above 100 mm).
+//!
+//! A plan has one home angle and one measuring range per joint. The paper's table is the
+//! six-joint TX60's; for a robot with another number of joints (4 to 7) [`SweepPlan::resized`]
+//! keeps the first entries and gives every further joint [`EXTRA_MEASURING_RANGE_DEG`] about a
+//! home of 0°, and [`SweepPlan::within`] then fits the plan into the robot's joint limits.
 
 use super::add_tracker_noise;
 use crate::identify::{Sweep, SweepData, SweepPoint, SweepRun};
-use crate::kinematics::{position, RobotModel, JOINTS};
+use crate::kinematics::{position, Joints, Limits, RobotModel};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 
-/// The measuring ranges of the paper (tracker target visibility), degrees.
-pub const TX60_MEASURING_RANGES_DEG: [(f64, f64); JOINTS] = [
+/// The measuring ranges of the paper (tracker target visibility) of the six TX60 joints,
+/// degrees.
+pub const TX60_MEASURING_RANGES_DEG: [(f64, f64); 6] = [
     (-180.0, 180.0),
     (-5.0, 127.0),
     (-5.0, 142.0),
@@ -25,7 +31,13 @@ pub const TX60_MEASURING_RANGES_DEG: [(f64, f64); JOINTS] = [
 ];
 
 /// Home pose of the default plan: the centre of every measuring range, degrees.
-pub const TX60_HOME_DEG: [f64; JOINTS] = [0.0, 61.0, 68.5, 0.0, 60.0, 0.0];
+pub const TX60_HOME_DEG: [f64; 6] = [0.0, 61.0, 68.5, 0.0, 60.0, 0.0];
+
+/// The measuring range, degrees, that [`SweepPlan::resized`] gives a joint beyond the plan's
+/// table (the seventh of a seven-axis arm: the paper's table has six joints). It is the full
+/// turn of the TX60's roll joints J1, J4 and J6, centred on a home angle of 0°;
+/// [`SweepPlan::within`] cuts it to the joint's limits.
+pub const EXTRA_MEASURING_RANGE_DEG: (f64, f64) = (-180.0, 180.0);
 
 /// How the sweeps are measured.
 #[derive(Clone, Debug, PartialEq)]
@@ -34,30 +46,53 @@ pub struct SweepPlan {
     pub range_fraction: f64,
     /// Angle step, degrees (> 0).
     pub step_deg: f64,
-    /// Pose of the joints not being swept, degrees.
-    pub home_deg: [f64; JOINTS],
-    /// Measuring range of each joint, degrees.
-    pub measuring_range_deg: [(f64, f64); JOINTS],
+    /// Pose of the joints not being swept, degrees, one per joint.
+    pub home_deg: Joints,
+    /// Measuring range of each joint, degrees (as many as [`Self::home_deg`]).
+    pub measuring_range_deg: Limits,
 }
 
 impl Default for SweepPlan {
+    /// The paper's plan of the six-joint TX60 ([`TX60_HOME_DEG`], [`TX60_MEASURING_RANGES_DEG`]).
     fn default() -> Self {
         SweepPlan {
             range_fraction: 0.5,
             step_deg: 2.0,
-            home_deg: TX60_HOME_DEG,
-            measuring_range_deg: TX60_MEASURING_RANGES_DEG,
+            home_deg: TX60_HOME_DEG.into(),
+            measuring_range_deg: TX60_MEASURING_RANGES_DEG.into(),
         }
     }
 }
 
 impl SweepPlan {
-    /// This plan fitted into joint limits (degrees): each measuring range cut to the limits, and
-    /// each home angle moved inside them, so that no commanded angle lies outside. A plan
-    /// already within the limits (the TX60's) is returned unchanged.
-    pub fn within(&self, limits_deg: &[(f64, f64); JOINTS]) -> SweepPlan {
+    /// Number of joints the plan sweeps.
+    pub fn joints(&self) -> usize {
+        self.home_deg.len()
+    }
+
+    /// This plan for a robot of `joints` joints (at most [`crate::kinematics::MAX_JOINTS`]):
+    /// the first `joints` home angles and measuring ranges, and for every joint beyond the
+    /// plan's a home of 0° and [`EXTRA_MEASURING_RANGE_DEG`] (see the module docs). A plan of
+    /// that many joints is returned unchanged.
+    pub fn resized(&self, joints: usize) -> SweepPlan {
         let mut p = self.clone();
-        for j in 0..JOINTS {
+        p.home_deg = Joints::from_fn(joints, |j| self.home_deg.get(j).copied().unwrap_or(0.0));
+        p.measuring_range_deg = Limits::from_fn(joints, |j| {
+            self.measuring_range_deg
+                .get(j)
+                .copied()
+                .unwrap_or(EXTRA_MEASURING_RANGE_DEG)
+        });
+        p
+    }
+
+    /// This plan fitted into joint limits (degrees, one `(min, max)` per joint): first
+    /// [`Self::resized`] to the limits' joint count, then each measuring range cut to the limits
+    /// and each home angle moved inside them, so that no commanded angle lies outside. A plan
+    /// already within the limits (the TX60's) is returned unchanged.
+    pub fn within(&self, limits_deg: &[(f64, f64)]) -> SweepPlan {
+        let mut p = self.resized(limits_deg.len());
+        for j in 0..limits_deg.len() {
             let (lo, hi) = limits_deg[j];
             let (a, b) = p.measuring_range_deg[j];
             let (a, b) = (a.max(lo), b.min(hi));
@@ -68,7 +103,7 @@ impl SweepPlan {
     }
 
     /// The commanded angles of joint `joint` (1-based) in its sweep, degrees, ascending. Empty for
-    /// a joint outside 1–6 or a non-positive step or fraction.
+    /// a joint outside 1–n (the plan's [`Self::joints`]) or a non-positive step or fraction.
     pub fn sweep_angles(&self, joint: usize) -> Vec<f64> {
         let Some(steps) = self.steps(joint) else {
             return Vec::new();
@@ -89,7 +124,7 @@ impl SweepPlan {
     }
 
     fn steps(&self, joint: usize) -> Option<usize> {
-        if !(1..=JOINTS).contains(&joint)
+        if !(1..=self.joints()).contains(&joint)
             || self.step_deg.is_nan()
             || self.step_deg <= 0.0
             || self.range_fraction.is_nan()
@@ -103,7 +138,7 @@ impl SweepPlan {
     }
 
     /// The commanded configurations of joint `joint`'s sweep, degrees.
-    pub fn sweep_configurations(&self, joint: usize) -> Vec<[f64; JOINTS]> {
+    pub fn sweep_configurations(&self, joint: usize) -> Vec<Joints> {
         self.sweep_angles(joint)
             .into_iter()
             .map(|q| {
@@ -115,9 +150,10 @@ impl SweepPlan {
     }
 }
 
-/// Sweeps of all six joints for `runs` repeated runs (labelled "1", "2", … when `runs > 1`,
-/// unlabelled for one run), measured on `truth` with Gaussian noise of `noise_sigma_mm` per
-/// coordinate, from the seed `seed`.
+/// Sweeps of all joints of `truth` (six for the TX60) for `runs` repeated runs (labelled "1",
+/// "2", … when `runs > 1`, unlabelled for one run), measured on `truth` with Gaussian noise of
+/// `noise_sigma_mm` per coordinate, from the seed `seed`. A plan of another joint count than
+/// `truth`'s is first [`SweepPlan::resized`] to it.
 pub fn simulate_sweeps(
     truth: &RobotModel,
     plan: &SweepPlan,
@@ -137,10 +173,18 @@ pub fn simulate_sweeps_with(
     runs: usize,
     rng: &mut ChaCha8Rng,
 ) -> SweepData {
+    let n = truth.joints();
+    let resized;
+    let plan = if plan.joints() == n {
+        plan
+    } else {
+        resized = plan.resized(n);
+        &resized
+    };
     let mut line = 2u64; // line numbers as written by `write_sweeps` (header on line 1)
     let runs = (0..runs)
         .map(|r| {
-            let sweeps = (1..=JOINTS)
+            let sweeps = (1..=n)
                 .map(|j| Sweep {
                     joint: j,
                     points: plan
@@ -187,5 +231,27 @@ mod tests {
             .iter()
             .all(|q| q[0] == 0.0 && q[1] == 61.0 && q[4] == 60.0));
         assert!(p.sweep_angles(7).is_empty());
+    }
+
+    #[test]
+    fn plans_for_other_joint_counts() {
+        let p = SweepPlan::default();
+        assert_eq!(p.resized(6), p);
+        let seven = p.resized(7);
+        assert_eq!(seven.joints(), 7);
+        assert_eq!(&seven.home_deg[..6], &TX60_HOME_DEG);
+        assert_eq!(seven.home_deg[6], 0.0);
+        assert_eq!(seven.measuring_range_deg[6], EXTRA_MEASURING_RANGE_DEG);
+        assert_eq!(seven.sweep_angles(7).len(), 91);
+        let four = p.within(&[
+            (-170.0, 170.0),
+            (-90.0, 90.0),
+            (-100.0, 100.0),
+            (-170.0, 170.0),
+        ]);
+        assert_eq!(four.joints(), 4);
+        assert_eq!(four.measuring_range_deg[1], (-5.0, 90.0));
+        assert!(four.sweep_angles(5).is_empty());
+        assert!(four.sweep_configurations(2).iter().all(|q| q.len() == 4));
     }
 }

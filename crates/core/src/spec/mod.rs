@@ -31,7 +31,7 @@ use crate::engine::{
     BackendChoice, Backends, Evaluator, Frame, PlacementSpread, Problem, ProblemError, Reference,
 };
 use crate::import::{self, ImportOptions};
-use crate::kinematics::{RobotModel, JOINTS};
+use crate::kinematics::{Joints, RobotModel};
 use crate::points::{self, PointsError, WorkspaceBox, MAX_POINTS};
 use crate::presets::preset;
 use serde::{Deserialize, Serialize};
@@ -153,10 +153,12 @@ impl ModelSource {
 pub enum PointsSource {
     /// Generated: seeded configurations whose tool point lies in a workspace box.
     Generate(GeneratedPoints),
-    /// A CSV file with header `q1..q6` (degrees).
+    /// A CSV file with header `q1..qn` (degrees), one column per joint of the model (`q1..q6`
+    /// for a six-axis arm).
     File(PathBuf),
-    /// Given configurations, degrees.
-    Given(Vec<[f64; JOINTS]>),
+    /// Given configurations, degrees, one angle per joint of the model (a configuration of
+    /// another length is refused when the problem is built).
+    Given(Vec<Joints>),
 }
 
 /// Generated test points ([`points::generate`]).
@@ -400,14 +402,15 @@ impl ProblemSpec {
             .map_err(|kind| SpecError::new(self.model.field(), kind))
     }
 
-    /// The test points (degrees) for `model`: generated in the workspace box for `model`, read
-    /// from the points file, or the given ones.
+    /// The test points (degrees, one angle per joint of `model`) for `model`: generated in the
+    /// workspace box for `model`, read from the points file (one column per joint of `model`),
+    /// or the given ones.
     ///
     /// # Errors
     /// Generated points: [`SpecField::BoxSize`] or [`SpecField::BoxCenter`] for a box that is
     /// empty or not finite, [`SpecField::Points`] for a count out of range or a box out of reach.
     /// A points file: [`SpecField::PointsFile`] when it cannot be read or parsed.
-    pub fn load_points(&self, model: &RobotModel) -> Result<Vec<[f64; JOINTS]>, SpecError> {
+    pub fn load_points(&self, model: &RobotModel) -> Result<Vec<Joints>, SpecError> {
         match &self.points {
             PointsSource::Generate(g) => {
                 let bx = g.workspace(model);
@@ -439,9 +442,8 @@ impl ProblemSpec {
                     SpecError::new(field, e)
                 })
             }
-            PointsSource::File(f) => {
-                points::read_csv(f).map_err(|e| SpecError::new(SpecField::PointsFile, e))
-            }
+            PointsSource::File(f) => points::read_csv(f, model.joints())
+                .map_err(|e| SpecError::new(SpecField::PointsFile, e)),
             PointsSource::Given(q) => Ok(q.clone()),
         }
     }

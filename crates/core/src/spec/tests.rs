@@ -43,7 +43,7 @@ fn variety() -> Vec<ProblemSpec> {
         },
         ProblemSpec {
             model: ModelSource::Model(Box::new(tx60.clone())),
-            points: PointsSource::Given(vec![[0.0; JOINTS]]),
+            points: PointsSource::Given(vec![Joints::filled(6, 0.0)]),
             reference: ReferenceSource::Nominal(Some(ModelSource::Model(Box::new(tx60)))),
             ..base
         },
@@ -136,7 +136,10 @@ fn errors_name_the_field() {
         );
     }
     let e = ProblemSpec {
-        points: PointsSource::Given(vec![[0.0; JOINTS], [999.0, 0.0, 0.0, 0.0, 0.0, 0.0]]),
+        points: PointsSource::Given(vec![
+            Joints::filled(6, 0.0),
+            [999.0, 0.0, 0.0, 0.0, 0.0, 0.0].into(),
+        ]),
         ..base.clone()
     }
     .build_problem()

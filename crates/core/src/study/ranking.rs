@@ -15,8 +15,8 @@
 
 use super::runner::LevelResult;
 use super::settings::Factor;
-use crate::kinematics::N_PARAMS;
-use crate::mc::sensitivity::{param_name, SensitivityResult};
+use crate::kinematics::{param_joint, param_kind};
+use crate::mc::sensitivity::SensitivityResult;
 use serde::Serialize;
 
 /// How many of the top-ranked parameters the factor comparison follows.
@@ -74,8 +74,11 @@ pub struct ParameterRanking {
     pub recommended: Option<Factor>,
 }
 
-fn param_index(name: &str) -> Option<usize> {
-    (0..N_PARAMS).find(|&i| param_name(i) == name)
+/// The index of the parameter named `name` (`alpha2`, as [`crate::kinematics::Layout::input_name`]
+/// names the inputs) among the `n_params` (`5n`) parameters of the model; `None` for another
+/// input (a tool coordinate).
+fn param_index(name: &str, n_params: usize) -> Option<usize> {
+    (0..n_params).find(|&i| format!("{}{}", param_kind(i).name(), param_joint(i) + 1) == name)
 }
 
 /// The ranking from the baseline's indices and σ (`baseline`, σ joint-major in file units as
@@ -90,7 +93,7 @@ pub fn rank(
         .inputs
         .iter()
         .filter_map(|x| {
-            let i = param_index(&x.name)?;
+            let i = param_index(&x.name, baseline_sigma.len())?;
             Some(RankedParameter {
                 name: x.name.clone(),
                 first_order: x.first_order.value,
@@ -116,7 +119,7 @@ pub fn rank(
                     let ratios: Vec<f64> = top
                         .iter()
                         .map(|p| {
-                            let i = param_index(&p.name).unwrap_or(0);
+                            let i = param_index(&p.name, baseline_sigma.len()).unwrap_or(0);
                             l.sigma[i] / p.sigma_baseline
                         })
                         .collect();

@@ -7,7 +7,7 @@ use super::ranking::{rank, ParameterRanking};
 use super::settings::{Factor, StudySettings};
 use crate::engine::backend::Backends;
 use crate::engine::{Problem, Reference};
-use crate::kinematics::{param_kind, RobotModel, N_PARAMS};
+use crate::kinematics::{param_kind, Joints, RobotModel};
 use crate::mc::sensitivity::{run_sensitivity, SensitivityOptions};
 use crate::mc::stats::{ecdf_grid, histogram};
 use crate::mc::{
@@ -124,7 +124,8 @@ pub struct LevelResult {
     pub factors: Factors,
     /// Wall time of the R simulated calibrations, seconds.
     pub calibration_seconds: f64,
-    /// σ of each parameter (file units: deg for θ, α, β; mm for d, a), joint-major.
+    /// σ of each of the `5n` parameters (file units: deg for θ, α, β; mm for d, a),
+    /// joint-major (30 for the six-joint TX60).
     pub sigma: Vec<f64>,
     /// Mean |correlation| between pairs of free parameters.
     pub mean_abs_correlation: f64,
@@ -253,7 +254,7 @@ pub fn run_study_on(
             &settings.workspace,
             settings.points_seed + 1,
         )?;
-        let sig = cal.independent.uncertainty.sigmas();
+        let sig = cal.independent.param_sigmas();
         let mut results = Vec::new();
         let amcs_options = |d: f64| AmcsOptions {
             tolerance: Tolerance::Delta(d),
@@ -325,7 +326,7 @@ pub fn run_study_on(
             level: label,
             factors: f,
             calibration_seconds: cal.seconds,
-            sigma: (0..N_PARAMS)
+            sigma: (0..sig.len())
                 .map(|i| sig[i] / param_kind(i).to_internal())
                 .collect(),
             mean_abs_correlation: mean_abs_correlation(&cal.correlated),
@@ -360,7 +361,7 @@ fn baseline_ranking(
     settings: &StudySettings,
     backends: &dyn Backends,
     model: &RobotModel,
-    point_sets: &[Vec<[f64; crate::kinematics::JOINTS]>],
+    point_sets: &[Vec<Joints>],
     levels: &[LevelResult],
 ) -> Result<ParameterRanking, StudyError> {
     let pts = point_sets
@@ -382,8 +383,8 @@ fn baseline_ranking(
         ..SensitivityOptions::default()
     };
     let sens = run_sensitivity(&problem, ev.as_mut(), &opts)?;
-    let sig = model.uncertainty.sigmas();
-    let sigma: Vec<f64> = (0..N_PARAMS)
+    let sig = model.param_sigmas();
+    let sigma: Vec<f64> = (0..sig.len())
         .map(|i| sig[i] / param_kind(i).to_internal())
         .collect();
     Ok(rank(sens, &sigma, levels))

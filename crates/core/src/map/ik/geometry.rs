@@ -2,7 +2,7 @@
 //! configuration, the exact position Jacobian and its condition number, and a small dense
 //! linear solve.
 
-use crate::kinematics::{joint_transform, position, RobotModel, JOINTS};
+use crate::kinematics::{joint_transform, position, Capped, Joints, RobotModel, MAX_JOINTS};
 
 /// A 3 × 3 rotation matrix, row-major.
 pub type Rot3 = [[f64; 3]; 3];
@@ -21,23 +21,28 @@ pub fn rpy_rotation(rpy_deg: [f64; 3]) -> Rot3 {
     ]
 }
 
+/// One 3-vector per joint of the model.
+pub(super) type PerJoint = Capped<[f64; 3], MAX_JOINTS>;
+
 /// The chain at one configuration: per joint its axis and a point on it (base frame), the tool
 /// point and the flange rotation.
 pub(super) struct Frames {
-    pub(super) axis: [[f64; 3]; JOINTS],
-    pub(super) origin: [[f64; 3]; JOINTS],
+    pub(super) axis: PerJoint,
+    pub(super) origin: PerJoint,
     pub(super) tool: [f64; 3],
     pub(super) rot: Rot3,
 }
 
-pub(super) fn frames(model: &RobotModel, q: &[f64; JOINTS]) -> Frames {
+pub(super) fn frames(model: &RobotModel, q: &[f64]) -> Frames {
+    let n = model.joints();
+    debug_assert_eq!(q.len(), n);
     let mut t = [[0.0; 4]; 4];
     for (i, row) in t.iter_mut().enumerate() {
         row[i] = 1.0;
     }
-    let mut axis = [[0.0; 3]; JOINTS];
-    let mut origin = [[0.0; 3]; JOINTS];
-    for i in 0..JOINTS {
+    let mut axis = PerJoint::filled(n, [0.0; 3]);
+    let mut origin = PerJoint::filled(n, [0.0; 3]);
+    for i in 0..n {
         axis[i] = [t[0][2], t[1][2], t[2][2]];
         origin[i] = [t[0][3], t[1][3], t[2][3]];
         let p = &model.params[5 * i..5 * i + 5];
@@ -142,11 +147,13 @@ pub(super) fn solve(mut a: Vec<Vec<f64>>, mut b: Vec<f64>) -> Option<Vec<f64>> {
     Some(x)
 }
 
-/// The 3 × 6 position Jacobian of the tool point, mm per radian: column i is `z_i × (p − o_i)`.
-pub fn position_jacobian(model: &RobotModel, q: &[f64; JOINTS]) -> [[f64; JOINTS]; 3] {
+/// The 3 × n position Jacobian of the tool point (one row per coordinate, one column per
+/// joint of the model), mm per radian: column i is `z_i × (p − o_i)`.
+pub fn position_jacobian(model: &RobotModel, q: &[f64]) -> [Joints; 3] {
     let f = frames(model, q);
-    let mut j = [[0.0; JOINTS]; 3];
-    for i in 0..JOINTS {
+    let n = model.joints();
+    let mut j = [Joints::filled(n, 0.0); 3];
+    for i in 0..n {
         let c = f.position_column(i);
         for k in 0..3 {
             j[k][i] = c[k];
@@ -155,14 +162,15 @@ pub fn position_jacobian(model: &RobotModel, q: &[f64; JOINTS]) -> [[f64; JOINTS
     j
 }
 
-/// Condition number `σ_max / σ_min` of the 3 × 6 position Jacobian at `q`, from the eigenvalues
+/// Condition number `σ_max / σ_min` of the 3 × n position Jacobian at `q`, from the eigenvalues
 /// of `J Jᵀ` (closed form for a symmetric 3 × 3 matrix); `None` at a position singularity.
-pub fn position_condition(model: &RobotModel, q: &[f64; JOINTS]) -> Option<f64> {
+pub fn position_condition(model: &RobotModel, q: &[f64]) -> Option<f64> {
     let j = position_jacobian(model, q);
+    let n = model.joints();
     let mut a = [[0.0; 3]; 3];
     for r in 0..3 {
         for c in 0..3 {
-            a[r][c] = (0..JOINTS).map(|k| j[r][k] * j[c][k]).sum();
+            a[r][c] = (0..n).map(|k| j[r][k] * j[c][k]).sum();
         }
     }
     let ev = sym3_eigenvalues(&a);
@@ -239,10 +247,12 @@ mod tests {
     fn jacobian_matches_finite_differences() {
         for name in PRESETS {
             let m = preset(name).unwrap();
-            let q = [0.3, -0.5, 0.9, 0.4, -0.7, 0.2];
+            let q = crate::kinematics::Joints::from_slice(
+                &[0.3, -0.5, 0.9, 0.4, -0.7, 0.2, 0.6][..m.joints()],
+            );
             let j = position_jacobian(&m, &q);
             let h = 1e-6;
-            for i in 0..JOINTS {
+            for i in 0..m.joints() {
                 let (mut a, mut b) = (q, q);
                 a[i] += h;
                 b[i] -= h;

@@ -73,7 +73,7 @@
 //!
 //! # Groups
 //!
-//! Besides each free parameter: per joint (`joint 1` … `joint 6`) and per kind (`joint angles
+//! Besides each free parameter: per joint (`joint 1` … `joint n`) and per kind (`joint angles
 //! θ`, `twists α/β`, `lengths a/d`), each over its free members; a group without free members
 //! is left out.
 //!
@@ -96,9 +96,7 @@ pub use estimator::{
 use serde::{Deserialize, Serialize};
 
 use crate::engine::{BackendInfo, EngineError, Evaluator, PickFreeze, PlacementSpread, Problem};
-use crate::kinematics::{
-    input_name, param_joint, param_kind, ParamKind, JOINTS, N_PARAMS, N_UNCERTAIN, N_WITH_BASE,
-};
+use crate::kinematics::{param_joint, param_kind, Layout, ParamKind, MAX_JOINTS, MIN_JOINTS};
 use crate::sampling::ALL_NORMALS;
 
 /// Draw index offset of matrix B: row `k` of B is draw `B_DRAW_OFFSET + k`.
@@ -316,22 +314,26 @@ impl SensitivityResult {
     }
 }
 
-/// Report name of input `i` of the 33 inputs, e.g. `alpha3`, or `tool_x` … `tool_z` for the
-/// tool point (indices 30–32).
-pub fn param_name(i: usize) -> String {
-    input_name(i)
+/// Report name of input `i` of the inputs of layout `lay` ([`Layout::input_name`]), e.g.
+/// `alpha3`, or `tool_x` … `tool_z` for the tool point (indices 30–32 of a six-joint model).
+pub fn param_name(lay: Layout, i: usize) -> String {
+    lay.input_name(i)
 }
 
-/// The groups of the free inputs `free` (as input columns): per joint, then per kind, then the
-/// tool point (its uncertain coordinates), then the base placement (its uncertain inputs, when
-/// it is drawn).
-fn robot_groups(free: &[usize]) -> Vec<InputGroup> {
+/// The groups of the free inputs `free` (as input columns) of layout `lay`: per joint, then per
+/// kind, then the tool point (its uncertain coordinates), then the base placement (its
+/// uncertain inputs, when it is drawn).
+fn robot_groups(lay: Layout, free: &[usize]) -> Vec<InputGroup> {
+    let (n_params, n_uncertain) = (lay.n_params(), lay.n_uncertain());
     let select = |name: String, keep: &dyn Fn(usize) -> bool| InputGroup {
         name,
         members: (0..free.len()).filter(|&c| keep(free[c])).collect(),
     };
-    let joints =
-        (0..JOINTS).map(|j| select(format!("joint {}", j + 1), &move |i| param_joint(i) == j));
+    let joints = (0..lay.joints()).map(|j| {
+        select(format!("joint {}", j + 1), &move |i| {
+            i < n_params && param_joint(i) == j
+        })
+    });
     let kinds: [(&str, &[ParamKind]); 3] = [
         ("joint angles θ", &[ParamKind::Theta]),
         ("twists α/β", &[ParamKind::Alpha, ParamKind::Beta]),
@@ -339,13 +341,13 @@ fn robot_groups(free: &[usize]) -> Vec<InputGroup> {
     ];
     let kinds = kinds.into_iter().map(|(name, ks)| {
         select(name.to_string(), &move |i| {
-            i < N_PARAMS && ks.contains(&param_kind(i))
+            i < n_params && ks.contains(&param_kind(i))
         })
     });
     let tool = std::iter::once(select("tool".to_string(), &|i| {
-        (N_PARAMS..N_UNCERTAIN).contains(&i)
+        (n_params..n_uncertain).contains(&i)
     }));
-    let placement = std::iter::once(select("base placement".to_string(), &|i| i >= N_UNCERTAIN));
+    let placement = std::iter::once(select("base placement".to_string(), &|i| i >= n_uncertain));
     joints
         .chain(kinds)
         .chain(tool)
@@ -423,16 +425,19 @@ pub fn run_outputs(
         });
     }
     let sampler = &problem.sampler;
-    // With an uncertain base placement (the measurement frame) the inputs are the 39 of the
-    // joint covariance, the placement's six last.
+    let lay = problem.model.layout();
+    // With an uncertain base placement (the measurement frame) the inputs are the 5n + 9 (39 for
+    // six joints) of the joint covariance, the placement's six last.
     let placed = PlacementSpread::of(problem)?.map(|sp| sp.free);
     let (free, input_kind) = match (placed, sampler.cholesky()) {
         (Some(free), _) => (free, InputKind::CholeskyInnovations),
         (None, Some((free, _))) => (free.to_vec(), InputKind::CholeskyInnovations),
         (None, None) => {
             // An independent sampler always has its σ; none would mean no free parameter.
-            let s = sampler.sigmas().copied().unwrap_or([0.0; N_UNCERTAIN]);
-            let free = (0..N_UNCERTAIN).filter(|&i| s[i] > 0.0).collect();
+            let s = sampler.sigmas().unwrap_or(&[]);
+            let free = (0..lay.n_uncertain().min(s.len()))
+                .filter(|&i| s[i] > 0.0)
+                .collect();
             (free, InputKind::IndependentParameters)
         }
     };
@@ -441,7 +446,7 @@ pub fn run_outputs(
             model: problem.model.name.clone(),
         });
     }
-    let groups = robot_groups(&free);
+    let groups = robot_groups(lay, &free);
     // Input column c is the standard normal free[c] of a draw: A takes none from the B draw,
     // B all, A_B^(S) those of the columns in S.
     let eval = |k0: usize, c: usize, sets: &[Vec<usize>]| {
@@ -463,7 +468,14 @@ pub fn run_outputs(
         Ok(w)
     };
     let out = pick_freeze_chunks(free.len(), &groups, eval, opts, range)?;
-    Ok((out, Design { input_kind, free }))
+    Ok((
+        out,
+        Design {
+            input_kind,
+            free,
+            joints: lay.joints(),
+        },
+    ))
 }
 
 /// What the analysis of a robot's outputs needs besides the outputs: the inputs (free
@@ -472,9 +484,22 @@ pub fn run_outputs(
 pub struct Design {
     /// What the inputs are.
     pub input_kind: InputKind,
-    /// Indices of the free inputs among the 33 (30 parameters, then the tool point), or among
-    /// the 39 with the base placement when it is drawn, in input order.
+    /// Indices of the free inputs among the [`Layout::n_uncertain`] (the `5n` parameters, then
+    /// the tool point; 33 for six joints), or among the [`Layout::n_with_base`] with the base
+    /// placement when it is drawn (39), in input order.
     pub free: Vec<usize>,
+    /// Joints of the model, which lays the inputs out (six when a file leaves it out; written
+    /// only when not six, so a six-joint design reads as before).
+    #[serde(default = "six_joints", skip_serializing_if = "is_six")]
+    pub joints: usize,
+}
+
+fn six_joints() -> usize {
+    6
+}
+
+fn is_six(n: &usize) -> bool {
+    *n == 6
 }
 
 impl Design {
@@ -484,9 +509,9 @@ impl Design {
     ///
     /// # Errors
     ///
-    /// [`SensitivityError::Design`] when the design's free inputs are not a non-empty set of the
-    /// [`N_WITH_BASE`] inputs; otherwise as [`analyse_outputs`] (an option out of range, outputs of
-    /// the wrong count).
+    /// [`SensitivityError::Design`] when the design's joint count is not 4 to 7 or its free
+    /// inputs are not a non-empty set of the [`Layout::n_with_base`] inputs; otherwise as
+    /// [`analyse_outputs`] (an option out of range, outputs of the wrong count).
     pub fn result(
         &self,
         (model, points, seed): (String, usize, u64),
@@ -494,19 +519,26 @@ impl Design {
         out: &Outputs,
         opts: &SensitivityOptions,
     ) -> Result<SensitivityResult, SensitivityError> {
-        if self.free.is_empty() || self.free.iter().any(|&i| i >= N_WITH_BASE) {
+        if !(MIN_JOINTS..=MAX_JOINTS).contains(&self.joints) {
+            return Err(SensitivityError::Design(format!(
+                "{} joints: a model has {MIN_JOINTS} to {MAX_JOINTS}",
+                self.joints
+            )));
+        }
+        let lay = Layout::new(self.joints);
+        if self.free.is_empty() || self.free.iter().any(|&i| i >= lay.n_with_base()) {
             return Err(SensitivityError::Design(format!(
                 "free inputs {:?} must be a non-empty set of 0 … {}",
                 self.free,
-                N_WITH_BASE - 1
+                lay.n_with_base() - 1
             )));
         }
-        let names: Vec<String> = self.free.iter().map(|&i| param_name(i)).collect();
-        let skipped = (0..N_PARAMS)
+        let names: Vec<String> = self.free.iter().map(|&i| param_name(lay, i)).collect();
+        let skipped = (0..lay.n_params())
             .filter(|i| !self.free.contains(i))
-            .map(param_name)
+            .map(|i| param_name(lay, i))
             .collect();
-        let analysis = analyse_outputs(&names, &robot_groups(&self.free), out, opts)?;
+        let analysis = analyse_outputs(&names, &robot_groups(lay, &self.free), out, opts)?;
         Ok(SensitivityResult {
             model,
             points,
@@ -580,7 +612,8 @@ mod tests {
     #[test]
     fn tx60_groups_cover_the_free_parameters() {
         let free = tx60().free_params();
-        let g = robot_groups(&free);
+        let lay = Layout::SIX;
+        let g = robot_groups(lay, &free);
         let names: Vec<&str> = g.iter().map(|g| g.name.as_str()).collect();
         // Joint 6 has no free parameter.
         assert_eq!(
@@ -599,7 +632,7 @@ mod tests {
         let per_joint: usize = g[..5].iter().map(|g| g.members.len()).sum();
         let per_kind: usize = g[5..].iter().map(|g| g.members.len()).sum();
         assert_eq!((per_joint, per_kind), (free.len(), free.len()));
-        assert_eq!(param_name(free[g[1].members[3]]), "beta2");
+        assert_eq!(param_name(lay, free[g[1].members[3]]), "beta2");
     }
 
     /// With an uncertain tool, its coordinates are inputs of their own group and of no joint
@@ -609,15 +642,21 @@ mod tests {
         let mut m = tx60();
         m.tool_sigma = [0.002, 0.0, 0.003];
         let free = m.free_inputs();
-        assert_eq!(free[free.len() - 2..], [N_PARAMS, N_PARAMS + 2]);
-        let g = robot_groups(&free);
+        let lay = m.layout();
+        let n_params = lay.n_params();
+        assert_eq!(free[free.len() - 2..], [n_params, n_params + 2]);
+        let g = robot_groups(lay, &free);
         let tool = g.last().unwrap();
         assert_eq!(tool.name, "tool");
-        let names: Vec<String> = tool.members.iter().map(|&c| param_name(free[c])).collect();
+        let names: Vec<String> = tool
+            .members
+            .iter()
+            .map(|&c| param_name(lay, free[c]))
+            .collect();
         assert_eq!(names, ["tool_x", "tool_z"]);
         for other in &g[..g.len() - 1] {
             assert!(
-                other.members.iter().all(|&c| free[c] < N_PARAMS),
+                other.members.iter().all(|&c| free[c] < n_params),
                 "{}",
                 other.name
             );

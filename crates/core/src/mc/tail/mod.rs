@@ -7,9 +7,10 @@
 //! number of free parameters (nonzero variance), `L` the diagonal of their standard deviations
 //! (independent model) or the lower Cholesky factor the
 //! [`ParamSampler`](crate::sampling::ParamSampler) already holds (full covariance,
-//! `docs/METHOD.md §6`). A model with an uncertain base placement analysed in the measurement
-//! frame has 39 inputs, the placement's six after the 33, and `L` is the factor of the 39 × 39
-//! covariance on its free inputs ([`PlacementSpread`](crate::engine::PlacementSpread),
+//! `docs/METHOD.md §6`). A model of `n` joints has `5n + 3` inputs (33 for six joints: the `5n`
+//! parameters, then the tool point); one with an uncertain base placement analysed in the
+//! measurement frame has `5n + 9` (39), the placement's six after those, and `L` is the factor
+//! of their covariance on its free inputs ([`PlacementSpread`](crate::engine::PlacementSpread),
 //! `docs/METHOD.md §2.8`). Subset simulation works on `u`; every evaluation maps `u` to the
 //! offsets `δ = L u` and goes through [`Evaluator::evaluate_offsets`], so the CPU and the GPU
 //! backends carry it alike.
@@ -145,7 +146,7 @@ pub const TAIL_STREAM: u32 = 0x7A11_0000;
 pub const MAX_LEVELS: usize = 200;
 
 /// Largest `N` of a run, given or grown (bounds the memory: two levels of `N · (d + 1)`
-/// numbers, 0.5 GB for the 30 parameters of a 6R robot).
+/// numbers, 0.5 GB for the 30 parameters of a 6R robot, 0.6 GB for the 35 of a 7R one).
 pub const MAX_SAMPLES_PER_LEVEL: usize = 1 << 20;
 
 /// Largest accepted [`TailOptions::batch_size`].
@@ -153,7 +154,8 @@ pub const MAX_BATCH: usize = 1 << 22;
 
 /// Estimates `Pr[w ≥ L]` for each threshold of `opts` on `eval`, built for `problem` (whose
 /// distribution gives the map `u ↦ L u` and the Philox key; with an uncertain base placement
-/// the 39 inputs of the measurement frame, else the 33). See the module docs.
+/// the `5n + 9` inputs of the measurement frame, else the `5n + 3`; 39 and 33 for six joints).
+/// See the module docs.
 ///
 /// # Errors
 ///

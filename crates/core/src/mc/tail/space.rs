@@ -3,7 +3,6 @@
 
 use super::TailError;
 use crate::engine::{Evaluator, PlacementSpread, Problem};
-use crate::kinematics::{N_UNCERTAIN, N_WITH_BASE};
 use crate::mc::result::Progress;
 use crate::sampling::{box_muller, uniform_open, Philox};
 
@@ -14,41 +13,43 @@ pub(super) struct NormalSpace {
     /// Cholesky factor (`d²` entries).
     pub(super) factor: Vec<f64>,
     pub(super) diagonal: bool,
-    /// Entries of an offset row: [`N_UNCERTAIN`], or [`N_WITH_BASE`] when the placement is
-    /// drawn.
+    /// Entries of an offset row: the model's [`Layout::n_uncertain`] (33 for six joints), or
+    /// [`Layout::n_with_base`] (39) when the placement is drawn.
+    ///
+    /// [`Layout::n_uncertain`]: crate::kinematics::Layout::n_uncertain
+    /// [`Layout::n_with_base`]: crate::kinematics::Layout::n_with_base
     pub(super) width: usize,
 }
 
 impl NormalSpace {
-    /// The space of `problem`'s inputs: its 33, or all 39 when its model's placement is
-    /// uncertain (the measurement frame, docs/METHOD.md §2.8).
+    /// The space of `problem`'s inputs: its `5n + 3` (33 for six joints), or all `5n + 9` (39)
+    /// when its model's placement is uncertain (the measurement frame, docs/METHOD.md §2.8).
     pub(super) fn new(problem: &Problem) -> Result<Self, TailError> {
+        let lay = problem.model.layout();
         let space = if let Some(sp) = PlacementSpread::of(problem)? {
             NormalSpace {
                 free: sp.free,
                 factor: sp.chol,
                 diagonal: false,
-                width: N_WITH_BASE,
+                width: lay.n_with_base(),
             }
         } else if let Some((free, chol)) = problem.sampler.cholesky() {
             NormalSpace {
                 free: free.to_vec(),
                 factor: chol.to_vec(),
                 diagonal: false,
-                width: N_UNCERTAIN,
+                width: lay.n_uncertain(),
             }
         } else {
-            let s = problem
-                .sampler
-                .sigmas()
-                .copied()
-                .unwrap_or([0.0; N_UNCERTAIN]);
-            let free: Vec<usize> = (0..N_UNCERTAIN).filter(|&i| s[i] > 0.0).collect();
+            let s = problem.sampler.sigmas().unwrap_or(&[]);
+            let free: Vec<usize> = (0..lay.n_uncertain().min(s.len()))
+                .filter(|&i| s[i] > 0.0)
+                .collect();
             NormalSpace {
                 factor: free.iter().map(|&i| s[i]).collect(),
                 free,
                 diagonal: true,
-                width: N_UNCERTAIN,
+                width: lay.n_uncertain(),
             }
         };
         if space.free.is_empty() {
@@ -148,7 +149,7 @@ impl Model<'_> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::kinematics::{tx60, Uncertainty, N_PARAMS};
+    use crate::kinematics::{tx60, Uncertainty};
     use crate::sampling::normals_block;
     use crate::sampling::ParamSampler;
 
@@ -157,13 +158,14 @@ mod tests {
     #[test]
     fn normal_space_reproduces_the_sampler() {
         let mut corr = tx60();
-        let s = corr.uncertainty.sigmas();
-        let mut c = vec![0.0; N_PARAMS * N_PARAMS];
-        for i in 0..N_PARAMS {
-            c[i * N_PARAMS + i] = s[i] * s[i];
+        let s = corr.param_sigmas();
+        let np = corr.layout().n_params();
+        let mut c = vec![0.0; np * np];
+        for i in 0..np {
+            c[i * np + i] = s[i] * s[i];
         }
-        c[N_PARAMS + 2] = 0.6 * s[1] * s[2];
-        c[2 * N_PARAMS + 1] = c[N_PARAMS + 2];
+        c[np + 2] = 0.6 * s[1] * s[2];
+        c[2 * np + 1] = c[np + 2];
         corr.uncertainty = Uncertainty::Covariance(c);
         for model in [tx60(), corr] {
             let sampler = ParamSampler::new(&model, 17).unwrap();
@@ -180,11 +182,12 @@ mod tests {
             for k in [0u64, 5, 1 << 33] {
                 let z: Vec<f64> = (0..9).flat_map(|b| normals_block(&g, k, b, 0)).collect();
                 let u: Vec<f64> = space.free.iter().map(|&i| z[i]).collect();
-                let mut mine = [0.0; N_UNCERTAIN];
+                let nu = model.layout().n_uncertain();
+                let mut mine = vec![0.0; nu];
                 space.offsets(&u, &mut mine);
-                let mut theirs = [0.0; N_UNCERTAIN];
+                let mut theirs = vec![0.0; nu];
                 sampler.deltas(k, &mut theirs);
-                for i in 0..N_UNCERTAIN {
+                for i in 0..nu {
                     assert!((mine[i] - theirs[i]).abs() <= 1e-15 * theirs[i].abs().max(1e-3));
                 }
             }

@@ -47,6 +47,16 @@ pub fn grid_label(r: &MapResult) -> String {
     }
 }
 
+/// The reference configuration's angles (degrees), comma-separated, one per joint.
+fn reference_q(r: &MapResult) -> String {
+    r.spec
+        .reference_q_deg
+        .iter()
+        .map(|&v| fmt_g(v))
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 fn reached(r: &MapResult) -> impl Iterator<Item = &MapCell> {
     r.cells.iter().filter(|c| c.stats.is_some())
 }
@@ -78,7 +88,7 @@ pub fn render_text(r: &MapResult) -> String {
     for n in &r.notes {
         let _ = writeln!(s, "note       {n}");
     }
-    let q = r.spec.reference_q_deg.map(fmt_g).join(", ");
+    let q = reference_q(r);
     let _ = writeln!(
         s,
         "reference  q = [{q}] deg (each cell takes the solution nearest it)"
@@ -188,9 +198,13 @@ pub fn render_json(r: &MapResult) -> String {
 
 /// One row per cell (index order); an unreachable cell has `reachable` 0 and empty fields.
 pub fn render_csv(r: &MapResult) -> String {
-    let mut s = String::from(
-        "i,j,k,x_mm,y_mm,z_mm,reachable,q1_deg,q2_deg,q3_deg,q4_deg,q5_deg,q6_deg,ik_residual_mm,orientation_residual_rad,jacobian_condition,mean_e_mm,q95_e_mm",
-    );
+    // One angle column per joint of the model (q1_deg … q6_deg for six joints).
+    let joints = r.spec.reference_q_deg.len();
+    let mut s = String::from("i,j,k,x_mm,y_mm,z_mm,reachable");
+    for j in 1..=joints {
+        let _ = write!(s, ",q{j}_deg");
+    }
+    s.push_str(",ik_residual_mm,orientation_residual_rad,jacobian_condition,mean_e_mm,q95_e_mm");
     for l in &r.thresholds {
         let _ = write!(s, ",R_{l},R_{l}_low,R_{l}_high");
     }
@@ -221,7 +235,7 @@ pub fn render_csv(r: &MapResult) -> String {
             }
             _ => {
                 s.push_str(",0");
-                s.push_str(&",".repeat(11 + 3 * r.thresholds.len()));
+                s.push_str(&",".repeat(joints + 5 + 3 * r.thresholds.len()));
             }
         }
         s.push('\n');

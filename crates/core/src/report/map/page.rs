@@ -1,7 +1,7 @@
 //! The page of a map: the headline numbers, the multi-point and single-point reliability
 //! tables, the heat maps inline, the model and settings.
 
-use super::{grid_label, reached, render_svgs, CSV_NAME, HTML_JSON};
+use super::{grid_label, reached, reference_q, render_svgs, CSV_NAME, HTML_JSON};
 use crate::map::MapResult;
 use crate::report::html::{Figure, Page, Table};
 use crate::report::text::fmt_g;
@@ -112,7 +112,7 @@ pub fn map_page(r: &MapResult, settings: &[(String, String)], _files: &[(String,
     for (n, v) in settings {
         page.setting(n, v);
     }
-    let q = r.spec.reference_q_deg.map(fmt_g).join(", ");
+    let q = reference_q(r);
     page.setting("seed", &r.seed.to_string())
         .setting(
             "thresholds",
