@@ -500,7 +500,7 @@ fn every_command_runs_on_every_preset() {
         );
         out
     };
-    for preset in ["ur5e", "ur10e", "irb2400", "kr6r700sixx"] {
+    for preset in ["ur5e", "ur10e", "irb2400", "kr6r700sixx", "iiwa14", "panda"] {
         let p = |name: &str| dir.join(format!("{preset}-{name}"));
         let model = p("model.toml");
         let m = model.to_str().unwrap();
