@@ -255,8 +255,9 @@ pub trait Evaluator: Send {
     }
 
     /// Fills `w[i]` with `w` of the parameter vector and tool point `μ̄ + offsets[i·W ..][..W]`
-    /// (μ̄ the model's values; mm and radians; entries 30–32 move the tool point in the flange
-    /// frame, and with W = [`N_WITH_BASE`](crate::kinematics::N_WITH_BASE) entries 33–38 the base placement) and, if given,
+    /// (μ̄ the model's values; mm and radians; for six joints entries 30–32 move the tool point
+    /// in the flange frame, and with W = [`Layout::n_with_base`] entries 33–38 the base
+    /// placement; 35–37 and 38–43 for seven joints) and, if given,
     /// `per_point[i·m + j]` with its `e_j`. W is [`Evaluator::offset_width`].
     ///
     /// # Errors

@@ -18,10 +18,13 @@
 //! along the set of configurations that reach it (the self-motion) to the one locally nearest
 //! the reference: each step moves `q` by the projection of `q_ref − q` on the null space of
 //! `J`, `(I − Jᵀ (J Jᵀ)⁻¹ J)(q_ref − q)` (a first-order step of `min ‖q − q_ref‖` subject to
-//! reaching the target, at most [`NULL_STEP_RAD`] long), then returns to the target with the
-//! damped least squares above, and is kept when it reached the target nearer the reference
-//! (else the step is shortened), until the distance no longer shrinks. The seeds then choose
-//! among the local minima as for any arm. A six-joint arm keeps its earlier solver unchanged
+//! reaching the target), lengthened by a Barzilai–Borwein factor where the self-motion curves
+//! and at most [`NULL_STEP_RAD`] long, then returns to the target with the damped least squares
+//! above, and is kept when it reached the target nearer the reference (else the step is
+//! shortened), until that projection vanishes. A joint on a limit that the step would move
+//! beyond is held there (left out of `J` and of `q_ref − q`), so the slide ends at the
+//! configuration nearest the reference within the limits. The seeds then choose among the
+//! local minima as for any arm. A six-joint arm keeps its earlier solver unchanged
 //! (for a position-only task it chooses among the configurations its seeds descend to, without
 //! sliding), so its maps do not change.
 //!
@@ -274,7 +277,12 @@ impl<'a> Ik<'a> {
 
     /// Damped least squares from one seed; the configuration it ends at.
     fn descend(&self, target: &IkTarget, seed: &Joints) -> Joints {
-        DESCENDS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.descend_holding(target, seed, &[])
+    }
+
+    /// [`Ik::descend`] with the joints `held[k]` kept at their seed's angle (their columns of
+    /// the Jacobian left out, so the step does not move them); none held for an empty `held`.
+    fn descend_holding(&self, target: &IkTarget, seed: &Joints, held: &[bool]) -> Joints {
         let mut q = *seed;
         self.clamp(&mut q);
         let mut f = frames(self.model, &q);
@@ -297,7 +305,8 @@ impl<'a> Ik<'a> {
             if p <= 1e-3 * POSITION_TOL_MM && o.is_none_or(|o| o <= 1e-3 * ORIENTATION_TOL_RAD) {
                 break;
             }
-            let j = self.jacobian(target, &f);
+            let mut j = self.jacobian(target, &f);
+            hold_columns(&mut j, held);
             let Some(dq) = damped_step(&j, &e, lambda) else {
                 lambda *= 10.0;
                 continue;
@@ -389,23 +398,44 @@ impl<'a> Ik<'a> {
         n != 6 && n > task_dim(target)
     }
 
-    /// The projection of `q_ref − q` on the null space of the task Jacobian at `q`,
-    /// `d − Jᵀ (J Jᵀ)⁻¹ J d` with `d = q_ref − q` (lightly damped, so a singular configuration
-    /// still projects): the direction along the self-motion that brings `q` nearest the
-    /// reference to first order. `None` when the system is singular even so.
-    fn null_direction(&self, target: &IkTarget, q: &Joints) -> Option<Joints> {
+    /// The direction along the self-motion that brings `q` nearest the reference to first
+    /// order: the projection of `d = q_ref − q` on the null space of the task Jacobian at `q`,
+    /// `d − Jᵀ (J Jᵀ)⁻¹ J d` (lightly damped, so a singular configuration still projects), with
+    /// the joints that lie on a limit and would be moved beyond it held (their columns of `J`
+    /// and entries of `d` left out, and `held` set for them, until no further joint needs
+    /// holding). `None` when the system is singular even so.
+    fn null_direction(&self, target: &IkTarget, q: &Joints, held: &mut [bool]) -> Option<Joints> {
         let n = q.len();
         let f = frames(self.model, q);
-        let j = self.jacobian(target, &f);
-        let d = Joints::from_fn(n, |k| self.reference[k] - q[k]);
+        let mut j = self.jacobian(target, &f);
         let m = j.len();
-        let jd: Vec<f64> = (0..m)
-            .map(|r| (0..n).map(|k| j[r][k] * d[k]).sum())
-            .collect();
-        let y = solve(gram(&j, 1e-12 * self.scale * self.scale), jd)?;
-        Some(Joints::from_fn(n, |k| {
-            d[k] - (0..m).map(|r| j[r][k] * y[r]).sum::<f64>()
-        }))
+        loop {
+            hold_columns(&mut j, held);
+            let d = Joints::from_fn(n, |k| {
+                if held[k] {
+                    0.0
+                } else {
+                    self.reference[k] - q[k]
+                }
+            });
+            let jd: Vec<f64> = (0..m)
+                .map(|r| (0..n).map(|k| j[r][k] * d[k]).sum())
+                .collect();
+            let y = solve(gram(&j, 1e-12 * self.scale * self.scale), jd)?;
+            let p = Joints::from_fn(n, |k| d[k] - (0..m).map(|r| j[r][k] * y[r]).sum::<f64>());
+            let mut more = false;
+            for k in 0..n {
+                if !held[k]
+                    && ((q[k] <= self.lo[k] && p[k] < 0.0) || (q[k] >= self.hi[k] && p[k] > 0.0))
+                {
+                    held[k] = true;
+                    more = true;
+                }
+            }
+            if !more {
+                return Some(p);
+            }
+        }
     }
 
     /// From `start`, a configuration that reaches `target` within the limits, steps along the
@@ -415,20 +445,40 @@ impl<'a> Ik<'a> {
     /// A step is `t·p` with `p` the [`Ik::null_direction`] and `t` the Barzilai–Borwein factor
     /// `sᵀs / sᵀy` of the last accepted step `s` and the change `y` of `−p` over it (1 where
     /// the self-motion is straight; larger where it curves so that `p` shrinks slowly), at
-    /// most [`NULL_STEP_RAD`] long; a step that does not end nearer the reference on the
-    /// target is shortened fourfold.
+    /// most [`NULL_STEP_RAD`] long. Joints the step takes beyond a limit stop on it and are
+    /// held there while the configuration returns to the target, so that the next direction
+    /// sees them on the limit. A step that does not end nearer the reference on the target is
+    /// shortened fourfold.
     fn toward_reference(&self, target: &IkTarget, start: &Joints) -> Joints {
-        SLIDES.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         let n = start.len();
         let mut q = *start;
         let mut dist = self.distance(&q);
-        let Some(mut p) = self.null_direction(target, &q) else {
-            return q;
-        };
         let mut factor = 1.0;
         let mut cap = NULL_STEP_RAD;
+        // The last accepted step and the direction before it, for the Barzilai–Borwein factor.
+        let mut last: Option<(Joints, Joints)> = None;
+        let mut direction: Option<(Joints, Vec<bool>)> = None;
         for _ in 0..MAX_NULL_STEPS {
-            STEPS.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            let (p, held) = match direction.take() {
+                Some(pd) => pd,
+                None => {
+                    let mut held = vec![false; n];
+                    let Some(p) = self.null_direction(target, &q, &mut held) else {
+                        break;
+                    };
+                    if let Some((s, before)) = last.take() {
+                        let (ss, sy) = (0..n).fold((0.0, 0.0), |(ss, sy), k| {
+                            (ss + s[k] * s[k], sy + s[k] * (before[k] - p[k]))
+                        });
+                        factor = if sy > 0.0 {
+                            (ss / sy).clamp(1.0, MAX_NULL_FACTOR)
+                        } else {
+                            1.0
+                        };
+                    }
+                    (p, held)
+                }
+            };
             let len = norm(&p);
             if len <= NULL_TOL_RAD {
                 break;
@@ -437,24 +487,17 @@ impl<'a> Ik<'a> {
             let t = tried / len;
             let mut next = Joints::from_fn(n, |k| q[k] + t * p[k]);
             self.clamp(&mut next);
-            let next = self.descend(target, &next);
+            let stopped: Vec<bool> = (0..n)
+                .map(|k| held[k] || next[k] == self.lo[k] || next[k] == self.hi[k])
+                .collect();
+            let next = self.descend_holding(target, &next, &stopped);
             let nd = self.distance(&next);
             if nd < dist && self.accepted(target, &next).is_some() {
-                let Some(np) = self.null_direction(target, &next) else {
-                    return next;
-                };
-                let s = Joints::from_fn(n, |k| next[k] - q[k]);
-                let (ss, sy) = (0..n).fold((0.0, 0.0), |(ss, sy), k| {
-                    (ss + s[k] * s[k], sy + s[k] * (p[k] - np[k]))
-                });
-                factor = if sy > 0.0 {
-                    (ss / sy).clamp(1.0, MAX_NULL_FACTOR)
-                } else {
-                    1.0
-                };
-                (q, dist, p) = (next, nd, np);
+                last = Some((Joints::from_fn(n, |k| next[k] - q[k]), p));
+                (q, dist) = (next, nd);
                 cap = (2.0 * cap).min(NULL_STEP_RAD);
             } else {
+                direction = Some((p, held));
                 cap = 0.25 * tried;
                 if cap < NULL_TOL_RAD {
                     break;
@@ -488,8 +531,6 @@ impl<'a> Ik<'a> {
     /// slid along the self-motion towards the reference, [`Ik::toward_reference`]), the one
     /// nearest the reference.
     fn nearest(&self, target: &IkTarget, seeds: Vec<Joints>) -> Option<IkSolution> {
-        NEAREST.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        SEEDS.fetch_add(seeds.len(), std::sync::atomic::Ordering::Relaxed);
         use rayon::prelude::*;
         // Seeds descend independently (in parallel); the choice among the results is made in
         // seed order, so it does not depend on the thread count.
@@ -518,17 +559,22 @@ impl<'a> Ik<'a> {
     }
 }
 
-pub static SLIDES: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-pub static STEPS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-pub static DESCENDS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-pub static NEAREST: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
-pub static SEEDS: std::sync::atomic::AtomicUsize = std::sync::atomic::AtomicUsize::new(0);
 /// Rows of the task of `target`: 3 for a position, 6 with the orientation.
 fn task_dim(target: &IkTarget) -> usize {
     if target.rotation.is_some() {
         6
     } else {
         3
+    }
+}
+
+/// Zeroes the columns of the task Jacobian rows `j` of the joints `held[k]` (none for an empty
+/// `held`), which a step then leaves where they are.
+fn hold_columns(j: &mut [Joints], held: &[bool]) {
+    for (k, _) in held.iter().enumerate().filter(|(_, &h)| h) {
+        for row in j.iter_mut() {
+            row[k] = 0.0;
+        }
     }
 }
 
@@ -662,21 +708,14 @@ mod tests {
         m.limits_deg.map(|l| (0.5 * (l.0 + l.1)).to_radians())
     }
 
-    /// Length of the projection of `reference − q` on the null space of the task Jacobian at
-    /// `q`: 0 where `q` is nearest the reference among the nearby configurations that reach the
-    /// same target.
+    /// Length of the direction along the self-motion towards the reference at `q`
+    /// ([`Ik::null_direction`], joints on a limit held): 0 where `q` is nearest the reference
+    /// among the nearby configurations within the limits that reach the same target.
     fn null_gradient(ik: &Ik, target: &IkTarget, q: &Joints) -> f64 {
-        let f = frames(ik.model, q);
-        let j = ik.jacobian(target, &f);
-        let n = q.len();
-        let d = Joints::from_fn(n, |k| ik.reference[k] - q[k]);
-        let jd: Vec<f64> = (0..j.len())
-            .map(|r| (0..n).map(|k| j[r][k] * d[k]).sum())
-            .collect();
-        let y = solve(gram(&j, 0.0), jd).unwrap();
-        norm(&Joints::from_fn(n, |k| {
-            d[k] - (0..j.len()).map(|r| j[r][k] * y[r]).sum::<f64>()
-        }))
+        norm(
+            &ik.null_direction(target, q, &mut vec![false; q.len()])
+                .unwrap(),
+        )
     }
 
     #[test]
@@ -849,6 +888,54 @@ mod tests {
                     );
                 }
             }
+        }
+    }
+
+    /// Where the configuration nearest the reference lies beyond a joint limit, the slide stops
+    /// with that joint on its limit, nearest the reference among the configurations within
+    /// the limits (the direction with the joint held vanishes).
+    #[test]
+    fn a_redundant_arm_stops_on_a_joint_limit() {
+        let free = seven_joint();
+        let reference = Joints::from_fn(7, |i| [0.1, 0.5, -0.2, -1.2, 0.3, 0.8, 0.0][i]);
+        let q0 = Joints::from_fn(7, |i| {
+            reference[i] + [0.3, -0.2, 0.4, 0.2, -0.3, 0.1, 0.2][i]
+        });
+        let f = frames(&free, &q0);
+        for rotation in [Some(f.rot), None] {
+            let t = IkTarget {
+                position: f.tool,
+                rotation,
+            };
+            let nearest = Ik::new(&free, reference, 0).solve(&t, &[q0]).unwrap().q;
+            // The joint that moved most from q0, its limit put halfway so `nearest` is beyond it.
+            let k = (0..7)
+                .max_by(|&a, &b| {
+                    (nearest[a] - q0[a])
+                        .abs()
+                        .total_cmp(&(nearest[b] - q0[b]).abs())
+                })
+                .unwrap();
+            let half = 0.5 * (nearest[k] + q0[k]).to_degrees();
+            let mut m = free.clone();
+            let (lo, hi) = m.limits_deg[k];
+            m.limits_deg[k] = if nearest[k] < q0[k] {
+                (half, hi)
+            } else {
+                (lo, half)
+            };
+            let ik = Ik::new(&m, reference, 0);
+            let s = ik.solve(&t, &[q0]).unwrap();
+            let limit = half.to_radians();
+            assert!(
+                (s.q[k] - limit).abs() < 1e-9,
+                "joint {k}: {} vs {limit}",
+                s.q[k]
+            );
+            let g = null_gradient(&ik, &t, &s.q);
+            assert!(g < 1e-6, "{}: {g}", rotation.is_some());
+            assert!(ik.distance(&s.q) <= ik.distance(&q0) + 1e-9);
+            assert!(ik.distance(&s.q) > ik.distance(&nearest));
         }
     }
 

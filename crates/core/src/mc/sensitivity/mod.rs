@@ -662,4 +662,73 @@ mod tests {
             );
         }
     }
+
+    /// A seven-joint model's inputs: seven joint groups, its tool and placement after its 35
+    /// parameters; its design carries the joint count through a file, a six-joint one's reads
+    /// as before.
+    #[test]
+    fn seven_joint_inputs_are_laid_out_by_the_model() {
+        let lay = Layout::new(7);
+        // theta1, d7, beta7, tool_x, base_yaw
+        let free = vec![0, 31, 34, 35, 43];
+        let g = robot_groups(lay, &free);
+        let names: Vec<&str> = g.iter().map(|g| g.name.as_str()).collect();
+        assert_eq!(
+            names,
+            [
+                "joint 1",
+                "joint 7",
+                "joint angles θ",
+                "twists α/β",
+                "lengths a/d",
+                "tool",
+                "base placement"
+            ]
+        );
+        assert_eq!(g[1].members, [1, 2]);
+        assert_eq!(param_name(lay, 35), "tool_x");
+        assert_eq!(param_name(lay, 43), "base_yaw");
+        let seven = Design {
+            input_kind: InputKind::CholeskyInnovations,
+            free: free.clone(),
+            joints: 7,
+        };
+        let json = serde_json::to_string(&seven).unwrap();
+        assert!(json.contains("\"joints\":7"), "{json}");
+        assert_eq!(serde_json::from_str::<Design>(&json).unwrap(), seven);
+        let six = Design {
+            free: vec![0, 1],
+            joints: 6,
+            ..seven
+        };
+        let json = serde_json::to_string(&six).unwrap();
+        assert!(!json.contains("joints"), "{json}");
+        assert_eq!(serde_json::from_str::<Design>(&json).unwrap(), six);
+        // A design whose inputs lie beyond its joint count is refused.
+        let bad = Design {
+            free: vec![40],
+            joints: 6,
+            ..six.clone()
+        };
+        let out = Outputs::default();
+        let backend = || BackendInfo {
+            backend: "cpu".into(),
+            adapter: String::new(),
+            driver: String::new(),
+        };
+        let r = bad.result(
+            ("m".into(), 1, 1),
+            backend(),
+            &out,
+            &SensitivityOptions::default(),
+        );
+        assert!(matches!(r, Err(SensitivityError::Design(_))), "{r:?}");
+        let r = Design { joints: 9, ..six }.result(
+            ("m".into(), 1, 1),
+            backend(),
+            &out,
+            &SensitivityOptions::default(),
+        );
+        assert!(matches!(r, Err(SensitivityError::Design(_))), "{r:?}");
+    }
 }
