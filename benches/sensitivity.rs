@@ -25,7 +25,7 @@
 
 use gpu_amcs::engine::{CpuEvaluator, Evaluator, PickFreeze, Problem, Reference};
 use gpu_amcs::gpu::{GpuEvaluator, GpuOptions};
-use gpu_amcs::kinematics::{tx60, MAX_UNCERTAIN};
+use gpu_amcs::kinematics::{tx60, MAX_ROBOT_INPUTS};
 use gpu_amcs::mc::sensitivity::{run_outputs, SensitivityOptions, B_DRAW_OFFSET};
 use gpu_amcs::sampling::ALL_NORMALS;
 use std::time::Instant;
@@ -69,11 +69,11 @@ fn pass(ev: &mut dyn Evaluator, pb: &Problem, masks: &[u64], generated: bool) ->
         if generated {
             ev.evaluate_pick_freeze(&request, &mut w).unwrap();
         } else {
-            let n_uncertain = pb.model.layout().n_uncertain();
+            let n_uncertain = pb.model.robot_inputs().len();
             let mut rows = vec![0.0; request.rows() * n_uncertain];
             for (r, row) in rows.chunks_exact_mut(n_uncertain).enumerate() {
                 let (a, b, m) = request.row(r);
-                let mut d = [0.0; MAX_UNCERTAIN];
+                let mut d = [0.0; MAX_ROBOT_INPUTS];
                 pb.sampler
                     .pick_freeze_deltas(a, b, m, &mut d[..n_uncertain]);
                 row.copy_from_slice(&d[..n_uncertain]);
@@ -103,7 +103,7 @@ fn bench(label: &str, ev: &mut dyn Evaluator, pb: &Problem, masks: &[u64], reps:
     }
     let (g, u) = (median(tg), median(tu));
     let per_call = CHUNK * masks.len();
-    let n_uncertain = pb.model.layout().n_uncertain();
+    let n_uncertain = pb.model.robot_inputs().len();
     println!(
         "{label}: {rows} rows ({} matrices × {BASE_SAMPLES}), medians of {reps}: generated {g:.3} s \
          ({:.2e} rows/s), offset matrix {u:.3} s ({:.2e} rows/s), ratio {:.2}; per call: masks {} \

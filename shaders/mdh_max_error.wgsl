@@ -1,7 +1,9 @@
 // Maximum point error of MDH parameter vectors (docs/METHOD.md §3, paper eqs. 12 and 17).
-// Composed after philox.wgsl and a line `const N_JOINTS: u32 = n;` giving the model's joint
-// count (4 to 7; the host compiles one module per count it meets). The counts below are for
-// six joints, the paper's TX60: 30 parameters, 33 inputs, 39 with the placement.
+// Composed after philox.wgsl and the input space's constants, written by the host from its
+// InputSpace (gpu crate, `input_constants`): N_JOINTS (4 to 7; one module per count met),
+// N_PARAMS (the joints block), TOOL_AT (first tool input), N_INPUTS (a row without the
+// placement), PLACEMENT_AT (first placement input) and N_PLACED (a row with it). The counts
+// below are for six joints, the paper's TX60: 30 parameters, 33 inputs, 39 with the placement.
 // One invocation per parameter vector, three entry points that share
 // the kinematics (point_errors):
 //   max_point_error: counter draws first + i,
@@ -66,11 +68,7 @@ struct Chunk {
 @group(0) @binding(9) var<storage, read> masks: array<vec2<u32>>;
 
 const WORDS_PER_POINT: u32 = 2u * N_JOINTS + 1u;
-// Parameters: 5 per joint; then the tool's x, y, z
-const N_PARAMS: u32 = 5u * N_JOINTS;
-const N_INPUTS: u32 = N_PARAMS + 3u;
-// With the base placement: 6 more inputs (base x, y, z, roll, pitch, yaw)
-const N_PLACED: u32 = N_INPUTS + 6u;
+// N_PARAMS, TOOL_AT, N_INPUTS, PLACEMENT_AT and N_PLACED come from the host (see the top).
 // Philox blocks of 4 normals per draw covering the inputs with the placement (10 for six
 // joints, 11 for seven)
 const N_BLOCKS: u32 = (N_PLACED + 3u) / 4u;
@@ -247,10 +245,10 @@ fn placement_step(dv: vec3<f32>, x0: vec3<f32>, d: array<f32, N_PLACED>) -> vec3
     let c = cfg.nfree * cfg.nfree;
     let a_y = vec3<f32>(spread[c], spread[c + 1u], spread[c + 2u]);
     let a_p = vec3<f32>(spread[c + 3u], spread[c + 4u], spread[c + 5u]);
-    let i1 = rot_inc(vec3<f32>(1.0, 0.0, 0.0), d[N_INPUTS + 3u], x0 + dv);
-    let i2 = rot_inc(a_p, d[N_INPUTS + 4u], x0 + dv + i1);
-    let i3 = rot_inc(a_y, d[N_INPUTS + 5u], x0 + dv + i1 + i2);
-    let t = vec3<f32>(d[N_INPUTS], d[N_INPUTS + 1u], d[N_INPUTS + 2u]);
+    let i1 = rot_inc(vec3<f32>(1.0, 0.0, 0.0), d[PLACEMENT_AT + 3u], x0 + dv);
+    let i2 = rot_inc(a_p, d[PLACEMENT_AT + 4u], x0 + dv + i1);
+    let i3 = rot_inc(a_y, d[PLACEMENT_AT + 5u], x0 + dv + i1 + i2);
+    let t = vec3<f32>(d[PLACEMENT_AT], d[PLACEMENT_AT + 1u], d[PLACEMENT_AT + 2u]);
     let rt = vec3<f32>(
         spread[c + 6u] * t.x + spread[c + 7u] * t.y + spread[c + 8u] * t.z,
         spread[c + 9u] * t.x + spread[c + 10u] * t.y + spread[c + 11u] * t.z,
@@ -278,7 +276,7 @@ fn point_errors(i: u32, d: array<f32, N_PLACED>) {
     for (var pj = 0u; pj < m; pj++) {
         let base = pj * WORDS_PER_POINT;
         // Δ_{n+1}: the tool point's offset in the flange frame
-        var dv = vec3<f32>(d[N_PARAMS], d[N_PARAMS + 1u], d[N_PARAMS + 2u]);
+        var dv = vec3<f32>(d[TOOL_AT], d[TOOL_AT + 1u], d[TOOL_AT + 2u]);
         for (var k = 0u; k < N_JOINTS; k++) {
             let j = N_JOINTS - 1u - k;
             dv = joint_step(dv, pts[base + 2u * j], pts[base + 2u * j + 1u], jt[j], jo[j]);

@@ -50,7 +50,7 @@ fn _gpu_amcs(m: &Bound<'_, PyModule>) -> PyResult<()> {
     // `len(Model.param_names)`).
     let six = gpu_amcs_core::kinematics::Layout::SIX;
     m.add("N_PARAMS", six.n_params())?;
-    m.add("N_UNCERTAIN", six.n_uncertain())?;
+    m.add("N_UNCERTAIN", six.robot().len())?;
     m.add_class::<model::PyModel>()?;
     m.add_class::<run::RunResult>()?;
     m.add_function(wrap_pyfunction!(run::mcs, m)?)?;

@@ -3,7 +3,7 @@
 //! own parameter draws. Python sees the model file's units: mm and degrees.
 //!
 //! A model has `n` = 4 to 7 joints; a draw has the model's `5n + 3` uncertain inputs
-//! ([`Layout::n_uncertain`]; 33 for six joints, 38 for seven; docs/METHOD.md §14): the `5n` MDH
+//! ([`InputSpace::robot`]; 33 for six joints, 38 for seven; docs/METHOD.md §14): the `5n` MDH
 //! parameters, then the tool point's x, y, z (mm, flange frame). Every per-input array here
 //! (`param_names`, `params`, `sigma`, `covariance`, `free`, `draws`, the columns of
 //! `max_error`) follows that order, and every shape is the model's own.
@@ -12,7 +12,7 @@ use crate::arrays;
 use crate::errors::{lib_error, value_error};
 use gpu_amcs_core::engine::{BackendChoice, MAX_ANGLE_OFFSET};
 use gpu_amcs_core::kinematics::{
-    param_kind, Layout, RobotModel, Uncertainty, MAX_LENGTH_MM, MAX_UNCERTAIN,
+    Block, InputSpace, RobotModel, Uncertainty, MAX_LENGTH_MM, MAX_ROBOT_INPUTS,
 };
 use gpu_amcs_core::memory::Estimate;
 use gpu_amcs_core::number::fmt_plain;
@@ -29,15 +29,10 @@ use std::path::PathBuf;
 /// overhead of an evaluator call is negligible.
 const ROWS_PER_CALL: usize = 1 << 15;
 
-/// Factor from file units (mm, degrees) to internal units (mm, radians) of input `i` (of the
-/// [`Layout::n_uncertain`] inputs of `lay`).
-fn unit(lay: Layout, i: usize) -> f64 {
-    lay.input_to_internal(i)
-}
-
-/// Whether input `i` of `lay` is an angle (θ, α, β; the tool coordinates are lengths).
-fn is_angle(lay: Layout, i: usize) -> bool {
-    i < lay.n_params() && param_kind(i).is_angle()
+/// Factor from file units (mm, degrees) to internal units (mm, radians) of input `i` of
+/// `space`.
+fn unit(space: InputSpace, i: usize) -> f64 {
+    space.to_internal(i)
 }
 
 /// A robot model of `n` = 4 to 7 joints: the MDH parameters `[θ, d, a, α, β]` of each joint
@@ -53,18 +48,14 @@ pub struct PyModel {
 }
 
 impl PyModel {
-    /// The model's values of its [`Layout::n_uncertain`] inputs in file units (mm, degrees):
+    /// The model's values of its [`RobotModel::robot_inputs`] in file units (mm, degrees):
     /// the `5n` parameters, then the tool point.
     fn input_values(&self) -> Vec<f64> {
-        let lay = self.model.layout();
-        let np = lay.n_params();
-        (0..lay.n_uncertain())
-            .map(|i| {
-                if i < np {
-                    self.model.params[i] / unit(lay, i)
-                } else {
-                    self.model.tool[i - np]
-                }
+        let space = self.model.robot_inputs();
+        (0..space.len())
+            .map(|i| match space.locate(i) {
+                (Block::Tool, k) => self.model.tool[k],
+                _ => self.model.params[i] / unit(space, i),
             })
             .collect()
     }
@@ -90,11 +81,11 @@ pub fn check_memory(
     crate::problem::check_estimate(&crate::problem::memory_budget(memory_limit)?, &e)
 }
 
-/// Which of the [`Layout::n_uncertain`] inputs of `lay` the columns of a `params` matrix hold,
+/// Which of the inputs of `space` the columns of a `params` matrix hold,
 /// as `cols` names them (indices or names); `None` when not given (the matrix's width then
 /// decides: all `5n + 3` in order, or the `5n` parameters with the tool at the model's value).
-fn columns(cols: Option<&Bound<'_, PyAny>>, lay: Layout) -> PyResult<Option<Vec<usize>>> {
-    let nu = lay.n_uncertain();
+fn columns(cols: Option<&Bound<'_, PyAny>>, space: InputSpace) -> PyResult<Option<Vec<usize>>> {
+    let nu = space.len();
     let Some(cols) = cols else {
         return Ok(None);
     };
@@ -104,11 +95,11 @@ fn columns(cols: Option<&Bound<'_, PyAny>>, lay: Layout) -> PyResult<Option<Vec<
         let i = if let Ok(i) = item.extract::<usize>() {
             i
         } else if let Ok(s) = item.extract::<String>() {
-            (0..nu).find(|&i| lay.input_name(i) == s).ok_or_else(|| {
+            space.find(&s).ok_or_else(|| {
                 value_error(format!(
                     "columns[{c}]: unknown input '{s}' (expected theta1 … beta{}, tool_x, \
                      tool_y or tool_z)",
-                    lay.joints()
+                    space.joints()
                 ))
             })?
         } else {
@@ -127,7 +118,7 @@ fn columns(cols: Option<&Bound<'_, PyAny>>, lay: Layout) -> PyResult<Option<Vec<
         if out.contains(&i) {
             return Err(value_error(format!(
                 "columns[{c}]: input {} appears twice",
-                lay.input_name(i)
+                space.name(i)
             )));
         }
         out.push(i);
@@ -138,11 +129,11 @@ fn columns(cols: Option<&Bound<'_, PyAny>>, lay: Layout) -> PyResult<Option<Vec<
     Ok(Some(out))
 }
 
-/// Fills `buf` (`rows × n_uncertain` of `lay`, internal units) with the offsets from the mean
+/// Fills `buf` (`rows × space.len()`, internal units) with the offsets from the mean
 /// of rows `first .. first + rows` of `params`; entries of inputs not in `cols` are 0. Rows are
 /// converted in parallel; an error names the first bad row.
 fn offsets_of(
-    lay: Layout,
+    space: InputSpace,
     params: &numpy::ndarray::ArrayView2<'_, f64>,
     cols: &[usize],
     mean_file: &[f64],
@@ -155,18 +146,12 @@ fn offsets_of(
         let row = params.row(first + r);
         for (c, &p) in cols.iter().enumerate() {
             let v = row[c];
-            let here = || {
-                format!(
-                    "params: row {}, column {c} ({})",
-                    first + r,
-                    lay.input_name(p)
-                )
-            };
+            let here = || format!("params: row {}, column {c} ({})", first + r, space.name(p));
             if !v.is_finite() {
                 return Err(format!("{}: {v} is not a finite number", here()));
             }
             let off = if are_offsets { v } else { v - mean_file[p] };
-            if is_angle(lay, p) && off.abs() > MAX_ANGLE_OFFSET.to_degrees() {
+            if space.is_angle(p) && off.abs() > MAX_ANGLE_OFFSET.to_degrees() {
                 return Err(format!(
                     "{}: {v} deg is {off:.4} deg from the model's value {}; the evaluator \
                      accepts angular offsets up to {:.0} deg",
@@ -177,7 +162,7 @@ fn offsets_of(
             }
             // Lengths within the bound every model file is checked against: beyond it the
             // forward kinematics overflows to inf, never an answer.
-            if !is_angle(lay, p) && off.abs() > MAX_LENGTH_MM {
+            if !space.is_angle(p) && off.abs() > MAX_LENGTH_MM {
                 return Err(format!(
                     "{}: {} mm is {} mm from the model's value {}; lengths may move at \
                      most {} mm",
@@ -188,11 +173,11 @@ fn offsets_of(
                     fmt_plain(MAX_LENGTH_MM),
                 ));
             }
-            out[p] = off * unit(lay, p);
+            out[p] = off * unit(space, p);
         }
         Ok(())
     };
-    let nu = lay.n_uncertain();
+    let nu = space.len();
     let parallel = buf
         .par_chunks_exact_mut(nu)
         .enumerate()
@@ -311,8 +296,7 @@ impl PyModel {
     /// tool_z (`5n + 3`: 33 for six joints, 38 for seven).
     #[getter]
     fn param_names(&self) -> Vec<String> {
-        let lay = self.model.layout();
-        (0..lay.n_uncertain()).map(|i| lay.input_name(i)).collect()
+        self.model.robot_inputs().names()
     }
 
     /// The values of the `5n + 3` inputs (mm, degrees): the `5n` parameters, then the tool
@@ -326,11 +310,9 @@ impl PyModel {
     /// parameters, then the tool's x, y, z (the model file's `tool_sigma`).
     #[getter]
     fn sigma<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
-        let lay = self.model.layout();
+        let space = self.model.robot_inputs();
         let s = self.model.input_sigmas();
-        let v: Vec<f64> = (0..lay.n_uncertain())
-            .map(|i| s[i] / unit(lay, i))
-            .collect();
+        let v: Vec<f64> = (0..space.len()).map(|i| s[i] / unit(space, i)).collect();
         v.into_pyarray(py)
     }
 
@@ -339,11 +321,11 @@ impl PyModel {
     /// variances `tool_sigma²`), else `None`.
     #[getter]
     fn covariance<'py>(&self, py: Python<'py>) -> Option<Bound<'py, PyArray2<f64>>> {
-        let lay = self.model.layout();
-        let nu = lay.n_uncertain();
+        let space = self.model.robot_inputs();
+        let nu = space.len();
         let c = self.model.full_covariance()?;
         let a = Array2::from_shape_fn((nu, nu), |(i, k)| {
-            c[i * nu + k] / (unit(lay, i) * unit(lay, k))
+            c[i * nu + k] / (unit(space, i) * unit(space, k))
         });
         Some(a.into_pyarray(py))
     }
@@ -419,8 +401,9 @@ impl PyModel {
         memory_limit: Option<&Bound<'py, PyAny>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let lay = self.model.layout();
-        let (nu, np) = (lay.n_uncertain(), lay.n_params());
-        let named = self::columns(columns, lay)?;
+        let space = self.model.robot_inputs();
+        let (nu, np) = (space.len(), lay.n_params());
+        let named = self::columns(columns, space)?;
         let (widths, shape) = match &named {
             Some(c) => (vec![c.len()], format!("(N, {})", c.len())),
             None => (vec![nu, np], format!("(N, {nu}) or (N, {np})")),
@@ -457,7 +440,7 @@ impl PyModel {
             for first in (0..n).step_by(ROWS_PER_CALL) {
                 let rows = ROWS_PER_CALL.min(n - first);
                 let buf = &mut buf[..rows * nu];
-                offsets_of(lay, &view, &cols, &mean_file, offsets, first, buf)
+                offsets_of(space, &view, &cols, &mean_file, offsets, first, buf)
                     .map_err(value_error)?;
                 let pp = per_point.then(|| &mut e[first * m..(first + rows) * m]);
                 ev.evaluate_offsets(buf, &mut w[first..first + rows], pp)
@@ -497,8 +480,8 @@ impl PyModel {
             }
             Err(_) => return Err(value_error("n: expected a whole number of draws")),
         };
-        let lay = self.model.layout();
-        let nu = lay.n_uncertain();
+        let space = self.model.robot_inputs();
+        let nu = space.len();
         check_memory(
             memory_limit,
             format!("{n} parameter draws"),
@@ -512,11 +495,11 @@ impl PyModel {
         let mean = self.input_values();
         let out = py.detach(|| {
             let mut out = Array2::zeros((n, nu));
-            let mut d = [0.0; MAX_UNCERTAIN];
+            let mut d = [0.0; MAX_ROBOT_INPUTS];
             for (k, mut row) in out.rows_mut().into_iter().enumerate() {
                 sampler.deltas(first + k as u64, &mut d);
                 for i in 0..nu {
-                    row[i] = mean[i] + d[i] / unit(lay, i);
+                    row[i] = mean[i] + d[i] / unit(space, i);
                 }
             }
             out
@@ -567,7 +550,7 @@ impl PyModel {
             "gpu_amcs.Model('{}', {} free inputs of {}, {form})",
             self.model.name,
             self.model.free_inputs().len(),
-            self.model.layout().n_uncertain()
+            self.model.robot_inputs().len()
         )
     }
 }

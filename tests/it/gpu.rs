@@ -39,8 +39,8 @@ const STANDARDISED_MOMENT_TOL: f64 = 1e-5;
 /// The six-joint TX60's parameter count (30), uncertain inputs (33) and inputs with the
 /// placement (39).
 const N_PARAMS: usize = Layout::SIX.n_params();
-const N_UNCERTAIN: usize = Layout::SIX.n_uncertain();
-const N_WITH_BASE: usize = Layout::SIX.n_with_base();
+const N_UNCERTAIN: usize = 33;
+const N_WITH_BASE: usize = 39;
 
 fn points(model: &RobotModel, n: usize) -> Vec<Joints> {
     gpu_amcs::points::generate(model, n, &Default::default(), 11).expect("points")
@@ -141,7 +141,7 @@ fn correlated_tx60() -> RobotModel {
         c[i * N_PARAMS + j] = rho * s[i] * s[j];
         c[j * N_PARAMS + i] = c[i * N_PARAMS + j];
     }
-    m.uncertainty = Uncertainty::Covariance(c);
+    m.uncertainty = Uncertainty::from_matrix(gpu_amcs::kinematics::InputSpace::parameters(6), c);
     m
 }
 
@@ -157,7 +157,7 @@ fn tool_covariance_tx60() -> RobotModel {
     let mut c = vec![0.0; n * n];
     for i in 0..N_PARAMS {
         for k in 0..N_PARAMS {
-            c[i * n + k] = c30[i * N_PARAMS + k];
+            c[i * n + k] = c30.entry(i, k);
         }
     }
     let ts = [0.003, 0.005, 0.002];
@@ -169,7 +169,7 @@ fn tool_covariance_tx60() -> RobotModel {
         c[t * n + p] = rho * ts[t - N_PARAMS] * s[p];
         c[p * n + t] = c[t * n + p];
     }
-    m.uncertainty = Uncertainty::Covariance(c);
+    m.uncertainty = Uncertainty::from_matrix(gpu_amcs::kinematics::InputSpace::robot(6), c);
     m.tool = [20.0, -35.0, 150.0];
     m.tool_sigma = ts;
     m.check().expect("valid 33 × 33 model");
@@ -276,11 +276,15 @@ fn shaders_validate_with_naga() {
         );
         let constant = |name: &str| shader_constant(&module, name) as usize;
         assert_eq!(constant("N_JOINTS"), joints);
-        assert_eq!(constant("N_INPUTS"), lay.n_uncertain(), "{joints} joints");
-        assert_eq!(constant("N_PLACED"), lay.n_with_base(), "{joints} joints");
+        assert_eq!(constant("N_INPUTS"), lay.robot().len(), "{joints} joints");
+        assert_eq!(
+            constant("N_PLACED"),
+            lay.measured().len(),
+            "{joints} joints"
+        );
         assert_eq!(
             constant("N_BLOCKS"),
-            lay.n_with_base().div_ceil(4),
+            lay.measured().len().div_ceil(4),
             "{joints} joints"
         );
         assert!(constant("N_BLOCKS") * 4 <= gpu_amcs::sampling::MAX_NORMALS);
@@ -777,7 +781,7 @@ fn draw_rows(problem: &Problem, first: u64, n: usize) -> Vec<f64> {
     let width = problem.sampler.n_inputs();
     let mut rows = vec![0.0; n * width];
     for (i, row) in rows.chunks_exact_mut(width).enumerate() {
-        let mut d = [0.0; gpu_amcs::kinematics::MAX_UNCERTAIN];
+        let mut d = [0.0; gpu_amcs::kinematics::MAX_ROBOT_INPUTS];
         problem.sampler.deltas(first + i as u64, &mut d);
         row.copy_from_slice(&d[..width]);
     }
@@ -1205,7 +1209,7 @@ fn seven_joint_models_agree_on_gpu_and_cpu() {
 
     // Correlated, with the tool: a 38 × 38 covariance.
     let lay = m.layout();
-    let n = lay.n_uncertain();
+    let n = lay.robot().len();
     assert_eq!(n, 38);
     let s = m.input_sigmas();
     let mut c = vec![0.0; n * n];
@@ -1214,16 +1218,16 @@ fn seven_joint_models_agree_on_gpu_and_cpu() {
     }
     let ts = [0.003, 0.005, 0.002];
     for (k, t) in ts.iter().enumerate() {
-        c[lay.tool_index(k) * (n + 1)] = t * t;
+        c[(35 + k) * (n + 1)] = t * t;
     }
     // θ2–θ3 and a6–α6 (the seventh joint's neighbours) correlated, the tool with d7.
-    for (i, j, rho) in [(5, 10, 0.7), (27, 28, -0.5), (lay.tool_index(2), 31, 0.4)] {
+    for (i, j, rho) in [(5, 10, 0.7), (27, 28, -0.5), (37, 31, 0.4)] {
         let v = rho * c[i * n + i].sqrt() * c[j * n + j].sqrt();
         c[i * n + j] = v;
         c[j * n + i] = v;
     }
     let mut mc = m.clone();
-    mc.uncertainty = Uncertainty::Covariance(c);
+    mc.uncertainty = Uncertainty::from_matrix(lay.robot(), c);
     mc.tool_sigma = ts;
     mc.check().expect("valid 38 × 38 model");
     let pbc = Problem::new(mc, &pts, &Reference::Calibrated, 78).expect("problem");

@@ -126,7 +126,7 @@ fn indefinite_covariance_names_the_model_file_and_field() {
     // Correlation 1.5 between θ1 and d1: symmetric, right diagonal, no Cholesky factor.
     c[1] = 1.5 * s0[0] * s0[1];
     c[N_PARAMS] = c[1];
-    m.uncertainty = Uncertainty::Covariance(c);
+    m.uncertainty = Uncertainty::from_matrix(gpu_amcs::kinematics::InputSpace::parameters(6), c);
     let f = write(&d, "m.toml", &m.to_toml());
     let pts = write(&d, "p.csv", "q1,q2,q3,q4,q5,q6\n0,0,0,0,0,0\n");
     for extra in [&[][..], &["--points-file", s(&pts)][..]] {

@@ -9,8 +9,8 @@ use gpu_amcs::mc::tail::{run_tail, TailOptions};
 use gpu_amcs::sampling::{Philox, ALL_NORMALS};
 
 /// The six-joint TX60's uncertain inputs (33) and inputs with the placement (39).
-const N_UNCERTAIN: usize = Layout::SIX.n_uncertain();
-const N_WITH_BASE: usize = Layout::SIX.n_with_base();
+const N_UNCERTAIN: usize = 33;
+const N_WITH_BASE: usize = 39;
 
 const POINTS: [[f64; 6]; 3] = [
     [10.0, -20.0, 90.0, 0.0, 30.0, 0.0],
@@ -33,7 +33,7 @@ fn placed(c: Vec<f64>) -> RobotModel {
         xyz: [2000.0, 100.0, 0.0],
         rpy: [0.05, -0.02, 1.2],
     });
-    m.uncertainty = Uncertainty::Covariance(c);
+    m.uncertainty = Uncertainty::from_matrix(Layout::SIX.measured(), c);
     m
 }
 

@@ -6,7 +6,7 @@
 use crate::common::{self, run, tmpdir};
 use gpu_amcs::engine::CpuEvaluator;
 use gpu_amcs::identify::chain::{identify_chain, nominal_state, ChainOptions, MeasuredPoint};
-use gpu_amcs::identify::chain_fit::{default_free, fit_input_is_angle, ChainState};
+use gpu_amcs::identify::chain_fit::{default_free, ChainState};
 use gpu_amcs::identify::NoiseModel;
 use gpu_amcs::kinematics::{tx60, Joints, RobotModel};
 use gpu_amcs::plan::{plan, predict, prediction_problem, Plan, PlanOptions};
@@ -28,7 +28,7 @@ fn truth(nominal: &RobotModel, seed: u64) -> ChainState {
     let lay = nominal.layout();
     for i in default_free(&nominal.fixed, true) {
         if i < lay.n_params() {
-            let size = if fit_input_is_angle(lay, i) {
+            let size = if lay.measured().is_angle(i) {
                 0.01f64.to_radians()
             } else {
                 0.2

@@ -259,7 +259,7 @@ fn covariance(s: &[f64], corr: &[(usize, usize, f64)]) -> Uncertainty {
         c[i * N_PARAMS + j] = rho * s[i] * s[j];
         c[j * N_PARAMS + i] = rho * s[i] * s[j];
     }
-    Uncertainty::Covariance(c)
+    Uncertainty::from_matrix(gpu_amcs::kinematics::InputSpace::parameters(6), c)
 }
 
 /// σ(θ1) = 5e-5 rad (0.03 mm at 600 mm) and σ(d1) = 0.03 mm: both matter.

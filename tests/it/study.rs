@@ -9,7 +9,7 @@ use common::*;
 
 /// The six-joint TX60's parameter count (30) and uncertain inputs (33).
 const N_PARAMS: usize = Layout::SIX.n_params();
-const N_UNCERTAIN: usize = Layout::SIX.n_uncertain();
+const N_UNCERTAIN: usize = 33;
 
 /// Well-formed SVG with at least one curve.
 fn check_xml(text: &str, name: &str) {
@@ -228,7 +228,8 @@ fn simulated_sweeps_identify_and_calibrate_writes_a_covariance_model() {
     };
     // The tracker target varies between the runs: 33 rows, the parameters then the tool.
     let n = N_UNCERTAIN;
-    assert_eq!(c.len(), n * n);
+    assert_eq!(c.dim(), n);
+    assert_eq!(c.space().block_names(), ["joints", "tool"]);
     assert!(m.tool_uncertain(), "the tool's run-to-run σ is estimated");
     // the written model is usable by the main job
     let o = run(&[

@@ -537,7 +537,7 @@ fn diagonal_covariance_equals_sigma_list() {
     for i in 0..N_PARAMS {
         c[i * N_PARAMS + i] = s[i] * s[i];
     }
-    mc.uncertainty = Uncertainty::Covariance(c);
+    mc.uncertainty = Uncertainty::from_matrix(gpu_amcs::kinematics::InputSpace::parameters(6), c);
     let opts = subset(vec![0.2], 500, 0.9, 20_000);
     let a = run_cpu(&problem(m, 10, 3), &opts);
     let b = run_cpu(&problem(mc, 10, 3), &opts);

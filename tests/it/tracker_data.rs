@@ -280,23 +280,23 @@ fn predicted_sigma(
     file: &RobotModel,
     f: &dyn Fn(&gpu_amcs::identify::chain_fit::ChainState) -> f64,
 ) -> f64 {
-    use gpu_amcs::identify::chain_fit::{fit_input_is_angle, n_fit_inputs};
-    let lay = file.layout();
-    let n = n_fit_inputs(lay);
+    let space = file.layout().measured();
+    let n = space.len();
     let gpu_amcs::kinematics::Uncertainty::Covariance(cov) = &file.uncertainty else {
         panic!("an identified model carries a covariance")
     };
-    assert_eq!(cov.len(), n * n);
+    assert_eq!(
+        cov.space(),
+        space,
+        "the identified model's covariance names its blocks"
+    );
+    let cov = cov.matrix();
     let grad: Vec<f64> = (0..n)
         .map(|i| {
             if cov[i * n + i] == 0.0 {
                 return 0.0;
             }
-            let h = if fit_input_is_angle(lay, i) {
-                1e-7
-            } else {
-                1e-4
-            };
+            let h = if space.is_angle(i) { 1e-7 } else { 1e-4 };
             let (mut a, mut b) = (r.state, r.state);
             a.set(i, a.get(i) + h);
             b.set(i, b.get(i) - h);
@@ -612,7 +612,7 @@ fn placement_draws_have_their_closed_forms() {
     let s = 0.01;
     let mut c = vec![0.0; n * n];
     c[33 * n + 33] = s * s;
-    m.uncertainty = Uncertainty::Covariance(c);
+    m.uncertainty = Uncertainty::from_matrix(gpu_amcs::kinematics::InputSpace::measured(6), c);
     m.tool_sigma = [0.0; 3];
     let pts = [
         [10.0, -20.0, 90.0, 0.0, 30.0, 0.0],
@@ -637,7 +637,8 @@ fn placement_draws_have_their_closed_forms() {
         c[i * n + i] = 1e-6;
     }
     c[33 * n + 33] = 0.0;
-    m.uncertainty = Uncertainty::Covariance(c.clone());
+    m.uncertainty =
+        Uncertainty::from_matrix(gpu_amcs::kinematics::InputSpace::measured(6), c.clone());
     m.tool_sigma = [0.0, 1e-3, 0.0];
     let pb = Problem::new(m.clone(), &pts, &Reference::Calibrated, 3).unwrap();
     assert!(
@@ -646,7 +647,7 @@ fn placement_draws_have_their_closed_forms() {
     );
     // A tiny placement spread keeps the first 33 inputs' draws: compare with the 33 × 33 model.
     c[35 * n + 35] = 1e-30;
-    m.uncertainty = Uncertainty::Covariance(c);
+    m.uncertainty = Uncertainty::from_matrix(gpu_amcs::kinematics::InputSpace::measured(6), c);
     let pb = Problem::new(m.clone(), &pts, &Reference::Calibrated, 3).unwrap();
     let spread = PlacementSpread::of(&pb).unwrap().unwrap();
     let mut a = PlacementEvaluator::new(pb.clone(), spread);

@@ -61,7 +61,7 @@ impl GpuEvaluator {
         let chunk = opts.chunk.max(1).min(ctx.max_chunk()).max(1);
         let by_bytes = ctx.max_binding_words();
         // Rows of any model fit: the widest row has MAX_WITH_BASE entries.
-        let chunk_o = chunk.min((by_bytes / gpu_amcs_core::kinematics::MAX_WITH_BASE).max(1));
+        let chunk_o = chunk.min((by_bytes / gpu_amcs_core::kinematics::MAX_INPUTS).max(1));
         let kernels = ctx.kernels(problem.model.joints())?;
         let problem_bufs = ProblemBuffers::new(gpu, problem);
         let timestamps = opts.timestamps && gpu.timestamps;
@@ -467,11 +467,11 @@ impl Evaluator for GpuEvaluator {
         self.problem.layout
     }
 
-    fn offset_width(&self) -> usize {
+    fn offset_space(&self) -> gpu_amcs_core::kinematics::InputSpace {
         if self.problem.placed {
-            self.problem.layout.n_with_base()
+            self.problem.layout.measured()
         } else {
-            self.problem.layout.n_uncertain()
+            self.problem.layout.robot()
         }
     }
 

@@ -97,10 +97,44 @@ pub mod binding {
     pub const MASKS: u32 = 9;
 }
 
-/// The evaluator shader for an `joints`-joint model: [`PHILOX_WGSL`], the joint count as the
-/// constant `N_JOINTS`, then [`MDH_WGSL`].
+/// The evaluator shader for an `joints`-joint model: [`PHILOX_WGSL`], the input space's
+/// constants ([`input_constants`]), then [`MDH_WGSL`].
+///
+/// # Panics
+///
+/// When `joints` is not 4 to 7 (a model has been checked before).
 pub fn shader_source(joints: usize) -> String {
-    format!("{PHILOX_WGSL}\nconst N_JOINTS: u32 = {joints}u;\n{MDH_WGSL}")
+    format!("{PHILOX_WGSL}\n{}{MDH_WGSL}", input_constants(joints))
+}
+
+/// The WGSL constants that say where each block of a draw's inputs lies, read from the
+/// [`InputSpace`](gpu_amcs_core::kinematics::InputSpace) of an `joints`-joint model: the joint
+/// count, then for each block its first position in an offset row (`*_AT`) and the widths of the
+/// robot's row (`N_INPUTS`) and of a row with the placement (`N_PLACED`). The shader declares
+/// none of them itself, so its layout cannot drift from the host's.
+///
+/// # Panics
+///
+/// When `joints` is not 4 to 7.
+pub fn input_constants(joints: usize) -> String {
+    use gpu_amcs_core::kinematics::{Block, InputSpace};
+    let (robot, measured) = (InputSpace::robot(joints), InputSpace::measured(joints));
+    let at = |b: Block| measured.range(b).map_or(0, |r| r.start);
+    // Rows without the placement are the measured rows' first inputs: the same positions.
+    debug_assert!(robot.blocks().all(|b| robot.range(b) == measured.range(b)));
+    format!(
+        "const N_JOINTS: u32 = {joints}u;\n\
+         const N_PARAMS: u32 = {}u;\n\
+         const TOOL_AT: u32 = {}u;\n\
+         const N_INPUTS: u32 = {}u;\n\
+         const PLACEMENT_AT: u32 = {}u;\n\
+         const N_PLACED: u32 = {}u;\n",
+        Block::Joints.len(joints),
+        at(Block::Tool),
+        robot.len(),
+        at(Block::Placement),
+        measured.len(),
+    )
 }
 
 /// The Philox test shader: [`PHILOX_WGSL`] followed by [`PHILOX_KAT_WGSL`].

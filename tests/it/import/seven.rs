@@ -16,7 +16,7 @@ fn lbr_iiwa_imports_as_a_seven_joint_model() {
     let imp = import(&write(&dir, "iiwa14.csv", &iiwa_csv())).unwrap();
     let m = &imp.model;
     assert_eq!(m.joints(), 7);
-    assert_eq!(m.layout().n_uncertain(), 38);
+    assert_eq!(m.robot_inputs().len(), 38);
     assert!(imp.max_deviation_mm < 1e-9, "{}", imp.max_deviation_mm);
     let dev = max_dev(m, |q| dh_standard(&IIWA, q));
     assert!(dev < 1e-9, "{dev}");

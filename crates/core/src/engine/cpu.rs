@@ -19,7 +19,9 @@
 //! `δ_tool = 0` and `p_tool + 0 = p_tool` exactly, so the results keep their bits.
 
 use super::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
-use crate::kinematics::{param_index, Capped, ParamKind, MAX_JOINTS, MAX_UNCERTAIN};
+use crate::kinematics::{
+    param_index, Block, Capped, InputSpace, ParamKind, MAX_JOINTS, MAX_ROBOT_INPUTS,
+};
 use rayon::prelude::*;
 
 /// Draws per vector block.
@@ -42,7 +44,7 @@ struct PointPre {
 type JointLanes = [[[f64; LANES]; 8]; MAX_JOINTS];
 
 /// Offsets of a block of lanes: `d[input][lane]`, the model's inputs first (zero beyond).
-type OffsetLanes = [[f64; LANES]; MAX_UNCERTAIN];
+type OffsetLanes = [[f64; LANES]; MAX_ROBOT_INPUTS];
 
 /// Where the parameter offsets δ of a range of evaluations come from.
 #[derive(Clone, Copy)]
@@ -75,7 +77,7 @@ impl<'a> Source<'a> {
         match self {
             Source::Draws(k) => sampler.deltas_lanes::<LANES>(k, d),
             Source::Offsets(rows, width) => {
-                *d = [[0.0; LANES]; MAX_UNCERTAIN];
+                *d = [[0.0; LANES]; MAX_ROBOT_INPUTS];
                 for (l, row) in rows.chunks_exact(width).take(LANES).enumerate() {
                     for i in 0..width {
                         d[i][l] = row[i];
@@ -129,15 +131,16 @@ struct PlacementLanes {
     /// `R̂ᵀ`, row-major.
     r_mean_t: [[f64; 3]; 3],
     gen: crate::sampling::Philox,
-    /// Number of inputs before the placement's.
-    n_inputs: usize,
+    /// The normal slot of the placement's first input ([`InputSpace::slot_range`]).
+    first_slot: usize,
 }
 
 impl PlacementLanes {
     fn new(problem: &Problem) -> Option<PlacementLanes> {
         let sp = super::PlacementSpread::of(problem).ok()??;
         let p = sp.free.len();
-        let nu = sp.layout.n_uncertain();
+        // The placement's inputs follow the robot's (positions and slots alike).
+        let nu = sp.space.range(Block::Placement)?.start;
         let na = sp.free.iter().filter(|&&i| i < nu).count();
         let l = nalgebra::DMatrix::from_fn(p, p, |a, b| sp.chol[a * p + b]);
         let laa = l.view((0, 0), (na, na)).into_owned();
@@ -160,7 +163,10 @@ impl PlacementLanes {
                 lbb.push((ib - nu, ib2 - nu, l[(na + kb, na + kb2)]));
             }
         }
-        let mut blocks: Vec<u32> = sp.free[na..].iter().map(|&i| (i / 4) as u32).collect();
+        let mut blocks: Vec<u32> = sp.free[na..]
+            .iter()
+            .map(|&i| (sp.space.slot(i) / 4) as u32)
+            .collect();
         blocks.dedup();
         let rt =
             nalgebra::Rotation3::from_euler_angles(sp.base[3], sp.base[4], sp.base[5]).inverse();
@@ -171,7 +177,7 @@ impl PlacementLanes {
             base: sp.base,
             r_mean_t: std::array::from_fn(|r| std::array::from_fn(|c| rt[(r, c)])),
             gen: crate::sampling::Philox::new(problem.seed),
-            n_inputs: nu,
+            first_slot: sp.space.slot_range(Block::Placement).start,
         })
     }
 
@@ -192,7 +198,7 @@ impl PlacementLanes {
                 db[kb] += v * d[i][l];
             }
             for &(kb, kb2, v) in &self.lbb {
-                db[kb] += v * z[self.n_inputs + kb2];
+                db[kb] += v * z[self.first_slot + kb2];
             }
             let r = nalgebra::Rotation3::from_euler_angles(
                 self.base[3] + db[3],
@@ -371,15 +377,21 @@ impl CpuEvaluator {
     fn eval_chunk_impl(&self, src: Source, w: &mut [f64], mut e: Option<&mut [f64]>) {
         let m = self.points.len();
         let mut jl: JointLanes = [[[0.0; LANES]; 8]; MAX_JOINTS];
-        let mut d: OffsetLanes = [[0.0; LANES]; MAX_UNCERTAIN];
-        let np = self.problem.sampler.n_params();
+        let mut d: OffsetLanes = [[0.0; LANES]; MAX_ROBOT_INPUTS];
+        // Block::Tool: the point the flange carries (Block::Joints fill the link lanes).
+        let tp = self
+            .problem
+            .sampler
+            .space()
+            .range(Block::Tool)
+            .map_or(0, |r| r.start);
         let mut e_lanes = vec![0.0; if e.is_some() { LANES * m } else { 0 }];
         for (b, wb) in w.chunks_mut(LANES).enumerate() {
             src.skip(b * LANES).lanes(&self.problem.sampler, &mut d);
             self.fill_lanes(&d, &mut jl);
             let tool = &self.problem.model.tool;
             let tl: [[f64; LANES]; 3] =
-                std::array::from_fn(|k| std::array::from_fn(|l| tool[k] + d[np + k][l]));
+                std::array::from_fn(|k| std::array::from_fn(|l| tool[k] + d[tp + k][l]));
             let mut w2 = [0.0f64; LANES];
             let el = if e.is_some() {
                 Some(e_lanes.as_mut_slice())
@@ -555,10 +567,10 @@ impl Evaluator for CpuEvaluator {
         self.problem.model.layout()
     }
 
-    fn offset_width(&self) -> usize {
+    fn offset_space(&self) -> InputSpace {
         match &self.exact {
-            Some(ev) => ev.offset_width(),
-            None => self.problem.model.layout().n_uncertain(),
+            Some(ev) => ev.offset_space(),
+            None => self.problem.sampler.space(),
         }
     }
 

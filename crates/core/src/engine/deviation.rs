@@ -182,7 +182,7 @@ impl SpreadPacking {
             }
             (None, None) => SpreadPacking {
                 correlated: false,
-                spread: vec![0.0; problem.model.layout().n_uncertain()],
+                spread: vec![0.0; sampler.n_inputs()],
                 free: vec![0],
                 block_mask,
                 placement: false,

@@ -23,7 +23,7 @@
 //! * **Counter draws** ([`Evaluator::evaluate`]): draws `first … first + n − 1` of the run's
 //!   Philox stream (`docs/METHOD.md §6`), generated inside the
 //!   backend, so a batch costs no host-to-device traffic. This is what AMCS and MCS use.
-//! * **Explicit offsets** ([`Evaluator::evaluate_offsets`]): an `n ×` [`Layout::n_uncertain`] row-major
+//! * **Explicit offsets** ([`Evaluator::evaluate_offsets`]): an `n ×` [`InputSpace::robot`] row-major
 //!   matrix of deviations `δ = μ − μ̄` from the model's values, in internal units (mm,
 //!   radians): the 30 parameters, then the tool point's x, y, z in the flange frame (mm). This is the extension point for methods whose parameter vectors are not i.i.d.
 //!   draws: pick-freeze matrices for Sobol indices, MCMC states for subset simulation, extra
@@ -57,7 +57,7 @@ pub use cpu::CpuEvaluator;
 pub use placement::{Frame, PlacementEvaluator, PlacementSpread};
 pub use problem::{Problem, ProblemError, Reference};
 
-use crate::kinematics::{param_kind, Layout};
+use crate::kinematics::{InputSpace, Layout};
 use crate::sampling::{Philox, ALL_NORMALS, MAX_NORMALS};
 
 /// Largest accepted angular offset (θ, α, β) in an offset matrix, radians: a quarter turn.
@@ -170,12 +170,18 @@ pub trait Evaluator: Send {
         Layout::SIX
     }
 
-    /// Entries per row of [`Evaluator::evaluate_offsets`]: [`Layout::n_uncertain`], or
-    /// [`Layout::n_with_base`] for an evaluator that draws the model's uncertain base placement
-    /// (the six placement offsets x, y, z in mm and roll, pitch, yaw in radians follow the
-    /// other inputs).
+    /// The inputs of a row of [`Evaluator::evaluate_offsets`]: the robot's
+    /// ([`InputSpace::robot`]), or those and the placement ([`InputSpace::measured`]) for an
+    /// evaluator that draws the model's uncertain base placement (x, y, z in mm and roll, pitch,
+    /// yaw in radians after the other inputs).
+    fn offset_space(&self) -> InputSpace {
+        self.layout().robot()
+    }
+
+    /// Entries per row of [`Evaluator::evaluate_offsets`]: the length of
+    /// [`Evaluator::offset_space`].
     fn offset_width(&self) -> usize {
-        self.layout().n_uncertain()
+        self.offset_space().len()
     }
 
     /// Backend part of [`Evaluator::evaluate_offsets`]: `offsets` has `w.len() ·`
@@ -256,7 +262,7 @@ pub trait Evaluator: Send {
 
     /// Fills `w[i]` with `w` of the parameter vector and tool point `μ̄ + offsets[i·W ..][..W]`
     /// (μ̄ the model's values; mm and radians; for six joints entries 30–32 move the tool point
-    /// in the flange frame, and with W = [`Layout::n_with_base`] entries 33–38 the base
+    /// in the flange frame, and with [`InputSpace::measured`] rows entries 33–38 the base
     /// placement; 35–37 and 38–43 for seven joints) and, if given,
     /// `per_point[i·m + j]` with its `e_j`. W is [`Evaluator::offset_width`].
     ///
@@ -273,7 +279,7 @@ pub trait Evaluator: Send {
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
-        check_offsets(self.layout(), offsets, w.len(), self.offset_width())?;
+        check_offsets(self.offset_space(), offsets, w.len())?;
         check_buffers(self.n_points(), w, per_point.as_deref())?;
         self.eval_offsets(offsets, w, per_point)
     }
@@ -358,12 +364,8 @@ fn check_buffers(m: usize, w: &[f64], per_point: Option<&[f64]>) -> Result<(), E
 }
 
 /// Checks an offset matrix of `rows` rows: its length, finiteness, and the angle bound.
-fn check_offsets(
-    lay: Layout,
-    offsets: &[f64],
-    rows: usize,
-    width: usize,
-) -> Result<(), EngineError> {
+fn check_offsets(space: InputSpace, offsets: &[f64], rows: usize) -> Result<(), EngineError> {
+    let width = space.len();
     let expected = rows * width;
     if offsets.len() != expected {
         return Err(EngineError::OffsetsShape {
@@ -374,8 +376,7 @@ fn check_offsets(
     }
     for (x, &v) in offsets.iter().enumerate() {
         let (row, p) = (x / width, x % width);
-        // The placement's roll, pitch and yaw (inputs 36–38 of six joints) are angles too.
-        let angle = (p < lay.n_params() && param_kind(p).is_angle()) || p >= lay.n_uncertain() + 3;
+        let angle = space.is_angle(p);
         let message = if !v.is_finite() {
             format!("{v} is not finite")
         } else if angle && v.abs() > MAX_ANGLE_OFFSET {
@@ -385,7 +386,7 @@ fn check_offsets(
         };
         return Err(EngineError::BadOffset {
             row,
-            param: lay.input_name(p),
+            param: space.name(p),
             message,
         });
     }
@@ -445,8 +446,8 @@ mod tests {
     use super::*;
     const L6: Layout = Layout::SIX;
     const NP: usize = L6.n_params();
-    const NU: usize = L6.n_uncertain();
-    const NB: usize = L6.n_with_base();
+    const NU: usize = 33;
+    const NB: usize = 39;
 
     fn scalar() -> FnEvaluator<impl Fn(&Philox, u64) -> f64 + Send + Sync> {
         FnEvaluator::new(1, |_: &Philox, k: u64| k as f64)
@@ -524,8 +525,8 @@ mod tests {
 
     #[test]
     fn offset_matrices_are_checked() {
-        assert!(check_offsets(L6, &[0.0; 3 * NU], 3, NU).is_ok());
-        match check_offsets(L6, &[0.0; 3 * NU - 1], 3, NU) {
+        assert!(check_offsets(L6.robot(), &[0.0; 3 * NU], 3).is_ok());
+        match check_offsets(L6.robot(), &[0.0; 3 * NU - 1], 3) {
             Err(EngineError::OffsetsShape {
                 rows,
                 expected,
@@ -535,7 +536,7 @@ mod tests {
         }
         let mut m = vec![0.0; 2 * NU];
         m[NU + NP + 2] = f64::NAN; // row 1, tool z
-        match check_offsets(L6, &m, 2, NU) {
+        match check_offsets(L6.robot(), &m, 2) {
             Err(EngineError::BadOffset { row, param, .. }) => {
                 assert_eq!((row, param.as_str()), (1, "tool_z"))
             }
@@ -543,16 +544,16 @@ mod tests {
         }
         m[NU + NP + 2] = 2.0; // a tool offset is a length: no angle bound
         m[NU + 7] = f64::NAN; // row 1, a of joint 2
-        match check_offsets(L6, &m, 2, NU) {
+        match check_offsets(L6.robot(), &m, 2) {
             Err(EngineError::BadOffset { row, param, .. }) => {
                 assert_eq!((row, param.as_str()), (1, "a2"))
             }
             r => panic!("{r:?}"),
         }
         m[NU + 7] = 1e3; // lengths have no bound
-        assert!(check_offsets(L6, &m, 2, NU).is_ok());
+        assert!(check_offsets(L6.robot(), &m, 2).is_ok());
         m[3] = -2.0; // α1 beyond a quarter turn
-        match check_offsets(L6, &m, 2, NU) {
+        match check_offsets(L6.robot(), &m, 2) {
             Err(EngineError::BadOffset {
                 row,
                 param,
@@ -565,17 +566,17 @@ mod tests {
         }
         m[3] = f64::INFINITY;
         assert!(matches!(
-            check_offsets(L6, &m, 2, NU),
+            check_offsets(L6.robot(), &m, 2),
             Err(EngineError::BadOffset { .. })
         ));
         // Rows with the placement: 39 entries, the base's angles bounded, its lengths not.
         let mut p = vec![0.0; 2 * NB];
-        assert!(check_offsets(L6, &p, 2, NB).is_ok());
-        assert!(check_offsets(L6, &p, 2, NU).is_err());
+        assert!(check_offsets(L6.measured(), &p, 2).is_ok());
+        assert!(check_offsets(L6.robot(), &p, 2).is_err());
         p[NB + NU] = 500.0; // row 1, base x
-        assert!(check_offsets(L6, &p, 2, NB).is_ok());
+        assert!(check_offsets(L6.measured(), &p, 2).is_ok());
         p[NB + NU + 5] = 2.0; // row 1, base yaw
-        match check_offsets(L6, &p, 2, NB) {
+        match check_offsets(L6.measured(), &p, 2) {
             Err(EngineError::BadOffset { row, param, .. }) => {
                 assert_eq!((row, param.as_str()), (1, "base_yaw"))
             }

@@ -21,7 +21,9 @@
 //! one.
 
 use super::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
-use crate::kinematics::{position_with_trig, twist_trig, Layout, Params, MAX_WITH_BASE};
+use crate::kinematics::{
+    position_with_trig, twist_trig, Block, InputSpace, Layout, Params, MAX_INPUTS,
+};
 use crate::sampling::{normals_block, Philox, MAX_NORMALS, PARAM_STREAM};
 use nalgebra::{Matrix3, Rotation3, Vector3};
 use rayon::prelude::*;
@@ -73,9 +75,10 @@ impl Problem {
 /// placement.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PlacementSpread {
-    /// How the inputs are laid out (the model's joint count).
-    pub layout: Layout,
-    /// Inputs (of [`Layout::n_with_base`]) with nonzero variance.
+    /// The inputs drawn: the robot's and the placement ([`InputSpace::measured`]). Their normal
+    /// slots are their positions ([`InputSpace::slot`]).
+    pub space: InputSpace,
+    /// Inputs (positions in [`Self::space`]) with nonzero variance.
     pub free: Vec<usize>,
     /// Lower Cholesky factor of their covariance, row-major.
     pub chol: Vec<f64>,
@@ -95,8 +98,11 @@ impl PlacementSpread {
         if !m.base_uncertain() {
             return Ok(None);
         }
-        let n = m.layout().n_with_base();
-        let c = |i: usize, k: usize| m.uncertainty.entry(i, k);
+        let space = m.layout().measured();
+        debug_assert!((0..space.len()).all(|i| space.slot(i) == i));
+        let n = space.len();
+        let cov = m.covariance_in(space);
+        let c = |i: usize, k: usize| cov[i * n + k];
         let free: Vec<usize> = (0..n).filter(|&i| c(i, i) > 0.0).collect();
         let p = free.len();
         let sub = nalgebra::DMatrix::from_fn(p, p, |a, b| c(free[a], free[b]));
@@ -110,27 +116,21 @@ impl PlacementSpread {
             .map(|b| [b.xyz[0], b.xyz[1], b.xyz[2], b.rpy[0], b.rpy[1], b.rpy[2]])
             .unwrap_or([0.0; 6]);
         Ok(Some(PlacementSpread {
-            layout: m.layout(),
+            space,
             free,
             chol: (0..p * p).map(|x| l[(x / p, x % p)]).collect(),
             base,
         }))
     }
 
-    /// The offsets of draw `k` (internal units; [`Layout::n_with_base`] of them, zero beyond).
-    pub fn deltas(&self, gen: &Philox, k: u64) -> [f64; MAX_WITH_BASE] {
+    /// The offsets of draw `k` (internal units; one per input of [`Self::space`], zero beyond).
+    pub fn deltas(&self, gen: &Philox, k: u64) -> [f64; MAX_INPUTS] {
         self.pick_freeze_deltas(gen, k, k, 0)
     }
 
     /// The offsets of a pick-freeze row: normal `i` from draw `b` where bit `i` of `mask` is
     /// set, from draw `a` elsewhere (mask 0 is draw `a` itself, as [`Self::deltas`]).
-    pub fn pick_freeze_deltas(
-        &self,
-        gen: &Philox,
-        a: u64,
-        b: u64,
-        mask: u64,
-    ) -> [f64; MAX_WITH_BASE] {
+    pub fn pick_freeze_deltas(&self, gen: &Philox, a: u64, b: u64, mask: u64) -> [f64; MAX_INPUTS] {
         let mut z = [0.0; MAX_NORMALS];
         let mut done = [false; MAX_NORMALS / 4];
         for &i in &self.free {
@@ -154,8 +154,8 @@ impl PlacementSpread {
     }
 
     /// The offsets `δ_free[a] = Σ_{b ≤ a} L[a][b] z[free[b]]` of the normals `z`.
-    fn offsets_of_normals(&self, z: &[f64; MAX_NORMALS]) -> [f64; MAX_WITH_BASE] {
-        let mut d = [0.0; MAX_WITH_BASE];
+    fn offsets_of_normals(&self, z: &[f64; MAX_NORMALS]) -> [f64; MAX_INPUTS] {
+        let mut d = [0.0; MAX_INPUTS];
         let p = self.free.len();
         for a in 0..p {
             let mut acc = 0.0;
@@ -204,11 +204,15 @@ impl PlacementEvaluator {
     /// the placement's six; internal units) into `e`; returns their maximum `w`.
     pub fn errors_of(&self, d: &[f64], e: &mut [f64]) -> f64 {
         let m = &self.problem.model;
-        let lay = self.spread.layout;
-        let params = Params::from_fn(lay.n_params(), |i| m.params[i] + d[i]);
-        let tool: [f64; 3] = std::array::from_fn(|i| m.tool[i] + d[lay.tool_index(i)]);
+        let sp = self.spread.space;
+        let at = |b: Block| sp.range(b).map_or(0, |r| r.start);
+        // Block::Joints: the link transforms.
+        let params = Params::from_fn(m.params.len(), |i| m.params[i] + d[at(Block::Joints) + i]);
+        // Block::Tool: the point the flange carries.
+        let tool: [f64; 3] = std::array::from_fn(|i| m.tool[i] + d[at(Block::Tool) + i]);
+        // Block::Placement: the base transform.
         let b = &self.spread.base;
-        let drawn: [f64; 6] = std::array::from_fn(|i| b[i] + d[lay.base_index(i)]);
+        let drawn: [f64; 6] = std::array::from_fn(|i| b[i] + d[at(Block::Placement) + i]);
         // ΔB = B̂⁻¹ B': rotation R̂ᵀR', translation R̂ᵀ(t' − t̂).
         let dr = self.r_mean_t * rotation(&drawn[3..]);
         let dt = self.r_mean_t * Vector3::new(drawn[0] - b[0], drawn[1] - b[1], drawn[2] - b[2]);
@@ -232,7 +236,7 @@ impl PlacementEvaluator {
     /// `w` (and, when `per_point` is given, every `e_j`) of row `i` of `rows`, in parallel.
     fn eval_rows(
         &self,
-        rows: impl Fn(usize) -> [f64; MAX_WITH_BASE] + Sync,
+        rows: impl Fn(usize) -> [f64; MAX_INPUTS] + Sync,
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) {
@@ -279,11 +283,11 @@ impl Evaluator for PlacementEvaluator {
     }
 
     fn layout(&self) -> Layout {
-        self.spread.layout
+        Layout::new(self.spread.space.joints())
     }
 
-    fn offset_width(&self) -> usize {
-        self.spread.layout.n_with_base()
+    fn offset_space(&self) -> InputSpace {
+        self.spread.space
     }
 
     fn eval_offsets(
@@ -292,8 +296,8 @@ impl Evaluator for PlacementEvaluator {
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
-        let nb = self.spread.layout.n_with_base();
-        let row = |i: usize| -> [f64; MAX_WITH_BASE] {
+        let nb = self.spread.space.len();
+        let row = |i: usize| -> [f64; MAX_INPUTS] {
             std::array::from_fn(|p| if p < nb { offsets[i * nb + p] } else { 0.0 })
         };
         self.eval_rows(row, w, per_point);

@@ -5,9 +5,8 @@
 //! linearisation (GUM Supplement 2 style).
 
 use super::chain_fit::{
-    base_input, default_free, fit, fit_input_index, fit_input_is_angle, fit_input_name,
-    fit_input_to_report, initial_state, jacobian, n_fit_inputs, position_residuals, residuals,
-    ChainState, Observation, Prior,
+    default_free, fit, initial_state, jacobian, position_residuals, residuals, ChainState,
+    Observation, Prior,
 };
 use super::identifiability::{
     advice, analyse, fix_null_directions, Identifiability, CONDITION_LIMIT,
@@ -15,7 +14,7 @@ use super::identifiability::{
 use super::noise::{chi2_upper_tail, NoiseModel};
 use super::pipeline::NominalPrior;
 use super::IdentifyError;
-use crate::kinematics::{Joints, RobotModel, Uncertainty};
+use crate::kinematics::{Block, InputSpace, Joints, RobotModel, Uncertainty};
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use rand::SeedableRng;
 use serde::Serialize;
@@ -164,13 +163,14 @@ pub struct ChainReport {
     pub warnings: Vec<String>,
 }
 
-/// The result: values, covariance over all [`n_fit_inputs`] inputs (internal units, zero rows
-/// for fixed inputs) and the report.
+/// The result: values, covariance over all fit inputs ([`ChainState::space`]; internal units,
+/// zero rows for fixed inputs) and the report.
 #[derive(Clone, Debug)]
 pub struct ChainResult {
     /// The identified values.
     pub state: ChainState,
-    /// Row-major [`n_fit_inputs`]² covariance (39 × 39 for six joints), internal units (mm, rad).
+    /// Row-major covariance of the [`ChainState::space`] (39 × 39 for six joints), internal units
+    /// (mm, rad).
     pub covariance: Vec<f64>,
     /// The report.
     pub report: ChainReport,
@@ -191,16 +191,12 @@ pub fn nominal_state(nominal: &RobotModel) -> ChainState {
 
 /// The prior of [`NominalPrior`] on the MDH parameters (not on the target or the placement).
 fn nominal_prior(nominal: &ChainState, p: &NominalPrior) -> Prior {
-    let lay = nominal.layout();
-    let sigma = (0..n_fit_inputs(lay))
-        .map(|i| {
-            if i >= lay.n_params() {
-                0.0
-            } else if fit_input_is_angle(lay, i) {
-                p.angle_sigma_deg.to_radians()
-            } else {
-                p.length_sigma_mm
-            }
+    let space = nominal.space();
+    let sigma = (0..space.len())
+        .map(|i| match space.locate(i) {
+            (Block::Joints, _) if space.is_angle(i) => p.angle_sigma_deg.to_radians(),
+            (Block::Joints, _) => p.length_sigma_mm,
+            _ => 0.0,
         })
         .collect();
     Prior {
@@ -258,6 +254,7 @@ pub fn identify_chain(
         return Err(IdentifyError::NoData("no measured points".into()));
     }
     let lay = nominal.layout();
+    let space = lay.measured();
     if let Some(p) = points.iter().find(|p| p.q_deg.len() != lay.joints()) {
         return Err(IdentifyError::JointCount(format!(
             "line {}: {} joint angles, the nominal model {} has {} joints",
@@ -295,20 +292,20 @@ pub fn identify_chain(
     }
     let mut fixed_by_user = Vec::new();
     for name in &opts.fix {
-        let i = fit_input_index(lay, name).ok_or_else(|| {
+        let i = space.find(&name.trim().to_ascii_lowercase()).ok_or_else(|| {
             IdentifyError::NoData(format!(
                 "cannot fix '{name}': not a parameter name (theta1…beta{}, tool_x…tool_z, base_x…base_yaw)",
                 lay.joints()
             ))
         })?;
-        if i >= base_input(lay) && opts.placement == Placement::Known {
+        if space.locate(i).0 == Block::Placement && opts.placement == Placement::Known {
             return Err(IdentifyError::NoData(format!(
                 "cannot fix '{name}': the placement is not identified for base-frame data"
             )));
         }
         free.retain(|&k| k != i);
         state.set(i, nominal_s.get(i));
-        fixed_by_user.push(fit_input_name(lay, i));
+        fixed_by_user.push(space.name(i));
     }
     // Directions the data cannot determine, found at the start and fixed at nominal.
     let mut nulls = fix_null_directions(&obs, &mut state, &nominal_s, &mut free);
@@ -406,7 +403,7 @@ pub fn identify_chain(
         }
     });
     let chosen = monte_carlo_cov.as_ref().unwrap_or(&cov_free);
-    let nf = n_fit_inputs(lay);
+    let nf = space.len();
     let mut covariance = vec![0.0; nf * nf];
     for (a_k, &ia) in free.iter().enumerate() {
         for (b_k, &ib) in free.iter().enumerate() {
@@ -418,26 +415,19 @@ pub fn identify_chain(
         let all = default_free(&nominal.fixed, opts.placement == Placement::Identify);
         move |i: usize| !all.contains(&i)
     };
-    let shown = if opts.placement == Placement::Identify {
-        nf
-    } else {
-        base_input(lay)
-    };
+    let shown = reported_space(space, opts.placement).len();
     let parameters: Vec<ParameterRow> = (0..shown)
         .map(|i| {
-            let f = fit_input_to_report(lay, i);
+            let f = space.from_internal(i);
             let k = free.iter().position(|&x| x == i);
             let status = if k.is_some() {
                 "identified".to_string()
-            } else if identifiability
-                .fixed_by_user
-                .contains(&fit_input_name(lay, i))
-            {
+            } else if identifiability.fixed_by_user.contains(&space.name(i)) {
                 "fixed: by request".to_string()
             } else if identifiability
                 .null_directions
                 .iter()
-                .any(|n| n.fixed == fit_input_name(lay, i))
+                .any(|n| n.fixed == space.name(i))
             {
                 "fixed: not identifiable".to_string()
             } else if conventional(i) {
@@ -446,16 +436,12 @@ pub fn identify_chain(
                 "fixed".to_string()
             };
             ParameterRow {
-                name: fit_input_name(lay, i),
+                name: space.name(i),
                 nominal: nominal_s.get(i) * f,
                 value: state.get(i) * f,
                 sigma: k.map_or(0.0, |k| chosen[(k, k)].max(0.0).sqrt() * f),
                 sigma_monte_carlo: k.and_then(|k| mc_sigma.as_ref().map(|m| m[k] * f)),
-                unit: if fit_input_is_angle(lay, i) {
-                    "deg"
-                } else {
-                    "mm"
-                },
+                unit: space.quantity(i).file_unit(),
                 status,
             }
         })
@@ -664,7 +650,16 @@ pub fn chain_model(nominal: &RobotModel, result: &ChainResult, name: String) -> 
     )
 }
 
-/// The model of chain state `s` with `covariance` (row-major [`n_fit_inputs`]², internal units,
+/// The fit inputs a model of `frame` keeps: all of them when the placement was identified, else
+/// the robot's (the placement was known).
+fn reported_space(fit: InputSpace, frame: Placement) -> InputSpace {
+    match frame {
+        Placement::Identify => fit,
+        Placement::Known => fit.without(Block::Placement),
+    }
+}
+
+/// The model of chain state `s` with `covariance` (row-major over [`ChainState::space`], internal units,
 /// zero rows for inputs held fixed) in `frame`: what [`chain_model`] makes of an identification,
 /// and what a calibration plan predicts before any data exist. `s` has `nominal`'s joint count.
 pub fn state_model(
@@ -674,20 +669,14 @@ pub fn state_model(
     frame: Placement,
     name: String,
 ) -> RobotModel {
-    let lay = s.layout();
-    debug_assert_eq!(lay, nominal.layout());
-    let nf = n_fit_inputs(lay);
-    let n = if frame == Placement::Identify {
-        nf
-    } else {
-        base_input(lay)
-    };
-    let mut cov = vec![0.0; n * n];
-    for a in 0..n {
-        for b in 0..n {
-            cov[a * n + b] = covariance[a * nf + b];
-        }
-    }
+    let fit = s.space();
+    debug_assert_eq!(s.layout(), nominal.layout());
+    let kept = reported_space(fit, frame);
+    let cov = crate::kinematics::Covariance::new(fit, covariance.to_vec())
+        .expect("a covariance of the fit inputs")
+        .restricted(kept);
+    let tool = fit.range(Block::Tool).map_or(0, |r| r.start);
+    let nf = fit.len();
     RobotModel {
         name,
         params: s.params,
@@ -695,7 +684,7 @@ pub fn state_model(
         limits_deg: nominal.limits_deg,
         tool: s.tool,
         tool_sigma: std::array::from_fn(|k| {
-            let i = lay.tool_index(k);
+            let i = tool + k;
             covariance[i * nf + i].max(0.0).sqrt()
         }),
         uncertainty: Uncertainty::Covariance(cov),
@@ -727,7 +716,7 @@ mod tests {
         let six = crate::kinematics::Layout::SIX;
         for (k, i) in default_free(&nominal.fixed, true).into_iter().enumerate() {
             if i < six.n_params() {
-                let size = if fit_input_is_angle(six, i) {
+                let size = if six.measured().is_angle(i) {
                     5e-4
                 } else {
                     0.3

@@ -2,8 +2,8 @@
 //! base placement, the MDH parameters and the target on the flange, from positions measured in
 //! the tracker's own frame (docs/METHOD.md §2.4).
 //!
-//! The unknowns are the `5n + 9` *fit inputs* of an `n`-joint chain ([`n_fit_inputs`]; 39 for six
-//! joints), laid out as [`Layout`]'s inputs with the placement: the `5n` MDH parameters
+//! The unknowns are the `5n + 9` *fit inputs* of an `n`-joint chain ([`ChainState::space`]: the
+//! [`InputSpace::measured`]; 39 for six joints): the `5n` MDH parameters
 //! joint-major, the target's x, y, z in the flange frame, then the placement's x, y, z (mm) and
 //! roll, pitch, yaw (radians; `p_meas = Trans(xyz)·Rz(yaw)·Ry(pitch)·Rx(roll)·p_base`, the model's
 //! `base` convention). Position data cannot separate all of them ([`default_free`] states what is
@@ -17,69 +17,18 @@
 
 use super::lm::levenberg_marquardt;
 use crate::kinematics::{
-    param_index, param_joint, param_kind, position, transform, FixedParam, Joints, Layout,
+    param_index, param_joint, position, transform, Block, FixedParam, InputSpace, Joints, Layout,
     ParamKind, Params,
 };
 use nalgebra::{DMatrix, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
-/// The number of fit inputs of a chain of layout `lay`: its `5n` MDH parameters, the target's 3
-/// coordinates, the placement's 6 ([`Layout::n_with_base`]; 39 for six joints).
-pub const fn n_fit_inputs(lay: Layout) -> usize {
-    lay.n_with_base()
-}
-
-/// Index of the first placement input (base x) of a chain of layout `lay`
-/// ([`Layout::base_index`]`(0)`; 33 for six joints).
-pub const fn base_input(lay: Layout) -> usize {
-    lay.base_index(0)
-}
-
-/// The name of fit input `i` of a chain of layout `lay` as reports and `--fix` spell it:
-/// `theta2`, `d3`, …, `tool_x`, `base_x`, `base_roll`, … ([`Layout::input_name`]).
-pub fn fit_input_name(lay: Layout, i: usize) -> String {
-    let np = lay.n_params();
-    match i {
-        i if i < np => format!("{}{}", param_kind(i).name(), param_joint(i) + 1),
-        i if i < base_input(lay) => format!("tool_{}", ["x", "y", "z"][i - np]),
-        i => format!(
-            "base_{}",
-            ["x", "y", "z", "roll", "pitch", "yaw"][i - base_input(lay)]
-        ),
-    }
-}
-
-/// The fit input of a chain of layout `lay` that a name denotes (case-insensitive), if any.
-pub fn fit_input_index(lay: Layout, name: &str) -> Option<usize> {
-    let n = name.trim().to_ascii_lowercase();
-    (0..n_fit_inputs(lay)).find(|&i| fit_input_name(lay, i) == n)
-}
-
-/// Whether fit input `i` of a chain of layout `lay` is an angle (radians inside, degrees in
-/// files and reports).
-pub fn fit_input_is_angle(lay: Layout, i: usize) -> bool {
-    match i {
-        i if i < lay.n_params() => param_kind(i).is_angle(),
-        i if i < base_input(lay) => false,
-        i => i >= base_input(lay) + 3,
-    }
-}
-
-/// Factor from internal units to report units of input `i` (rad → deg for angles).
-pub fn fit_input_to_report(lay: Layout, i: usize) -> f64 {
-    if fit_input_is_angle(lay, i) {
-        180.0 / std::f64::consts::PI
-    } else {
-        1.0
-    }
-}
-
-/// The joint whose data move input `i` (1-based; the target counts as the last joint's, J6's of a
-/// six-axis arm), `None` for the placement.
-pub fn fit_input_joint(lay: Layout, i: usize) -> Option<usize> {
-    match i {
-        i if i < lay.n_params() => Some(param_joint(i) + 1),
-        i if i < base_input(lay) => Some(lay.joints()),
-        _ => None,
+/// The joint whose data move fit input `i` of `space` (1-based; the target counts as the last
+/// joint's, J6's of a six-axis arm), `None` for the placement.
+pub fn input_joint(space: InputSpace, i: usize) -> Option<usize> {
+    match space.locate(i) {
+        (Block::Joints, k) => Some(param_joint(k) + 1),
+        (Block::Tool, _) => Some(space.joints()),
+        (Block::Placement, _) => None,
     }
 }
 
@@ -104,28 +53,31 @@ impl ChainState {
         Layout::new(self.params.len() / crate::kinematics::PARAMS_PER_JOINT)
     }
 
-    /// Number of fit inputs ([`n_fit_inputs`]).
+    /// The fit inputs: the parameters, the target, the placement ([`InputSpace::measured`]).
+    pub fn space(&self) -> InputSpace {
+        self.layout().measured()
+    }
+
+    /// Number of fit inputs (the length of [`Self::space`]).
     pub fn n_inputs(&self) -> usize {
-        self.params.len() + 9
+        self.space().len()
     }
 
     /// Input `i`.
     pub fn get(&self, i: usize) -> f64 {
-        let np = self.params.len();
-        match i {
-            i if i < np => self.params[i],
-            i if i < np + 3 => self.tool[i - np],
-            i => self.base[i - np - 3],
+        match self.space().locate(i) {
+            (Block::Joints, k) => self.params[k],
+            (Block::Tool, k) => self.tool[k],
+            (Block::Placement, k) => self.base[k],
         }
     }
 
     /// Sets input `i`.
     pub fn set(&mut self, i: usize, v: f64) {
-        let np = self.params.len();
-        match i {
-            i if i < np => self.params[i] = v,
-            i if i < np + 3 => self.tool[i - np] = v,
-            i => self.base[i - np - 3] = v,
+        match self.space().locate(i) {
+            (Block::Joints, k) => self.params[k] = v,
+            (Block::Tool, k) => self.tool[k] = v,
+            (Block::Placement, k) => self.base[k] = v,
         }
     }
 
@@ -186,16 +138,17 @@ pub fn default_free(fixed: &[FixedParam], base_free: bool) -> Vec<usize> {
             free.push(param_index(j, kind));
         }
     }
-    free.extend(lay.n_params()..base_input(lay));
+    let space = lay.measured();
+    free.extend(space.range(Block::Tool).into_iter().flatten());
     if base_free {
-        free.extend(base_input(lay)..n_fit_inputs(lay));
+        free.extend(space.range(Block::Placement).into_iter().flatten());
     }
     free
 }
 
 /// Finite-difference step of input `i` of a chain of layout `lay` for the Jacobian.
 fn step(lay: Layout, i: usize) -> f64 {
-    if fit_input_is_angle(lay, i) {
+    if lay.measured().is_angle(i) {
         1e-8
     } else {
         1e-5
@@ -255,7 +208,7 @@ pub fn jacobian(obs: &[Observation], s: &ChainState, free: &[usize]) -> DMatrix<
 pub struct Prior {
     /// The values the prior pulls towards (the nominal geometry).
     pub centre: ChainState,
-    /// σ per fit input ([`n_fit_inputs`] of them), internal units; 0 = none.
+    /// σ per fit input ([`ChainState::n_inputs`] of them), internal units; 0 = none.
     pub sigma: Vec<f64>,
 }
 
@@ -408,22 +361,14 @@ mod tests {
     }
 
     #[test]
-    fn names_round_trip() {
-        let six = Layout::SIX;
-        assert_eq!(fit_input_name(six, 0), "theta1");
-        assert_eq!(fit_input_name(six, 31), "tool_y");
-        assert_eq!(fit_input_name(six, 38), "base_yaw");
+    fn input_joints() {
         for n in 4..=7 {
-            let lay = Layout::new(n);
-            for i in 0..n_fit_inputs(lay) {
-                assert_eq!(fit_input_name(lay, i), lay.input_name(i));
-                assert_eq!(fit_input_index(lay, &fit_input_name(lay, i)), Some(i));
-            }
-            assert_eq!(fit_input_joint(lay, lay.tool_index(0)), Some(n));
+            let space = Layout::new(n).measured();
+            let tool = space.index(Block::Tool, 0).unwrap();
+            assert_eq!(input_joint(space, tool), Some(n));
+            assert_eq!(input_joint(space, 5 * n - 1), Some(n));
+            assert_eq!(input_joint(space, tool + 3), None);
         }
-        assert_eq!(fit_input_index(six, "nope"), None);
-        assert_eq!(fit_input_index(six, "theta7"), None);
-        assert_eq!(fit_input_name(Layout::new(7), 36), "tool_y");
     }
 
     #[test]
@@ -446,7 +391,7 @@ mod tests {
         let free = default_free(&nominal.fixed, true);
         for (k, &i) in free.iter().enumerate() {
             if i < Layout::SIX.n_params() {
-                let size = if fit_input_is_angle(Layout::SIX, i) {
+                let size = if Layout::SIX.measured().is_angle(i) {
                     5e-4
                 } else {
                     0.3
@@ -461,7 +406,7 @@ mod tests {
             assert!(
                 (got.get(i) - truth.get(i)).abs() < 1e-6,
                 "{}: {} vs {}",
-                fit_input_name(Layout::SIX, i),
+                Layout::SIX.measured().name(i),
                 got.get(i),
                 truth.get(i)
             );

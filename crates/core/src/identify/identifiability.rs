@@ -18,7 +18,7 @@
 //! Each warning says what to measure instead, from the joints whose parameters make up the weak
 //! combination and the joint ranges the data actually cover.
 
-use super::chain_fit::{fit_input_joint, fit_input_name, jacobian, ChainState, Observation};
+use super::chain_fit::{input_joint, jacobian, ChainState, Observation};
 use crate::kinematics::{Layout, MAX_JOINTS, MIN_JOINTS};
 use nalgebra::DMatrix;
 use serde::Serialize;
@@ -164,7 +164,7 @@ pub fn combination(lay: Layout, v: &[f64], free: &[usize]) -> String {
     let mut s = String::new();
     for (n, (k, x)) in terms.iter().enumerate() {
         let c = sign * x / max;
-        let name = fit_input_name(lay, free[*k]);
+        let name = lay.measured().name(free[*k]);
         if n == 0 {
             s.push_str(&name);
         } else {
@@ -196,9 +196,9 @@ pub fn fix_null_directions(
         let svd = scaled_svd(&j);
         if let Some(c) = svd.norms.iter().position(|&n| n == 0.0) {
             found.push(NullDirection {
-                combination: fit_input_name(lay, free[c]),
+                combination: lay.measured().name(free[c]),
                 relative_singular_value: 0.0,
-                fixed: fit_input_name(lay, free[c]),
+                fixed: lay.measured().name(free[c]),
             });
             state.set(free[c], nominal.get(free[c]));
             free.remove(c);
@@ -219,7 +219,7 @@ pub fn fix_null_directions(
         found.push(NullDirection {
             combination: combination(lay, &v, free),
             relative_singular_value: rel,
-            fixed: fit_input_name(lay, free[k]),
+            fixed: lay.measured().name(free[k]),
         });
         state.set(free[k], nominal.get(free[k]));
         free.remove(k);
@@ -268,8 +268,8 @@ pub fn analyse(
                 let rho = covariance[(a, b)] / d;
                 if rho.abs() > CORRELATION_LIMIT {
                     correlated.push(Correlation {
-                        a: fit_input_name(lay, free[a]),
-                        b: fit_input_name(lay, free[b]),
+                        a: lay.measured().name(free[a]),
+                        b: lay.measured().name(free[b]),
                         rho,
                     });
                 }
@@ -327,8 +327,9 @@ fn joints_in(lay: Layout, combination: &str) -> (Vec<usize>, bool) {
     let mut joints = Vec::new();
     let mut base = false;
     for term in combination.split([' ', '+', '−']).filter(|t| !t.is_empty()) {
-        if let Some(i) = super::chain_fit::fit_input_index(lay, term) {
-            match fit_input_joint(lay, i) {
+        let space = lay.measured();
+        if let Some(i) = space.find(&term.trim().to_ascii_lowercase()) {
+            match input_joint(space, i) {
                 Some(j) => {
                     if !joints.contains(&j) {
                         joints.push(j);

@@ -8,21 +8,21 @@
 //! tool varies between the runs.
 
 use super::{Identification, IdentifyError};
-use crate::kinematics::{param_index, Inputs, Params, RobotModel, Uncertainty};
+use crate::kinematics::{param_index, Block, Inputs, Params, RobotModel, Uncertainty};
 
 /// Relative ridge added to the diagonal of a sample covariance: with R runs of ~24 free
 /// parameters the covariance is singular when R is at most the number of free parameters, and the
 /// ridge gives it a Cholesky factor (draws stay within 10⁻³ σ of the sample covariance's subspace).
 pub const COVARIANCE_RIDGE: f64 = 1e-6;
 
-/// The [`Layout::n_uncertain`](crate::kinematics::Layout::n_uncertain) inputs of a model: its
-/// `5n` parameters, then the tool's x, y, z.
+/// The values of a model's [`RobotModel::robot_inputs`]: its `5n` parameters, then the tool's
+/// x, y, z.
 fn inputs(m: &RobotModel) -> Inputs {
-    let np = m.params.len();
-    Inputs::from_fn(
-        np + 3,
-        |i| if i < np { m.params[i] } else { m.tool[i - np] },
-    )
+    let space = m.robot_inputs();
+    Inputs::from_fn(space.len(), |i| match space.locate(i) {
+        (Block::Tool, k) => m.tool[k],
+        _ => m.params[i],
+    })
 }
 
 /// Sample covariance (n − 1) of the parameters and tool coordinates of `models` (all with the
@@ -32,7 +32,7 @@ pub fn sample_covariance(models: &[RobotModel]) -> Vec<f64> {
     let Some(first) = models.first() else {
         return Vec::new();
     };
-    let nu = first.layout().n_uncertain();
+    let nu = first.robot_inputs().len();
     let n = models.len() as f64;
     let mut mean = vec![0.0; nu];
     for m in models {
@@ -60,15 +60,16 @@ pub fn sample_covariance(models: &[RobotModel]) -> Vec<f64> {
 /// then has σ 0).
 pub fn correlated_statistics(models: &[RobotModel]) -> Option<RobotModel> {
     let mut m = parameter_statistics(models)?;
-    let lay = m.layout();
-    let nu = lay.n_uncertain();
+    let robot = m.robot_inputs();
+    let nu = robot.len();
     let sig = m.input_sigmas();
     let full = sample_covariance(models);
-    let n = if m.tool_uncertain() {
-        nu
+    let space = if m.tool_uncertain() {
+        robot
     } else {
-        lay.n_params()
+        robot.without(Block::Tool)
     };
+    let n = space.len();
     let mut cov = vec![0.0; n * n];
     for i in 0..n {
         for k in 0..n {
@@ -78,13 +79,12 @@ pub fn correlated_statistics(models: &[RobotModel]) -> Option<RobotModel> {
         }
         cov[i * n + i] *= 1.0 + COVARIANCE_RIDGE;
     }
-    if n == nu {
-        for k in 0..3 {
-            let i = lay.tool_index(k);
+    if let Some(r) = space.range(Block::Tool) {
+        for (k, i) in r.enumerate() {
             m.tool_sigma[k] = cov[i * n + i].sqrt();
         }
     }
-    m.uncertainty = Uncertainty::Covariance(cov);
+    m.uncertainty = Uncertainty::from_matrix(space, cov);
     Some(m)
 }
 
@@ -101,16 +101,16 @@ pub fn parameter_statistics(models: &[RobotModel]) -> Option<RobotModel> {
     {
         return None;
     }
-    let lay = first.layout();
-    let np = lay.n_params();
+    let np = first.params.len();
     let n = models.len() as f64;
-    let mut mean = vec![0.0; lay.n_uncertain()];
+    let nu = first.robot_inputs().len();
+    let mut mean = vec![0.0; nu];
     for m in models {
         for (s, v) in mean.iter_mut().zip(&inputs(m)) {
             *s += v / n;
         }
     }
-    let mut sigma = vec![0.0; lay.n_uncertain()];
+    let mut sigma = vec![0.0; nu];
     for (i, s) in sigma.iter_mut().enumerate() {
         let var = models
             .iter()
@@ -288,8 +288,9 @@ mod tests {
         m.check().unwrap();
         let c = correlated_statistics(&runs).unwrap();
         let six = crate::kinematics::Layout::SIX;
-        assert_eq!(c.uncertainty.dim(), six.n_uncertain());
-        let (x, z) = (six.tool_index(0), six.tool_index(2));
+        assert!(c.uncertainty.covers(Block::Tool));
+        assert_eq!(c.uncertainty.dim(), six.robot().len());
+        let (x, z) = (30, 32);
         let ridge = 1.0 + COVARIANCE_RIDGE;
         assert!((c.uncertainty.entry(x, x) - (0.003 * s).powi(2) * ridge).abs() < 1e-15);
         // tool x and z are perfectly anti-correlated, as are tool x and a1
@@ -297,7 +298,7 @@ mod tests {
         assert!(c.uncertainty.entry(x, 2) > 0.0);
         assert!((c.tool_sigma[0] - (0.003 * s) * ridge.sqrt()).abs() < 1e-15);
         let back = RobotModel::from_toml(&c.to_toml(), "x").unwrap();
-        assert_eq!(back.uncertainty.dim(), six.n_uncertain());
+        assert_eq!(back.uncertainty.dim(), six.robot().len());
         assert!((back.tool_sigma[2] - c.tool_sigma[2]).abs() < 1e-15);
         // runs with one tool keep the 30 × 30 matrix and no tool spread
         let same: Vec<RobotModel> = runs

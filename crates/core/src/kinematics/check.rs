@@ -2,9 +2,10 @@
 //! enforces. An error names the field as the model file spells it ([`InvalidField`]).
 
 use super::index::{
-    param_index, param_joint, param_kind, FixedParam, Layout, ParamKind, BASE_COORDS, MAX_JOINTS,
-    MIN_JOINTS, PARAMS_PER_JOINT, TOOL_COORDS,
+    param_index, param_joint, param_kind, FixedParam, ParamKind, MAX_JOINTS, MIN_JOINTS,
+    PARAMS_PER_JOINT,
 };
+use super::inputs::{Block, InputSpace, Quantity};
 use super::model::{RobotModel, Uncertainty};
 
 /// Largest magnitude of a length in a model (`d`, `a`, the tool's coordinates), mm: 100 m, far
@@ -35,17 +36,18 @@ pub struct InvalidField {
     pub message: String,
 }
 
-/// The field of input `i` as the model file spells its spread: `joint[2].sigma.d` or
-/// `tool_sigma[1]` (0-based coordinate, as TOML arrays are read).
-pub(super) fn input_sigma_field(lay: Layout, i: usize) -> String {
-    if i >= lay.n_params() {
-        format!("tool_sigma[{}]", i - lay.n_params())
-    } else {
-        format!(
+/// The field of input `i` of `space` as the model file spells its spread: `joint[2].sigma.d`,
+/// `tool_sigma[1]` (0-based coordinate, as TOML arrays are read), or the covariance's row for
+/// the placement (which has no σ field of its own).
+pub(super) fn input_sigma_field(space: InputSpace, i: usize) -> String {
+    match space.locate(i) {
+        (Block::Joints, k) => format!(
             "{}.sigma.{}",
-            joint_field(param_joint(i)),
-            param_kind(i).name()
-        )
+            joint_field(param_joint(k)),
+            param_kind(k).name()
+        ),
+        (Block::Tool, k) => format!("tool_sigma[{k}]"),
+        (Block::Placement, _) => input_field(space, i),
     }
 }
 
@@ -84,19 +86,16 @@ impl RobotModel {
                 ),
             });
         }
-        let dim = self.uncertainty.dim();
-        let dims = [lay.n_params(), lay.n_uncertain(), lay.n_with_base()];
-        let square = matches!(&self.uncertainty, Uncertainty::Covariance(c) if c.len() == dim * dim)
-            || matches!(&self.uncertainty, Uncertainty::Independent(_));
-        if !dims.contains(&dim) || !square {
-            return Err(InvalidField {
-                field: "covariance.matrix".into(),
-                message: format!(
-                    "must have {} rows (the parameters), {} (then the tool's x, y, z) or {} \
-                     (then the base's x, y, z, roll, pitch, yaw) for {n_joints} joints, found {dim}",
-                    dims[0], dims[1], dims[2]
-                ),
-            });
+        if let Uncertainty::Covariance(c) = &self.uncertainty {
+            if c.space().joints() != n_joints {
+                return Err(InvalidField {
+                    field: "covariance.matrix".into(),
+                    message: format!(
+                        "covers the inputs of {} joints, the model has {n_joints}",
+                        c.space().joints()
+                    ),
+                });
+            }
         }
         for (k, &v) in self.tool.iter().enumerate() {
             check_magnitude(&format!("tool[{k}]"), v, MAX_LENGTH_MM, "mm")?;
@@ -132,19 +131,15 @@ impl RobotModel {
         }
         match &self.uncertainty {
             Uncertainty::Independent(s) => check_sigmas(s, &self.fixed),
-            Uncertainty::Covariance(c) => {
+            Uncertainty::Covariance(cov) => {
+                let (space, c) = (cov.space(), cov.matrix());
                 check_covariance(c, &self.fixed)?;
                 check_sigmas(&self.param_sigmas(), &self.fixed)?;
-                let n = dim;
-                if n >= lay.n_uncertain() {
-                    let diag: [f64; 3] = std::array::from_fn(|k| {
-                        let i = lay.tool_index(k);
-                        self.uncertainty.entry(i, i).sqrt()
-                    });
+                let n = space.len();
+                if let Some(r) = space.range(Block::Tool) {
+                    let diag: [f64; 3] = std::array::from_fn(|k| c[(r.start + k) * (n + 1)].sqrt());
                     check_tool_sigma(&diag)?;
-                    for k in 0..TOOL_COORDS {
-                        let d = diag[k];
-                        let t = self.tool_sigma[k];
+                    for (k, (&d, &t)) in diag.iter().zip(&self.tool_sigma).enumerate() {
                         if (d - t).abs() > 1e-6 * d.max(t).max(1e-300) {
                             return Err(InvalidField {
                                 field: format!("tool_sigma[{k}]"),
@@ -155,41 +150,36 @@ impl RobotModel {
                         }
                     }
                 }
-                let mut free: Vec<usize> =
-                    self.free_inputs().into_iter().filter(|&i| i < n).collect();
-                if n == lay.n_with_base() {
-                    for k in 0..BASE_COORDS {
-                        let i = lay.base_index(k);
-                        let v = c[i * n + i];
-                        if v > 0.0 {
-                            check_magnitude(
-                                &input_field(lay, i),
-                                v.sqrt(),
-                                if k < 3 {
-                                    MAX_SIGMA_MM
-                                } else {
-                                    MAX_SIGMA_DEG.to_radians()
-                                },
-                                if k < 3 { "mm" } else { "rad" },
-                            )?;
-                            free.push(i);
-                        }
+                let robot = self.robot_inputs();
+                let mut free: Vec<usize> = self
+                    .free_inputs()
+                    .into_iter()
+                    .filter_map(|i| space.position_of(robot, i))
+                    .collect();
+                for i in space.range(Block::Placement).into_iter().flatten() {
+                    let v = c[i * n + i];
+                    if v > 0.0 {
+                        let (max, unit) = match space.quantity(i) {
+                            Quantity::Length => (MAX_SIGMA_MM, "mm"),
+                            Quantity::Angle => (MAX_SIGMA_DEG.to_radians(), "rad"),
+                        };
+                        check_magnitude(&input_field(space, i), v.sqrt(), max, unit)?;
+                        free.push(i);
                     }
                 }
-                check_positive_definite(lay, c, n, &free)
+                check_positive_definite(space, c, n, &free)
             }
         }
     }
 }
 
-/// Input `i` as the file names it: `joint[2].d` or `tool[0]`.
-fn input_field(lay: Layout, i: usize) -> String {
-    if i >= lay.n_uncertain() {
-        format!("covariance.matrix[{}] ({})", i + 1, lay.input_name(i))
-    } else if i >= lay.n_params() {
-        format!("tool[{}]", i - lay.n_params())
-    } else {
-        format!("{}.{}", joint_field(param_joint(i)), param_kind(i).name())
+/// Input `i` of `space` as the file names it: `joint[2].d`, `tool[0]`, or the covariance's row
+/// for the placement.
+fn input_field(space: InputSpace, i: usize) -> String {
+    match space.locate(i) {
+        (Block::Joints, k) => format!("{}.{}", joint_field(param_joint(k)), param_kind(k).name()),
+        (Block::Tool, k) => format!("tool[{k}]"),
+        (Block::Placement, _) => format!("covariance.matrix[{}] ({})", i + 1, space.name(i)),
     }
 }
 
@@ -372,7 +362,7 @@ fn check_covariance(c: &[f64], fixed: &[FixedParam]) -> Result<(), InvalidField>
 /// The covariance restricted to the `free` parameters has a Cholesky factor (the same test the
 /// sampler makes); otherwise names the first row where the factorisation fails.
 fn check_positive_definite(
-    lay: Layout,
+    space: InputSpace,
     c: &[f64],
     n: usize,
     free: &[usize],
@@ -397,7 +387,7 @@ fn check_positive_definite(
              factorisation fails at row {} ({}), which the rows before it (with nonzero \
              variance) make dependent or indefinite",
             i + 1,
-            input_field(lay, i)
+            input_field(space, i)
         ),
     })
 }

@@ -9,7 +9,8 @@ use super::check::{check_sigmas, check_tool_sigma, input_sigma_field, joint_fiel
 use super::index::{
     param_index, FixedParam, Inputs, Layout, ParamKind, Params, MAX_JOINTS, MIN_JOINTS,
 };
-use super::model::{BaseTransform, FixedParams, Limits, RobotModel, Uncertainty};
+use super::inputs::{Block, InputSpace};
+use super::model::{BaseTransform, Covariance, FixedParams, Limits, RobotModel, Uncertainty};
 
 /// Errors reading or checking a model.
 #[derive(Debug, thiserror::Error)]
@@ -71,6 +72,10 @@ struct JointFile {
 #[derive(Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct CovarianceFile {
+    /// The blocks the matrix covers, in order ([`Block::name`]); files written before blocks
+    /// were named leave it out ([`legacy_space`]).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    blocks: Option<Vec<String>>,
     matrix: Vec<Vec<f64>>,
 }
 
@@ -219,7 +224,7 @@ impl RobotModel {
             Some(c) => {
                 // The `sigma` tables are checked on their own: the model keeps only the matrix.
                 check_sigmas(&sigma, &fixed).map_err(invalid)?;
-                Uncertainty::Covariance(covariance_from_file(lay, &c.matrix).map_err(invalid)?)
+                Uncertainty::Covariance(covariance_from_file(lay, c).map_err(invalid)?)
             }
         };
         if let Some(ts) = tool_sigma_file {
@@ -237,32 +242,34 @@ impl RobotModel {
         };
         // A covariance with the tool carries the tool's spread; `tool_sigma`, when given, must
         // repeat its diagonal.
-        let full = model.uncertainty.dim() >= lay.n_uncertain();
-        if full {
-            model.tool_sigma = std::array::from_fn(|k| {
-                let i = lay.tool_index(k);
-                model.uncertainty.entry(i, i).max(0.0).sqrt()
-            });
+        let tool_rows = model
+            .uncertainty
+            .covariance()
+            .and_then(|c| c.space().range(Block::Tool));
+        if let (Some(r), Some(c)) = (&tool_rows, model.uncertainty.covariance()) {
+            model.tool_sigma =
+                std::array::from_fn(|k| c.entry(r.start + k, r.start + k).max(0.0).sqrt());
         }
         model.check().map_err(invalid)?;
         // The per-joint sigma (and tool_sigma) must agree with the covariance diagonal so a reader
         // of the file is not misled.
         if let Uncertainty::Covariance(_) = &model.uncertainty {
             let diag = model.input_sigmas();
-            let np = lay.n_params();
-            let given = Inputs::from_fn(lay.n_uncertain(), |i| {
-                if i < np {
-                    sigma[i]
-                } else {
-                    tool_sigma_file.map_or(diag[i], |t| t[i - np])
-                }
+            let space = model.robot_inputs();
+            let given = Inputs::from_fn(space.len(), |i| match space.locate(i) {
+                (Block::Tool, k) => tool_sigma_file.map_or(diag[i], |t| t[k]),
+                _ => sigma[i],
             });
-            let n = if full { lay.n_uncertain() } else { np };
+            let n = if tool_rows.is_some() {
+                space.len()
+            } else {
+                lay.n_params()
+            };
             for i in 0..n {
                 if (diag[i] - given[i]).abs() > 1e-6 * diag[i].max(given[i]).max(1e-300) {
-                    let f = lay.input_to_internal(i);
+                    let f = space.to_internal(i);
                     return Err(bad(
-                        &input_sigma_field(lay, i),
+                        &input_sigma_field(space, i),
                         format!(
                             "differs from sqrt of covariance diagonal ({} vs {})",
                             given[i] / f,
@@ -357,28 +364,33 @@ impl RobotModel {
             );
         }
         if let Uncertainty::Covariance(c) = &self.uncertainty {
-            let n = self.uncertainty.dim();
+            let space = c.space();
+            let n = space.len();
             let _ = writeln!(
                 s,
                 "\n# Full covariance of the {} parameters, joint-major [theta, d, a, alpha, beta],",
                 lay.n_params()
             );
-            if n >= lay.n_uncertain() {
-                let _ = writeln!(s, "# then the tool's x, y, z,");
-            }
-            if n == lay.n_with_base() {
-                let _ = writeln!(
-                    s,
-                    "# then the base placement's x, y, z and roll, pitch, yaw (the `base` field's convention),"
-                );
+            for b in space.blocks().skip(1) {
+                let _ = writeln!(s, "# then {},", b.description());
             }
             let _ = writeln!(s, "# in file units (mm, deg and their products).");
-            let _ = writeln!(s, "[covariance]\nmatrix = [");
+            let names: Vec<String> = space
+                .block_names()
+                .iter()
+                .map(|b| format!("\"{b}\""))
+                .collect();
+            let _ = writeln!(
+                s,
+                "[covariance]\nblocks = [{}]\nmatrix = [",
+                names.join(", ")
+            );
+            let m = c.matrix();
             for i in 0..n {
                 let row: Vec<String> = (0..n)
                     .map(|k| {
-                        let f = lay.input_to_internal(i) * lay.input_to_internal(k);
-                        fnum(c[i * n + k] / f)
+                        let f = space.to_internal(i) * space.to_internal(k);
+                        fnum(m[i * n + k] / f)
                     })
                     .collect();
                 let _ = writeln!(s, "  [{}],", row.join(", "));
@@ -403,21 +415,57 @@ fn toml_error_line(text: &str, e: &toml::de::Error) -> String {
     }
 }
 
-/// The covariance matrix of the file (the parameters: 30 rows of 30 for six joints; 33 of 33
-/// with the tool; 39 of 39 with the tool and the base placement; file units) in internal units.
-fn covariance_from_file(lay: Layout, m: &[Vec<f64>]) -> Result<Vec<f64>, InvalidField> {
-    let n = m.len();
-    let (np, nu, nb) = (lay.n_params(), lay.n_uncertain(), lay.n_with_base());
-    if n != np && n != nu && n != nb {
-        return Err(InvalidField {
+/// The blocks of a covariance written before files named them, read from its size as those
+/// files meant it: the parameters (`5n` rows), then the tool (`5n + 3`), then the placement
+/// (`5n + 9`). The only place a size chooses blocks.
+fn legacy_space(lay: Layout, rows: usize) -> Result<InputSpace, InvalidField> {
+    [
+        InputSpace::parameters(lay.joints()),
+        lay.robot(),
+        lay.measured(),
+    ]
+    .into_iter()
+    .find(|s| s.len() == rows)
+    .ok_or_else(|| {
+        let (np, nu, nb) = (lay.n_params(), lay.robot().len(), lay.measured().len());
+        InvalidField {
             field: "covariance.matrix".into(),
             message: format!(
                 "must have {np} rows (the parameters of {} joints), {nu} (the parameters, then \
-                 the tool's x, y, z) or {nb} (then the base's x, y, z, roll, pitch, yaw), found {n}",
+                 the tool's x, y, z) or {nb} (then the base's x, y, z, roll, pitch, yaw), found \
+                 {rows}; a covariance of other inputs names them in covariance.blocks",
                 lay.joints()
             ),
-        });
-    }
+        }
+    })
+}
+
+/// The covariance of the file (file units) in internal units, over the blocks it names (or, in
+/// an older file without `blocks`, [`legacy_space`]).
+fn covariance_from_file(lay: Layout, file: &CovarianceFile) -> Result<Covariance, InvalidField> {
+    let m = &file.matrix;
+    let n = m.len();
+    let space = match &file.blocks {
+        None => legacy_space(lay, n)?,
+        Some(names) => {
+            let space = InputSpace::from_names(lay.joints(), names).map_err(|e| InvalidField {
+                field: "covariance.blocks".into(),
+                message: e.to_string(),
+            })?;
+            if space.len() != n {
+                return Err(InvalidField {
+                    field: "covariance.matrix".into(),
+                    message: format!(
+                        "must have {} rows for the blocks [{}] of {} joints, found {n}",
+                        space.len(),
+                        space.block_names().join(", "),
+                        lay.joints()
+                    ),
+                });
+            }
+            space
+        }
+    };
     let mut c = vec![0.0; n * n];
     for (i, row) in m.iter().enumerate() {
         if row.len() != n {
@@ -427,10 +475,10 @@ fn covariance_from_file(lay: Layout, m: &[Vec<f64>]) -> Result<Vec<f64>, Invalid
             });
         }
         for (k, &v) in row.iter().enumerate() {
-            c[i * n + k] = v * lay.input_to_internal(i) * lay.input_to_internal(k);
+            c[i * n + k] = v * space.to_internal(i) * space.to_internal(k);
         }
     }
-    Ok(c)
+    Ok(Covariance::new(space, c).expect("n rows of n entries"))
 }
 
 fn fnum(v: f64) -> String {

@@ -1,8 +1,9 @@
-//! Indexing of a draw's inputs ([`Layout`]): the `5n` MDH parameters of an `n`-joint model
-//! joint-major `[θ, d, a, α, β]` ([`param_index`]), then the tool point's x, y, z; the storage
-//! sized by the joint count ([`Joints`], [`Params`]); and which of `d`/`β` each joint keeps
-//! fixed ([`FixedParam`]).
+//! Indexing of the MDH parameters ([`Layout`]): the `5n` parameters of an `n`-joint model
+//! joint-major `[θ, d, a, α, β]` ([`param_index`]); the storage sized by the joint count
+//! ([`Joints`], [`Params`]); and which of `d`/`β` each joint keeps fixed ([`FixedParam`]). The
+//! other inputs of a draw are the [`InputSpace`](super::InputSpace)'s.
 
+use super::inputs::MAX_INPUTS;
 use serde::{Deserialize, Serialize};
 
 /// Most joints a model may have (a seven-axis arm).
@@ -11,29 +12,19 @@ pub const MAX_JOINTS: usize = 7;
 pub const MIN_JOINTS: usize = 4;
 /// Parameters per joint: θ, d, a, α, β.
 pub const PARAMS_PER_JOINT: usize = 5;
-/// Coordinates of the tool point (x, y, z in the flange frame).
-pub const TOOL_COORDS: usize = 3;
-/// Coordinates of the placement (base x, y, z in mm; roll, pitch, yaw).
-pub const BASE_COORDS: usize = 6;
 /// Most geometric parameters of a model ([`MAX_JOINTS`] joints).
 pub const MAX_PARAMS: usize = MAX_JOINTS * PARAMS_PER_JOINT;
-/// Most uncertain inputs of a draw (parameters and tool point).
-pub const MAX_UNCERTAIN: usize = MAX_PARAMS + TOOL_COORDS;
-/// Most inputs with the placement.
-pub const MAX_WITH_BASE: usize = MAX_UNCERTAIN + BASE_COORDS;
 
 /// Joint angles of one configuration (one per joint of the model).
 pub type Joints = super::Capped<f64, MAX_JOINTS>;
 /// The geometric parameters of a model, joint-major `[θ, d, a, α, β]` ([`param_index`]).
 pub type Params = super::Capped<f64, MAX_PARAMS>;
-/// One value per uncertain input (parameters, then the tool point; [`Layout::n_uncertain`]).
-pub type Inputs = super::Capped<f64, MAX_WITH_BASE>;
+/// One value per input of an [`InputSpace`](super::InputSpace).
+pub type Inputs = super::Capped<f64, MAX_INPUTS>;
 
-/// How the inputs of a draw of an `n`-joint model are laid out: the `5n` MDH parameters
-/// joint-major `[θ, d, a, α, β]` ([`param_index`]), then the tool point's x, y, z
-/// ([`Layout::tool_index`]), then, where a covariance includes it, the placement's x, y, z, roll,
-/// pitch, yaw ([`Layout::base_index`]). A six-joint model has 30 parameters, 33 uncertain inputs
-/// and 39 with the placement.
+/// The joint count of an `n`-joint model, and so where its `5n` MDH parameters lie:
+/// joint-major `[θ, d, a, α, β]` ([`param_index`]). Every other input (tool, placement) and every
+/// question of order, names and units is the [`InputSpace`](super::InputSpace)'s.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Layout {
     joints: usize,
@@ -66,54 +57,16 @@ impl Layout {
         self.joints * PARAMS_PER_JOINT
     }
 
-    /// Number of uncertain inputs of a draw: the parameters, then the tool point. Offset
-    /// vectors, offset-matrix rows and a full covariance have this length (docs/METHOD.md §14).
-    pub const fn n_uncertain(self) -> usize {
-        self.n_params() + TOOL_COORDS
+    /// The inputs of a draw in the robot's base frame: the parameters, then the tool point
+    /// ([`InputSpace::robot`](super::InputSpace::robot); 33 for six joints).
+    pub fn robot(self) -> super::InputSpace {
+        super::InputSpace::robot(self.joints)
     }
 
-    /// Rows of a covariance that includes the placement ([`Self::base_index`]; docs/METHOD.md
-    /// §2.7).
-    pub const fn n_with_base(self) -> usize {
-        self.n_uncertain() + BASE_COORDS
-    }
-
-    /// Index of tool coordinate `k` (0 = x, 1 = y, 2 = z) among the inputs.
-    pub const fn tool_index(self, k: usize) -> usize {
-        self.n_params() + k
-    }
-
-    /// Index of placement coordinate `k` (0–2 x, y, z; 3–5 roll, pitch, yaw) in a covariance
-    /// of [`Self::n_with_base`] rows.
-    pub const fn base_index(self, k: usize) -> usize {
-        self.n_uncertain() + k
-    }
-
-    /// The name of input `i` as reports spell it: `theta2`, `d1`, … (1-based joint),
-    /// `tool_x`, `tool_y`, `tool_z`, or `base_x` … `base_yaw`.
-    pub fn input_name(self, i: usize) -> String {
-        if i >= self.n_uncertain() {
-            format!(
-                "base_{}",
-                ["x", "y", "z", "roll", "pitch", "yaw"][i - self.n_uncertain()]
-            )
-        } else if i >= self.n_params() {
-            format!("tool_{}", ["x", "y", "z"][i - self.n_params()])
-        } else {
-            format!("{}{}", param_kind(i).name(), param_joint(i) + 1)
-        }
-    }
-
-    /// Factor from file units to internal units of input `i` (degrees → radians for the
-    /// angles; 1 for lengths and the tool coordinates).
-    pub fn input_to_internal(self, i: usize) -> f64 {
-        if i >= self.n_uncertain() + 3 {
-            std::f64::consts::PI / 180.0
-        } else if i >= self.n_params() {
-            1.0
-        } else {
-            param_kind(i).to_internal()
-        }
+    /// The inputs in a measurement frame: the parameters, the tool point, then the placement
+    /// ([`InputSpace::measured`](super::InputSpace::measured); 39 for six joints).
+    pub fn measured(self) -> super::InputSpace {
+        super::InputSpace::measured(self.joints)
     }
 }
 

@@ -10,7 +10,8 @@
 //!
 //! Units: every value a person reads or writes is in millimetres and degrees; inside the crate
 //! angles are radians. The `5n` parameters are stored joint-major, `[θ, d, a, α, β]` per joint
-//! ([`param_index`]); [`Layout`] says where the tool point and the placement follow them.
+//! ([`param_index`]); the [`InputSpace`] says where the tool point and the placement follow them
+//! and is the one home of every input's order, name, unit and normal slot.
 //!
 //! The built-in TX60 is [`tx60`]; the other presets, converted from published tables by the
 //! importer, are in [`crate::presets`]. This module uses nothing else of the crate but
@@ -21,6 +22,7 @@ mod check;
 mod file;
 mod fk;
 mod index;
+mod inputs;
 pub mod lines;
 pub mod mdh;
 mod model;
@@ -39,8 +41,10 @@ pub use fk::{
 };
 pub use index::{
     param_index, param_joint, param_kind, FixedParam, Inputs, Joints, Layout, ParamKind, Params,
-    BASE_COORDS, MAX_JOINTS, MAX_PARAMS, MAX_UNCERTAIN, MAX_WITH_BASE, MIN_JOINTS,
-    PARAMS_PER_JOINT, TOOL_COORDS,
+    MAX_JOINTS, MAX_PARAMS, MIN_JOINTS, PARAMS_PER_JOINT,
 };
-pub use model::{rpy_of, BaseTransform, FixedParams, Limits, RobotModel, Uncertainty};
+pub use inputs::{
+    Action, Block, InputSpace, InputSpaceError, Quantity, MAX_INPUTS, MAX_ROBOT_INPUTS,
+};
+pub use model::{rpy_of, BaseTransform, Covariance, FixedParams, Limits, RobotModel, Uncertainty};
 pub use tx60::tx60;

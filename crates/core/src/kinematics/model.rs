@@ -2,40 +2,153 @@
 //! joint, joint limits, the tool point and the parameter uncertainty. Its TOML file format is in `file`, the checks of
 //! its values in `check`.
 
-use super::index::{FixedParam, Inputs, Joints, Layout, Params, BASE_COORDS, MAX_JOINTS};
+use super::index::{FixedParam, Inputs, Joints, Layout, Params, MAX_JOINTS};
+use super::inputs::{Block, InputSpace};
 
 /// Joint limits in degrees, `(min, max)`, one per joint.
 pub type Limits = super::Capped<(f64, f64), MAX_JOINTS>;
 /// Which of `d`/`β` each joint keeps fixed.
 pub type FixedParams = super::Capped<FixedParam, MAX_JOINTS>;
 
-/// Spread of the parameters about their values (internal units: mm, rad). The tool point's
-/// spread is [`RobotModel::tool_sigma`], except with a covariance that includes the tool point
-/// ([`Layout::n_uncertain`] rows), which covers it.
+/// A covariance over the inputs of an [`InputSpace`]: the blocks it covers travel with the
+/// matrix, so no reader infers them from its size.
+///
+/// # Examples
+///
+/// ```
+/// use gpu_amcs_core::kinematics::{Block, Covariance, InputSpace};
+///
+/// let space = InputSpace::parameters(4); // 20 parameters of a four-joint arm
+/// let mut m = vec![0.0; 20 * 20];
+/// for i in 0..20 {
+///     m[i * 21] = 1e-4;
+/// }
+/// let c = Covariance::new(space, m).unwrap();
+/// assert_eq!(c.dim(), 20);
+/// // The same covariance over the parameters and the tool (23 inputs), the tool's variances
+/// // given independently:
+/// let full = c.in_space(InputSpace::robot(4), |_| 0.25);
+/// assert_eq!(full[20 * 23 + 20], 0.25);
+/// assert_eq!(full[19 * 23 + 19], 1e-4);
+/// ```
+#[derive(Clone, Debug, PartialEq)]
+pub struct Covariance {
+    space: InputSpace,
+    /// Row-major `space.len()²`, internal units (mm, rad).
+    matrix: Vec<f64>,
+}
+
+impl Covariance {
+    /// The covariance `matrix` (row-major, internal units) of the inputs of `space`, or `None`
+    /// when it does not have `space.len()²` entries.
+    pub fn new(space: InputSpace, matrix: Vec<f64>) -> Option<Covariance> {
+        (matrix.len() == space.len() * space.len()).then_some(Covariance { space, matrix })
+    }
+
+    /// The inputs the matrix covers.
+    pub fn space(&self) -> InputSpace {
+        self.space
+    }
+
+    /// The row-major matrix, internal units.
+    pub fn matrix(&self) -> &[f64] {
+        &self.matrix
+    }
+
+    /// Rows of the matrix.
+    pub fn dim(&self) -> usize {
+        self.space.len()
+    }
+
+    /// Entry `(i, k)`, positions of [`Covariance::space`].
+    pub fn entry(&self, i: usize, k: usize) -> f64 {
+        self.matrix[i * self.dim() + k]
+    }
+
+    /// The covariance of the inputs of `target` (same joint count), row-major: the entries of the
+    /// inputs this one covers, independent variances `variance(i)` (position `i` of `target`) on
+    /// the diagonal of the others, zero elsewhere.
+    pub fn in_space(&self, target: InputSpace, variance: impl Fn(usize) -> f64) -> Vec<f64> {
+        let n = target.len();
+        let at: Vec<Option<usize>> = (0..n).map(|i| self.space.position_of(target, i)).collect();
+        let mut c = vec![0.0; n * n];
+        for i in 0..n {
+            for k in 0..n {
+                c[i * n + k] = match (at[i], at[k]) {
+                    (Some(a), Some(b)) => self.entry(a, b),
+                    _ if i == k => variance(i),
+                    _ => 0.0,
+                };
+            }
+        }
+        c
+    }
+
+    /// The marginal covariance of the blocks of `target` this one covers (rows and columns of
+    /// the other blocks dropped).
+    pub fn restricted(&self, target: InputSpace) -> Covariance {
+        let kept: Vec<Block> = target.blocks().filter(|b| self.space.has(*b)).collect();
+        let space = InputSpace::new(self.space.joints(), &kept)
+            .expect("a subset of a space's blocks keeps their order");
+        let matrix = self.in_space(space, |_| 0.0);
+        Covariance { space, matrix }
+    }
+}
+
+/// Spread of the inputs about their values (internal units: mm, rad). The tool point's
+/// spread is [`RobotModel::tool_sigma`], except with a covariance that covers the tool block.
 #[derive(Clone, Debug, PartialEq)]
 #[allow(clippy::large_enum_variant)] // one per model; boxing buys nothing
 pub enum Uncertainty {
     /// Independent normals with these standard deviations (0 = exactly known), one per
     /// parameter.
     Independent(Params),
-    /// Full covariance, row-major, of either the parameters (the tool's spread is then
-    /// [`RobotModel::tool_sigma`], independent of them; 30 × 30 for six joints), the
-    /// parameters and then the tool's x, y, z in mm ([`Layout::n_uncertain`], 33 × 33), or
-    /// those and then the placement's x, y, z in mm and roll, pitch, yaw in rad, as identified
-    /// from data in a tracker frame ([`Layout::n_with_base`], 39 × 39).
-    Covariance(Vec<f64>),
+    /// Full covariance of the blocks it names: the parameters (the tool's spread is then
+    /// [`RobotModel::tool_sigma`], independent of them), optionally the tool's x, y, z, and the
+    /// placement, as identified from data in a tracker frame ([`InputSpace::measured`]).
+    Covariance(Covariance),
 }
 
 impl Uncertainty {
+    /// The covariance `matrix` (row-major, internal units) of the inputs of `space`.
+    ///
+    /// # Panics
+    ///
+    /// When `matrix` does not have `space.len()²` entries (a caller's mistake; a file's matrix is
+    /// checked when read).
+    pub fn from_matrix(space: InputSpace, matrix: Vec<f64>) -> Uncertainty {
+        let n = matrix.len();
+        Uncertainty::Covariance(Covariance::new(space, matrix).unwrap_or_else(|| {
+            panic!(
+                "a covariance of {n} entries for the {} inputs of [{}]",
+                space.len(),
+                space.block_names().join(", ")
+            )
+        }))
+    }
+
     /// Rows of the covariance (the number of parameters for independent σ).
     pub fn dim(&self) -> usize {
         match self {
             Self::Independent(s) => s.len(),
-            Self::Covariance(c) => {
-                let n = (c.len() as f64).sqrt().round() as usize;
-                debug_assert_eq!(n * n, c.len());
-                n
-            }
+            Self::Covariance(c) => c.dim(),
+        }
+    }
+
+    /// The covariance, for a correlated model.
+    pub fn covariance(&self) -> Option<&Covariance> {
+        match self {
+            Self::Independent(_) => None,
+            Self::Covariance(c) => Some(c),
+        }
+    }
+
+    /// Whether the uncertainty covers `block` with its own entries (independent σ cover the
+    /// parameters only).
+    pub fn covers(&self, block: Block) -> bool {
+        match self {
+            Self::Independent(_) => block == Block::Joints,
+            Self::Covariance(c) => c.space().has(block),
         }
     }
 
@@ -50,7 +163,7 @@ impl Uncertainty {
                     0.0
                 }
             }
-            Self::Covariance(c) => c[i * self.dim() + k],
+            Self::Covariance(c) => c.entry(i, k),
         }
     }
 
@@ -192,9 +305,7 @@ impl RobotModel {
         if !self.tool_uncertain() {
             return Vec::new();
         }
-        let s = self.input_sigmas();
-        let lay = self.layout();
-        let t = &s[lay.n_params()..];
+        let t = self.tool_sigma;
         // Four significant digits: σ is an uncertainty, its 17th digit says nothing.
         let g = |v: f64| format!("{v:.4e}").parse::<f64>().unwrap_or(v);
         vec![format!(
@@ -202,12 +313,14 @@ impl RobotModel {
             g(t[0]),
             g(t[1]),
             g(t[2]),
-            match self.uncertainty.dim() {
-                n if n == lay.n_uncertain() => {
-                    format!(", correlated with the parameters ({n} × {n} covariance)")
-                }
-                n if n == lay.n_with_base() => format!(
-                    ", correlated with the parameters and the base placement ({n} × {n} covariance)"
+            match self.uncertainty.covariance().map(Covariance::space) {
+                Some(c) if c.has(Block::Tool) && c.has(Block::Placement) => format!(
+                    ", correlated with the parameters and the base placement ({n} × {n} covariance)",
+                    n = c.len()
+                ),
+                Some(c) if c.has(Block::Tool) => format!(
+                    ", correlated with the parameters ({n} × {n} covariance)",
+                    n = c.len()
                 ),
                 _ => String::new(),
             }
@@ -234,65 +347,79 @@ impl RobotModel {
         self.tool_sigma.iter().any(|&s| s > 0.0)
     }
 
-    /// Standard deviations of all [`Layout::n_uncertain`] inputs: the parameters, then the
-    /// tool.
+    /// The inputs a draw of this model perturbs in the robot's base frame: the parameters and
+    /// the tool point ([`InputSpace::robot`]).
+    pub fn robot_inputs(&self) -> InputSpace {
+        InputSpace::robot(self.joints())
+    }
+
+    /// The inputs a draw perturbs in the measurement frame: [`Self::robot_inputs`], with the
+    /// placement when the uncertainty covers it.
+    pub fn drawn_inputs(&self) -> InputSpace {
+        if self.uncertainty.covers(Block::Placement) {
+            self.robot_inputs().with(Block::Placement)
+        } else {
+            self.robot_inputs()
+        }
+    }
+
+    /// Standard deviations of the [`Self::robot_inputs`]: the parameters, then the tool.
     pub fn input_sigmas(&self) -> Inputs {
         let p = self.param_sigmas();
-        let np = p.len();
-        Inputs::from_fn(self.layout().n_uncertain(), |i| {
-            if i < np {
-                p[i]
-            } else {
-                self.tool_sigma[i - np]
-            }
+        let space = self.robot_inputs();
+        Inputs::from_fn(space.len(), |i| match space.locate(i) {
+            (Block::Tool, k) => self.tool_sigma[k],
+            _ => p[i],
         })
     }
 
-    /// Indices (of the [`Layout::n_uncertain`] inputs) with nonzero spread:
-    /// [`Self::free_params`], then the uncertain tool coordinates.
+    /// Indices (of the [`Self::robot_inputs`]) with nonzero spread: [`Self::free_params`], then
+    /// the uncertain tool coordinates.
     pub fn free_inputs(&self) -> Vec<usize> {
         let s = self.input_sigmas();
         (0..s.len()).filter(|&i| s[i] > 0.0).collect()
     }
 
-    /// The covariance of all [`Layout::n_uncertain`] inputs, row-major, for a correlated model
-    /// (a matrix of the parameters alone is extended by the independent tool variances
-    /// `tool_sigma²`, one with the placement cut to its first rows); `None` for independent σ.
-    pub fn full_covariance(&self) -> Option<Vec<f64>> {
+    /// The covariance of the inputs of `space` (row-major, internal units): the model's own
+    /// entries where its covariance covers a block, independent variances elsewhere (the
+    /// parameters' σ², the tool's `tool_sigma²`, zero for a placement it does not cover).
+    pub fn covariance_in(&self, space: InputSpace) -> Vec<f64> {
+        let variance = |i: usize| match space.locate(i) {
+            (Block::Joints, k) => self.uncertainty.entry(k, k),
+            (Block::Tool, k) => self.tool_sigma[k].powi(2),
+            (Block::Placement, _) => 0.0,
+        };
         match &self.uncertainty {
-            Uncertainty::Independent(_) => None,
-            Uncertainty::Covariance(_) => {
-                let nu = self.layout().n_uncertain();
-                let np = self.layout().n_params();
-                let n = self.uncertainty.dim().min(nu);
-                let mut c = vec![0.0; nu * nu];
-                for i in 0..nu {
-                    for k in 0..nu {
-                        c[i * nu + k] = if i < n && k < n {
-                            self.uncertainty.entry(i, k)
-                        } else if i == k {
-                            self.tool_sigma[i - np].powi(2)
-                        } else {
-                            0.0
-                        };
-                    }
+            Uncertainty::Covariance(c) => c.in_space(space, variance),
+            Uncertainty::Independent(_) => {
+                let n = space.len();
+                let mut c = vec![0.0; n * n];
+                for i in 0..n {
+                    c[i * n + i] = variance(i);
                 }
-                Some(c)
+                c
             }
         }
     }
 
-    /// Standard deviations of the placement (x, y, z mm; roll, pitch, yaw rad): the last six
-    /// diagonal entries of a covariance with the placement, else zeros.
-    pub fn base_sigmas(&self) -> [f64; BASE_COORDS] {
-        let lay = self.layout();
-        if self.uncertainty.dim() == lay.n_with_base() {
-            std::array::from_fn(|k| {
-                let i = lay.base_index(k);
-                self.uncertainty.entry(i, i).max(0.0).sqrt()
-            })
-        } else {
-            [0.0; BASE_COORDS]
+    /// The covariance of the [`Self::robot_inputs`], row-major, for a correlated model (a
+    /// matrix of the parameters alone is extended by the independent tool variances
+    /// `tool_sigma²`, one with the placement cut to its marginal); `None` for independent σ.
+    pub fn full_covariance(&self) -> Option<Vec<f64>> {
+        self.uncertainty
+            .covariance()
+            .map(|_| self.covariance_in(self.robot_inputs()))
+    }
+
+    /// Standard deviations of the placement (x, y, z mm; roll, pitch, yaw rad): the diagonal of
+    /// a covariance that covers the placement, else zeros.
+    pub fn base_sigmas(&self) -> [f64; 6] {
+        match self.uncertainty.covariance() {
+            Some(c) if c.space().has(Block::Placement) => std::array::from_fn(|k| {
+                let i = c.space().index(Block::Placement, k).unwrap_or(0);
+                c.entry(i, i).max(0.0).sqrt()
+            }),
+            _ => [0.0; 6],
         }
     }
 
@@ -301,18 +428,15 @@ impl RobotModel {
         self.base_sigmas().iter().any(|&s| s > 0.0)
     }
 
-    /// The model in the robot's base frame: a covariance with the placement cut to its first
-    /// [`Layout::n_uncertain`] rows (the placement's spread and its correlations dropped); any
+    /// The model in the robot's base frame: a covariance with the placement cut to the
+    /// marginal of its other blocks (the placement's spread and its correlations dropped); any
     /// other model unchanged.
     pub fn without_base_uncertainty(&self) -> RobotModel {
         let mut m = self.clone();
-        let lay = self.layout();
         if let Uncertainty::Covariance(c) = &self.uncertainty {
-            if self.uncertainty.dim() == lay.n_with_base() {
-                let n = lay.n_uncertain();
-                let nb = lay.n_with_base();
-                let cut = (0..n * n).map(|x| c[(x / n) * nb + x % n]).collect();
-                m.uncertainty = Uncertainty::Covariance(cut);
+            if c.space().has(Block::Placement) {
+                m.uncertainty =
+                    Uncertainty::Covariance(c.restricted(c.space().without(Block::Placement)));
             }
         }
         m

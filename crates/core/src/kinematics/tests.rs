@@ -5,9 +5,9 @@ use crate::kinematics::tx60;
 
 // The TX60's counts: six joints.
 const N_PARAMS: usize = Layout::SIX.n_params();
-const N_UNCERTAIN: usize = Layout::SIX.n_uncertain();
+const N_UNCERTAIN: usize = 33;
 fn tool_index(k: usize) -> usize {
-    Layout::SIX.tool_index(k)
+    Layout::SIX.robot().index(Block::Tool, k).unwrap()
 }
 
 #[test]
@@ -34,10 +34,12 @@ fn covariance_round_trip() {
     }
     c[1] = 0.3 * s[0] * s[1];
     c[N_PARAMS] = c[1];
-    m.uncertainty = Uncertainty::Covariance(c.clone());
+    m.uncertainty = Uncertainty::from_matrix(InputSpace::parameters(6), c.clone());
     let back = RobotModel::from_toml(&m.to_toml(), "x").unwrap();
     match back.uncertainty {
         Uncertainty::Covariance(b) => {
+            assert_eq!(b.space(), InputSpace::parameters(6));
+            let b = b.matrix();
             for i in 0..c.len() {
                 assert!((b[i] - c[i]).abs() <= 1e-12 * c[i].abs().max(1e-20));
             }
@@ -131,7 +133,7 @@ fn tool_sigma_in_the_file() {
     }
     c[tool_index(2) * n + 1] = 0.5 * t.tool_sigma[2] * s[1];
     c[n + tool_index(2)] = c[tool_index(2) * n + 1];
-    t.uncertainty = Uncertainty::Covariance(c);
+    t.uncertainty = Uncertainty::from_matrix(InputSpace::robot(6), c);
     t.check().unwrap();
     let text = t.to_toml();
     assert!(text.contains("then the tool's x, y, z"));
@@ -149,7 +151,8 @@ fn tool_sigma_in_the_file() {
     );
     // a 30 × 30 matrix keeps tool_sigma as the tool's independent spread
     let mut p = m.clone();
-    p.uncertainty = Uncertainty::Covariance(
+    p.uncertainty = Uncertainty::from_matrix(
+        InputSpace::parameters(6),
         (0..N_PARAMS * N_PARAMS)
             .map(|x| {
                 if x % (N_PARAMS + 1) == 0 {

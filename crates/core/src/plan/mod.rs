@@ -26,9 +26,7 @@ pub use report::render_text;
 
 use crate::engine::{BackendInfo, EngineError, Evaluator, Problem, ProblemError, Reference};
 use crate::identify::chain::{nominal_state, state_model, Placement};
-use crate::identify::chain_fit::{
-    default_free, fit_input_name, jacobian, n_fit_inputs, ChainState, Observation,
-};
+use crate::identify::chain_fit::{default_free, jacobian, ChainState, Observation};
 use crate::kinematics::{transform, Joints, RobotModel};
 use crate::mc::stats::Reliability;
 use crate::sampling::standard_normal;
@@ -299,7 +297,7 @@ pub struct Plan {
     pub seconds: f64,
     /// The engine's Monte Carlo of the planned model, when run.
     pub prediction: Option<Prediction>,
-    /// The planned model's covariance over the [`n_fit_inputs`] inputs (39 for six joints),
+    /// The planned model's covariance over the fit inputs ([`ChainState::space`]; 39 for six joints),
     /// row-major, internal units.
     #[serde(skip)]
     pub covariance: Vec<f64>,
@@ -951,7 +949,7 @@ pub fn plan(model: &RobotModel, task: &[Joints], o: &PlanOptions) -> Result<Plan
         let mut names: Vec<(f64, String)> = free
             .iter()
             .enumerate()
-            .map(|(a, &i)| (v[a].abs(), fit_input_name(lay, i)))
+            .map(|(a, &i)| (v[a].abs(), lay.measured().name(i)))
             .filter(|(x, _)| *x > 0.1)
             .collect();
         names.sort_by(|a, b| b.0.total_cmp(&a.0));
@@ -1068,7 +1066,7 @@ pub fn plan(model: &RobotModel, task: &[Joints], o: &PlanOptions) -> Result<Plan
     let minv = Cholesky::new(g.information(&design))
         .map(|c| c.inverse())
         .ok_or_else(|| PlanError::NotIdentifiable("the planned design is singular".into()))?;
-    let nf = n_fit_inputs(lay);
+    let nf = lay.measured().len();
     let mut covariance = vec![0.0; nf * nf];
     let s2 = o.sigma_mm * o.sigma_mm;
     for (a, &ia) in free.iter().enumerate() {
@@ -1093,7 +1091,7 @@ pub fn plan(model: &RobotModel, task: &[Joints], o: &PlanOptions) -> Result<Plan
         curve,
         candidates: cands.len(),
         candidates_drawn: drawn,
-        identified: free.iter().map(|&i| fit_input_name(lay, i)).collect(),
+        identified: free.iter().map(|&i| lay.measured().name(i)).collect(),
         sigma_mm: o.sigma_mm,
         target_mm: o.target_mm,
         tracker: o.tracker.clone(),

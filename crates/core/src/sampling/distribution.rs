@@ -10,7 +10,7 @@
 //! Draw `k` of a run keyed by the seed is the Philox-4×32-10 counter
 //! `(k mod 2³², k div 2³², b, PARAM_STREAM)` for blocks `b = 0 … 8`; block `b` gives the four
 //! normals `4b … 4b + 3` (Box–Muller of word pairs 0–1 and 2–3). The uncertain inputs
-//! ([`crate::kinematics::Layout::n_uncertain`]) use normals `0 … 5n + 2` one to one: for a
+//! ([`crate::kinematics::InputSpace::robot`]) use normals `0 … 5n + 2` one to one: for a
 //! six-joint model the 30 parameters `0 … 29` (blocks 0–7, as before the tool had a spread),
 //! then the tool's x, y, z `30, 31, 32` (the last two normals of block 7 and the first of block
 //! 8); for seven joints the 35 parameters, then the tool at `35, 36, 37`. Only blocks that feed an input with nonzero spread are computed, so a
@@ -19,12 +19,13 @@
 
 use super::normal::box_muller;
 use super::philox::{philox4x32_10_lanes, Philox};
-use crate::kinematics::{Params, RobotModel, MAX_UNCERTAIN, MAX_WITH_BASE};
+use crate::kinematics::{Block, InputSpace, Params, RobotModel, MAX_INPUTS, MAX_ROBOT_INPUTS};
 
-/// Normals available per draw (11 Philox blocks of 4): the uncertain inputs use the first
-/// `5n + 3` (33 for six joints), and a model with an uncertain base placement draws its six
-/// inputs from the next six (33–38 for six joints; [`crate::engine::PlacementSpread`]).
-pub const MAX_NORMALS: usize = MAX_WITH_BASE;
+/// Normals available per draw (11 Philox blocks of 4): one slot per input of every block
+/// ([`InputSpace::slot`]): the robot's inputs use the first `5n + 3` (33 for six joints), and a
+/// model with an uncertain base placement draws its six inputs from the next six (33–38 for six
+/// joints; [`crate::engine::PlacementSpread`]).
+pub const MAX_NORMALS: usize = MAX_INPUTS;
 
 /// A pick-freeze mask that takes every normal from the second draw (bits `0 … MAX_NORMALS − 1`).
 pub const ALL_NORMALS: u64 = (1 << MAX_NORMALS) - 1;
@@ -42,9 +43,11 @@ pub enum SamplerError {
 enum Form {
     /// σ of each input, zero beyond the model's inputs (a plain array, so the loop over the
     /// inputs has a bound known when compiled).
-    Independent([f64; MAX_UNCERTAIN]),
+    Independent([f64; MAX_ROBOT_INPUTS]),
     Correlated {
         free: Vec<usize>,
+        /// The normal slot of each free input ([`InputSpace::slot`]).
+        slots: Vec<usize>,
         /// Lower-triangular factor, row-major `free.len()²`.
         chol: Vec<f64>,
     },
@@ -55,8 +58,8 @@ enum Form {
 pub struct ParamSampler {
     /// Parameter means (the model's values), mm and radians.
     pub mean: Params,
-    /// Number of uncertain inputs (parameters, then the tool point).
-    n_inputs: usize,
+    /// The inputs drawn (parameters, then the tool point: [`RobotModel::robot_inputs`]).
+    space: InputSpace,
     gen: Philox,
     form: Form,
     blocks: Vec<u32>,
@@ -75,6 +78,10 @@ impl ParamSampler {
     /// with nonzero variance, has no Cholesky factor.
     pub fn new(model: &RobotModel, seed: u64) -> Result<Self, SamplerError> {
         let free = model.free_inputs();
+        let space = model.robot_inputs();
+        // The independent form multiplies input i by normal i: the robot's inputs hold the first
+        // slots in order.
+        debug_assert!((0..space.len()).all(|i| space.slot(i) == i));
         let form = match model.full_covariance() {
             None => {
                 let s = model.input_sigmas();
@@ -82,7 +89,7 @@ impl ParamSampler {
             }
             Some(c) => {
                 let n = free.len();
-                let nu = model.layout().n_uncertain();
+                let nu = space.len();
                 let sub = nalgebra::DMatrix::from_fn(n, n, |a, b| c[free[a] * nu + free[b]]);
                 let l = nalgebra::linalg::Cholesky::new(sub)
                     .ok_or(SamplerError::NotPositiveDefinite)?
@@ -90,15 +97,16 @@ impl ParamSampler {
                 let chol = (0..n * n).map(|x| l[(x / n, x % n)]).collect();
                 Form::Correlated {
                     free: free.clone(),
+                    slots: free.iter().map(|&i| space.slot(i)).collect(),
                     chol,
                 }
             }
         };
-        let mut blocks: Vec<u32> = free.iter().map(|&i| (i / 4) as u32).collect();
+        let mut blocks: Vec<u32> = free.iter().map(|&i| (space.slot(i) / 4) as u32).collect();
         blocks.dedup();
         Ok(ParamSampler {
             mean: model.params,
-            n_inputs: model.layout().n_uncertain(),
+            space,
             gen: Philox::new(seed),
             form,
             blocks,
@@ -112,7 +120,12 @@ impl ParamSampler {
 
     /// Number of uncertain inputs of a draw: the parameters, then the tool point.
     pub fn n_inputs(&self) -> usize {
-        self.n_inputs
+        self.space.len()
+    }
+
+    /// The inputs drawn ([`RobotModel::robot_inputs`]).
+    pub fn space(&self) -> InputSpace {
+        self.space
     }
 
     /// Number of parameters.
@@ -124,7 +137,7 @@ impl ParamSampler {
     /// correlated sampler.
     pub fn sigmas(&self) -> Option<&[f64]> {
         match &self.form {
-            Form::Independent(s) => Some(&s[..self.n_inputs]),
+            Form::Independent(s) => Some(&s[..self.space.len()]),
             Form::Correlated { .. } => None,
         }
     }
@@ -134,7 +147,7 @@ impl ParamSampler {
     pub fn cholesky(&self) -> Option<(&[usize], &[f64])> {
         match &self.form {
             Form::Independent(_) => None,
-            Form::Correlated { free, chol } => Some((free, chol)),
+            Form::Correlated { free, chol, .. } => Some((free, chol)),
         }
     }
 
@@ -148,7 +161,7 @@ impl ParamSampler {
     /// set to 0).
     #[inline]
     pub fn deltas(&self, k: u64, out: &mut [f64]) {
-        let mut lanes = [[0.0; 1]; MAX_UNCERTAIN];
+        let mut lanes = [[0.0; 1]; MAX_ROBOT_INPUTS];
         self.deltas_lanes::<1>(k, &mut lanes);
         for (o, l) in out.iter_mut().zip(&lanes) {
             *o = l[0];
@@ -159,7 +172,7 @@ impl ParamSampler {
     /// `first + l` (the lane layout vectorises; [`Self::deltas`] is the one-lane case, so both
     /// give the same bits).
     #[inline(always)]
-    pub fn deltas_lanes<const L: usize>(&self, first: u64, out: &mut [[f64; L]; MAX_UNCERTAIN]) {
+    pub fn deltas_lanes<const L: usize>(&self, first: u64, out: &mut [[f64; L]; MAX_ROBOT_INPUTS]) {
         let draws: [u64; L] = std::array::from_fn(|l| first + l as u64);
         let mut z = [[0.0; L]; MAX_NORMALS];
         self.normals_lanes(&draws, |_| true, &mut z);
@@ -171,7 +184,7 @@ impl ParamSampler {
     /// `L z` on the free inputs). `mask = 0` gives [`Self::deltas`] of `a` and a mask with every
     /// free input's bit (e.g. [`ALL_NORMALS`]) that of `b`, to the bit.
     pub fn pick_freeze_deltas(&self, a: u64, b: u64, mask: u64, out: &mut [f64]) {
-        let mut lanes = [[0.0; 1]; MAX_UNCERTAIN];
+        let mut lanes = [[0.0; 1]; MAX_ROBOT_INPUTS];
         self.pick_freeze_lanes::<1>(&[a], &[b], &[mask], &mut lanes);
         for (o, l) in out.iter_mut().zip(&lanes) {
             *o = l[0];
@@ -187,7 +200,7 @@ impl ParamSampler {
         a: &[u64; L],
         b: &[u64; L],
         masks: &[u64; L],
-        out: &mut [[f64; L]; MAX_UNCERTAIN],
+        out: &mut [[f64; L]; MAX_ROBOT_INPUTS],
     ) {
         let nibble = |m: u64, block: u32| (m >> (4 * block)) & 0xf;
         let (mut za, mut zb) = ([[0.0; L]; MAX_NORMALS], [[0.0; L]; MAX_NORMALS]);
@@ -233,26 +246,26 @@ impl ParamSampler {
     fn spread_lanes<const L: usize>(
         &self,
         z: &[[f64; L]; MAX_NORMALS],
-        out: &mut [[f64; L]; MAX_UNCERTAIN],
+        out: &mut [[f64; L]; MAX_ROBOT_INPUTS],
     ) {
         match &self.form {
             Form::Independent(s) => {
                 // σ = 0 beyond the model's inputs: their offsets are ±0 and never read.
-                for i in 0..MAX_UNCERTAIN {
+                for i in 0..MAX_ROBOT_INPUTS {
                     for l in 0..L {
                         out[i][l] = s[i] * z[i][l];
                     }
                 }
             }
-            Form::Correlated { free, chol } => {
-                *out = [[0.0; L]; MAX_UNCERTAIN];
+            Form::Correlated { free, slots, chol } => {
+                *out = [[0.0; L]; MAX_ROBOT_INPUTS];
                 let n = free.len();
                 for a in 0..n {
                     let mut acc = [0.0; L];
-                    for (b, &fb) in free.iter().enumerate().take(a + 1) {
+                    for (b, &sb) in slots.iter().enumerate().take(a + 1) {
                         let lab = chol[a * n + b];
                         for l in 0..L {
-                            acc[l] += lab * z[fb][l];
+                            acc[l] += lab * z[sb][l];
                         }
                     }
                     out[free[a]] = acc;
@@ -264,16 +277,17 @@ impl ParamSampler {
     /// The full parameter vector of draw `k` (the tool's offsets are
     /// [`Self::tool_deltas`]).
     pub fn draw(&self, k: u64) -> Params {
-        let mut d = [0.0; MAX_UNCERTAIN];
+        let mut d = [0.0; MAX_ROBOT_INPUTS];
         self.deltas(k, &mut d);
         Params::from_fn(self.mean.len(), |i| self.mean[i] + d[i])
     }
 
     /// The tool point's offsets (mm, flange frame) of draw `k`.
     pub fn tool_deltas(&self, k: u64) -> [f64; 3] {
-        let mut d = [0.0; MAX_UNCERTAIN];
+        let mut d = [0.0; MAX_ROBOT_INPUTS];
         self.deltas(k, &mut d);
-        std::array::from_fn(|i| d[self.mean.len() + i])
+        let t = self.space.range(Block::Tool).map_or(0, |r| r.start);
+        std::array::from_fn(|i| d[t + i])
     }
 }
 
@@ -284,7 +298,7 @@ mod tests {
 
     // The TX60's counts: six joints.
     const N_PARAMS: usize = Layout::SIX.n_params();
-    const N_UNCERTAIN: usize = Layout::SIX.n_uncertain();
+    const N_UNCERTAIN: usize = 33;
 
     /// A tool spread adds draws without touching the parameters' bits (existing seeds keep
     /// their results), and the tool's offsets have the stated σ: 4·10^4 draws, the relative
@@ -337,7 +351,7 @@ mod tests {
         c[t * n + t] = st * st;
         c[t * n + 2] = -0.7 * st * s[2];
         c[2 * n + t] = c[t * n + 2];
-        m.uncertainty = Uncertainty::Covariance(c);
+        m.uncertainty = Uncertainty::from_matrix(InputSpace::robot(6), c);
         m.tool_sigma = [0.0, st, 0.0];
         m.check().unwrap();
         let g = ParamSampler::new(&m, 5).unwrap();
@@ -369,7 +383,7 @@ mod tests {
         }
         c[N_PARAMS + 7] = 0.5 * s[1] * s[7];
         c[7 * N_PARAMS + 1] = c[N_PARAMS + 7];
-        mc.uncertainty = Uncertainty::Covariance(c);
+        mc.uncertainty = Uncertainty::from_matrix(InputSpace::parameters(6), c);
         mc.tool_sigma = [0.002, 0.0, 0.003];
         let mut mi = tx60();
         mi.tool_sigma = [0.002, 0.0, 0.003];
@@ -433,7 +447,7 @@ mod tests {
         for i in 0..N_PARAMS {
             c[i * N_PARAMS + i] = s[i] * s[i];
         }
-        mc.uncertainty = Uncertainty::Covariance(c);
+        mc.uncertainty = Uncertainty::from_matrix(InputSpace::parameters(6), c);
         let (a, b) = (
             ParamSampler::new(&m, 7).unwrap(),
             ParamSampler::new(&mc, 7).unwrap(),
@@ -458,7 +472,7 @@ mod tests {
         }
         c[N_PARAMS + 2] = 0.8 * s[1] * s[2];
         c[2 * N_PARAMS + 1] = c[N_PARAMS + 2];
-        m.uncertainty = Uncertainty::Covariance(c);
+        m.uncertainty = Uncertainty::from_matrix(InputSpace::parameters(6), c);
         let g = ParamSampler::new(&m, 3).unwrap();
         let n = 200_000;
         let (mut sxy, mut sxx, mut syy) = (0.0, 0.0, 0.0);
@@ -482,7 +496,7 @@ mod tests {
         c[2 * N_PARAMS + 2] = 1e-8;
         c[2] = 2e-8;
         c[2 * N_PARAMS] = 2e-8;
-        m.uncertainty = Uncertainty::Covariance(c);
+        m.uncertainty = Uncertainty::from_matrix(InputSpace::parameters(6), c);
         assert!(ParamSampler::new(&m, 1).is_err());
     }
 }

@@ -8,7 +8,7 @@ use crate::identify::{
     identify, identify_poses, identify_sweeps_chain, IdentifyError, IdentifyOptions,
 };
 use crate::kinematics::RobotModel;
-use crate::kinematics::{tx60, FixedParams, Limits, Params, Uncertainty};
+use crate::kinematics::{tx60, Block, FixedParams, Limits, Params, Uncertainty};
 use crate::simulate::{
     perturbed_model, random_placement, random_poses, simulate_poses, simulate_sweeps,
     ParameterErrors, SweepPlan, TrackerNoise, DESIGN_TOOL_MM,
@@ -82,10 +82,7 @@ fn sweeps_identify_four_to_seven_joints() {
         let ids = identify_sweeps_chain(&data, &nominal, &IdentifyOptions::default(), &chain)
             .unwrap_or_else(|e| panic!("{n} joints: {e}"));
         assert!(worst_gap(&ids[0].model, &truth) < 1e-4, "{n} joints");
-        assert_eq!(
-            ids[0].model.uncertainty.dim(),
-            nominal.layout().n_uncertain()
-        );
+        assert_eq!(ids[0].model.uncertainty.dim(), nominal.robot_inputs().len());
         // A nominal model of another joint count is refused, not indexed out of bounds.
         let other = arm(if n == 7 { 6 } else { n + 1 });
         let e = identify(&data, &other, &IdentifyOptions::default()).unwrap_err();
@@ -124,7 +121,8 @@ fn poses_identify_four_to_seven_joints() {
             c.rms_residual_mm
         );
         assert_eq!(c.identifiability.joint_spans_deg.len(), n);
-        assert_eq!(m.uncertainty.dim(), nominal.layout().n_with_base());
+        assert_eq!(m.uncertainty.dim(), nominal.layout().measured().len());
+        assert!(m.uncertainty.covers(Block::Placement));
         truth.base = Some(placement);
         assert!(
             worst_gap(m, &truth) < 1e-4,

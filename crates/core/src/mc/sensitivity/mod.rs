@@ -96,7 +96,9 @@ pub use estimator::{
 use serde::{Deserialize, Serialize};
 
 use crate::engine::{BackendInfo, EngineError, Evaluator, PickFreeze, PlacementSpread, Problem};
-use crate::kinematics::{param_joint, param_kind, Layout, ParamKind, MAX_JOINTS, MIN_JOINTS};
+use crate::kinematics::{
+    param_joint, param_kind, Block, Layout, ParamKind, MAX_JOINTS, MIN_JOINTS,
+};
 use crate::sampling::ALL_NORMALS;
 
 /// Draw index offset of matrix B: row `k` of B is draw `B_DRAW_OFFSET + k`.
@@ -314,24 +316,29 @@ impl SensitivityResult {
     }
 }
 
-/// Report name of input `i` of the inputs of layout `lay` ([`Layout::input_name`]), e.g.
-/// `alpha3`, or `tool_x` … `tool_z` for the tool point (indices 30–32 of a six-joint model).
+/// Report name of input `i` of the inputs of layout `lay` (positions of
+/// [`InputSpace::measured`](crate::kinematics::InputSpace::measured), e.g. `alpha3`, or `tool_x` … `tool_z` for the tool point, indices
+/// 30–32 of a six-joint model).
 pub fn param_name(lay: Layout, i: usize) -> String {
-    lay.input_name(i)
+    lay.measured().name(i)
 }
 
-/// The groups of the free inputs `free` (as input columns) of layout `lay`: per joint, then per
-/// kind, then the tool point (its uncertain coordinates), then the base placement (its
-/// uncertain inputs, when it is drawn).
+/// The groups of the free inputs `free` (as input columns; positions of [`InputSpace::measured`](crate::kinematics::InputSpace::measured))
+/// of layout `lay`: per joint, then per kind, then one group per other block (the tool point's
+/// uncertain coordinates, then the base placement's uncertain inputs, when it is drawn).
 fn robot_groups(lay: Layout, free: &[usize]) -> Vec<InputGroup> {
-    let (n_params, n_uncertain) = (lay.n_params(), lay.n_uncertain());
+    let space = lay.measured();
     let select = |name: String, keep: &dyn Fn(usize) -> bool| InputGroup {
         name,
         members: (0..free.len()).filter(|&c| keep(free[c])).collect(),
     };
+    let param = move |i: usize| match space.locate(i) {
+        (Block::Joints, k) => Some(k),
+        _ => None,
+    };
     let joints = (0..lay.joints()).map(|j| {
         select(format!("joint {}", j + 1), &move |i| {
-            i < n_params && param_joint(i) == j
+            param(i).is_some_and(|k| param_joint(k) == j)
         })
     });
     let kinds: [(&str, &[ParamKind]); 3] = [
@@ -341,17 +348,16 @@ fn robot_groups(lay: Layout, free: &[usize]) -> Vec<InputGroup> {
     ];
     let kinds = kinds.into_iter().map(|(name, ks)| {
         select(name.to_string(), &move |i| {
-            i < n_params && ks.contains(&param_kind(i))
+            param(i).is_some_and(|k| ks.contains(&param_kind(k)))
         })
     });
-    let tool = std::iter::once(select("tool".to_string(), &|i| {
-        (n_params..n_uncertain).contains(&i)
-    }));
-    let placement = std::iter::once(select("base placement".to_string(), &|i| i >= n_uncertain));
+    let blocks = space
+        .blocks()
+        .skip(1)
+        .map(|b| select(b.label().to_string(), &move |i| space.locate(i).0 == b));
     joints
         .chain(kinds)
-        .chain(tool)
-        .chain(placement)
+        .chain(blocks)
         .filter(|g| !g.members.is_empty())
         .collect()
 }
@@ -435,7 +441,7 @@ pub fn run_outputs(
         (None, None) => {
             // An independent sampler always has its σ; none would mean no free parameter.
             let s = sampler.sigmas().unwrap_or(&[]);
-            let free = (0..lay.n_uncertain().min(s.len()))
+            let free = (0..sampler.n_inputs().min(s.len()))
                 .filter(|&i| s[i] > 0.0)
                 .collect();
             (free, InputKind::IndependentParameters)
@@ -484,9 +490,9 @@ pub fn run_outputs(
 pub struct Design {
     /// What the inputs are.
     pub input_kind: InputKind,
-    /// Indices of the free inputs among the [`Layout::n_uncertain`] (the `5n` parameters, then
-    /// the tool point; 33 for six joints), or among the [`Layout::n_with_base`] with the base
-    /// placement when it is drawn (39), in input order.
+    /// Indices of the free inputs: positions of [`InputSpace::measured`](crate::kinematics::InputSpace::measured) (the `5n` parameters,
+    /// the tool point, then the base placement when it is drawn; 39 for six joints), in input
+    /// order. They are also the inputs' normal slots ([`InputSpace::slot`](crate::kinematics::InputSpace::slot)).
     pub free: Vec<usize>,
     /// Joints of the model, which lays the inputs out (six when a file leaves it out; written
     /// only when not six, so a six-joint design reads as before).
@@ -510,7 +516,7 @@ impl Design {
     /// # Errors
     ///
     /// [`SensitivityError::Design`] when the design's joint count is not 4 to 7 or its free
-    /// inputs are not a non-empty set of the [`Layout::n_with_base`] inputs; otherwise as
+    /// inputs are not a non-empty set of the [`InputSpace::measured`](crate::kinematics::InputSpace::measured) inputs; otherwise as
     /// [`analyse_outputs`] (an option out of range, outputs of the wrong count).
     pub fn result(
         &self,
@@ -526,11 +532,12 @@ impl Design {
             )));
         }
         let lay = Layout::new(self.joints);
-        if self.free.is_empty() || self.free.iter().any(|&i| i >= lay.n_with_base()) {
+        let n = lay.measured().len();
+        if self.free.is_empty() || self.free.iter().any(|&i| i >= n) {
             return Err(SensitivityError::Design(format!(
                 "free inputs {:?} must be a non-empty set of 0 … {}",
                 self.free,
-                lay.n_with_base() - 1
+                n - 1
             )));
         }
         let names: Vec<String> = self.free.iter().map(|&i| param_name(lay, i)).collect();

@@ -13,11 +13,9 @@ pub(super) struct NormalSpace {
     /// Cholesky factor (`d²` entries).
     pub(super) factor: Vec<f64>,
     pub(super) diagonal: bool,
-    /// Entries of an offset row: the model's [`Layout::n_uncertain`] (33 for six joints), or
-    /// [`Layout::n_with_base`] (39) when the placement is drawn.
-    ///
-    /// [`Layout::n_uncertain`]: crate::kinematics::Layout::n_uncertain
-    /// [`Layout::n_with_base`]: crate::kinematics::Layout::n_with_base
+    /// Entries of an offset row: the inputs the evaluator takes
+    /// ([`crate::engine::Evaluator::offset_space`]: 33 for six joints, 39 when the placement is
+    /// drawn).
     pub(super) width: usize,
 }
 
@@ -25,31 +23,30 @@ impl NormalSpace {
     /// The space of `problem`'s inputs: its `5n + 3` (33 for six joints), or all `5n + 9` (39)
     /// when its model's placement is uncertain (the measurement frame, docs/METHOD.md §2.8).
     pub(super) fn new(problem: &Problem) -> Result<Self, TailError> {
-        let lay = problem.model.layout();
         let space = if let Some(sp) = PlacementSpread::of(problem)? {
             NormalSpace {
                 free: sp.free,
                 factor: sp.chol,
                 diagonal: false,
-                width: lay.n_with_base(),
+                width: sp.space.len(),
             }
         } else if let Some((free, chol)) = problem.sampler.cholesky() {
             NormalSpace {
                 free: free.to_vec(),
                 factor: chol.to_vec(),
                 diagonal: false,
-                width: lay.n_uncertain(),
+                width: problem.sampler.n_inputs(),
             }
         } else {
             let s = problem.sampler.sigmas().unwrap_or(&[]);
-            let free: Vec<usize> = (0..lay.n_uncertain().min(s.len()))
+            let free: Vec<usize> = (0..problem.sampler.n_inputs().min(s.len()))
                 .filter(|&i| s[i] > 0.0)
                 .collect();
             NormalSpace {
                 factor: free.iter().map(|&i| s[i]).collect(),
                 free,
                 diagonal: true,
-                width: lay.n_uncertain(),
+                width: problem.sampler.n_inputs(),
             }
         };
         if space.free.is_empty() {
@@ -166,7 +163,8 @@ mod tests {
         }
         c[np + 2] = 0.6 * s[1] * s[2];
         c[2 * np + 1] = c[np + 2];
-        corr.uncertainty = Uncertainty::Covariance(c);
+        corr.uncertainty =
+            Uncertainty::from_matrix(crate::kinematics::InputSpace::parameters(6), c);
         for model in [tx60(), corr] {
             let sampler = ParamSampler::new(&model, 17).unwrap();
             let points = crate::points::generate(&model, 2, &Default::default(), 1).unwrap();
@@ -182,7 +180,7 @@ mod tests {
             for k in [0u64, 5, 1 << 33] {
                 let z: Vec<f64> = (0..9).flat_map(|b| normals_block(&g, k, b, 0)).collect();
                 let u: Vec<f64> = space.free.iter().map(|&i| z[i]).collect();
-                let nu = model.layout().n_uncertain();
+                let nu = model.robot_inputs().len();
                 let mut mine = vec![0.0; nu];
                 space.offsets(&u, &mut mine);
                 let mut theirs = vec![0.0; nu];
