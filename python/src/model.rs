@@ -330,6 +330,17 @@ impl PyModel {
         Some(a.into_pyarray(py))
     }
 
+    /// The blocks of inputs the model's own covariance covers, in order, as the model file's
+    /// `[covariance] blocks` names them: `["joints"]`, `["joints", "tool"]` or `["joints",
+    /// "tool", "placement"]` (an identification in a tracker frame); `None` for independent σ.
+    #[getter]
+    fn covariance_blocks(&self) -> Option<Vec<&'static str>> {
+        self.model
+            .uncertainty
+            .covariance()
+            .map(|c| c.space().block_names())
+    }
+
     /// Indices (of the `5n + 3` inputs) with nonzero spread: the ones a sampler varies; the
     /// last three (30, 31, 32 for six joints) are the tool's x, y, z.
     #[getter]

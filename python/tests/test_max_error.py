@@ -83,6 +83,10 @@ def test_covariance_covers_the_tool(tx60):
     m33, full = correlated_tool(tx60)
     np.testing.assert_allclose(m33.covariance, full, rtol=1e-12, atol=0)
     assert tx60.covariance is None
+    # The blocks each matrix covers, as the model file names them.
+    assert m30.covariance_blocks == ["joints"]
+    assert m33.covariance_blocks == ["joints", "tool"]
+    assert tx60.covariance_blocks is None
 
 
 def test_fk_matches_numpy(tx60, q):

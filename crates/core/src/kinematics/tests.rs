@@ -207,3 +207,145 @@ fn bad_fields_are_named() {
     let lim = good.replacen("limits = [-180.0, 180.0]", "limits = [180.0, -180.0]", 1);
     assert!(err_of(&lim).contains("joint[1].limits"), "{}", err_of(&lim));
 }
+
+/// A model with a placement-covering covariance: the TX60 with a tool, a placement and a
+/// 39 × 39 covariance (parameters' σ², a tool σ of 2 µm, base σ of 0.1 mm and 0.01°, one
+/// correlation between θ2 and base_yaw).
+fn measured_tx60() -> RobotModel {
+    let mut m = tx60();
+    let space = InputSpace::measured(6);
+    let n = space.len();
+    let s = m.param_sigmas();
+    let mut c = vec![0.0; n * n];
+    for i in 0..N_PARAMS {
+        c[i * n + i] = s[i] * s[i];
+    }
+    for i in space.range(Block::Tool).unwrap() {
+        c[i * n + i] = 0.002f64.powi(2);
+    }
+    for (k, i) in space.range(Block::Placement).unwrap().enumerate() {
+        c[i * n + i] = if k < 3 {
+            0.01
+        } else {
+            0.01f64.to_radians().powi(2)
+        };
+    }
+    let (a, b) = (5, space.index(Block::Placement, 5).unwrap());
+    c[a * n + b] = 0.3 * c[a * n + a].sqrt() * c[b * n + b].sqrt();
+    c[b * n + a] = c[a * n + b];
+    m.tool = [30.0, -20.0, 80.0];
+    m.tool_sigma = [0.002; 3];
+    m.base = Some(BaseTransform {
+        xyz: [2000.0, 100.0, 0.0],
+        rpy: [0.05, -0.02, 1.2],
+    });
+    m.uncertainty = Uncertainty::from_matrix(space, c);
+    m.check().unwrap();
+    m
+}
+
+/// The file names the covariance's blocks; the blocks survive the round trip, and a file
+/// without the list (written before blocks were named) reads as the same model.
+#[test]
+fn covariance_blocks_are_written_and_older_files_still_load() {
+    for m in [measured_tx60(), {
+        let mut p = measured_tx60().without_base_uncertainty();
+        p.base = None;
+        p
+    }] {
+        let text = m.to_toml();
+        let names = m.uncertainty.covariance().unwrap().space().block_names();
+        let line = format!(
+            "blocks = [{}]",
+            names
+                .iter()
+                .map(|b| format!("\"{b}\""))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+        assert!(text.contains(&format!("[covariance]\n{line}\n")), "{text}");
+        let back = RobotModel::from_toml(&text, "m.toml").unwrap();
+        assert_eq!(
+            back.uncertainty.covariance().unwrap().space().block_names(),
+            names
+        );
+        let old = text.replace(&format!("{line}\n"), "");
+        assert_ne!(old, text);
+        let legacy = RobotModel::from_toml(&old, "m.toml").unwrap();
+        assert_eq!(
+            legacy, back,
+            "an older file without the list reads the same"
+        );
+    }
+}
+
+/// A covariance over a block the code does not know is one clear error naming it and the
+/// known blocks; blocks out of order, and a matrix of the wrong size for the named blocks,
+/// are refused naming the field.
+#[test]
+fn unknown_or_mismatched_covariance_blocks_are_named() {
+    let text = measured_tx60().to_toml();
+    let blocks = "blocks = [\"joints\", \"tool\", \"placement\"]";
+    assert!(text.contains(blocks));
+    let unknown = text.replace(blocks, "blocks = [\"joints\", \"tool\", \"compliance\"]");
+    assert_eq!(
+        err_of(&unknown),
+        "model file m.toml: covariance.blocks: unknown block 'compliance' (known: joints, tool, placement)"
+    );
+    let order = text.replace(blocks, "blocks = [\"joints\", \"placement\", \"tool\"]");
+    let e = err_of(&order);
+    assert!(
+        e.contains("covariance.blocks: the blocks must start with \"joints\""),
+        "{e}"
+    );
+    // 39 rows named as the 33 of joints and tool: the size does not silently choose.
+    let short = text.replace(blocks, "blocks = [\"joints\", \"tool\"]");
+    let e = err_of(&short);
+    assert!(
+        e.contains("covariance.matrix: must have 33 rows for the blocks [joints, tool] of 6 joints, found 39"),
+        "{e}"
+    );
+    // A legacy size that fits no block set names the sizes it accepts.
+    let m = tx60();
+    let mut bad = m.to_toml();
+    bad.push_str("\n[covariance]\nmatrix = [[1.0]]\n");
+    let e = err_of(&bad);
+    assert!(e.contains("covariance.matrix: must have 30 rows"), "{e}");
+}
+
+/// A covariance of the joints and the placement without the tool: the placement keeps its
+/// normal slots (33–38), the tool its independent σ, and the base-frame model drops the
+/// placement's rows.
+#[test]
+fn a_covariance_without_the_tool_block() {
+    let full = measured_tx60();
+    let c = full.uncertainty.covariance().unwrap();
+    let space = InputSpace::new(6, &[Block::Joints, Block::Placement]).unwrap();
+    let mut m = full.clone();
+    m.uncertainty = Uncertainty::Covariance(c.restricted(space));
+    m.tool_sigma = [0.0, 0.004, 0.0];
+    m.check().unwrap();
+    assert_eq!(m.base_sigmas(), full.base_sigmas());
+    let robot = m.covariance_in(InputSpace::robot(6));
+    assert_eq!(robot[31 * 33 + 31], 0.004f64.powi(2));
+    assert_eq!(robot[5 * 33 + 5], c.entry(5, 5));
+    let measured = m.covariance_in(InputSpace::measured(6));
+    assert_eq!(measured[5 * 39 + 38], c.entry(5, 38));
+    assert_eq!(measured[31 * 39 + 38], 0.0);
+    // The file holds degrees: the round trip agrees to the rounding of deg → rad → deg.
+    let back = RobotModel::from_toml(&m.to_toml(), "m.toml").unwrap();
+    let (a, b) = (
+        back.uncertainty.covariance().unwrap(),
+        m.uncertainty.covariance().unwrap(),
+    );
+    assert_eq!(a.space(), space);
+    assert_eq!(back.tool_sigma, m.tool_sigma);
+    for (x, y) in a.matrix().iter().zip(b.matrix()) {
+        assert!((x - y).abs() <= 1e-14 * y.abs(), "{x} vs {y}");
+    }
+    assert_eq!(
+        m.without_base_uncertainty().uncertainty.dim(),
+        N_PARAMS,
+        "the base frame keeps the parameters' block"
+    );
+}
