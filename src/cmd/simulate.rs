@@ -133,7 +133,14 @@ impl Run for SimulateArgs {
                 gpu_amcs::identify::write_sweeps(&data, &mut buf)?;
                 let text = String::from_utf8(buf).context("sweep CSV")?;
                 let lines = text.lines().count() - 1;
-                (text, format!("{} runs × 6 sweeps ({lines} points)", f.runs))
+                (
+                    text,
+                    format!(
+                        "{} runs × {} sweeps ({lines} points)",
+                        f.runs,
+                        exp.truth.joints()
+                    ),
+                )
             }
         };
         outputs.stage_file("--truth-out", truth.to_toml())?;

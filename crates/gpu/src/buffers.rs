@@ -198,8 +198,8 @@ impl Slot {
 pub(crate) enum Rows<'a> {
     /// Counter draws from this index on.
     Draws(u64),
-    /// An offset matrix of the given width (`Layout::n_uncertain`, or `n_with_base` for a problem
-    /// that draws its placement) per row, from its first row on.
+    /// An offset matrix of the given width (the evaluator's offset space: the robot's inputs, or
+    /// with the placement for a problem that draws it) per row, from its first row on.
     Offsets(&'a [f64], usize),
     /// The rows of a pick-freeze request from this row on (its masks already uploaded).
     PickFreeze(PickFreeze<'a>, usize),

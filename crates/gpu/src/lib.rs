@@ -34,8 +34,9 @@
 //! and the Monte Carlo drivers ask for consecutive batches, so the next batch is already
 //! computing while the caller sorts this one ([`GpuOptions::prefetch`]). Memory is per chunk,
 //! never per request: an MCS of 10^8 draws needs the caller's output slice and two chunks of GPU
-//! buffers; an offset request of n rows uploads `Layout::n_uncertain` f32 per row (`n_with_base` when the
-//! problem draws its placement), one chunk at a time.
+//! buffers; an offset request of n rows uploads one f32 per input of the evaluator's offset space
+//! per row (the robot's inputs, and the placement's when the problem draws it), one chunk at a
+//! time.
 #![warn(clippy::missing_errors_doc)]
 
 mod backend;
@@ -90,8 +91,8 @@ pub mod binding {
     pub const W: u32 = 6;
     /// Output: e_j per parameter vector and point (`e_out`).
     pub const E: u32 = 7;
-    /// Input of the offset path: `Layout::n_uncertain` offsets per row (`Layout::n_with_base`
-    /// with the placement; `offsets_in`).
+    /// Input of the offset path: one offset per input of the evaluator's offset space per row
+    /// (the robot's inputs, then the placement's when drawn; `offsets_in`).
     pub const OFFSETS: u32 = 8;
     /// Input of the pick-freeze path: one mask of normals per matrix, (lo, hi) words (`masks`).
     pub const MASKS: u32 = 9;

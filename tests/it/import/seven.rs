@@ -247,7 +247,7 @@ fn a_seven_joint_model_runs_every_analysis() {
     // Identification from simulated data of a known truth: sweeps, and poses in a tracker frame.
     let truth = dir.join("truth.toml");
     let sweeps = dir.join("sweeps.csv");
-    ok(&[
+    let r = run(&[
         "simulate",
         "--model",
         &s(&nominal),
@@ -260,6 +260,9 @@ fn a_seven_joint_model_runs_every_analysis() {
         "--truth-out",
         &s(&truth),
     ]);
+    assert!(r.status.success(), "simulate: {}", stderr(&r));
+    // One sweep per joint: seven, not the six of a six-axis arm.
+    assert!(stderr(&r).contains("2 runs × 7 sweeps ("), "{}", stderr(&r));
     let truth_model = RobotModel::from_file(&truth).unwrap();
     assert_eq!(truth_model.joints(), 7);
     let idm = dir.join("id.toml");

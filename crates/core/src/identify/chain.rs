@@ -675,19 +675,15 @@ pub fn state_model(
     let cov = crate::kinematics::Covariance::new(fit, covariance.to_vec())
         .expect("a covariance of the fit inputs")
         .restricted(kept);
-    let tool = fit.range(Block::Tool).map_or(0, |r| r.start);
-    let nf = fit.len();
-    RobotModel {
+    let mut model = RobotModel {
         name,
         params: s.params,
         fixed: nominal.fixed,
         limits_deg: nominal.limits_deg,
         tool: s.tool,
-        tool_sigma: std::array::from_fn(|k| {
-            let i = tool + k;
-            covariance[i * nf + i].max(0.0).sqrt()
-        }),
-        uncertainty: Uncertainty::Covariance(cov),
+        // Set from the covariance's tool block below.
+        tool_sigma: [0.0; 3],
+        uncertainty: Uncertainty::Independent(nominal.param_sigmas()),
         base: match frame {
             Placement::Identify => Some(crate::kinematics::BaseTransform {
                 xyz: [s.base[0], s.base[1], s.base[2]],
@@ -695,7 +691,9 @@ pub fn state_model(
             }),
             Placement::Known => nominal.base,
         },
-    }
+    };
+    model.set_covariance(cov);
+    model
 }
 
 #[cfg(test)]

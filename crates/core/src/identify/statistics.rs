@@ -8,7 +8,7 @@
 //! tool varies between the runs.
 
 use super::{Identification, IdentifyError};
-use crate::kinematics::{param_index, Block, Inputs, Params, RobotModel, Uncertainty};
+use crate::kinematics::{param_index, Block, Covariance, Inputs, Params, RobotModel, Uncertainty};
 
 /// Relative ridge added to the diagonal of a sample covariance: with R runs of ~24 free
 /// parameters the covariance is singular when R is at most the number of free parameters, and the
@@ -79,12 +79,7 @@ pub fn correlated_statistics(models: &[RobotModel]) -> Option<RobotModel> {
         }
         cov[i * n + i] *= 1.0 + COVARIANCE_RIDGE;
     }
-    if let Some(r) = space.range(Block::Tool) {
-        for (k, i) in r.enumerate() {
-            m.tool_sigma[k] = cov[i * n + i].sqrt();
-        }
-    }
-    m.uncertainty = Uncertainty::from_matrix(space, cov);
+    m.set_covariance(Covariance::new(space, cov)?);
     Some(m)
 }
 

@@ -242,13 +242,9 @@ impl RobotModel {
         };
         // A covariance with the tool carries the tool's spread; `tool_sigma`, when given, must
         // repeat its diagonal.
-        let tool_rows = model
-            .uncertainty
-            .covariance()
-            .and_then(|c| c.space().range(Block::Tool));
-        if let (Some(r), Some(c)) = (&tool_rows, model.uncertainty.covariance()) {
-            model.tool_sigma =
-                std::array::from_fn(|k| c.entry(r.start + k, r.start + k).max(0.0).sqrt());
+        let tool_rows = model.uncertainty.covers(Block::Tool);
+        if let Uncertainty::Covariance(c) = model.uncertainty.clone() {
+            model.set_covariance(c);
         }
         model.check().map_err(invalid)?;
         // The per-joint sigma (and tool_sigma) must agree with the covariance diagonal so a reader
@@ -260,7 +256,7 @@ impl RobotModel {
                 (Block::Tool, k) => tool_sigma_file.map_or(diag[i], |t| t[k]),
                 _ => sigma[i],
             });
-            let n = if tool_rows.is_some() {
+            let n = if tool_rows {
                 space.len()
             } else {
                 lay.n_params()

@@ -363,6 +363,17 @@ impl RobotModel {
         }
     }
 
+    /// Makes `c` the model's uncertainty. A covariance that covers the tool carries the tool's
+    /// spread: `tool_sigma` becomes the square roots of its tool diagonal; otherwise
+    /// `tool_sigma` stays the tool's independent spread.
+    pub fn set_covariance(&mut self, c: Covariance) {
+        if let Some(r) = c.space().range(Block::Tool) {
+            self.tool_sigma =
+                std::array::from_fn(|k| c.entry(r.start + k, r.start + k).max(0.0).sqrt());
+        }
+        self.uncertainty = Uncertainty::Covariance(c);
+    }
+
     /// Standard deviations of the [`Self::robot_inputs`]: the parameters, then the tool.
     pub fn input_sigmas(&self) -> Inputs {
         let p = self.param_sigmas();

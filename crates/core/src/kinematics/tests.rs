@@ -5,8 +5,8 @@ use crate::kinematics::tx60;
 
 // The TX60's counts: six joints.
 const N_PARAMS: usize = Layout::SIX.n_params();
-const N_UNCERTAIN: usize = 33;
-fn tool_index(k: usize) -> usize {
+const N_ROBOT_INPUTS: usize = 33;
+fn tool_at(k: usize) -> usize {
     Layout::SIX.robot().index(Block::Tool, k).unwrap()
 }
 
@@ -122,23 +122,23 @@ fn tool_sigma_in_the_file() {
         err_of(&two)
     );
     // 33 × 33: the tool's variances from the matrix
-    let n = N_UNCERTAIN;
+    let n = N_ROBOT_INPUTS;
     let s = m.param_sigmas();
     let mut c = vec![0.0; n * n];
     for i in 0..N_PARAMS {
         c[i * n + i] = s[i] * s[i];
     }
     for k in 0..3 {
-        c[tool_index(k) * (n + 1)] = t.tool_sigma[k].powi(2);
+        c[tool_at(k) * (n + 1)] = t.tool_sigma[k].powi(2);
     }
-    c[tool_index(2) * n + 1] = 0.5 * t.tool_sigma[2] * s[1];
-    c[n + tool_index(2)] = c[tool_index(2) * n + 1];
+    c[tool_at(2) * n + 1] = 0.5 * t.tool_sigma[2] * s[1];
+    c[n + tool_at(2)] = c[tool_at(2) * n + 1];
     t.uncertainty = Uncertainty::from_matrix(InputSpace::robot(6), c);
     t.check().unwrap();
     let text = t.to_toml();
     assert!(text.contains("then the tool's x, y, z"));
     let back = RobotModel::from_toml(&text, "x").unwrap();
-    assert_eq!(back.uncertainty.dim(), N_UNCERTAIN);
+    assert_eq!(back.uncertainty.dim(), N_ROBOT_INPUTS);
     for k in 0..3 {
         assert!((back.tool_sigma[k] - t.tool_sigma[k]).abs() < 1e-15);
     }
@@ -165,8 +165,8 @@ fn tool_sigma_in_the_file() {
     );
     p.tool_sigma = [0.0, 0.001, 0.0];
     let full = p.full_covariance().unwrap();
-    assert_eq!(full[tool_index(1) * (n + 1)], 1e-6);
-    assert_eq!(p.free_inputs().last(), Some(&tool_index(1)));
+    assert_eq!(full[tool_at(1) * (n + 1)], 1e-6);
+    assert_eq!(p.free_inputs().last(), Some(&tool_at(1)));
 }
 
 #[test]
