@@ -46,6 +46,9 @@ type JointLanes = [[[f64; LANES]; 8]; MAX_JOINTS];
 /// Offsets of a block of lanes: `d[input][lane]`, the model's inputs first (zero beyond).
 type OffsetLanes = [[f64; LANES]; MAX_ROBOT_INPUTS];
 
+/// Standard normals of a block of lanes: `z[slot][lane]`.
+type Normals = [[f64; LANES]; crate::sampling::MAX_NORMALS];
+
 /// Where the parameter offsets δ of a range of evaluations come from.
 #[derive(Clone, Copy)]
 enum Source<'a> {
@@ -72,14 +75,19 @@ impl<'a> Source<'a> {
 
     /// Offsets of the first [`LANES`] evaluations, lane-wise (lanes past the end of an offset
     /// matrix are zero; past the end of a request they are computed and then discarded).
+    /// For draws and pick-freeze rows `z` receives the (mixed) standard normals of the sampler's
+    /// Philox blocks, for the placement's offsets of the same rows.
     #[inline(always)]
-    fn lanes(self, sampler: &crate::sampling::ParamSampler, d: &mut OffsetLanes) {
+    fn lanes(self, sampler: &crate::sampling::ParamSampler, d: &mut OffsetLanes, z: &mut Normals) {
         match self {
-            Source::Draws(k) => sampler.deltas_lanes::<LANES>(k, d),
+            Source::Draws(k) => sampler.deltas_normals_lanes::<LANES>(k, d, z),
             Source::Offsets(rows, width) => {
+                // The robot's inputs lead a row; the placement's, when a row has them, are
+                // read by `PlacementLanes::offsets`.
+                let nu = width.min(sampler.n_inputs());
                 *d = [[0.0; LANES]; MAX_ROBOT_INPUTS];
                 for (l, row) in rows.chunks_exact(width).take(LANES).enumerate() {
-                    for i in 0..width {
+                    for i in 0..nu {
                         d[i][l] = row[i];
                     }
                 }
@@ -91,7 +99,7 @@ impl<'a> Source<'a> {
                         (a[l], b[l], m[l]) = pf.row(row + l);
                     }
                 }
-                sampler.pick_freeze_lanes::<LANES>(&a, &b, &m, d);
+                sampler.pick_freeze_normals_lanes::<LANES>(&a, &b, &m, d, z);
             }
         }
     }
@@ -106,25 +114,26 @@ pub struct CpuEvaluator {
     /// Number of joints of the model.
     joints: usize,
     avx2: bool,
-    /// The base placement's draws, for a model whose placement is uncertain.
+    /// The base placement's offsets, for a model whose placement is uncertain: counter draws,
+    /// pick-freeze rows over all its normals and offset rows with the placement's six.
     placement: Option<PlacementLanes>,
-    /// The exact evaluator of rows with the placement (explicit offsets of 39 inputs and
-    /// pick-freeze rows over 39 normals), for such a model.
-    exact: Option<Box<super::PlacementEvaluator>>,
 }
 
-/// The placement's offsets of a draw from its other inputs (33 for six joints; docs/METHOD.md
-/// §2.8). With the joint Cholesky factor `L = [[L_aa, 0], [L_ba, L_bb]]` (the other inputs
+/// The placement's offsets of a draw, a pick-freeze row or an offset row, and the transforms
+/// `ΔB` they give (docs/METHOD.md §2.8): the measurement frame in the lanes, the f64 lanes' one
+/// application of [`Block::Placement`]. With the joint Cholesky factor `L = [[L_aa, 0], [L_ba, L_bb]]` (the other inputs
 /// first, as the sampler's factor is the leading block), `δ_b = L_ba z_a + L_bb z_b = M δ_a +
 /// L_bb z_b` with `M = L_ba L_aa⁻¹`: the sampler's own δ_a plus the placement's normals (33–38
-/// for six joints), so the draws equal [`super::PlacementEvaluator`]'s.
+/// for six joints), so the draws equal [`super::PlacementEvaluator`]'s (to ~1e-11 mm: the lanes
+/// compute the chain with shifted sines, the point form with `sin_cos`).
 #[derive(Clone, Debug)]
 struct PlacementLanes {
     /// `M` as (base input k, input i, coefficient), nonzero entries only.
     m: Vec<(usize, usize, f64)>,
     /// `L_bb` as (base input k, base input k', coefficient), k' ≤ k.
     lbb: Vec<(usize, usize, f64)>,
-    /// Philox blocks holding the placement's normals.
+    /// Philox blocks holding the placement's normals that the sampler does not compute (a
+    /// block shared with the tool's normals is the sampler's).
     blocks: Vec<u32>,
     /// Mean placement: x, y, z (mm), roll, pitch, yaw (rad).
     base: [f64; 6],
@@ -133,6 +142,9 @@ struct PlacementLanes {
     gen: crate::sampling::Philox,
     /// The normal slot of the placement's first input ([`InputSpace::slot_range`]).
     first_slot: usize,
+    /// The inputs of an offset row ([`InputSpace::measured`]) and where the placement's lie.
+    space: InputSpace,
+    first_at: usize,
 }
 
 impl PlacementLanes {
@@ -168,6 +180,7 @@ impl PlacementLanes {
             .map(|&i| (sp.space.slot(i) / 4) as u32)
             .collect();
         blocks.dedup();
+        blocks.retain(|b| !problem.sampler.blocks().contains(b));
         let rt =
             nalgebra::Rotation3::from_euler_angles(sp.base[3], sp.base[4], sp.base[5]).inverse();
         Some(PlacementLanes {
@@ -178,39 +191,71 @@ impl PlacementLanes {
             r_mean_t: std::array::from_fn(|r| std::array::from_fn(|c| rt[(r, c)])),
             gen: crate::sampling::Philox::new(problem.seed),
             first_slot: sp.space.slot_range(Block::Placement).start,
+            space: sp.space,
+            first_at: nu,
         })
     }
 
-    /// `ΔB = B̂⁻¹B'` of draws `first … first + LANES − 1` with offsets `d`: per lane the rows
-    /// of `[ΔR | Δt]`.
-    fn transforms(&self, first: u64, d: &OffsetLanes) -> [[[f64; LANES]; 4]; 3] {
+    /// The placement's offsets `δ_b` (x, y, z mm; roll, pitch, yaw rad) of the [`LANES`]
+    /// evaluations of `src`, whose other offsets are `d` and whose sampler's normals are `z`:
+    /// read from an offset row, or `M δ_a + L_bb z_b` with the placement's normals of a counter
+    /// draw or of a pick-freeze row (normal `s` from draw `b` where bit `s` of the mask is set),
+    /// the blocks the sampler did not compute added to `z`.
+    #[inline(always)]
+    fn offsets(&self, src: Source, d: &OffsetLanes, z: &mut Normals) -> [[f64; LANES]; 6] {
+        let mut db = [[0.0; LANES]; 6];
+        match src {
+            Source::Offsets(rows, width) => {
+                for (l, row) in rows.chunks_exact(width).take(LANES).enumerate() {
+                    for (k, v) in db.iter_mut().enumerate() {
+                        v[l] = row[self.first_at + k];
+                    }
+                }
+                return db;
+            }
+            Source::Draws(k) => {
+                let draws = std::array::from_fn(|l| k + l as u64);
+                crate::sampling::normals_lanes(&self.gen, &self.blocks, &draws, |_| true, z);
+            }
+            Source::PickFreeze(pf, row) => {
+                let (mut a, mut b, mut m) = ([0; LANES], [0; LANES], [0u64; LANES]);
+                for l in 0..LANES {
+                    if row + l < pf.rows() {
+                        (a[l], b[l], m[l]) = pf.row(row + l);
+                    }
+                }
+                crate::sampling::pick_freeze_normals(&self.gen, &self.blocks, &a, &b, &m, z);
+            }
+        }
+        for &(kb, i, v) in &self.m {
+            for l in 0..LANES {
+                db[kb][l] += v * d[i][l];
+            }
+        }
+        for &(kb, kb2, v) in &self.lbb {
+            for l in 0..LANES {
+                db[kb][l] += v * z[self.first_slot + kb2][l];
+            }
+        }
+        db
+    }
+
+    /// `ΔB = B̂⁻¹B'` of the [`LANES`] placements `B̂ + δ_b` ([`Self::offsets`]): per lane the
+    /// rows of `[ΔR | Δt]`.
+    fn transforms(&self, db: &[[f64; LANES]; 6]) -> [[[f64; LANES]; 4]; 3] {
         let mut out = [[[0.0; LANES]; 4]; 3];
         for l in 0..LANES {
-            let k = first + l as u64;
-            let mut z = [0.0; crate::sampling::MAX_NORMALS];
-            for &b in &self.blocks {
-                let v =
-                    crate::sampling::normals_block(&self.gen, k, b, crate::sampling::PARAM_STREAM);
-                z[4 * b as usize..4 * b as usize + 4].copy_from_slice(&v);
-            }
-            let mut db = [0.0; 6];
-            for &(kb, i, v) in &self.m {
-                db[kb] += v * d[i][l];
-            }
-            for &(kb, kb2, v) in &self.lbb {
-                db[kb] += v * z[self.first_slot + kb2];
-            }
             let r = nalgebra::Rotation3::from_euler_angles(
-                self.base[3] + db[3],
-                self.base[4] + db[4],
-                self.base[5] + db[5],
+                self.base[3] + db[3][l],
+                self.base[4] + db[4][l],
+                self.base[5] + db[5][l],
             );
             let rt = &self.r_mean_t;
             for row in 0..3 {
                 for c in 0..3 {
                     out[row][c][l] = (0..3).map(|k| rt[row][k] * r[(k, c)]).sum();
                 }
-                out[row][3][l] = (0..3).map(|k| rt[row][k] * db[k]).sum();
+                out[row][3][l] = (0..3).map(|k| rt[row][k] * db[k][l]).sum();
             }
         }
         out
@@ -302,10 +347,6 @@ impl CpuEvaluator {
         #[cfg(not(target_arch = "x86_64"))]
         let avx2 = false;
         let placement = PlacementLanes::new(&problem);
-        let exact = super::PlacementSpread::of(&problem)
-            .ok()
-            .flatten()
-            .map(|sp| Box::new(super::PlacementEvaluator::new(problem.clone(), sp)));
         CpuEvaluator {
             problem,
             points,
@@ -313,7 +354,6 @@ impl CpuEvaluator {
             joints,
             avx2,
             placement,
-            exact,
         }
     }
 
@@ -378,6 +418,7 @@ impl CpuEvaluator {
         let m = self.points.len();
         let mut jl: JointLanes = [[[0.0; LANES]; 8]; MAX_JOINTS];
         let mut d: OffsetLanes = [[0.0; LANES]; MAX_ROBOT_INPUTS];
+        let mut z: Normals = [[0.0; LANES]; crate::sampling::MAX_NORMALS];
         // Block::Tool: the point the flange carries (Block::Joints fill the link lanes).
         let tp = self
             .problem
@@ -387,7 +428,8 @@ impl CpuEvaluator {
             .map_or(0, |r| r.start);
         let mut e_lanes = vec![0.0; if e.is_some() { LANES * m } else { 0 }];
         for (b, wb) in w.chunks_mut(LANES).enumerate() {
-            src.skip(b * LANES).lanes(&self.problem.sampler, &mut d);
+            src.skip(b * LANES)
+                .lanes(&self.problem.sampler, &mut d, &mut z);
             self.fill_lanes(&d, &mut jl);
             let tool = &self.problem.model.tool;
             let tl: [[f64; LANES]; 3] =
@@ -398,10 +440,10 @@ impl CpuEvaluator {
             } else {
                 None
             };
-            let place = match (&self.placement, src.skip(b * LANES)) {
-                (Some(p), Source::Draws(k)) => Some(p.transforms(k, &d)),
-                _ => None,
-            };
+            let place = self
+                .placement
+                .as_ref()
+                .map(|p| p.transforms(&p.offsets(src.skip(b * LANES), &d, &mut z)));
             match &place {
                 None => self.run_block(&jl, &tl, &mut w2, el),
                 Some(t) => with_joints!(self.joints, &jl, |j| block_kernel_placed(
@@ -568,8 +610,8 @@ impl Evaluator for CpuEvaluator {
     }
 
     fn offset_space(&self) -> InputSpace {
-        match &self.exact {
-            Some(ev) => ev.offset_space(),
+        match &self.placement {
+            Some(p) => p.space,
             None => self.problem.sampler.space(),
         }
     }
@@ -580,24 +622,14 @@ impl Evaluator for CpuEvaluator {
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) -> Result<(), EngineError> {
-        match &mut self.exact {
-            Some(ev) => ev.eval_offsets(offsets, w, per_point),
-            None => {
-                let width = self.problem.sampler.n_inputs();
-                self.run(Source::Offsets(offsets, width), w, per_point);
-                Ok(())
-            }
-        }
+        let width = self.offset_space().len();
+        self.run(Source::Offsets(offsets, width), w, per_point);
+        Ok(())
     }
 
     fn eval_pick_freeze(&mut self, request: &PickFreeze, w: &mut [f64]) -> Result<(), EngineError> {
-        match &mut self.exact {
-            Some(ev) => ev.eval_pick_freeze(request, w),
-            None => {
-                self.run(Source::PickFreeze(*request, 0), w, None);
-                Ok(())
-            }
-        }
+        self.run(Source::PickFreeze(*request, 0), w, None);
+        Ok(())
     }
 }
 

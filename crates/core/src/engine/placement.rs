@@ -12,7 +12,8 @@
 //!
 //! with `B'` the drawn placement. [`PlacementEvaluator`] evaluates this exactly in f64, one draw
 //! at a time (rayon over draws): the reference of the vectorised [`super::CpuEvaluator`], which
-//! draws the placement in its lanes, and of the GPU kernel's f32 deviation form (mode 2 of
+//! applies the placement in its lanes for draws, pick-freeze rows and offset rows alike, and of
+//! the GPU kernel's f32 deviation form (mode 2 of
 //! `shaders/mdh_max_error.wgsl`, [`super::deviation::SpreadPacking::with_placement`]). Draw
 //! `k`'s normals are those of the standard sampler (Philox block `b` gives normals
 //! `4b … 4b + 3`), extended by blocks 8–9 for the placement's normals 33–38, so a model whose

@@ -173,10 +173,24 @@ impl ParamSampler {
     /// give the same bits).
     #[inline(always)]
     pub fn deltas_lanes<const L: usize>(&self, first: u64, out: &mut [[f64; L]; MAX_ROBOT_INPUTS]) {
-        let draws: [u64; L] = std::array::from_fn(|l| first + l as u64);
         let mut z = [[0.0; L]; MAX_NORMALS];
-        self.normals_lanes(&draws, |_| true, &mut z);
-        self.spread_lanes(&z, out);
+        self.deltas_normals_lanes(first, out, &mut z);
+    }
+
+    /// [`Self::deltas_lanes`], leaving in `z` (zeroed first) the standard normals of the Philox
+    /// blocks this sampler uses ([`Self::blocks`]), for an evaluator that draws more inputs from
+    /// other blocks of the same draws.
+    #[inline(always)]
+    pub fn deltas_normals_lanes<const L: usize>(
+        &self,
+        first: u64,
+        out: &mut [[f64; L]; MAX_ROBOT_INPUTS],
+        z: &mut [[f64; L]; MAX_NORMALS],
+    ) {
+        let draws: [u64; L] = std::array::from_fn(|l| first + l as u64);
+        *z = [[0.0; L]; MAX_NORMALS];
+        self.normals_lanes(&draws, |_| true, z);
+        self.spread_lanes(z, out);
     }
 
     /// Offsets of one pick-freeze row: standard normal `i` is normal `i` of draw `b` where bit
@@ -202,18 +216,24 @@ impl ParamSampler {
         masks: &[u64; L],
         out: &mut [[f64; L]; MAX_ROBOT_INPUTS],
     ) {
-        let nibble = |m: u64, block: u32| (m >> (4 * block)) & 0xf;
-        let (mut za, mut zb) = ([[0.0; L]; MAX_NORMALS], [[0.0; L]; MAX_NORMALS]);
-        self.normals_lanes(a, |k| masks.iter().any(|&m| nibble(m, k) != 0xf), &mut za);
-        self.normals_lanes(b, |k| masks.iter().any(|&m| nibble(m, k) != 0), &mut zb);
-        for (i, (za, zb)) in za.iter_mut().zip(&zb).enumerate() {
-            for l in 0..L {
-                if (masks[l] >> i) & 1 == 1 {
-                    za[l] = zb[l];
-                }
-            }
-        }
-        self.spread_lanes(&za, out);
+        let mut z = [[0.0; L]; MAX_NORMALS];
+        self.pick_freeze_normals_lanes(a, b, masks, out, &mut z);
+    }
+
+    /// [`Self::pick_freeze_lanes`], leaving in `z` the mixed standard normals of the Philox
+    /// blocks this sampler uses (0 elsewhere).
+    #[inline(always)]
+    pub fn pick_freeze_normals_lanes<const L: usize>(
+        &self,
+        a: &[u64; L],
+        b: &[u64; L],
+        masks: &[u64; L],
+        out: &mut [[f64; L]; MAX_ROBOT_INPUTS],
+        z: &mut [[f64; L]; MAX_NORMALS],
+    ) {
+        *z = [[0.0; L]; MAX_NORMALS];
+        pick_freeze_normals(&self.gen, &self.blocks, a, b, masks, z);
+        self.spread_lanes(z, out);
     }
 
     /// The standard normals of draws `draws[l]` in the Philox blocks this sampler uses and
@@ -225,20 +245,7 @@ impl ParamSampler {
         wanted: impl Fn(u32) -> bool,
         z: &mut [[f64; L]; MAX_NORMALS],
     ) {
-        let lo: [u32; L] = std::array::from_fn(|l| draws[l] as u32);
-        let hi: [u32; L] = std::array::from_fn(|l| (draws[l] >> 32) as u32);
-        for &b in self.blocks.iter().filter(|&&b| wanted(b)) {
-            let w = philox4x32_10_lanes([lo, hi, [b; L], [PARAM_STREAM; L]], self.gen.key);
-            let base = 4 * b as usize;
-            for l in 0..L {
-                let (a, bb) = box_muller(w[0][l], w[1][l]);
-                let (c, d) = box_muller(w[2][l], w[3][l]);
-                z[base][l] = a;
-                z[base + 1][l] = bb;
-                z[base + 2][l] = c;
-                z[base + 3][l] = d;
-            }
-        }
+        normals_lanes(&self.gen, &self.blocks, draws, wanted, z);
     }
 
     /// Offsets from standard normals: `σ_i z_i`, or `L z` on the free inputs.
@@ -288,6 +295,73 @@ impl ParamSampler {
         self.deltas(k, &mut d);
         let t = self.space.range(Block::Tool).map_or(0, |r| r.start);
         std::array::from_fn(|i| d[t + i])
+    }
+}
+
+/// The standard normals of draws `draws[l]` in the Philox `blocks` that `wanted` accepts, into
+/// `z` (normals `4b … 4b + 3` of block `b`; the other entries are left as they are). Lane `l`
+/// holds the bits [`super::normals_block`] gives for draw `draws[l]`.
+#[inline(always)]
+pub fn normals_lanes<const L: usize>(
+    gen: &Philox,
+    blocks: &[u32],
+    draws: &[u64; L],
+    wanted: impl Fn(u32) -> bool,
+    z: &mut [[f64; L]; MAX_NORMALS],
+) {
+    let lo: [u32; L] = std::array::from_fn(|l| draws[l] as u32);
+    let hi: [u32; L] = std::array::from_fn(|l| (draws[l] >> 32) as u32);
+    for &b in blocks.iter().filter(|&&b| wanted(b)) {
+        let w = philox4x32_10_lanes([lo, hi, [b; L], [PARAM_STREAM; L]], gen.key);
+        let base = 4 * b as usize;
+        for l in 0..L {
+            let (a, bb) = box_muller(w[0][l], w[1][l]);
+            let (c, d) = box_muller(w[2][l], w[3][l]);
+            z[base][l] = a;
+            z[base + 1][l] = bb;
+            z[base + 2][l] = c;
+            z[base + 3][l] = d;
+        }
+    }
+}
+
+/// The standard normals of `L` pick-freeze rows in the Philox `blocks` into `z` (the other
+/// entries are left as they are): normal `i` of draw `b[l]` where bit `i` of `masks[l]` is set,
+/// of draw `a[l]` elsewhere. A block is computed for `a` (or `b`) only when some lane takes one
+/// of its four normals from it.
+#[inline(always)]
+pub fn pick_freeze_normals<const L: usize>(
+    gen: &Philox,
+    blocks: &[u32],
+    a: &[u64; L],
+    b: &[u64; L],
+    masks: &[u64; L],
+    z: &mut [[f64; L]; MAX_NORMALS],
+) {
+    let nibble = |m: u64, block: u32| (m >> (4 * block)) & 0xf;
+    let mut zb = [[0.0; L]; MAX_NORMALS];
+    normals_lanes(
+        gen,
+        blocks,
+        a,
+        |k| masks.iter().any(|&m| nibble(m, k) != 0xf),
+        z,
+    );
+    normals_lanes(
+        gen,
+        blocks,
+        b,
+        |k| masks.iter().any(|&m| nibble(m, k) != 0),
+        &mut zb,
+    );
+    for &blk in blocks {
+        for i in 4 * blk as usize..4 * blk as usize + 4 {
+            for l in 0..L {
+                if (masks[l] >> i) & 1 == 1 {
+                    z[i][l] = zb[i][l];
+                }
+            }
+        }
     }
 }
 

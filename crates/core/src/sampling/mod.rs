@@ -11,7 +11,10 @@ mod gauss;
 mod normal;
 mod philox;
 
-pub use distribution::{ParamSampler, SamplerError, ALL_NORMALS, MAX_NORMALS, PARAM_STREAM};
+pub use distribution::{
+    normals_lanes, pick_freeze_normals, ParamSampler, SamplerError, ALL_NORMALS, MAX_NORMALS,
+    PARAM_STREAM,
+};
 pub use gauss::standard_normal;
 pub use normal::{box_muller, normals_block, uniform_open};
 pub(crate) use philox::philox4x32_10_lanes;

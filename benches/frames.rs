@@ -1,0 +1,104 @@
+//! What the measurement frame costs: a TX60 identified from 60 noisy poses in a tracker frame
+//! (its covariance covers the placement: 39 × 39), analysed with the placement drawn (the
+//! measurement frame) and without it (`Frame::Base`, the 33 × 33 block).
+//!
+//! `cargo bench --bench frames` prints medians of `BENCH_REPS` runs (default 7) of
+//! - the CPU evaluator on 10^6 counter draws × 50 points (what `mcs` and `amcs` spend), and
+//! - a Sobol analysis with N = 2^14 base samples (pick-freeze rows, what `sensitivity` spends),
+//!
+//! in each frame, and the ratio measurement / base of each median. Both frames run in one
+//! process, interleaved, so the ratio is measured under the same load.
+
+use gpu_amcs::engine::{CpuEvaluator, Evaluator, Frame, Problem, Reference};
+use gpu_amcs::identify::chain::ChainOptions;
+use gpu_amcs::identify::{identify_poses, IdentifyOptions};
+use gpu_amcs::kinematics::{tx60, BaseTransform, RobotModel};
+use gpu_amcs::mc::sensitivity::{run_sensitivity, SensitivityOptions};
+use gpu_amcs::simulate::{simulate_poses, TrackerNoise};
+use std::time::Instant;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+/// The TX60 identified from 60 poses measured with 20 µm noise, 2.3 m from the tracker (the
+/// library path of `gpu-amcs identify poses.csv`).
+fn identified() -> RobotModel {
+    let mut truth = tx60();
+    truth.tool = [30.0, -20.0, 80.0];
+    let placement = BaseTransform {
+        xyz: [2300.0, -700.0, 250.0],
+        rpy: [0.08, -0.12, 2.4],
+    };
+    let configs = gpu_amcs::simulate::random_poses(&truth, 60, 5);
+    let data = simulate_poses(
+        &truth,
+        &configs,
+        &placement,
+        &TrackerNoise::Isotropic(0.02),
+        9,
+    );
+    let ids = identify_poses(
+        &data,
+        &tx60(),
+        &IdentifyOptions::default(),
+        &ChainOptions::default(),
+    )
+    .unwrap();
+    ids.into_iter().next().unwrap().model
+}
+
+fn main() {
+    let reps: usize = std::env::var("BENCH_REPS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(7);
+    let model = identified();
+    assert!(model.base_uncertain(), "the placement is drawn");
+    let pts = gpu_amcs::simulate::random_poses(&model, 50, 7);
+    let measured = Problem::new(model, &pts, &Reference::Calibrated, 1).unwrap();
+    let base = measured.clone().in_frame(Frame::Base);
+    println!(
+        "machine: {} threads; identified TX60, 50 points; medians of {reps} runs",
+        rayon::current_num_threads()
+    );
+
+    let mut evs = [
+        CpuEvaluator::new(measured.clone()),
+        CpuEvaluator::new(base.clone()),
+    ];
+    let mut w = vec![0.0; 1_000_000];
+    let mut t = [Vec::new(), Vec::new()];
+    for _ in 0..reps {
+        for (ev, t) in evs.iter_mut().zip(&mut t) {
+            let s = Instant::now();
+            ev.evaluate(0, &mut w, None).unwrap();
+            t.push(s.elapsed().as_secs_f64());
+        }
+    }
+    let [m, b] = t.map(median);
+    println!(
+        "mcs draws 10^6 × 50 points       measurement {m:.3} s  base {b:.3} s  ratio {:.2}",
+        m / b
+    );
+
+    let opts = SensitivityOptions {
+        draws: 1 << 14,
+        ..SensitivityOptions::default()
+    };
+    let mut t = [Vec::new(), Vec::new()];
+    for _ in 0..reps {
+        for ((pb, ev), t) in [&measured, &base].iter().zip(&mut evs).zip(&mut t) {
+            let s = Instant::now();
+            let r = run_sensitivity(pb, ev, &opts).unwrap();
+            t.push(s.elapsed().as_secs_f64());
+            std::hint::black_box(r);
+        }
+    }
+    let [m, b] = t.map(median);
+    println!(
+        "sensitivity N = 2^14, 50 points  measurement {m:.3} s  base {b:.3} s  ratio {:.2}",
+        m / b
+    );
+}
