@@ -21,7 +21,6 @@ use gpu_amcs_core::mc::tail::{
     run_tail, TailError, TailMethod, TailOptions, TailResult, TailSetting,
 };
 use gpu_amcs_core::memory::Estimate;
-use gpu_amcs_core::report;
 use gpu_amcs_core::spec::{self, GeneratedPoints, ModelSource, DEFAULT_PRESET};
 use pyo3::prelude::*;
 
@@ -106,34 +105,13 @@ pub struct PySensitivityResult {
     notes: Vec<String>,
 }
 
-#[pymethods]
-impl PySensitivityResult {
-    /// The JSON document the command line writes with `--json`.
-    fn to_json(&self) -> String {
-        report::sensitivity::render_json(&self.result)
+impl crate::reports::PyReport for PySensitivityResult {
+    fn report(&self) -> &dyn gpu_amcs_core::report::Report {
+        &self.result
     }
+}
 
-    /// `to_json()` parsed: a dict of plain Python values.
-    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        parse_json(py, self.to_json())
-    }
-
-    /// The table the command line prints.
-    fn to_text(&self) -> String {
-        report::sensitivity::render_text(&self.result)
-    }
-
-    /// `indices.csv` as the command line writes it with `--csv`: one row per quantity, level
-    /// (group or input) and name.
-    fn to_csv(&self) -> String {
-        report::sensitivity::render_csv(&self.result)
-    }
-
-    /// `to_csv()` as a pandas DataFrame (needs pandas).
-    fn to_pandas<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        frame(py, self.to_csv())
-    }
-
+crate::report_class!(PySensitivityResult, text, {
     /// First-order indices of w by input name.
     #[getter]
     fn first_order(&self) -> Vec<(String, f64)> {
@@ -168,7 +146,7 @@ impl PySensitivityResult {
             self.result.backend.backend
         )
     }
-}
+});
 
 problem_function! {
     /// Sobol sensitivity indices of w (`gpu-amcs sensitivity`): first-order and total indices
@@ -227,33 +205,13 @@ pub struct PyTailResult {
     notes: Vec<String>,
 }
 
-#[pymethods]
-impl PyTailResult {
-    /// The JSON document the command line writes with `--json`.
-    fn to_json(&self) -> String {
-        report::tail::render_json(&self.result)
+impl crate::reports::PyReport for PyTailResult {
+    fn report(&self) -> &dyn gpu_amcs_core::report::Report {
+        &self.result
     }
+}
 
-    /// `to_json()` parsed: a dict of plain Python values.
-    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        parse_json(py, self.to_json())
-    }
-
-    /// The table the command line prints.
-    fn to_text(&self) -> String {
-        report::tail::render_text(&self.result)
-    }
-
-    /// `tail.csv` as the command line writes it with `--csv`: one row per threshold.
-    fn to_csv(&self) -> String {
-        report::tail::render_csv(&self.result)
-    }
-
-    /// `to_csv()` as a pandas DataFrame (needs pandas).
-    fn to_pandas<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        frame(py, self.to_csv())
-    }
-
+crate::report_class!(PyTailResult, text, {
     /// The thresholds L, mm.
     #[getter]
     fn thresholds(&self) -> Vec<f64> {
@@ -292,7 +250,7 @@ impl PyTailResult {
             self.result.evaluations
         )
     }
-}
+});
 
 /// Numbers from a number or a sequence of numbers.
 fn numbers(v: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Vec<f64>> {
@@ -378,33 +336,13 @@ pub struct PyMapResult {
     notes: Vec<String>,
 }
 
-#[pymethods]
-impl PyMapResult {
-    /// The JSON document the command line writes with `--json`.
-    fn to_json(&self) -> String {
-        report::map::render_json(&self.result)
+impl crate::reports::PyReport for PyMapResult {
+    fn report(&self) -> &dyn gpu_amcs_core::report::Report {
+        &self.result
     }
+}
 
-    /// `to_json()` parsed: a dict of plain Python values.
-    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        parse_json(py, self.to_json())
-    }
-
-    /// The summary the command line prints.
-    fn to_text(&self) -> String {
-        report::map::render_text(&self.result)
-    }
-
-    /// `map.csv` as the command line writes it with `--csv`: one row per cell.
-    fn to_csv(&self) -> String {
-        report::map::render_csv(&self.result)
-    }
-
-    /// `to_csv()` as a pandas DataFrame (needs pandas).
-    fn to_pandas<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        frame(py, self.to_csv())
-    }
-
+crate::report_class!(PyMapResult, text, {
     /// Cells reached by the inverse kinematics.
     #[getter]
     fn reached(&self) -> usize {
@@ -442,7 +380,7 @@ impl PyMapResult {
             self.result.draws
         )
     }
-}
+});
 
 /// `v` as `N` numbers, or an error naming `name` and `what` they are.
 fn exactly<const N: usize>(v: &[f64], name: &str, what: &str) -> PyResult<[f64; N]> {

@@ -1,12 +1,12 @@
-//! `gpu_amcs.identify`: MDH parameters from laser-tracker sweeps (circle point method), as
-//! `gpu-amcs identify` computes them: the same nominal model, options, library calls, model
-//! (what `--out` writes), warnings and printed text.
+//! `gpu_amcs.identify`: MDH parameters from laser-tracker data, as `gpu-amcs identify` computes
+//! them: both run the library's one [`IdentifyJob`], so the nominal model, options, model (what
+//! `--out` writes), warnings and printed text are the same.
 
 use crate::errors::{arg_error, lib_error, value_error};
 use crate::model::PyModel;
 use gpu_amcs_core::identify::{
-    self as lib, noise::NoiseSetting, ChainOptions, CircleFitMethod, Identification,
-    IdentifyOptions, NoiseModel, NominalPrior, Placement, UncertaintyMethod,
+    self as lib, CircleFitMethod, Identification, IdentifyJob, IdentifyJobError, IdentifySetting,
+    Placement, UncertaintyMethod,
 };
 use gpu_amcs_core::kinematics::RobotModel;
 use gpu_amcs_core::report::Report;
@@ -37,8 +37,13 @@ fn py_model(m: &RobotModel) -> PyModel {
     }
 }
 
-#[pymethods]
-impl PyIdentifyResult {
+impl crate::reports::PyReport for PyIdentifyResult {
+    fn report(&self) -> &dyn Report {
+        &self.reports
+    }
+}
+
+crate::report_class!(PyIdentifyResult, {
     /// The identified model: one run's parameters with the nominal model's uncertainty, or the
     /// mean of several runs with their run-to-run σ (or full covariance with
     /// `covariance=True`). `model.to_toml()` is the file `gpu-amcs identify --out` writes.
@@ -85,17 +90,6 @@ impl PyIdentifyResult {
         self.file_text.clone()
     }
 
-    /// The command line's `--json` document of the identification (per run the circle fits,
-    /// the identified and nominal parameters of every joint, the tool point and the warnings).
-    fn to_json(&self) -> String {
-        self.reports.json()
-    }
-
-    /// `to_json()` parsed: a dict of plain Python values.
-    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        py.import("json")?.call_method1("loads", (self.to_json(),))
-    }
-
     fn __repr__(&self) -> String {
         format!(
             "gpu_amcs.IdentifyResult(model='{}', runs={}, warnings={})",
@@ -104,7 +98,7 @@ impl PyIdentifyResult {
             self.warnings.len()
         )
     }
-}
+});
 
 /// Identifies the MDH parameters, target and placement from laser-tracker data
 /// (`gpu-amcs identify`): `data` is the CSV, sweeps (joint,q1..qn,x,y,z) or poses
@@ -160,11 +154,6 @@ pub fn identify(
     let uncertainty = match uncertainty.as_str() {
         "linearised" | "linearized" => UncertaintyMethod::Linearised,
         "montecarlo" | "monte-carlo" | "monte_carlo" => {
-            if mc_draws < 10 {
-                return Err(value_error(
-                    "mc_draws: at least 10 re-identifications are needed for a covariance",
-                ));
-            }
             UncertaintyMethod::MonteCarlo { draws: mc_draws }
         }
         other => {
@@ -192,63 +181,50 @@ pub fn identify(
             e,
         )
     })?;
-    let opts = IdentifyOptions {
+    let job = IdentifyJob {
+        placement: if base_known {
+            Placement::Known
+        } else {
+            Placement::Identify
+        },
+        fix,
+        tracker_sigma_mm: tracker_sigma,
+        tracker_mpe,
+        tracker_at_mm: tracker_at,
+        uncertainty,
+        seed,
         method,
-        nominal_prior: (!no_prior).then(NominalPrior::default),
+        prior: !no_prior,
         refine: !no_refine,
+        covariance,
+        strict,
+        ..IdentifyJob::new(data, nominal)
     };
-    let (ids, data_label, bytes) = py.detach(|| -> PyResult<_> {
-        let origin = data.display().to_string();
-        let tracker = lib::read_tracker_data(&data).map_err(lib_error)?;
-        lib::check_tracker_data(&tracker, &nominal, &origin).map_err(lib_error)?;
-        let noise = NoiseModel::from_settings(
-            tracker_sigma,
-            tracker_mpe.as_deref(),
-            tracker_at.as_deref(),
-            &tracker,
-        )
-        .map_err(|e| {
-            let name = match e.setting() {
-                NoiseSetting::Sigma => "tracker_sigma",
-                NoiseSetting::Mpe => "tracker_mpe",
-                NoiseSetting::Position => "tracker_at",
-            };
-            value_error(format!("{name}: {e}"))
-        })?;
-        let chain = ChainOptions {
-            placement: if base_known {
-                Placement::Known
-            } else {
-                Placement::Identify
-            },
-            fix,
-            noise,
-            uncertainty,
-            seed,
-        };
-        let ids =
-            lib::identify_data(&tracker, &nominal, &opts, &chain, no_refine).map_err(lib_error)?;
-        let bytes = std::fs::read(&data).unwrap_or_default();
-        Ok((ids, origin, bytes))
+    let outcome = py.detach(|| job.run()).map_err(|e| match e {
+        IdentifyJobError::Setting { setting, message } => {
+            value_error(format!("{}: {message}", setting_keyword(setting)))
+        }
+        IdentifyJobError::Strict { .. } => value_error(format!("strict: {e}")),
+        IdentifyJobError::Identify(e) => lib_error(e),
     })?;
-    let warnings = lib::grouped_warnings(&ids);
-    if strict && !warnings.is_empty() {
-        return Err(value_error(format!(
-            "strict: {} implausible result(s): {}",
-            warnings.len(),
-            warnings.join("; ")
-        )));
-    }
-    let (model, closing) =
-        lib::identified_model(&ids, &nominal, covariance, &data_label).map_err(lib_error)?;
-    let file_text = lib::model_file_text(&model, &ids, &data_label, &bytes);
-    let reports = lib::IdentifyReports::new(&nominal.name, &ids);
     Ok(PyIdentifyResult {
-        model,
-        file_text,
-        reports,
-        runs: ids,
-        warnings,
-        closing,
+        model: outcome.model,
+        file_text: outcome.file_text,
+        reports: outcome.reports,
+        runs: outcome.runs,
+        warnings: outcome.warnings,
+        closing: outcome.note,
     })
+}
+
+/// The keyword of a setting an identification names in its errors.
+fn setting_keyword(s: IdentifySetting) -> &'static str {
+    match s {
+        IdentifySetting::TrackerSigma => "tracker_sigma",
+        IdentifySetting::TrackerMpe => "tracker_mpe",
+        IdentifySetting::TrackerAt => "tracker_at",
+        IdentifySetting::McDraws => "mc_draws",
+        IdentifySetting::Fit => "fit",
+        IdentifySetting::Refine => "no_refine",
+    }
 }

@@ -12,6 +12,7 @@ mod identify;
 mod model;
 mod planning;
 mod problem;
+mod reports;
 mod run;
 
 use pyo3::prelude::*;

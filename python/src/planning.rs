@@ -3,7 +3,6 @@
 //! report: `to_dict()` / `to_json()` are the document `--json` writes, `to_text()` the summary
 //! it prints, `design_csv()` the file `--out` writes.
 
-use crate::analyses::parse_json;
 use crate::errors::value_error;
 use crate::problem::{check_estimate, problem_function, BYTES_PER_POINT};
 use gpu_amcs_core::kinematics::Joints;
@@ -45,23 +44,13 @@ pub struct PyPlan {
     notes: Vec<String>,
 }
 
-#[pymethods]
-impl PyPlan {
-    /// The JSON document the command line writes with `--json`.
-    fn to_json(&self) -> String {
-        self.plan.json()
+impl crate::reports::PyReport for PyPlan {
+    fn report(&self) -> &dyn Report {
+        &self.plan
     }
+}
 
-    /// `to_json()` parsed: a dict of plain Python values.
-    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        parse_json(py, self.to_json())
-    }
-
-    /// The summary the command line prints.
-    fn to_text(&self) -> String {
-        self.plan.text()
-    }
-
+crate::report_class!(PyPlan, text, {
     /// The design as the command line writes it with `--out`: q1..qn in degrees (one column per
     /// joint), one pose a line, in visiting order.
     fn design_csv(&self) -> String {
@@ -98,7 +87,7 @@ impl PyPlan {
             self.reliability()
         )
     }
-}
+});
 
 /// Three numbers, or `None`.
 fn triple(v: Option<Vec<f64>>, name: &str) -> PyResult<Option<[f64; 3]>> {

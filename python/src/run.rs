@@ -8,7 +8,7 @@ use gpu_amcs_core::mc::{
     self, AmcsOptions, IntervalKind, McResult, McsOptions, RunSettings, Tolerance,
 };
 use gpu_amcs_core::memory::Estimate;
-use gpu_amcs_core::report::{self, RunReport};
+use gpu_amcs_core::report::{Report, RunReport};
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
 
@@ -23,57 +23,29 @@ pub struct RunResult {
     report: RunReport,
 }
 
-#[pymethods]
-impl RunResult {
-    /// The JSON document the command line writes with `--json` (same fields, same values).
-    fn to_json(&self) -> String {
-        report::json::render_run(&self.report)
+impl crate::reports::PyReport for RunResult {
+    fn report(&self) -> &dyn Report {
+        &self.report
     }
 
-    /// `to_json()` parsed: a dict of plain Python values.
-    fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
-        py.import("json")?.call_method1("loads", (self.to_json(),))
+    fn default_table(&self) -> Option<&'static str> {
+        Some("reliability")
     }
 
-    /// The text table the command line prints.
-    fn to_text(&self) -> String {
-        report::text::render(&self.report)
+    /// `to_pandas("values")`: the w of every draw (column `w_mm`, ascending).
+    fn extra_frame<'py>(
+        &self,
+        py: Python<'py>,
+        table: &str,
+    ) -> Option<PyResult<Bound<'py, PyAny>>> {
+        (table == "values").then(|| {
+            py.import("gpu_amcs._interop")?
+                .call_method1("values_frame", (self.values(py),))
+        })
     }
+}
 
-    /// A CSV file the command line writes with `--csv`: `table` is "reliability" (R(l_c) with
-    /// its interval), "cdf", "pdf" or "trace" (AMCS's batches).
-    #[pyo3(signature = (table = "reliability"))]
-    fn to_csv(&self, table: &str) -> PyResult<String> {
-        let name = format!("{}.csv", table.trim_end_matches(".csv"));
-        let files = report::csv::files(&self.report);
-        let known: Vec<&str> = files
-            .iter()
-            .map(|(n, _)| n.trim_end_matches(".csv"))
-            .collect();
-        let known = known.join("\", \"");
-        files
-            .into_iter()
-            .find(|(n, _)| *n == name)
-            .map(|(_, text)| text)
-            .ok_or_else(|| {
-                value_error(format!(
-                    "table: unknown table '{table}' (this run has \"{known}\")"
-                ))
-            })
-    }
-
-    /// `to_csv(table)` as a pandas DataFrame, or with `table="values"` the w of every draw
-    /// (column `w_mm`, ascending). Needs pandas.
-    #[pyo3(signature = (table = "reliability"))]
-    fn to_pandas<'py>(&self, py: Python<'py>, table: &str) -> PyResult<Bound<'py, PyAny>> {
-        if table == "values" {
-            return py
-                .import("gpu_amcs._interop")?
-                .call_method1("values_frame", (self.values(py),));
-        }
-        crate::analyses::frame(py, self.to_csv(table)?)
-    }
-
+crate::report_class!(RunResult, text, {
     /// The maximum point error w of every draw (mm), ascending.
     #[getter]
     fn values<'py>(&self, py: Python<'py>) -> Bound<'py, PyArray1<f64>> {
@@ -124,7 +96,7 @@ impl RunResult {
             self.report.model, r.draws, r.estimate, r.std_uncertainty, r.backend.backend
         )
     }
-}
+});
 
 /// The reporting keywords of `mcs` and `amcs` (`--coverage`, `--interval`, `--thresholds`,
 /// `--per-point`), checked.

@@ -49,6 +49,21 @@ def test_sensitivity_equals_cli(cli, tmp_path):
     assert res.to_json() == (tmp_path / "cli.json").read_text()
     assert res.to_text() == stdout
     assert res.to_csv() == (csv / "indices.csv").read_text()
+    assert res.to_csv("indices.csv") == res.to_csv("indices") == res.to_csv()
+    # The figures and every file of the report, from the same Report as the command line's.
+    svg = tmp_path / "svg"
+    run_ok(cli, "sensitivity", *args, "--svg", svg)
+    names = sorted(p.name for p in svg.iterdir())
+    assert names, "the command line writes figures"
+    for name in names:
+        assert res.to_svg(name) == (svg / name).read_text()
+    files = res.files()
+    assert files["indices.csv"] == res.to_csv()
+    assert json.loads(files["sensitivity.json"]) == doc
+    with pytest.raises(ValueError, match=r"^figure: unknown figure 'nope' \(this report has "):
+        res.to_svg("nope")
+    with pytest.raises(ValueError, match=r"^table: unknown table 'nope' \(this report has \"indices\"\)"):
+        res.to_csv("nope")
     w = doc["sensitivity"]["quantities"][0]
     assert [n for n, _ in res.first_order] == [i["name"] for i in w["inputs"]]
     # A different seed gives a different document: the comparison can fail.
@@ -226,6 +241,20 @@ def test_identify_poses_in_a_tracker_frame_equals_cli(cli, tmp_path):
         gpu_amcs.identify(poses, tracker_sigma=-1.0)
     with pytest.raises(ValueError, match=r"^uncertainty: "):
         gpu_amcs.identify(poses, uncertainty="bootstrap")
+    # The library's identification job names the setting: the same message after the keyword
+    # as after the command line's flag.
+    for kwargs, keyword, flags, want in [
+        (dict(fit="point-cloud"), "fit", ["--fit", "point-cloud"], "applies to sweeps only"),
+        (dict(no_refine=True), "no_refine", ["--no-refine"], "applies to sweeps only"),
+        (dict(uncertainty="montecarlo", mc_draws=5), "mc_draws",
+         ["--uncertainty", "montecarlo", "--mc-draws", "5"], "at least 10 re-identifications"),
+    ]:
+        with pytest.raises(ValueError) as e:
+            gpu_amcs.identify(poses, **kwargs)
+        py = str(e.value)
+        assert py.startswith(f"{keyword}: {want}"), py
+        flag = next(f for f in flags if f.startswith("--") and f != "--uncertainty")
+        assert cli_error(cli, "identify", poses, *flags) == flag + py[len(keyword):]
 
 
 def test_identify_with_a_nominal_model(cli, tmp_path, sweeps):
@@ -310,6 +339,13 @@ def test_plan_equals_cli(cli, tmp_path):
     assert without_timing(res.to_dict()) == without_timing(doc)
     assert untimed(res.to_text()) == untimed(r.stdout)
     assert res.design_csv() == design.read_text()
+    # The plan's tables and figure, as `--csv` and `--svg` write them.
+    csv, svg = tmp_path / "plan-csv", tmp_path / "plan-svg"
+    run_ok(cli, "plan", *args, "--csv", csv, "--svg", svg)
+    for f in csv.iterdir():
+        assert res.to_csv(f.name) == f.read_text(), f.name
+    for f in svg.iterdir():
+        assert res.to_svg(f.name) == f.read_text(), f.name
     assert len(res.design) == 14
     assert res.reliability == [(x["threshold"], x["r"]) for x in doc["prediction"]["reliability"]]
 

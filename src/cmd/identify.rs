@@ -9,8 +9,7 @@ use crate::cmd::reports::ReportFlags;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use gpu_amcs::identify::{
-    noise::NoiseSetting, ChainOptions, IdentifyReports, NoiseModel, Placement, TrackerData,
-    UncertaintyMethod,
+    CircleFitMethod, IdentifyJob, IdentifyReports, IdentifySetting, Placement, UncertaintyMethod,
 };
 use gpu_amcs::report::Report;
 use std::path::PathBuf;
@@ -135,7 +134,7 @@ pub struct IdentifyArgs {
 impl Run for IdentifyArgs {
     fn run(self) -> Result<()> {
         let a = self;
-        use gpu_amcs::identify::{self, CircleFitMethod, IdentifyOptions, NominalPrior};
+        use gpu_amcs::identify::{self, IdentifyJobError};
         let mut inputs = vec![("the data file", a.sweeps.as_path())];
         inputs.extend(a.nominal.as_deref().map(|n| ("--nominal", n)));
         let mut outputs = Outputs::new(inputs);
@@ -143,120 +142,92 @@ impl Run for IdentifyArgs {
         a.reports
             .declare(&mut outputs, &IdentifyReports::planned_layout())?;
         let nominal = load_model(a.nominal.as_deref(), &a.preset).context("--nominal")?;
-        let origin = a.sweeps.display().to_string();
-        let data = identify::read_tracker_data(&a.sweeps)?;
-        identify::check_tracker_data(&data, &nominal, &origin)?;
-        let opts = IdentifyOptions {
-            method: match a.fit {
-                FitArg::Commanded => CircleFitMethod::CommandedAngles,
-                FitArg::PointCloud => CircleFitMethod::PointCloud,
-            },
-            nominal_prior: (!a.no_prior).then(NominalPrior::default),
-            refine: !a.no_refine,
+        let job = a.job(nominal);
+        let outcome = match job.run() {
+            Ok(o) => o,
+            Err(IdentifyJobError::Strict { warnings }) => {
+                for w in &warnings {
+                    eprintln!("warning: {w}");
+                }
+                bail!(
+                    "--strict: {} implausible result(s) (warnings above); no model written",
+                    warnings.len()
+                );
+            }
+            Err(IdentifyJobError::Setting { setting, message }) => {
+                bail!("{}: {message}", setting_flag(setting))
+            }
+            Err(e) => return Err(e.into()),
         };
-        let chain = a.chain_options(&data)?;
-        if matches!(data, TrackerData::Poses(_)) && (a.no_refine || a.fit != FitArg::Commanded) {
-            bail!(
-                "--no-refine and --fit apply to sweeps only; {} holds poses",
-                a.sweeps.display()
-            );
-        }
-        let ids = identify::identify_data(&data, &nominal, &opts, &chain, a.no_refine)?;
-        let reports = IdentifyReports::new(&nominal.name, &ids);
         // stdout is built first and printed after the model file is written, so a reader that
         // stops early (`| head`) cannot cost the file.
         let quiet = a.reports.quiet;
         let mut text = String::new();
         if a.verbose {
-            for id in &ids {
+            for id in &outcome.runs {
                 text.push_str(&identify::render_identify_report(&id.report));
                 text.push('\n');
             }
         } else if !quiet {
-            text.push_str(&reports.text());
+            text.push_str(&outcome.reports.text());
         }
-        let warnings = identify::grouped_warnings(&ids);
-        for w in &warnings {
+        for w in &outcome.warnings {
             eprintln!("warning: {w}");
         }
-        if a.strict && !warnings.is_empty() {
-            bail!(
-                "--strict: {} implausible result(s) (warnings above); no model written",
-                warnings.len()
-            );
+        if !quiet {
+            text.push_str(&outcome.note);
+            text.push('\n');
         }
-        let mut say = |line: String| {
-            if !quiet {
-                text.push_str(&line);
-                text.push('\n');
-            }
-        };
-        let (model, note) = identify::identified_model(
-            &ids,
-            &nominal,
-            a.covariance,
-            &a.sweeps.display().to_string(),
-        )?;
-        say(note);
-        // The file's bytes for its SHA-256 (already read once within the size bound).
-        let bytes = std::fs::read(&a.sweeps).unwrap_or_default();
-        outputs.stage_file(
-            "--out",
-            identify::model_file_text(&model, &ids, &origin, &bytes),
-        )?;
+        outputs.stage_file("--out", outcome.file_text.clone())?;
         let yes_no = |b: bool| if b { "yes" } else { "no" }.to_string();
         let rows = [
             ("data file".to_string(), a.sweeps.display().to_string()),
             (
                 "frame".to_string(),
-                identify::frame_label(chain.placement).to_string(),
+                identify::frame_label(outcome.chain.placement).to_string(),
             ),
-            ("noise".to_string(), chain.noise.describe()),
+            ("noise".to_string(), outcome.chain.noise.describe()),
             (
                 "prior towards the nominal geometry".to_string(),
                 yes_no(!a.no_prior),
             ),
             ("whole-chain refinement".to_string(), yes_no(!a.no_refine)),
         ];
-        stage_reports(&mut outputs, &reports, &rows)?;
+        stage_reports(&mut outputs, &outcome.reports, &rows)?;
         outputs.commit()?;
-        if let Some(o) = &a.out {
-            say(format!("wrote {}", o.display()));
+        if let (Some(o), false) = (&a.out, quiet) {
+            text.push_str(&format!("wrote {}\n", o.display()));
         }
         crate::cmd::stdout::print(&text)?;
         Ok(())
     }
 }
 
+/// The flag of a setting an identification names in its errors.
+fn setting_flag(s: IdentifySetting) -> &'static str {
+    match s {
+        IdentifySetting::TrackerSigma => "--tracker-sigma",
+        IdentifySetting::TrackerMpe => "--tracker-mpe",
+        IdentifySetting::TrackerAt => "--tracker-at",
+        IdentifySetting::McDraws => "--mc-draws",
+        IdentifySetting::Fit => "--fit",
+        IdentifySetting::Refine => "--no-refine",
+    }
+}
+
 impl IdentifyArgs {
-    /// The whole-chain options of the flags; the noise defaults to the data's sx,sy,sz columns
-    /// when every point has them, else to the residuals.
-    fn chain_options(&self, data: &TrackerData) -> Result<ChainOptions> {
-        let noise = NoiseModel::from_settings(
-            self.tracker_sigma,
-            self.tracker_mpe.as_deref(),
-            self.tracker_at.as_deref(),
-            data,
-        )
-        .map_err(|e| {
-            let flag = match e.setting() {
-                NoiseSetting::Sigma => "--tracker-sigma",
-                NoiseSetting::Mpe => "--tracker-mpe",
-                NoiseSetting::Position => "--tracker-at",
-            };
-            anyhow::anyhow!("{flag}: {e}")
-        })?;
-        if self.mc_draws < 10 && self.uncertainty == UncertaintyArg::Montecarlo {
-            bail!("--mc-draws: at least 10 re-identifications are needed for a covariance");
-        }
-        Ok(ChainOptions {
+    /// The library's job of the flags.
+    fn job(&self, nominal: gpu_amcs::kinematics::RobotModel) -> IdentifyJob {
+        IdentifyJob {
             placement: if self.base_known {
                 Placement::Known
             } else {
                 Placement::Identify
             },
             fix: self.fix.clone(),
-            noise,
+            tracker_sigma_mm: self.tracker_sigma,
+            tracker_mpe: self.tracker_mpe.clone(),
+            tracker_at_mm: self.tracker_at.clone(),
             uncertainty: match self.uncertainty {
                 UncertaintyArg::Linearised => UncertaintyMethod::Linearised,
                 UncertaintyArg::Montecarlo => UncertaintyMethod::MonteCarlo {
@@ -264,6 +235,15 @@ impl IdentifyArgs {
                 },
             },
             seed: self.seed,
-        })
+            method: match self.fit {
+                FitArg::Commanded => CircleFitMethod::CommandedAngles,
+                FitArg::PointCloud => CircleFitMethod::PointCloud,
+            },
+            prior: !self.no_prior,
+            refine: !self.no_refine,
+            covariance: self.covariance,
+            strict: self.strict,
+            ..IdentifyJob::new(self.sweeps.clone(), nominal)
+        }
     }
 }

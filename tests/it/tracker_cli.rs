@@ -486,3 +486,37 @@ fn shards_of_two_frames_do_not_merge() {
     let o = run(&["merge", &a, &c]);
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+/// The identification job names the setting at fault the same way whatever the front end: a
+/// sweeps-only setting with pose data, too few Monte Carlo re-identifications, an unusable noise
+/// setting; each is one line, exit 2, no model file.
+#[test]
+fn identify_job_settings_are_named_by_flag() {
+    let d = tmpdir("tracker-job-settings");
+    let p = arg(&d, "p.csv");
+    let o = run(&["simulate", "--poses", "30", "--seed", "2", "-o", &p]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let m = arg(&d, "m.toml");
+    for (extra, what) in [
+        (
+            &["--fit", "point-cloud"][..],
+            "--fit: applies to sweeps only; ",
+        ),
+        (
+            &["--no-refine"][..],
+            "--no-refine: applies to sweeps only; ",
+        ),
+        (
+            &["--uncertainty", "montecarlo", "--mc-draws", "5"][..],
+            "--mc-draws: at least 10 re-identifications are needed for a covariance",
+        ),
+        (
+            &["--tracker-sigma=-1"][..],
+            "--tracker-sigma: -1 is not a positive number of mm",
+        ),
+    ] {
+        let mut args = vec!["identify", p.as_str(), "-o", m.as_str()];
+        args.extend_from_slice(extra);
+        fails_leaving_nothing(&d, &args, what);
+    }
+}

@@ -68,6 +68,7 @@ mod chain_text;
 pub mod circle;
 mod error;
 pub mod identifiability;
+mod job;
 mod lm;
 pub mod measured;
 pub mod noise;
@@ -86,6 +87,7 @@ pub use chain::{ChainOptions, ChainReport, MeasuredPoint, Placement, Uncertainty
 pub use chain_text::{frame_label, render_chain_report, render_chain_summary};
 pub use circle::{fit_circle, AxisPrior, CircleFit, CircleFitError, CircleFitMethod, MIN_ARC_DEG};
 pub use error::IdentifyError;
+pub use job::{IdentifyJob, IdentifyJobError, IdentifyOutcome, IdentifySetting, MIN_MC_DRAWS};
 pub use lines::{common_normal, CommonNormal, Line, LineRelation};
 pub use mdh::PARALLEL_THRESHOLD_DEG;
 pub use measured::{identify_data, identify_poses, identify_sweeps_chain, placement_from_axes};
