@@ -1,0 +1,234 @@
+//! The candidates a plan chooses its poses from, and the checks of its settings: configurations
+//! within the joint limits less a margin, away from singularities and, with a tracker, within its
+//! range and incidence.
+
+use super::{setting, PlanError, PlanField, PlanOptions};
+use crate::identify::chain_fit::{default_free, ChainState};
+use crate::kinematics::{transform, Joints, RobotModel};
+use nalgebra::Vector3;
+use rand::{Rng, SeedableRng};
+
+/// Checks the settings `o`, the task points `task` and the target of a plan of `model`, in that
+/// order; the first setting out of range is the error.
+pub(super) fn check(model: &RobotModel, task: &[Joints], o: &PlanOptions) -> Result<(), PlanError> {
+    check_settings(model, o)?;
+    check_task(model, task)?;
+    check_tracker(o)?;
+    check_target(o)
+}
+
+/// The numbers of a plan: σ, the thresholds, the numbers of candidates and poses (more
+/// coordinates than inputs to identify), the search draws, the margin and the condition bound.
+fn check_settings(model: &RobotModel, o: &PlanOptions) -> Result<(), PlanError> {
+    if !(o.sigma_mm.is_finite() && o.sigma_mm > 0.0) {
+        return Err(setting(
+            PlanField::Sigma,
+            format!("must be a positive number of mm, got {}", o.sigma_mm),
+        ));
+    }
+    if let Some(t) = o.thresholds.iter().find(|t| !(t.is_finite() && **t > 0.0)) {
+        return Err(setting(
+            PlanField::Thresholds,
+            format!("must be positive, got {t}"),
+        ));
+    }
+    if o.candidates == 0 || o.candidates > 1_000_000 {
+        return Err(setting(
+            PlanField::Candidates,
+            format!("must be 1 … 1000000, got {}", o.candidates),
+        ));
+    }
+    if o.poses > o.candidates {
+        return Err(setting(
+            PlanField::Poses,
+            format!(
+                "{} poses cannot be chosen from {} candidates",
+                o.poses, o.candidates
+            ),
+        ));
+    }
+    let p = default_free(&model.fixed, true).len();
+    if 3 * o.poses <= p {
+        return Err(setting(
+            PlanField::Poses,
+            format!(
+                "{} poses give {} coordinates, not more than the {p} inputs to identify: at least {}",
+                o.poses,
+                3 * o.poses,
+                p / 3 + 1
+            ),
+        ));
+    }
+    if o.search_draws < 20 || o.search_draws > 100_000 {
+        return Err(setting(
+            PlanField::Search,
+            format!("search draws must be 20 … 100000, got {}", o.search_draws),
+        ));
+    }
+    if !(o.margin_deg.is_finite()
+        && o.margin_deg >= 0.0
+        && o.max_condition.is_finite()
+        && o.max_condition > 1.0)
+    {
+        return Err(setting(
+            PlanField::Search,
+            format!(
+                "the joint-limit margin must be ≥ 0° and the condition bound > 1, got {}° and {}",
+                o.margin_deg, o.max_condition
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The task points: at least one, each with one angle per joint of `model`.
+fn check_task(model: &RobotModel, task: &[Joints]) -> Result<(), PlanError> {
+    if task.is_empty() {
+        return Err(setting(PlanField::TaskPoints, "none given"));
+    }
+    if let Some((k, q)) = task
+        .iter()
+        .enumerate()
+        .find(|(_, q)| q.len() != model.joints())
+    {
+        return Err(setting(
+            PlanField::TaskPoints,
+            format!(
+                "point {} has {} joint angles, the model has {} joints",
+                k + 1,
+                q.len(),
+                model.joints()
+            ),
+        ));
+    }
+    Ok(())
+}
+
+/// The tracker, if any: a finite position, a positive range and an incidence in (0, 90]°.
+fn check_tracker(o: &PlanOptions) -> Result<(), PlanError> {
+    if let Some(t) = &o.tracker {
+        if !(t.position_mm.iter().all(|v| v.is_finite())
+            && t.range_mm.is_finite()
+            && t.range_mm > 0.0
+            && t.max_incidence_deg > 0.0
+            && t.max_incidence_deg <= 90.0)
+        {
+            return Err(setting(
+                PlanField::Tracker,
+                format!(
+                    "position {:?} must be finite, range {} mm positive and incidence {}° in (0, 90]",
+                    t.position_mm, t.range_mm, t.max_incidence_deg
+                ),
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// The target on the flange: finite.
+fn check_target(o: &PlanOptions) -> Result<(), PlanError> {
+    if !o.target_mm.iter().all(|v| v.is_finite()) {
+        return Err(setting(
+            PlanField::Target,
+            format!("{:?} must be finite", o.target_mm),
+        ));
+    }
+    Ok(())
+}
+
+/// The target's position in the measurement frame and the direction it faces (flange z).
+fn target_and_facing(
+    model: &RobotModel,
+    s: &ChainState,
+    q_deg: &[f64],
+) -> (Vector3<f64>, Vector3<f64>) {
+    let q = Joints::from_fn(q_deg.len(), |j| q_deg[j].to_radians());
+    let p = Vector3::from(s.predict(&q));
+    let t = transform(&model.params, &q);
+    let z = Vector3::new(t[0][2], t[1][2], t[2][2]);
+    (p, s.rotation() * z)
+}
+
+/// Draws the candidates: configurations within the limits less the margin, away from
+/// singularities and, with a tracker, within its range and incidence. Returns them and how many
+/// were drawn.
+pub(super) fn candidates(
+    model: &RobotModel,
+    s: &ChainState,
+    o: &PlanOptions,
+) -> Result<(Vec<Joints>, usize), PlanError> {
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(o.seed);
+    let ranges: Vec<(f64, f64)> = model
+        .limits_deg
+        .iter()
+        .map(|&(lo, hi)| {
+            let (lo, hi) = (lo.max(-360.0), hi.min(360.0));
+            let m = o.margin_deg.min((hi - lo) / 4.0);
+            (lo + m, hi - m)
+        })
+        .collect();
+    if let Some(t) = &o.tracker {
+        // A tracker within the robot's reach would be in its way (and in danger).
+        let origin = Vector3::new(s.base[0], s.base[1], s.base[2]);
+        let reach = (0..200)
+            .map(|_| {
+                let q = Joints::from_fn(ranges.len(), |j| {
+                    rng.random_range(ranges[j].0..=ranges[j].1)
+                });
+                (target_and_facing(model, s, &q).0 - origin).norm()
+            })
+            .fold(0.0, f64::max);
+        let d = (Vector3::from(t.position_mm) - origin).norm();
+        if d < reach {
+            return Err(setting(
+                PlanField::Tracker,
+                format!(
+                    "{:?} mm is {d:.0} mm from the robot's base, within its reach (about {reach:.0} mm): the tracker must stand outside it",
+                    t.position_mm
+                ),
+            ));
+        }
+    }
+    let max_draws = 200 * o.candidates + 10_000;
+    let mut out = Vec::with_capacity(o.candidates);
+    let mut drawn = 0;
+    let cos_max = o
+        .tracker
+        .as_ref()
+        .map(|t| t.max_incidence_deg.to_radians().cos());
+    while out.len() < o.candidates && drawn < max_draws {
+        drawn += 1;
+        let q = Joints::from_fn(ranges.len(), |j| {
+            rng.random_range(ranges[j].0..=ranges[j].1)
+        });
+        match crate::map::ik::position_condition(model, &q.map(f64::to_radians)) {
+            Some(c) if c <= o.max_condition => {}
+            _ => continue,
+        }
+        if let (Some(t), Some(cmax)) = (&o.tracker, cos_max) {
+            let (p, facing) = target_and_facing(model, s, &q);
+            let to = Vector3::from(t.position_mm) - p;
+            let d = to.norm();
+            if d > t.range_mm || facing.dot(&to) < cmax * d {
+                continue;
+            }
+        }
+        out.push(q);
+    }
+    if out.len() < o.candidates {
+        return Err(setting(
+            PlanField::Candidates,
+            format!(
+                "only {} of {} configurations met the limits, the singularity bound{} after {drawn} draws",
+                out.len(),
+                o.candidates,
+                if o.tracker.is_some() {
+                    " and the tracker's range and incidence"
+                } else {
+                    ""
+                }
+            ),
+        ));
+    }
+    Ok((out, drawn))
+}
