@@ -145,6 +145,32 @@ pub enum PointsError {
 /// [`PointsError::Zero`] for `n = 0`, [`PointsError::TooMany`] above [`MAX_POINTS`],
 /// [`PointsError::BadBox`] for a box that is not finite or has a non-positive size, and
 /// [`PointsError::Unreachable`] when too few configurations put the tool point in the box.
+///
+/// # Examples
+///
+/// Five configurations of the TX60 in its own box: seeded, within the joint limits, with the
+/// tool point in the box:
+///
+/// ```
+/// use gpu_amcs_core::kinematics::{position_deg, tx60};
+/// use gpu_amcs_core::points::{generate, PointsError, WorkspaceBox};
+///
+/// let model = tx60();
+/// let bx = WorkspaceBox::for_robot(&model);
+/// let points = generate(&model, 5, &bx, 1)?;
+/// assert_eq!(points.len(), 5);
+/// for q in &points {
+///     assert_eq!(q.len(), model.joints());
+///     assert!(model.check_limits(q).is_ok());
+///     assert!(bx.contains(&position_deg(&model.params, &model.tool, q)));
+/// }
+/// // Same seed, same points; another seed, other points.
+/// assert_eq!(generate(&model, 5, &bx, 1)?, points);
+/// assert_ne!(generate(&model, 5, &bx, 2)?, points);
+/// // No points asked for is an error.
+/// assert!(matches!(generate(&model, 0, &bx, 1), Err(PointsError::Zero)));
+/// # Ok::<(), PointsError>(())
+/// ```
 pub fn generate(
     model: &RobotModel,
     n: usize,

@@ -332,6 +332,30 @@ pub fn panda() -> RobotModel {
 /// # Errors
 ///
 /// [`ModelError::UnknownPreset`] when `name` (case-insensitive) is none of [`PRESETS`].
+///
+/// # Examples
+///
+/// ```
+/// use gpu_amcs_core::kinematics::{tx60, ModelError};
+/// use gpu_amcs_core::presets::{preset, PRESETS};
+///
+/// // The name is case-insensitive; "tx60" is the TX60 of `kinematics::tx60`.
+/// let m = preset("TX60")?;
+/// assert_eq!(m, tx60());
+/// assert_eq!(m.joints(), 6);
+/// assert_eq!(preset("panda")?.joints(), 7);
+/// // Every listed name is a preset.
+/// assert!(PRESETS.iter().all(|name| preset(name).is_ok()));
+/// // Any other name is an error that lists the known ones.
+/// match preset("tx90") {
+///     Err(ModelError::UnknownPreset { name, known }) => {
+///         assert_eq!(name, "tx90");
+///         assert_eq!(known, PRESETS);
+///     }
+///     other => panic!("expected an unknown preset, got {other:?}"),
+/// }
+/// # Ok::<(), ModelError>(())
+/// ```
 pub fn preset(name: &str) -> Result<RobotModel, ModelError> {
     match name.to_ascii_lowercase().as_str() {
         "tx60" => Ok(tx60()),

@@ -95,6 +95,47 @@ impl Problem {
     /// test points, [`ProblemError::BadPoint`] for a test point that is not finite or outside the
     /// joint limits, and [`ProblemError::Sampler`] when the covariance has no Cholesky factor on
     /// the free parameters.
+    ///
+    /// # Examples
+    ///
+    /// The TX60 at three test points; the CPU evaluator's `w` of each draw is the largest of
+    /// that draw's point errors, as [`Problem::point_errors_at`] computes them:
+    ///
+    /// ```
+    /// use gpu_amcs_core::engine::{CpuEvaluator, Evaluator, Problem, ProblemError, Reference};
+    /// use gpu_amcs_core::kinematics::tx60;
+    ///
+    /// let model = tx60();
+    /// let points = [
+    ///     [0.0, 10.0, 80.0, 0.0, 30.0, 0.0],
+    ///     [20.0, -10.0, 90.0, 10.0, 45.0, 5.0],
+    ///     [-30.0, 0.0, 100.0, 0.0, -20.0, 90.0],
+    /// ];
+    /// let problem = Problem::new(model.clone(), &points, &Reference::Calibrated, 2025)?;
+    /// assert_eq!(problem.n_points(), 3);
+    /// // The calibrated reference is the model's own prediction: no error at the mean.
+    /// assert!(problem.point_errors(&model.params).iter().all(|&e| e == 0.0));
+    ///
+    /// let mut ev = CpuEvaluator::new(problem.clone());
+    /// let mut w = [0.0; 4];
+    /// let mut per_point = [0.0; 4 * 3];
+    /// ev.evaluate(10, &mut w, Some(&mut per_point))?; // draws 10 … 13
+    /// for (i, k) in (10..14).enumerate() {
+    ///     let s = &problem.sampler;
+    ///     let e = problem.point_errors_at(&s.draw(k), &s.tool_deltas(k));
+    ///     let max = e.iter().cloned().fold(0.0, f64::max);
+    ///     assert!((w[i] - max).abs() < 1e-9, "draw {k}: {} vs {max}", w[i]);
+    ///     for j in 0..3 {
+    ///         assert!((per_point[i * 3 + j] - e[j]).abs() < 1e-9);
+    ///     }
+    /// }
+    ///
+    /// // A point outside the joint limits is refused, naming its row.
+    /// let far = [[0.0, 0.0, 0.0, 0.0, 0.0, 1000.0]];
+    /// let err = Problem::new(model, &far, &Reference::Calibrated, 2025).unwrap_err();
+    /// assert!(matches!(err, ProblemError::BadPoint { index: 1, .. }));
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
     pub fn new<P: AsRef<[f64]>>(
         model: RobotModel,
         points_deg: &[P],

@@ -54,6 +54,43 @@ enum Form {
 }
 
 /// Draws parameter vectors for one run (one seed).
+///
+/// # Examples
+///
+/// Draw `k` is a function of the seed and `k` alone: two samplers with one seed give the same
+/// draws in any order, one at a time or in lanes.
+///
+/// ```
+/// use gpu_amcs_core::kinematics::{tx60, MAX_ROBOT_INPUTS};
+/// use gpu_amcs_core::sampling::ParamSampler;
+///
+/// let model = tx60();
+/// let a = ParamSampler::new(&model, 2025)?;
+/// let b = ParamSampler::new(&model, 2025)?;
+/// let later = a.draw(41);
+/// assert_eq!(b.draw(3), a.draw(3));
+/// assert_eq!(b.draw(41), later); // after other draws, the same
+/// assert_ne!(a.draw(3), a.draw(4));
+/// assert_ne!(ParamSampler::new(&model, 2026)?.draw(3), a.draw(3));
+///
+/// // A draw is the mean plus its offsets; a parameter with σ = 0 is never moved.
+/// let mut d = [0.0; MAX_ROBOT_INPUTS];
+/// a.deltas(3, &mut d);
+/// let q = a.draw(3);
+/// let sigmas = model.param_sigmas();
+/// for i in 0..a.n_params() {
+///     assert_eq!(q[i], a.mean[i] + d[i]);
+///     if sigmas[i] == 0.0 {
+///         assert_eq!(q[i], model.params[i]);
+///     }
+/// }
+///
+/// // Draws 1 … 4 in four lanes at once: lane 2 is draw 3, to the bit.
+/// let mut lanes = [[0.0; 4]; MAX_ROBOT_INPUTS];
+/// a.deltas_lanes::<4>(1, &mut lanes);
+/// assert!((0..a.n_inputs()).all(|i| lanes[i][2] == d[i]));
+/// # Ok::<(), gpu_amcs_core::sampling::SamplerError>(())
+/// ```
 #[derive(Clone, Debug)]
 pub struct ParamSampler {
     /// Parameter means (the model's values), mm and radians.

@@ -248,6 +248,41 @@ pub struct Calibration {
 /// [`SimulateError::Identify`] naming the run whose identification failed, and
 /// [`SimulateError::Other`] when the runs identified models of different structure or the
 /// covariance statistics fail.
+///
+/// # Examples
+///
+/// Two runs on a virtual TX60 measured without noise, sweeping in 5° steps: the calibrated
+/// model predicts the true robot's positions to the micrometre, where the nominal model misses
+/// them by tenths of a millimetre.
+///
+/// ```
+/// use gpu_amcs_core::points::WorkspaceBox;
+/// use gpu_amcs_core::simulate::{
+///     accuracy_check, calibrate, Experiment, Factors, RobotErrorModel, SimulateError,
+///     TrackerModel,
+/// };
+///
+/// let mut exp = Experiment::tx60(7);
+/// exp.tracker = TrackerModel::perfect();
+/// exp.robot = RobotErrorModel::none();
+/// let f = Factors {
+///     runs: 2,
+///     step_deg: 5.0,
+///     ..Factors::default()
+/// };
+/// let c = calibrate(&exp, &f, 1)?;
+/// assert_eq!(c.runs.len(), 2);
+/// assert!(c.independent.name.contains("calibrated (2 runs"));
+///
+/// let v = accuracy_check(&exp, &c.independent, 5, &WorkspaceBox::default(), 3)?;
+/// assert!(v.model.max_mm < 1e-3, "{:?}", v.model);
+/// assert!(v.nominal.unwrap().1.mean_mm > 0.1);
+///
+/// // One run gives no statistics.
+/// let one = Factors { runs: 1, ..f };
+/// assert!(matches!(calibrate(&exp, &one, 1), Err(SimulateError::Setting { .. })));
+/// # Ok::<(), SimulateError>(())
+/// ```
 pub fn calibrate(exp: &Experiment, f: &Factors, seed: u64) -> Result<Calibration, SimulateError> {
     f.check()?;
     let t0 = std::time::Instant::now();
