@@ -15,15 +15,22 @@
 //! Hostile input is bounded: every file goes through the description size cap and roxmltree's
 //! DTD refusal, includes nest at most [`MAX_INCLUDE_DEPTH`] deep and never in a cycle, macro
 //! calls nest at most [`MAX_MACRO_DEPTH`] deep, and the expansion stops with an error past
-//! [`MAX_OUTPUT_BYTES`] of output or [`MAX_STEPS`] steps of work.
-//!
-//! Over 600 lines: the directives share one scope stack, one set of limits and one error
-//! location; the expression language lives apart in [`expr`].
+//! [`MAX_OUTPUT_BYTES`] of output or [`MAX_STEPS`] steps of work.//!
+//! The expander's scopes, limits and error locations are here; the source trees in `source`,
+//! the output and its text in `output`, the directives in `directives`, macros and their calls in
+//! `macros`, and the expression language in [`expr`].
 
+mod directives;
 pub mod expr;
+mod macros;
+mod output;
+mod source;
 
 use super::ImportError;
 use expr::{Names, Value};
+use macros::Macro;
+use output::{write_out, Out};
+use source::{attr, convert, At, El, Node};
 use std::collections::{BTreeMap, HashMap};
 use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
@@ -48,38 +55,6 @@ const ELEMENT_OVERHEAD: usize = 64;
 /// Largest `package.xml` read while looking for a package by its `<name>`.
 const PACKAGE_XML_LIMIT: u64 = 1 << 20;
 
-/// A source element, owned (macros outlive the document they were defined in).
-#[derive(Debug)]
-struct El {
-    /// Local name; `xacro` is true when it is in the xacro namespace.
-    name: String,
-    xacro: bool,
-    attrs: Vec<(String, String)>,
-    children: Vec<Node>,
-    at: At,
-}
-
-#[derive(Debug)]
-enum Node {
-    El(Rc<El>),
-    Text(String),
-}
-
-/// File and 1-based line of a source element.
-type At = (Rc<str>, usize);
-
-/// An expanded element.
-#[derive(Clone, Debug)]
-enum Out {
-    El {
-        name: String,
-        attrs: Vec<(String, String)>,
-        children: Vec<Out>,
-        at: At,
-    },
-    Text(String, At),
-}
-
 /// A property: its raw text until an expression needs it, then its value.
 #[derive(Clone, Debug)]
 enum Prop {
@@ -87,20 +62,6 @@ enum Prop {
     Resolving,
     Done(Value),
     Block(Rc<Vec<Out>>),
-}
-
-struct Param {
-    name: String,
-    /// 0 plain, 1 `*block`, 2 `**block`.
-    stars: usize,
-    /// `^`: the caller's property of the same name.
-    outer: bool,
-    default: Option<String>,
-}
-
-struct Macro {
-    params: Vec<Param>,
-    body: Rc<El>,
 }
 
 /// The expanded URDF text of a xacro file, and for each line of it the source file and line it
@@ -176,107 +137,6 @@ pub fn expand_file(
         write_out(o, 0, &mut e);
     }
     Ok(e)
-}
-
-fn escape(s: &str, out: &mut String) {
-    for c in s.chars() {
-        match c {
-            '&' => out.push_str("&amp;"),
-            '<' => out.push_str("&lt;"),
-            '>' => out.push_str("&gt;"),
-            '"' => out.push_str("&quot;"),
-            '\n' => out.push_str("&#10;"),
-            '\r' => out.push_str("&#13;"),
-            '\t' => out.push_str("&#9;"),
-            c => out.push(c),
-        }
-    }
-}
-
-/// One element or text per line, so that each output line maps to one source line.
-fn write_out(o: &Out, indent: usize, e: &mut Expanded) {
-    let pad = "  ".repeat(indent.min(64));
-    match o {
-        Out::Text(t, at) => {
-            e.text.push_str(&pad);
-            escape(t.trim(), &mut e.text);
-            e.text.push('\n');
-            e.origins.push((at.0.to_string(), at.1));
-        }
-        Out::El {
-            name,
-            attrs,
-            children,
-            at,
-        } => {
-            e.text.push_str(&pad);
-            e.text.push('<');
-            e.text.push_str(name);
-            for (k, v) in attrs {
-                let _ = write!(e.text, " {k}=\"");
-                escape(v, &mut e.text);
-                e.text.push('"');
-            }
-            let origin = (at.0.to_string(), at.1);
-            if children.is_empty() {
-                e.text.push_str("/>\n");
-                e.origins.push(origin);
-                return;
-            }
-            e.text.push_str(">\n");
-            e.origins.push(origin.clone());
-            for c in children {
-                write_out(c, indent + 1, e);
-            }
-            let _ = writeln!(e.text, "{pad}</{name}>");
-            e.origins.push(origin);
-        }
-    }
-}
-
-fn is_xacro_ns(ns: Option<&str>) -> bool {
-    ns.is_some_and(|ns| {
-        let ns = ns.trim_end_matches('/');
-        ns == XACRO_NS
-            || ns == "http://ros.org/wiki/xacro"
-            || ns == "https://www.ros.org/wiki/xacro"
-    })
-}
-
-fn convert(n: roxmltree::Node, doc: &roxmltree::Document, file: &Rc<str>) -> El {
-    let at = (file.clone(), doc.text_pos_at(n.range().start).row as usize);
-    let children = n
-        .children()
-        .filter_map(|c| {
-            if c.is_element() {
-                Some(Node::El(Rc::new(convert(c, doc, file))))
-            } else if c.is_text() {
-                c.text().map(|t| Node::Text(t.to_string()))
-            } else {
-                None
-            }
-        })
-        .collect();
-    El {
-        name: n.tag_name().name().to_string(),
-        xacro: is_xacro_ns(n.tag_name().namespace()),
-        // xacro-namespace attributes on other elements are xacro's own; they do not reach the
-        // URDF.
-        attrs: n
-            .attributes()
-            .filter(|a| !is_xacro_ns(a.namespace()) || is_xacro_ns(n.tag_name().namespace()))
-            .map(|a| (a.name().to_string(), a.value().to_string()))
-            .collect(),
-        children,
-        at,
-    }
-}
-
-fn attr<'e>(el: &'e El, name: &str) -> Option<&'e str> {
-    el.attrs
-        .iter()
-        .find(|(k, _)| k == name)
-        .map(|(_, v)| v.as_str())
 }
 
 impl Names for Expander<'_> {
@@ -593,218 +453,6 @@ impl Expander<'_> {
     fn string(&mut self, s: &str) -> Result<String, ImportError> {
         Ok(self.text_value(s, self.scopes.len())?.to_string())
     }
-
-    fn directive(&mut self, el: &Rc<El>) -> Result<Vec<Out>, ImportError> {
-        match el.name.as_str() {
-            "include" => {
-                self.allow(el, &["filename"])?;
-                let f = self.need(el, "filename")?;
-                let f = self.string(f)?;
-                self.include(&f, el)
-            }
-            "property" => {
-                self.allow(el, &["name", "value", "default"])?;
-                let name = self.need(el, "name")?.to_string();
-                let top = self.scopes.len() - 1;
-                let prop = if let Some(v) = attr(el, "value").or_else(|| attr(el, "default")) {
-                    if attr(el, "value").is_none() && self.scopes[top].contains_key(&name) {
-                        return Ok(Vec::new());
-                    }
-                    Prop::Raw(v.to_string(), el.at.clone())
-                } else if el.children.iter().any(|c| matches!(c, Node::El(_))) {
-                    let block = self.children(&el.children)?;
-                    Prop::Block(Rc::new(block))
-                } else {
-                    return Err(self.err_at(
-                        &el.at,
-                        format!("<xacro:property name=\"{name}\"> has neither a value nor block content"),
-                    ));
-                };
-                self.scopes[top].insert(name, prop);
-                Ok(Vec::new())
-            }
-            "arg" => {
-                self.allow(el, &["name", "default"])?;
-                let name = self.need(el, "name")?.to_string();
-                if let Some(v) = self.overrides.get(&name) {
-                    self.args.insert(name, v.clone());
-                } else if !self.args.contains_key(&name) {
-                    let d = self.need(el, "default")?;
-                    let d = self.string(d)?;
-                    self.args.insert(name, d);
-                }
-                Ok(Vec::new())
-            }
-            "if" | "unless" => {
-                self.allow(el, &["value"])?;
-                let v = self.need(el, "value")?;
-                let v = self.text_value(v, self.scopes.len())?;
-                let t = v.truth().map_err(|m| {
-                    self.err_at(&el.at, format!("<xacro:{} value>: {m}", el.name))
-                })?;
-                if t == (el.name == "if") {
-                    self.children(&el.children)
-                } else {
-                    Ok(Vec::new())
-                }
-            }
-            "macro" => {
-                self.allow(el, &["name", "params"])?;
-                let name = self.need(el, "name")?.to_string();
-                let params = parse_params(attr(el, "params").unwrap_or(""))
-                    .map_err(|m| self.err_at(&el.at, format!("macro '{name}': {m}")))?;
-                self.macros.insert(
-                    name,
-                    Rc::new(Macro {
-                        params,
-                        body: el.clone(),
-                    }),
-                );
-                Ok(Vec::new())
-            }
-            "insert_block" => {
-                self.allow(el, &["name"])?;
-                let name = self.need(el, "name")?;
-                let top = self.scopes.len();
-                let Some(k) = (0..top).rev().find(|&k| self.scopes[k].contains_key(name)) else {
-                    return Err(self.err(format!("<xacro:insert_block>: no block named '{name}'")));
-                };
-                let Prop::Block(b) = self.scopes[k][name].clone() else {
-                    return Err(self.err(format!("<xacro:insert_block>: '{name}' is a value, not a block")));
-                };
-                self.grow(b.len() * 16)?;
-                for o in b.iter() {
-                    self.grow(out_size(o))?;
-                }
-                Ok(b.as_ref().clone())
-            }
-            other => match self.macros.get(other).cloned() {
-                Some(m) => self.call(other, &m, el),
-                None => Err(self.err(format!(
-                    "<xacro:{other}> is not supported (supported: include, property, macro and its calls, insert_block, arg, if, unless)"
-                ))),
-            },
-        }
-    }
-
-    fn include(&mut self, f: &str, el: &El) -> Result<Vec<Out>, ImportError> {
-        let base = Path::new(&*el.at.0).parent().unwrap_or(Path::new(""));
-        let p = if Path::new(f).is_absolute() {
-            PathBuf::from(f)
-        } else {
-            base.join(f)
-        };
-        let canon = std::fs::canonicalize(&p)
-            .map_err(|e| self.err_at(&el.at, format!("cannot include '{}': {e}", p.display())))?;
-        if self.includes.contains(&canon) {
-            return Err(self.err_at(
-                &el.at,
-                format!(
-                    "include cycle: '{}' includes itself (directly or through others)",
-                    p.display()
-                ),
-            ));
-        }
-        if self.includes.len() > MAX_INCLUDE_DEPTH {
-            return Err(self.err_at(
-                &el.at,
-                format!("includes nest deeper than {MAX_INCLUDE_DEPTH}"),
-            ));
-        }
-        let root = Rc::new(self.load(&p, &p.display().to_string())?);
-        self.includes.push(canon);
-        let out = self.children(&root.children);
-        self.includes.pop();
-        self.at = el.at.clone();
-        out
-    }
-
-    fn call(&mut self, name: &str, m: &Macro, el: &El) -> Result<Vec<Out>, ImportError> {
-        if self.macro_depth >= MAX_MACRO_DEPTH {
-            return Err(self.err(format!(
-                "macro calls nest deeper than {MAX_MACRO_DEPTH} (a recursive macro '{name}'?)"
-            )));
-        }
-        for (k, _) in &el.attrs {
-            if !m.params.iter().any(|p| p.stars == 0 && &p.name == k) {
-                return Err(self.err(format!("macro '{name}' has no parameter '{k}'")));
-            }
-        }
-        let mut blocks = el.children.iter().filter_map(|c| match c {
-            Node::El(e) => Some(e.clone()),
-            Node::Text(_) => None,
-        });
-        let mut scope = HashMap::new();
-        let upto = self.scopes.len();
-        for p in &m.params {
-            let prop = if p.stars > 0 {
-                let Some(b) = blocks.next() else {
-                    return Err(self.err(format!(
-                        "macro '{name}': no element given for block parameter '{}'",
-                        p.name
-                    )));
-                };
-                let out = if p.stars == 1 {
-                    self.element(&b)?
-                } else {
-                    self.children(&b.children)?
-                };
-                self.at = el.at.clone();
-                Prop::Block(Rc::new(out))
-            } else if let Some(v) = attr(el, &p.name) {
-                Prop::Done(self.text_value(v, upto)?)
-            } else {
-                let outer = if p.outer {
-                    self.resolve(&p.name, upto).map_err(|m| self.err(m))?
-                } else {
-                    None
-                };
-                match (outer, &p.default) {
-                    (Some(v), _) => Prop::Done(v),
-                    (None, Some(d)) => Prop::Done(self.text_value(d, upto)?),
-                    (None, None) => {
-                        return Err(self.err(format!(
-                            "macro '{name}': parameter '{}' is not given and has no default",
-                            p.name
-                        )))
-                    }
-                }
-            };
-            scope.insert(p.name.clone(), prop);
-        }
-        if blocks.next().is_some() {
-            return Err(self.err(format!(
-                "macro '{name}' is given more elements than it has block parameters"
-            )));
-        }
-        self.scopes.push(scope);
-        self.macro_depth += 1;
-        let out = self.children(&m.body.children);
-        self.macro_depth -= 1;
-        self.scopes.pop();
-        self.at = el.at.clone();
-        out
-    }
-}
-
-fn out_size(o: &Out) -> usize {
-    match o {
-        Out::Text(t, _) => t.len(),
-        Out::El {
-            name,
-            attrs,
-            children,
-            ..
-        } => {
-            name.len() * 2
-                + ELEMENT_OVERHEAD
-                + attrs
-                    .iter()
-                    .map(|(k, v)| k.len() + v.len() + 4)
-                    .sum::<usize>()
-                + children.iter().map(out_size).sum::<usize>()
-        }
-    }
 }
 
 /// The end of a `${...}`/`$(...)` body: the first `close` outside quotes.
@@ -832,73 +480,4 @@ fn package_name(dir: &Path) -> Option<String> {
     let start = text.find("<name>")? + "<name>".len();
     let end = text[start..].find("</name>")?;
     Some(text[start..start + end].trim().to_string())
-}
-
-/// `a b:=1 c:=^ d:=^|2 *e **f` (also the old `b=1`), quoted defaults allowed.
-fn parse_params(s: &str) -> Result<Vec<Param>, String> {
-    let mut out: Vec<Param> = Vec::new();
-    let mut rest = s.trim_start();
-    while !rest.is_empty() {
-        // One token: up to whitespace outside quotes.
-        let mut quote = None;
-        let mut end = rest.len();
-        for (k, c) in rest.char_indices() {
-            match quote {
-                Some(q) if c == q => quote = None,
-                Some(_) => {}
-                None if c == '\'' || c == '"' => quote = Some(c),
-                None if c.is_whitespace() => {
-                    end = k;
-                    break;
-                }
-                None => {}
-            }
-        }
-        let tok = &rest[..end];
-        rest = rest[end..].trim_start();
-        let stars = tok.len() - tok.trim_start_matches('*').len();
-        if stars > 2 {
-            return Err(format!("bad parameter '{tok}'"));
-        }
-        let body = &tok[stars..];
-        let (name, default) = match body.split_once(":=").or_else(|| body.split_once('=')) {
-            Some((n, d)) => (n, Some(d)),
-            None => (body, None),
-        };
-        if name.is_empty() || !name.chars().all(|c| c.is_alphanumeric() || c == '_') {
-            return Err(format!("bad parameter name '{tok}'"));
-        }
-        if stars > 0 && default.is_some() {
-            return Err(format!("block parameter '{tok}' cannot have a default"));
-        }
-        let (outer, default) = match default {
-            Some(d) if d.starts_with('^') => {
-                let d = d[1..].strip_prefix('|').map(str::to_string);
-                (true, d)
-            }
-            Some(d) => (false, Some(d.to_string())),
-            None => (false, None),
-        };
-        let default = default.map(|d| {
-            let t = d.as_str();
-            if t.len() >= 2
-                && ((t.starts_with('\'') && t.ends_with('\''))
-                    || (t.starts_with('"') && t.ends_with('"')))
-            {
-                t[1..t.len() - 1].to_string()
-            } else {
-                d
-            }
-        });
-        if out.iter().any(|p| p.name == name) {
-            return Err(format!("parameter '{name}' given twice"));
-        }
-        out.push(Param {
-            name: name.to_string(),
-            stars,
-            outer,
-            default,
-        });
-    }
-    Ok(out)
 }
