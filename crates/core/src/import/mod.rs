@@ -32,22 +32,33 @@
 //! model's tool point); its orientation is not part of the model.
 //!
 //! [`export`] writes a model back out as URDF or as a UR calibration file.
+//!
+//! The submodules besides the readers: `chain` (the source chain and its holds), `base` (the
+//! model's base frame) and `file` (a file's reader, [`import_file`]); the unit tests are in
+//! `tests`.
 
+mod base;
+mod chain;
 pub mod dh;
 pub mod export;
+mod file;
 #[cfg(test)]
 mod tests;
 pub mod ur;
 pub mod urdf;
 pub mod xacro;
 
+pub use chain::{JointHold, SourceChain, SourceFormat, SourceJoint, MAX_SOURCE_JOINTS};
+pub use file::{import_file, kind_of, FileKind, ImportOptions};
+
 use crate::kinematics::lines::Line;
 use crate::kinematics::mdh::{chain_from_zero_pose, GeometryError};
 use crate::kinematics::{
-    BaseTransform, Joints, Layout, Limits, Params, RobotModel, Uncertainty, MAX_JOINTS, MIN_JOINTS,
+    Joints, Layout, Limits, Params, RobotModel, Uncertainty, MAX_JOINTS, MIN_JOINTS,
 };
 use crate::number::fmt_plain;
-use nalgebra::{Isometry3, Translation3, Unit, UnitQuaternion, Vector3};
+use base::{check_base, to_base_frame};
+use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use std::fmt::Write as _;
 
@@ -58,190 +69,6 @@ pub const PROOF_CONFIGURATIONS: usize = 1000;
 pub const PROOF_TOLERANCE_MM: f64 = 1e-9;
 /// Seed of the proof's configurations (fixed: an import is reproducible).
 pub const PROOF_SEED: u64 = 0x1d_2024;
-/// Rounding tolerances of joint 1's axis: a tilt from z (radians) and an offset from the origin
-/// (mm) within them is not turned or moved into the base frame, and the check after the move
-/// allows them. Well below what would move a 2 m arm by 1e-9 mm.
-const BASE_TILT_EPS: f64 = 1e-13;
-const BASE_OFFSET_EPS_MM: f64 = 1e-10;
-
-/// The kind of file a chain came from.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SourceFormat {
-    /// URDF (XML).
-    Urdf,
-    /// Standard (distal) DH table.
-    StandardDh,
-    /// Craig's modified (proximal) DH table.
-    ModifiedDh,
-    /// UR calibration file (`kinematics:` with x, y, z, roll, pitch, yaw per joint).
-    UrCalibration,
-}
-
-impl SourceFormat {
-    /// The name written in the model header.
-    pub fn name(self) -> &'static str {
-        match self {
-            Self::Urdf => "URDF",
-            Self::StandardDh => "standard DH table",
-            Self::ModifiedDh => "modified (Craig) DH table",
-            Self::UrCalibration => "UR calibration",
-        }
-    }
-}
-
-/// One revolute joint of a source chain (lengths in mm).
-#[derive(Clone, Debug, PartialEq)]
-pub struct SourceJoint {
-    /// The joint's name in its file.
-    pub name: String,
-    /// Fixed transform from the previous joint's frame (after its rotation; the base frame for
-    /// the first joint) to this joint's frame.
-    pub origin: Isometry3<f64>,
-    /// Rotation axis in this joint's frame (unit; positive q turns right-handed about it).
-    pub axis: Unit<Vector3<f64>>,
-    /// Joint limits, degrees, min < max.
-    pub limits_deg: (f64, f64),
-}
-
-/// Most revolute joints a description may have before joints are held ([`JointHold`]).
-pub const MAX_SOURCE_JOINTS: usize = 12;
-
-/// A joint held at a fixed angle on import: the held joint's rotation joins the fixed transform
-/// to the next joint, so each hold takes one joint off the model (a seven-axis arm with one joint
-/// held becomes a six-axis model; a description of more than [`MAX_JOINTS`] revolute joints
-/// needs holds to import at all).
-#[derive(Clone, Debug, PartialEq)]
-pub struct JointHold {
-    /// The joint: its name in the description (a URDF joint name, `joint 3` of a DH table) or
-    /// its 1-based number along the chain.
-    pub joint: String,
-    /// The angle it is held at, degrees (within its limits).
-    pub angle_deg: f64,
-}
-
-/// A serial chain of revolute joints as a file describes it (lengths in mm); a model takes
-/// [`MIN_JOINTS`] to [`MAX_JOINTS`] of them.
-#[derive(Clone, Debug, PartialEq)]
-pub struct SourceChain {
-    /// Model name.
-    pub name: String,
-    /// Where it came from.
-    pub format: SourceFormat,
-    /// The revolute joints, base to tip.
-    pub joints: Vec<SourceJoint>,
-    /// The chain in words for messages ("the chain from 'base_link' to 'tool0'", "the table").
-    pub what: String,
-    /// Fixed transform from the last joint's frame (after its rotation) to the tip.
-    pub tip: Isometry3<f64>,
-    /// What the reader chose that the user did not say (the tip link of a URDF given without
-    /// one) and the joints held, for the user to see, one line each.
-    pub notes: Vec<String>,
-    /// The joints held ([`SourceChain::hold`]), one line each (also in `notes`).
-    pub held: Vec<String>,
-    /// The arm's own base frame in the description's frame, when the description names one
-    /// (UR's `base_link_inertia`, `base_link` turned half a turn about z, which UR's calibration
-    /// files are relative to). Used as the model's base frame when its z is joint 1's axis.
-    pub arm_frame: Option<Isometry3<f64>>,
-}
-
-impl SourceChain {
-    /// Holds the joints `holds` name at their angles: each one's rotation is composed into the
-    /// fixed transform that follows it (the next joint's origin, or the tip), and the joint
-    /// leaves the chain. `path` names the source in errors.
-    ///
-    /// # Errors
-    ///
-    /// [`ImportError::Chain`] for a joint the chain does not have, one named twice, or an angle
-    /// that is not finite or outside the joint's limits.
-    pub fn hold(&mut self, holds: &[JointHold], path: &str) -> Result<(), ImportError> {
-        let refuse = |message: String| ImportError::Chain {
-            path: path.into(),
-            message,
-        };
-        let mut held = vec![None; self.joints.len()];
-        for h in holds {
-            let k = self
-                .joints
-                .iter()
-                .position(|j| j.name == h.joint)
-                .or_else(|| {
-                    h.joint
-                        .parse::<usize>()
-                        .ok()
-                        .filter(|&n| (1..=self.joints.len()).contains(&n))
-                        .map(|n| n - 1)
-                })
-                .ok_or_else(|| {
-                    let names: Vec<&str> = self.joints.iter().map(|j| j.name.as_str()).collect();
-                    refuse(format!(
-                        "joint '{}' to hold is not in {} (its revolute joints: {}; or a number 1 to {})",
-                        h.joint,
-                        self.what,
-                        names.join(", "),
-                        self.joints.len()
-                    ))
-                })?;
-            let j = &self.joints[k];
-            let (lo, hi) = j.limits_deg;
-            if !h.angle_deg.is_finite() || h.angle_deg < lo || h.angle_deg > hi {
-                return Err(refuse(format!(
-                    "joint '{}' cannot be held at {}°: its limits are {}° to {}°",
-                    j.name,
-                    fmt_plain(h.angle_deg),
-                    fmt_plain(lo),
-                    fmt_plain(hi)
-                )));
-            }
-            if held[k].is_some() {
-                return Err(refuse(format!("joint '{}' is held twice", j.name)));
-            }
-            held[k] = Some(h.angle_deg);
-        }
-        let mut kept: Vec<SourceJoint> = Vec::with_capacity(self.joints.len());
-        // The fixed transform since the last kept joint's rotation.
-        let mut pending: Option<Isometry3<f64>> = None;
-        for (j, angle) in self.joints.drain(..).zip(held) {
-            let origin = pending.take().map_or(j.origin, |p| p * j.origin);
-            match angle {
-                Some(a) => {
-                    pending =
-                        Some(origin * UnitQuaternion::from_axis_angle(&j.axis, a.to_radians()));
-                    self.held.push(format!(
-                        "joint '{}' held at {}° (its limits {}° to {}°)",
-                        j.name,
-                        fmt_plain(a),
-                        fmt_plain(j.limits_deg.0),
-                        fmt_plain(j.limits_deg.1)
-                    ));
-                }
-                None => kept.push(SourceJoint { origin, ..j }),
-            }
-        }
-        if let Some(p) = pending {
-            self.tip = p * self.tip;
-        }
-        self.joints = kept;
-        self.notes.extend(self.held.iter().cloned());
-        Ok(())
-    }
-
-    /// Tip transform at joint angles `q` (radians, one per joint of the chain), composed from
-    /// the source's own transforms.
-    pub fn transform(&self, q: &[f64]) -> Isometry3<f64> {
-        debug_assert_eq!(q.len(), self.joints.len());
-        let mut t = Isometry3::identity();
-        for (j, qj) in self.joints.iter().zip(q) {
-            t = t * j.origin * UnitQuaternion::from_axis_angle(&j.axis, *qj);
-        }
-        t * self.tip
-    }
-
-    /// Tip position (mm) at joint angles `q` (radians, one per joint of the chain).
-    pub fn position(&self, q: &[f64]) -> [f64; 3] {
-        let p = self.transform(q).translation.vector;
-        [p.x, p.y, p.z]
-    }
-}
 
 /// Errors reading or converting a robot description.
 #[derive(Debug, thiserror::Error)]
@@ -432,74 +259,9 @@ impl Imported {
 /// kinematics deviates from the source's by more than [`PROOF_TOLERANCE_MM`].
 pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError> {
     let n = chain.joints.len();
-    if !(MIN_JOINTS..=MAX_JOINTS).contains(&n) {
-        let names: Vec<&str> = chain.joints.iter().map(|j| j.name.as_str()).collect();
-        return Err(ImportError::Chain {
-            path: path.into(),
-            message: format!(
-                "{} has {n} revolute joints ({}); the model needs {MIN_JOINTS} to {MAX_JOINTS}{}",
-                chain.what,
-                if names.is_empty() {
-                    "none".to_string()
-                } else {
-                    names.join(", ")
-                },
-                if n > MAX_JOINTS {
-                    format!(
-                        ": hold {} of them at a fixed angle to import the arm as a {MAX_JOINTS}-axis model (or more of them for fewer axes)",
-                        n - MAX_JOINTS
-                    )
-                } else {
-                    String::new()
-                }
-            ),
-        });
-    }
-    // Axis lines at q = 0 in the base frame.
-    let mut frame = Isometry3::identity();
-    let mut axes = Vec::with_capacity(n);
-    for joint in &chain.joints {
-        frame *= joint.origin;
-        axes.push(Line {
-            point: frame.translation.vector,
-            dir: frame.rotation * joint.axis.into_inner(),
-        });
-    }
-    let mut tip = (frame * chain.tip).translation.vector;
-    // The model's base frame B: the arm's own base frame when the description names one whose z
-    // is joint 1's axis (UR's `base_link_inertia`), else the canonical one of `base_frame`.
-    // Express every axis and the tip in it.
-    let own = chain.arm_frame.filter(|f| on_axis(f, &axes[0]));
-    let (flip, turn, origin) = base_frame(&axes[0]);
-    let to_base = |v: Vector3<f64>| match &own {
-        Some(f) => f.rotation.inverse_transform_vector(&v),
-        None => {
-            let v = if flip {
-                Vector3::new(v.x, -v.y, -v.z)
-            } else {
-                v
-            };
-            turn.map_or(v, |r| r.inverse_transform_vector(&v))
-        }
-    };
-    let shift = own.map_or(origin, |f| f.translation.vector);
-    let to_base_point = |p: Vector3<f64>| to_base(p - shift);
-    for a in &mut axes {
-        *a = Line {
-            point: to_base_point(a.point),
-            dir: to_base(a.dir),
-        };
-    }
-    tip = to_base_point(tip);
-    let base = match &own {
-        Some(f) => {
-            let t = f.translation.vector;
-            let xyz = [t.x, t.y, t.z];
-            let rpy = crate::kinematics::rpy_of(&f.rotation);
-            (rpy != [0.0; 3] || xyz != [0.0; 3]).then_some(BaseTransform { xyz, rpy })
-        }
-        None => base_transform(flip, turn, origin),
-    };
+    check_joint_count(chain, path)?;
+    let (mut axes, mut tip) = zero_pose_axes(chain);
+    let base = to_base_frame(chain.arm_frame, &mut axes, &mut tip);
     check_base(&axes[0], &chain.joints[0].name, path)?;
     let c = chain_from_zero_pose(&axes, tip).map_err(|GeometryError { joint, message }| {
         ImportError::NotRepresentable {
@@ -531,6 +293,53 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         notes: chain.notes.clone(),
         held: chain.held.clone(),
     })
+}
+
+/// The chain has [`MIN_JOINTS`] to [`MAX_JOINTS`] joints; else the error names the count, the
+/// range and, for too many, how many to hold.
+fn check_joint_count(chain: &SourceChain, path: &str) -> Result<(), ImportError> {
+    let n = chain.joints.len();
+    if !(MIN_JOINTS..=MAX_JOINTS).contains(&n) {
+        let names: Vec<&str> = chain.joints.iter().map(|j| j.name.as_str()).collect();
+        return Err(ImportError::Chain {
+            path: path.into(),
+            message: format!(
+                "{} has {n} revolute joints ({}); the model needs {MIN_JOINTS} to {MAX_JOINTS}{}",
+                chain.what,
+                if names.is_empty() {
+                    "none".to_string()
+                } else {
+                    names.join(", ")
+                },
+                if n > MAX_JOINTS {
+                    format!(
+                        ": hold {} of them at a fixed angle to import the arm as a {MAX_JOINTS}-axis model (or more of them for fewer axes)",
+                        n - MAX_JOINTS
+                    )
+                } else {
+                    String::new()
+                }
+            ),
+        });
+    }
+    Ok(())
+}
+
+/// The joint axes and the tip point of `chain` at q = 0, in the description's frame.
+fn zero_pose_axes(chain: &SourceChain) -> (Vec<Line>, Vector3<f64>) {
+    let n = chain.joints.len();
+    // Axis lines at q = 0 in the base frame.
+    let mut frame = Isometry3::identity();
+    let mut axes = Vec::with_capacity(n);
+    for joint in &chain.joints {
+        frame *= joint.origin;
+        axes.push(Line {
+            point: frame.translation.vector,
+            dir: frame.rotation * joint.axis.into_inner(),
+        });
+    }
+    let tip = (frame * chain.tip).translation.vector;
+    (axes, tip)
 }
 
 /// The model file's own rules ([`RobotModel::check`]) applied to an imported model, so that
@@ -573,104 +382,6 @@ fn check_model(model: &RobotModel, chain: &SourceChain, path: &str) -> Result<()
             ),
         },
     })
-}
-
-/// The model's base frame B for a first axis `axis` (description frame at q = 0), as
-/// `(flip, turn, origin)`: B = Trans(origin) · Rx(π if flip) · turn.
-///
-/// * z: the axis direction (the model's first axis is B's z through B's origin);
-/// * origin: the foot of the perpendicular from the description's origin onto the axis (the
-///   axis point nearest the description's origin; the origin itself when the axis passes
-///   through it);
-/// * x: the description's x carried along by the smallest rotation that takes the description's
-///   z to the axis; for an axis within 45° of straight down (a ceiling mount, ROS-Industrial's
-///   KUKA arms), by the half turn about x and then the smallest rotation from −z (the smallest
-///   rotation from +z is ill-defined near a half turn). θ_1 takes whatever angle the next axis
-///   needs, so this choice only fixes where θ_1 counts from.
-///
-/// An axis along +z through the origin gives the identity (no base transform) and one along −z
-/// through the origin exactly the half turn `Rx(180°)`, as before this was general.
-fn base_frame(axis: &Line) -> (bool, Option<UnitQuaternion<f64>>, Vector3<f64>) {
-    let d = axis.dir.normalize();
-    let flip = d.z < -std::f64::consts::FRAC_1_SQRT_2;
-    let d_flipped = if flip {
-        Vector3::new(d.x, -d.y, -d.z)
-    } else {
-        d
-    };
-    // d_flipped.z > −1/√2: the smallest rotation from z is well defined (at most 135°). A tilt
-    // within rounding (which the model took as base z before any placement was accepted) is
-    // not turned, so those imports stay exactly as they were.
-    let turn = (d_flipped.x.hypot(d_flipped.y) > BASE_TILT_EPS)
-        .then(|| UnitQuaternion::rotation_between(&Vector3::z(), &d_flipped))
-        .flatten();
-    let along = axis.point.dot(&d);
-    let foot = axis.point - d * along;
-    let origin = if foot.iter().all(|c| c.abs() <= BASE_OFFSET_EPS_MM) {
-        Vector3::zeros()
-    } else {
-        foot
-    };
-    (flip, turn, origin)
-}
-
-/// Whether the frame `f` has joint 1's `axis` as its z axis (same direction, through its
-/// origin), within the tolerances of the base check.
-fn on_axis(f: &Isometry3<f64>, axis: &Line) -> bool {
-    let z = f.rotation * Vector3::z();
-    let d = axis.dir.normalize();
-    let off = (f.translation.vector - axis.point).cross(&d).norm();
-    z.cross(&d).norm() <= 1e-9 && z.dot(&d) > 0.0 && off <= 1e-6
-}
-
-/// The base transform of [`base_frame`]'s frame, `None` for the identity.
-fn base_transform(
-    flip: bool,
-    turn: Option<UnitQuaternion<f64>>,
-    origin: Vector3<f64>,
-) -> Option<BaseTransform> {
-    let rpy = match (flip, turn) {
-        (false, None) => [0.0; 3],
-        (true, None) => [std::f64::consts::PI, 0.0, 0.0],
-        (f, Some(t)) => {
-            let half = if f {
-                UnitQuaternion::from_axis_angle(&Vector3::x_axis(), std::f64::consts::PI)
-            } else {
-                UnitQuaternion::identity()
-            };
-            crate::kinematics::rpy_of(&(half * t))
-        }
-    };
-    let xyz = [origin.x, origin.y, origin.z];
-    (rpy != [0.0; 3] || xyz != [0.0; 3]).then_some(BaseTransform { xyz, rpy })
-}
-
-/// The model's first axis is fixed: base z through the origin, pointing up.
-fn check_base(axis: &Line, joint: &str, path: &str) -> Result<(), ImportError> {
-    let tilt = axis.dir.cross(&Vector3::z()).norm();
-    let offset = Vector3::new(axis.point.x, axis.point.y, 0.0).norm();
-    // An axis along −z has been turned up by the base transform (see `convert`).
-    let message = if tilt > BASE_TILT_EPS {
-        Some(format!(
-            "its axis is tilted {}° from base z; the model's first axis is base z: express the chain in a base frame whose z is this axis",
-            fmt_plain(tilt.asin().to_degrees())
-        ))
-    } else if offset > BASE_OFFSET_EPS_MM {
-        Some(format!(
-            "its axis is {} mm from the base origin; the model's first axis passes through it: express the chain in a base frame on this axis",
-            fmt_plain(offset)
-        ))
-    } else {
-        None
-    };
-    match message {
-        Some(message) => Err(ImportError::NotRepresentable {
-            path: path.into(),
-            joint: joint.into(),
-            message,
-        }),
-        None => Ok(()),
-    }
 }
 
 /// Maximum tool-point deviation source vs model at q = 0 and [`PROOF_CONFIGURATIONS`] uniform
@@ -726,153 +437,6 @@ pub fn prove(
         });
     }
     Ok((worst.0, PROOF_CONFIGURATIONS + 1))
-}
-
-/// Which reader a file needs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum FileKind {
-    /// `.urdf`, `.xml`.
-    Urdf,
-    /// `.xacro`: expanded ([`xacro::expand_file`]) to URDF.
-    Xacro,
-    /// `.csv`, `.toml`: a DH table (standard or modified, as the file states).
-    DhTable,
-    /// `.yaml`, `.yml`: a UR calibration file.
-    UrCalibration,
-}
-
-/// Options of [`import_file`].
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct ImportOptions {
-    /// URDF: the base link (default: the root link).
-    pub base: Option<String>,
-    /// URDF: the tip link (default: the single leaf below the base, else tool0, flange or the
-    /// deepest leaf of the longest revolute chain, with a note).
-    pub tip: Option<String>,
-    /// Model name (default: the file's robot name, else the file stem).
-    pub name: Option<String>,
-    /// xacro: package name → its directory, for `$(find NAME)` (before the search upwards
-    /// from the including file).
-    pub packages: std::collections::BTreeMap<String, std::path::PathBuf>,
-    /// xacro: `$(arg NAME)` values that override the file's `<xacro:arg>` defaults.
-    pub xacro_args: std::collections::BTreeMap<String, String>,
-    /// Joints held at a fixed angle ([`SourceChain::hold`]).
-    pub held: Vec<JointHold>,
-}
-
-/// The reader for `path` by its extension.
-///
-/// # Errors
-///
-/// [`ImportError::Chain`] for an unknown extension.
-pub fn kind_of(path: &std::path::Path) -> Result<FileKind, ImportError> {
-    let ext = path
-        .extension()
-        .and_then(|e| e.to_str())
-        .unwrap_or("")
-        .to_ascii_lowercase();
-    match ext.as_str() {
-        "urdf" | "xml" => Ok(FileKind::Urdf),
-        "csv" | "toml" => Ok(FileKind::DhTable),
-        "yaml" | "yml" => Ok(FileKind::UrCalibration),
-        "xacro" => Ok(FileKind::Xacro),
-        _ => Err(ImportError::Chain {
-            path: path.display().to_string(),
-            message: "unknown file type: expected .urdf/.xml (URDF), .xacro (xacro), .csv/.toml (DH table) or .yaml/.yml (UR calibration)".into(),
-        }),
-    }
-}
-
-/// Reads a robot description of any supported format (chosen by [`kind_of`]), converts and
-/// proves it.
-///
-/// # Errors
-///
-/// The errors of [`kind_of`] for the file's type; [`ImportError::Read`] when the file cannot be
-/// read, is too large or is not UTF-8; the reader's errors ([`urdf::parse`], [`dh::parse_csv`],
-/// [`dh::parse_toml`], [`ur::parse`]) for its contents; and those of [`convert`].
-pub fn import_file(path: &std::path::Path, opts: &ImportOptions) -> Result<Imported, ImportError> {
-    let kind = kind_of(path)?;
-    let p = path.display().to_string();
-    if kind == FileKind::Xacro {
-        let e = xacro::expand_file(path, &opts.packages, &opts.xacro_args)?;
-        let mut chain = urdf::parse(&e.text, &p, opts.base.as_deref(), opts.tip.as_deref())
-            .map_err(|err| relocate(err, &e))?;
-        if let Some(n) = &opts.name {
-            chain.name = n.clone();
-        }
-        chain.hold(&opts.held, &p)?;
-        return convert(&chain, &p);
-    }
-    let text = crate::input::read_text(
-        path,
-        crate::input::DESCRIPTION_FILE_LIMIT,
-        "robot description",
-    )?;
-    let stem = path
-        .file_stem()
-        .and_then(|s| s.to_str())
-        .unwrap_or("robot")
-        .to_string();
-    let mut chain = match kind {
-        FileKind::Urdf => urdf::parse(&text, &p, opts.base.as_deref(), opts.tip.as_deref())?,
-        FileKind::DhTable => {
-            let is_toml = path
-                .extension()
-                .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
-            if is_toml {
-                dh::parse_toml(&text, &p, &stem)?
-            } else {
-                dh::parse_csv(&text, &p, &stem)?
-            }
-        }
-        FileKind::UrCalibration => ur::parse(&text, &p, &stem)?,
-        FileKind::Xacro => unreachable!("expanded above"),
-    };
-    if let Some(n) = &opts.name {
-        chain.name = n.clone();
-    }
-    chain.hold(&opts.held, &p)?;
-    convert(&chain, &p)
-}
-
-/// A URDF reader's error on expanded xacro text, naming the source file and line the offending
-/// output line came from instead of the expansion's line.
-fn relocate(err: ImportError, e: &xacro::Expanded) -> ImportError {
-    let at = |line: usize| e.origins.get(line.wrapping_sub(1)).cloned();
-    match err {
-        ImportError::Element {
-            path,
-            line,
-            element,
-            message,
-        } => {
-            let (path, line) = at(line).unwrap_or((path, line));
-            ImportError::Element {
-                path,
-                line,
-                element,
-                message,
-            }
-        }
-        ImportError::Syntax {
-            path,
-            line,
-            message,
-        } => {
-            let (path, line) = at(line).unwrap_or((path, line));
-            ImportError::Syntax {
-                path,
-                line,
-                message,
-            }
-        }
-        ImportError::Xacro { path, line, what } => {
-            let (path, line) = at(line).unwrap_or((path, line));
-            ImportError::Xacro { path, line, what }
-        }
-        other => other,
-    }
 }
 
 /// `Trans(xyz)·Rz(yaw)·Ry(pitch)·Rx(roll)`: the URDF `<origin>` and UR calibration transform.
