@@ -10,25 +10,15 @@
 //! of more revolute joints than can be read ([`super::MAX_SOURCE_JOINTS`]; the model's 4 to 7,
 //! after any joints held, are checked by [`super::convert`]), a branching tree with no tip named,
 //! malformed XML and unexpanded xacro.
+//!
+//! A `<joint>` element is read in `joint`; this file finds the chain and checks it.
+
+mod joint;
 
 use super::{ImportError, SourceChain, SourceFormat, SourceJoint};
-use nalgebra::{Isometry3, Quaternion, Translation3, Unit, UnitQuaternion, Vector3};
+use joint::{joint_el, required, JointEl};
+use nalgebra::{Isometry3, Unit};
 use std::collections::HashMap;
-
-/// Metres to millimetres.
-const MM_PER_M: f64 = 1000.0;
-
-struct JointEl {
-    name: String,
-    kind: String,
-    parent: String,
-    child: String,
-    origin: Isometry3<f64>,
-    axis: Vector3<f64>,
-    limits_rad: Option<(f64, f64)>,
-    mimic: bool,
-    line: usize,
-}
 
 /// Parses URDF text into the chain from `base` (default: the root link) to `tip` (default: the
 /// single leaf below the base). `path` names the file in errors.
@@ -46,7 +36,46 @@ pub fn parse(
     base: Option<&str>,
     tip: Option<&str>,
 ) -> Result<SourceChain, ImportError> {
-    let doc = roxmltree::Document::parse(text).map_err(|e| {
+    let doc = document(text, path)?;
+    refuse_xacro(&doc, path)?;
+    let (robot_name, links, joints) = elements(&doc, path)?;
+    let parent_joint = parent_joints(&joints, &links, path)?;
+    let base = base_link(base, &links, &parent_joint, path)?;
+    let (tip, tip_note) = tip_link(tip, &links, &joints, &base, path)?;
+    let chain_idx = chain_between(&joints, &parent_joint, &base, &tip, path)?;
+    let chain = revolute_joints(&joints, &chain_idx, path)?;
+    if chain.joints.len() > super::MAX_SOURCE_JOINTS {
+        return Err(ImportError::Chain {
+            path: path.into(),
+            message: format!(
+                "the chain from '{base}' to '{tip}' has {} revolute joints; at most {} can be read",
+                chain.joints.len(),
+                super::MAX_SOURCE_JOINTS
+            ),
+        });
+    }
+    // The joint count is checked after any joints are held (`convert`).
+    Ok(SourceChain {
+        name: robot_name,
+        format: SourceFormat::Urdf,
+        joints: chain.joints,
+        what: format!("the chain from '{base}' to '{tip}'"),
+        tip: chain.tip,
+        notes: tip_note.into_iter().collect(),
+        held: Vec::new(),
+        arm_frame: chain.arm_frame,
+    })
+}
+
+/// 1-based line of the node `n` of `doc`.
+fn line_of(doc: &roxmltree::Document, n: &roxmltree::Node) -> usize {
+    doc.text_pos_at(n.range().start).row as usize
+}
+
+/// The XML document of `text`; malformed XML that looks like xacro is said to be unexpanded
+/// xacro.
+fn document<'t>(text: &'t str, path: &str) -> Result<roxmltree::Document<'t>, ImportError> {
+    roxmltree::Document::parse(text).map_err(|e| {
         let pos = e.pos();
         if text.contains("xmlns:xacro") || text.contains("<xacro:") {
             return xacro(path, text);
@@ -56,8 +85,11 @@ pub fn parse(
             line: pos.row as usize,
             message: format!("malformed XML: {e}"),
         }
-    })?;
-    let line_of = |n: &roxmltree::Node| doc.text_pos_at(n.range().start).row as usize;
+    })
+}
+
+/// Refuses the first element in the xacro namespace or attribute with a `${...}` expression.
+fn refuse_xacro(doc: &roxmltree::Document, path: &str) -> Result<(), ImportError> {
     for n in doc.descendants() {
         let is_xacro = n
             .tag_name()
@@ -67,7 +99,7 @@ pub fn parse(
         if is_xacro {
             return Err(ImportError::Xacro {
                 path: path.into(),
-                line: line_of(&n),
+                line: line_of(doc, &n),
                 what: format!(
                     "unexpanded {} in a URDF file; {UNEXPANDED}",
                     if n.tag_name()
@@ -82,11 +114,19 @@ pub fn parse(
             });
         }
     }
+    Ok(())
+}
+
+/// The robot's name, its links and its joints, in file order, from the root `<robot>`.
+fn elements(
+    doc: &roxmltree::Document,
+    path: &str,
+) -> Result<(String, Vec<String>, Vec<JointEl>), ImportError> {
     let root = doc.root_element();
     if root.tag_name().name() != "robot" {
         return Err(ImportError::Element {
             path: path.into(),
-            line: line_of(&root),
+            line: line_of(doc, &root),
             element: format!("<{}>", root.tag_name().name()),
             message: "the root element of a URDF must be <robot>".into(),
         });
@@ -97,22 +137,31 @@ pub fn parse(
     for n in root.children().filter(|n| n.is_element()) {
         match n.tag_name().name() {
             "link" => {
-                let name = required(&n, "name", "link", path, line_of(&n))?;
+                let name = required(&n, "name", "link", path, line_of(doc, &n))?;
                 if links.contains(&name) {
                     return Err(ImportError::Element {
                         path: path.into(),
-                        line: line_of(&n),
+                        line: line_of(doc, &n),
                         element: format!("link '{name}'"),
                         message: "a second link of this name".into(),
                     });
                 }
                 links.push(name);
             }
-            "joint" => joints.push(joint_el(&n, path, line_of(&n))?),
+            "joint" => joints.push(joint_el(&n, path, line_of(doc, &n))?),
             _ => {}
         }
     }
-    // child link → joint index
+    Ok((robot_name, links, joints))
+}
+
+/// Child link → index of its parent joint; refuses a second joint of one name, a second parent
+/// joint of one link and a joint naming a link that is not defined.
+fn parent_joints<'j>(
+    joints: &'j [JointEl],
+    links: &[String],
+    path: &str,
+) -> Result<HashMap<&'j str, usize>, ImportError> {
     let mut parent_joint: HashMap<&str, usize> = HashMap::new();
     let mut names: HashMap<&str, usize> = HashMap::new();
     for (k, j) in joints.iter().enumerate() {
@@ -143,7 +192,17 @@ pub fn parse(
             }
         }
     }
-    let base = match base {
+    Ok(parent_joint)
+}
+
+/// The base link: the one named, which must be in the file, else the single root link.
+fn base_link(
+    base: Option<&str>,
+    links: &[String],
+    parent_joint: &HashMap<&str, usize>,
+    path: &str,
+) -> Result<String, ImportError> {
+    Ok(match base {
         Some(b) => {
             if !links.iter().any(|l| l == b) {
                 return Err(ImportError::Chain {
@@ -182,7 +241,18 @@ pub fn parse(
                 }
             }
         }
-    };
+    })
+}
+
+/// The tip link: the one named, which must be in the file, else [`default_tip`] with the note
+/// saying why when it chose among several leaves.
+fn tip_link(
+    tip: Option<&str>,
+    links: &[String],
+    joints: &[JointEl],
+    base: &str,
+    path: &str,
+) -> Result<(String, Option<String>), ImportError> {
     let mut tip_note = None;
     let tip = match tip {
         Some(t) => {
@@ -195,12 +265,12 @@ pub fn parse(
             t.to_string()
         }
         None => {
-            let (t, why) = default_tip(&joints, &base).ok_or_else(|| {
-                let mut leaves = leaves_below(&joints, &base);
+            let (t, why) = default_tip(joints, base).ok_or_else(|| {
+                let mut leaves = leaves_below(joints, base);
                 leaves.sort();
                 ImportError::Branching {
                     path: path.into(),
-                    base: base.clone(),
+                    base: base.to_string(),
                     leaves,
                 }
             })?;
@@ -209,9 +279,19 @@ pub fn parse(
             t
         }
     };
-    // Walk up from the tip.
+    Ok((tip, tip_note))
+}
+
+/// The joints from `base` to `tip` (indices into `joints`, base to tip), walking up from the tip.
+fn chain_between(
+    joints: &[JointEl],
+    parent_joint: &HashMap<&str, usize>,
+    base: &str,
+    tip: &str,
+    path: &str,
+) -> Result<Vec<usize>, ImportError> {
     let mut chain_idx = Vec::new();
-    let mut link = tip.as_str();
+    let mut link = tip;
     while link != base {
         match parent_joint.get(link) {
             Some(&k) => {
@@ -230,18 +310,34 @@ pub fn parse(
         }
     }
     chain_idx.reverse();
+    Ok(chain_idx)
+}
+
+/// The revolute joints of a chain and the fixed transforms around them.
+struct ChainJoints {
+    /// The revolute and continuous joints, base to tip, each fixed joint before one folded into
+    /// its origin.
+    joints: Vec<SourceJoint>,
+    /// The fixed transform after the last revolute joint.
+    tip: Isometry3<f64>,
+    /// UR's arm base frame (the fixed joints to `base_link_inertia` before joint 1), if any.
+    arm_frame: Option<Isometry3<f64>>,
+}
+
+/// The joints `chain_idx` (indices into `joints`, base to tip) as source joints: fixed joints
+/// fold into the next joint's origin (or the tip); mimic, prismatic, floating, planar and
+/// unknown joints are refused.
+fn revolute_joints(
+    joints: &[JointEl],
+    chain_idx: &[usize],
+    path: &str,
+) -> Result<ChainJoints, ImportError> {
     let mut out = Vec::new();
     let mut pending = Isometry3::identity();
     let mut arm_frame = None;
-    for &k in &chain_idx {
+    for &k in chain_idx {
         let j = &joints[k];
-        let el = || format!("joint '{}'", j.name);
-        let refuse = |message: String| ImportError::Element {
-            path: path.into(),
-            line: j.line,
-            element: el(),
-            message,
-        };
+        let refuse = |message: String| refusal(j, path, message);
         if j.mimic {
             return Err(refuse(
                 "mimic joints are not supported: the model's joints move independently".into(),
@@ -265,26 +361,7 @@ pub fn parse(
             }
             other => return Err(refuse(format!("unknown joint type '{other}'"))),
         }
-        let n = j.axis.norm();
-        if !(n.is_finite() && n > 1e-12) {
-            return Err(refuse(format!(
-                "axis ({}, {}, {}) cannot be normalised",
-                j.axis.x, j.axis.y, j.axis.z
-            )));
-        }
-        let limits_deg = if j.kind == "continuous" {
-            (-360.0, 360.0)
-        } else {
-            let (lo, hi) = j
-                .limits_rad
-                .ok_or_else(|| refuse("revolute joint without <limit lower=.. upper=..>".into()))?;
-            if lo >= hi {
-                return Err(refuse(format!(
-                    "limit lower = {lo} must be below upper = {hi} (rad)"
-                )));
-            }
-            (lo.to_degrees(), hi.to_degrees())
-        };
+        let limits_deg = axis_and_limits(j, path)?;
         out.push(SourceJoint {
             name: j.name.clone(),
             origin: pending * j.origin,
@@ -293,26 +370,46 @@ pub fn parse(
         });
         pending = Isometry3::identity();
     }
-    if out.len() > super::MAX_SOURCE_JOINTS {
-        return Err(ImportError::Chain {
-            path: path.into(),
-            message: format!(
-                "the chain from '{base}' to '{tip}' has {} revolute joints; at most {} can be read",
-                out.len(),
-                super::MAX_SOURCE_JOINTS
-            ),
-        });
-    }
-    // The joint count is checked after any joints are held (`convert`).
-    Ok(SourceChain {
-        name: robot_name,
-        format: SourceFormat::Urdf,
+    Ok(ChainJoints {
         joints: out,
-        what: format!("the chain from '{base}' to '{tip}'"),
         tip: pending,
-        notes: tip_note.into_iter().collect(),
-        held: Vec::new(),
         arm_frame,
+    })
+}
+
+/// The error refusing the joint `j` of the file `path` with `message`.
+fn refusal(j: &JointEl, path: &str, message: String) -> ImportError {
+    ImportError::Element {
+        path: path.into(),
+        line: j.line,
+        element: format!("joint '{}'", j.name),
+        message,
+    }
+}
+
+/// Checks the axis of the revolute or continuous joint `j` and returns its limits in degrees
+/// (±360° for a continuous joint).
+fn axis_and_limits(j: &JointEl, path: &str) -> Result<(f64, f64), ImportError> {
+    let refuse = |message: String| refusal(j, path, message);
+    let n = j.axis.norm();
+    if !(n.is_finite() && n > 1e-12) {
+        return Err(refuse(format!(
+            "axis ({}, {}, {}) cannot be normalised",
+            j.axis.x, j.axis.y, j.axis.z
+        )));
+    }
+    Ok(if j.kind == "continuous" {
+        (-360.0, 360.0)
+    } else {
+        let (lo, hi) = j
+            .limits_rad
+            .ok_or_else(|| refuse("revolute joint without <limit lower=.. upper=..>".into()))?;
+        if lo >= hi {
+            return Err(refuse(format!(
+                "limit lower = {lo} must be below upper = {hi} (rad)"
+            )));
+        }
+        (lo.to_degrees(), hi.to_degrees())
     })
 }
 
@@ -392,148 +489,4 @@ fn xacro(path: &str, text: &str) -> ImportError {
         line,
         what: format!("unexpanded xacro namespace or macro in a URDF file; {UNEXPANDED}"),
     }
-}
-
-fn required(
-    n: &roxmltree::Node,
-    attr: &str,
-    what: &str,
-    path: &str,
-    line: usize,
-) -> Result<String, ImportError> {
-    n.attribute(attr)
-        .map(str::to_string)
-        .ok_or_else(|| ImportError::Element {
-            path: path.into(),
-            line,
-            element: format!("<{what}>"),
-            message: format!("missing attribute '{attr}'"),
-        })
-}
-
-/// Parses `count` whitespace-separated finite numbers.
-fn numbers<const N: usize>(s: &str) -> Option<[f64; N]> {
-    let v: Vec<f64> = s
-        .split_whitespace()
-        .map(|t| t.parse::<f64>())
-        .collect::<Result<_, _>>()
-        .ok()?;
-    if v.len() != N || !v.iter().all(|x| x.is_finite()) {
-        return None;
-    }
-    Some(std::array::from_fn(|k| v[k]))
-}
-
-fn joint_el(n: &roxmltree::Node, path: &str, line: usize) -> Result<JointEl, ImportError> {
-    let name = required(n, "name", "joint", path, line)?;
-    let element = format!("joint '{name}'");
-    let bad = |line: usize, message: String| ImportError::Element {
-        path: path.into(),
-        line,
-        element: element.clone(),
-        message,
-    };
-    let kind = n
-        .attribute("type")
-        .ok_or_else(|| bad(line, "missing attribute 'type'".into()))?
-        .to_string();
-    let child_el = |tag: &str| n.children().find(|c| c.has_tag_name(tag));
-    let link_of = |tag: &str| -> Result<String, ImportError> {
-        child_el(tag)
-            .and_then(|c| c.attribute("link"))
-            .map(str::to_string)
-            .ok_or_else(|| bad(line, format!("missing <{tag} link=\"..\"/>")))
-    };
-    let parent = link_of("parent")?;
-    let child = link_of("child")?;
-    let mut origin = Isometry3::identity();
-    if let Some(o) = child_el("origin") {
-        let ol = o.document().text_pos_at(o.range().start).row as usize;
-        let attr3 = |a: &str| -> Result<[f64; 3], ImportError> {
-            match o.attribute(a) {
-                None => Ok([0.0; 3]),
-                Some(s) => numbers::<3>(s).ok_or_else(|| {
-                    bad(
-                        ol,
-                        format!("origin {a}=\"{s}\" is not three finite numbers"),
-                    )
-                }),
-            }
-        };
-        let xyz = attr3("xyz")?.map(|v| v * MM_PER_M);
-        if o.attribute("quat_xyzw").is_some() && o.attribute("rpy").is_some() {
-            return Err(bad(
-                ol,
-                "origin has both rpy and quat_xyzw: give one rotation".into(),
-            ));
-        }
-        let rotation = match o.attribute("quat_xyzw") {
-            Some(s) => {
-                let q = numbers::<4>(s).ok_or_else(|| {
-                    bad(
-                        ol,
-                        format!("origin quat_xyzw=\"{s}\" is not four finite numbers"),
-                    )
-                })?;
-                let quat = Quaternion::new(q[3], q[0], q[1], q[2]);
-                if quat.norm() <= 1e-12 {
-                    return Err(bad(ol, "origin quat_xyzw is zero".into()));
-                }
-                UnitQuaternion::from_quaternion(quat)
-            }
-            None => {
-                let rpy = attr3("rpy")?;
-                UnitQuaternion::from_euler_angles(rpy[0], rpy[1], rpy[2])
-            }
-        };
-        origin = Isometry3::from_parts(Translation3::new(xyz[0], xyz[1], xyz[2]), rotation);
-    }
-    // URDF's default axis is x.
-    let axis =
-        match child_el("axis") {
-            None => Vector3::x(),
-            Some(a) => {
-                let al = a.document().text_pos_at(a.range().start).row as usize;
-                let s = a.attribute("xyz").unwrap_or("1 0 0");
-                Vector3::from(numbers::<3>(s).ok_or_else(|| {
-                    bad(al, format!("axis xyz=\"{s}\" is not three finite numbers"))
-                })?)
-            }
-        };
-    let limits_rad = match child_el("limit") {
-        None => None,
-        Some(l) => {
-            let ll = l.document().text_pos_at(l.range().start).row as usize;
-            let num = |a: &str| -> Result<Option<f64>, ImportError> {
-                match l.attribute(a) {
-                    None => Ok(None),
-                    Some(s) => match s.trim().parse::<f64>() {
-                        Ok(v) if v.is_finite() => Ok(Some(v)),
-                        _ => Err(bad(ll, format!("limit {a}=\"{s}\" is not a finite number"))),
-                    },
-                }
-            };
-            match (num("lower")?, num("upper")?) {
-                (Some(lo), Some(hi)) => Some((lo, hi)),
-                _ if kind == "revolute" => {
-                    return Err(bad(
-                        ll,
-                        "revolute joint's <limit> needs lower and upper".into(),
-                    ))
-                }
-                _ => None,
-            }
-        }
-    };
-    Ok(JointEl {
-        name,
-        kind,
-        parent,
-        child,
-        origin,
-        axis,
-        limits_rad,
-        mimic: child_el("mimic").is_some(),
-        line,
-    })
 }
