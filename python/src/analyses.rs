@@ -451,7 +451,7 @@ fn grid(plane: Option<&str>, at: Option<f64>, cells: Option<Vec<usize>>) -> PyRe
 #[pyo3(signature = (model = None, *, preset = None, box_center = None, box_size = None,
     plane = None, at = None, cells = None, orientation = None, free_orientation = false,
     reference_q = None, ik_seeds = 0, draws = 10_000,
-    thresholds = vec![0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8], seed = 2025,
+    thresholds = gpu_amcs_core::mc::DEFAULT_THRESHOLDS_MM.to_vec(), seed = 2025,
     backend = "auto".to_string(), adapter = None, memory_limit = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn workspace_map<'py>(

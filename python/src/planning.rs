@@ -125,7 +125,8 @@ problem_function! {
         }
         let tracker_at = triple(tracker_at, "tracker_at")?;
         let target = triple(target, "target")?;
-        let thresholds = threshold.unwrap_or_else(|| vec![0.02, 0.03, 0.05]);
+        let thresholds =
+            threshold.unwrap_or_else(|| gpu_amcs_core::plan::DEFAULT_THRESHOLDS_MM.to_vec());
         let seed = problem.seed;
         let spec = problem.spec()?;
         let budget = problem.budget()?;

@@ -6,6 +6,7 @@ use crate::errors::{driver_error, value_error};
 use crate::problem::{check_estimate, problem_function, Evaluators, ProblemKw, BYTES_PER_POINT};
 use gpu_amcs_core::mc::{
     self, AmcsOptions, IntervalKind, McResult, McsOptions, RunSettings, Tolerance,
+    DEFAULT_THRESHOLDS_MM,
 };
 use gpu_amcs_core::memory::Estimate;
 use gpu_amcs_core::report::{Report, RunReport};
@@ -219,7 +220,7 @@ problem_function! {
         draws: u64 = 1_000_000,
         coverage: f64 = 0.95,
         interval: String = "shortest".to_string(),
-        thresholds: Vec<f64> = vec![0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8],
+        thresholds: Vec<f64> = DEFAULT_THRESHOLDS_MM.to_vec(),
         per_point: bool = false
     ) -> RunResult |py, problem| {
         let chunk = mcs_chunk(draws);
@@ -254,7 +255,7 @@ problem_function! {
         max_draws: u64 = 10_000_000,
         coverage: f64 = 0.95,
         interval: String = "shortest".to_string(),
-        thresholds: Vec<f64> = vec![0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8],
+        thresholds: Vec<f64> = DEFAULT_THRESHOLDS_MM.to_vec(),
         per_point: bool = false
     ) -> RunResult |py, problem| {
         let tolerance = match (delta, ndig) {

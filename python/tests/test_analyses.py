@@ -341,7 +341,7 @@ def test_plan_equals_cli(cli, tmp_path):
     assert res.design_csv() == design.read_text()
     # The plan's tables and figure, as `--csv` and `--svg` write them.
     csv, svg = tmp_path / "plan-csv", tmp_path / "plan-svg"
-    run_ok(cli, "plan", *args, "--csv", csv, "--svg", svg)
+    run_ok(cli, "plan", *args, "--out", tmp_path / "design2.csv", "--csv", csv, "--svg", svg)
     for f in csv.iterdir():
         assert res.to_csv(f.name) == f.read_text(), f.name
     for f in svg.iterdir():

@@ -192,7 +192,7 @@ pub struct OutputArgs {
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "0.1,0.2,0.3,0.4,0.5,0.6,0.7,0.8",
+        default_value = DEFAULT_THRESHOLDS.as_str(),
         value_name = "MM,...",
         allow_hyphen_values = true
     )]
@@ -218,6 +218,16 @@ pub struct OutputArgs {
 /// Bytes kept per test point: the configuration in degrees and radians, the reference
 /// position and the problem's bookkeeping, with room to spare.
 pub const BYTES_PER_POINT: u64 = 256;
+
+/// The library's default thresholds (`gpu_amcs::mc::DEFAULT_THRESHOLDS_MM`) as the one
+/// comma-separated value `--thresholds` takes, for the flags' defaults and help.
+pub static DEFAULT_THRESHOLDS: std::sync::LazyLock<String> =
+    std::sync::LazyLock::new(|| comma_list(&gpu_amcs::mc::DEFAULT_THRESHOLDS_MM));
+
+/// Numbers as one comma-separated flag value (`0.1,0.2`).
+pub fn comma_list(v: &[f64]) -> String {
+    v.iter().map(f64::to_string).collect::<Vec<_>>().join(",")
+}
 
 /// Bytes kept per draw: its value, and as much again for the growth of the value vector.
 pub const BYTES_PER_DRAW: u64 = 16;

@@ -98,7 +98,7 @@ pub struct MapArgs {
     #[arg(
         long,
         value_delimiter = ',',
-        default_value = "0.1,0.2,0.3,0.4,0.5,0.6,0.7,0.8",
+        default_value = super::args::DEFAULT_THRESHOLDS.as_str(),
         value_name = "MM,...",
         allow_hyphen_values = true
     )]

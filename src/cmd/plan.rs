@@ -11,6 +11,11 @@ use clap::Args;
 use gpu_amcs::plan::{self, Plan, PlanError, PlanField, PlanOptions, TrackerSite};
 use std::path::PathBuf;
 
+/// The library's default plan thresholds (`gpu_amcs::plan::DEFAULT_THRESHOLDS_MM`) as one
+/// `--threshold` value.
+static PLAN_THRESHOLDS: std::sync::LazyLock<String> =
+    std::sync::LazyLock::new(|| super::args::comma_list(&gpu_amcs::plan::DEFAULT_THRESHOLDS_MM));
+
 /// `plan` options.
 #[derive(Args, Debug, Clone)]
 #[command(
@@ -74,7 +79,7 @@ pub struct PlanArgs {
         long,
         value_delimiter = ',',
         value_name = "MM,...",
-        default_value = "0.02,0.03,0.05",
+        default_value = PLAN_THRESHOLDS.as_str(),
         allow_hyphen_values = true
     )]
     pub threshold: Vec<f64>,

@@ -19,5 +19,6 @@ pub use amcs::{run_amcs, AmcsOptions, Tolerance};
 pub use mcs::{run_mcs, McsOptions};
 pub use result::{
     min_draws, BatchTrace, McError, McResult, Method, Progress, RunSettings, Setting,
+    DEFAULT_THRESHOLDS_MM,
 };
 pub use stats::{CoverageInterval, IntervalKind, Moments, Reliability};

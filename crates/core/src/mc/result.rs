@@ -31,12 +31,16 @@ pub struct RunSettings {
     pub per_point: bool,
 }
 
+/// The thresholds `l_c` (mm) a run reports R(l_c) at when none are given: 0.1 to 0.8 mm in
+/// steps of 0.1 mm (the paper's Table 2 range). Every front end takes its default from here.
+pub const DEFAULT_THRESHOLDS_MM: [f64; 8] = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8];
+
 impl Default for RunSettings {
     fn default() -> Self {
         RunSettings {
             coverage_probability: 0.95,
             interval: IntervalKind::Shortest,
-            thresholds: (1..=8).map(|i| i as f64 / 10.0).collect(),
+            thresholds: DEFAULT_THRESHOLDS_MM.to_vec(),
             per_point: false,
         }
     }

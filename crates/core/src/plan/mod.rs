@@ -99,6 +99,11 @@ pub struct PlanOptions {
 /// target by default, mm.
 pub const MIN_TARGET_OFFSET_MM: f64 = 1.0;
 
+/// The thresholds `L` (mm) at which a plan predicts R(L) when none are given: tighter than an
+/// analysis's defaults ([`crate::mc::DEFAULT_THRESHOLDS_MM`]), since a plan is about what a
+/// calibration achieves. Every front end takes its default from here.
+pub const DEFAULT_THRESHOLDS_MM: [f64; 3] = [0.02, 0.03, 0.05];
+
 impl PlanOptions {
     /// The target a plan of `model` assumes when none is given: the model's tool unless it lies
     /// on the last joint's axis (within [`MIN_TARGET_OFFSET_MM`]; the flange origin, or an
