@@ -20,7 +20,6 @@ use gpu_amcs_core::mc::sensitivity::{
 use gpu_amcs_core::mc::tail::{
     run_tail, TailError, TailMethod, TailOptions, TailResult, TailSetting,
 };
-use gpu_amcs_core::memory::Estimate;
 use gpu_amcs_core::spec::{self, GeneratedPoints, ModelSource, DEFAULT_PRESET};
 use pyo3::prelude::*;
 
@@ -170,19 +169,12 @@ problem_function! {
         opts.check().map_err(sensitivity_error)?;
         let spec = problem.spec()?;
         let budget = problem.budget()?;
-        // As the command line: w and every pick-freeze output (at most 2 + 30 parameters + 8
-        // groups matrices) for the bootstrap, and one chunk of offset rows and outputs.
-        let matrices = 40u64;
         let estimate = |m: u64| {
             check_estimate(
                 &budget,
-                &Estimate::new(
-                    format!("a sensitivity analysis with N = {draws}"),
-                    "use fewer draws",
-                )
-                .plus(&[draws as u64, matrices, 8 * (1 + opts.thresholds.len() as u64)])
-                .plus(&[opts.chunk as u64, matrices, 8 * 30 + 8])
-                .plus(&[m, BYTES_PER_POINT]),
+                &opts
+                    .memory_estimate("use fewer draws")
+                    .plus(&[m, BYTES_PER_POINT]),
             )
         };
         spec.check(&estimate)?;
@@ -302,18 +294,12 @@ problem_function! {
         opts.check().map_err(tail_error)?;
         let spec = problem.spec()?;
         let budget = problem.budget()?;
-        // As the command line: two levels of states (30 normals and w each), their offsets,
-        // one batch of rows.
-        let states = (samples_per_level as u64).max(opts.batch_size as u64);
         let estimate = |m: u64| {
             check_estimate(
                 &budget,
-                &Estimate::new(
-                    format!("tail probabilities with {samples_per_level} samples per level"),
-                    "use fewer samples_per_level",
-                )
-                .plus(&[states, 4, 32 * 8])
-                .plus(&[m, BYTES_PER_POINT]),
+                &opts
+                    .memory_estimate("use fewer samples_per_level")
+                    .plus(&[m, BYTES_PER_POINT]),
             )
         };
         spec.check(&estimate)?;

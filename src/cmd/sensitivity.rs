@@ -9,10 +9,7 @@ use crate::cmd::args::ProblemArgs;
 use crate::cmd::reports::ReportFlags;
 use anyhow::Result;
 use clap::Args;
-use gpu_amcs::mc::sensitivity::{
-    run_sensitivity, SensitivityOptions, SensitivityResult, THRESHOLD_BATCH_BYTES,
-};
-use gpu_amcs::memory::Estimate;
+use gpu_amcs::mc::sensitivity::{run_sensitivity, SensitivityOptions, SensitivityResult};
 use std::path::PathBuf;
 
 /// `sensitivity` options.
@@ -71,22 +68,9 @@ impl Run for SensitivityArgs {
         let mut outputs = Outputs::new(a.problem.inputs());
         a.reports
             .declare(&mut outputs, &SensitivityResult::planned_layout())?;
-        // Kept: w and every pick-freeze output (at most 2 + 30 parameters + 8 groups matrices)
-        // for the bootstrap; the replicates of w (two indices per matrix and resample) and of
-        // one batch of thresholds (at most THRESHOLD_BATCH_BYTES); one chunk of offset rows and
-        // outputs.
-        let matrices = 40u64;
-        let thresholds = !a.thresholds.is_empty();
-        let estimate = a.problem.points_estimate(
-            Estimate::new(
-                format!("a sensitivity analysis with N = {}", a.draws),
-                "use fewer --draws, or raise --memory-limit",
-            )
-            .plus(&[a.draws as u64, matrices, 8])
-            .plus(&[a.bootstrap as u64, matrices, 16])
-            .plus(&[u64::from(thresholds), THRESHOLD_BATCH_BYTES as u64])
-            .plus(&[opts.chunk as u64, matrices, 8 * 30 + 8]),
-        );
+        let estimate = a
+            .problem
+            .points_estimate(opts.memory_estimate("use fewer --draws, or raise --memory-limit"));
         a.problem.memory.check(&estimate)?;
         if let Some(out) = &a.summary_out {
             return super::merge::run_sensitivity_shard(&a.problem, &opts, a.shard.as_deref(), out);

@@ -11,7 +11,6 @@ use crate::cmd::reports::ReportFlags;
 use anyhow::Result;
 use clap::{Args, ValueEnum};
 use gpu_amcs::mc::tail::{run_tail, TailMethod, TailOptions, TailResult};
-use gpu_amcs::memory::Estimate;
 
 /// Estimator of the tail probability.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -91,20 +90,9 @@ impl Run for TailArgs {
         let mut outputs = Outputs::new(a.problem.inputs());
         a.reports
             .declare(&mut outputs, &TailResult::planned_layout())?;
-        // Kept: two levels of states (30 normals and w each), their offsets, one batch of rows.
-        let states = (a.samples_per_level as u64).max(opts.batch_size as u64);
-        a.problem.memory.check(
-            &a.problem.points_estimate(
-                Estimate::new(
-                    format!(
-                        "tail probabilities with {} samples per level",
-                        a.samples_per_level
-                    ),
-                    "use fewer --samples-per-level, or raise --memory-limit",
-                )
-                .plus(&[states, 4, 32 * 8]),
-            ),
-        )?;
+        a.problem.memory.check(&a.problem.points_estimate(
+            opts.memory_estimate("use fewer --samples-per-level, or raise --memory-limit"),
+        ))?;
         let pool = thread_pool(a.problem.threads)?;
         let (result, rows) = pool.install(|| -> Result<_> {
             let built = a.problem.build()?;

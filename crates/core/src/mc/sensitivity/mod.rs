@@ -177,7 +177,48 @@ impl std::fmt::Display for SensitivitySetting {
     }
 }
 
+/// Most pick-freeze matrices of a design: A, B and one per free input and per group (every
+/// input of a seven-joint model with its placement, 7 joints, 3 kinds, tool and placement).
+const MAX_MATRICES: u64 =
+    (2 + crate::kinematics::MAX_INPUTS + crate::kinematics::MAX_JOINTS + 3 + 2) as u64;
+
 impl SensitivityOptions {
+    /// The memory an analysis with these options keeps, besides its problem's test points: `w`
+    /// on every row of every pick-freeze matrix (for the bootstrap), the bootstrap's replicates
+    /// of `w`'s two indices per matrix and resample, one batch of threshold replicates
+    /// ([`THRESHOLD_BATCH_BYTES`]) when there are thresholds, and one chunk of offset rows and
+    /// outputs. `advice` says what to do when it does not fit (the front end's words).
+    ///
+    /// # Examples
+    ///
+    /// ```
+    /// use gpu_amcs_core::mc::sensitivity::SensitivityOptions;
+    ///
+    /// let small = SensitivityOptions::default().memory_estimate("use fewer draws");
+    /// let large = SensitivityOptions { draws: 1 << 20, ..SensitivityOptions::default() }
+    ///     .memory_estimate("use fewer draws");
+    /// // w of every row of at most 58 matrices (A, B, 44 inputs, 12 groups), 8 bytes each:
+    /// assert_eq!(
+    ///     large.bytes.unwrap() - small.bytes.unwrap(),
+    ///     ((1 << 20) - (1 << 13)) * 58 * 8
+    /// );
+    /// assert!(small.what.contains("N = 8192"));
+    /// ```
+    pub fn memory_estimate(&self, advice: impl Into<String>) -> crate::memory::Estimate {
+        let row = 8 * crate::kinematics::MAX_INPUTS as u64 + 8;
+        crate::memory::Estimate::new(
+            format!("a sensitivity analysis with N = {}", self.draws),
+            advice,
+        )
+        .plus(&[self.draws as u64, MAX_MATRICES, 8])
+        .plus(&[self.bootstrap as u64, MAX_MATRICES, 16])
+        .plus(&[
+            u64::from(!self.thresholds.is_empty()),
+            THRESHOLD_BATCH_BYTES as u64,
+        ])
+        .plus(&[self.chunk as u64, MAX_MATRICES, row])
+    }
+
     /// Checks every setting; the error names the field.
     ///
     /// # Errors

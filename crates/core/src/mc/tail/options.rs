@@ -136,6 +136,23 @@ fn setting(field: TailSetting, message: String) -> TailError {
 }
 
 impl TailOptions {
+    /// The memory a run with these options keeps, besides its problem's test points: two levels
+    /// of states (each its normals, its offsets and `w`), four rows a state, for the larger of
+    /// the samples per level and the batch size. `advice` says what to do when it does not fit
+    /// (the front end's words).
+    pub fn memory_estimate(&self, advice: impl Into<String>) -> crate::memory::Estimate {
+        let states = (self.samples_per_level as u64).max(self.batch_size as u64);
+        let state = 8 * (crate::kinematics::MAX_INPUTS as u64 + 2);
+        crate::memory::Estimate::new(
+            format!(
+                "tail probabilities with {} samples per level",
+                self.samples_per_level
+            ),
+            advice,
+        )
+        .plus(&[states, 4, state])
+    }
+
     /// Checks every field; the error names the first field out of range.
     ///
     /// # Errors
