@@ -115,9 +115,27 @@ fn compare_rows(p: &Plan) -> Vec<Vec<String>> {
         .collect()
 }
 
-/// The terminal summary.
+/// The terminal summary: the set-up, the engine's prediction, the comparison with other designs
+/// and the curve against the number of poses.
 pub fn render_text(p: &Plan) -> String {
     let mut s = String::new();
+    text_setup(&mut s, p);
+    if let Some(pr) = &p.prediction {
+        text_prediction(&mut s, pr);
+    }
+    text_comparison(&mut s, p);
+    if let (Some(first), Some(last)) = (p.curve.first(), p.curve.last()) {
+        let _ = writeln!(
+            s,
+            "\nq95 of w against poses: {} poses {:.5} mm … {} poses {:.5} mm",
+            first.poses, first.q95_mm, last.poses, last.q95_mm
+        );
+    }
+    s
+}
+
+/// The model, tracker, design and identified inputs.
+fn text_setup(s: &mut String, p: &Plan) {
     let _ = writeln!(s, "Calibration plan");
     let _ = writeln!(
         s,
@@ -159,41 +177,48 @@ pub fn render_text(p: &Plan) -> String {
         p.identified.len(),
         p.identified.join(" ")
     );
-    if let Some(pr) = &p.prediction {
+}
+
+/// The engine's Monte Carlo of the planned model at the task points (with the per-point
+/// certificate for few points).
+fn text_prediction(s: &mut String, pr: &super::Prediction) {
+    let _ = writeln!(
+        s,
+        "\npredicted at the task points ({} draws of the planned model, {}):",
+        pr.draws, pr.backend.backend
+    );
+    let _ = writeln!(
+        s,
+        "  mean of w {:.5} mm, 95 % quantile of w {:.5} mm",
+        pr.mean_mm, pr.q95_mm
+    );
+    for r in &pr.reliability {
         let _ = writeln!(
             s,
-            "\npredicted at the task points ({} draws of the planned model, {}):",
-            pr.draws, pr.backend.backend
+            "  R({} mm) = {:.4}   [{:.4}, {:.4}]",
+            fmt_g(r.threshold),
+            r.r,
+            r.ci_low,
+            r.ci_high
         );
+    }
+    if pr.per_point.len() <= CERTIFICATE_POINTS {
         let _ = writeln!(
             s,
-            "  mean of w {:.5} mm, 95 % quantile of w {:.5} mm",
-            pr.mean_mm, pr.q95_mm
+            "  per task point (for ISO 9283 poses: Pr[AP_j ≤ L], the certificate):"
         );
-        for r in &pr.reliability {
-            let _ = writeln!(
-                s,
-                "  R({} mm) = {:.4}   [{:.4}, {:.4}]",
-                fmt_g(r.threshold),
-                r.r,
-                r.ci_low,
-                r.ci_high
-            );
-        }
-        if pr.per_point.len() <= CERTIFICATE_POINTS {
-            let _ = writeln!(
-                s,
-                "  per task point (for ISO 9283 poses: Pr[AP_j ≤ L], the certificate):"
-            );
-            for (j, rows) in pr.per_point.iter().enumerate() {
-                let cells: Vec<String> = rows
-                    .iter()
-                    .map(|r| format!("L = {}: {:.4}", fmt_g(r.threshold), r.r))
-                    .collect();
-                let _ = writeln!(s, "    P{}  {}", j + 1, cells.join("   "));
-            }
+        for (j, rows) in pr.per_point.iter().enumerate() {
+            let cells: Vec<String> = rows
+                .iter()
+                .map(|r| format!("L = {}: {:.4}", fmt_g(r.threshold), r.r))
+                .collect();
+            let _ = writeln!(s, "    P{}  {}", j + 1, cells.join("   "));
         }
     }
+}
+
+/// The table of the planned, log-det and random designs, and the bound.
+fn text_comparison(s: &mut String, p: &Plan) {
     let _ = writeln!(
         s,
         "\ncompared (linearised, the same {} draws for every design):",
@@ -226,14 +251,6 @@ pub fn render_text(p: &Plan) -> String {
         let _ = writeln!(s, "  {}", cells.join("  "));
     }
     let _ = writeln!(s, "  {}", bound_sentence(p));
-    if let (Some(first), Some(last)) = (p.curve.first(), p.curve.last()) {
-        let _ = writeln!(
-            s,
-            "\nq95 of w against poses: {} poses {:.5} mm … {} poses {:.5} mm",
-            first.poses, first.q95_mm, last.poses, last.q95_mm
-        );
-    }
-    s
 }
 
 /// What the bound of Method §17 says about this plan.
@@ -297,6 +314,22 @@ fn curve_plot(p: &Plan) -> LinePlot {
 /// The page of a plan, linking `files`.
 fn plan_page(p: &Plan, settings: &[(String, String)], files: &[(String, String)]) -> Page {
     let mut page = Page::new("Calibration plan");
+    page_summary(&mut page, p);
+    page_per_point(&mut page, p);
+    page_designs(&mut page, p);
+    add_settings(&mut page, settings);
+    page.setting("tracker noise σ", &format!("{} mm", fmt_g(p.sigma_mm)))
+        .setting("candidates", &p.candidates.to_string())
+        .setting("identified inputs", &p.identified.join(" "));
+    if let Some(pr) = &p.prediction {
+        page.backend(&pr.backend);
+    }
+    link_all(&mut page, files);
+    page
+}
+
+/// The page's summary: poses, q95 and RMS of the designs, the predicted reliabilities.
+fn page_summary(page: &mut Page, p: &Plan) {
     page.summary("poses", &p.design_deg.len().to_string())
         .summary("q95 of w, planned", &format!("{:.5} mm", p.planned.q95_mm))
         .summary(
@@ -319,6 +352,10 @@ fn plan_page(p: &Plan, settings: &[(String, String)], files: &[(String, String)]
             );
         }
     }
+}
+
+/// The per-task-point table (the certificate at ISO 9283 poses), for few task points.
+fn page_per_point(page: &mut Page, p: &Plan) {
     if let Some(pr) = p
         .prediction
         .as_ref()
@@ -346,6 +383,10 @@ fn plan_page(p: &Plan, settings: &[(String, String)], files: &[(String, String)]
                 .collect(),
         ));
     }
+}
+
+/// The designs compared, the poses in visiting order and the curve against the poses.
+fn page_designs(page: &mut Page, p: &Plan) {
     page.heading("Designs compared");
     let header = compare_header(p);
     let h: Vec<&str> = header.iter().map(String::as_str).collect();
@@ -381,15 +422,6 @@ fn plan_page(p: &Plan, settings: &[(String, String)], files: &[(String, String)]
          design (in its own D-optimal order) are measured, against n; the dashed level is the \
          median of random designs of the full size.",
     ));
-    add_settings(&mut page, settings);
-    page.setting("tracker noise σ", &format!("{} mm", fmt_g(p.sigma_mm)))
-        .setting("candidates", &p.candidates.to_string())
-        .setting("identified inputs", &p.identified.join(" "));
-    if let Some(pr) = &p.prediction {
-        page.backend(&pr.backend);
-    }
-    link_all(&mut page, files);
-    page
 }
 
 /// The column names `q1` … `qn` of `n` joints' angles.
