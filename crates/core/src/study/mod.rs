@@ -10,11 +10,26 @@
 //! The study is a [`Report`] (`report.rs`: the files by name and the page);
 //! [`write_outputs`] writes everything into a directory.
 //!
-//! ```no_run
+//! A small study (one factor, two runs per calibration, few draws) that runs in seconds; the
+//! paper's is `StudySettings::default()`, the command line's `--quick` is
+//! `StudySettings::quick()`:
+//!
+//! ```
 //! use gpu_amcs_core::engine::CpuOnly;
-//! use gpu_amcs_core::study::{run_study, write_outputs, StudySettings};
-//! let result = run_study(&StudySettings::quick(), &CpuOnly, None).unwrap();
-//! write_outputs(&result, std::path::Path::new("study-out")).unwrap();
+//! use gpu_amcs_core::study::{run_study, write_outputs, Factor, StudySettings};
+//! let mut settings = StudySettings::quick();
+//! settings.factors = vec![Factor::Speed];
+//! settings.baseline.runs = 2;
+//! settings.baseline.step_deg = 10.0;
+//! settings.point_counts = vec![5];
+//! settings.mcs_draws = 2000;
+//! settings.sensitivity_draws = 1 << 8;
+//! settings.accuracy_points = 5;
+//! let result = run_study(&settings, &CpuOnly, None).unwrap();
+//! let dir = std::env::temp_dir().join(format!("study-doctest-{}", std::process::id()));
+//! write_outputs(&result, &dir).unwrap();
+//! assert!(dir.join("STUDY.md").exists());
+//! std::fs::remove_dir_all(&dir).unwrap();
 //! ```
 
 pub mod figures;
