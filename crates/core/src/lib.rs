@@ -38,6 +38,7 @@
 #![allow(clippy::needless_range_loop)]
 
 pub mod digest;
+pub mod discrepancy;
 pub mod engine;
 pub mod identify;
 pub mod import;

@@ -19,6 +19,7 @@
 //! `δ_tool = 0` and `p_tool + 0 = p_tool` exactly, so the results keep their bits.
 
 use super::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
+use crate::discrepancy::DiscrepancyDraws;
 use crate::kinematics::{
     param_index, Block, Capped, InputSpace, ParamKind, MAX_JOINTS, MAX_ROBOT_INPUTS,
 };
@@ -51,6 +52,9 @@ type OffsetLanes = [[f64; LANES]; MAX_ROBOT_INPUTS];
 
 /// Standard normals of a block of lanes: `z[slot][lane]`.
 type Normals = [[f64; LANES]; crate::sampling::MAX_NORMALS];
+
+/// The discrepancy term of a block of counter draws: the term and the lanes' draw indices.
+type Disc<'a> = Option<(&'a DiscrepancyDraws, &'a [u64; LANES])>;
 
 /// Where the parameter offsets δ of a range of evaluations come from.
 #[derive(Clone, Copy)]
@@ -304,15 +308,25 @@ impl CpuEvaluator {
                 .placement
                 .as_ref()
                 .map(|p| p.transforms(&p.offsets(src.skip(b * LANES), &d, &mut z)));
+            // The discrepancy term is drawn for counter draws (see `crate::discrepancy`).
+            let draws: [u64; LANES] = match src {
+                Source::Draws(k) => std::array::from_fn(|l| k + (b * LANES + l) as u64),
+                _ => [0; LANES],
+            };
+            let disc = match (src, &self.problem.discrepancy) {
+                (Source::Draws(_), Some(dd)) => Some((dd, &draws)),
+                _ => None,
+            };
             match &place {
-                None => self.run_block(&jl, &tl, &mut w2, el),
+                None => self.run_block(&jl, &tl, &mut w2, el, disc),
                 Some(t) => with_joints!(self.joints, &jl, |j| block_kernel_placed(
                     j,
                     &tl,
                     &self.points,
                     t,
                     &mut w2,
-                    el
+                    el,
+                    disc
                 )),
             }
             for (l, v) in wb.iter_mut().enumerate() {
@@ -332,13 +346,15 @@ impl CpuEvaluator {
         tool: &[[f64; LANES]; 3],
         w2: &mut [f64; LANES],
         e: Option<&mut [f64]>,
+        disc: Disc,
     ) {
         with_joints!(self.joints, jl, |j| block_kernel(
             j,
             tool,
             &self.points,
             w2,
-            e
+            e,
+            disc
         ));
     }
 }
@@ -353,8 +369,10 @@ fn block_kernel_placed<const N: usize>(
     t: &[[[f64; LANES]; 4]; 3],
     w2: &mut [f64; LANES],
     mut e: Option<&mut [f64]>,
+    disc: Disc,
 ) {
     let m = pts.len();
+    let mut words = [[0u32; LANES]; 4];
     for (pj, p) in pts.iter().enumerate() {
         let (x, y, z) = chain_lanes(jl, tool, p);
         let mut e2 = [0.0; LANES];
@@ -364,6 +382,11 @@ fn block_kernel_placed<const N: usize>(
             let pz = t[2][0][l] * x[l] + t[2][1][l] * y[l] + t[2][2][l] * z[l] + t[2][3][l];
             let (dx, dy, dz) = (px - p.r[0], py - p.r[1], pz - p.r[2]);
             e2[l] = dx * dx + dy * dy + dz * dz;
+        }
+        if let Some((dd, draws)) = disc {
+            dd.apply_squared_lanes(&mut e2, draws, pj, &mut words);
+        }
+        for l in 0..LANES {
             w2[l] = if e2[l] > w2[l] { e2[l] } else { w2[l] };
         }
         if let Some(e) = e.as_deref_mut() {
@@ -416,14 +439,21 @@ fn block_kernel<const N: usize>(
     pts: &[PointPre],
     w2: &mut [f64; LANES],
     mut e: Option<&mut [f64]>,
+    disc: Disc,
 ) {
     let m = pts.len();
+    let mut words = [[0u32; LANES]; 4];
     for (pj, p) in pts.iter().enumerate() {
         let (x, y, z) = chain_lanes(jl, tool, p);
         let mut e2 = [0.0; LANES];
         for l in 0..LANES {
             let (dx, dy, dz) = (x[l] - p.r[0], y[l] - p.r[1], z[l] - p.r[2]);
             e2[l] = dx * dx + dy * dy + dz * dz;
+        }
+        if let Some((dd, draws)) = disc {
+            dd.apply_squared_lanes(&mut e2, draws, pj, &mut words);
+        }
+        for l in 0..LANES {
             w2[l] = if e2[l] > w2[l] { e2[l] } else { w2[l] };
         }
         if let Some(e) = e.as_deref_mut() {

@@ -197,13 +197,19 @@ impl PlacementEvaluator {
     /// `e_j` of draw `k` at every test point.
     pub fn point_errors(&self, k: u64) -> Vec<f64> {
         let mut e = vec![0.0; self.problem.points.len()];
-        self.errors_of(&self.spread.deltas(&self.gen, k), &mut e);
+        self.errors_of_draw(&self.spread.deltas(&self.gen, k), &mut e, Some(k));
         e
     }
 
     /// `e_j` at every test point of the inputs `mean + d` (the parameters and the tool, then
-    /// the placement's six; internal units) into `e`; returns their maximum `w`.
+    /// the placement's six; internal units) into `e`; returns their maximum `w`. These are the
+    /// kinematic errors alone: the discrepancy term belongs to counter draws ([`Self::point_errors`]).
     pub fn errors_of(&self, d: &[f64], e: &mut [f64]) -> f64 {
+        self.errors_of_draw(d, e, None)
+    }
+
+    /// [`Self::errors_of`], with the discrepancy term of counter draw `draw` when given.
+    fn errors_of_draw(&self, d: &[f64], e: &mut [f64], draw: Option<u64>) -> f64 {
         let m = &self.problem.model;
         let sp = self.spread.space;
         let at = |b: Block| sp.range(b).map_or(0, |r| r.start);
@@ -219,16 +225,21 @@ impl PlacementEvaluator {
         let dt = self.r_mean_t * Vector3::new(drawn[0] - b[0], drawn[1] - b[1], drawn[2] - b[2]);
         // The α, β rotations are the same at every point: their sines and cosines once per draw.
         let trig = twist_trig(&params);
+        let disc = draw.zip(self.problem.discrepancy.as_ref());
         let mut w = 0.0f64;
-        for ((q, r), ej) in self
+        for (j, ((q, r), ej)) in self
             .problem
             .points
             .iter()
             .zip(&self.problem.reference)
             .zip(e)
+            .enumerate()
         {
             let p = dr * Vector3::from(position_with_trig(&params, &trig, &tool, q)) + dt;
             *ej = (p - Vector3::from(*r)).norm();
+            if let Some((k, dd)) = disc {
+                *ej = dd.apply(*ej, k, j);
+            }
             w = w.max(*ej);
         }
         w
@@ -238,20 +249,22 @@ impl PlacementEvaluator {
     fn eval_rows(
         &self,
         rows: impl Fn(usize) -> [f64; MAX_INPUTS] + Sync,
+        draws: Option<u64>,
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) {
         let m = self.problem.points.len();
+        let draw = |i: usize| draws.map(|first| first + i as u64);
         match per_point {
             None => w.par_iter_mut().enumerate().for_each_init(
                 || vec![0.0; m],
-                |e, (i, wi)| *wi = self.errors_of(&rows(i), e),
+                |e, (i, wi)| *wi = self.errors_of_draw(&rows(i), e, draw(i)),
             ),
             Some(e) => w
                 .par_iter_mut()
                 .zip(e.par_chunks_mut(m.max(1)))
                 .enumerate()
-                .for_each(|(i, (wi, ei))| *wi = self.errors_of(&rows(i), ei)),
+                .for_each(|(i, (wi, ei))| *wi = self.errors_of_draw(&rows(i), ei, draw(i))),
         }
     }
 }
@@ -277,6 +290,7 @@ impl Evaluator for PlacementEvaluator {
     ) -> Result<(), EngineError> {
         self.eval_rows(
             |i| self.spread.deltas(&self.gen, first + i as u64),
+            Some(first),
             w,
             per_point,
         );
@@ -301,7 +315,7 @@ impl Evaluator for PlacementEvaluator {
         let row = |i: usize| -> [f64; MAX_INPUTS] {
             std::array::from_fn(|p| if p < nb { offsets[i * nb + p] } else { 0.0 })
         };
-        self.eval_rows(row, w, per_point);
+        self.eval_rows(row, None, w, per_point);
         Ok(())
     }
 
@@ -310,7 +324,7 @@ impl Evaluator for PlacementEvaluator {
             let (a, b, mask) = request.row(i);
             self.spread.pick_freeze_deltas(&self.gen, a, b, mask)
         };
-        self.eval_rows(row, w, None);
+        self.eval_rows(row, None, w, None);
         Ok(())
     }
 }

@@ -10,6 +10,7 @@
 //! it was measured with; using the nominal model's own tool would add the tool offset (tens of
 //! mm) to every error.
 
+use crate::discrepancy::{DiscrepancyDraws, DiscrepancyUse};
 use crate::kinematics::{position, Joints, RobotModel};
 use crate::sampling::{ParamSampler, SamplerError};
 
@@ -83,6 +84,9 @@ pub struct Problem {
     pub sampler: ParamSampler,
     /// The seed of the run.
     pub seed: u64,
+    /// The model's discrepancy term as this run draws it at every test point (counter draws;
+    /// [`crate::discrepancy`]); `None` when the model has none or the analysis leaves it out.
+    pub discrepancy: Option<DiscrepancyDraws>,
 }
 
 impl Problem {
@@ -170,13 +174,36 @@ impl Problem {
             })
             .collect();
         let sampler = ParamSampler::new(&model, seed)?;
+        let discrepancy = model
+            .discrepancy
+            .as_ref()
+            .map(|d| DiscrepancyDraws::new(d.radii(DiscrepancyUse::Robot), seed));
         Ok(Problem {
+            discrepancy,
             model,
             points,
             reference,
             sampler,
             seed,
         })
+    }
+
+    /// The problem without the model's discrepancy term: the parameters' uncertainty alone
+    /// (what the reliability was before the term; for comparisons and the self-checks).
+    pub fn without_discrepancy(mut self) -> Problem {
+        self.discrepancy = None;
+        self
+    }
+
+    /// The problem drawing the model's discrepancy term for `usage` (the default is
+    /// [`DiscrepancyUse::Robot`]); nothing changes for a model without one.
+    pub fn with_discrepancy_use(mut self, usage: DiscrepancyUse) -> Problem {
+        self.discrepancy = self
+            .model
+            .discrepancy
+            .as_ref()
+            .map(|d| DiscrepancyDraws::new(d.radii(usage), self.seed));
+        self
     }
 
     /// Number of test points m.

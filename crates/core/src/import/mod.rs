@@ -271,6 +271,7 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         }
     })?;
     let model = RobotModel {
+        discrepancy: None,
         name: chain.name.clone(),
         params: c.params,
         fixed: c.fixed,

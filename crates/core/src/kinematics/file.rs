@@ -98,6 +98,8 @@ struct ModelFile {
     joint: Vec<JointFile>,
     #[serde(skip_serializing_if = "Option::is_none")]
     covariance: Option<CovarianceFile>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    discrepancy: Option<crate::discrepancy::Discrepancy>,
     /// Where an identified model came from (data hash, fit figures): written by the
     /// identification after the model, read and ignored here.
     #[serde(default, skip_serializing)]
@@ -258,7 +260,16 @@ impl RobotModel {
         if let Some(ts) = tool_sigma_file {
             check_tool_sigma(&ts).map_err(invalid)?;
         }
+        let discrepancy = match file.discrepancy {
+            None => None,
+            Some(d) => Some(d.checked().map_err(|e| match e {
+                crate::discrepancy::DiscrepancyError::Invalid { field, message } => {
+                    invalid(InvalidField { field, message })
+                }
+            })?),
+        };
         let mut model = RobotModel {
+            discrepancy,
             name: file.name,
             params,
             fixed,
@@ -437,8 +448,37 @@ impl RobotModel {
             }
             let _ = writeln!(s, "]");
         }
+        if let Some(d) = &self.discrepancy {
+            write_discrepancy(&mut s, d);
+        }
         s
     }
+}
+
+/// The `[discrepancy]` section of a model file.
+fn write_discrepancy(s: &mut String, d: &crate::discrepancy::Discrepancy) {
+    let _ = writeln!(
+        s,
+        "\n# What the geometric model does not explain (docs/METHOD.md §15): every analysis draws,\n\
+         # at every test point, a deviation whose length is one of these standardised residual\n\
+         # norms (mm) times sqrt(robot_share), in a uniformly random direction.\n\
+         # robot_share: the part of the residuals' mean square that is the robot's, not tracker noise."
+    );
+    let _ = writeln!(
+        s,
+        "[discrepancy]\nrobot_share = {}\nnoise = \"{}\"",
+        fnum(d.robot_share),
+        d.noise.as_str()
+    );
+    if let Some(sg) = d.noise_sigma_mm {
+        let _ = writeln!(s, "noise_sigma_mm = {}", fnum(sg));
+    }
+    let _ = writeln!(s, "residual_norms = [");
+    for chunk in d.residual_norms.chunks(8) {
+        let row: Vec<String> = chunk.iter().map(|v| fnum(*v)).collect();
+        let _ = writeln!(s, "  {},", row.join(", "));
+    }
+    let _ = writeln!(s, "]");
 }
 
 /// The parser's error as one line, `line L, column C: message` (the parser's own text spans

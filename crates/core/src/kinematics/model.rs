@@ -251,6 +251,10 @@ pub struct RobotModel {
     pub uncertainty: Uncertainty,
     /// Placement of the base frame in the description's frame; `None` = identity.
     pub base: Option<BaseTransform>,
+    /// What the geometric model does not explain, from an identification's residuals: drawn at
+    /// every test point by every analysis ([`crate::discrepancy`]); `None` for a model without
+    /// a lack of fit found (presets, design models, fits that explain the data).
+    pub discrepancy: Option<crate::discrepancy::Discrepancy>,
 }
 
 impl RobotModel {

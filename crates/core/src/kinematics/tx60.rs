@@ -60,6 +60,7 @@ pub fn tx60() -> RobotModel {
         }
     }
     RobotModel {
+        discrepancy: None,
         name: "Staubli TX60".into(),
         params,
         fixed: fixed.into(),

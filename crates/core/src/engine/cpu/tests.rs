@@ -200,3 +200,51 @@ fn large_offsets_match_direct_forward_kinematics() {
         assert!(w[i] > 1.0, "the offsets move the tool by over a millimetre");
     }
 }
+
+/// A model with a discrepancy term: every counter draw's point errors are the kinematic errors
+/// of direct forward kinematics with the term's `(r, c)` of that draw and point applied
+/// (`crate::discrepancy`), and offset rows (which have no draw) leave it out.
+#[test]
+fn discrepancy_term_matches_its_point_form() {
+    let mut m = tx60();
+    m.discrepancy = Some(
+        crate::discrepancy::Discrepancy {
+            residual_norms: (0..25).map(|i| 0.01 * f64::from(i)).collect(),
+            robot_share: 0.64,
+            noise: crate::discrepancy::NoiseSource::Stated,
+            noise_sigma_mm: Some(0.01),
+        }
+        .checked()
+        .unwrap(),
+    );
+    let pts = [
+        [10.0, -20.0, 30.0, 40.0, 50.0, 60.0],
+        [-100.0, 45.0, 90.0, -30.0, 20.0, 10.0],
+        [0.0; 6],
+    ];
+    let pb = Problem::new(m, &pts, &Reference::Calibrated, 42).unwrap();
+    let dd = pb.discrepancy.clone().expect("the model's term is drawn");
+    assert!((dd.radii()[24] - 0.24 * 0.8).abs() < 1e-15);
+    let mut ev = CpuEvaluator::new(pb.clone());
+    let n = 37;
+    let (mut w, mut e) = (vec![0.0; n], vec![0.0; n * 3]);
+    ev.evaluate(5000, &mut w, Some(&mut e)).unwrap();
+    let mut moved = 0;
+    for i in 0..n {
+        let k = 5000 + i as u64;
+        let kin = pb.point_errors(&pb.sampler.draw(k));
+        for j in 0..3 {
+            let want = dd.apply(kin[j], k, j);
+            assert!((want - e[i * 3 + j]).abs() < 1e-10, "draw {k} point {j}");
+            moved += usize::from((want - kin[j]).abs() > 1e-6);
+        }
+        let wmax = e[i * 3..i * 3 + 3].iter().cloned().fold(0.0, f64::max);
+        assert_eq!(wmax, w[i]);
+    }
+    assert!(moved > n * 3 / 2, "the term moved only {moved} errors");
+    // Without the term: the kinematic errors again.
+    let mut plain = CpuEvaluator::new(pb.clone().without_discrepancy());
+    plain.evaluate(5000, &mut w, Some(&mut e)).unwrap();
+    let kin = pb.point_errors(&pb.sampler.draw(5000));
+    assert!((kin[1] - e[1]).abs() < 1e-10);
+}

@@ -45,6 +45,7 @@ pub fn state_model(
         .expect("a covariance of the fit inputs")
         .restricted(kept);
     let mut model = RobotModel {
+        discrepancy: None,
         name,
         params: s.params,
         fixed: nominal.fixed,

@@ -1,0 +1,346 @@
+//! The discrepancy term from a fit's residuals, and the fit's own leave-one-out check of what it
+//! predicts for a new measurement (docs/METHOD.md §15).
+//!
+//! Per point `i` the fit gives the residual `r_i` (mm), its whitening `W_i` (whitened = `W_i r`)
+//! and the 3 × 3 leverage block `H_ii = J_i (JᵀJ + P)⁻¹ J_iᵀ` of the whitened Jacobian. Then
+//!
+//! * the standardised residual `W_i⁻¹ (I − H_ii)^{-1/2} W_i r_i` has the variance of a new
+//!   measurement's deviation from the model *beyond* the parameters' uncertainty (plain
+//!   residuals are smaller by the fit's leverage);
+//! * the leave-one-out prediction error is `W_i⁻¹ (I − H_ii)⁻¹ W_i r_i` (exact for a linear
+//!   model, the linearisation at the solution otherwise), and the parameters' part of its
+//!   variance is `W_i⁻¹ H_ii (I − H_ii)⁻¹ W_i⁻ᵀ` (Woodbury), times the covariance's scale.
+//!
+//! The self-check predicts, for every point left out, the distribution of
+//! `|N(0, parameters' part) + δ|` with `δ` drawn as the engine draws it from the *other* points'
+//! standardised residual norms (measurement use: noise kept), and reports how often the 95 %
+//! bound covers the left-out error, and the PIT of the maximum over random subsets of 20 points,
+//! the quantity a reliability R is about.
+
+use super::{Discrepancy, MAX_SAMPLES};
+use nalgebra::{Matrix3, Vector3};
+use rand::{Rng, SeedableRng};
+use serde::{Deserialize, Serialize};
+
+/// Fewest points from which a discrepancy term is estimated.
+pub const MIN_RESIDUALS: usize = 10;
+
+/// A stated noise is rejected (lack of fit found) below this χ² upper-tail probability.
+pub const SIGNIFICANCE: f64 = 0.01;
+
+/// Points per subset of the self-check's PIT of the maximum.
+const SUBSET: usize = 20;
+
+/// Where the measurement noise of a fit came from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum NoiseSource {
+    /// Stated with the data or by the user (tracker σ or MPE).
+    Stated,
+    /// Not known: the residuals carry noise and lack of fit together.
+    Unknown,
+}
+
+impl NoiseSource {
+    /// The name in files and reports.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            NoiseSource::Stated => "stated",
+            NoiseSource::Unknown => "unknown",
+        }
+    }
+}
+
+/// One fitted point as the estimate takes it.
+#[derive(Clone, Copy, Debug)]
+pub struct FittedPoint {
+    /// Measured minus predicted position, mm.
+    pub residual_mm: [f64; 3],
+    /// The whitening `W_i` (whitened residual = `W_i · residual`).
+    pub whiten: Matrix3<f64>,
+    /// The leverage block `H_ii` in whitened units.
+    pub leverage: Matrix3<f64>,
+}
+
+/// The leave-one-out self-check of a fit.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LooCheck {
+    /// Fraction of points whose left-out error is inside its predicted 95 % bound, with the
+    /// discrepancy term.
+    pub coverage_95: f64,
+    /// The same with the parameters' uncertainty alone.
+    pub coverage_95_parameters_only: f64,
+    /// Mean PIT of the maximum left-out error over random subsets of 20 points (ideal 0.5).
+    pub pit_max_mean: f64,
+    /// Fraction of those subsets with PIT ≥ 0.99 (ideal 0.01).
+    pub pit_max_at_least_099: f64,
+    /// Subsets drawn.
+    pub subsets: usize,
+}
+
+/// What the residuals say about the model's lack of fit.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct LackOfFit {
+    /// Points.
+    pub points: usize,
+    /// RMS of the standardised residual norms, mm.
+    pub residual_rms_mm: f64,
+    /// Where the noise came from.
+    pub noise: NoiseSource,
+    /// Noise σ per coordinate, mm, when known.
+    pub noise_sigma_mm: Option<f64>,
+    /// `Pr[χ² > observed]` under the stated noise.
+    pub p_value: Option<f64>,
+    /// Lack of fit found (stated noise rejected at [`SIGNIFICANCE`]); `None` when it cannot
+    /// be told (noise unknown).
+    pub found: Option<bool>,
+    /// RMS of what the model does not explain, noise taken out (3-D), mm; `None` when the noise
+    /// is unknown.
+    pub unexplained_rms_mm: Option<f64>,
+    /// Share of the residual mean square that is the robot's.
+    pub robot_share: f64,
+    /// The factor the parameters' covariance was scaled by (χ²/dof when a stated noise is
+    /// rejected, else 1).
+    pub covariance_scale: f64,
+    /// The term the model carries (`None`: no lack of fit found, or too few points).
+    #[serde(skip)]
+    pub term: Option<Discrepancy>,
+    /// Whether the model carries a term.
+    pub carried: bool,
+    /// The leave-one-out self-check (`None` for fewer than [`MIN_RESIDUALS`] points).
+    pub loo: Option<LooCheck>,
+}
+
+/// `A^{-1/2}` of a symmetric positive definite 3 × 3 (identity when it is not).
+fn inv_sqrt(a: &Matrix3<f64>) -> Matrix3<f64> {
+    let eig = a.symmetric_eigen();
+    let mut d = Matrix3::zeros();
+    for k in 0..3 {
+        let l = eig.eigenvalues[k];
+        d[(k, k)] = if l > 1e-12 { 1.0 / l.sqrt() } else { 1e6 };
+    }
+    eig.eigenvectors * d * eig.eigenvectors.transpose()
+}
+
+/// The standardised residuals (mm) of `points`.
+pub fn standardised_residuals(points: &[FittedPoint]) -> Vec<Vector3<f64>> {
+    points
+        .iter()
+        .map(|p| {
+            let w_inv = p.whiten.try_inverse().unwrap_or_else(Matrix3::identity);
+            let z = inv_sqrt(&(Matrix3::identity() - p.leverage))
+                * (p.whiten * Vector3::from(p.residual_mm));
+            w_inv * z
+        })
+        .collect()
+}
+
+/// Norms of the standardised residuals, mm.
+pub fn standardised_norms(points: &[FittedPoint]) -> Vec<f64> {
+    standardised_residuals(points)
+        .iter()
+        .map(|v| v.norm())
+        .collect()
+}
+
+impl LackOfFit {
+    /// The lack of fit of a fit with `points`, whose noise (per-point whitening) is stated when
+    /// `stated` (σ² = the mean per-coordinate variance of the whitenings) with χ² upper tail
+    /// `p_value`, else estimated from the residuals. `seed` drives the self-check's draws.
+    pub fn estimate(
+        points: &[FittedPoint],
+        stated: bool,
+        p_value: Option<f64>,
+        chi2_per_dof: f64,
+        seed: u64,
+    ) -> LackOfFit {
+        let n = points.len();
+        let norms = standardised_norms(points);
+        let ms = norms.iter().map(|r| r * r).sum::<f64>() / n.max(1) as f64;
+        let (noise, sigma) = if stated {
+            let var = points
+                .iter()
+                .map(|p| {
+                    let w_inv = p.whiten.try_inverse().unwrap_or_else(Matrix3::identity);
+                    (w_inv * w_inv.transpose()).trace() / 3.0
+                })
+                .sum::<f64>()
+                / n.max(1) as f64;
+            (NoiseSource::Stated, Some(var.sqrt()))
+        } else {
+            (NoiseSource::Unknown, None)
+        };
+        let found = match (noise, p_value) {
+            (NoiseSource::Stated, Some(p)) => Some(p < SIGNIFICANCE),
+            _ => None,
+        };
+        let robot_share = match (found, sigma) {
+            (Some(true), Some(s)) if ms > 0.0 => (1.0 - 3.0 * s * s / ms).clamp(0.0, 1.0),
+            (Some(_), _) => 0.0,
+            (None, _) => 1.0,
+        };
+        let covariance_scale = if found == Some(true) {
+            chi2_per_dof.max(1.0)
+        } else {
+            1.0
+        };
+        let enough = n >= MIN_RESIDUALS;
+        let term = (enough && robot_share > 0.0).then(|| Discrepancy {
+            residual_norms: thin(&norms),
+            robot_share,
+            noise,
+            noise_sigma_mm: sigma,
+        });
+        let loo = enough.then(|| loo_check(points, &norms, covariance_scale, seed));
+        LackOfFit {
+            points: n,
+            residual_rms_mm: ms.sqrt(),
+            noise,
+            noise_sigma_mm: sigma,
+            p_value,
+            found,
+            unexplained_rms_mm: sigma.map(|_| (ms * robot_share).sqrt()),
+            robot_share,
+            covariance_scale,
+            carried: term.is_some(),
+            term,
+            loo,
+        }
+    }
+
+    /// What the lack of fit means, in words (one or two sentences).
+    pub fn summary(&self) -> String {
+        let mut s = match (self.noise, self.found) {
+            (NoiseSource::Stated, Some(true)) => format!(
+                "The residuals (RMS {:.4} mm) are larger than the stated measurement noise (σ {:.4} mm per coordinate, p = {:.1e}): the geometric model leaves {:.4} mm RMS unexplained (compliance, gear errors, drift), {:.0} % of the residual.",
+                self.residual_rms_mm,
+                self.noise_sigma_mm.unwrap_or(0.0),
+                self.p_value.unwrap_or(0.0),
+                self.unexplained_rms_mm.unwrap_or(0.0),
+                100.0 * self.robot_share
+            ),
+            (NoiseSource::Stated, _) => format!(
+                "The residuals (RMS {:.4} mm) agree with the stated measurement noise (σ {:.4} mm per coordinate, p = {:.2}): no lack of fit found.",
+                self.residual_rms_mm,
+                self.noise_sigma_mm.unwrap_or(0.0),
+                self.p_value.unwrap_or(1.0)
+            ),
+            (NoiseSource::Unknown, _) => format!(
+                "The residuals (RMS {:.4} mm) hold measurement noise and whatever the geometric model does not explain; without a stated tracker σ the two cannot be told apart.",
+                self.residual_rms_mm
+            ),
+        };
+        if self.carried {
+            s.push_str(match self.noise {
+                NoiseSource::Unknown => " The model carries a discrepancy term drawn from the residuals (noise included, so reliability figures are conservative by the tracker noise); every analysis draws it.",
+                NoiseSource::Stated => " The model carries a discrepancy term drawn from the residuals with the noise taken out, and every analysis draws it; the parameters' covariance is scaled by χ²/dof.",
+            });
+        } else if self.points < MIN_RESIDUALS && self.found != Some(false) {
+            s.push_str(&format!(
+                " Too few points ({} < {MIN_RESIDUALS}) to estimate a discrepancy term: reliability figures leave any lack of fit out.",
+                self.points
+            ));
+        }
+        if let Some(l) = &self.loo {
+            s.push_str(&format!(
+                " Leave-one-out check: the predicted 95 % error bound covers {:.1} % of left-out measurements ({:.1} % from the parameters' uncertainty alone).",
+                100.0 * l.coverage_95,
+                100.0 * l.coverage_95_parameters_only
+            ));
+        }
+        s
+    }
+}
+
+/// At most [`MAX_SAMPLES`] norms: all, or evenly spaced ranks of the sorted ones.
+fn thin(norms: &[f64]) -> Vec<f64> {
+    let mut v = norms.to_vec();
+    v.sort_by(f64::total_cmp);
+    if v.len() <= MAX_SAMPLES {
+        return v;
+    }
+    let n = v.len();
+    (0..MAX_SAMPLES)
+        .map(|k| v[(k * n + n / 2) / MAX_SAMPLES])
+        .collect()
+}
+
+/// A unit vector uniform on the sphere.
+fn unit(rng: &mut impl Rng) -> Vector3<f64> {
+    let c: f64 = rng.random_range(-1.0..1.0);
+    let phi: f64 = rng.random_range(0.0..std::f64::consts::TAU);
+    let s = (1.0 - c * c).max(0.0).sqrt();
+    Vector3::new(s * phi.cos(), s * phi.sin(), c)
+}
+
+/// The leave-one-out check (see the module text).
+fn loo_check(points: &[FittedPoint], norms: &[f64], scale: f64, seed: u64) -> LooCheck {
+    let n = points.len();
+    // Draws per point: enough for a 95 % quantile, bounded in total work.
+    let m = (20_000_000 / n).clamp(200, 2000);
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x100F_C0DE);
+    let mut samples_with = vec![0.0; n * m];
+    let mut samples_without = vec![0.0; n * m];
+    let mut observed = vec![0.0; n];
+    let (mut inside_with, mut inside_without) = (0usize, 0usize);
+    for (i, p) in points.iter().enumerate() {
+        let w_inv = p.whiten.try_inverse().unwrap_or_else(Matrix3::identity);
+        let free = Matrix3::identity() - p.leverage;
+        let free_inv = free.try_inverse().unwrap_or_else(Matrix3::identity);
+        let loo = w_inv * free_inv * (p.whiten * Vector3::from(p.residual_mm));
+        observed[i] = loo.norm();
+        let cov = w_inv * (p.leverage * free_inv) * w_inv.transpose() * scale;
+        let cov = (cov + cov.transpose()) * 0.5;
+        let l = cov.cholesky().map(|c| c.l()).unwrap_or_else(Matrix3::zeros);
+        for k in 0..m {
+            let z = Vector3::from_fn(|_, _| crate::sampling::standard_normal(&mut rng));
+            let dp = l * z;
+            // the other points' norms
+            let mut j = rng.random_range(0..n - 1);
+            if j >= i {
+                j += 1;
+            }
+            let d = unit(&mut rng) * norms[j];
+            samples_with[i * m + k] = (dp + d).norm();
+            samples_without[i * m + k] = dp.norm();
+        }
+        let q = |s: &mut [f64]| {
+            s.sort_by(f64::total_cmp);
+            s[((0.95 * m as f64).ceil() as usize).min(m) - 1]
+        };
+        let mut a = samples_with[i * m..(i + 1) * m].to_vec();
+        let mut b = samples_without[i * m..(i + 1) * m].to_vec();
+        inside_with += usize::from(observed[i] <= q(&mut a));
+        inside_without += usize::from(observed[i] <= q(&mut b));
+    }
+    // PIT of the maximum over random subsets of SUBSET points (all points when fewer).
+    let size = SUBSET.min(n);
+    let subsets = 200;
+    let mut pits = Vec::with_capacity(subsets);
+    let mut idx: Vec<usize> = (0..n).collect();
+    for _ in 0..subsets {
+        for a in 0..size {
+            let b = rng.random_range(a..n);
+            idx.swap(a, b);
+        }
+        let chosen = &idx[..size];
+        let w_obs = chosen.iter().map(|&i| observed[i]).fold(0.0, f64::max);
+        let below = (0..m)
+            .filter(|&k| {
+                chosen
+                    .iter()
+                    .map(|&i| samples_with[i * m + k])
+                    .fold(0.0, f64::max)
+                    <= w_obs
+            })
+            .count();
+        pits.push(below as f64 / m as f64);
+    }
+    LooCheck {
+        coverage_95: inside_with as f64 / n as f64,
+        coverage_95_parameters_only: inside_without as f64 / n as f64,
+        pit_max_mean: pits.iter().sum::<f64>() / subsets as f64,
+        pit_max_at_least_099: pits.iter().filter(|&&u| u >= 0.99).count() as f64 / subsets as f64,
+        subsets,
+    }
+}

@@ -1,0 +1,300 @@
+//! The model-discrepancy term: what the geometric model does not explain, carried into every
+//! reliability figure (docs/METHOD.md §15).
+//!
+//! A real robot keeps errors after a geometric calibration that no MDH parameter describes
+//! (joint compliance under gravity, gear harmonics, backlash, drift). They show in the
+//! identification's residuals and nowhere else, so the parameters' covariance alone predicts
+//! errors that are too small (on public tracker data of real arms the predicted per-point 95 %
+//! bound covered 3 % of held-out errors). Following Kennedy and O'Hagan's
+//! `y = η(x, θ) + δ(x) + ε`, the error at a task point is
+//!
+//! ```text
+//! e_j = |Δp_j(θ') + δ_j|
+//! ```
+//!
+//! with `Δp_j` the deviation the drawn parameters `θ'` cause (the engine's kinematics) and `δ_j`
+//! the discrepancy at point `j`. The term is *empirical*: real residuals are heavy-tailed (excess
+//! kurtosis 2–5 per coordinate), so a Gaussian `δ` underpredicts the maximum over many points.
+//! `|δ_j|` is drawn from the norms of the fit's standardised residuals (a bootstrap; a
+//! standardised residual `(I − H_ii)^{-1/2} r_i` has the variance of a new measurement's deviation
+//! from the model beyond the parameters' own uncertainty, which the parameter draws carry), and
+//! its direction uniformly on the sphere, independently at every point and draw. For a uniform
+//! direction the cosine `c` of the angle between `δ_j` and `Δp_j` is uniform on [−1, 1], so
+//!
+//! ```text
+//! e_j² = |Δp_j|² + r² + 2 |Δp_j| r c,   r ~ the residual norms,  c ~ U(−1, 1)
+//! ```
+//!
+//! needs two uniforms per point and nothing of the error vector but its length: every kernel
+//! (f64 lanes, the f64 point form, the WGSL shader) applies it after its own `|Δp_j|`.
+//! The uniforms come from Philox block `(draw, j / 2, DISCREPANCY_STREAM)` (words `2(j mod 2)` and
+//! `2(j mod 2) + 1`), keyed by the run's seed like the parameter draws, so a draw's discrepancy is
+//! the same on every backend, batch split and thread count, and the parameter draws keep their
+//! bits. The residual index is `⌊(w ≫ 16)·K / 2¹⁶⌋` in integer arithmetic, exact on both sides.
+//!
+//! Two uses ([`DiscrepancyUse`]): the robot's own deviation (the default of every analysis: the
+//! tracker noise that is part of the residuals is taken out, by the share of the residual
+//! variance it explains when the noise is known), or what a new *measurement* would show
+//! (noise kept: the self-check and held-out validation compare against measured positions).
+//!
+//! Isotropy is an approximation: real residuals are larger along some directions (gravity). It
+//! only enters through the cross term `2|Δp|rc`, which is small where the discrepancy dominates,
+//! and the per-point norms keep their empirical distribution exactly.
+
+mod estimate;
+#[cfg(test)]
+mod tests;
+
+pub use estimate::{
+    standardised_norms, standardised_residuals, FittedPoint, LackOfFit, LooCheck, NoiseSource,
+    MIN_RESIDUALS, SIGNIFICANCE,
+};
+
+use crate::sampling::Philox;
+use serde::{Deserialize, Serialize};
+
+/// The Philox stream of the discrepancy's uniforms (the parameter draws use stream 0).
+pub const DISCREPANCY_STREAM: u32 = 0xD15C_0000;
+
+/// Largest number of residual norms a term holds (the integer index rule needs K ≤ 2¹⁶; more
+/// residuals are thinned evenly by rank).
+pub const MAX_SAMPLES: usize = 1 << 16;
+
+/// The discrepancy term of a model: the norms of the identification's standardised residuals
+/// and how much of them is the robot's.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Discrepancy {
+    /// Norms of the standardised residuals, mm, ascending (each at most [`MAX_SAMPLES`]).
+    pub residual_norms: Vec<f64>,
+    /// The share of the residuals' mean square that is the robot's (not measurement noise),
+    /// 0 … 1: 1 when the noise is unknown (the term then carries the tracker noise too).
+    pub robot_share: f64,
+    /// Where the measurement noise came from.
+    pub noise: NoiseSource,
+    /// Measurement noise σ per coordinate, mm, when known.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub noise_sigma_mm: Option<f64>,
+}
+
+/// Errors of a discrepancy term read from a file or built from residuals.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum DiscrepancyError {
+    /// A field out of range (the field as the model file spells it).
+    #[error("{field}: {message}")]
+    Invalid {
+        /// The field, e.g. `discrepancy.robot_share`.
+        field: String,
+        /// What is wrong.
+        message: String,
+    },
+}
+
+fn invalid(field: &str, message: impl Into<String>) -> DiscrepancyError {
+    DiscrepancyError::Invalid {
+        field: format!("discrepancy.{field}"),
+        message: message.into(),
+    }
+}
+
+impl Discrepancy {
+    /// Checks a term as a model file gives it: [`MIN_RESIDUALS`] to [`MAX_SAMPLES`] finite,
+    /// non-negative norms below 10 m, a share in [0, 1], a finite positive noise σ when one is
+    /// given. The norms are sorted.
+    ///
+    /// # Errors
+    ///
+    /// [`DiscrepancyError::Invalid`] naming the field.
+    pub fn checked(mut self) -> Result<Discrepancy, DiscrepancyError> {
+        let n = self.residual_norms.len();
+        if !(MIN_RESIDUALS..=MAX_SAMPLES).contains(&n) {
+            return Err(invalid(
+                "residual_norms",
+                format!(
+                    "{n} values: a discrepancy term needs {MIN_RESIDUALS} to {MAX_SAMPLES} residuals"
+                ),
+            ));
+        }
+        if let Some((i, v)) = self
+            .residual_norms
+            .iter()
+            .enumerate()
+            .find(|(_, v)| !(v.is_finite() && **v >= 0.0 && **v < 1e4))
+        {
+            return Err(invalid(
+                "residual_norms",
+                format!("value {} is {v}: norms are finite, 0 … 10000 mm", i + 1),
+            ));
+        }
+        if !(0.0..=1.0).contains(&self.robot_share) {
+            return Err(invalid(
+                "robot_share",
+                format!("{} is not a share in 0 … 1", self.robot_share),
+            ));
+        }
+        if let Some(s) = self.noise_sigma_mm {
+            if !(s.is_finite() && s > 0.0 && s < 1e3) {
+                return Err(invalid(
+                    "noise_sigma_mm",
+                    format!("{s} is not a σ in mm (finite, positive, below 1000)"),
+                ));
+            }
+        }
+        if self.noise_sigma_mm.is_none() && self.noise != NoiseSource::Unknown {
+            return Err(invalid(
+                "noise_sigma_mm",
+                format!(
+                    "missing: noise = \"{}\" needs the σ it found",
+                    self.noise.as_str()
+                ),
+            ));
+        }
+        self.residual_norms.sort_by(f64::total_cmp);
+        Ok(self)
+    }
+
+    /// RMS of the standardised residual norms, mm (what a new measurement misses by beyond the
+    /// parameters' uncertainty, noise included).
+    pub fn rms_mm(&self) -> f64 {
+        let n = self.residual_norms.len().max(1) as f64;
+        (self.residual_norms.iter().map(|r| r * r).sum::<f64>() / n).sqrt()
+    }
+
+    /// RMS of the robot's own part (noise taken out), mm.
+    pub fn robot_rms_mm(&self) -> f64 {
+        self.rms_mm() * self.robot_share.sqrt()
+    }
+
+    /// The radii an analysis draws for `usage`: the norms, scaled by √share for the robot.
+    pub fn radii(&self, usage: DiscrepancyUse) -> Vec<f64> {
+        let scale = match usage {
+            DiscrepancyUse::Robot => self.robot_share.sqrt(),
+            DiscrepancyUse::Measured => 1.0,
+        };
+        self.residual_norms.iter().map(|r| r * scale).collect()
+    }
+
+    /// One line for reports: size and noise split.
+    pub fn describe(&self) -> String {
+        match self.noise {
+            NoiseSource::Unknown => format!(
+                "model discrepancy drawn from {} residuals (RMS {:.4} mm; measurement noise unknown, so it is included)",
+                self.residual_norms.len(),
+                self.rms_mm()
+            ),
+            _ => format!(
+                "model discrepancy drawn from {} residuals (RMS {:.4} mm of which the robot's own {:.4} mm; {} noise σ {:.4} mm per coordinate taken out)",
+                self.residual_norms.len(),
+                self.rms_mm(),
+                self.robot_rms_mm(),
+                self.noise.as_str(),
+                self.noise_sigma_mm.unwrap_or(0.0)
+            ),
+        }
+    }
+}
+
+/// What a drawn discrepancy stands for.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum DiscrepancyUse {
+    /// The robot's own deviation from the model (measurement noise taken out): reliability.
+    #[default]
+    Robot,
+    /// What a new measurement would show (noise kept): validation against measured positions.
+    Measured,
+}
+
+/// The discrepancy as the engine draws it: radii (mm) and the run's Philox key.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DiscrepancyDraws {
+    radii: Vec<f64>,
+    key: [u32; 2],
+}
+
+impl DiscrepancyDraws {
+    /// Draws from `radii` (mm; 1 to [`MAX_SAMPLES`] of them) with the run's `seed`.
+    ///
+    /// # Panics
+    ///
+    /// When `radii` is empty or longer than [`MAX_SAMPLES`] ([`Discrepancy::checked`] keeps
+    /// model files inside).
+    pub fn new(radii: Vec<f64>, seed: u64) -> DiscrepancyDraws {
+        assert!(
+            !radii.is_empty() && radii.len() <= MAX_SAMPLES,
+            "1 to {MAX_SAMPLES} radii"
+        );
+        DiscrepancyDraws {
+            radii,
+            key: Philox::new(seed).key,
+        }
+    }
+
+    /// The radii, mm.
+    pub fn radii(&self) -> &[f64] {
+        &self.radii
+    }
+
+    /// The Philox key.
+    pub fn key(&self) -> [u32; 2] {
+        self.key
+    }
+
+    /// Index into the radii from a word: `⌊(w ≫ 16)·K / 2¹⁶⌋`.
+    #[inline(always)]
+    pub fn index(&self, w: u32) -> usize {
+        (((w >> 16) * self.radii.len() as u32) >> 16) as usize
+    }
+
+    /// `(r, c)` of `draw` at `point` from the block's words.
+    #[inline(always)]
+    fn pair(&self, words: [u32; 4], point: usize) -> (f64, f64) {
+        let o = 2 * (point % 2);
+        let r = self.radii[self.index(words[o])];
+        let c = 2.0 * crate::sampling::uniform_open(words[o + 1]) - 1.0;
+        (r, c)
+    }
+
+    /// The error at `point` of `draw` whose kinematic part has length `e`:
+    /// `√(e² + r² + 2erc)`.
+    pub fn apply(&self, e: f64, draw: u64, point: usize) -> f64 {
+        let words = Philox { key: self.key }.block(draw, (point / 2) as u32, DISCREPANCY_STREAM);
+        let (r, c) = self.pair(words, point);
+        (e * e + r * r + 2.0 * e * r * c).max(0.0).sqrt()
+    }
+
+    /// [`Self::apply`] on squared errors of `L` draws at once (`e2[l]` of draw `draws[l]`);
+    /// `words` caches the Philox block of the pair of points (computed at even `point`).
+    #[inline(always)]
+    pub fn apply_squared_lanes<const L: usize>(
+        &self,
+        e2: &mut [f64; L],
+        draws: &[u64; L],
+        point: usize,
+        words: &mut [[u32; L]; 4],
+    ) {
+        if point.is_multiple_of(2) {
+            let c: [[u32; L]; 4] = [
+                std::array::from_fn(|l| draws[l] as u32),
+                std::array::from_fn(|l| (draws[l] >> 32) as u32),
+                [(point / 2) as u32; L],
+                [DISCREPANCY_STREAM; L],
+            ];
+            *words = crate::sampling::philox4x32_10_lanes(c, self.key);
+        }
+        let o = 2 * (point % 2);
+        for l in 0..L {
+            let r = self.radii[self.index(words[o][l])];
+            let c = 2.0 * crate::sampling::uniform_open(words[o + 1][l]) - 1.0;
+            let e = e2[l].sqrt();
+            let v = e2[l] + r * r + 2.0 * e * r * c;
+            e2[l] = if v > 0.0 { v } else { 0.0 };
+        }
+    }
+
+    /// The per-draw `(r, c)` pairs of `point` for `draws` (tests and the GPU comparison).
+    pub fn draw_pair(&self, draw: u64, point: usize) -> (f64, f64) {
+        let words = Philox { key: self.key }.block(draw, (point / 2) as u32, DISCREPANCY_STREAM);
+        self.pair(words, point)
+    }
+}

@@ -1,0 +1,143 @@
+use super::estimate::FittedPoint;
+use super::*;
+use nalgebra::Matrix3;
+
+fn term(norms: Vec<f64>, share: f64) -> Discrepancy {
+    Discrepancy {
+        residual_norms: norms,
+        robot_share: share,
+        noise: NoiseSource::Unknown,
+        noise_sigma_mm: None,
+    }
+}
+
+#[test]
+fn lanes_give_the_point_form_bits() {
+    let d = DiscrepancyDraws::new(vec![0.01, 0.02, 0.05, 0.3, 1.0], 77);
+    let draws: [u64; 8] = std::array::from_fn(|l| 1_000_000_007 + 3 * l as u64);
+    let mut words = [[0u32; 8]; 4];
+    for point in 0..5 {
+        let e: [f64; 8] = std::array::from_fn(|l| 0.001 * (l as f64 + 1.0) * (point as f64 + 1.0));
+        let mut e2 = e.map(|v| v * v);
+        d.apply_squared_lanes(&mut e2, &draws, point, &mut words);
+        for l in 0..8 {
+            let scalar = d.apply(e[l], draws[l], point);
+            assert!(
+                (e2[l].sqrt() - scalar).abs() <= 1e-15 * scalar.max(1.0),
+                "point {point} lane {l}: {} vs {scalar}",
+                e2[l].sqrt()
+            );
+        }
+    }
+}
+
+#[test]
+fn radii_are_drawn_uniformly_and_directions_isotropically() {
+    // e = 0: the error is the drawn radius itself, each of the K equally often.
+    let radii = vec![1.0, 2.0, 3.0, 4.0];
+    let d = DiscrepancyDraws::new(radii.clone(), 5);
+    let n = 40_000u64;
+    let mut counts = [0usize; 4];
+    let mut cross = 0.0;
+    for k in 0..n {
+        let r = d.apply(0.0, k, (k % 7) as usize);
+        counts[radii.iter().position(|&v| (v - r).abs() < 1e-12).unwrap()] += 1;
+        // e = 1 mm: E[e'²] = 1 + E[r²] (the cross term has mean 0 for a uniform direction)
+        let e1 = d.apply(1.0, k, 3);
+        cross += e1 * e1 - 1.0 - d.draw_pair(k, 3).0.powi(2);
+    }
+    for c in counts {
+        // binomial σ = √(n·¼·¾) ≈ 87
+        assert!((c as f64 - n as f64 / 4.0).abs() < 5.0 * 87.0, "{counts:?}");
+    }
+    // 2·E[r·c] = 0 with sd of the mean ≈ 2·√(7.5/3)/√n ≈ 0.016
+    assert!((cross / n as f64).abs() < 0.05, "{}", cross / n as f64);
+}
+
+#[test]
+fn the_index_rule_covers_every_radius_and_stays_in_range() {
+    for k in [1usize, 2, 3, 1000, MAX_SAMPLES] {
+        let d = DiscrepancyDraws::new(vec![0.0; k], 1);
+        assert_eq!(d.index(0), 0);
+        assert_eq!(d.index(u32::MAX), k - 1);
+    }
+}
+
+#[test]
+fn checked_names_the_bad_field() {
+    let err = term(vec![0.1; 3], 1.0).checked().unwrap_err();
+    assert!(
+        err.to_string().contains("discrepancy.residual_norms"),
+        "{err}"
+    );
+    let err = term(vec![0.1; 20], 1.5).checked().unwrap_err();
+    assert!(err.to_string().contains("discrepancy.robot_share"), "{err}");
+    let mut v = vec![0.1; 20];
+    v[4] = f64::NAN;
+    let err = term(v, 1.0).checked().unwrap_err();
+    assert!(err.to_string().contains("value 5"), "{err}");
+    let mut t = term(vec![0.1; 20], 0.5);
+    t.noise = NoiseSource::Stated;
+    assert!(t
+        .checked()
+        .unwrap_err()
+        .to_string()
+        .contains("noise_sigma_mm"));
+    let ok = term((0..20).rev().map(f64::from).collect(), 0.25)
+        .checked()
+        .unwrap();
+    assert!(ok.residual_norms.windows(2).all(|w| w[0] <= w[1]));
+    assert_eq!(ok.radii(DiscrepancyUse::Robot)[19], 19.0 * 0.5);
+    assert_eq!(ok.radii(DiscrepancyUse::Measured)[19], 19.0);
+}
+
+/// Points with residuals of a known spread, no leverage, whitened by a stated σ.
+fn points(residual_sigma: f64, stated: f64, n: usize, seed: u64) -> Vec<FittedPoint> {
+    use rand::SeedableRng;
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    (0..n)
+        .map(|_| FittedPoint {
+            residual_mm: std::array::from_fn(|_| {
+                residual_sigma * crate::sampling::standard_normal(&mut rng)
+            }),
+            whiten: Matrix3::identity() / stated,
+            leverage: Matrix3::identity() * 0.01,
+        })
+        .collect()
+}
+
+#[test]
+fn lack_of_fit_splits_noise_from_discrepancy() {
+    // Residuals 0.05 mm against a stated 0.01 mm: 96 % of the mean square is the robot's.
+    let p = points(0.05, 0.01, 400, 3);
+    let lof = LackOfFit::estimate(&p, true, Some(1e-30), 25.0, 1);
+    assert_eq!(lof.found, Some(true));
+    assert!((lof.robot_share - 0.96).abs() < 0.02, "{}", lof.robot_share);
+    assert!((lof.unexplained_rms_mm.unwrap() - 0.05 * 3f64.sqrt() * 0.98).abs() < 0.005);
+    assert!(lof.carried && lof.term.is_some());
+    assert_eq!(lof.covariance_scale, 25.0);
+    let loo = lof.loo.as_ref().unwrap();
+    // The term drawn from these very residuals covers about 95 % of them; the parameters'
+    // tiny leverage alone covers almost none.
+    assert!((loo.coverage_95 - 0.95).abs() < 0.04, "{loo:?}");
+    assert!(loo.coverage_95_parameters_only < 0.05, "{loo:?}");
+    assert!((loo.pit_max_mean - 0.5).abs() < 0.2, "{loo:?}");
+    assert!(lof.summary().contains("unexplained"), "{}", lof.summary());
+
+    // Residuals that match the stated noise: nothing found, no term, scale 1.
+    let p = points(0.01, 0.01, 400, 4);
+    let lof = LackOfFit::estimate(&p, true, Some(0.4), 1.0, 1);
+    assert_eq!(lof.found, Some(false));
+    assert!(!lof.carried && lof.robot_share == 0.0 && lof.covariance_scale == 1.0);
+
+    // Unknown noise: the term carries everything and says it cannot tell.
+    let lof = LackOfFit::estimate(&p, false, None, 1.0, 1);
+    assert_eq!(lof.found, None);
+    assert!(lof.carried && lof.robot_share == 1.0);
+    assert!(lof.summary().contains("cannot be told apart"));
+
+    // Too few points: no term, said.
+    let lof = LackOfFit::estimate(&p[..5], false, None, 1.0, 1);
+    assert!(!lof.carried && lof.loo.is_none());
+    assert!(lof.summary().contains("Too few points"));
+}
