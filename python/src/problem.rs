@@ -36,6 +36,7 @@ pub fn keyword(field: SpecField) -> &'static str {
         SpecField::Seed => "seed",
         SpecField::Backend => "backend",
         SpecField::Adapter => "adapter",
+        SpecField::Discrepancy => "discrepancy",
     }
 }
 
@@ -112,6 +113,7 @@ pub fn given_points(
             seed: 0,
             backend,
             adapter: None,
+            discrepancy: true,
         },
         nominal_from_preset,
         // Parameter rows carry the 5n + 3 inputs (no placement): the robot's own frame.
@@ -306,6 +308,7 @@ impl ProblemKw<'_> {
                 seed: self.seed,
                 backend,
                 adapter: self.adapter.clone(),
+                discrepancy: true,
             },
             nominal_from_preset,
             frame: frame(&self.frame)?,

@@ -150,6 +150,10 @@ pub struct ProblemArgs {
     /// Seed of the parameter draws.
     #[arg(long, default_value_t = 2025, value_name = "SEED")]
     pub seed: u64,
+    /// Leave out the model's discrepancy term (what the geometric model does not explain,
+    /// found by identify): the reliability then covers the parameters' uncertainty alone.
+    #[arg(long)]
+    pub no_discrepancy: bool,
     /// Reference positions the errors are measured from.
     #[arg(long, value_enum, default_value_t = ReferenceArg::Calibrated)]
     pub reference: ReferenceArg,
@@ -488,6 +492,7 @@ impl ProblemArgs {
             seed: self.seed,
             backend: self.backend.backend.into(),
             adapter: self.backend.adapter.clone(),
+            discrepancy: !self.no_discrepancy,
         })
     }
 

@@ -312,6 +312,9 @@ fn analyses_draw_the_placement_in_the_measurement_frame() {
             "20000",
             "--thresholds",
             "0.015",
+            // the placement's own effect (the model's discrepancy term, noise included since
+            // the data state none, is tested on its own)
+            "--no-discrepancy",
             "-q",
             "--json",
             &json,

@@ -550,8 +550,12 @@ fn predicted_reliability_matches_the_true_robots() {
             &mut rng,
         );
         let data = measure(&truth, &configs(&truth, 60, &mut rng), 0.01, &mut rng);
+        // The tracker σ stated, as a user with a tracker certificate does: the fit can then
+        // tell that a geometric robot leaves no lack of fit, and no discrepancy term is added
+        // (with the noise unknown the term carries the noise and R is conservative).
         let opts = ChainOptions {
             placement: Placement::Known,
+            noise: gpu_amcs::identify::NoiseModel::Isotropic { sigma_mm: 0.01 },
             ..ChainOptions::default()
         };
         let (model, _) = identify("tx60", &data, &opts);
@@ -573,7 +577,11 @@ fn predicted_reliability_in_the_tracker_frame_matches_the_true_robots() {
         let mut rng = ChaCha8Rng::seed_from_u64(7000 + e);
         let truth = true_robot("tx60", &mut rng);
         let data = measure(&truth, &configs(&truth, 60, &mut rng), 0.01, &mut rng);
-        let (model, _) = identify("tx60", &data, &ChainOptions::default());
+        let opts = ChainOptions {
+            noise: gpu_amcs::identify::NoiseModel::Isotropic { sigma_mm: 0.01 },
+            ..ChainOptions::default()
+        };
+        let (model, _) = identify("tx60", &data, &opts);
         let held = configs(&truth, 5, &mut rng);
         let w = largest_error(&truth, &model, &held, true);
         let problem = Problem::new(model, &held, &Reference::Calibrated, 1 + e).unwrap();

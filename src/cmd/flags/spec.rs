@@ -20,6 +20,7 @@ pub fn spec_flag(field: SpecField) -> &'static str {
         SpecField::Seed => "--seed",
         SpecField::Backend => "--backend",
         SpecField::Adapter => "--adapter",
+        SpecField::Discrepancy => "--no-discrepancy",
     }
 }
 

@@ -27,7 +27,7 @@
 //!
 //! needs two uniforms per point and nothing of the error vector but its length: every kernel
 //! (f64 lanes, the f64 point form, the WGSL shader) applies it after its own `|Δp_j|`.
-//! The uniforms come from Philox block `(draw, j / 2, DISCREPANCY_STREAM)` (words `2(j mod 2)` and
+//! The engine draws it ([`crate::engine::DiscrepancyDraws`]). The uniforms come from Philox block `(draw, j / 2, DISCREPANCY_STREAM)` (words `2(j mod 2)` and
 //! `2(j mod 2) + 1`), keyed by the run's seed like the parameter draws, so a draw's discrepancy is
 //! the same on every backend, batch split and thread count, and the parameter draws keep their
 //! bits. The residual index is `⌊(w ≫ 16)·K / 2¹⁶⌋` in integer arithmetic, exact on both sides.
@@ -50,11 +50,7 @@ pub use estimate::{
     MIN_RESIDUALS, SIGNIFICANCE,
 };
 
-use crate::sampling::Philox;
 use serde::{Deserialize, Serialize};
-
-/// The Philox stream of the discrepancy's uniforms (the parameter draws use stream 0).
-pub const DISCREPANCY_STREAM: u32 = 0xD15C_0000;
 
 /// Largest number of residual norms a term holds (the integer index rule needs K ≤ 2¹⁶; more
 /// residuals are thinned evenly by rank).
@@ -203,98 +199,4 @@ pub enum DiscrepancyUse {
     Robot,
     /// What a new measurement would show (noise kept): validation against measured positions.
     Measured,
-}
-
-/// The discrepancy as the engine draws it: radii (mm) and the run's Philox key.
-#[derive(Clone, Debug, PartialEq)]
-pub struct DiscrepancyDraws {
-    radii: Vec<f64>,
-    key: [u32; 2],
-}
-
-impl DiscrepancyDraws {
-    /// Draws from `radii` (mm; 1 to [`MAX_SAMPLES`] of them) with the run's `seed`.
-    ///
-    /// # Panics
-    ///
-    /// When `radii` is empty or longer than [`MAX_SAMPLES`] ([`Discrepancy::checked`] keeps
-    /// model files inside).
-    pub fn new(radii: Vec<f64>, seed: u64) -> DiscrepancyDraws {
-        assert!(
-            !radii.is_empty() && radii.len() <= MAX_SAMPLES,
-            "1 to {MAX_SAMPLES} radii"
-        );
-        DiscrepancyDraws {
-            radii,
-            key: Philox::new(seed).key,
-        }
-    }
-
-    /// The radii, mm.
-    pub fn radii(&self) -> &[f64] {
-        &self.radii
-    }
-
-    /// The Philox key.
-    pub fn key(&self) -> [u32; 2] {
-        self.key
-    }
-
-    /// Index into the radii from a word: `⌊(w ≫ 16)·K / 2¹⁶⌋`.
-    #[inline(always)]
-    pub fn index(&self, w: u32) -> usize {
-        (((w >> 16) * self.radii.len() as u32) >> 16) as usize
-    }
-
-    /// `(r, c)` of `draw` at `point` from the block's words.
-    #[inline(always)]
-    fn pair(&self, words: [u32; 4], point: usize) -> (f64, f64) {
-        let o = 2 * (point % 2);
-        let r = self.radii[self.index(words[o])];
-        let c = 2.0 * crate::sampling::uniform_open(words[o + 1]) - 1.0;
-        (r, c)
-    }
-
-    /// The error at `point` of `draw` whose kinematic part has length `e`:
-    /// `√(e² + r² + 2erc)`.
-    pub fn apply(&self, e: f64, draw: u64, point: usize) -> f64 {
-        let words = Philox { key: self.key }.block(draw, (point / 2) as u32, DISCREPANCY_STREAM);
-        let (r, c) = self.pair(words, point);
-        (e * e + r * r + 2.0 * e * r * c).max(0.0).sqrt()
-    }
-
-    /// [`Self::apply`] on squared errors of `L` draws at once (`e2[l]` of draw `draws[l]`);
-    /// `words` caches the Philox block of the pair of points (computed at even `point`).
-    #[inline(always)]
-    pub fn apply_squared_lanes<const L: usize>(
-        &self,
-        e2: &mut [f64; L],
-        draws: &[u64; L],
-        point: usize,
-        words: &mut [[u32; L]; 4],
-    ) {
-        if point.is_multiple_of(2) {
-            let c: [[u32; L]; 4] = [
-                std::array::from_fn(|l| draws[l] as u32),
-                std::array::from_fn(|l| (draws[l] >> 32) as u32),
-                [(point / 2) as u32; L],
-                [DISCREPANCY_STREAM; L],
-            ];
-            *words = crate::sampling::philox4x32_10_lanes(c, self.key);
-        }
-        let o = 2 * (point % 2);
-        for l in 0..L {
-            let r = self.radii[self.index(words[o][l])];
-            let c = 2.0 * crate::sampling::uniform_open(words[o + 1][l]) - 1.0;
-            let e = e2[l].sqrt();
-            let v = e2[l] + r * r + 2.0 * e * r * c;
-            e2[l] = if v > 0.0 { v } else { 0.0 };
-        }
-    }
-
-    /// The per-draw `(r, c)` pairs of `point` for `draws` (tests and the GPU comparison).
-    pub fn draw_pair(&self, draw: u64, point: usize) -> (f64, f64) {
-        let words = Philox { key: self.key }.block(draw, (point / 2) as u32, DISCREPANCY_STREAM);
-        self.pair(words, point)
-    }
 }

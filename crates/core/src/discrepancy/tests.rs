@@ -12,58 +12,6 @@ fn term(norms: Vec<f64>, share: f64) -> Discrepancy {
 }
 
 #[test]
-fn lanes_give_the_point_form_bits() {
-    let d = DiscrepancyDraws::new(vec![0.01, 0.02, 0.05, 0.3, 1.0], 77);
-    let draws: [u64; 8] = std::array::from_fn(|l| 1_000_000_007 + 3 * l as u64);
-    let mut words = [[0u32; 8]; 4];
-    for point in 0..5 {
-        let e: [f64; 8] = std::array::from_fn(|l| 0.001 * (l as f64 + 1.0) * (point as f64 + 1.0));
-        let mut e2 = e.map(|v| v * v);
-        d.apply_squared_lanes(&mut e2, &draws, point, &mut words);
-        for l in 0..8 {
-            let scalar = d.apply(e[l], draws[l], point);
-            assert!(
-                (e2[l].sqrt() - scalar).abs() <= 1e-15 * scalar.max(1.0),
-                "point {point} lane {l}: {} vs {scalar}",
-                e2[l].sqrt()
-            );
-        }
-    }
-}
-
-#[test]
-fn radii_are_drawn_uniformly_and_directions_isotropically() {
-    // e = 0: the error is the drawn radius itself, each of the K equally often.
-    let radii = vec![1.0, 2.0, 3.0, 4.0];
-    let d = DiscrepancyDraws::new(radii.clone(), 5);
-    let n = 40_000u64;
-    let mut counts = [0usize; 4];
-    let mut cross = 0.0;
-    for k in 0..n {
-        let r = d.apply(0.0, k, (k % 7) as usize);
-        counts[radii.iter().position(|&v| (v - r).abs() < 1e-12).unwrap()] += 1;
-        // e = 1 mm: E[e'²] = 1 + E[r²] (the cross term has mean 0 for a uniform direction)
-        let e1 = d.apply(1.0, k, 3);
-        cross += e1 * e1 - 1.0 - d.draw_pair(k, 3).0.powi(2);
-    }
-    for c in counts {
-        // binomial σ = √(n·¼·¾) ≈ 87
-        assert!((c as f64 - n as f64 / 4.0).abs() < 5.0 * 87.0, "{counts:?}");
-    }
-    // 2·E[r·c] = 0 with sd of the mean ≈ 2·√(7.5/3)/√n ≈ 0.016
-    assert!((cross / n as f64).abs() < 0.05, "{}", cross / n as f64);
-}
-
-#[test]
-fn the_index_rule_covers_every_radius_and_stays_in_range() {
-    for k in [1usize, 2, 3, 1000, MAX_SAMPLES] {
-        let d = DiscrepancyDraws::new(vec![0.0; k], 1);
-        assert_eq!(d.index(0), 0);
-        assert_eq!(d.index(u32::MAX), k - 1);
-    }
-}
-
-#[test]
 fn checked_names_the_bad_field() {
     let err = term(vec![0.1; 3], 1.0).checked().unwrap_err();
     assert!(
@@ -98,7 +46,7 @@ fn points(residual_sigma: f64, stated: f64, n: usize, seed: u64) -> Vec<FittedPo
     (0..n)
         .map(|_| FittedPoint {
             residual_mm: std::array::from_fn(|_| {
-                residual_sigma * crate::sampling::standard_normal(&mut rng)
+                residual_sigma * super::estimate::gaussian(&mut rng)
             }),
             whiten: Matrix3::identity() / stated,
             leverage: Matrix3::identity() * 0.01,

@@ -18,8 +18,8 @@
 //! point the chain starts from: `p_7 = p_tool + δ_tool` in the flange frame. With no tool spread
 //! `δ_tool = 0` and `p_tool + 0 = p_tool` exactly, so the results keep their bits.
 
+use super::DiscrepancyDraws;
 use super::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
-use crate::discrepancy::DiscrepancyDraws;
 use crate::kinematics::{
     param_index, Block, Capped, InputSpace, ParamKind, MAX_JOINTS, MAX_ROBOT_INPUTS,
 };

@@ -49,11 +49,13 @@
 pub mod backend;
 pub mod cpu;
 pub mod deviation;
+pub mod discrepancy;
 pub mod placement;
 mod problem;
 
 pub use backend::{cpu_evaluator, BackendChoice, Backends, CpuOnly};
 pub use cpu::CpuEvaluator;
+pub use discrepancy::{DiscrepancyDraws, DISCREPANCY_STREAM};
 pub use placement::{Frame, PlacementEvaluator, PlacementSpread};
 pub use problem::{Problem, ProblemError, Reference};
 

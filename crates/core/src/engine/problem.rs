@@ -10,7 +10,8 @@
 //! it was measured with; using the nominal model's own tool would add the tool offset (tens of
 //! mm) to every error.
 
-use crate::discrepancy::{DiscrepancyDraws, DiscrepancyUse};
+use super::DiscrepancyDraws;
+use crate::discrepancy::DiscrepancyUse;
 use crate::kinematics::{position, Joints, RobotModel};
 use crate::sampling::{ParamSampler, SamplerError};
 
@@ -193,6 +194,20 @@ impl Problem {
     pub fn without_discrepancy(mut self) -> Problem {
         self.discrepancy = None;
         self
+    }
+
+    /// The problem of an analysis that works in the standard-normal space of the parameters
+    /// (`analysis`: Sobol indices, the tail's subset simulation), which the empirical
+    /// discrepancy term is not part of: the problem without it, and a note saying so when the
+    /// model has one.
+    pub fn without_discrepancy_for(self, analysis: &str) -> (Problem, Option<String>) {
+        let note = self.model.discrepancy.as_ref().map(|d| {
+            format!(
+                "{analysis}: the model's discrepancy term (RMS {:.4} mm, what the geometric model does not explain) is not part of this analysis, which covers the parameters' uncertainty alone; mcs and amcs include it",
+                d.robot_rms_mm()
+            )
+        });
+        (self.without_discrepancy(), note)
     }
 
     /// The problem drawing the model's discrepancy term for `usage` (the default is

@@ -10,6 +10,7 @@
 //! covariance → model file).
 
 mod covariance;
+mod lack_of_fit;
 mod model;
 mod monte_carlo;
 mod report;
@@ -196,26 +197,41 @@ pub fn identify_chain(
         nulls,
         fixed_by_user,
     );
+    let lack =
+        lack_of_fit::lack_of_fit(&run, &linearised, &noise, opts.noise.is_stated(), opts.seed);
+    // A stated noise the residuals reject: the lack of fit acts on the parameters as noise of
+    // that size would (Birge ratio χ²/dof), so the covariance is scaled by it.
+    let scale = lack.covariance_scale;
+    let linearised = linearised * scale;
     let monte_carlo = match opts.uncertainty {
         UncertaintyMethod::Linearised => None,
-        UncertaintyMethod::MonteCarlo { draws } => Some(monte_carlo_covariance(
-            &run.obs,
-            &run.state,
-            &run.free,
-            prior.as_ref(),
-            draws,
-            opts.seed,
-        )),
+        UncertaintyMethod::MonteCarlo { draws } => Some(
+            monte_carlo_covariance(
+                &run.obs,
+                &run.state,
+                &run.free,
+                prior.as_ref(),
+                draws,
+                opts.seed,
+            ) * scale,
+        ),
     };
     let cov = FreeCovariance {
         linearised,
         monte_carlo,
     };
     let covariance = embed(cov.chosen(), &run.free, run.space.len());
-    let report = report::build_report(&run, points, nominal, opts, noise, identifiability, &cov);
+    let discrepancy = lack.term.clone();
+    let checks = report::Checks {
+        noise,
+        identifiability,
+        lack_of_fit: lack,
+    };
+    let report = report::build_report(&run, points, nominal, opts, checks, &cov);
     Ok(ChainResult {
         state: run.state,
         covariance,
+        discrepancy,
         report,
     })
 }

@@ -51,6 +51,7 @@ pub fn render_chain_summary(c: &ChainReport) -> String {
         }
         (None, None) => {}
     }
+    render_lack_of_fit(&mut s, &c.lack_of_fit);
     let weak = if a.condition_number > super::identifiability::WEAK_CONDITION
         && a.condition_number <= super::identifiability::CONDITION_LIMIT
     {
@@ -127,4 +128,47 @@ pub fn render_chain_report(c: &ChainReport) -> String {
         );
     }
     s
+}
+
+/// The lack-of-fit lines: noise against what the model does not explain, the term, the
+/// leave-one-out self-check.
+fn render_lack_of_fit(s: &mut String, l: &crate::discrepancy::LackOfFit) {
+    let split = match (l.noise_sigma_mm, l.unexplained_rms_mm) {
+        (Some(sig), Some(u)) => format!(
+            "measurement noise σ {sig:.4} mm per coordinate ({:.4} mm 3-D), unexplained by the model {u:.4} mm ({:.0} % of the residual{})",
+            sig * 3f64.sqrt(),
+            100.0 * l.robot_share,
+            if l.found == Some(true) { "" } else { ": no lack of fit found" }
+        ),
+        _ => "measurement noise unknown: noise and lack of fit cannot be told apart (state the tracker σ to split them)".to_string(),
+    };
+    let _ = writeln!(
+        s,
+        "  lack of fit: standardised residual RMS {:.4} mm; {split}",
+        l.residual_rms_mm
+    );
+    let _ = writeln!(
+        s,
+        "  discrepancy term: {}",
+        match &l.term {
+            Some(t) => t.describe() + "; every analysis draws it at each test point",
+            None if l.points < crate::discrepancy::MIN_RESIDUALS => format!(
+                "none: too few points ({} < {}) to estimate one",
+                l.points,
+                crate::discrepancy::MIN_RESIDUALS
+            ),
+            None => "none: the residuals agree with the stated noise".to_string(),
+        }
+    );
+    if let Some(c) = &l.loo {
+        let _ = writeln!(
+            s,
+            "  self-check (leave-one-out): the predicted 95 % error bound covers {:.1} % of left-out measurements ({:.1} % with the parameters' uncertainty alone); PIT of the maximum over {} random sets of 20 points: mean {:.2} (ideal 0.50), {:.0} % at or above 0.99",
+            100.0 * c.coverage_95,
+            100.0 * c.coverage_95_parameters_only,
+            c.subsets,
+            c.pit_max_mean,
+            100.0 * c.pit_max_at_least_099
+        );
+    }
 }

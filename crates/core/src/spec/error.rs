@@ -38,11 +38,13 @@ pub enum SpecField {
     Backend,
     /// The GPU adapter ([`ProblemSpec::adapter`](super::ProblemSpec::adapter)).
     Adapter,
+    /// Whether the model's discrepancy term is drawn ([`ProblemSpec::discrepancy`](super::ProblemSpec::discrepancy)).
+    Discrepancy,
 }
 
 impl SpecField {
     /// Every field.
-    pub const ALL: [SpecField; 13] = [
+    pub const ALL: [SpecField; 14] = [
         SpecField::Model,
         SpecField::Preset,
         SpecField::Points,
@@ -56,6 +58,7 @@ impl SpecField {
         SpecField::Seed,
         SpecField::Backend,
         SpecField::Adapter,
+        SpecField::Discrepancy,
     ];
 
     /// The field's name in messages, e.g. `points_file`.
@@ -74,6 +77,7 @@ impl SpecField {
             SpecField::Seed => "seed",
             SpecField::Backend => "backend",
             SpecField::Adapter => "adapter",
+            SpecField::Discrepancy => "discrepancy",
         }
     }
 
@@ -94,6 +98,7 @@ impl SpecField {
             SpecField::Seed => "seed",
             SpecField::Backend => "backend",
             SpecField::Adapter => "adapter",
+            SpecField::Discrepancy => "discrepancy",
         }
     }
 

@@ -167,6 +167,9 @@ pub struct ProblemSpec {
     /// GPU adapter (case-insensitive part of its name); needs the gpu or auto backend, and
     /// with auto asks for that GPU.
     pub adapter: Option<String>,
+    /// Draw the model's discrepancy term ([`crate::discrepancy`]) at every test point (the
+    /// default); `false` leaves it out: the parameters' uncertainty alone.
+    pub discrepancy: bool,
 }
 
 impl Default for ProblemSpec {
@@ -180,6 +183,7 @@ impl Default for ProblemSpec {
             seed: 2025,
             backend: BackendChoice::Auto,
             adapter: None,
+            discrepancy: true,
         }
     }
 }
@@ -272,7 +276,15 @@ pub fn make_frame_evaluator(
     if uncertain {
         PlacementSpread::of(&problem).map_err(|e| SpecError::new(SpecField::Backend, e))?;
     }
+    let term = problem
+        .discrepancy
+        .as_ref()
+        .and(problem.model.discrepancy.as_ref())
+        .map(|d| d.describe());
     let (ev, mut notes) = make_evaluator(backends, problem, backend, adapter)?;
+    if let Some(t) = term {
+        notes.push(format!("{t}: drawn at every test point"));
+    }
     if uncertain {
         notes.push(match frame {
             Frame::Base => format!(
@@ -461,6 +473,15 @@ impl ProblemSpec {
                 (_, false) => SpecError::new(model_field, e),
             }
         })?;
+        let mut notes = notes;
+        let problem = if self.discrepancy {
+            problem
+        } else {
+            if problem.model.discrepancy.is_some() {
+                notes.push("model discrepancy left out on request: the reliability covers the parameters' uncertainty alone and is optimistic by what the model does not explain".into());
+            }
+            problem.without_discrepancy()
+        };
         Ok(BuiltProblem {
             problem,
             reference: label,

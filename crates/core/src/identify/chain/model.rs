@@ -8,15 +8,18 @@ use crate::kinematics::{Block, InputSpace, RobotModel, Uncertainty};
 /// The identified model of a chain result: `nominal`'s structure and limits with the identified
 /// parameters, target and (for [`Placement::Identify`]) placement, and the covariance as the
 /// model file's `[covariance]`: `(5n + 9)²` with the placement (the last six rows x, y, z, roll,
-/// pitch, yaw; 39 × 39, rows 34–39, for six joints), `(5n + 3)²` (33 × 33) without.
+/// pitch, yaw; 39 × 39, rows 34–39, for six joints), `(5n + 3)²` (33 × 33) without; and the
+/// fit's discrepancy term when it found a lack of fit.
 pub fn chain_model(nominal: &RobotModel, result: &ChainResult, name: String) -> RobotModel {
-    state_model(
+    let mut model = state_model(
         nominal,
         &result.state,
         &result.covariance,
         result.report.frame,
         name,
-    )
+    );
+    model.discrepancy = result.discrepancy.clone();
+    model
 }
 
 /// The fit inputs a model of `frame` keeps: all of them when the placement was identified, else

@@ -89,6 +89,8 @@ pub struct ChainReport {
     pub monte_carlo: Option<MonteCarloCheck>,
     /// The method whose covariance the model file holds.
     pub covariance_from: UncertaintyMethod,
+    /// Noise against lack of fit, the discrepancy term and the leave-one-out self-check.
+    pub lack_of_fit: crate::discrepancy::LackOfFit,
     /// Problems found (one line each, with what to measure instead).
     pub warnings: Vec<String>,
 }
@@ -102,8 +104,21 @@ pub struct ChainResult {
     /// Row-major covariance of the [`ChainState::space`] (39 × 39 for six joints), internal units
     /// (mm, rad).
     pub covariance: Vec<f64>,
+    /// The discrepancy term the identified model carries (`None`: no lack of fit found, or too
+    /// few points).
+    pub discrepancy: Option<crate::discrepancy::Discrepancy>,
     /// The report.
     pub report: ChainReport,
+}
+
+/// What a finished fit was checked for: the noise, identifiability and lack of fit.
+pub(super) struct Checks {
+    /// The noise check.
+    pub noise: NoiseReport,
+    /// Rank, conditioning, null directions.
+    pub identifiability: Identifiability,
+    /// Noise against lack of fit.
+    pub lack_of_fit: crate::discrepancy::LackOfFit,
 }
 
 /// The report of the finished fit `run` of `points` against `nominal`: the parameter rows, the
@@ -114,10 +129,14 @@ pub(super) fn build_report(
     points: &[MeasuredPoint],
     nominal: &RobotModel,
     opts: &ChainOptions,
-    noise: NoiseReport,
-    mut identifiability: Identifiability,
+    checks: Checks,
     cov: &FreeCovariance,
 ) -> ChainReport {
+    let Checks {
+        noise,
+        mut identifiability,
+        lack_of_fit,
+    } = checks;
     let p = run.free.len();
     let mc_sigma: Option<Vec<f64>> = cov.monte_carlo.as_ref().map(|c| standard_deviations(c, p));
     let monte_carlo = mc_sigma.as_ref().map(|mc| {
@@ -135,7 +154,14 @@ pub(super) fn build_report(
     );
     let correlation = correlation(chosen, p);
     let (norms, rms, max) = residual_norms(&run.obs, &run.state);
-    let warnings = run_warnings(&identifiability, &noise, &parameters, rms, opts.placement);
+    let warnings = run_warnings(
+        &identifiability,
+        &noise,
+        &lack_of_fit,
+        &parameters,
+        rms,
+        opts.placement,
+    );
     identifiability.correlated.truncate(50);
     ChainReport {
         frame: opts.placement,
@@ -150,6 +176,7 @@ pub(super) fn build_report(
         correlation,
         monte_carlo,
         covariance_from: opts.uncertainty,
+        lack_of_fit,
         warnings,
     }
 }

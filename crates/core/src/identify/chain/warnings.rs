@@ -3,6 +3,7 @@
 //! nominal.
 
 use super::{NoiseReport, ParameterRow, Placement};
+use crate::discrepancy::LackOfFit;
 use crate::identify::identifiability::{advice, Identifiability, CONDITION_LIMIT};
 
 /// The warnings of a chain fit: directions the data leave free, ill-conditioning, residuals
@@ -10,6 +11,7 @@ use crate::identify::identifiability::{advice, Identifiability, CONDITION_LIMIT}
 pub(super) fn chain_warnings(
     a: &Identifiability,
     noise: &NoiseReport,
+    lack: &LackOfFit,
     rows: &[ParameterRow],
 ) -> Vec<String> {
     let mut w = Vec::new();
@@ -33,10 +35,17 @@ pub(super) fn chain_warnings(
     }
     if let Some(p) = noise.p_value {
         let ratio = (noise.chi2 / noise.dof.max(1) as f64).sqrt();
-        if p < 1e-3 {
+        if lack.found == Some(true) {
             w.push(format!(
-                "the residuals are {ratio:.2}× the stated noise (χ² = {:.1} for {} degrees of freedom, p = {p:.1e}): the model or the stated σ is wrong; the covariance assumes the stated σ and is too small",
-                noise.chi2, noise.dof
+                "the residuals are {ratio:.2}× the stated noise (χ² = {:.1} for {} degrees of freedom, p = {p:.1e}): the geometric model leaves {:.4} mm RMS unexplained (or the stated σ is too small); {}",
+                noise.chi2,
+                noise.dof,
+                lack.unexplained_rms_mm.unwrap_or(0.0),
+                if lack.carried {
+                    format!("the covariance is scaled by χ²/dof = {:.2} and the model carries a discrepancy term that every analysis draws", lack.covariance_scale)
+                } else {
+                    format!("the covariance is scaled by χ²/dof = {:.2}; too few points for a discrepancy term, so reliability figures leave the lack of fit out", lack.covariance_scale)
+                }
             ));
         } else if p > 1.0 - 1e-3 {
             w.push(format!(
@@ -76,11 +85,12 @@ pub(super) fn chain_warnings(
 pub(super) fn run_warnings(
     a: &Identifiability,
     noise: &NoiseReport,
+    lack: &LackOfFit,
     rows: &[ParameterRow],
     rms: f64,
     placement: Placement,
 ) -> Vec<String> {
-    let mut warnings = chain_warnings(a, noise, rows);
+    let mut warnings = chain_warnings(a, noise, lack, rows);
     if rms > crate::identify::MAX_RMS_RESIDUAL_MM {
         warnings.insert(
             0,

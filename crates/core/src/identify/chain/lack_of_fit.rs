@@ -1,0 +1,44 @@
+//! The lack of fit of a finished whole-chain fit (docs/METHOD.md §15): each point's residual,
+//! whitening and leverage handed to [`crate::discrepancy::LackOfFit`], which splits noise from
+//! what the model does not explain, builds the model's discrepancy term and runs the
+//! leave-one-out self-check.
+
+use super::{Fitted, NoiseReport};
+use crate::discrepancy::{FittedPoint, LackOfFit};
+use crate::identify::chain_fit::{jacobian, position_residuals};
+use nalgebra::{DMatrix, Matrix3};
+
+/// The lack of fit of `run` with `linearised` = `(JᵀWJ + prior)⁻¹` over its free inputs
+/// (whitened units) and the noise check `noise`.
+pub(super) fn lack_of_fit(
+    run: &Fitted,
+    linearised: &DMatrix<f64>,
+    noise: &NoiseReport,
+    stated: bool,
+    seed: u64,
+) -> LackOfFit {
+    let j = jacobian(&run.obs, &run.state, &run.free);
+    let plain = position_residuals(&run.obs, &run.state);
+    let points: Vec<FittedPoint> = run
+        .obs
+        .iter()
+        .zip(&plain)
+        .enumerate()
+        .map(|(i, (o, r))| {
+            let ji = j.rows(3 * i, 3);
+            let h = ji * linearised * ji.transpose();
+            FittedPoint {
+                residual_mm: *r,
+                whiten: o.whiten,
+                leverage: Matrix3::from_fn(|a, b| 0.5 * (h[(a, b)] + h[(b, a)])),
+            }
+        })
+        .collect();
+    LackOfFit::estimate(
+        &points,
+        stated,
+        noise.p_value,
+        noise.chi2 / noise.dof.max(1) as f64,
+        seed,
+    )
+}
