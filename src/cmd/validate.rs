@@ -42,6 +42,13 @@ pub struct ValidateArgs {
     /// Draws of the certificate's Monte Carlo run.
     #[arg(long, default_value_t = 100_000, value_name = "N", requires = "spec")]
     pub draws: u64,
+    /// Draws per pose of the predictive check (is the model's predicted error distribution
+    /// honest at these poses?); 0 leaves the check out.
+    #[arg(long, default_value_t = 20_000, value_name = "N")]
+    pub check_draws: usize,
+    /// Seed of the predictive check.
+    #[arg(long, default_value_t = 2025, value_name = "SEED")]
+    pub seed: u64,
     /// With --iso9283: the report files (JSON, CSV, SVG, HTML).
     #[command(flatten)]
     pub reports: ReportFlags,
@@ -91,6 +98,12 @@ impl Run for ValidateArgs {
             })?;
         let mut text = identify::render_validation(&v);
         text.push_str(&format!("frame: {}\n", frame_words(frame)));
+        if a.check_draws > 0 && m.len() >= 2 {
+            let check =
+                identify::predictive::predictive_check(&model, &m, frame, a.check_draws, a.seed)
+                    .context("predictive check")?;
+            text.push_str(&check.render());
+        }
         crate::cmd::stdout::print(&text)?;
         Ok(())
     }

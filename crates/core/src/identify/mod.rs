@@ -74,6 +74,7 @@ pub mod measured;
 pub mod noise;
 mod pipeline;
 pub mod poses;
+pub mod predictive;
 mod provenance;
 mod quality;
 pub mod refine;
