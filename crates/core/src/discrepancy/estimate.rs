@@ -271,6 +271,20 @@ pub(super) fn gaussian(rng: &mut impl Rng) -> f64 {
     (-2.0 * u.ln()).sqrt() * (std::f64::consts::TAU * rng.random::<f64>()).cos()
 }
 
+/// `count` random subsets of `size` distinct indices below `n` (partial Fisher–Yates shuffles).
+pub fn random_subsets(n: usize, size: usize, count: usize, rng: &mut impl Rng) -> Vec<Vec<usize>> {
+    let mut idx: Vec<usize> = (0..n).collect();
+    (0..count)
+        .map(|_| {
+            for a in 0..size.min(n) {
+                let b = rng.random_range(a..n);
+                idx.swap(a, b);
+            }
+            idx[..size.min(n)].to_vec()
+        })
+        .collect()
+}
+
 /// A unit vector uniform on the sphere.
 fn unit(rng: &mut impl Rng) -> Vector3<f64> {
     let c: f64 = rng.random_range(-1.0..1.0);
@@ -320,16 +334,9 @@ fn loo_check(points: &[FittedPoint], norms: &[f64], scale: f64, seed: u64) -> Lo
         inside_without += usize::from(observed[i] <= q(&mut b));
     }
     // PIT of the maximum over random subsets of SUBSET points (all points when fewer).
-    let size = SUBSET.min(n);
     let subsets = 200;
     let mut pits = Vec::with_capacity(subsets);
-    let mut idx: Vec<usize> = (0..n).collect();
-    for _ in 0..subsets {
-        for a in 0..size {
-            let b = rng.random_range(a..n);
-            idx.swap(a, b);
-        }
-        let chosen = &idx[..size];
+    for chosen in random_subsets(n, SUBSET.min(n), subsets, &mut rng) {
         let w_obs = chosen.iter().map(|&i| observed[i]).fold(0.0, f64::max);
         let below = (0..m)
             .filter(|&k| {

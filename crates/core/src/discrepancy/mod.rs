@@ -46,8 +46,8 @@ mod estimate;
 mod tests;
 
 pub use estimate::{
-    standardised_norms, standardised_residuals, FittedPoint, LackOfFit, LooCheck, NoiseSource,
-    MIN_RESIDUALS, SIGNIFICANCE,
+    random_subsets, standardised_norms, standardised_residuals, FittedPoint, LackOfFit, LooCheck,
+    NoiseSource, MIN_RESIDUALS, SIGNIFICANCE,
 };
 
 use serde::{Deserialize, Serialize};

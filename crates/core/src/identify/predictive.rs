@@ -16,7 +16,7 @@ use super::{IdentifyError, Placement};
 use crate::discrepancy::DiscrepancyUse;
 use crate::engine::{CpuEvaluator, Evaluator, Frame, Problem, Reference};
 use crate::kinematics::RobotModel;
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use serde::Serialize;
 
 /// Per-point draws × points evaluated at most (memory: 8 bytes each, twice).
@@ -117,15 +117,7 @@ pub fn predictive_check(
     let subset = 20.min(n);
     let subsets = 1000;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x005E_ED0F_C0DE);
-    let mut picks = Vec::with_capacity(subsets);
-    let mut idx: Vec<usize> = (0..n).collect();
-    for _ in 0..subsets {
-        for a in 0..subset {
-            let b = rng.random_range(a..n);
-            idx.swap(a, b);
-        }
-        picks.push(idx[..subset].to_vec());
-    }
+    let picks = crate::discrepancy::random_subsets(n, subset, subsets, &mut rng);
     let coverage = |p: Problem| -> Result<Coverage, IdentifyError> {
         let mut ev = CpuEvaluator::new(p);
         let mut w = vec![0.0; draws];
@@ -195,6 +187,7 @@ mod tests {
     use super::*;
     use crate::discrepancy::{Discrepancy, NoiseSource};
     use crate::kinematics::{position, tx60, Joints};
+    use rand::Rng;
 
     fn gaussian(rng: &mut impl Rng) -> f64 {
         let u: f64 = 1.0 - rng.random::<f64>();
