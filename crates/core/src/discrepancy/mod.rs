@@ -25,12 +25,15 @@
 //! e_j² = |Δp_j|² + r² + 2 |Δp_j| r c,   r ~ the residual norms,  c ~ U(−1, 1)
 //! ```
 //!
-//! needs two uniforms per point and nothing of the error vector but its length: every kernel
-//! (f64 lanes, the f64 point form, the WGSL shader) applies it after its own `|Δp_j|`.
-//! The engine draws it ([`crate::engine::DiscrepancyDraws`]). The uniforms come from Philox block `(draw, j / 2, DISCREPANCY_STREAM)` (words `2(j mod 2)` and
-//! `2(j mod 2) + 1`), keyed by the run's seed like the parameter draws, so a draw's discrepancy is
-//! the same on every backend, batch split and thread count, and the parameter draws keep their
-//! bits. The residual index is `⌊(w ≫ 16)·K / 2¹⁶⌋` in integer arithmetic, exact on both sides.
+//! needs one uniform radius index and one cosine per point, and nothing of the error vector but
+//! its length: every kernel (f64 lanes, the f64 point form, the WGSL shader) applies it after its
+//! own `|Δp_j|`. The engine draws it ([`crate::engine::DiscrepancyDraws`]): point `j` of draw `k`
+//! takes one 32-bit word hashed from Philox block `(k, 0, DISCREPANCY_STREAM)` and `j`, keyed by
+//! the run's seed like the parameter draws, so a draw's discrepancy is the same on every backend, batch split
+//! and thread count, and the parameter draws keep their bits. The word's high half gives the
+//! residual index `⌊(w ≫ 16)·K / 2¹⁶⌋` (integer arithmetic, exact on both sides; K ≤ 2¹⁶), its
+//! low half the cosine `((w mod 2¹⁶) + ½)·2⁻¹⁵ − 1` (a grid of 2⁻¹⁵, far finer than anything
+//! the cross term can resolve).
 //!
 //! Two uses ([`DiscrepancyUse`]): the robot's own deviation (the default of every analysis: the
 //! tracker noise that is part of the residuals is taken out, by the share of the residual

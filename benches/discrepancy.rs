@@ -1,0 +1,80 @@
+//! What the model-discrepancy term costs (issue target: at most 1.3× for `mcs` 10^6 × 50 on
+//! the CPU): a TX60 identified from 60 poses with 20 µm noise in a tracker frame (noise not
+//! stated, so the fit carries a discrepancy term drawn from its 60 residuals), analysed with
+//! and without the term, in the measurement frame (placement drawn) and the base frame.
+//!
+//! `cargo bench --bench discrepancy` prints medians of `BENCH_REPS` runs (default 7) of the CPU
+//! evaluator on 10^6 counter draws × 50 points, with and without the term, interleaved in one
+//! process so that the ratios are measured under the same load.
+
+use gpu_amcs::engine::{CpuEvaluator, Evaluator, Frame, Problem, Reference};
+use gpu_amcs::identify::chain::ChainOptions;
+use gpu_amcs::identify::{identify_poses, IdentifyOptions};
+use gpu_amcs::kinematics::{tx60, BaseTransform};
+use gpu_amcs::simulate::{simulate_poses, TrackerNoise};
+use std::time::Instant;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+fn main() {
+    let reps: usize = std::env::var("BENCH_REPS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(7);
+    let mut truth = tx60();
+    truth.tool = [30.0, -20.0, 80.0];
+    let placement = BaseTransform {
+        xyz: [2300.0, -700.0, 250.0],
+        rpy: [0.08, -0.12, 2.4],
+    };
+    let configs = gpu_amcs::simulate::random_poses(&truth, 60, 5);
+    let data = simulate_poses(
+        &truth,
+        &configs,
+        &placement,
+        &TrackerNoise::Isotropic(0.02),
+        9,
+    );
+    let model = identify_poses(
+        &data,
+        &tx60(),
+        &IdentifyOptions::default(),
+        &ChainOptions::default(),
+    )
+    .unwrap()
+    .into_iter()
+    .next()
+    .unwrap()
+    .model;
+    assert!(model.discrepancy.is_some(), "the fit carries a term");
+    let pts = gpu_amcs::simulate::random_poses(&model, 50, 7);
+    let measured = Problem::new(model, &pts, &Reference::Calibrated, 1).unwrap();
+    let base = measured.clone().in_frame(Frame::Base);
+    println!(
+        "machine: {} threads; identified TX60, 50 points, 10^6 draws; medians of {reps} runs",
+        rayon::current_num_threads()
+    );
+    for (label, pb) in [("measurement frame", measured), ("base frame", base)] {
+        let mut evs = [
+            CpuEvaluator::new(pb.clone()),
+            CpuEvaluator::new(pb.without_discrepancy()),
+        ];
+        let mut w = vec![0.0; 1_000_000];
+        let mut t = [Vec::new(), Vec::new()];
+        for _ in 0..reps {
+            for (ev, t) in evs.iter_mut().zip(&mut t) {
+                let s = Instant::now();
+                ev.evaluate(0, &mut w, None).unwrap();
+                t.push(s.elapsed().as_secs_f64());
+            }
+        }
+        let [with, without] = t.map(median);
+        println!(
+            "mcs 10^6 × 50, {label:<17}  with the term {with:.3} s  without {without:.3} s  ratio {:.2}",
+            with / without
+        );
+    }
+}
