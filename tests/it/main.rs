@@ -23,6 +23,7 @@ mod mc_known_answers;
 mod module_cycles;
 mod placement_analyses;
 mod plan;
+mod real_data;
 mod reports;
 mod sensitivity;
 mod study;
