@@ -220,6 +220,39 @@ pub fn chain_sections(page: &mut Page, runs: &[(String, &IdentifyReport)], nomin
     ));
     let (label, first) = with[0];
     let c = first.chain.as_ref().expect("filtered");
+    page.heading("Lack of fit and the discrepancy term");
+    page.paragraph(&c.lack_of_fit.summary());
+    page.table(Table::new(
+        "Measurement noise against what the geometric model does not explain, per run",
+        &[
+            "run",
+            "standardised residual RMS (mm)",
+            "noise σ per coordinate (mm)",
+            "unexplained RMS (mm)",
+            "discrepancy term",
+            "leave-one-out coverage of the 95 % bound",
+            "the same, parameters alone",
+        ],
+        with.iter()
+            .map(|(label, r)| {
+                let l = &r.chain.as_ref().expect("filtered").lack_of_fit;
+                let opt = |v: Option<f64>| v.map_or("unknown".to_string(), |v| format!("{v:.5}"));
+                vec![
+                    label.clone(),
+                    format!("{:.5}", l.residual_rms_mm),
+                    opt(l.noise_sigma_mm),
+                    opt(l.unexplained_rms_mm),
+                    if l.carried { "carried" } else { "none" }.to_string(),
+                    l.loo
+                        .as_ref()
+                        .map_or("—".into(), |c| format!("{:.1} %", 100.0 * c.coverage_95)),
+                    l.loo.as_ref().map_or("—".into(), |c| {
+                        format!("{:.1} %", 100.0 * c.coverage_95_parameters_only)
+                    }),
+                ]
+            })
+            .collect(),
+    ));
     page.table(Table::new(
         &format!("Identified quantities of run {label} with their standard uncertainty"),
         &["name", "value", "σ", "nominal", "unit", "status"],
