@@ -1,5 +1,5 @@
 //! The discrepancy term from a fit's residuals, and the fit's own leave-one-out check of what it
-//! predicts for a new measurement (docs/METHOD.md §15).
+//! predicts for a new measurement (docs/METHOD.md §18).
 //!
 //! Per point `i` the fit gives the residual `r_i` (mm), its whitening `W_i` (whitened = `W_i r`)
 //! and the 3 × 3 leverage block `H_ii = J_i (JᵀJ + P)⁻¹ J_iᵀ` of the whitened Jacobian. Then
@@ -102,10 +102,11 @@ pub struct LackOfFit {
     /// The factor the parameters' covariance was scaled by (χ²/dof when a stated noise is
     /// rejected, else 1).
     pub covariance_scale: f64,
-    /// The term the model carries (`None`: no lack of fit found, or too few points).
+    /// The term the model carries (`None`: too few points); analyses of the robot draw it when
+    /// [`Self::carried`] (a term of share 0 only serves comparisons with measurements).
     #[serde(skip)]
     pub term: Option<Discrepancy>,
-    /// Whether the model carries a term.
+    /// Whether analyses of the robot draw the term (some lack of fit, or the noise unknown).
     pub carried: bool,
     /// The leave-one-out self-check (`None` for fewer than [`MIN_RESIDUALS`] points).
     pub loo: Option<LooCheck>,
@@ -185,7 +186,7 @@ impl LackOfFit {
             1.0
         };
         let enough = n >= MIN_RESIDUALS;
-        let term = (enough && robot_share > 0.0).then(|| Discrepancy {
+        let term = enough.then(|| Discrepancy {
             residual_norms: thin(&norms),
             robot_share,
             noise,
@@ -202,7 +203,7 @@ impl LackOfFit {
             unexplained_rms_mm: sigma.map(|_| (ms * robot_share).sqrt()),
             robot_share,
             covariance_scale,
-            carried: term.is_some(),
+            carried: robot_share > 0.0 && term.is_some(),
             term,
             loo,
         }

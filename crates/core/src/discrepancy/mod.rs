@@ -1,5 +1,5 @@
 //! The model-discrepancy term: what the geometric model does not explain, carried into every
-//! reliability figure (docs/METHOD.md §15).
+//! reliability figure (docs/METHOD.md §18).
 //!
 //! A real robot keeps errors after a geometric calibration that no MDH parameter describes
 //! (joint compliance under gravity, gear harmonics, backlash, drift). They show in the
@@ -150,6 +150,13 @@ impl Discrepancy {
         }
         self.residual_norms.sort_by(f64::total_cmp);
         Ok(self)
+    }
+
+    /// Whether analyses of the robot draw it: some of the residual is the robot's (share > 0).
+    /// A term of share 0 (no lack of fit found against a stated noise) is kept for comparisons
+    /// with measurements, which include the noise.
+    pub fn drawn(&self) -> bool {
+        self.robot_share > 0.0
     }
 
     /// RMS of the standardised residual norms, mm (what a new measurement misses by beyond the

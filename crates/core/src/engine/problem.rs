@@ -72,6 +72,20 @@ pub enum ProblemError {
     Sampler(#[from] SamplerError),
 }
 
+/// The draws of `model`'s discrepancy term for `usage`: none without a term, and none for the
+/// robot when the term is all measurement noise (share 0: no lack of fit found).
+fn discrepancy_draws(
+    model: &RobotModel,
+    usage: DiscrepancyUse,
+    seed: u64,
+) -> Option<DiscrepancyDraws> {
+    model
+        .discrepancy
+        .as_ref()
+        .filter(|d| usage == DiscrepancyUse::Measured || d.drawn())
+        .map(|d| DiscrepancyDraws::new(d.radii(usage), seed))
+}
+
 /// Model + test points + reference + seed.
 #[derive(Clone, Debug)]
 pub struct Problem {
@@ -175,10 +189,7 @@ impl Problem {
             })
             .collect();
         let sampler = ParamSampler::new(&model, seed)?;
-        let discrepancy = model
-            .discrepancy
-            .as_ref()
-            .map(|d| DiscrepancyDraws::new(d.radii(DiscrepancyUse::Robot), seed));
+        let discrepancy = discrepancy_draws(&model, DiscrepancyUse::Robot, seed);
         Ok(Problem {
             discrepancy,
             model,
@@ -201,7 +212,7 @@ impl Problem {
     /// discrepancy term is not part of: the problem without it, and a note saying so when the
     /// model has one.
     pub fn without_discrepancy_for(self, analysis: &str) -> (Problem, Option<String>) {
-        let note = self.model.discrepancy.as_ref().map(|d| {
+        let note = self.model.discrepancy.as_ref().filter(|d| d.drawn()).map(|d| {
             format!(
                 "{analysis}: the model's discrepancy term (RMS {:.4} mm, what the geometric model does not explain) is not part of this analysis, which covers the parameters' uncertainty alone; mcs and amcs include it",
                 d.robot_rms_mm()
@@ -213,11 +224,7 @@ impl Problem {
     /// The problem drawing the model's discrepancy term for `usage` (the default is
     /// [`DiscrepancyUse::Robot`]); nothing changes for a model without one.
     pub fn with_discrepancy_use(mut self, usage: DiscrepancyUse) -> Problem {
-        self.discrepancy = self
-            .model
-            .discrepancy
-            .as_ref()
-            .map(|d| DiscrepancyDraws::new(d.radii(usage), self.seed));
+        self.discrepancy = discrepancy_draws(&self.model, usage, self.seed);
         self
     }
 

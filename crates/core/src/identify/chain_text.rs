@@ -151,7 +151,8 @@ fn render_lack_of_fit(s: &mut String, l: &crate::discrepancy::LackOfFit) {
         s,
         "  discrepancy term: {}",
         match &l.term {
-            Some(t) => t.describe() + "; every analysis draws it at each test point",
+            Some(t) if t.drawn() => t.describe() + "; every analysis draws it at each test point",
+            Some(_) => "none drawn: the residuals agree with the stated noise (the model file keeps them for checks against measurements, which include the noise)".to_string(),
             None if l.points < crate::discrepancy::MIN_RESIDUALS => format!(
                 "none: too few points ({} < {}) to estimate one",
                 l.points,

@@ -1,5 +1,5 @@
 //! Is the model's uncertainty honest against measurements it was not fitted to? The predictive
-//! check of held-out data (docs/METHOD.md §15).
+//! check of held-out data (docs/METHOD.md §18).
 //!
 //! For each measured pose the model predicts the distribution of the error a new measurement
 //! shows, `e_j = |Δp_j(θ') + δ_j|`: the parameters' draws (with the placement in the measurement
@@ -75,7 +75,10 @@ impl PredictiveCheck {
             self.points, self.draws, self.subsets
         );
         if let Some(c) = &self.with_term {
-            s.push_str(&format!("  with the discrepancy term: {}\n", line(c)));
+            s.push_str(&format!(
+                "  with the discrepancy term (noise kept): {}\n",
+                line(c)
+            ));
         }
         s.push_str(&format!(
             "  parameters' uncertainty alone: {}\n",

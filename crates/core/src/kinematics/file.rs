@@ -459,7 +459,7 @@ impl RobotModel {
 fn write_discrepancy(s: &mut String, d: &crate::discrepancy::Discrepancy) {
     let _ = writeln!(
         s,
-        "\n# What the geometric model does not explain (docs/METHOD.md §15): every analysis draws,\n\
+        "\n# What the geometric model does not explain (docs/METHOD.md §18): every analysis draws,\n\
          # at every test point, a deviation whose length is one of these standardised residual\n\
          # norms (mm) times sqrt(robot_share), in a uniformly random direction.\n\
          # robot_share: the part of the residuals' mean square that is the robot's, not tracker noise."

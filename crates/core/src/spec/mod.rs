@@ -477,7 +477,12 @@ impl ProblemSpec {
         let problem = if self.discrepancy {
             problem
         } else {
-            if problem.model.discrepancy.is_some() {
+            if problem
+                .model
+                .discrepancy
+                .as_ref()
+                .is_some_and(|d| d.drawn())
+            {
                 notes.push("model discrepancy left out on request: the reliability covers the parameters' uncertainty alone and is optimistic by what the model does not explain".into());
             }
             problem.without_discrepancy()

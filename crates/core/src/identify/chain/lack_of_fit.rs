@@ -1,4 +1,4 @@
-//! The lack of fit of a finished whole-chain fit (docs/METHOD.md §15): each point's residual,
+//! The lack of fit of a finished whole-chain fit (docs/METHOD.md §18): each point's residual,
 //! whitening and leverage handed to [`crate::discrepancy::LackOfFit`], which splits noise from
 //! what the model does not explain, builds the model's discrepancy term and runs the
 //! leave-one-out self-check.
