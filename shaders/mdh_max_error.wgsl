@@ -19,7 +19,11 @@
 // then at every test point the deviation Δ of the end position from the mean-parameter chain,
 // propagated from the tool to the base, starting from the tool point's own offset
 // Δ_{n+1} = δ_tool = (δ_5n, δ_5n+1, δ_5n+2) (see src/engine/deviation.rs for the formulation and its
-// error budget), e_j = |Δ_1 + o_j|, w = max_j e_j.
+// error budget), e_j = |Δ_1 + o_j|, w = max_j e_j. Counter draws (max_point_error only) of a
+// model with a discrepancy term (what the geometric model does not explain; cfg.disc_count radii
+// in disc_radii, 0: none) then take e_j ← √(e_j² + r² + 2 e_j r c), radius r and cosine c from
+// the word h(a ⊕ h(b + j)), (a, b, _, _) the draw's Philox block (draw, 0, DISCREPANCY_STREAM)
+// (crates/core/src/discrepancy/mod.rs, crates/core/src/engine/discrepancy.rs).
 // Only small quantities (offsets, rotation differences, deviations) are formed in f32; the
 // ~1000 mm nominal positions enter only multiplied by small rotation differences.
 
@@ -33,7 +37,8 @@ struct Config {
     nfree: u32,
     // bit b set: Philox block b feeds some free parameter
     block_mask: u32,
-    _pad0: u32,
+    // radii of the discrepancy term in disc_radii (0: no term)
+    disc_count: u32,
     _pad1: u32,
 }
 
@@ -66,6 +71,8 @@ struct Chunk {
 @group(0) @binding(8) var<storage, read> offsets_in: array<f32>;
 // pick-freeze path: per matrix, the mask of normals (one bit per normal) taken from the B draw, (lo, hi) words
 @group(0) @binding(9) var<storage, read> masks: array<vec2<u32>>;
+// the discrepancy term's radii, mm (cfg.disc_count of them; one unused entry without a term)
+@group(0) @binding(10) var<storage, read> disc_radii: array<f32>;
 
 const WORDS_PER_POINT: u32 = 2u * N_JOINTS + 1u;
 // N_PARAMS, TOOL_AT, N_INPUTS, PLACEMENT_AT and N_PLACED come from the host (see the top).
@@ -74,6 +81,18 @@ const WORDS_PER_POINT: u32 = 2u * N_JOINTS + 1u;
 const N_BLOCKS: u32 = (N_PLACED + 3u) / 4u;
 const N_NORMALS: u32 = 4u * N_BLOCKS;
 const WORKGROUP_SIZE: u32 = 64u;
+// The Philox stream of the discrepancy term (engine::DISCREPANCY_STREAM).
+const DISCREPANCY_STREAM: u32 = 0xD15C0000u;
+
+// The integer hash "lowbias32" of engine::discrepancy::hash32 (wrapping u32 arithmetic).
+fn hash32(v: u32) -> u32 {
+    var x = v;
+    x = x ^ (x >> 16u);
+    x = x * 0x7feb352du;
+    x = x ^ (x >> 15u);
+    x = x * 0x846ca68bu;
+    return x ^ (x >> 16u);
+}
 
 // Offsets of one joint's rotations for a draw: α' and β' as (cos', sin', cos' − cos,
 // sin' − sin), θ as (sin h, cos h, δa, δd) with h = δθ/2.
@@ -257,9 +276,21 @@ fn placement_step(dv: vec3<f32>, x0: vec3<f32>, d: array<f32, N_PLACED>) -> vec3
     return dv + i1 + i2 + i3 + rt;
 }
 
+// The error of a point whose kinematic error is e with the discrepancy word wd: radius
+// r = disc_radii[⌊(wd ≫ 16)·K / 2¹⁶⌋] (exact in u32: K ≤ 2¹⁶), cosine
+// c = ((wd mod 2¹⁶) + ½)·2⁻¹⁵ − 1, and √(e² + r² + 2erc) formed as √((e − r)² + 2er(1 + c)):
+// both terms are non-negative and 1 + c is exact in f32, so no cancellation.
+fn with_discrepancy(e: f32, wd: u32, k: u32) -> f32 {
+    let r = disc_radii[((wd >> 16u) * k) >> 16u];
+    let one_plus_c = (f32(wd & 0xFFFFu) + 0.5) * (1.0 / 32768.0);
+    let dr = e - r;
+    return sqrt(dr * dr + 2.0 * e * r * one_plus_c);
+}
+
 // Errors of the parameter vector mean + d at every test point: e_out row i (if asked for) and
-// w_out[i] = max_j e_j.
-fn point_errors(i: u32, d: array<f32, N_PLACED>) {
+// w_out[i] = max_j e_j. With disc_count > 0 (counter draws only) the discrepancy term of draw
+// `draw` is applied at every point.
+fn point_errors(i: u32, d: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u32) {
     // Per joint: α' and β' as (cos', sin', cos' − cos, sin' − sin); θ as (sin h, cos h) with
     // h = δθ/2; and (δa, δd). The loops have constant bounds, so a compiler can unroll them and
     // keep these in registers.
@@ -273,6 +304,11 @@ fn point_errors(i: u32, d: array<f32, N_PLACED>) {
 
     let m = cfg.m;
     var w = 0.0;
+    // The draw's discrepancy words (a, b): point pj takes h(a ⊕ h(b + pj)).
+    var dab = vec2<u32>(0u);
+    if (disc_count != 0u) {
+        dab = philox4x32_10(vec4<u32>(draw.x, draw.y, 0u, DISCREPANCY_STREAM), cfg.key).xy;
+    }
     for (var pj = 0u; pj < m; pj++) {
         let base = pj * WORDS_PER_POINT;
         // Δ_{n+1}: the tool point's offset in the flange frame
@@ -293,7 +329,10 @@ fn point_errors(i: u32, d: array<f32, N_PLACED>) {
         let ex = dv.x + o.x;
         let ey = dv.y + o.y;
         let ez = dv.z + o.z;
-        let e = sqrt(ex * ex + ey * ey + ez * ez);
+        var e = sqrt(ex * ex + ey * ey + ez * ez);
+        if (disc_count != 0u) {
+            e = with_discrepancy(e, hash32(dab.x ^ hash32(dab.y + pj)), disc_count);
+        }
         if (chunk.want_e != 0u) {
             e_out[i * m + pj] = e;
         }
@@ -309,7 +348,8 @@ fn max_point_error(@builtin(global_invocation_id) gid: vec3<u32>) {
     if (i >= chunk.count) {
         return;
     }
-    point_errors(i, draw_offsets(draw_plus(chunk.first, i)));
+    let draw = draw_plus(chunk.first, i);
+    point_errors(i, draw_offsets(draw), draw, cfg.disc_count);
 }
 
 // Explicit offsets: row i of offsets_in (chunk.first is unused).
@@ -328,7 +368,8 @@ fn max_point_error_offsets(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var p = 0u; p < width; p++) {
         d[p] = offsets_in[i * width + p];
     }
-    point_errors(i, d);
+    // No draw, no discrepancy term.
+    point_errors(i, d, vec2<u32>(0u), 0u);
 }
 
 // Pick-freeze rows: invocation i is row row0 + i of the request, row r of matrix s.
@@ -346,5 +387,6 @@ fn max_point_error_pick_freeze(@builtin(global_invocation_id) gid: vec3<u32>) {
         draw_plus(chunk.b_first, r),
         masks[s],
     );
-    point_errors(i, spread_offsets(z));
+    // Sobol indices cover the parameters alone: no discrepancy term.
+    point_errors(i, spread_offsets(z), vec2<u32>(0u), 0u);
 }

@@ -3,7 +3,8 @@
 //! Philox reproduces the Random123 known answers, and GPU and CPU evaluators agree draw by draw,
 //! per point and in the moments, for independent and correlated spreads, calibrated and nominal
 //! references, a moved parameter mean, and split batches; the explicit-offset path agrees with
-//! the counter draws and across backends; evaluators share one device per adapter.
+//! the counter draws and across backends; evaluators share one device per adapter; the model's
+//! discrepancy term is drawn as the CPU draws it, on counter draws only.
 //!
 //! Without any Vulkan/Metal/DX12 adapter the GPU tests print a skip note and pass, unless the
 //! environment variable `CI` is `true`, where they fail.
@@ -35,6 +36,15 @@ const MOMENT_TOL: f64 = 1e-5;
 /// k·E[|z|^(k−1)(2 + |z|)]·ε/σ: about 5e-5 for ε = 2e-7 mm and σ = 0.05 mm; rounding errors that
 /// are not aligned with z^(k−1) stay far under it (measured ≤ 4e-7).
 const STANDARDISED_MOMENT_TOL: f64 = 1e-5;
+/// Largest allowed error of the GPU's discrepancy step `e ↦ √(e² + r² + 2erc)`, relative to
+/// `e + r` (the bound of the result). The shader forms it as `√((e − r)² + 2er(1 + c))` in f32:
+/// r is the f32 of the radius (|δr| ≤ 2⁻²⁴ r), 1 + c is exact, the two non-negative terms carry
+/// at most three roundings each, the sum one and the square root about one (Vulkan's sqrt is
+/// good to a few ulp), so the result is off by at most 2⁻²⁴ r + ~4·2⁻²⁴ e' ≤ 5·2⁻²⁴ (e + r) ≈
+/// 3e-7 (e + r), as e' ≤ e + r; 1e-6 leaves a factor 3 for the driver's sqrt. The step is
+/// 1-Lipschitz in e (|∂e'/∂e| = |e + rc| / e' ≤ 1), so the kinematic difference of the two
+/// backends (SAMPLE_TOL_MM) passes through it unamplified.
+const DISCREPANCY_REL_TOL: f64 = 1e-6;
 
 /// The six-joint TX60's parameter count (30), uncertain inputs (33) and inputs with the
 /// placement (39).
@@ -210,7 +220,7 @@ fn shaders_validate_with_naga() {
 
     // Every binding of the shader is the Rust constant of that name; the uniforms have the
     // size of the packed Rust structs.
-    let expected: [(&str, u32, Option<usize>); 10] = [
+    let expected: [(&str, u32, Option<usize>); 11] = [
         (
             "cfg",
             gpu::binding::CONFIG,
@@ -229,6 +239,7 @@ fn shaders_validate_with_naga() {
         ("e_out", gpu::binding::E, None),
         ("offsets_in", gpu::binding::OFFSETS, None),
         ("masks", gpu::binding::MASKS, None),
+        ("disc_radii", gpu::binding::DISC_RADII, None),
     ];
     let globals: Vec<_> = module
         .global_variables
@@ -265,6 +276,10 @@ fn shaders_validate_with_naga() {
         deviation::words_per_point(6)
     );
     assert_eq!(constant("WORKGROUP_SIZE") as usize, gpu::WORKGROUP);
+    assert_eq!(
+        constant("DISCREPANCY_STREAM"),
+        gpu_amcs::engine::DISCREPANCY_STREAM
+    );
 
     // Every joint count composes a valid shader whose sizes are the Rust layout's; seven joints
     // use all the normals a draw has (eleven blocks: the 38 inputs and the placement's six).
@@ -1070,16 +1085,10 @@ fn tracker_poses(truth: &RobotModel, n: usize) -> Vec<gpu_amcs::identify::Measur
         .collect()
 }
 
-/// A model identified from poses in a tracker frame (39 × 39 covariance, the placement
-/// correlated with the parameters): the GPU draws the placement as the CPU's exact f64 path does,
-/// sample by sample within the deviation form's budget and in the moments; `--frame base` (the
-/// 33 × 33 block) agrees too; explicit offsets are refused with the placement drawn.
-#[test]
-fn gpu_draws_the_base_placement_as_the_cpu_does() {
-    if !have_adapter("gpu_draws_the_base_placement_as_the_cpu_does") {
-        return;
-    }
-    use gpu_amcs::engine::{cpu_evaluator, PlacementSpread};
+/// A TX60 identified whole-chain from 30 poses in a tracker frame: the placement uncertain and
+/// correlated with the parameters (39 × 39 covariance), with the fit's discrepancy term (the
+/// tracker noise is not stated, so the term carries it).
+fn tracker_frame_tx60() -> RobotModel {
     use gpu_amcs::identify::chain::{chain_model, identify_chain, ChainOptions};
     use gpu_amcs::kinematics::BaseTransform;
     let mut truth = tx60();
@@ -1090,7 +1099,24 @@ fn gpu_draws_the_base_placement_as_the_cpu_does() {
     });
     let data = tracker_poses(&truth, 30);
     let r = identify_chain(&data, &tx60(), None, None, &ChainOptions::default()).unwrap();
-    let model = chain_model(&tx60(), &r, "identified".into());
+    chain_model(&tx60(), &r, "identified".into())
+}
+
+/// A model identified from poses in a tracker frame (39 × 39 covariance, the placement
+/// correlated with the parameters): the GPU draws the placement as the CPU's exact f64 path does,
+/// sample by sample within the deviation form's budget and in the moments; `--frame base` (the
+/// 33 × 33 block) agrees too; explicit offsets are refused with the placement drawn.
+#[test]
+fn gpu_draws_the_base_placement_as_the_cpu_does() {
+    if !have_adapter("gpu_draws_the_base_placement_as_the_cpu_does") {
+        return;
+    }
+    use gpu_amcs::engine::{cpu_evaluator, PlacementSpread};
+    // The parameters and the placement alone: the fit's discrepancy term would make the counter
+    // draws differ from the offset rows below; gpu_draws_the_discrepancy_term_as_the_cpu_does
+    // covers it.
+    let mut model = tracker_frame_tx60();
+    model.discrepancy = None;
     assert!(model.base_uncertain());
     let pts = gpu_amcs::simulate::random_poses(&model, 20, 7);
     let problem = Problem::new(model.clone(), &pts, &Reference::Calibrated, 11).unwrap();
@@ -1306,4 +1332,145 @@ fn seven_joint_models_agree_on_gpu_and_cpu() {
     assert!(dw <= SAMPLE_TOL_MM && de <= SAMPLE_TOL_MM, "{dw} {de}");
     assert_moments_agree("iiwa 14, placement drawn", &moments(&wc), &moments(&wg));
     assert_eq!(gpu.offset_width(), 44);
+}
+
+/// `model` with a discrepancy term of 40 residual norms (0 … 0.195 mm; 64 % of it the robot's,
+/// so the problem draws radii up to 0.156 mm), as a fit with a stated tracker σ gives it.
+fn with_discrepancy(mut model: RobotModel) -> RobotModel {
+    use gpu_amcs::discrepancy::{Discrepancy, NoiseSource};
+    model.discrepancy = Some(
+        Discrepancy {
+            residual_norms: (0..40).map(|i| 0.005 * f64::from(i)).collect(),
+            robot_share: 0.64,
+            noise: NoiseSource::Stated,
+            noise_sigma_mm: Some(0.01),
+        }
+        .checked()
+        .expect("discrepancy term"),
+    );
+    model
+}
+
+/// A model with a discrepancy term, in the base frame (the TX60) and with its placement drawn
+/// (mode 2, an identified model): the GPU's counter draws apply the term at every point as the
+/// CPU does. Per point, the GPU's result is the term applied to its own kinematic error (the
+/// problem without the term on the GPU) within `DISCREPANCY_REL_TOL·(e + r)`, and the CPU's
+/// within that plus `SAMPLE_TOL_MM`; w is the maximum of the point errors, the term moves almost
+/// every error, and the moments agree. Offset rows and pick-freeze rows have no draw of their
+/// own and leave the term out: they give the kinematic errors. The draws straddle 2³², so the
+/// term's Philox counter takes the draw's high word.
+#[test]
+fn gpu_draws_the_discrepancy_term_as_the_cpu_does() {
+    if !have_adapter("gpu_draws_the_discrepancy_term_as_the_cpu_does") {
+        return;
+    }
+    use gpu_amcs::engine::PlacementSpread;
+    let placed = tracker_frame_tx60();
+    assert!(placed.base_uncertain());
+    for (label, model) in [("base frame", tx60()), ("placement drawn", placed)] {
+        let model = with_discrepancy(model);
+        let pts = gpu_amcs::simulate::random_poses(&model, 25, 7);
+        let pb = Problem::new(model, &pts, &Reference::Calibrated, 31).expect("problem");
+        assert_eq!(
+            PlacementSpread::of(&pb).unwrap().is_some(),
+            label != "base frame"
+        );
+        let dd = pb.discrepancy.clone().expect("the model's term is drawn");
+        let plain = pb.clone().without_discrepancy();
+        let (first, n, m) = ((1u64 << 32) - 1500, 4000, pts.len());
+        let mut cpu = CpuEvaluator::new(pb.clone());
+        let mut gpu = gpu_without_prefetch(pb.clone());
+        let mut gpu_plain = gpu_without_prefetch(plain.clone());
+        let (wc, ec) = evaluate(&mut cpu, first, n);
+        let (wg, eg) = evaluate(&mut gpu, first, n);
+        let (wk, ek) = evaluate(&mut gpu_plain, first, n);
+        let (mut worst_term, mut worst_cpu, mut moved) = (0.0f64, 0.0f64, 0usize);
+        for i in 0..n {
+            let k = first + i as u64;
+            for j in 0..m {
+                let at = i * m + j;
+                let (e, r) = (ek[at], dd.draw_pair(k, j).0);
+                let bound = DISCREPANCY_REL_TOL * (e + r);
+                let d_term = (eg[at] - dd.apply(e, k, j)).abs();
+                let d_cpu = (eg[at] - ec[at]).abs();
+                assert!(
+                    d_term <= bound,
+                    "{label}: draw {k} point {j}: GPU {} vs the term on its kinematic error {e} (r = {r}): {d_term:.3e} mm",
+                    eg[at]
+                );
+                assert!(
+                    d_cpu <= SAMPLE_TOL_MM + bound,
+                    "{label}: draw {k} point {j}: GPU {} vs CPU {}: {d_cpu:.3e} mm",
+                    eg[at],
+                    ec[at]
+                );
+                worst_term = worst_term.max(d_term / (e + r));
+                worst_cpu = worst_cpu.max(d_cpu);
+                moved += usize::from((eg[at] - e).abs() > 1e-4);
+            }
+            let row_max = eg[i * m..(i + 1) * m].iter().copied().fold(0.0, f64::max);
+            assert_eq!(wg[i], row_max, "{label}: w of draw {k}");
+        }
+        let (mc, mg, mk) = (moments(&wc), moments(&wg), moments(&wk));
+        eprintln!(
+            "{label}, discrepancy term: {n} draws × {m} points, GPU vs the term on its own \
+             kinematic errors ≤ {worst_term:.2e}·(e + r), vs CPU ≤ {worst_cpu:.3e} mm, \
+             {moved} errors moved by > 0.1 µm; mean w {:.4} mm (without the term {:.4} mm)",
+            mg[0], mk[0]
+        );
+        assert!(
+            moved > n * m * 9 / 10,
+            "{label}: the term moved only {moved} errors"
+        );
+        assert!(mg[0] > mk[0] + 0.01, "{label}: {} vs {}", mg[0], mk[0]);
+        assert_moments_agree(label, &mc, &mg);
+        // The GPU's kinematic errors are the CPU's too.
+        let (wck, eck) = evaluate(&mut CpuEvaluator::new(plain), first, n);
+        assert!(max_diff(&wck, &wk) <= SAMPLE_TOL_MM && max_diff(&eck, &ek) <= SAMPLE_TOL_MM);
+
+        // Offset rows equal to the draws: the kinematic errors, no term, on both backends.
+        let rows: Vec<f64> = match PlacementSpread::of(&pb).unwrap() {
+            Some(spread) => {
+                let gen = Philox::new(pb.seed);
+                (0..n as u64)
+                    .flat_map(|i| spread.deltas(&gen, first + i)[..N_WITH_BASE].to_vec())
+                    .collect()
+            }
+            None => draw_rows(&pb, first, n),
+        };
+        // (GPU vs the GPU's kinematic draws, GPU vs CPU) of rows of `kind`, mm.
+        let no_term = |kind: &str, d_kin: f64, d_cpu: f64| {
+            eprintln!(
+                "{label}, {kind}: GPU vs GPU kinematic draws {d_kin:.3e} mm, vs CPU {d_cpu:.3e} mm"
+            );
+            assert!(
+                d_kin <= SAMPLE_TOL_MM,
+                "{label}: {kind} carry the term: {d_kin}"
+            );
+            assert!(d_cpu <= SAMPLE_TOL_MM, "{label}, {kind}: {d_cpu}");
+        };
+        let (wgo, ego) = evaluate_offsets(&mut gpu, &rows);
+        let (wco, eco) = evaluate_offsets(&mut cpu, &rows);
+        no_term(
+            "offset rows",
+            max_diff(&wgo, &wk).max(max_diff(&ego, &ek)),
+            max_diff(&wgo, &wco).max(max_diff(&ego, &eco)),
+        );
+
+        // Pick-freeze rows (mask 0: matrix A is the draws themselves): no term either.
+        let masks = [0, ALL_NORMALS];
+        let request = PickFreeze {
+            first,
+            b_first: 1 << 40,
+            count: n,
+            masks: &masks,
+        };
+        let pg = evaluate_pick_freeze(&mut gpu, &request);
+        let pc = evaluate_pick_freeze(&mut cpu, &request);
+        no_term(
+            "pick-freeze rows",
+            max_diff(&pg[..n], &wk),
+            max_diff(&pg, &pc),
+        );
+    }
 }

@@ -23,8 +23,10 @@ pub struct ConfigUniform {
     pub nfree: u32,
     /// Bit b set: Philox block b feeds some free parameter.
     pub block_mask: u32,
+    /// Radii of the model's discrepancy term drawn by counter draws (0: no term).
+    pub disc_count: u32,
     /// Padding to the WGSL struct size.
-    pub pad: [u32; 2],
+    pub pad: u32,
 }
 
 /// The per-chunk uniform (`chunk` in the shader).
@@ -58,6 +60,8 @@ pub(crate) struct ProblemBuffers {
     pub(crate) spread: Buffer,
     pub(crate) free: Buffer,
     pub(crate) points: Buffer,
+    /// The discrepancy term's radii as f32 (one unused entry without a term).
+    pub(crate) disc_radii: Buffer,
     pub(crate) m: usize,
     /// The draws include the base placement (counter draws only).
     pub(crate) placed: bool,
@@ -74,13 +78,25 @@ impl ProblemBuffers {
             _ => SpreadPacking::new(problem),
         };
         let m = problem.n_points();
+        // The term's radii (at most 2¹⁶, so the count fits the shader's index rule); a binding
+        // cannot be empty, so a problem without one uploads a single unused zero.
+        let disc: Vec<f32> = match &problem.discrepancy {
+            Some(d) => {
+                debug_assert_eq!(d.key(), problem.sampler.key(), "one key for both streams");
+                d.radii().iter().map(|&r| r as f32).collect()
+            }
+            None => Vec::new(),
+        };
+        let disc_count = disc.len() as u32;
+        let disc_radii = if disc.is_empty() { vec![0.0f32] } else { disc };
         let cfg = ConfigUniform {
             key: problem.sampler.key(),
             m: m as u32,
             mode: deviation::kernel_mode(&packing),
             nfree: packing.n_free() as u32,
             block_mask: packing.block_mask,
-            pad: [0; 2],
+            disc_count,
+            pad: 0,
         };
         let config = gpu.uniform("config", std::mem::size_of::<ConfigUniform>() as u64);
         gpu.write(&config, bytemuck::bytes_of(&cfg));
@@ -92,6 +108,7 @@ impl ProblemBuffers {
             spread: gpu.storage_init("spread", bytemuck::cast_slice(&packing.spread)),
             free: gpu.storage_init("free", bytemuck::cast_slice(&packing.free)),
             points: gpu.storage_init("points", bytemuck::cast_slice(&pts)),
+            disc_radii: gpu.storage_init("discrepancy radii", bytemuck::cast_slice(&disc_radii)),
             m,
             placed: packing.placement,
             layout: problem.model.layout(),
@@ -135,6 +152,7 @@ pub(crate) fn bind_slot(ctx: &GpuContext, problem: &ProblemBuffers, s: SlotBuffe
             (binding::E, s.e),
             (binding::OFFSETS, s.offsets),
             (binding::MASKS, s.masks),
+            (binding::DISC_RADII, &problem.disc_radii),
         ],
     )
 }

@@ -48,7 +48,7 @@ pub struct Kernels {
 }
 
 /// The evaluator shader's bind group 0, by name.
-const LAYOUT: [(u32, BindingKind); 10] = [
+const LAYOUT: [(u32, BindingKind); 11] = [
     (binding::CONFIG, BindingKind::Uniform),
     (binding::CHUNK, BindingKind::Uniform),
     (binding::JOINT_TRIG, BindingKind::StorageRead),
@@ -59,6 +59,7 @@ const LAYOUT: [(u32, BindingKind); 10] = [
     (binding::E, BindingKind::StorageReadWrite),
     (binding::OFFSETS, BindingKind::StorageRead),
     (binding::MASKS, BindingKind::StorageRead),
+    (binding::DISC_RADII, BindingKind::StorageRead),
 ];
 
 impl GpuContext {

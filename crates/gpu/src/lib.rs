@@ -6,7 +6,10 @@
 //! The shader's entry point [`ENTRY_POINT`] draws exactly the normals of the CPU sampler
 //! (Philox4x32-10 with counter `[draw lo, draw hi, block, 0]`, the Box–Muller layout of
 //! [`gpu_amcs_core::sampling::box_muller`], independent `δ_i = σ_i z_i` or correlated `δ = L z` on the
-//! free parameters), so draw `k` is the same parameter vector on both backends. The entry point
+//! free parameters), so draw `k` is the same parameter vector on both backends; with the
+//! model's discrepancy term ([`Problem::discrepancy`](gpu_amcs_core::engine::Problem::discrepancy))
+//! it also draws the CPU's radius and direction cosine at every point (its own Philox stream,
+//! [`gpu_amcs_core::discrepancy`]), which the other two entry points leave out. The entry point
 //! [`OFFSETS_ENTRY_POINT`] reads δ from an uploaded offset matrix instead (rows converted to
 //! f32 chunk by chunk), and [`PICK_FREEZE_ENTRY_POINT`] generates the rows of a Sobol
 //! pick-freeze design from two counter draws and a per-matrix mask of normals
@@ -96,6 +99,9 @@ pub mod binding {
     pub const OFFSETS: u32 = 8;
     /// Input of the pick-freeze path: one mask of normals per matrix, (lo, hi) words (`masks`).
     pub const MASKS: u32 = 9;
+    /// The model's discrepancy term: its radii as f32, mm, drawn by the counter-draw entry
+    /// point only (`disc_radii`; one unused entry without a term).
+    pub const DISC_RADII: u32 = 10;
 }
 
 /// The evaluator shader for an `joints`-joint model: [`PHILOX_WGSL`], the input space's
