@@ -13,6 +13,7 @@ mod fuzz;
 #[cfg(feature = "gpu")]
 mod gpu;
 mod hardening;
+mod honesty;
 mod html;
 mod identify;
 mod import;
