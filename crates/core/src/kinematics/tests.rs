@@ -349,3 +349,38 @@ fn a_covariance_without_the_tool_block() {
         "the base frame keeps the parameters' block"
     );
 }
+
+#[test]
+fn model_files_keep_the_term_and_name_a_bad_field() {
+    use crate::discrepancy::{Discrepancy, NoiseSource};
+    use crate::kinematics::{tx60, RobotModel};
+    let mut m = tx60();
+    m.discrepancy = Some(Discrepancy {
+        residual_norms: (1..=12).map(|i| 0.01 * f64::from(i)).collect(),
+        robot_share: 0.75,
+        noise: NoiseSource::Stated,
+        noise_sigma_mm: Some(0.012),
+    });
+    let text = m.to_toml();
+    assert!(text.contains("[discrepancy]"), "{text}");
+    let back = RobotModel::from_toml(&text, "m.toml").unwrap();
+    assert_eq!(back.discrepancy, m.discrepancy);
+    assert_eq!(back.to_toml(), text);
+    let bad = text.replace("robot_share = 0.75", "robot_share = 1.5");
+    let err = RobotModel::from_toml(&bad, "m.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("m.toml") && err.contains("discrepancy.robot_share"),
+        "{err}"
+    );
+    let typo = text.replace("robot_share", "robot_shar");
+    let err = RobotModel::from_toml(&typo, "m.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("robot_shar"), "{err}");
+    // Without the table: no term.
+    let i = text.find("\n# What the geometric model").unwrap();
+    let none = RobotModel::from_toml(&text[..i], "m.toml").unwrap();
+    assert!(none.discrepancy.is_none());
+}
