@@ -267,7 +267,7 @@ impl LackOfFit {
 }
 
 /// At most [`MAX_SAMPLES`] norms: all, or evenly spaced ranks of the sorted ones.
-fn thin(norms: &[f64]) -> Vec<f64> {
+pub(super) fn thin(norms: &[f64]) -> Vec<f64> {
     let mut v = norms.to_vec();
     v.sort_by(f64::total_cmp);
     if v.len() <= MAX_SAMPLES {

@@ -159,6 +159,43 @@ impl Discrepancy {
         self.robot_share > 0.0
     }
 
+    /// The term of several runs' mean model: every run's norms (thinned to [`MAX_SAMPLES`] by
+    /// rank), the shares weighted by the runs' residual counts, the noise σ as the RMS of the
+    /// runs' (stated only when every run stated it). `None` when no run has a term.
+    pub fn pooled(terms: &[&Discrepancy]) -> Option<Discrepancy> {
+        let count: usize = terms.iter().map(|t| t.residual_norms.len()).sum();
+        if count == 0 {
+            return None;
+        }
+        let norms: Vec<f64> = terms
+            .iter()
+            .flat_map(|t| t.residual_norms.iter().copied())
+            .collect();
+        let weight = |t: &Discrepancy| t.residual_norms.len() as f64 / count as f64;
+        let stated = terms.iter().all(|t| t.noise == NoiseSource::Stated);
+        let sigma = stated.then(|| {
+            terms
+                .iter()
+                .map(|t| weight(t) * t.noise_sigma_mm.unwrap_or(0.0).powi(2))
+                .sum::<f64>()
+                .sqrt()
+        });
+        Some(Discrepancy {
+            residual_norms: estimate::thin(&norms),
+            robot_share: if stated {
+                terms.iter().map(|t| weight(t) * t.robot_share).sum()
+            } else {
+                1.0
+            },
+            noise: if stated {
+                NoiseSource::Stated
+            } else {
+                NoiseSource::Unknown
+            },
+            noise_sigma_mm: sigma,
+        })
+    }
+
     /// RMS of the standardised residual norms, mm (what a new measurement misses by beyond the
     /// parameters' uncertainty, noise included).
     pub fn rms_mm(&self) -> f64 {

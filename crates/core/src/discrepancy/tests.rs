@@ -104,3 +104,32 @@ fn lack_of_fit_splits_noise_from_discrepancy() {
     assert!(!lof.carried && lof.loo.is_none());
     assert!(lof.summary().contains("Too few points"));
 }
+
+#[test]
+fn pooled_terms_weigh_runs_by_their_residuals() {
+    let a = Discrepancy {
+        residual_norms: vec![0.1; 30],
+        robot_share: 0.5,
+        noise: NoiseSource::Stated,
+        noise_sigma_mm: Some(0.01),
+    };
+    let b = Discrepancy {
+        residual_norms: vec![0.2; 10],
+        robot_share: 0.9,
+        noise: NoiseSource::Stated,
+        noise_sigma_mm: Some(0.02),
+    };
+    let p = Discrepancy::pooled(&[&a, &b]).unwrap();
+    assert_eq!(p.residual_norms.len(), 40);
+    assert!((p.robot_share - (0.75 * 0.5 + 0.25 * 0.9)).abs() < 1e-12);
+    assert!((p.noise_sigma_mm.unwrap() - (0.75e-4f64 + 0.25 * 4e-4).sqrt()).abs() < 1e-12);
+    // One run without a stated noise: the pool cannot take noise out.
+    let c = term(vec![0.3; 10], 1.0);
+    let q = Discrepancy::pooled(&[&a, &c]).unwrap();
+    assert_eq!(
+        (q.noise, q.robot_share, q.noise_sigma_mm),
+        (NoiseSource::Unknown, 1.0, None)
+    );
+    assert!(Discrepancy::pooled(&[]).is_none());
+    assert!(p.checked().is_ok());
+}

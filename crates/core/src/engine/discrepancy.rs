@@ -51,7 +51,7 @@ impl DiscrepancyDraws {
     ///
     /// # Panics
     ///
-    /// When `radii` is empty or longer than [`MAX_SAMPLES`] ([`Discrepancy::checked`] keeps
+    /// When `radii` is empty or longer than [`MAX_SAMPLES`] ([`crate::discrepancy::Discrepancy::checked`] keeps
     /// model files inside).
     pub fn new(radii: Vec<f64>, seed: u64) -> DiscrepancyDraws {
         assert!(

@@ -194,6 +194,20 @@ pub fn identified_model(
             if let Some(cmp) = compare_with_single_run(many, &stats) {
                 note.push_str(&cmp);
             }
+            // What the runs' fits leave unexplained, pooled: the mean model keeps it.
+            let terms: Vec<&crate::discrepancy::Discrepancy> = many
+                .iter()
+                .filter_map(|i| i.model.discrepancy.as_ref())
+                .collect();
+            stats.discrepancy = crate::discrepancy::Discrepancy::pooled(&terms);
+            if let Some(d) = stats.discrepancy.as_ref().filter(|d| d.drawn()) {
+                note.push_str(&format!(
+                    "; its discrepancy term pools the residuals of {} of the {} runs (robot's RMS {:.4} mm)",
+                    terms.len(),
+                    many.len(),
+                    d.robot_rms_mm()
+                ));
+            }
             // Placements identified per run: their mean (the tracker is taken not to move).
             let bases: Vec<_> = many.iter().filter_map(|i| i.model.base).collect();
             if many.iter().any(|i| {
