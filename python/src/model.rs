@@ -21,6 +21,7 @@ use gpu_amcs_core::sampling::ParamSampler;
 use numpy::ndarray::{Array1, Array2};
 use numpy::{IntoPyArray, PyArray1, PyArray2};
 use pyo3::prelude::*;
+use pyo3::types::PyDict;
 use rayon::prelude::*;
 use std::path::PathBuf;
 
@@ -341,6 +342,25 @@ impl PyModel {
             .map(|c| c.space().block_names())
     }
 
+    /// The model's discrepancy term (what the geometric model does not explain, from an
+    /// identification's residuals) as a dict: `residual_norms` (mm), `robot_share`, `noise`
+    /// ("stated" or "unknown"), `noise_sigma_mm`, `robot_rms_mm` and `drawn` (whether analyses
+    /// of the robot draw it); `None` for a model without one.
+    #[getter]
+    fn discrepancy<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let Some(d) = &self.model.discrepancy else {
+            return Ok(None);
+        };
+        let out = PyDict::new(py);
+        out.set_item("residual_norms", d.residual_norms.clone())?;
+        out.set_item("robot_share", d.robot_share)?;
+        out.set_item("noise", d.noise.as_str())?;
+        out.set_item("noise_sigma_mm", d.noise_sigma_mm)?;
+        out.set_item("robot_rms_mm", d.robot_rms_mm())?;
+        out.set_item("drawn", d.drawn())?;
+        Ok(Some(out))
+    }
+
     /// Indices (of the `5n + 3` inputs) with nonzero spread: the ones a sampler varies; the
     /// last three (30, 31, 32 for six joints) are the tool's x, y, z.
     #[getter]
@@ -542,7 +562,7 @@ impl PyModel {
         slf: PyRef<'py, Self>,
         q_deg: Bound<'py, PyAny>,
         columns: Option<Bound<'py, PyAny>>,
-        kwargs: Option<&Bound<'py, pyo3::types::PyDict>>,
+        kwargs: Option<&Bound<'py, PyDict>>,
     ) -> PyResult<Bound<'py, PyAny>> {
         let py = slf.py();
         py.import("gpu_amcs._interop")?.call_method(

@@ -58,6 +58,8 @@ pub struct ProblemKw<'py> {
     pub memory_limit: Option<Bound<'py, PyAny>>,
     /// "measurement" or "base": the frame of the targets (the command line's `--frame`).
     pub frame: String,
+    /// Draw the model's discrepancy term (`False`: the command line's `--no-discrepancy`).
+    pub discrepancy: bool,
 }
 
 /// The reference from the keywords `reference` and `nominal`; without `nominal`, a nominal
@@ -308,7 +310,7 @@ impl ProblemKw<'_> {
                 seed: self.seed,
                 backend,
                 adapter: self.adapter.clone(),
-                discrepancy: true,
+                discrepancy: self.discrepancy,
             },
             nominal_from_preset,
             frame: frame(&self.frame)?,
@@ -329,7 +331,7 @@ macro_rules! problem_function {
             box_center = None, box_size = None, seed = 2025,
             reference = "calibrated".to_string(), nominal = None,
             backend = "auto".to_string(), adapter = None, memory_limit = None,
-            frame = "measurement".to_string()))]
+            frame = "measurement".to_string(), discrepancy = true))]
         #[allow(clippy::too_many_arguments)]
         pub fn $name<'py>(
             $py: ::pyo3::Python<'py>,
@@ -349,6 +351,7 @@ macro_rules! problem_function {
             adapter: Option<String>,
             memory_limit: Option<::pyo3::Bound<'py, ::pyo3::PyAny>>,
             frame: String,
+            discrepancy: bool,
         ) -> ::pyo3::PyResult<$ret> {
             let $problem = $crate::problem::ProblemKw {
                 model,
@@ -366,6 +369,7 @@ macro_rules! problem_function {
                 adapter,
                 memory_limit,
                 frame,
+                discrepancy,
             };
             $body
         }

@@ -358,3 +358,29 @@ def test_plan_errors_name_the_keyword(cli):
         gpu_amcs.plan(points=5, poses=8, backend="cpu")
     with pytest.raises(ValueError, match=r"tracker_at"):
         gpu_amcs.plan(points=5, tracker_at=[1, 2], backend="cpu")
+
+
+def test_discrepancy_term_is_carried_and_can_be_left_out(cli, tmp_path):
+    # Noise not stated: the identified model carries a discrepancy term drawn from its
+    # residuals; mcs draws it (as the command line does) unless discrepancy=False
+    # (the command line's --no-discrepancy).
+    poses = tmp_path / "poses.csv"
+    run_ok(cli, "simulate", "--poses", 60, "--seed", 3, "-o", poses)
+    res = gpu_amcs.identify(poses)
+    model_file = tmp_path / "m.toml"
+    model_file.write_text(res.to_toml())
+    m = gpu_amcs.Model.from_file(model_file)
+    d = m.discrepancy
+    assert d is not None and d["drawn"] and d["noise"] == "unknown"
+    assert len(d["residual_norms"]) == 60 and d["robot_share"] == 1.0
+    lof = res.to_dict()["identify"]["runs"][0]["chain"]["lack_of_fit"]
+    assert lof["carried"] and 0.8 <= lof["loo"]["coverage_95"] <= 1.0
+    with_term = gpu_amcs.mcs(m, points=10, draws=20000, backend="cpu")
+    without = gpu_amcs.mcs(m, points=10, draws=20000, backend="cpu", discrepancy=False)
+    assert with_term.estimate > without.estimate + 0.005
+    for extra, r in [([], with_term), (["--no-discrepancy"], without)]:
+        doc, _, _ = cli_json(cli, tmp_path, "mcs", "--model", model_file, "--points", 10,
+                             "--draws", 20000, "--backend", "cpu", *extra)
+        assert without_timing(r.to_dict()) == without_timing(doc)
+    assert any("model discrepancy drawn" in n for n in with_term.notes), with_term.notes
+    assert gpu_amcs.Model.preset("tx60").discrepancy is None
