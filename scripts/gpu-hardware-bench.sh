@@ -10,7 +10,7 @@
 # and run `BIN=.devbin OUT=/tmp/gpu-figures bash scripts/gpu-hardware-bench.sh` where the GPU is.
 # Everything goes to $OUT/log.txt (and the terminal); the last lines are a summary table.
 # Optional: GPU_ONLY_STEPS="tests mcs9" runs only the steps named (tests evaluators mcs mcs9
-# mcs9cpu sensitivity20 analyses plan throughput; all by default); GPU_BENCH_DEADLINE=seconds.
+# mcs9cpu sensitivity20 analyses plan discrepancy throughput; all by default); GPU_BENCH_DEADLINE=seconds.
 set -u
 BIN=${BIN:-.devbin}
 OUT=${OUT:-/tmp/gpu-figures}
@@ -148,6 +148,24 @@ if want plan; then
             --points 50 --poses 30 --tracker-sigma 0.01 --draws 1000000 --backend "$backend" \
             -q --out "$JS/design-$backend.csv" --json "$JS/plan-$backend.json"
         say "    $(grep -o '"seconds": [0-9.e-]*' "$JS/plan-$backend.json" | head -1)"
+    done
+fi
+if want discrepancy; then
+    # The model-discrepancy term (Method §18) on each backend: a TX60 identified from 60
+    # simulated poses without a stated noise carries one; mcs 10^6 × 50 with and without it.
+    "$GPU_AMCS_BIN" simulate --poses 60 --seed 3 -o "$JS/disc-poses.csv" >/dev/null 2>&1
+    "$GPU_AMCS_BIN" identify "$JS/disc-poses.csv" -o "$JS/disc-model.toml" -q
+    for backend in gpu cpu; do
+        for term in with without; do
+            flag=(); [ "$term" = without ] && flag=(--no-discrepancy)
+            for rep in 1 2 3; do
+                step "mcs 1e6 $backend, identified model, $term the term #$rep" 60 \
+                    "$GPU_AMCS_BIN" mcs --model "$JS/disc-model.toml" --points 50 \
+                    --draws 1000000 --backend "$backend" "${flag[@]}" -q \
+                    --json "$JS/disc-$backend-$term.json"
+                say "    $(json_brief "$JS/disc-$backend-$term.json")"
+            done
+        done
     done
 fi
 if want throughput; then
