@@ -19,8 +19,9 @@
 // then at every test point the deviation Δ of the end position from the mean-parameter chain,
 // propagated from the tool to the base, starting from the tool point's own offset
 // Δ_{n+1} = δ_tool = (δ_5n, δ_5n+1, δ_5n+2) (see src/engine/deviation.rs for the formulation and its
-// error budget), e_j = |Δ_1 + o_j|, w = max_j e_j. Counter draws (max_point_error only) of a
-// model with a discrepancy term (what the geometric model does not explain; cfg.disc_count radii
+// error budget), e_j = |Δ_1 + o_j|, w = max_j e_j. Counter draws and pick-freeze rows (from
+// draw b where the matrix's mask has bit 63, else a; not offset rows) of a model with a
+// discrepancy term (what the geometric model does not explain; cfg.disc_count radii
 // in disc_radii, 0: none) then take e_j ← √(e_j² + r² + 2 e_j r c), radius r and cosine c from
 // the word h(a ⊕ h(b + j)), (a, b, _, _) the draw's Philox block (draw, 0, DISCREPANCY_STREAM)
 // (crates/core/src/discrepancy/mod.rs, crates/core/src/engine/discrepancy.rs).
@@ -288,8 +289,8 @@ fn with_discrepancy(e: f32, wd: u32, k: u32) -> f32 {
 }
 
 // Errors of the parameter vector mean + d at every test point: e_out row i (if asked for) and
-// w_out[i] = max_j e_j. With disc_count > 0 (counter draws only) the discrepancy term of draw
-// `draw` is applied at every point.
+// w_out[i] = max_j e_j. With disc_count > 0 (counter draws and pick-freeze rows) the
+// discrepancy term of draw `draw` is applied at every point.
 fn point_errors(i: u32, d: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u32) {
     // Per joint: α' and β' as (cos', sin', cos' − cos, sin' − sin); θ as (sin h, cos h) with
     // h = δθ/2; and (δa, δd). The loops have constant bounds, so a compiler can unroll them and
@@ -382,11 +383,11 @@ fn max_point_error_pick_freeze(@builtin(global_invocation_id) gid: vec3<u32>) {
     let row = chunk.row0 + i;
     let s = row / chunk.per_matrix;
     let r = row - s * chunk.per_matrix;
-    let z = pick_freeze_normals(
-        draw_plus(chunk.first, r),
-        draw_plus(chunk.b_first, r),
-        masks[s],
-    );
-    // Sobol indices cover the parameters alone: no discrepancy term.
-    point_errors(i, spread_offsets(z), vec2<u32>(0u), 0u);
+    let a = draw_plus(chunk.first, r);
+    let b = draw_plus(chunk.b_first, r);
+    let z = pick_freeze_normals(a, b, masks[s]);
+    // The discrepancy term is one more Sobol input: from draw b where the mask has bit 63
+    // (DISCREPANCY_MASK), else from a.
+    let disc_draw = select(a, b, (masks[s].y & 0x80000000u) != 0u);
+    point_errors(i, spread_offsets(z), disc_draw, cfg.disc_count);
 }

@@ -1457,8 +1457,12 @@ fn gpu_draws_the_discrepancy_term_as_the_cpu_does() {
             max_diff(&wgo, &wco).max(max_diff(&ego, &eco)),
         );
 
-        // Pick-freeze rows (mask 0: matrix A is the draws themselves): no term either.
-        let masks = [0, ALL_NORMALS];
+        // Pick-freeze rows carry the term, from draw b where the mask has DISCREPANCY_MASK
+        // (the term is a Sobol input): mask 0 is matrix A, the counter draws themselves, with
+        // their term; the term's bit alone takes draw a's kinematics with draw b's term, as the
+        // CPU does (its own test: `pick_freeze_rows_take_the_term_by_its_bit`).
+        use gpu_amcs::engine::DISCREPANCY_MASK;
+        let masks = [0, ALL_NORMALS | DISCREPANCY_MASK, DISCREPANCY_MASK];
         let request = PickFreeze {
             first,
             b_first: 1 << 40,
@@ -1467,10 +1471,22 @@ fn gpu_draws_the_discrepancy_term_as_the_cpu_does() {
         };
         let pg = evaluate_pick_freeze(&mut gpu, &request);
         let pc = evaluate_pick_freeze(&mut cpu, &request);
-        no_term(
-            "pick-freeze rows",
-            max_diff(&pg[..n], &wk),
-            max_diff(&pg, &pc),
+        assert_eq!(
+            &pg[..n],
+            &wg[..],
+            "{label}: mask 0 rows are the counter draws"
+        );
+        let scale = pc.iter().fold(0.0f64, |a, &b| a.max(b));
+        let d = max_diff(&pg, &pc);
+        eprintln!("{label}, pick-freeze rows with the term: GPU vs CPU {d:.3e} mm");
+        assert!(
+            d <= SAMPLE_TOL_MM + DISCREPANCY_REL_TOL * 2.0 * scale,
+            "{label}: pick-freeze rows, GPU vs CPU {d}"
+        );
+        let moved = max_diff(&pg[2 * n..], &wg);
+        assert!(
+            moved > 1e-4,
+            "{label}: the term's bit changed nothing ({moved})"
         );
     }
 }

@@ -681,3 +681,54 @@ fn sensitivity_subcommand_writes_svg() {
         .collect();
     assert_eq!(names.len(), 2, "{names:?}");
 }
+
+/// A model's discrepancy term is one more Sobol input (`model_discrepancy`, its own group): it
+/// takes nearly all of w's variance when its radii dwarf what the parameters do (1 mm against
+/// the TX60's ~0.1 mm), next to none when they are tiny (1e-5 mm), and the parameters' indices
+/// then match the analysis without the term.
+#[test]
+fn the_discrepancy_term_is_an_input_of_its_own() {
+    use gpu_amcs::discrepancy::{Discrepancy, NoiseSource};
+    let pts = [
+        [10.0, -20.0, 30.0, 40.0, 50.0, 60.0],
+        [-40.0, 10.0, 80.0, 0.0, 30.0, 0.0],
+    ];
+    let analyse = |radius: f64| {
+        let mut m = tx60();
+        m.discrepancy = Some(
+            Discrepancy {
+                residual_norms: (0..20)
+                    .map(|i| radius * (1.0 + 0.05 * f64::from(i)))
+                    .collect(),
+                robot_share: 1.0,
+                noise: NoiseSource::Unknown,
+                noise_sigma_mm: None,
+            }
+            .checked()
+            .unwrap(),
+        );
+        let pb = Problem::new(m, &pts, &Reference::Calibrated, 3).unwrap();
+        let r = run_sensitivity(&pb, &mut CpuEvaluator::new(pb.clone()), &opts(4096)).unwrap();
+        assert_eq!(
+            r.parameters.last().map(String::as_str),
+            Some("model_discrepancy")
+        );
+        assert!(r.w().groups.iter().any(|g| g.name == "model discrepancy"));
+        (
+            r.clone(),
+            find(&r.w().inputs, "model_discrepancy").total.value,
+        )
+    };
+    let (_, big) = analyse(1.0);
+    assert!(big > 0.9, "total index of a dominant term: {big}");
+    let (small, tiny) = analyse(1e-5);
+    assert!(tiny < 0.01, "total index of a negligible term: {tiny}");
+    let pb = Problem::new(tx60(), &pts, &Reference::Calibrated, 3).unwrap();
+    let plain = run_sensitivity(&pb, &mut CpuEvaluator::new(pb.clone()), &opts(4096)).unwrap();
+    let a = find(&small.w().inputs, "theta2").total.value;
+    let b = find(&plain.w().inputs, "theta2").total.value;
+    assert!(
+        (a - b).abs() < 0.02,
+        "theta2 with a negligible term {a}, without {b}"
+    );
+}

@@ -308,13 +308,22 @@ impl CpuEvaluator {
                 .placement
                 .as_ref()
                 .map(|p| p.transforms(&p.offsets(src.skip(b * LANES), &d, &mut z)));
-            // The discrepancy term is drawn for counter draws (see `crate::discrepancy`).
+            // The discrepancy term is drawn for counter draws and pick-freeze rows (from the
+            // row's `a` or `b` draw by its mask; see `crate::discrepancy`), not for offset rows.
             let draws: [u64; LANES] = match src {
                 Source::Draws(k) => std::array::from_fn(|l| k + (b * LANES + l) as u64),
-                _ => [0; LANES],
+                Source::PickFreeze(pf, row) => std::array::from_fn(|l| {
+                    let r = row + b * LANES + l;
+                    if r < pf.rows() {
+                        pf.discrepancy_draw(r)
+                    } else {
+                        0
+                    }
+                }),
+                Source::Offsets(..) => [0; LANES],
             };
             let disc = match (src, &self.problem.discrepancy) {
-                (Source::Draws(_), Some(dd)) => Some((dd, &draws)),
+                (Source::Draws(_) | Source::PickFreeze(..), Some(dd)) => Some((dd, &draws)),
                 _ => None,
             };
             match &place {

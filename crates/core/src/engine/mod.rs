@@ -50,17 +50,19 @@ pub mod backend;
 pub mod cpu;
 pub mod deviation;
 pub mod discrepancy;
+mod pick_freeze;
 pub mod placement;
 mod problem;
 
 pub use backend::{cpu_evaluator, BackendChoice, Backends, CpuOnly};
 pub use cpu::CpuEvaluator;
 pub use discrepancy::{DiscrepancyDraws, DISCREPANCY_STREAM};
+pub use pick_freeze::{PickFreeze, DISCREPANCY_MASK};
 pub use placement::{Frame, PlacementEvaluator, PlacementSpread};
 pub use problem::{Problem, ProblemError, Reference};
 
 use crate::kinematics::{InputSpace, Layout};
-use crate::sampling::{Philox, ALL_NORMALS, MAX_NORMALS};
+use crate::sampling::Philox;
 
 /// Largest accepted angular offset (θ, α, β) in an offset matrix, radians: a quarter turn.
 /// Offsets are deviations of a calibrated model, orders of magnitude smaller; the bound keeps
@@ -287,73 +289,6 @@ pub trait Evaluator: Send {
     }
 }
 
-/// The rows of the matrices of a pick-freeze design (Sobol indices, `docs/METHOD.md §9`):
-/// matrix `s` has `count` rows, and its row `r` is the parameter vector whose standard normal
-/// `i` is normal `i` of draw `b_first + r` if bit `i` of `masks[s]` is set, and of draw
-/// `first + r` otherwise. Matrix A is mask 0 (draw `first + r` itself), B is [`ALL_NORMALS`]
-/// (draw `b_first + r`), and `A_B^(S)` has the bits of the inputs in `S`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct PickFreeze<'a> {
-    /// Draw of row 0 of A (the base sample index).
-    pub first: u64,
-    /// Draw of row 0 of B.
-    pub b_first: u64,
-    /// Rows per matrix.
-    pub count: usize,
-    /// One mask of standard normals per matrix (bits `0 … MAX_NORMALS − 1`).
-    pub masks: &'a [u64],
-}
-
-impl PickFreeze<'_> {
-    /// Rows of the request: `count · masks.len()`.
-    pub fn rows(&self) -> usize {
-        self.count * self.masks.len()
-    }
-
-    /// Row `row` of the request (matrix-major): draws `(a, b)` and the mask.
-    #[inline]
-    pub fn row(&self, row: usize) -> (u64, u64, u64) {
-        let (s, r) = (row / self.count, (row % self.count) as u64);
-        (self.first + r, self.b_first + r, self.masks[s])
-    }
-
-    /// Checks masks and draw ranges.
-    ///
-    /// # Errors
-    ///
-    /// [`EngineError::PickFreezeRequest`] when a mask has bits beyond the [`MAX_NORMALS`] normals
-    /// of a draw, the rows overflow `usize`, or the rows of A or B pass the last draw index 2⁶⁴ −
-    /// 1.
-    pub fn check(&self) -> Result<(), EngineError> {
-        let bad = |m: String| Err(EngineError::PickFreezeRequest(m));
-        if let Some((s, m)) = self
-            .masks
-            .iter()
-            .enumerate()
-            .find(|(_, &m)| m & !ALL_NORMALS != 0)
-        {
-            return bad(format!(
-                "mask of matrix {s} is {m:#x}: a draw has {MAX_NORMALS} normals"
-            ));
-        }
-        if self.count.checked_mul(self.masks.len()).is_none() {
-            return bad(format!(
-                "{} matrices of {} rows are too many",
-                self.masks.len(),
-                self.count
-            ));
-        }
-        for (name, d) in [("A", self.first), ("B", self.b_first)] {
-            if d.checked_add(self.count as u64).is_none() {
-                return bad(format!(
-                    "rows of {name} from draw {d} on pass the last draw index 2^64 − 1"
-                ));
-            }
-        }
-        Ok(())
-    }
-}
-
 /// Checks the output lengths of an evaluation: `per_point` must hold `m` entries per `w`.
 fn check_buffers(m: usize, w: &[f64], per_point: Option<&[f64]>) -> Result<(), EngineError> {
     match per_point {
@@ -446,6 +381,7 @@ impl<F: Fn(&Philox, u64) -> f64 + Send + Sync> Evaluator for FnEvaluator<F> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::sampling::{ALL_NORMALS, MAX_NORMALS};
     const L6: Layout = Layout::SIX;
     const NP: usize = L6.n_params();
     const NU: usize = 33;

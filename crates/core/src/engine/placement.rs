@@ -249,12 +249,11 @@ impl PlacementEvaluator {
     fn eval_rows(
         &self,
         rows: impl Fn(usize) -> [f64; MAX_INPUTS] + Sync,
-        draws: Option<u64>,
+        draw: impl Fn(usize) -> Option<u64> + Sync,
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) {
         let m = self.problem.points.len();
-        let draw = |i: usize| draws.map(|first| first + i as u64);
         match per_point {
             None => w.par_iter_mut().enumerate().for_each_init(
                 || vec![0.0; m],
@@ -290,7 +289,7 @@ impl Evaluator for PlacementEvaluator {
     ) -> Result<(), EngineError> {
         self.eval_rows(
             |i| self.spread.deltas(&self.gen, first + i as u64),
-            Some(first),
+            |i| Some(first + i as u64),
             w,
             per_point,
         );
@@ -315,7 +314,7 @@ impl Evaluator for PlacementEvaluator {
         let row = |i: usize| -> [f64; MAX_INPUTS] {
             std::array::from_fn(|p| if p < nb { offsets[i * nb + p] } else { 0.0 })
         };
-        self.eval_rows(row, None, w, per_point);
+        self.eval_rows(row, |_| None, w, per_point);
         Ok(())
     }
 
@@ -324,7 +323,7 @@ impl Evaluator for PlacementEvaluator {
             let (a, b, mask) = request.row(i);
             self.spread.pick_freeze_deltas(&self.gen, a, b, mask)
         };
-        self.eval_rows(row, None, w, None);
+        self.eval_rows(row, |i| Some(request.discrepancy_draw(i)), w, None);
         Ok(())
     }
 }

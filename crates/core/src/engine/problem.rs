@@ -208,13 +208,13 @@ impl Problem {
     }
 
     /// The problem of an analysis that works in the standard-normal space of the parameters
-    /// (`analysis`: Sobol indices, the tail's subset simulation), which the empirical
-    /// discrepancy term is not part of: the problem without it, and a note saying so when the
+    /// (`analysis`: the tail's subset simulation), which the empirical discrepancy term is not
+    /// part of: the problem without it, and a note saying so when the
     /// model has one.
     pub fn without_discrepancy_for(self, analysis: &str) -> (Problem, Option<String>) {
         let note = self.model.discrepancy.as_ref().filter(|d| d.drawn()).map(|d| {
             format!(
-                "{analysis}: the model's discrepancy term (RMS {:.4} mm, what the geometric model does not explain) is not part of this analysis, which covers the parameters' uncertainty alone; mcs and amcs include it",
+                "{analysis}: the model's discrepancy term (RMS {:.4} mm, what the geometric model does not explain) is not part of this analysis, which covers the parameters' uncertainty alone; mcs, amcs and sensitivity include it",
                 d.robot_rms_mm()
             )
         });

@@ -248,3 +248,49 @@ fn discrepancy_term_matches_its_point_form() {
     let kin = pb.point_errors(&pb.sampler.draw(5000));
     assert!((kin[1] - e[1]).abs() < 1e-10);
 }
+
+/// Pick-freeze rows of a model with a discrepancy term take the term from the row's `b` draw
+/// where the mask has `DISCREPANCY_MASK`, else from `a`: mask 0 gives counter draw `a`, all
+/// bits counter draw `b`, the term's bit alone draw `a`'s kinematics with draw `b`'s term.
+#[test]
+fn pick_freeze_rows_take_the_term_by_its_bit() {
+    use crate::engine::{PickFreeze, DISCREPANCY_MASK};
+    use crate::sampling::ALL_NORMALS;
+    let mut m = tx60();
+    m.discrepancy = Some(
+        crate::discrepancy::Discrepancy {
+            residual_norms: (1..=20).map(|i| 0.004 * f64::from(i)).collect(),
+            robot_share: 1.0,
+            noise: crate::discrepancy::NoiseSource::Unknown,
+            noise_sigma_mm: None,
+        }
+        .checked()
+        .unwrap(),
+    );
+    let pts = [[10.0, -20.0, 30.0, 40.0, 50.0, 60.0], [0.0; 6]];
+    let pb = Problem::new(m, &pts, &Reference::Calibrated, 9).unwrap();
+    let dd = pb.discrepancy.clone().unwrap();
+    let mut ev = CpuEvaluator::new(pb.clone());
+    let count = 11;
+    let (first, b_first) = (100u64, 5000u64);
+    let masks = [0, ALL_NORMALS | DISCREPANCY_MASK, DISCREPANCY_MASK];
+    let request = PickFreeze {
+        first,
+        b_first,
+        count,
+        masks: &masks,
+    };
+    let mut w = vec![0.0; request.rows()];
+    ev.evaluate_pick_freeze(&request, &mut w).unwrap();
+    let mut draws = vec![0.0; count];
+    for (s, start) in [(0, first), (1, b_first)] {
+        ev.evaluate(start, &mut draws, None).unwrap();
+        assert_eq!(&w[s * count..(s + 1) * count], &draws[..], "matrix {s}");
+    }
+    for r in 0..count {
+        let (a, b) = (first + r as u64, b_first + r as u64);
+        let kin = pb.point_errors(&pb.sampler.draw(a));
+        let want = (0..2).map(|j| dd.apply(kin[j], b, j)).fold(0.0, f64::max);
+        assert!((w[2 * count + r] - want).abs() < 1e-10, "row {r}");
+    }
+}

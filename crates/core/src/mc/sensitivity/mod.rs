@@ -85,6 +85,7 @@
 
 mod bootstrap;
 mod estimator;
+mod groups;
 
 pub use bootstrap::THRESHOLD_BATCH_BYTES;
 
@@ -96,11 +97,14 @@ pub use estimator::{
 
 use serde::{Deserialize, Serialize};
 
-use crate::engine::{BackendInfo, EngineError, Evaluator, PickFreeze, PlacementSpread, Problem};
-use crate::kinematics::{
-    param_joint, param_kind, Block, Layout, ParamKind, MAX_JOINTS, MIN_JOINTS,
+pub use groups::{param_name, DISCREPANCY_INPUT};
+
+use crate::engine::{
+    BackendInfo, EngineError, Evaluator, PickFreeze, PlacementSpread, Problem, DISCREPANCY_MASK,
 };
+use crate::kinematics::{Layout, MAX_JOINTS, MIN_JOINTS};
 use crate::sampling::ALL_NORMALS;
+use groups::input_groups;
 
 /// Draw index offset of matrix B: row `k` of B is draw `B_DRAW_OFFSET + k`.
 pub const B_DRAW_OFFSET: u64 = 1 << 63;
@@ -358,52 +362,6 @@ impl SensitivityResult {
     }
 }
 
-/// Report name of input `i` of the inputs of layout `lay` (positions of
-/// [`InputSpace::measured`](crate::kinematics::InputSpace::measured), e.g. `alpha3`, or `tool_x` … `tool_z` for the tool point, indices
-/// 30–32 of a six-joint model).
-pub fn param_name(lay: Layout, i: usize) -> String {
-    lay.measured().name(i)
-}
-
-/// The groups of the free inputs `free` (as input columns; positions of [`InputSpace::measured`](crate::kinematics::InputSpace::measured))
-/// of layout `lay`: per joint, then per kind, then one group per other block (the tool point's
-/// uncertain coordinates, then the base placement's uncertain inputs, when it is drawn).
-fn robot_groups(lay: Layout, free: &[usize]) -> Vec<InputGroup> {
-    let space = lay.measured();
-    let select = |name: String, keep: &dyn Fn(usize) -> bool| InputGroup {
-        name,
-        members: (0..free.len()).filter(|&c| keep(free[c])).collect(),
-    };
-    let param = move |i: usize| match space.locate(i) {
-        (Block::Joints, k) => Some(k),
-        _ => None,
-    };
-    let joints = (0..lay.joints()).map(|j| {
-        select(format!("joint {}", j + 1), &move |i| {
-            param(i).is_some_and(|k| param_joint(k) == j)
-        })
-    });
-    let kinds: [(&str, &[ParamKind]); 3] = [
-        ("joint angles θ", &[ParamKind::Theta]),
-        ("twists α/β", &[ParamKind::Alpha, ParamKind::Beta]),
-        ("lengths a/d", &[ParamKind::A, ParamKind::D]),
-    ];
-    let kinds = kinds.into_iter().map(|(name, ks)| {
-        select(name.to_string(), &move |i| {
-            param(i).is_some_and(|k| ks.contains(&param_kind(k)))
-        })
-    });
-    let blocks = space
-        .blocks()
-        .skip(1)
-        .map(|b| select(b.label().to_string(), &move |i| space.locate(i).0 == b));
-    joints
-        .chain(kinds)
-        .chain(blocks)
-        .filter(|g| !g.members.is_empty())
-        .collect()
-}
-
 /// Sobol indices of `w` for every free parameter of `problem`, per joint and per kind, with the
 /// evaluator `ev` built for the same problem (CPU or GPU: only its offset path is used).
 /// See the module docs for the estimators, the draw definition and correlated models.
@@ -494,15 +452,25 @@ pub fn run_outputs(
             model: problem.model.name.clone(),
         });
     }
-    let groups = robot_groups(lay, &free);
-    // Input column c is the standard normal free[c] of a draw: A takes none from the B draw,
+    let discrepancy = problem.discrepancy.is_some();
+    let groups = input_groups(lay, &free, discrepancy);
+    // Input column c is the standard normal free[c] of a draw, and with a discrepancy term the
+    // last column is the term (its mask bit DISCREPANCY_MASK): A takes none from the B draw,
     // B all, A_B^(S) those of the columns in S.
+    let bit = |col: usize| {
+        if col == free.len() {
+            DISCREPANCY_MASK
+        } else {
+            1 << free[col]
+        }
+    };
+    let all = ALL_NORMALS | if discrepancy { DISCREPANCY_MASK } else { 0 };
     let eval = |k0: usize, c: usize, sets: &[Vec<usize>]| {
-        let masks: Vec<u64> = [0, ALL_NORMALS]
+        let masks: Vec<u64> = [0, all]
             .into_iter()
             .chain(
                 sets.iter()
-                    .map(|set| set.iter().fold(0u64, |m, &col| m | 1 << free[col])),
+                    .map(|set| set.iter().fold(0u64, |m, &col| m | bit(col))),
             )
             .collect();
         let request = PickFreeze {
@@ -515,13 +483,15 @@ pub fn run_outputs(
         ev.evaluate_pick_freeze(&request, &mut w)?;
         Ok(w)
     };
-    let out = pick_freeze_chunks(free.len(), &groups, eval, opts, range)?;
+    let columns = free.len() + usize::from(discrepancy);
+    let out = pick_freeze_chunks(columns, &groups, eval, opts, range)?;
     Ok((
         out,
         Design {
             input_kind,
             free,
             joints: lay.joints(),
+            discrepancy,
         },
     ))
 }
@@ -540,6 +510,10 @@ pub struct Design {
     /// only when not six, so a six-joint design reads as before).
     #[serde(default = "six_joints", skip_serializing_if = "is_six")]
     pub joints: usize,
+    /// The model's discrepancy term is the last input ([`DISCREPANCY_INPUT`]; written only
+    /// when true, so a design without one reads as before).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub discrepancy: bool,
 }
 
 fn six_joints() -> usize {
@@ -582,12 +556,16 @@ impl Design {
                 n - 1
             )));
         }
-        let names: Vec<String> = self.free.iter().map(|&i| param_name(lay, i)).collect();
+        let mut names: Vec<String> = self.free.iter().map(|&i| param_name(lay, i)).collect();
+        if self.discrepancy {
+            names.push(DISCREPANCY_INPUT.to_string());
+        }
         let skipped = (0..lay.n_params())
             .filter(|i| !self.free.contains(i))
             .map(|i| param_name(lay, i))
             .collect();
-        let analysis = analyse_outputs(&names, &robot_groups(lay, &self.free), out, opts)?;
+        let groups = input_groups(lay, &self.free, self.discrepancy);
+        let analysis = analyse_outputs(&names, &groups, out, opts)?;
         Ok(SensitivityResult {
             model,
             points,

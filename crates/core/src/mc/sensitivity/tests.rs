@@ -2,6 +2,7 @@
 //! TX60 (tool coordinates included) and of a seven-joint model, and the design's joint count.
 
 use super::*;
+use super::groups::robot_groups;
 use crate::kinematics::tx60;
 
 #[test]
@@ -139,6 +140,7 @@ fn seven_joint_inputs_are_laid_out_by_the_model() {
         input_kind: InputKind::CholeskyInnovations,
         free: free.clone(),
         joints: 7,
+        discrepancy: false,
     };
     let json = serde_json::to_string(&seven).unwrap();
     assert!(json.contains("\"joints\":7"), "{json}");
@@ -149,8 +151,18 @@ fn seven_joint_inputs_are_laid_out_by_the_model() {
         ..seven
     };
     let json = serde_json::to_string(&six).unwrap();
-    assert!(!json.contains("joints"), "{json}");
+    assert!(
+        !json.contains("joints") && !json.contains("discrepancy"),
+        "{json}"
+    );
     assert_eq!(serde_json::from_str::<Design>(&json).unwrap(), six);
+    let with_term = Design {
+        discrepancy: true,
+        ..six.clone()
+    };
+    let json = serde_json::to_string(&with_term).unwrap();
+    assert!(json.contains("\"discrepancy\":true"), "{json}");
+    assert_eq!(serde_json::from_str::<Design>(&json).unwrap(), with_term);
     // A design whose inputs lie beyond its joint count is refused.
     let bad = Design {
         free: vec![40],

@@ -43,8 +43,14 @@ impl Provenance {
         for r in &problem.reference {
             r.iter().for_each(|x| h.write(&x.to_le_bytes()));
         }
+        // The model as drawn: a discrepancy term the run leaves out is not part of it, so
+        // shards with and without the term never merge.
+        let mut drawn = problem.model.clone();
+        if problem.discrepancy.is_none() {
+            drawn.discrepancy = None;
+        }
         let mut mh = Fnv::new();
-        mh.write(problem.model.to_toml().as_bytes());
+        mh.write(drawn.to_toml().as_bytes());
         Provenance {
             version: env!("CARGO_PKG_VERSION").to_string(),
             model: problem.model.name.clone(),
