@@ -1,8 +1,8 @@
 //! Unit tests of the robot sensitivity analysis: the options' checks, the input groups of the
 //! TX60 (tool coordinates included) and of a seven-joint model, and the design's joint count.
 
-use super::*;
 use super::groups::robot_groups;
+use super::*;
 use crate::kinematics::tx60;
 
 #[test]
