@@ -7,12 +7,11 @@
 //! evaluator on 10^6 counter draws × 50 points, with and without the term, interleaved in one
 //! process so that the ratios are measured under the same load.
 
-use gpu_amcs::engine::{CpuEvaluator, Evaluator, Frame, Problem, Reference};
-use std::time::Instant;
+use gpu_amcs::engine::{CpuEvaluator, Frame, Problem, Reference};
 
 #[path = "support/identified.rs"]
 mod identified;
-use identified::{identified, median};
+use identified::{identified, interleaved_medians};
 
 fn main() {
     let reps: usize = std::env::var("BENCH_REPS")
@@ -33,16 +32,7 @@ fn main() {
             CpuEvaluator::new(pb.clone()),
             CpuEvaluator::new(pb.without_discrepancy()),
         ];
-        let mut w = vec![0.0; 1_000_000];
-        let mut t = [Vec::new(), Vec::new()];
-        for _ in 0..reps {
-            for (ev, t) in evs.iter_mut().zip(&mut t) {
-                let s = Instant::now();
-                ev.evaluate(0, &mut w, None).unwrap();
-                t.push(s.elapsed().as_secs_f64());
-            }
-        }
-        let [with, without] = t.map(median);
+        let [with, without] = interleaved_medians(&mut evs, reps);
         println!(
             "mcs 10^6 × 50, {label:<17}  with the term {with:.3} s  without {without:.3} s  ratio {:.2}",
             with / without

@@ -9,14 +9,14 @@
 //! in each frame, and the ratio measurement / base of each median. Both frames run in one
 //! process, interleaved, so the ratio is measured under the same load.
 
-use gpu_amcs::engine::{CpuEvaluator, Evaluator, Frame, Problem, Reference};
+use gpu_amcs::engine::{CpuEvaluator, Frame, Problem, Reference};
 
 use gpu_amcs::mc::sensitivity::{run_sensitivity, SensitivityOptions};
 use std::time::Instant;
 
 #[path = "support/identified.rs"]
 mod identified;
-use identified::{identified, median};
+use identified::{identified, interleaved_medians, median};
 
 fn main() {
     let reps: usize = std::env::var("BENCH_REPS")
@@ -41,16 +41,7 @@ fn main() {
         CpuEvaluator::new(measured.clone()),
         CpuEvaluator::new(base.clone()),
     ];
-    let mut w = vec![0.0; 1_000_000];
-    let mut t = [Vec::new(), Vec::new()];
-    for _ in 0..reps {
-        for (ev, t) in evs.iter_mut().zip(&mut t) {
-            let s = Instant::now();
-            ev.evaluate(0, &mut w, None).unwrap();
-            t.push(s.elapsed().as_secs_f64());
-        }
-    }
-    let [m, b] = t.map(median);
+    let [m, b] = interleaved_medians(&mut evs, reps);
     println!(
         "mcs draws 10^6 × 50 points       measurement {m:.3} s  base {b:.3} s  ratio {:.2}",
         m / b

@@ -3,10 +3,12 @@
 //! of `gpu-amcs identify poses.csv`; the noise is not stated, so the fit carries a discrepancy
 //! term).
 
+use gpu_amcs::engine::{CpuEvaluator, Evaluator};
 use gpu_amcs::identify::chain::ChainOptions;
 use gpu_amcs::identify::{identify_poses, IdentifyOptions};
 use gpu_amcs::kinematics::{tx60, BaseTransform, RobotModel};
 use gpu_amcs::simulate::{simulate_poses, TrackerNoise};
+use std::time::Instant;
 
 /// The identified TX60.
 pub fn identified() -> RobotModel {
@@ -32,6 +34,21 @@ pub fn identified() -> RobotModel {
     )
     .unwrap();
     ids.into_iter().next().unwrap().model
+}
+
+/// Medians of `reps` runs of 10^6 counter draws on each of the two evaluators, interleaved so
+/// that their ratio is measured under the same load.
+pub fn interleaved_medians(evs: &mut [CpuEvaluator; 2], reps: usize) -> [f64; 2] {
+    let mut w = vec![0.0; 1_000_000];
+    let mut t = [Vec::new(), Vec::new()];
+    for _ in 0..reps {
+        for (ev, t) in evs.iter_mut().zip(&mut t) {
+            let s = Instant::now();
+            ev.evaluate(0, &mut w, None).unwrap();
+            t.push(s.elapsed().as_secs_f64());
+        }
+    }
+    t.map(median)
 }
 
 /// The median of `v`.
