@@ -110,6 +110,8 @@ pub struct LackOfFit {
     pub carried: bool,
     /// The leave-one-out self-check (`None` for fewer than [`MIN_RESIDUALS`] points).
     pub loo: Option<LooCheck>,
+    /// What it means, in words ([`Self::summary`]; in JSON reports).
+    pub summary: String,
 }
 
 /// `A^{-1/2}` of a symmetric positive definite 3 × 3 (identity when it is not).
@@ -198,7 +200,7 @@ impl LackOfFit {
             noise_sigma_mm: sigma,
         });
         let loo = enough.then(|| loo_check(points, &norms, covariance_scale, seed));
-        LackOfFit {
+        let mut lof = LackOfFit {
             points: n,
             residual_rms_mm: ms.sqrt(),
             noise,
@@ -211,7 +213,10 @@ impl LackOfFit {
             carried: robot_share > 0.0 && term.is_some(),
             term,
             loo,
-        }
+            summary: String::new(),
+        };
+        lof.summary = lof.summary();
+        lof
     }
 
     /// What the lack of fit means, in words (one or two sentences).
