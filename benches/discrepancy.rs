@@ -11,13 +11,10 @@ use gpu_amcs::engine::{CpuEvaluator, Frame, Problem, Reference};
 
 #[path = "support/identified.rs"]
 mod identified;
-use identified::{identified, interleaved_medians};
+use identified::{identified, interleaved_medians, reps};
 
 fn main() {
-    let reps: usize = std::env::var("BENCH_REPS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(7);
+    let reps = reps();
     let model = identified();
     assert!(model.discrepancy.is_some(), "the fit carries a term");
     let pts = gpu_amcs::simulate::random_poses(&model, 50, 7);

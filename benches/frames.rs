@@ -16,13 +16,10 @@ use std::time::Instant;
 
 #[path = "support/identified.rs"]
 mod identified;
-use identified::{identified, interleaved_medians, median};
+use identified::{identified, interleaved_medians, median, reps};
 
 fn main() {
-    let reps: usize = std::env::var("BENCH_REPS")
-        .ok()
-        .and_then(|s| s.parse().ok())
-        .unwrap_or(7);
+    let reps = reps();
     let model = identified();
     assert!(model.base_uncertain(), "the placement is drawn");
     let pts = gpu_amcs::simulate::random_poses(&model, 50, 7);

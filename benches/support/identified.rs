@@ -51,6 +51,14 @@ pub fn interleaved_medians(evs: &mut [CpuEvaluator; 2], reps: usize) -> [f64; 2]
     t.map(median)
 }
 
+/// Repetitions per timing: `BENCH_REPS`, default 7.
+pub fn reps() -> usize {
+    std::env::var("BENCH_REPS")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(7)
+}
+
 /// The median of `v`.
 pub fn median(mut v: Vec<f64>) -> f64 {
     v.sort_by(f64::total_cmp);
