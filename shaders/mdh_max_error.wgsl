@@ -40,7 +40,8 @@ struct Config {
     block_mask: u32,
     // radii of the discrepancy term in disc_radii (0: no term)
     disc_count: u32,
-    _pad1: u32,
+    // 1: m per-point factors of the radii follow them in disc_radii (a compensated model)
+    disc_scaled: u32,
 }
 
 struct Chunk {
@@ -277,12 +278,17 @@ fn placement_step(dv: vec3<f32>, x0: vec3<f32>, d: array<f32, N_PLACED>) -> vec3
     return dv + i1 + i2 + i3 + rt;
 }
 
-// The error of a point whose kinematic error is e with the discrepancy word wd: radius
-// r = disc_radii[⌊(wd ≫ 16)·K / 2¹⁶⌋] (exact in u32: K ≤ 2¹⁶), cosine
+// The error of point pj whose kinematic error is e with the discrepancy word wd: radius
+// r = disc_radii[⌊(wd ≫ 16)·K / 2¹⁶⌋] (exact in u32: K ≤ 2¹⁶; times disc_radii[K + pj] for a
+// compensated model), cosine
 // c = ((wd mod 2¹⁶) + ½)·2⁻¹⁵ − 1, and √(e² + r² + 2erc) formed as √((e − r)² + 2er(1 + c)):
 // both terms are non-negative and 1 + c is exact in f32, so no cancellation.
-fn with_discrepancy(e: f32, wd: u32, k: u32) -> f32 {
-    let r = disc_radii[((wd >> 16u) * k) >> 16u];
+fn with_discrepancy(e: f32, wd: u32, k: u32, pj: u32) -> f32 {
+    var r = disc_radii[((wd >> 16u) * k) >> 16u];
+    if (cfg.disc_scaled != 0u) {
+        // a compensated model: the point's predictive σ over the term's reference
+        r = r * disc_radii[k + pj];
+    }
     let one_plus_c = (f32(wd & 0xFFFFu) + 0.5) * (1.0 / 32768.0);
     let dr = e - r;
     return sqrt(dr * dr + 2.0 * e * r * one_plus_c);
@@ -332,7 +338,7 @@ fn point_errors(i: u32, d: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u3
         let ez = dv.z + o.z;
         var e = sqrt(ex * ex + ey * ey + ez * ez);
         if (disc_count != 0u) {
-            e = with_discrepancy(e, hash32(dab.x ^ hash32(dab.y + pj)), disc_count);
+            e = with_discrepancy(e, hash32(dab.x ^ hash32(dab.y + pj)), disc_count, pj);
         }
         if (chunk.want_e != 0u) {
             e_out[i * m + pj] = e;

@@ -90,6 +90,10 @@ subcommands! {
     Identify(cmd::identify::IdentifyArgs),
     /// Positioning accuracy of a model against measured positions.
     Validate(cmd::validate::ValidateArgs),
+    /// Corrected targets of a task: what to command a controller running the nominal
+    /// kinematics so that the calibrated robot (with its compensation) reaches the intended
+    /// positions (CSV).
+    Targets(cmd::targets::TargetsArgs),
     /// Simulate laser-tracker data of a virtual robot (CSV): circle-point sweeps, or poses at
     /// random configurations (--poses), in the base frame or a tracker frame.
     #[command(allow_negative_numbers = true)]

@@ -20,5 +20,5 @@ awk -v k="$k" -v out="$work" 'NR == 1 { print > (out "/train.csv"); print > (out
     { if ((NR - 1) % k == 0) print > (out "/test.csv"); else print > (out "/train.csv") }' "$data"
 echo "data: $data ($(($(wc -l < "$work/train.csv") - 1)) training, $(($(wc -l < "$work/test.csv") - 1)) held-out poses: every ${k}th)"
 "$bin" identify "$work/train.csv" --nominal "$nominal" -o "$work/model.toml" "$@" 2>&1 |
-    grep -E "residuals:|noise:|lack of fit|discrepancy term|self-check" || true
+    grep -E "residuals:|noise:|lack of fit|discrepancy term|compensation|self-check" || true
 "$bin" validate --model "$work/model.toml" "$work/test.csv"

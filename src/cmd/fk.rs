@@ -15,6 +15,10 @@ pub struct FkArgs {
     pub points_file: PathBuf,
     #[command(flatten)]
     pub model: ModelArgs,
+    /// Positions of the geometric model alone, without the model's compensation (the mean of
+    /// its fitted Gaussian process, docs "Honest on a real robot").
+    #[arg(long)]
+    pub no_compensation: bool,
 }
 
 impl Run for FkArgs {
@@ -31,12 +35,23 @@ impl Run for FkArgs {
                 );
             }
         }
+        let compensate = model.compensated() && !self.no_compensation;
+        if compensate {
+            eprintln!(
+                "note: positions include the model's compensation (what its Gaussian process predicts the geometric model misses); --no-compensation gives the geometric model alone"
+            );
+        }
         let mut s = (1..=model.joints())
             .map(|j| format!("q{j},"))
             .collect::<String>();
         s.push_str("x,y,z\n");
         for q in &pts {
-            let p = model.world_position(&q.map(f64::to_radians));
+            let rad = q.map(f64::to_radians);
+            let p = if compensate {
+                model.compensated_world_position(&rad)
+            } else {
+                model.world_position(&rad)
+            };
             let qs: Vec<String> = q.iter().map(|v| format!("{v}")).collect();
             // Shortest representation that reads back to the same f64: full precision.
             s.push_str(&format!("{},{},{},{}\n", qs.join(","), p[0], p[1], p[2]));

@@ -28,6 +28,7 @@ pub mod simulate;
 pub mod stdout;
 pub mod study;
 pub mod tail;
+pub mod targets;
 pub mod validate;
 
 /// A subcommand's arguments know how to run it.

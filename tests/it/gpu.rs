@@ -1344,11 +1344,31 @@ fn with_discrepancy(mut model: RobotModel) -> RobotModel {
             robot_share: 0.64,
             noise: NoiseSource::Stated,
             noise_sigma_mm: Some(0.01),
+            compensation: None,
         }
         .checked()
         .expect("discrepancy term"),
     );
     model
+}
+
+/// Gives `model`'s term a compensation conditioned on the configurations `near` (degrees): a
+/// process with 30° length scales, σ_f 0.1 mm and σ_w 0.02 mm, so its predictive σ is about
+/// 0.02 mm at those poses and 0.1 mm far from them.
+fn compensate_near<Q: AsRef<[f64]>>(model: &mut RobotModel, near: &[Q]) {
+    use gpu_amcs::discrepancy::Compensation;
+    let joints = model.joints();
+    let d = model.discrepancy.as_mut().expect("a term");
+    d.compensation = Some(Compensation {
+        length_scales_deg: vec![30.0; joints],
+        signal_sigma_mm: 0.1,
+        white_sigma_mm: 0.02,
+        loo_rms_geometric_mm: 0.2,
+        loo_rms_compensated_mm: 0.1,
+        loo_sigma_mm: 0.05,
+        configurations_deg: near.iter().map(|q| q.as_ref().to_vec()).collect(),
+        weights: vec![[1.0, -2.0, 0.5]; near.len()],
+    });
 }
 
 /// A model with a discrepancy term, in the base frame (the TX60) and with its placement drawn
@@ -1367,15 +1387,32 @@ fn gpu_draws_the_discrepancy_term_as_the_cpu_does() {
     use gpu_amcs::engine::PlacementSpread;
     let placed = tracker_frame_tx60();
     assert!(placed.base_uncertain());
-    for (label, model) in [("base frame", tx60()), ("placement drawn", placed)] {
-        let model = with_discrepancy(model);
+    for (label, model) in [
+        ("base frame", tx60()),
+        ("placement drawn", placed.clone()),
+        ("compensated, placement drawn", placed),
+    ] {
+        let mut model = with_discrepancy(model);
         let pts = gpu_amcs::simulate::random_poses(&model, 25, 7);
+        if label.starts_with("compensated") {
+            compensate_near(&mut model, &pts[..3]);
+        }
         let pb = Problem::new(model, &pts, &Reference::Calibrated, 31).expect("problem");
         assert_eq!(
             PlacementSpread::of(&pb).unwrap().is_some(),
             label != "base frame"
         );
         let dd = pb.discrepancy.clone().expect("the model's term is drawn");
+        if label.starts_with("compensated") {
+            // The per-point factors differ: small near the process's poses, large away.
+            let s = dd.scales();
+            let (lo, hi) = s
+                .iter()
+                .fold((f64::MAX, 0.0f64), |(a, b), &v| (a.min(v), b.max(v)));
+            assert!(s.len() == pts.len() && hi > 1.5 * lo, "{s:?}");
+        } else {
+            assert!(dd.scales().is_empty());
+        }
         let plain = pb.clone().without_discrepancy();
         let (first, n, m) = ((1u64 << 32) - 1500, 4000, pts.len());
         let mut cpu = CpuEvaluator::new(pb.clone());

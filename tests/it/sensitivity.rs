@@ -703,6 +703,7 @@ fn the_discrepancy_term_is_an_input_of_its_own() {
                 robot_share: 1.0,
                 noise: NoiseSource::Unknown,
                 noise_sigma_mm: None,
+                compensation: None,
             }
             .checked()
             .unwrap(),

@@ -25,8 +25,9 @@ pub struct ConfigUniform {
     pub block_mask: u32,
     /// Radii of the model's discrepancy term drawn by counter draws (0: no term).
     pub disc_count: u32,
-    /// Padding to the WGSL struct size.
-    pub pad: u32,
+    /// 1: the term's per-point factors follow its radii in `disc_radii` (a compensated model);
+    /// 0: factor 1 everywhere.
+    pub disc_scaled: u32,
 }
 
 /// The per-chunk uniform (`chunk` in the shader).
@@ -80,14 +81,20 @@ impl ProblemBuffers {
         let m = problem.n_points();
         // The term's radii (at most 2¹⁶, so the count fits the shader's index rule); a binding
         // cannot be empty, so a problem without one uploads a single unused zero.
-        let disc: Vec<f32> = match &problem.discrepancy {
+        // A compensated model's per-point factors follow the radii (m of them).
+        let (disc, disc_count, disc_scaled): (Vec<f32>, u32, u32) = match &problem.discrepancy {
             Some(d) => {
                 debug_assert_eq!(d.key(), problem.sampler.key(), "one key for both streams");
-                d.radii().iter().map(|&r| r as f32).collect()
+                let radii = d.radii().iter().map(|&r| r as f32);
+                let scales = d.scales().iter().map(|&s| s as f32);
+                (
+                    radii.chain(scales).collect(),
+                    d.radii().len() as u32,
+                    u32::from(!d.scales().is_empty()),
+                )
             }
-            None => Vec::new(),
+            None => (Vec::new(), 0, 0),
         };
-        let disc_count = disc.len() as u32;
         let disc_radii = if disc.is_empty() { vec![0.0f32] } else { disc };
         let cfg = ConfigUniform {
             key: problem.sampler.key(),
@@ -96,7 +103,7 @@ impl ProblemBuffers {
             nfree: packing.n_free() as u32,
             block_mask: packing.block_mask,
             disc_count,
-            pad: 0,
+            disc_scaled,
         };
         let config = gpu.uniform("config", std::mem::size_of::<ConfigUniform>() as u64);
         gpu.write(&config, bytemuck::bytes_of(&cfg));

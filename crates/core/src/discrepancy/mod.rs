@@ -45,13 +45,15 @@
 //! and the per-point norms keep their empirical distribution exactly.
 
 mod estimate;
+pub mod gp;
 #[cfg(test)]
 mod tests;
 
 pub use estimate::{
-    random_subsets, standardised_norms, standardised_residuals, FittedPoint, LackOfFit, LooCheck,
-    NoiseSource, MIN_RESIDUALS, SIGNIFICANCE,
+    random_subsets, standardised_norms, standardised_residuals, CompensationReport, Configurations,
+    FittedPoint, LackOfFit, LooCheck, NoiseSource, MIN_RESIDUALS, SIGNIFICANCE,
 };
+pub use gp::Compensation;
 
 use serde::{Deserialize, Serialize};
 
@@ -74,6 +76,10 @@ pub struct Discrepancy {
     /// Measurement noise σ per coordinate, mm, when known.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub noise_sigma_mm: Option<f64>,
+    /// The compensation whose mean the model adds to its prediction (then the norms are what
+    /// it leaves); `None` when a geometric model predicts as well.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub compensation: Option<Compensation>,
 }
 
 /// Errors of a discrepancy term read from a file or built from residuals.
@@ -193,7 +199,32 @@ impl Discrepancy {
                 NoiseSource::Unknown
             },
             noise_sigma_mm: sigma,
+            // Each run's compensation is conditioned on its own poses; their mean is no process
+            // of its own, so the pooled term compensates nothing.
+            compensation: None,
         })
+    }
+
+    /// The factor the norms are drawn with at each configuration (radians): the
+    /// compensation's [`Compensation::point_scales`]; empty (all 1) without one.
+    pub fn point_scales<Q: AsRef<[f64]>>(&self, q_rad: &[Q]) -> Vec<f64> {
+        match &self.compensation {
+            None => Vec::new(),
+            Some(c) => {
+                let deg: Vec<Vec<f64>> = q_rad
+                    .iter()
+                    .map(|q| q.as_ref().iter().map(|v| v.to_degrees()).collect())
+                    .collect();
+                c.point_scales(&deg)
+            }
+        }
+    }
+
+    /// The compensation's correction at `q_deg` (robot base frame, mm; zero without one).
+    pub fn correction_mm(&self, q_deg: &[f64]) -> [f64; 3] {
+        self.compensation
+            .as_ref()
+            .map_or([0.0; 3], |c| c.correction_mm(q_deg))
     }
 
     /// RMS of the standardised residual norms, mm (what a new measurement misses by beyond the
@@ -217,8 +248,19 @@ impl Discrepancy {
         self.residual_norms.iter().map(|r| r * scale).collect()
     }
 
-    /// One line for reports: size and noise split.
+    /// One line for reports: size and noise split (and the compensation when there is one).
     pub fn describe(&self) -> String {
+        let mut s = self.describe_term();
+        if let Some(c) = &self.compensation {
+            s.push_str(&format!(
+                "; compensated by a Gaussian process over the configuration (leave-one-out RMS {:.4} mm against {:.4} mm geometric)",
+                c.loo_rms_compensated_mm, c.loo_rms_geometric_mm
+            ));
+        }
+        s
+    }
+
+    fn describe_term(&self) -> String {
         match self.noise {
             NoiseSource::Unknown => format!(
                 "model discrepancy drawn from {} residuals (RMS {:.4} mm; measurement noise unknown, so it is included)",

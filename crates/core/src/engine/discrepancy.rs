@@ -43,6 +43,8 @@ pub fn cosine(w: u32) -> f64 {
 #[derive(Clone, Debug, PartialEq)]
 pub struct DiscrepancyDraws {
     radii: Vec<f64>,
+    /// Per test point, the factor the radius is drawn with (empty: 1 everywhere).
+    scales: Vec<f64>,
     key: [u32; 2],
 }
 
@@ -60,7 +62,38 @@ impl DiscrepancyDraws {
         );
         DiscrepancyDraws {
             radii,
+            scales: Vec::new(),
             key: Philox::new(seed).key,
+        }
+    }
+
+    /// The draws with a factor per test point (a compensated model's predictive σ at each point
+    /// over its reference, [`crate::discrepancy::Compensation::point_scales`]); empty keeps 1.
+    ///
+    /// # Panics
+    ///
+    /// When a factor is not finite and positive.
+    pub fn with_scales(mut self, scales: Vec<f64>) -> DiscrepancyDraws {
+        assert!(
+            scales.iter().all(|s| s.is_finite() && *s > 0.0),
+            "finite positive scales"
+        );
+        self.scales = scales;
+        self
+    }
+
+    /// The per-point factors (empty: 1 at every point).
+    pub fn scales(&self) -> &[f64] {
+        &self.scales
+    }
+
+    /// The factor at `point`.
+    #[inline(always)]
+    fn scale(&self, point: usize) -> f64 {
+        if self.scales.is_empty() {
+            1.0
+        } else {
+            self.scales[point]
         }
     }
 
@@ -115,8 +148,9 @@ impl DiscrepancyDraws {
         }
         let w: [u32; L] =
             std::array::from_fn(|l| point_word(words[0][l], words[1][l], point as u32));
+        let s = self.scale(point);
         for l in 0..L {
-            let r = self.radii[self.index(w[l])];
+            let r = self.radii[self.index(w[l])] * s;
             let c = cosine(w[l]);
             let e = e2[l].sqrt();
             let v = e2[l] + r * r + 2.0 * e * r * c;
@@ -127,7 +161,7 @@ impl DiscrepancyDraws {
     /// The radius (mm) and direction cosine of `draw` at `point`.
     pub fn draw_pair(&self, draw: u64, point: usize) -> (f64, f64) {
         let w = self.word(draw, point);
-        (self.radii[self.index(w)], cosine(w))
+        (self.radii[self.index(w)] * self.scale(point), cosine(w))
     }
 }
 

@@ -74,8 +74,10 @@ pub enum ProblemError {
 
 /// The draws of `model`'s discrepancy term for `usage`: none without a term, and none for the
 /// robot when the term is all measurement noise (share 0: no lack of fit found).
+/// A compensated model's term is drawn at each of `points` (radians) with its predictive σ there.
 fn discrepancy_draws(
     model: &RobotModel,
+    points: &[Joints],
     usage: DiscrepancyUse,
     seed: u64,
 ) -> Option<DiscrepancyDraws> {
@@ -83,7 +85,7 @@ fn discrepancy_draws(
         .discrepancy
         .as_ref()
         .filter(|d| usage == DiscrepancyUse::Measured || d.drawn())
-        .map(|d| DiscrepancyDraws::new(d.radii(usage), seed))
+        .map(|d| DiscrepancyDraws::new(d.radii(usage), seed).with_scales(d.point_scales(points)))
 }
 
 /// Model + test points + reference + seed.
@@ -189,7 +191,7 @@ impl Problem {
             })
             .collect();
         let sampler = ParamSampler::new(&model, seed)?;
-        let discrepancy = discrepancy_draws(&model, DiscrepancyUse::Robot, seed);
+        let discrepancy = discrepancy_draws(&model, &points, DiscrepancyUse::Robot, seed);
         Ok(Problem {
             discrepancy,
             model,
@@ -224,7 +226,7 @@ impl Problem {
     /// The problem drawing the model's discrepancy term for `usage` (the default is
     /// [`DiscrepancyUse::Robot`]); nothing changes for a model without one.
     pub fn with_discrepancy_use(mut self, usage: DiscrepancyUse) -> Problem {
-        self.discrepancy = discrepancy_draws(&self.model, usage, self.seed);
+        self.discrepancy = discrepancy_draws(&self.model, &self.points, usage, self.seed);
         self
     }
 

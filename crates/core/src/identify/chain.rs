@@ -200,7 +200,7 @@ pub fn identify_chain(
     let lack =
         lack_of_fit::lack_of_fit(&run, &linearised, &noise, opts.noise.is_stated(), opts.seed);
     // A stated noise the residuals reject: the lack of fit acts on the parameters as noise of
-    // that size would (Birge ratio χ²/dof), so the covariance is scaled by it.
+    // that size would, so the covariance is scaled by the residuals' mean square over the noise's.
     let scale = lack.covariance_scale;
     let linearised = linearised * scale;
     let monte_carlo = match opts.uncertainty {

@@ -81,6 +81,7 @@ pub mod refine;
 mod report;
 mod statistics;
 pub mod sweeps;
+pub mod targets;
 pub mod validate;
 
 pub use crate::kinematics::{lines, mdh};

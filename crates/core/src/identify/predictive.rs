@@ -218,6 +218,7 @@ mod tests {
                 robot_share: 0.5,
                 noise: NoiseSource::Stated,
                 noise_sigma_mm: Some(0.035),
+                compensation: None,
             }
             .checked()
             .unwrap(),

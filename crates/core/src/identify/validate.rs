@@ -146,13 +146,32 @@ pub fn point_errors(model: &RobotModel, m: &[Measurement]) -> Vec<f64> {
 /// Positioning error of `model` at every measurement, mm: with [`Placement::Identify`] the
 /// measurements are in the measurement frame and the model's `base` (its identified placement)
 /// applies; with [`Placement::Known`] they are in the robot base frame.
+///
+/// The model's prediction includes its compensation when it has one
+/// ([`RobotModel::compensated_position`]); [`point_errors_geometric`] leaves it out.
 pub fn point_errors_in(model: &RobotModel, m: &[Measurement], frame: Placement) -> Vec<f64> {
+    point_errors_with(model, m, frame, true)
+}
+
+/// [`point_errors_in`] of the geometric model alone (no compensation).
+pub fn point_errors_geometric(model: &RobotModel, m: &[Measurement], frame: Placement) -> Vec<f64> {
+    point_errors_with(model, m, frame, false)
+}
+
+fn point_errors_with(
+    model: &RobotModel,
+    m: &[Measurement],
+    frame: Placement,
+    compensate: bool,
+) -> Vec<f64> {
     m.iter()
         .map(|p| {
             let q = p.q_deg.map(f64::to_radians);
-            let x = match frame {
-                Placement::Identify => model.world_position(&q),
-                Placement::Known => position(&model.params, &model.tool, &q),
+            let x = match (frame, compensate) {
+                (Placement::Identify, true) => model.compensated_world_position(&q),
+                (Placement::Known, true) => model.compensated_position(&q),
+                (Placement::Identify, false) => model.world_position(&q),
+                (Placement::Known, false) => position(&model.params, &model.tool, &q),
             };
             (0..3)
                 .map(|k| (x[k] - p.position_mm[k]).powi(2))
@@ -194,8 +213,10 @@ pub const SAME_TOOL_MM: f64 = 5.0;
 pub struct Validation {
     /// Name of the validated model.
     pub model_name: String,
-    /// Its errors.
+    /// Its errors (with its compensation when it has one).
     pub model: AccuracyStats,
+    /// Its errors without the compensation, when it has one.
+    pub geometric: Option<AccuracyStats>,
     /// The nominal model's name and errors, if one was given.
     pub nominal: Option<(String, AccuracyStats)>,
     /// The nominal model's own tool point (mm) when it was more than [`SAME_TOOL_MM`] from the
@@ -299,6 +320,9 @@ pub fn validate_in(
     Ok(Validation {
         model_name: model.name.clone(),
         model: accuracy_in(model, measurements, frame),
+        geometric: model
+            .compensated()
+            .then(|| stats(&point_errors_geometric(model, measurements, frame))),
         nominal,
         nominal_tool_replaced,
     })

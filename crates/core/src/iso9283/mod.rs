@@ -27,7 +27,7 @@ pub use report::PoseReport;
 use crate::engine::{CpuEvaluator, Problem, Reference};
 use crate::identify::validate::Measurement;
 use crate::identify::Placement;
-use crate::kinematics::{position, Joints, RobotModel};
+use crate::kinematics::{Joints, RobotModel};
 use crate::mc::{run_mcs, McsOptions, Reliability, RunSettings};
 
 /// Fewest cycles per pose (the standard asks for 30; two give a spread).
@@ -170,8 +170,8 @@ pub fn pose_figures(
             }
             let q = g[0].q_deg.map(f64::to_radians);
             let command = match frame {
-                Placement::Identify => model.world_position(&q),
-                Placement::Known => position(&model.params, &model.tool, &q),
+                Placement::Identify => model.compensated_world_position(&q),
+                Placement::Known => model.compensated_position(&q),
             };
             let bary: [f64; 3] =
                 std::array::from_fn(|k| g.iter().map(|m| m.position_mm[k]).sum::<f64>() / n as f64);

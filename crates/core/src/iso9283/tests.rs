@@ -1,6 +1,7 @@
 //! Tests of the ISO 9283 figures, test cube and certificate.
 
 use super::*;
+use crate::kinematics::position;
 #[test]
 fn the_test_cube_is_reachable_maximal_and_its_poses_sit_where_the_standard_puts_them() {
     let m = crate::kinematics::tx60();

@@ -262,11 +262,22 @@ impl RobotModel {
         }
         let discrepancy = match file.discrepancy {
             None => None,
-            Some(d) => Some(d.checked().map_err(|e| match e {
-                crate::discrepancy::DiscrepancyError::Invalid { field, message } => {
-                    invalid(InvalidField { field, message })
+            Some(d) => {
+                let d = d.checked().map_err(|e| match e {
+                    crate::discrepancy::DiscrepancyError::Invalid { field, message } => {
+                        invalid(InvalidField { field, message })
+                    }
+                })?;
+                if let Some(c) = &d.compensation {
+                    c.check(fixed.len()).map_err(|(field, message)| {
+                        invalid(InvalidField {
+                            field: format!("discrepancy.{field}"),
+                            message,
+                        })
+                    })?;
                 }
-            })?),
+                Some(d)
+            }
         };
         let mut model = RobotModel {
             discrepancy,
@@ -449,36 +460,10 @@ impl RobotModel {
             let _ = writeln!(s, "]");
         }
         if let Some(d) = &self.discrepancy {
-            write_discrepancy(&mut s, d);
+            super::file_discrepancy::write_discrepancy(&mut s, d);
         }
         s
     }
-}
-
-/// The `[discrepancy]` section of a model file.
-fn write_discrepancy(s: &mut String, d: &crate::discrepancy::Discrepancy) {
-    let _ = writeln!(
-        s,
-        "\n# What the geometric model does not explain (docs/METHOD.md §18): every analysis draws,\n\
-         # at every test point, a deviation whose length is one of these standardised residual\n\
-         # norms (mm) times sqrt(robot_share), in a uniformly random direction.\n\
-         # robot_share: the part of the residuals' mean square that is the robot's, not tracker noise."
-    );
-    let _ = writeln!(
-        s,
-        "[discrepancy]\nrobot_share = {}\nnoise = \"{}\"",
-        fnum(d.robot_share),
-        d.noise.as_str()
-    );
-    if let Some(sg) = d.noise_sigma_mm {
-        let _ = writeln!(s, "noise_sigma_mm = {}", fnum(sg));
-    }
-    let _ = writeln!(s, "residual_norms = [");
-    for chunk in d.residual_norms.chunks(8) {
-        let row: Vec<String> = chunk.iter().map(|v| fnum(*v)).collect();
-        let _ = writeln!(s, "  {},", row.join(", "));
-    }
-    let _ = writeln!(s, "]");
 }
 
 /// The parser's error as one line, `line L, column C: message` (the parser's own text spans
@@ -561,7 +546,7 @@ fn covariance_from_file(lay: Layout, file: &CovarianceFile) -> Result<Covariance
     Ok(Covariance::new(space, c).expect("n rows of n entries"))
 }
 
-fn fnum(v: f64) -> String {
+pub(super) fn fnum(v: f64) -> String {
     // Shortest round-trip representation, always with a decimal point (valid TOML float).
     let s = format!("{v:?}");
     if s.contains('.') || s.contains('e') || s.contains("inf") || s.contains("NaN") {

@@ -20,6 +20,7 @@
 mod capped;
 mod check;
 mod file;
+mod file_discrepancy;
 mod fk;
 mod index;
 mod inputs;

@@ -341,6 +341,38 @@ impl RobotModel {
         }
     }
 
+    /// Whether the model carries a compensation ([`crate::discrepancy::Compensation`]).
+    pub fn compensated(&self) -> bool {
+        self.discrepancy
+            .as_ref()
+            .is_some_and(|d| d.compensation.is_some())
+    }
+
+    /// Tool-point position (mm) at `q` (radians) in the robot base frame with the compensation's
+    /// correction added (the MDH chain's position when the model has none): where the
+    /// calibrated robot is predicted to be (docs/METHOD.md §18.1).
+    pub fn compensated_position(&self, q: &[f64]) -> [f64; 3] {
+        let mut p = super::position(&self.params, &self.tool, q);
+        if let Some(d) = &self.discrepancy {
+            let q_deg: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
+            let c = d.correction_mm(&q_deg);
+            for k in 0..3 {
+                p[k] += c[k];
+            }
+        }
+        p
+    }
+
+    /// [`RobotModel::compensated_position`] in the description's frame (the
+    /// [`RobotModel::base`] transform applied), as [`RobotModel::world_position`].
+    pub fn compensated_world_position(&self, q: &[f64]) -> [f64; 3] {
+        let p = self.compensated_position(q);
+        match &self.base {
+            None => p,
+            Some(b) => b.apply(p),
+        }
+    }
+
     /// The tool point's standard deviations, mm ([`RobotModel::tool_sigma`]).
     pub fn tool_sigmas(&self) -> [f64; 3] {
         self.tool_sigma

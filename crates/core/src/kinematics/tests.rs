@@ -360,6 +360,7 @@ fn model_files_keep_the_term_and_name_a_bad_field() {
         robot_share: 0.75,
         noise: NoiseSource::Stated,
         noise_sigma_mm: Some(0.012),
+        compensation: None,
     });
     let text = m.to_toml();
     assert!(text.contains("[discrepancy]"), "{text}");
@@ -383,4 +384,71 @@ fn model_files_keep_the_term_and_name_a_bad_field() {
     let i = text.find("\n# What the geometric model").unwrap();
     let none = RobotModel::from_toml(&text[..i], "m.toml").unwrap();
     assert!(none.discrepancy.is_none());
+}
+
+#[test]
+fn model_files_keep_the_compensation_exactly_and_check_its_joints() {
+    use crate::discrepancy::{Compensation, Discrepancy, NoiseSource};
+    use crate::kinematics::{tx60, RobotModel};
+    let mut m = tx60();
+    m.discrepancy = Some(Discrepancy {
+        residual_norms: (1..=12).map(|i| 0.01 * f64::from(i)).collect(),
+        robot_share: 1.0,
+        noise: NoiseSource::Unknown,
+        noise_sigma_mm: None,
+        compensation: Some(Compensation {
+            length_scales_deg: vec![71.4, 4.35, 40.0, 24814.2, 77.5, 12325.9],
+            signal_sigma_mm: 0.214,
+            white_sigma_mm: 0.192,
+            loo_rms_geometric_mm: 0.4426,
+            loo_rms_compensated_mm: 0.3097,
+            loo_sigma_mm: 0.18,
+            configurations_deg: vec![
+                vec![10.0, 20.0, 30.0, 0.0, 45.0, 0.1],
+                vec![
+                    -52.068972,
+                    -2.9892927,
+                    -110.4353232,
+                    -66.5851442,
+                    -117.98,
+                    -0.0479652,
+                ],
+            ],
+            weights: vec![[1.0 / 3.0, -2.5e-3, 7.0], [0.1, 0.2, -0.3]],
+        }),
+    });
+    let q = [0.3, 0.2, 1.1, 0.0, 0.6, 0.1];
+    let text = m.to_toml();
+    assert!(text.contains("[discrepancy.compensation]"), "{text}");
+    let back = RobotModel::from_toml(&text, "m.toml").unwrap();
+    assert_eq!(back.discrepancy, m.discrepancy);
+    assert!(back.compensated());
+    // The same prediction to the bit, and it differs from the geometric one.
+    assert_eq!(back.compensated_position(&q), m.compensated_position(&q));
+    assert_ne!(
+        back.compensated_position(&q),
+        crate::kinematics::position(&m.params, &m.tool, &q)
+    );
+    // A compensation of another joint count names the field.
+    let bad = text.replace(
+        "length_scales_deg = [71.4, 4.35, 40.0, 24814.2, 77.5, 12325.9]",
+        "length_scales_deg = [71.4, 4.35, 40.0, 24814.2, 77.5]",
+    );
+    let err = RobotModel::from_toml(&bad, "m.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("discrepancy.compensation.length_scales_deg") && err.contains("6 joints"),
+        "{err}"
+    );
+    let bad = text.replace("[0.1, 0.2, -0.3]", "[0.1, 0.2]");
+    assert!(RobotModel::from_toml(&bad, "m.toml").is_err());
+    let bad = text.replace("loo_sigma_mm = 0.18", "loo_sigma_mm = 0.0");
+    let err = RobotModel::from_toml(&bad, "m.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("discrepancy.compensation.loo_sigma_mm"),
+        "{err}"
+    );
 }

@@ -213,6 +213,7 @@ fn discrepancy_term_matches_its_point_form() {
             robot_share: 0.64,
             noise: crate::discrepancy::NoiseSource::Stated,
             noise_sigma_mm: Some(0.01),
+            compensation: None,
         }
         .checked()
         .unwrap(),
@@ -262,6 +263,7 @@ fn pick_freeze_rows_take_the_term_by_its_bit() {
             residual_norms: (1..=20).map(|i| 0.004 * f64::from(i)).collect(),
             robot_share: 1.0,
             noise: crate::discrepancy::NoiseSource::Unknown,
+            compensation: None,
             noise_sigma_mm: None,
         }
         .checked()

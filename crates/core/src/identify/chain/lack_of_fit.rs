@@ -1,10 +1,10 @@
 //! The lack of fit of a finished whole-chain fit (docs/METHOD.md §18): each point's residual,
 //! whitening and leverage handed to [`crate::discrepancy::LackOfFit`], which splits noise from
-//! what the model does not explain, builds the model's discrepancy term and runs the
-//! leave-one-out self-check.
+//! what the model does not explain, fits the compensation over the configurations, builds the
+//! model's discrepancy term and runs the leave-one-out self-check.
 
 use super::{Fitted, NoiseReport};
-use crate::discrepancy::{FittedPoint, LackOfFit};
+use crate::discrepancy::{Configurations, FittedPoint, LackOfFit};
 use crate::identify::chain_fit::{jacobian, position_residuals};
 use nalgebra::{DMatrix, Matrix3};
 
@@ -28,17 +28,17 @@ pub(super) fn lack_of_fit(
             let ji = j.rows(3 * i, 3);
             let h = ji * linearised * ji.transpose();
             FittedPoint {
-                residual_mm: *r,
+                // measured minus predicted (the compensation adds its mean to the prediction)
+                residual_mm: [-r[0], -r[1], -r[2]],
                 whiten: o.whiten,
                 leverage: Matrix3::from_fn(|a, b| 0.5 * (h[(a, b)] + h[(b, a)])),
             }
         })
         .collect();
-    LackOfFit::estimate(
-        &points,
-        stated,
-        noise.p_value,
-        noise.chi2 / noise.dof.max(1) as f64,
-        seed,
-    )
+    let q_rad: Vec<Vec<f64>> = run.obs.iter().map(|o| o.q.to_vec()).collect();
+    let configurations = Configurations {
+        q_rad: &q_rad,
+        to_base: run.state.rotation().transpose(),
+    };
+    LackOfFit::estimate_with(&points, Some(configurations), stated, noise.p_value, seed)
 }

@@ -42,9 +42,9 @@ pub(super) fn chain_warnings(
                 noise.dof,
                 lack.unexplained_rms_mm.unwrap_or(0.0),
                 if lack.carried {
-                    format!("the covariance is scaled by χ²/dof = {:.2} and the model carries a discrepancy term that every analysis draws", lack.covariance_scale)
+                    format!("the covariance is scaled by {:.2} (the residuals' mean square over the noise's) and the model carries a discrepancy term that every analysis draws", lack.covariance_scale)
                 } else {
-                    format!("the covariance is scaled by χ²/dof = {:.2}; too few points for a discrepancy term, so reliability figures leave the lack of fit out", lack.covariance_scale)
+                    format!("the covariance is scaled by {:.2} (the residuals' mean square over the noise's); too few points for a discrepancy term, so reliability figures leave the lack of fit out", lack.covariance_scale)
                 }
             ));
         } else if p > 1.0 - 1e-3 {

@@ -225,7 +225,10 @@ pub fn render_validation(v: &Validation) -> String {
         .nominal
         .iter()
         .map(|(n, _)| n.chars().count())
-        .chain([v.model_name.chars().count(), "improvement".len()])
+        .chain([
+            v.model_name.chars().count() + if v.geometric.is_some() { 18 } else { 0 },
+            "improvement".len(),
+        ])
         .max()
         .unwrap_or(0);
     let _ = writeln!(s, "Positioning error over {} points (mm)", v.model.points);
@@ -244,7 +247,12 @@ pub fn render_validation(v: &Validation) -> String {
     if let Some((name, n)) = &v.nominal {
         row(&mut s, name, n);
     }
-    row(&mut s, &v.model_name, &v.model);
+    if let Some(g) = &v.geometric {
+        row(&mut s, &format!("{} (geometric only)", v.model_name), g);
+        row(&mut s, &format!("{} (compensated)", v.model_name), &v.model);
+    } else {
+        row(&mut s, &v.model_name, &v.model);
+    }
     if let Some([m, r, x]) = v.improvement_percent() {
         let _ = writeln!(
             s,
