@@ -11,6 +11,7 @@ use crate::common;
 mod held;
 mod seven;
 mod xacro;
+mod xacro_ns;
 
 use common::{arg, bin, run, stderr, tmpdir};
 use gpu_amcs::import::{self, export, ImportError, ImportOptions, SourceFormat};

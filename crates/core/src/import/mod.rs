@@ -47,6 +47,7 @@ mod tests;
 pub mod ur;
 pub mod urdf;
 pub mod xacro;
+mod xml;
 
 pub use chain::{JointHold, SourceChain, SourceFormat, SourceJoint, MAX_SOURCE_JOINTS};
 pub use file::{import_file, kind_of, FileKind, ImportOptions};

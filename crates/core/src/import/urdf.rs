@@ -36,7 +36,8 @@ pub fn parse(
     base: Option<&str>,
     tip: Option<&str>,
 ) -> Result<SourceChain, ImportError> {
-    let doc = document(text, path)?;
+    let text = super::xml::leading_declaration_blanked(text);
+    let doc = document(&text, path)?;
     refuse_xacro(&doc, path)?;
     let (robot_name, links, joints) = elements(&doc, path)?;
     let parent_joint = parent_joints(&joints, &links, path)?;
@@ -72,40 +73,45 @@ fn line_of(doc: &roxmltree::Document, n: &roxmltree::Node) -> usize {
     doc.text_pos_at(n.range().start).row as usize
 }
 
-/// The XML document of `text`; malformed XML that looks like xacro is said to be unexpanded
-/// xacro.
+/// The XML document of `text`. Malformed XML is reported as such, at its line, except an
+/// element or attribute with a `xacro:` prefix bound to no namespace: that is unexpanded xacro.
 fn document<'t>(text: &'t str, path: &str) -> Result<roxmltree::Document<'t>, ImportError> {
-    roxmltree::Document::parse(text).map_err(|e| {
-        let pos = e.pos();
-        if text.contains("xmlns:xacro") || text.contains("<xacro:") {
-            return xacro(path, text);
+    roxmltree::Document::parse(text).map_err(|e| match e {
+        roxmltree::Error::UnknownNamespace(prefix, pos) if prefix == "xacro" => {
+            ImportError::Xacro {
+                path: path.into(),
+                line: pos.row as usize,
+                what: format!(
+                    "unexpanded xacro (the prefix 'xacro:' is bound to no namespace) in a URDF file; {UNEXPANDED}"
+                ),
+            }
         }
-        ImportError::Syntax {
+        e => ImportError::Syntax {
             path: path.into(),
-            line: pos.row as usize,
+            line: e.pos().row as usize,
             message: format!("malformed XML: {e}"),
-        }
+        },
     })
 }
 
-/// Refuses the first element in the xacro namespace or attribute with a `${...}` expression.
+/// Whether `n` is in a xacro namespace ([`super::xacro::XACRO_NAMESPACES`]).
+fn in_xacro_namespace(n: &roxmltree::Node) -> bool {
+    n.tag_name()
+        .namespace()
+        .is_some_and(super::xacro::is_xacro_namespace)
+}
+
+/// Refuses the first element in a xacro namespace or attribute with a `${...}` expression.
 fn refuse_xacro(doc: &roxmltree::Document, path: &str) -> Result<(), ImportError> {
     for n in doc.descendants() {
-        let is_xacro = n
-            .tag_name()
-            .namespace()
-            .is_some_and(|ns| ns.contains("xacro"))
-            || n.attributes().any(|a| a.value().contains("${"));
+        let is_xacro = in_xacro_namespace(&n) || n.attributes().any(|a| a.value().contains("${"));
         if is_xacro {
             return Err(ImportError::Xacro {
                 path: path.into(),
                 line: line_of(doc, &n),
                 what: format!(
                     "unexpanded {} in a URDF file; {UNEXPANDED}",
-                    if n.tag_name()
-                        .namespace()
-                        .is_some_and(|ns| ns.contains("xacro"))
-                    {
+                    if in_xacro_namespace(&n) {
                         format!("<xacro:{}>", n.tag_name().name())
                     } else {
                         "${...} expression".into()
@@ -478,15 +484,3 @@ fn default_tip(joints: &[JointEl], base: &str) -> Option<(String, Option<&'stati
 /// The advice for xacro found in a URDF file.
 const UNEXPANDED: &str =
     "import the .xacro file itself to have it expanded, or run xacro first and import the URDF it writes";
-
-fn xacro(path: &str, text: &str) -> ImportError {
-    let line = text
-        .lines()
-        .position(|l| l.contains("xacro"))
-        .map_or(1, |k| k + 1);
-    ImportError::Xacro {
-        path: path.into(),
-        line,
-        what: format!("unexpanded xacro namespace or macro in a URDF file; {UNEXPANDED}"),
-    }
-}

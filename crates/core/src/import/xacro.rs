@@ -36,8 +36,24 @@ use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::rc::Rc;
 
-/// The xacro namespace.
-pub const XACRO_NS: &str = "http://www.ros.org/wiki/xacro";
+/// The xacro namespaces in use: the ROS wiki's address before and after it moved
+/// (ROS-Industrial and Universal Robots packages mostly bind `xacro:` to `http://wiki.ros.org/xacro`,
+/// older files to `http://www.ros.org/wiki/xacro`), each also as `https://`. A trailing `/` is
+/// ignored. The one list every check of the namespace uses ([`is_xacro_namespace`]).
+pub const XACRO_NAMESPACES: [&str; 6] = [
+    "http://www.ros.org/wiki/xacro",
+    "http://ros.org/wiki/xacro",
+    "http://wiki.ros.org/xacro",
+    "https://www.ros.org/wiki/xacro",
+    "https://ros.org/wiki/xacro",
+    "https://wiki.ros.org/xacro",
+];
+
+/// Whether `ns` is one of the [`XACRO_NAMESPACES`] (a trailing `/` ignored).
+#[must_use]
+pub fn is_xacro_namespace(ns: &str) -> bool {
+    XACRO_NAMESPACES.contains(&ns.strip_suffix('/').unwrap_or(ns))
+}
 /// Deepest include nesting.
 pub const MAX_INCLUDE_DEPTH: usize = 32;
 /// Deepest macro call nesting.
@@ -188,6 +204,7 @@ impl Expander<'_> {
             "robot description",
         )?;
         self.grow(text.len() / 16)?;
+        let text = super::xml::leading_declaration_blanked(&text);
         let doc = roxmltree::Document::parse(&text).map_err(|e| ImportError::Syntax {
             path: shown.into(),
             line: e.pos().row as usize,

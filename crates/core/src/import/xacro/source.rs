@@ -1,7 +1,7 @@
 //! The source side of the expansion: xacro files read into owned element trees (macros outlive
 //! the document they were defined in), each element with its file and line.
 
-use super::XACRO_NS;
+use super::is_xacro_namespace;
 use std::rc::Rc;
 
 /// A source element, owned (macros outlive the document they were defined in).
@@ -24,14 +24,9 @@ pub(super) enum Node {
 /// File and 1-based line of a source element.
 pub(super) type At = (Rc<str>, usize);
 
-/// Whether `ns` is the xacro namespace (any of the spellings in use).
+/// Whether `ns` is a xacro namespace ([`super::XACRO_NAMESPACES`]).
 fn is_xacro_ns(ns: Option<&str>) -> bool {
-    ns.is_some_and(|ns| {
-        let ns = ns.trim_end_matches('/');
-        ns == XACRO_NS
-            || ns == "http://ros.org/wiki/xacro"
-            || ns == "https://www.ros.org/wiki/xacro"
-    })
+    ns.is_some_and(is_xacro_namespace)
 }
 
 /// The owned tree of the element `n` of `doc`, read from `file`.
