@@ -18,6 +18,7 @@ mod html;
 mod identify;
 mod import;
 mod inputs;
+mod joint_counts;
 mod map;
 mod map_shards;
 mod mc_known_answers;

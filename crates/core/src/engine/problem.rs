@@ -67,6 +67,18 @@ pub enum ProblemError {
         /// What is wrong.
         message: String,
     },
+    /// The nominal model of a nominal reference has another number of joints than the model.
+    #[error("the nominal model {nominal} has {nominal_joints} joints, the model {model} has {model_joints}")]
+    NominalJoints {
+        /// The nominal model's name.
+        nominal: String,
+        /// Its joints.
+        nominal_joints: usize,
+        /// The model's name.
+        model: String,
+        /// Its joints.
+        model_joints: usize,
+    },
     /// The parameter distribution is unusable.
     #[error(transparent)]
     Sampler(#[from] SamplerError),
@@ -112,7 +124,8 @@ impl Problem {
     ///
     /// # Errors
     ///
-    /// [`ProblemError::Model`] when the model fails its checks, [`ProblemError::NoPoints`] for no
+    /// [`ProblemError::Model`] when the model fails its checks, [`ProblemError::NominalJoints`] for
+    /// a nominal reference with another number of joints, [`ProblemError::NoPoints`] for no
     /// test points, [`ProblemError::BadPoint`] for a test point that is not finite or outside the
     /// joint limits, and [`ProblemError::Sampler`] when the covariance has no Cholesky factor on
     /// the free parameters.
@@ -168,6 +181,16 @@ impl Problem {
             field: e.field,
             message: e.message,
         })?;
+        if let Reference::Nominal(n) = reference {
+            if n.joints() != model.joints() {
+                return Err(ProblemError::NominalJoints {
+                    nominal: n.name.clone(),
+                    nominal_joints: n.joints(),
+                    model: model.name.clone(),
+                    model_joints: model.joints(),
+                });
+            }
+        }
         if points_deg.is_empty() {
             return Err(ProblemError::NoPoints);
         }

@@ -91,6 +91,18 @@ pub enum Iso9283Error {
     /// No rows.
     #[error("no measured cycles")]
     Empty,
+    /// A row has another number of joint angles than the model has joints.
+    #[error("line {line}: {angles} joint angles, the model {model} has {joints} joints")]
+    JointCount {
+        /// The row's line.
+        line: u64,
+        /// Its joint angles.
+        angles: usize,
+        /// The model's name.
+        model: String,
+        /// The model's joints.
+        joints: usize,
+    },
 }
 
 /// The AP and RP of every pose of `cycles` (the measurement file's rows, grouped by commanded
@@ -99,8 +111,9 @@ pub enum Iso9283Error {
 ///
 /// # Errors
 ///
-/// [`Iso9283Error::Empty`] without rows, [`Iso9283Error::TooFewCycles`] naming a pose with fewer
-/// than [`MIN_CYCLES`] cycles.
+/// [`Iso9283Error::Empty`] without rows, [`Iso9283Error::JointCount`] naming the first row whose
+/// joint angles are not one per joint of `model`, [`Iso9283Error::TooFewCycles`] naming a pose
+/// with fewer than [`MIN_CYCLES`] cycles.
 ///
 /// # Examples
 ///
@@ -147,6 +160,14 @@ pub fn pose_figures(
 ) -> Result<Vec<PoseFigures>, Iso9283Error> {
     if cycles.is_empty() {
         return Err(Iso9283Error::Empty);
+    }
+    if let Some(m) = cycles.iter().find(|m| m.q_deg.len() != model.joints()) {
+        return Err(Iso9283Error::JointCount {
+            line: m.line,
+            angles: m.q_deg.len(),
+            model: model.name.clone(),
+            joints: model.joints(),
+        });
     }
     // Poses in order of first appearance; exact equality of the commanded angles (a robot
     // program repeats one command).

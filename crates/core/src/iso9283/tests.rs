@@ -109,6 +109,24 @@ fn known_offset_and_spread_give_the_hand_figures() {
         pose_figures(&m, &[], Placement::Known),
         Err(Iso9283Error::Empty)
     );
+    // A row with another number of joint angles than the model has joints, either way (one
+    // more used to panic in the forward kinematics): named by its line.
+    for n in [5, 7] {
+        let mut odd = cycle(q2, c2, 41);
+        odd.q_deg = Joints::from_slice(&[10.0; 7][..n]);
+        let rows = [rows[0].clone(), rows[1].clone(), odd];
+        let e = pose_figures(&m, &rows, Placement::Known).unwrap_err();
+        assert_eq!(
+            e,
+            Iso9283Error::JointCount {
+                line: 41,
+                angles: n,
+                model: m.name.clone(),
+                joints: 6
+            }
+        );
+        assert!(e.to_string().starts_with("line 41: "), "{e}");
+    }
 }
 
 /// A tool point uncertain in x alone (σ = 0.01 mm) moves every pose by the same |δx|: at

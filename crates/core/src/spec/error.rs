@@ -155,6 +155,20 @@ pub enum SpecErrorKind {
         /// The analysed model's name.
         model: String,
     },
+    /// The nominal model of a nominal reference has another number of joints than the analysed
+    /// model: it is another robot, and its positions cannot be computed at the model's
+    /// configurations.
+    #[error("the nominal model {nominal} has {nominal_joints} joints and the model {model} has {model_joints}: the nominal model must be the same robot")]
+    NominalJoints {
+        /// Where the nominal model came from ([`ModelSource::describe`](super::ModelSource::describe)).
+        nominal: String,
+        /// Its joints.
+        nominal_joints: usize,
+        /// Where the analysed model came from.
+        model: String,
+        /// Its joints.
+        model_joints: usize,
+    },
     /// An adapter was named for the CPU backend.
     #[error("'{0}' needs the gpu or auto backend: the CPU backend uses no adapter")]
     AdapterWithCpu(String),

@@ -407,7 +407,8 @@ impl ProblemSpec {
     /// # Errors
     /// Those of [`ModelSource::load`] for the nominal model, naming [`SpecField::Nominal`];
     /// [`SpecErrorKind::NoNominal`], naming [`SpecField::Nominal`], when the nominal model is not
-    /// given and `model` is no preset.
+    /// given and `model` is no preset; [`SpecErrorKind::NominalJoints`], naming
+    /// [`SpecField::Nominal`], when it has another number of joints than `model`.
     pub fn load_reference(&self, model: &RobotModel) -> Result<Reference, SpecError> {
         match &self.reference {
             ReferenceSource::Calibrated => Ok(Reference::Calibrated),
@@ -436,6 +437,17 @@ impl ProblemSpec {
                 let nominal = source
                     .load()
                     .map_err(|kind| SpecError::new(SpecField::Nominal, kind))?;
+                if nominal.joints() != model.joints() {
+                    return Err(SpecError::new(
+                        SpecField::Nominal,
+                        SpecErrorKind::NominalJoints {
+                            nominal: source.describe(),
+                            nominal_joints: nominal.joints(),
+                            model: self.model.describe(),
+                            model_joints: model.joints(),
+                        },
+                    ));
+                }
                 Ok(Reference::Nominal(Box::new(nominal)))
             }
         }
@@ -470,6 +482,9 @@ impl ProblemSpec {
                 ),
                 (PointsSource::Generate(_), true) => SpecError::new(SpecField::Points, e),
                 (PointsSource::Given(_), true) => SpecError::new(SpecField::Configurations, e),
+                (_, false) if matches!(e, ProblemError::NominalJoints { .. }) => {
+                    SpecError::new(SpecField::Nominal, e)
+                }
                 (_, false) => SpecError::new(model_field, e),
             }
         })?;

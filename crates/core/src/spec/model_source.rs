@@ -104,6 +104,18 @@ impl ModelSource {
         })
     }
 
+    /// How errors about the model as a whole name this source: the file's path, `preset NAME`,
+    /// or `model 'NAME'` for a model given in memory.
+    pub fn describe(&self) -> String {
+        match self {
+            ModelSource::Preset(name) => format!("preset {name}"),
+            ModelSource::File(p) | ModelSource::Description { path: p, .. } => {
+                p.display().to_string()
+            }
+            ModelSource::Model(m) => format!("model '{}'", m.name),
+        }
+    }
+
     /// The field that names this source when it is the analysed model: [`SpecField::Preset`]
     /// for a preset, [`SpecField::Model`] otherwise.
     pub fn field(&self) -> SpecField {

@@ -256,3 +256,48 @@ fn nominal_of_a_model_that_is_no_preset_must_be_given() {
         b.reference
     );
 }
+
+/// A nominal model with another number of joints than the model is another robot: refused
+/// naming the nominal field, both sources and both counts, either way round (one joint more
+/// used to panic in the forward kinematics, one fewer gave a meaningless w). Problem::new
+/// refuses it too.
+#[test]
+fn nominal_with_another_joint_count_is_refused() {
+    let seven = crate::presets::iiwa14();
+    for (model, nominal) in [("iiwa14", "ur5e"), ("ur5e", "iiwa14")] {
+        let spec = ProblemSpec {
+            model: ModelSource::Preset(model.into()),
+            reference: ReferenceSource::Nominal(Some(ModelSource::Preset(nominal.into()))),
+            ..ProblemSpec::default()
+        };
+        let e = spec.build_problem().err().unwrap();
+        assert_eq!(e.field, SpecField::Nominal);
+        let (nj, mj) = if model == "ur5e" { (7, 6) } else { (6, 7) };
+        assert!(
+            matches!(&e.kind, SpecErrorKind::NominalJoints { nominal: n, nominal_joints, model: m, model_joints }
+                if *n == format!("preset {nominal}") && *m == format!("preset {model}")
+                    && *nominal_joints == nj && *model_joints == mj),
+            "{e:?}"
+        );
+        assert!(!e.to_string().contains("--"), "{e}");
+    }
+    let points = [seven.joints_at(0.0)];
+    let e = crate::engine::Problem::new(
+        seven,
+        &points,
+        &crate::engine::Reference::Nominal(Box::new(crate::presets::ur5e())),
+        1,
+    )
+    .unwrap_err();
+    assert!(
+        matches!(
+            e,
+            crate::engine::ProblemError::NominalJoints {
+                nominal_joints: 6,
+                model_joints: 7,
+                ..
+            }
+        ),
+        "{e:?}"
+    );
+}
