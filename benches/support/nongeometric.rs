@@ -384,14 +384,28 @@ pub fn identify(data: PoseData, sigma_mm: Option<f64>) -> RobotModel {
         .0
 }
 
-/// The errors `|p_true − p_model|` (mm) at `configs`, both in the tracker frame (the model's
-/// through its identified placement, `RobotModel::world_position`).
+/// The errors `|p_true − p_model|` (mm) at `configs`, both in the tracker frame: the model's
+/// prediction through its identified placement, with its compensation when it has one
+/// (`RobotModel::compensated_world_position`, what a user of the model gets).
 pub fn errors(truth: &TrueRobot, model: &RobotModel, configs: &[Joints]) -> Vec<f64> {
+    errors_of(truth, configs, |q| model.compensated_world_position(q))
+}
+
+/// [`errors`] of the geometric model alone (`RobotModel::world_position`).
+pub fn errors_geometric(truth: &TrueRobot, model: &RobotModel, configs: &[Joints]) -> Vec<f64> {
+    errors_of(truth, configs, |q| model.world_position(q))
+}
+
+fn errors_of(
+    truth: &TrueRobot,
+    configs: &[Joints],
+    predict: impl Fn(&[f64]) -> [f64; 3],
+) -> Vec<f64> {
     configs
         .iter()
         .map(|q| {
             let rad: Vec<f64> = q.iter().map(|v| v.to_radians()).collect();
-            distance(truth.position(q), model.world_position(&rad))
+            distance(truth.position(q), predict(&rad))
         })
         .collect()
 }
@@ -401,8 +415,13 @@ pub fn errors(truth: &TrueRobot, model: &RobotModel, configs: &[Joints]) -> Vec<
 pub struct Outcome {
     /// The realised largest error over the task points, mm.
     pub w_true: f64,
-    /// RMS of the errors over the task points, mm.
+    /// RMS of the errors over the task points, mm (the model's prediction, compensated when
+    /// the model has a compensation).
     pub rms: f64,
+    /// The same of the geometric model alone.
+    pub rms_geometric: f64,
+    /// Whether the identified model carries a compensation.
+    pub compensated: bool,
     /// `R_pred(w_true)`: the share of the predicted draws with `w ≤ w_true`.
     pub u: f64,
     /// `u` of the prediction from the parameters' uncertainty alone (the problem without the
@@ -431,7 +450,10 @@ pub fn experiment(size: f64, seed: u64, draws: usize) -> Outcome {
     let model = identify(data, Some(TRACKER_SIGMA_MM));
     let e = errors(&truth, &model, &task);
     let w_true = e.iter().copied().fold(0.0, f64::max);
-    let rms = (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt();
+    let rms_of = |e: &[f64]| (e.iter().map(|v| v * v).sum::<f64>() / e.len() as f64).sqrt();
+    let rms = rms_of(&e);
+    let rms_geometric = rms_of(&errors_geometric(&truth, &model, &task));
+    let compensated = model.compensated();
     let term = model.discrepancy.as_ref().filter(|d| d.drawn());
     let discrepancy = term.is_some();
     let term_rms_mm = term.map_or(0.0, |d| d.robot_rms_mm());
@@ -452,6 +474,8 @@ pub fn experiment(size: f64, seed: u64, draws: usize) -> Outcome {
     Outcome {
         w_true,
         rms,
+        rms_geometric,
+        compensated,
         u,
         u_parameters,
         w_median: w[draws / 2],

@@ -113,7 +113,8 @@ crate::report_class!(PyIdentifyResult, {
 /// `uncertainty`: "linearised" or "montecarlo" (`mc_draws` re-identifications from `seed`).
 /// Sweeps only: `fit` "commanded" or "point-cloud", `no_prior`, `no_refine` (the plain
 /// circle-point result; with `base_known=True`). With several runs `covariance=True` keeps the
-/// full sample covariance. `strict=True` raises a `ValueError` for the warnings. Returns an
+/// full sample covariance. `no_compensation=True` leaves out the Gaussian-process compensation
+/// of a single run's residuals. `strict=True` raises a `ValueError` for the warnings. Returns an
 /// `IdentifyResult` whose `to_toml()` is the model file the command writes and whose
 /// `to_dict()` is its `--json` document.
 #[pyfunction]
@@ -121,7 +122,7 @@ crate::report_class!(PyIdentifyResult, {
     base_known = false, fix = Vec::new(), tracker_sigma = None, tracker_mpe = None,
     tracker_at = None, uncertainty = "linearised".to_string(), mc_draws = 200, seed = 1,
     fit = "commanded".to_string(), no_prior = false, no_refine = false, covariance = false,
-    strict = false))]
+    strict = false, no_compensation = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify(
     py: Python<'_>,
@@ -141,6 +142,7 @@ pub fn identify(
     no_refine: bool,
     covariance: bool,
     strict: bool,
+    no_compensation: bool,
 ) -> PyResult<PyIdentifyResult> {
     let method = match fit.as_str() {
         "commanded" => CircleFitMethod::CommandedAngles,
@@ -198,6 +200,7 @@ pub fn identify(
         refine: !no_refine,
         covariance,
         strict,
+        compensate: !no_compensation,
         ..IdentifyJob::new(data, nominal)
     };
     let outcome = py.detach(|| job.run()).map_err(|e| match e {

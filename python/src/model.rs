@@ -345,7 +345,10 @@ impl PyModel {
     /// The model's discrepancy term (what the geometric model does not explain, from an
     /// identification's residuals) as a dict: `residual_norms` (mm), `robot_share`, `noise`
     /// ("stated" or "unknown"), `noise_sigma_mm`, `robot_rms_mm` and `drawn` (whether analyses
-    /// of the robot draw it); `None` for a model without one.
+    /// of the robot draw it), and `compensation`: `None`, or a dict of the Gaussian process whose
+    /// mean the model adds to its predictions (`length_scales_deg`, `signal_sigma_mm`,
+    /// `white_sigma_mm`, `loo_rms_geometric_mm`, `loo_rms_compensated_mm`, `poses`); `None` for a
+    /// model without a term.
     #[getter]
     fn discrepancy<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
         let Some(d) = &self.model.discrepancy else {
@@ -358,6 +361,20 @@ impl PyModel {
         out.set_item("noise_sigma_mm", d.noise_sigma_mm)?;
         out.set_item("robot_rms_mm", d.robot_rms_mm())?;
         out.set_item("drawn", d.drawn())?;
+        let compensation = match &d.compensation {
+            None => None,
+            Some(c) => {
+                let g = PyDict::new(py);
+                g.set_item("length_scales_deg", c.length_scales_deg.clone())?;
+                g.set_item("signal_sigma_mm", c.signal_sigma_mm)?;
+                g.set_item("white_sigma_mm", c.white_sigma_mm)?;
+                g.set_item("loo_rms_geometric_mm", c.loo_rms_geometric_mm)?;
+                g.set_item("loo_rms_compensated_mm", c.loo_rms_compensated_mm)?;
+                g.set_item("poses", c.configurations_deg.len())?;
+                Some(g)
+            }
+        };
+        out.set_item("compensation", compensation)?;
         Ok(Some(out))
     }
 
@@ -384,18 +401,26 @@ impl PyModel {
 
     /// Tool positions (mm) at joint configurations `q_deg` (m × n, degrees, one column per
     /// joint): m × 3, in the description's frame (the model's base transform applied, as
-    /// `gpu-amcs fk` does).
+    /// `gpu-amcs fk` does), with the model's compensation added when it has one
+    /// (`compensation=False`: the geometric model alone, `fk --no-compensation`).
+    #[pyo3(signature = (q_deg, *, compensation = true))]
     fn fk<'py>(
         &self,
         py: Python<'py>,
         q_deg: &Bound<'py, PyAny>,
+        compensation: bool,
     ) -> PyResult<Bound<'py, PyArray2<f64>>> {
         let q = arrays::joint_rows(q_deg, "q_deg", self.model.joints())?;
         let model = &self.model;
         let out = py.detach(|| {
             let mut out = Array2::zeros((q.len(), 3));
             for (mut row, qj) in out.rows_mut().into_iter().zip(&q) {
-                let p = model.world_position(&qj.map(f64::to_radians));
+                let rad = qj.map(f64::to_radians);
+                let p = if compensation {
+                    model.compensated_world_position(&rad)
+                } else {
+                    model.world_position(&rad)
+                };
                 row.assign(&Array1::from(p.to_vec()));
             }
             out

@@ -94,6 +94,11 @@ pub struct IdentifyArgs {
     /// Seed of the Monte Carlo re-identification.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
+    /// Leave out the compensation (the Gaussian process over the joint configuration fitted to
+    /// the residuals, kept when it predicts held-out poses better; docs "Honest on a real
+    /// robot"). Data with several runs never get one (their mean model has none).
+    #[arg(long)]
+    pub no_compensation: bool,
     /// Write the identified model (TOML) to FILE.
     #[arg(long, short, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -243,6 +248,7 @@ impl IdentifyArgs {
             refine: !self.no_refine,
             covariance: self.covariance,
             strict: self.strict,
+            compensate: !self.no_compensation,
             ..IdentifyJob::new(self.sweeps.clone(), nominal)
         }
     }

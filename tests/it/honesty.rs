@@ -69,4 +69,9 @@ fn geometric_robots_pit_is_not_grossly_off() {
     );
     assert!((0.2..=0.8).contains(&mean), "PIT mean {mean}: {u:?}");
     assert!(high < 0.3, "{high} with u ≥ 0.99: {u:?}");
+    // A purely geometric robot leaves white residuals: no fit keeps a compensation, and the
+    // prediction is the geometric model's.
+    for o in &out {
+        assert!(!o.compensated && o.rms == o.rms_geometric, "{o:?}");
+    }
 }

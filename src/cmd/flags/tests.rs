@@ -167,7 +167,8 @@ fn every_field_of_every_options_struct_has_an_entry() {
         fix,
         noise,
         uncertainty,
-        seed
+        seed,
+        compensate
     });
     same_fields(&CHAIN_OPTIONS, &chain);
     let import = fields!(ImportOptions {

@@ -134,6 +134,9 @@ pub struct CompensationReport {
     pub white_sigma_mm: Option<f64>,
     /// Why no process was fitted.
     pub not_fitted: Option<String>,
+    /// How the held-out RMS was found: 5-fold cross-validation (hyperparameters refitted per
+    /// fold) or the closed-form leave-one-out.
+    pub validation: &'static str,
 }
 
 impl CompensationReport {
@@ -144,12 +147,14 @@ impl CompensationReport {
                 " No compensation: a Gaussian process over the joint configuration was not fitted ({why})."
             ),
             (Some(after), _) if self.applied => format!(
-                " A Gaussian process over the joint configuration predicts part of it: with its mean added to the model's prediction (compensation) the leave-one-out RMS is {after:.4} mm against {:.4} mm for the geometric model ({:+.0} %); the model carries it and the discrepancy term is what it leaves.",
+                " A Gaussian process over the joint configuration predicts part of it: with its mean added to the model's prediction (compensation) the held-out RMS ({}) is {after:.4} mm against {:.4} mm for the geometric model ({:+.0} %); the model carries it and the discrepancy term is what it leaves.",
+                self.validation,
                 self.loo_rms_geometric_mm,
                 100.0 * (after / self.loo_rms_geometric_mm - 1.0)
             ),
             (Some(after), _) => format!(
-                " A Gaussian process over the joint configuration predicts no more of it (leave-one-out RMS {after:.4} mm against {:.4} mm): no compensation.",
+                " A Gaussian process over the joint configuration predicts no more of it (held-out RMS by {} {after:.4} mm against {:.4} mm): no compensation.",
+                self.validation,
                 self.loo_rms_geometric_mm
             ),
             (None, None) => String::new(),
@@ -523,6 +528,7 @@ fn compensate(
         signal_sigma_mm: None,
         white_sigma_mm: None,
         not_fitted: None,
+        validation: "",
     };
     let residuals: Vec<Vector3<f64>> = points
         .iter()
@@ -535,15 +541,23 @@ fn compensate(
             return (report, None);
         }
     };
-    let z = fit.loo(standardised);
-    let after = gp::rms(&z);
-    // Each left-out residual in units of its own predictive σ, at the poses' RMS σ: the norms
+    let held = match gp::held_out(&fit, c.q_rad, &residuals, &[standardised, left_out], seed) {
+        Ok(h) => h,
+        Err(e) => {
+            report.not_fitted = Some(format!("cross-validation: {e}"));
+            return (report, None);
+        }
+    };
+    report.validation = held.method;
+    let z = &held.residuals[0];
+    let after = gp::rms(z);
+    // Each held-out residual in units of its own predictive σ, at the poses' RMS σ: the norms
     // drawn at a configuration are then scaled by its predictive σ over that reference.
-    let sigmas = fit.loo_sigmas();
+    let sigmas = &held.sigmas;
     let reference = (sigmas.iter().map(|s| s * s).sum::<f64>() / sigmas.len().max(1) as f64).sqrt();
     let scaled: Vec<Vector3<f64>> = z
         .iter()
-        .zip(&sigmas)
+        .zip(sigmas)
         .map(|(v, s)| v * (reference / s))
         .collect();
     let scales: Vec<f64> = sigmas.iter().map(|s| s / reference).collect();
@@ -555,7 +569,7 @@ fn compensate(
         return (report, None);
     }
     report.applied = true;
-    let u = fit.loo(left_out);
+    let u = held.residuals[1].clone();
     let comp = fit.compensation(&c.to_base, before, after, reference);
     (report, Some((comp, scaled, u, scales)))
 }

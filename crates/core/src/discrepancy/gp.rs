@@ -35,6 +35,13 @@ pub const MIN_POINTS: usize = 20;
 pub const MAX_TRAINING: usize = 1500;
 /// Most poses the hyperparameters are fitted on.
 pub const HYPER_POINTS: usize = 300;
+/// Up to this many poses the compensation is judged by [`FOLDS`]-fold cross-validation with
+/// the hyperparameters refitted on each fold's training part; above, by the closed-form
+/// leave-one-out at the hyperparameters fitted to all poses (their optimism is of order
+/// hyperparameters / poses, and refitting would cost [`FOLDS`] fits).
+pub const CROSS_VALIDATION_LIMIT: usize = 400;
+/// Folds of that cross-validation.
+pub const FOLDS: usize = 5;
 /// Iterations of the hyperparameter search before it is declared not converged.
 pub const MAX_ITERATIONS: usize = 300;
 /// The compensation is kept when its leave-one-out RMS is below `1 − g` times the geometric
@@ -504,6 +511,27 @@ impl GpFit {
         out
     }
 
+    /// The posterior mean at `q` (radians) of `values` given at every pose the process was
+    /// fitted to (only its training poses' values are used).
+    pub fn mean_of_values(&self, values: &[Vector3<f64>], q: &[f64]) -> Vector3<f64> {
+        let y = DMatrix::from_fn(self.training.len(), 3, |r, c| values[self.training[r]][c]);
+        self.mean_of(&(&self.inverse * y), q)
+    }
+
+    /// The predictive σ per coordinate of a new measurement at `q` (radians), mm:
+    /// `√(σ_f² − kᵀ K_y⁻¹ k + σ_w²)`.
+    pub fn predictive_sigma(&self, q: &[f64]) -> f64 {
+        let sf2 = self.signal_sigma * self.signal_sigma;
+        let k = nalgebra::DVector::from_iterator(
+            self.training.len(),
+            self.training
+                .iter()
+                .map(|&t| kernel(q, &self.configs[t], &self.length_scales, sf2)),
+        );
+        let explained = (k.transpose() * &self.inverse * &k)[(0, 0)];
+        ((sf2 - explained).max(0.0) + self.white_sigma * self.white_sigma).sqrt()
+    }
+
     /// Leave-one-out residuals of `values` (one vector per pose, the poses it was fitted on):
     /// for a training pose `[K_y⁻¹ V]_i / [K_y⁻¹]_ii`, for a pose outside the training set its
     /// value minus the posterior mean of `values` there.
@@ -528,22 +556,13 @@ impl GpFit {
     /// The leave-one-out predictive σ per coordinate of every pose, mm: `1/√[K_y⁻¹]_ii` for a
     /// training pose, the predictive σ there for one outside the training set.
     pub fn loo_sigmas(&self) -> Vec<f64> {
-        let sf2 = self.signal_sigma * self.signal_sigma;
-        let sw2 = self.white_sigma * self.white_sigma;
         let mut out = vec![f64::NAN; self.configs.len()];
         for (r, &i) in self.training.iter().enumerate() {
             out[i] = 1.0 / self.inverse[(r, r)].max(1e-300).sqrt();
         }
-        for (i, v) in out.iter_mut().enumerate() {
-            if v.is_nan() {
-                let k = nalgebra::DVector::from_iterator(
-                    self.training.len(),
-                    self.training.iter().map(|&t| {
-                        kernel(&self.configs[i], &self.configs[t], &self.length_scales, sf2)
-                    }),
-                );
-                let explained = (k.transpose() * &self.inverse * &k)[(0, 0)];
-                *v = ((sf2 - explained).max(0.0) + sw2).sqrt();
+        for i in 0..out.len() {
+            if out[i].is_nan() {
+                out[i] = self.predictive_sigma(&self.configs[i]);
             }
         }
         out
@@ -583,4 +602,78 @@ impl GpFit {
 /// RMS of the norms of `v`.
 pub fn rms(v: &[Vector3<f64>]) -> f64 {
     (v.iter().map(|x| x.norm_squared()).sum::<f64>() / v.len().max(1) as f64).sqrt()
+}
+
+/// Held-out figures of a process: per pose, what it leaves of each set of values and its
+/// predictive σ there.
+#[derive(Clone, Debug)]
+pub struct HeldOut {
+    /// Per set of values, per pose: the value minus the held-out prediction, mm.
+    pub residuals: Vec<Vec<Vector3<f64>>>,
+    /// Per pose, the predictive σ per coordinate of the process that did not see it, mm.
+    pub sigmas: Vec<f64>,
+    /// How: `"5-fold cross-validation"` or `"leave-one-out"`.
+    pub method: &'static str,
+}
+
+/// What a process fitted to `targets` over `configs` leaves of each of `values` at poses it did
+/// not see: [`FOLDS`]-fold cross-validation with refitted hyperparameters up to
+/// [`CROSS_VALIDATION_LIMIT`] poses, else the closed-form leave-one-out of `full` (the process
+/// fitted to all poses).
+///
+/// # Errors
+///
+/// A fold's fit failing ([`fit`]).
+pub fn held_out(
+    full: &GpFit,
+    configs: &[Vec<f64>],
+    targets: &[Vector3<f64>],
+    values: &[&[Vector3<f64>]],
+    seed: u64,
+) -> Result<HeldOut, GpError> {
+    let n = configs.len();
+    if n > CROSS_VALIDATION_LIMIT {
+        return Ok(HeldOut {
+            residuals: values.iter().map(|v| full.loo(v)).collect(),
+            sigmas: full.loo_sigmas(),
+            method: "leave-one-out",
+        });
+    }
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xF01D_5EED);
+    let mut order: Vec<usize> = (0..n).collect();
+    for a in 0..n {
+        let b = rng.random_range(a..n);
+        order.swap(a, b);
+    }
+    let mut residuals: Vec<Vec<Vector3<f64>>> = values.iter().map(|v| v.to_vec()).collect();
+    let mut sigmas = vec![0.0; n];
+    for f in 0..FOLDS {
+        let held: Vec<usize> = order[f * n / FOLDS..(f + 1) * n / FOLDS].to_vec();
+        let mut is_held = vec![false; n];
+        held.iter().for_each(|&i| is_held[i] = true);
+        let train: Vec<usize> = (0..n).filter(|&i| !is_held[i]).collect();
+        let pick = |v: &[Vector3<f64>]| train.iter().map(|&i| v[i]).collect::<Vec<_>>();
+        let part = fit(
+            &train
+                .iter()
+                .map(|&i| configs[i].clone())
+                .collect::<Vec<_>>(),
+            &pick(targets),
+            seed.wrapping_add(f as u64 + 1),
+        )?;
+        for (k, v) in values.iter().enumerate() {
+            let known = pick(v);
+            for &i in &held {
+                residuals[k][i] = v[i] - part.mean_of_values(&known, &configs[i]);
+            }
+        }
+        for &i in &held {
+            sigmas[i] = part.predictive_sigma(&configs[i]);
+        }
+    }
+    Ok(HeldOut {
+        residuals,
+        sigmas,
+        method: "5-fold cross-validation",
+    })
 }

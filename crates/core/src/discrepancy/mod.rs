@@ -253,7 +253,7 @@ impl Discrepancy {
         let mut s = self.describe_term();
         if let Some(c) = &self.compensation {
             s.push_str(&format!(
-                "; compensated by a Gaussian process over the configuration (leave-one-out RMS {:.4} mm against {:.4} mm geometric)",
+                "; compensated by a Gaussian process over the configuration (held-out RMS {:.4} mm against {:.4} mm geometric)",
                 c.loo_rms_compensated_mm, c.loo_rms_geometric_mm
             ));
         }

@@ -71,8 +71,11 @@ pub struct ChainOptions {
     pub noise: NoiseModel,
     /// Covariance method.
     pub uncertainty: UncertaintyMethod,
-    /// Seed of the Monte Carlo re-identification.
+    /// Seed of the Monte Carlo re-identification (and of the compensation's fits).
     pub seed: u64,
+    /// Fit a compensation (a Gaussian process over the configuration, docs/METHOD.md §18.1)
+    /// to the residuals and keep it when it predicts held-out poses better.
+    pub compensate: bool,
 }
 
 impl Default for ChainOptions {
@@ -83,6 +86,7 @@ impl Default for ChainOptions {
             noise: NoiseModel::FromResiduals,
             uncertainty: UncertaintyMethod::Linearised,
             seed: 1,
+            compensate: true,
         }
     }
 }
@@ -197,8 +201,7 @@ pub fn identify_chain(
         nulls,
         fixed_by_user,
     );
-    let lack =
-        lack_of_fit::lack_of_fit(&run, &linearised, &noise, opts.noise.is_stated(), opts.seed);
+    let lack = lack_of_fit::lack_of_fit(&run, &linearised, &noise, opts);
     // A stated noise the residuals reject: the lack of fit acts on the parameters as noise of
     // that size would, so the covariance is scaled by the residuals' mean square over the noise's.
     let scale = lack.covariance_scale;

@@ -114,6 +114,8 @@ pub struct IdentifyJob {
     pub covariance: bool,
     /// Refuse to give a model when a result looks implausible ([`IdentifyJobError::Strict`]).
     pub strict: bool,
+    /// Fit a compensation to a single run's residuals (docs/METHOD.md §18.1).
+    pub compensate: bool,
 }
 
 /// What an [`IdentifyJob`] gives.
@@ -154,6 +156,7 @@ impl IdentifyJob {
             refine: true,
             covariance: false,
             strict: false,
+            compensate: true,
         }
     }
 
@@ -250,6 +253,7 @@ impl IdentifyJob {
             noise,
             uncertainty: self.uncertainty,
             seed: self.seed,
+            compensate: self.compensate,
         })
     }
 }

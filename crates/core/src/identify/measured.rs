@@ -16,6 +16,7 @@ use super::chain::{
 };
 use super::chain_fit::ChainState;
 use super::circle::CircleFitMethod;
+use super::identifiability::check_something_free;
 use super::lines::{common_normal, Line};
 use super::pipeline::{identify_run, Identification, IdentifyOptions, IdentifyReport};
 use super::poses::{PoseData, TrackerData};
@@ -60,6 +61,7 @@ pub fn identify_poses(
     if data.runs.is_empty() {
         return Err(IdentifyError::NoData("no poses to identify from".into()));
     }
+    let chain = &per_run_options(chain, data.runs.len());
     data.runs
         .iter()
         .map(|r| {
@@ -92,8 +94,9 @@ pub fn identify_poses(
 ///
 /// # Errors
 ///
-/// [`IdentifyError::NoData`] for `circle_only` with poses or with the placement to identify;
-/// the errors of the pipelines.
+/// [`IdentifyError::NoData`] for `circle_only` with poses or with the placement to identify, or
+/// for a `chain.fix` that holds every parameter the whole-chain fit would identify
+/// ([`check_something_free`]); the errors of the pipelines.
 pub fn identify_data(
     data: &TrackerData,
     nominal: &RobotModel,
@@ -101,6 +104,9 @@ pub fn identify_data(
     chain: &ChainOptions,
     circle_only: bool,
 ) -> Result<Vec<Identification>, IdentifyError> {
+    if !circle_only {
+        check_something_free(nominal, chain.placement, &chain.fix)?;
+    }
     match data {
         TrackerData::Sweeps(d) if circle_only => {
             if chain.placement == Placement::Identify {
@@ -231,6 +237,7 @@ pub fn identify_sweeps_chain(
     if data.runs.is_empty() {
         return Err(IdentifyError::NoData("no sweeps to identify from".into()));
     }
+    let chain = &per_run_options(chain, data.runs.len());
     data.runs
         .iter()
         .map(|run| {
@@ -277,4 +284,13 @@ pub fn identify_sweeps_chain(
             Ok(Identification { model, report })
         })
         .collect()
+}
+
+/// The whole-chain options of one of `runs` runs: several runs give their mean model, which no
+/// run's compensation describes, so they are fitted without one.
+fn per_run_options(chain: &ChainOptions, runs: usize) -> ChainOptions {
+    ChainOptions {
+        compensate: chain.compensate && runs == 1,
+        ..chain.clone()
+    }
 }

@@ -3,7 +3,7 @@
 //! what the model does not explain, fits the compensation over the configurations, builds the
 //! model's discrepancy term and runs the leave-one-out self-check.
 
-use super::{Fitted, NoiseReport};
+use super::{ChainOptions, Fitted, NoiseReport};
 use crate::discrepancy::{Configurations, FittedPoint, LackOfFit};
 use crate::identify::chain_fit::{jacobian, position_residuals};
 use nalgebra::{DMatrix, Matrix3};
@@ -14,8 +14,7 @@ pub(super) fn lack_of_fit(
     run: &Fitted,
     linearised: &DMatrix<f64>,
     noise: &NoiseReport,
-    stated: bool,
-    seed: u64,
+    opts: &ChainOptions,
 ) -> LackOfFit {
     let j = jacobian(&run.obs, &run.state, &run.free);
     let plain = position_residuals(&run.obs, &run.state);
@@ -40,5 +39,11 @@ pub(super) fn lack_of_fit(
         q_rad: &q_rad,
         to_base: run.state.rotation().transpose(),
     };
-    LackOfFit::estimate_with(&points, Some(configurations), stated, noise.p_value, seed)
+    LackOfFit::estimate_with(
+        &points,
+        opts.compensate.then_some(configurations),
+        opts.noise.is_stated(),
+        noise.p_value,
+        opts.seed,
+    )
 }
