@@ -62,12 +62,30 @@ fn the_predicted_bound_covers_held_out_errors_of_a_real_ur10() {
         "data/real/ur10-ipa/ur10_dh.csv",
         "-o",
         &s(&m),
+        "--json",
+        &s(&d.join("identify.json")),
+        "--html",
+        &s(&d.join("html")),
     ]);
     let out = String::from_utf8_lossy(&o.stdout).to_string();
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(
         out.contains("discrepancy term: model discrepancy drawn from 1196 residuals"),
         "{out}"
+    );
+    // The compensation in every report: text, JSON, HTML.
+    assert!(out.contains("compensated by a Gaussian process"), "{out}");
+    let json: serde_json::Value =
+        serde_json::from_str(&fs::read_to_string(d.join("identify.json")).unwrap()).unwrap();
+    let found = json.to_string();
+    assert!(
+        found.contains("\"applied\":true") && found.contains("leave-one-out"),
+        "{found}"
+    );
+    let html = fs::read_to_string(d.join("html/index.html")).unwrap();
+    assert!(
+        html.contains("compensation: held-out RMS") && html.contains("applied"),
+        "HTML"
     );
     // identify's own leave-one-out self-check
     let loo = out.lines().find(|l| l.contains("self-check")).unwrap();

@@ -230,6 +230,7 @@ pub fn chain_sections(page: &mut Page, runs: &[(String, &IdentifyReport)], nomin
             "noise σ per coordinate (mm)",
             "unexplained RMS (mm)",
             "discrepancy term",
+            "compensation: held-out RMS geometric → compensated (mm)",
             "leave-one-out coverage of the 95 % bound",
             "the same, parameters alone",
         ],
@@ -243,6 +244,7 @@ pub fn chain_sections(page: &mut Page, runs: &[(String, &IdentifyReport)], nomin
                     opt(l.noise_sigma_mm),
                     opt(l.unexplained_rms_mm),
                     if l.carried { "carried" } else { "none" }.to_string(),
+                    compensation_cell(l.compensation.as_ref()),
                     l.loo
                         .as_ref()
                         .map_or("—".into(), |c| format!("{:.1} %", 100.0 * c.coverage_95)),
@@ -294,4 +296,21 @@ pub fn chain_sections(page: &mut Page, runs: &[(String, &IdentifyReport)], nomin
             c.rms_residual_mm, c.max_residual_mm
         ),
     ));
+}
+
+/// The compensation column of the lack-of-fit table.
+fn compensation_cell(c: Option<&crate::discrepancy::CompensationReport>) -> String {
+    match c {
+        None => "not tried".into(),
+        Some(c) => match (&c.not_fitted, c.loo_rms_compensated_mm) {
+            (Some(why), _) => format!("not fitted: {why}"),
+            (None, Some(after)) => format!(
+                "{:.4} → {after:.4} ({}){}",
+                c.loo_rms_geometric_mm,
+                c.validation,
+                if c.applied { ", applied" } else { ": not kept" }
+            ),
+            (None, None) => "—".into(),
+        },
+    }
 }
