@@ -2,6 +2,7 @@
 document, text and CSV for the same arguments (timing fields aside), and errors naming the
 keyword where the command line names its flag."""
 
+import io
 import json
 import re
 
@@ -384,3 +385,32 @@ def test_discrepancy_term_is_carried_and_can_be_left_out(cli, tmp_path):
         assert without_timing(r.to_dict()) == without_timing(doc)
     assert any("model discrepancy drawn" in n for n in with_term.notes), with_term.notes
     assert gpu_amcs.Model.preset("tx60").discrepancy is None
+
+
+def test_compensation_is_fitted_applied_and_can_be_left_out(cli, tmp_path):
+    # The simulator's robot leaves structure a Gaussian process over the joint angles predicts:
+    # the identified model carries a compensation, fk adds its mean (as `gpu-amcs fk` does) and
+    # compensation=False / no_compensation=True leave it out.
+    poses = tmp_path / "poses.csv"
+    run_ok(cli, "simulate", "--poses", 150, "--seed", 3, "-o", poses)
+    res = gpu_amcs.identify(poses)
+    model_file = tmp_path / "m.toml"
+    model_file.write_text(res.to_toml())
+    m = gpu_amcs.Model.from_file(model_file)
+    c = m.discrepancy["compensation"]
+    assert c is not None and c["poses"] == 150, c
+    assert c["loo_rms_compensated_mm"] < c["loo_rms_geometric_mm"]
+    q = np.array([[10.0, 20.0, 70.0, 5.0, 30.0, -10.0], [-30.0, 40.0, 100.0, 0.0, -40.0, 20.0]])
+    with_c = m.fk(q)
+    without_c = m.fk(q, compensation=False)
+    gap = np.linalg.norm(with_c - without_c, axis=1)
+    assert np.all(gap > 1e-6) and np.all(gap < 1.0), gap
+    task = tmp_path / "q.csv"
+    np.savetxt(task, q, delimiter=",", header="q1,q2,q3,q4,q5,q6", comments="")
+    out = run_ok(cli, "fk", "--model", model_file, "--points-file", task).stdout
+    text = out if isinstance(out, str) else out.decode()
+    rows = np.loadtxt(io.StringIO(text), delimiter=",", skiprows=1)
+    assert np.allclose(rows[:, 6:9], with_c, rtol=0, atol=1e-9)
+    plain = gpu_amcs.identify(poses, no_compensation=True)
+    assert "[discrepancy.compensation]" not in plain.to_toml()
+    assert "[discrepancy.compensation]" in res.to_toml()
