@@ -16,6 +16,7 @@ mod hardening;
 mod honesty;
 mod html;
 mod identify;
+mod identify_limits;
 mod import;
 mod inputs;
 mod joint_counts;

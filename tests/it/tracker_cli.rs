@@ -515,7 +515,7 @@ fn identify_job_settings_are_named_by_flag() {
         ),
         (
             &["--tracker-sigma=-1"][..],
-            "--tracker-sigma: -1 is not a positive number of mm",
+            "--tracker-sigma: -1 mm is not a usable σ per coordinate",
         ),
     ] {
         let mut args = vec!["identify", p.as_str(), "-o", m.as_str()];

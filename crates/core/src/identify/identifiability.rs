@@ -18,8 +18,10 @@
 //! Each warning says what to measure instead, from the joints whose parameters make up the weak
 //! combination and the joint ranges the data actually cover.
 
-use super::chain_fit::{input_joint, jacobian, ChainState, Observation};
-use crate::kinematics::{Layout, MAX_JOINTS, MIN_JOINTS};
+use super::chain::Placement;
+use super::chain_fit::{default_free, input_joint, jacobian, ChainState, Observation};
+use super::IdentifyError;
+use crate::kinematics::{Layout, RobotModel, MAX_JOINTS, MIN_JOINTS};
 use nalgebra::DMatrix;
 use serde::Serialize;
 
@@ -126,6 +128,15 @@ pub fn scaled_svd(j: &DMatrix<f64>) -> ScaledSvd {
             s.column_mut(c).scale_mut(1.0 / n);
         }
     }
+    if s.ncols() == 0 {
+        // Nothing free (every parameter fixed): no directions, and nalgebra's eigen-decomposition
+        // refuses an empty matrix.
+        return ScaledSvd {
+            values: Vec::new(),
+            vectors: DMatrix::zeros(0, 0),
+            norms,
+        };
+    }
     // Jᵀ J's eigen-decomposition is enough (p ≤ 5n + 9, 44 at most) and avoids an m × p SVD of
     // a tall matrix.
     let eig = (s.transpose() * &s).symmetric_eigen();
@@ -177,6 +188,37 @@ pub fn combination(lay: Layout, v: &[f64], free: &[usize]) -> String {
         }
     }
     s
+}
+
+/// Refuses a request (`fix`, by name, as [`super::ChainOptions::fix`]) that holds every input
+/// the whole-chain fit of `nominal` would move (with the placement when `placement` is
+/// [`Placement::Identify`]): nothing would be identified, and the "identified" model would be
+/// the nominal one with no uncertainty. Names that are not inputs are left to the fit to refuse.
+///
+/// # Errors
+///
+/// [`IdentifyError::NoData`] when every free input is named.
+pub fn check_something_free(
+    nominal: &RobotModel,
+    placement: Placement,
+    fix: &[String],
+) -> Result<(), IdentifyError> {
+    if fix.is_empty() || !(MIN_JOINTS..=MAX_JOINTS).contains(&nominal.joints()) {
+        return Ok(());
+    }
+    let space = nominal.layout().measured();
+    let named: Vec<usize> = fix
+        .iter()
+        .filter_map(|n| space.find(&n.trim().to_ascii_lowercase()))
+        .collect();
+    let free = default_free(&nominal.fixed, placement == Placement::Identify);
+    if free.iter().all(|i| named.contains(i)) {
+        return Err(IdentifyError::NoData(format!(
+            "every one of the {} parameters the fit would identify is fixed by request: nothing is left to identify; leave at least one free",
+            free.len()
+        )));
+    }
+    Ok(())
 }
 
 /// Fixes, one at a time, the parameter with the largest share in each direction the data leave
@@ -425,6 +467,36 @@ mod tests {
         assert_eq!(s, "d2 − d3 + 0.14 a2");
         let s = combination(six, &[-0.5, 0.01, 0.0], &[6, 11, 7]);
         assert_eq!(s, "d2");
+    }
+
+    /// With nothing free the decomposition is empty (nalgebra's panics on an empty matrix).
+    #[test]
+    fn scaled_svd_of_no_columns_is_empty() {
+        let svd = scaled_svd(&DMatrix::zeros(12, 0));
+        assert!(svd.values.is_empty() && svd.norms.is_empty());
+        assert_eq!(svd.vectors.shape(), (0, 0));
+    }
+
+    /// Fixing every input the fit would move is refused; with one left free (or the placement
+    /// free when it is identified) the fit goes ahead.
+    #[test]
+    fn fixing_everything_is_refused() {
+        let m = crate::kinematics::tx60();
+        let space = m.layout().measured();
+        let names = |placement: bool| -> Vec<String> {
+            default_free(&m.fixed, placement)
+                .into_iter()
+                .map(|i| space.name(i).to_uppercase())
+                .collect()
+        };
+        for (placement, p) in [(true, Placement::Identify), (false, Placement::Known)] {
+            let all = names(placement);
+            let e = check_something_free(&m, p, &all).unwrap_err().to_string();
+            assert!(e.contains("nothing is left to identify"), "{e}");
+            assert!(check_something_free(&m, p, &all[1..]).is_ok());
+        }
+        assert!(check_something_free(&m, Placement::Identify, &[]).is_ok());
+        assert!(check_something_free(&m, Placement::Identify, &names(false)).is_ok());
     }
 
     #[test]

@@ -16,6 +16,7 @@ use super::chain::{
 };
 use super::chain_fit::ChainState;
 use super::circle::CircleFitMethod;
+use super::identifiability::check_something_free;
 use super::lines::{common_normal, Line};
 use super::pipeline::{identify_run, Identification, IdentifyOptions, IdentifyReport};
 use super::poses::{PoseData, TrackerData};
@@ -93,8 +94,9 @@ pub fn identify_poses(
 ///
 /// # Errors
 ///
-/// [`IdentifyError::NoData`] for `circle_only` with poses or with the placement to identify;
-/// the errors of the pipelines.
+/// [`IdentifyError::NoData`] for `circle_only` with poses or with the placement to identify, or
+/// for a `chain.fix` that holds every parameter the whole-chain fit would identify
+/// ([`check_something_free`]); the errors of the pipelines.
 pub fn identify_data(
     data: &TrackerData,
     nominal: &RobotModel,
@@ -102,6 +104,9 @@ pub fn identify_data(
     chain: &ChainOptions,
     circle_only: bool,
 ) -> Result<Vec<Identification>, IdentifyError> {
+    if !circle_only {
+        check_something_free(nominal, chain.placement, &chain.fix)?;
+    }
     match data {
         TrackerData::Sweeps(d) if circle_only => {
             if chain.placement == Placement::Identify {

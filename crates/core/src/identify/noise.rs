@@ -3,6 +3,7 @@
 //! whitening matrix `W` with `Wᵀ W = Σ⁻¹` that turns a residual into standard units, and the χ²
 //! consistency of the residuals with a stated noise.
 
+use crate::number::fmt_plain;
 use nalgebra::{Matrix3, Vector3};
 use serde::Serialize;
 
@@ -104,15 +105,37 @@ impl NoiseModel {
     }
 }
 
+/// σ per MPE of a tracker's stated MPE.
+const MPE_SIGMAS: f64 = 2.0;
+/// The MPE along the line of sight when none is given, µm.
+const DEFAULT_RADIAL_UM: f64 = 10.0;
+
+/// Smallest stated standard uncertainty of a coordinate, mm (1 nm): below it the weights
+/// `1/σ²` leave the range of f64 in the normal equations long before any instrument does.
+pub const MIN_SIGMA_MM: f64 = 1e-9;
+/// Largest stated standard uncertainty of a coordinate, mm (1 m): no measurement of a robot's
+/// position is that poor, and far above it the weights underflow.
+pub const MAX_SIGMA_MM: f64 = 1e3;
+
+/// Whether `sigma_mm` is a usable stated standard uncertainty: within [`MIN_SIGMA_MM`] …
+/// [`MAX_SIGMA_MM`].
+pub fn sigma_in_range(sigma_mm: f64) -> bool {
+    (MIN_SIGMA_MM..=MAX_SIGMA_MM).contains(&sigma_mm)
+}
+
 /// A noise setting that cannot be used.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum NoiseSettingError {
-    /// σ per coordinate not a positive number of mm.
-    #[error("{0} is not a positive number of mm")]
+    /// σ per coordinate not a number of mm within [`MIN_SIGMA_MM`] … [`MAX_SIGMA_MM`].
+    #[error("{} mm is not a usable σ per coordinate: it must be within {MIN_SIGMA_MM:e} … {MAX_SIGMA_MM} mm", fmt_plain(*.0))]
     Sigma(f64),
-    /// MPE parts not two or three non-negative numbers with a positive constant part.
+    /// MPE parts not two or three numbers whose σ (MPE/2) are within [`MIN_SIGMA_MM`] …
+    /// [`MAX_SIGMA_MM`] (A and R; B at most as large per metre).
     #[error(
-        "A,B[,R] must be two or three non-negative numbers (µm, µm/m, µm) with A > 0, got {0:?}"
+        "A,B[,R] must be two or three numbers (µm, µm/m, µm) with A and R within {lo} … {hi} µm and 0 ≤ B ≤ {hi} µm/m (each MPE is 2σ, and σ must be within {MIN_SIGMA_MM:e} … {MAX_SIGMA_MM} mm), got {got}",
+        lo = fmt_plain(MIN_SIGMA_MM * MPE_SIGMAS * 1e3),
+        hi = fmt_plain(MAX_SIGMA_MM * MPE_SIGMAS * 1e3),
+        got = .0.iter().map(|v| fmt_plain(*v)).collect::<Vec<_>>().join(",")
     )]
     Mpe(Vec<f64>),
     /// Tracker position not three finite numbers.
@@ -158,7 +181,7 @@ impl NoiseModel {
         data: &super::TrackerData,
     ) -> Result<NoiseModel, NoiseSettingError> {
         if let Some(s) = sigma_mm {
-            if !(s.is_finite() && s > 0.0) {
+            if !sigma_in_range(s) {
                 return Err(NoiseSettingError::Sigma(s));
             }
             return Ok(NoiseModel::Isotropic { sigma_mm: s });
@@ -166,9 +189,13 @@ impl NoiseModel {
         let Some(m) = mpe else {
             return Ok(NoiseModel::default_for(data));
         };
+        // σ in mm of an MPE part in µm.
+        let sigma = |um: f64| um / 1e3 / MPE_SIGMAS;
+        let radial = m.get(2).copied().unwrap_or(DEFAULT_RADIAL_UM);
         if !(2..=3).contains(&m.len())
-            || m.iter().any(|v| !(v.is_finite() && *v >= 0.0))
-            || m[0] <= 0.0
+            || !sigma_in_range(sigma(m[0]))
+            || !sigma_in_range(sigma(radial))
+            || !(0.0..=MAX_SIGMA_MM).contains(&sigma(m[1]))
         {
             return Err(NoiseSettingError::Mpe(m.to_vec()));
         }
@@ -180,8 +207,8 @@ impl NoiseModel {
         Ok(NoiseModel::Tracker {
             constant_um: m[0],
             per_metre_um: m[1],
-            radial_um: m.get(2).copied().unwrap_or(10.0),
-            mpe_sigmas: 2.0,
+            radial_um: radial,
+            mpe_sigmas: MPE_SIGMAS,
             position_mm: at,
         })
     }
@@ -243,5 +270,50 @@ mod tests {
         assert!((w[(0, 0)] - 200.0).abs() < 1e-9);
         assert!((w[(1, 1)] - 1.0 / 0.0135).abs() < 1e-9);
         assert!(w[(0, 1)].abs() < 1e-12);
+    }
+
+    /// A stated σ outside 1e-9 … 1000 mm (directly, or through an MPE part) is refused: 1e-300
+    /// or 1e200 used to overflow or underflow the weights and panic the identifiability SVD, and
+    /// R = 0 whitened with 1/0.
+    #[test]
+    fn stated_sigma_must_be_within_the_physical_range() {
+        let data = super::super::TrackerData::Poses(super::super::PoseData::default());
+        let sigma = |s: f64| NoiseModel::from_settings(Some(s), None, None, &data);
+        let mpe = |m: &[f64]| NoiseModel::from_settings(None, Some(m), None, &data);
+        for s in [MIN_SIGMA_MM, 0.01, MAX_SIGMA_MM] {
+            assert_eq!(sigma(s), Ok(NoiseModel::Isotropic { sigma_mm: s }));
+        }
+        for s in [
+            0.0,
+            -1.0,
+            1e-300,
+            1e-155,
+            1e-10,
+            1000.5,
+            1e200,
+            f64::NAN,
+            f64::INFINITY,
+        ] {
+            assert!(matches!(sigma(s), Err(NoiseSettingError::Sigma(_))), "{s}");
+        }
+        assert_eq!(
+            sigma(1e-300).unwrap_err().to_string(),
+            "1e-300 mm is not a usable σ per coordinate: it must be within 1e-9 … 1000 mm"
+        );
+        for m in [&[15.0, 6.0][..], &[15.0, 0.0, 10.0], &[3e-6, 0.0, 1.9e6]] {
+            assert!(mpe(m).is_ok(), "{m:?}");
+        }
+        for m in [
+            &[15.0, 6.0, 0.0][..],
+            &[1e-300, 0.0],
+            &[1e300, 0.0],
+            &[15.0, 1e300],
+            &[15.0, -1.0],
+            &[15.0, 6.0, 1e300],
+            &[15.0],
+            &[0.0, 6.0],
+        ] {
+            assert_eq!(mpe(m), Err(NoiseSettingError::Mpe(m.to_vec())), "{m:?}");
+        }
     }
 }

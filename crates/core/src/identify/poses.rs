@@ -117,7 +117,8 @@ impl TrackerData {
 ///
 /// [`IdentifyError::MissingColumn`] for a missing required column (fewer than four `q` columns or a
 /// gap in them, or one of `sx,sy,sz` while another is present), [`IdentifyError::Csv`] for a
-/// malformed row, a value that is not a finite number, a σ that is not positive, or a row that
+/// malformed row, a value that is not a finite number, a σ outside
+/// [`MIN_SIGMA_MM`](super::noise::MIN_SIGMA_MM) … [`MAX_SIGMA_MM`](super::noise::MAX_SIGMA_MM), or a row that
 /// repeats an earlier one exactly (same run, angles and position), naming its line;
 /// [`IdentifyError::Empty`] for no data rows.
 pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, IdentifyError> {
@@ -156,13 +157,16 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
                 let mut s = [0.0; 3];
                 for (k, x) in s.iter_mut().enumerate() {
                     *x = parse_number(&rec, sc[k], SIGMA_COLUMNS[k], line, origin, &context)?;
-                    if *x <= 0.0 {
+                    if !super::noise::sigma_in_range(*x) {
                         return Err(IdentifyError::Csv {
                             origin: origin.to_string(),
                             line,
                             message: format!(
-                                "column {} = {} is not a positive standard uncertainty (mm)",
-                                SIGMA_COLUMNS[k], x
+                                "column {} = {} is not a usable standard uncertainty: it must be within {:e} … {} mm",
+                                SIGMA_COLUMNS[k],
+                                crate::number::fmt_plain(*x),
+                                super::noise::MIN_SIGMA_MM,
+                                super::noise::MAX_SIGMA_MM
                             ),
                         });
                     }
