@@ -23,8 +23,9 @@
 // draw b where the matrix's mask has bit 63, else a; not offset rows) of a model with a
 // discrepancy term (what the geometric model does not explain; cfg.disc_count radii
 // in disc_radii, 0: none) then take e_j ← √(e_j² + r² + 2 e_j r c), radius r and cosine c from
-// the word h(a ⊕ h(b + j)), (a, b, _, _) the draw's Philox block (draw, 0, DISCREPANCY_STREAM)
-// (crates/core/src/discrepancy/mod.rs, crates/core/src/engine/discrepancy.rs).
+// the word h(a ⊕ h(b + j)), (a, b, c, _) the draw's Philox block (draw, 0, DISCREPANCY_STREAM),
+// r times the draw's size factor from c's top 8 bits
+// (crates/core/src/discrepancy/mod.rs, size.rs, crates/core/src/engine/discrepancy.rs).
 // Only small quantities (offsets, rotation differences, deviations) are formed in f32; the
 // ~1000 mm nominal positions enter only multiplied by small rotation differences.
 
@@ -85,6 +86,8 @@ const N_NORMALS: u32 = 4u * N_BLOCKS;
 const WORKGROUP_SIZE: u32 = 64u;
 // The Philox stream of the discrepancy term (engine::DISCREPANCY_STREAM).
 const DISCREPANCY_STREAM: u32 = 0xD15C0000u;
+// The discrepancy term's per-draw size factors (discrepancy::size::SIZE_DRAWS), indexed by 8 bits.
+const SIZE_DRAWS: u32 = 256u;
 
 // The integer hash "lowbias32" of engine::discrepancy::hash32 (wrapping u32 arithmetic).
 fn hash32(v: u32) -> u32 {
@@ -278,17 +281,18 @@ fn placement_step(dv: vec3<f32>, x0: vec3<f32>, d: array<f32, N_PLACED>) -> vec3
     return dv + i1 + i2 + i3 + rt;
 }
 
-// The error of point pj whose kinematic error is e with the discrepancy word wd: radius
-// r = disc_radii[⌊(wd ≫ 16)·K / 2¹⁶⌋] (exact in u32: K ≤ 2¹⁶; times disc_radii[K + pj] for a
-// compensated model), cosine
+// The error of point pj whose kinematic error is e with the discrepancy word wd and the draw's
+// size factor g: radius r = disc_radii[⌊(wd ≫ 16)·K / 2¹⁶⌋] (exact in u32: K ≤ 2¹⁶; times
+// disc_radii[K + SIZE_DRAWS + pj] for a compensated model) times g, cosine
 // c = ((wd mod 2¹⁶) + ½)·2⁻¹⁵ − 1, and √(e² + r² + 2erc) formed as √((e − r)² + 2er(1 + c)):
 // both terms are non-negative and 1 + c is exact in f32, so no cancellation.
-fn with_discrepancy(e: f32, wd: u32, k: u32, pj: u32) -> f32 {
+fn with_discrepancy(e: f32, wd: u32, k: u32, pj: u32, g: f32) -> f32 {
     var r = disc_radii[((wd >> 16u) * k) >> 16u];
     if (cfg.disc_scaled != 0u) {
         // a compensated model: the point's predictive σ over the term's reference
-        r = r * disc_radii[k + pj];
+        r = r * disc_radii[k + SIZE_DRAWS + pj];
     }
+    r = r * g;
     let one_plus_c = (f32(wd & 0xFFFFu) + 0.5) * (1.0 / 32768.0);
     let dr = e - r;
     return sqrt(dr * dr + 2.0 * e * r * one_plus_c);
@@ -311,10 +315,14 @@ fn point_errors(i: u32, d: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u3
 
     let m = cfg.m;
     var w = 0.0;
-    // The draw's discrepancy words (a, b): point pj takes h(a ⊕ h(b + pj)).
+    // The draw's discrepancy words (a, b): point pj takes h(a ⊕ h(b + pj)); the draw's size
+    // factor is disc_radii[K + (c ≫ 24)] (after the K radii, SIZE_DRAWS of them).
     var dab = vec2<u32>(0u);
+    var g = 0.0;
     if (disc_count != 0u) {
-        dab = philox4x32_10(vec4<u32>(draw.x, draw.y, 0u, DISCREPANCY_STREAM), cfg.key).xy;
+        let words = philox4x32_10(vec4<u32>(draw.x, draw.y, 0u, DISCREPANCY_STREAM), cfg.key);
+        dab = words.xy;
+        g = disc_radii[disc_count + (words.z >> 24u)];
     }
     for (var pj = 0u; pj < m; pj++) {
         let base = pj * WORDS_PER_POINT;
@@ -338,7 +346,7 @@ fn point_errors(i: u32, d: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u3
         let ez = dv.z + o.z;
         var e = sqrt(ex * ex + ey * ey + ez * ez);
         if (disc_count != 0u) {
-            e = with_discrepancy(e, hash32(dab.x ^ hash32(dab.y + pj)), disc_count, pj);
+            e = with_discrepancy(e, hash32(dab.x ^ hash32(dab.y + pj)), disc_count, pj, g);
         }
         if (chunk.want_e != 0u) {
             e_out[i * m + pj] = e;

@@ -280,6 +280,10 @@ fn shaders_validate_with_naga() {
         constant("DISCREPANCY_STREAM"),
         gpu_amcs::engine::DISCREPANCY_STREAM
     );
+    assert_eq!(
+        constant("SIZE_DRAWS") as usize,
+        gpu_amcs::discrepancy::size::SIZE_DRAWS
+    );
 
     // Every joint count composes a valid shader whose sizes are the Rust layout's; seven joints
     // use all the normals a draw has (eleven blocks: the 38 inputs and the placement's six).

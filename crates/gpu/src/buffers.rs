@@ -81,14 +81,16 @@ impl ProblemBuffers {
         let m = problem.n_points();
         // The term's radii (at most 2¹⁶, so the count fits the shader's index rule); a binding
         // cannot be empty, so a problem without one uploads a single unused zero.
-        // A compensated model's per-point factors follow the radii (m of them).
+        // The size's per-draw factors follow the radii (SIZE_DRAWS of them), then a compensated
+        // model's per-point factors (m of them).
         let (disc, disc_count, disc_scaled): (Vec<f32>, u32, u32) = match &problem.discrepancy {
             Some(d) => {
                 debug_assert_eq!(d.key(), problem.sampler.key(), "one key for both streams");
                 let radii = d.radii().iter().map(|&r| r as f32);
+                let factors = d.factors().iter().map(|&g| g as f32);
                 let scales = d.scales().iter().map(|&s| s as f32);
                 (
-                    radii.chain(scales).collect(),
+                    radii.chain(factors).chain(scales).collect(),
                     d.radii().len() as u32,
                     u32::from(!d.scales().is_empty()),
                 )

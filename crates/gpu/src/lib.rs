@@ -100,8 +100,8 @@ pub mod binding {
     /// Input of the pick-freeze path: one mask of normals per matrix, (lo, hi) words (`masks`).
     pub const MASKS: u32 = 9;
     /// The model's discrepancy term: its radii as f32, mm, drawn by the counter-draw entry
-    /// point only (`disc_radii`: the radii, then a compensated model's m per-point factors; one
-    /// unused entry without a term).
+    /// point only (`disc_radii`: the radii, the size's 256 per-draw factors, then a compensated
+    /// model's m per-point factors; one unused entry without a term).
     pub const DISC_RADII: u32 = 10;
 }
 

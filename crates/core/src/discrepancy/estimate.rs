@@ -18,6 +18,7 @@
 //! the quantity a reliability R is about.
 
 use super::gp::{self, Compensation};
+use super::size;
 use super::{Discrepancy, MAX_SAMPLES};
 use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
@@ -98,6 +99,9 @@ pub struct LackOfFit {
     /// RMS of what the model does not explain, noise taken out (3-D), mm; `None` when the noise
     /// is unknown.
     pub unexplained_rms_mm: Option<f64>,
+    /// The 95 % upper bound of that RMS the residuals allow (the posterior of the term's size,
+    /// [`super::size`]); `None` when the noise is unknown or the points are too few.
+    pub unexplained_upper_mm: Option<f64>,
     /// Share of the residual mean square that is the robot's.
     pub robot_share: f64,
     /// The factor the parameters' covariance was scaled by (the geometric residuals' mean
@@ -280,6 +284,7 @@ impl LackOfFit {
             _ => 1.0,
         };
         let enough = n >= MIN_RESIDUALS;
+        let ratios = size::mean_square_ratios(&norms);
         let term = enough.then(|| Discrepancy {
             residual_norms: thin(&norms),
             robot_share,
@@ -294,6 +299,7 @@ impl LackOfFit {
                     left_out: &left_out,
                     norms: &norms,
                     scales: &scales,
+                    factors: &size::factors(&ratios, 0.0),
                 },
                 covariance_scale,
                 seed,
@@ -309,7 +315,11 @@ impl LackOfFit {
             unexplained_rms_mm: sigma.map(|_| (ms * robot_share).sqrt()),
             robot_share,
             covariance_scale,
-            carried: robot_share > 0.0 && term.is_some(),
+            carried: term.as_ref().is_some_and(Discrepancy::drawn),
+            unexplained_upper_mm: term
+                .as_ref()
+                .filter(|_| noise == NoiseSource::Stated)
+                .map(Discrepancy::robot_rms_upper_mm),
             term,
             loo,
             compensation: report,
@@ -337,8 +347,9 @@ impl LackOfFit {
                 self.p_value.unwrap_or(1.0),
                 if self.carried {
                     format!(
-                        "; their excess over the noise ({:.4} mm RMS) may still be one, too small for the test, and is kept",
-                        self.unexplained_rms_mm.unwrap_or(0.0)
+                        "; an unexplained part too small for the test ({:.4} mm RMS estimated, up to {:.4} mm at 95 %) may still be there, and is kept",
+                        self.unexplained_rms_mm.unwrap_or(0.0),
+                        self.unexplained_upper_mm.unwrap_or(0.0)
                     )
                 } else {
                     String::new()
@@ -352,7 +363,7 @@ impl LackOfFit {
         if self.carried {
             s.push_str(match self.noise {
                 NoiseSource::Unknown => " The model carries a discrepancy term drawn from the residuals (noise included, so reliability figures are conservative by the tracker noise); every analysis draws it.",
-                NoiseSource::Stated => " The model carries a discrepancy term drawn from the residuals with the noise taken out, and every analysis draws it; the parameters' covariance is scaled by the residuals' mean square over the noise's.",
+                NoiseSource::Stated => " The model carries a discrepancy term drawn from the residuals with the noise taken out, its size drawn with the uncertainty the residuals leave, and every analysis draws it; the parameters' covariance is scaled by the residuals' mean square over the noise's.",
             });
         } else if self.points < MIN_RESIDUALS && self.found != Some(false) {
             s.push_str(&format!(
@@ -422,6 +433,8 @@ struct Drawn<'a> {
     left_out: &'a [Vector3<f64>],
     norms: &'a [f64],
     scales: &'a [f64],
+    /// The size's per-draw factors for a measurement ([`size::factors`], noise kept).
+    factors: &'a [f64],
 }
 
 fn loo_check(points: &[FittedPoint], drawn: Drawn<'_>, scale: f64, seed: u64) -> LooCheck {
@@ -429,6 +442,7 @@ fn loo_check(points: &[FittedPoint], drawn: Drawn<'_>, scale: f64, seed: u64) ->
         left_out,
         norms,
         scales,
+        factors,
     } = drawn;
     let n = points.len();
     // Draws per point: enough for a 95 % quantile, bounded in total work.
@@ -454,7 +468,8 @@ fn loo_check(points: &[FittedPoint], drawn: Drawn<'_>, scale: f64, seed: u64) ->
             if j >= i {
                 j += 1;
             }
-            let d = unit(&mut rng) * (norms[j] * scales[i]);
+            let g = factors[rng.random_range(0..factors.len())];
+            let d = unit(&mut rng) * (norms[j] * scales[i] * g);
             samples_with[i * m + k] = (dp + d).norm();
             samples_without[i * m + k] = dp.norm();
         }

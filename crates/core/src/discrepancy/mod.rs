@@ -46,6 +46,7 @@
 
 mod estimate;
 pub mod gp;
+pub mod size;
 #[cfg(test)]
 mod tests;
 
@@ -158,11 +159,50 @@ impl Discrepancy {
         Ok(self)
     }
 
-    /// Whether analyses of the robot draw it: some of the residual is the robot's (share > 0).
-    /// A term of share 0 (no lack of fit found against a stated noise) is kept for comparisons
-    /// with measurements, which include the noise.
+    /// Whether analyses of the robot draw it: some of the residual is the robot's (share > 0),
+    /// or, with the residuals close to the stated noise (share 0), some draws of the size's
+    /// posterior leave a part the noise does not explain ([`size`]). A term whose every draw is
+    /// noise (residuals well below the stated noise) is kept for comparisons with measurements,
+    /// which include the noise.
     pub fn drawn(&self) -> bool {
         self.robot_share > 0.0
+            || self
+                .draw_factors(DiscrepancyUse::Robot)
+                .last()
+                .is_some_and(|&g| g > 0.0)
+    }
+
+    /// The part of the norms' mean square that is measurement noise, for the robot: `1 − share`
+    /// when the share is positive, the stated noise's `3σ²` over the mean square when the share
+    /// is 0 (it can exceed 1), 0 when the noise is unknown.
+    fn noise_part(&self) -> f64 {
+        if self.robot_share > 0.0 {
+            return 1.0 - self.robot_share;
+        }
+        let ms = self.rms_mm().powi(2);
+        match self.noise_sigma_mm {
+            Some(s) if self.noise != NoiseSource::Unknown && ms > 0.0 => 3.0 * s * s / ms,
+            _ => 1.0,
+        }
+    }
+
+    /// The factors a run multiplies the radii ([`Self::radii`]) of each draw by: [`size::SIZE_DRAWS`]
+    /// quantiles of the posterior of the term's size, ascending (see [`size`]). For the robot
+    /// `√(max(0, ms_k/ms − noise part))`, for a measurement `√(ms_k/ms)`.
+    pub fn draw_factors(&self, usage: DiscrepancyUse) -> Vec<f64> {
+        let ratios = size::mean_square_ratios(&self.residual_norms);
+        let noise = match usage {
+            DiscrepancyUse::Robot => self.noise_part(),
+            DiscrepancyUse::Measured => 0.0,
+        };
+        size::factors(&ratios, noise)
+    }
+
+    /// The 95 % upper bound of the robot's own RMS (mm) the residuals allow: the size's
+    /// posterior quantile.
+    pub fn robot_rms_upper_mm(&self) -> f64 {
+        let g = self.draw_factors(DiscrepancyUse::Robot);
+        self.rms_mm() * g[(0.95 * g.len() as f64).ceil() as usize - 1]
     }
 
     /// The term of several runs' mean model: every run's norms (thinned to [`MAX_SAMPLES`] by
@@ -239,13 +279,10 @@ impl Discrepancy {
         self.rms_mm() * self.robot_share.sqrt()
     }
 
-    /// The radii an analysis draws for `usage`: the norms, scaled by √share for the robot.
-    pub fn radii(&self, usage: DiscrepancyUse) -> Vec<f64> {
-        let scale = match usage {
-            DiscrepancyUse::Robot => self.robot_share.sqrt(),
-            DiscrepancyUse::Measured => 1.0,
-        };
-        self.residual_norms.iter().map(|r| r * scale).collect()
+    /// The radii an analysis draws: the norms, each draw's times its factor
+    /// ([`Self::draw_factors`]: the robot's share of them, with its uncertainty).
+    pub fn radii(&self) -> &[f64] {
+        &self.residual_norms
     }
 
     /// One line for reports: size and noise split (and the compensation when there is one).
@@ -268,10 +305,11 @@ impl Discrepancy {
                 self.rms_mm()
             ),
             _ => format!(
-                "model discrepancy drawn from {} residuals (RMS {:.4} mm of which the robot's own {:.4} mm; {} noise σ {:.4} mm per coordinate taken out)",
+                "model discrepancy drawn from {} residuals (RMS {:.4} mm of which the robot's own {:.4} mm, up to {:.4} mm at 95 %, each draw its own size; {} noise σ {:.4} mm per coordinate taken out)",
                 self.residual_norms.len(),
                 self.rms_mm(),
                 self.robot_rms_mm(),
+                self.robot_rms_upper_mm(),
                 self.noise.as_str(),
                 self.noise_sigma_mm.unwrap_or(0.0)
             ),

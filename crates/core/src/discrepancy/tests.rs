@@ -36,8 +36,15 @@ fn checked_names_the_bad_field() {
         .checked()
         .unwrap();
     assert!(ok.residual_norms.windows(2).all(|w| w[0] <= w[1]));
-    assert_eq!(ok.radii(DiscrepancyUse::Robot)[19], 19.0 * 0.5);
-    assert_eq!(ok.radii(DiscrepancyUse::Measured)[19], 19.0);
+    assert_eq!(ok.radii()[19], 19.0);
+    // The size's factors: for a measurement their median is about 1 (the mean square's own
+    // posterior), for the robot about √share = 0.5, both ascending.
+    let robot = ok.draw_factors(DiscrepancyUse::Robot);
+    let measured = ok.draw_factors(DiscrepancyUse::Measured);
+    assert_eq!(robot.len(), size::SIZE_DRAWS);
+    assert!(robot.windows(2).all(|w| w[0] <= w[1]));
+    assert!((measured[128] - 1.0).abs() < 0.05, "{}", measured[128]);
+    assert!((robot[128] - 0.5).abs() < 0.05, "{}", robot[128]);
 }
 
 /// Points with residuals of a known spread, no leverage, whitened by a stated σ.
@@ -85,7 +92,10 @@ fn lack_of_fit_splits_noise_from_discrepancy() {
     // The covariance grows by the same excess: scale = mean square over the noise's.
     assert!(lof.robot_share < 0.15, "{lof:?}");
     assert!((lof.covariance_scale - 1.0 / (1.0 - lof.robot_share)).abs() < 1e-9);
-    assert_eq!(lof.carried, lof.robot_share > 0.0);
+    assert_eq!(lof.carried, lof.term.as_ref().unwrap().drawn());
+    // The size's posterior: the estimate lies inside its 95 % upper bound.
+    let upper = lof.unexplained_upper_mm.unwrap();
+    assert!(upper > lof.unexplained_rms_mm.unwrap(), "{lof:?}");
     // Residuals below the noise: no share at all.
     let quiet = points(0.008, 0.01, 400, 4);
     let lof = LackOfFit::estimate(&quiet, true, Some(0.99), 1);
@@ -265,4 +275,37 @@ mod gp_tests {
         let e = gp::fit(&q, &y, 1).unwrap_err();
         assert!(e.to_string().contains("at least 20"), "{e}");
     }
+}
+
+/// The posterior of the mean square (a Bayesian bootstrap) has the spread the sampling theory
+/// gives: for Gaussian 3-D residuals `r² = σ²χ²₃`, so the mean square of n of them has relative
+/// standard deviation √(2/(3n)) (0.0408 at n = 400, 0.0129 at n = 4000 by the normal limit).
+/// The 16 % and 84 % quantiles of the ratios sit one such σ from 1 (to 15 %, the estimate's
+/// own scatter from one sample: its fourth moment is estimated from these very residuals).
+#[test]
+fn size_posterior_has_the_sampling_spread() {
+    for (n, seed) in [(400usize, 7u64), (4000, 8)] {
+        let p = points(0.01, 0.01, n, seed);
+        let norms = standardised_norms(&p);
+        let ratios = size::mean_square_ratios(&norms);
+        assert_eq!(ratios.len(), size::SIZE_DRAWS);
+        assert!(ratios.windows(2).all(|w| w[0] <= w[1]));
+        let sd = (2.0 / (3.0 * n as f64)).sqrt();
+        let lo = 1.0 - ratios[(0.1587 * 256.0) as usize];
+        let hi = ratios[(0.8413 * 256.0) as usize] - 1.0;
+        for (what, v) in [("lower", lo), ("upper", hi)] {
+            assert!(
+                (v / sd - 1.0).abs() < 0.15,
+                "n {n}: {what} {v} against σ {sd}"
+            );
+        }
+        // the same norms in another order give the same factors
+        let mut reversed = norms.clone();
+        reversed.reverse();
+        assert_eq!(size::mean_square_ratios(&reversed), ratios);
+    }
+    // Robot factors: a noise part above every ratio gives zeros; none gives √ratio.
+    let ratios = vec![0.9, 1.0, 1.1];
+    assert_eq!(size::factors(&ratios, 1.2), vec![0.0; 3]);
+    assert_eq!(size::factors(&ratios, 0.0)[1], 1.0);
 }

@@ -2,13 +2,16 @@
 //! the rule of [`crate::discrepancy`] (one 32-bit word per point: radius index from its high
 //! half, direction cosine from its low half), in the scalar form and over lanes of draws.
 //!
-//! The words: one Philox block per draw, `(a, b, _, _) = Philox(draw, 0, DISCREPANCY_STREAM)`,
+//! The words: one Philox block per draw, `(a, b, c, _) = Philox(draw, 0, DISCREPANCY_STREAM)`,
+//! the draw's size factor from `c`'s top 8 bits (one of [`SIZE_DRAWS`] quantiles of the size's
+//! posterior, [`crate::discrepancy::size`]),
 //! then per point `w_j = h(a ⊕ h(b + j))` with `h` the integer finaliser "lowbias32" (C.
 //! Wellons, public domain; a bijection of u32 with a measured bias of 0.17, better than
 //! MurmurHash3's). Distinct points of a draw get distinct words, every draw its own
 //! 64 bits from Philox; a Philox block per point cost 1.4× the kernel, this costs a few integer
 //! operations per point and is as exact in WGSL's u32 arithmetic.
 
+use crate::discrepancy::size::SIZE_DRAWS;
 use crate::discrepancy::MAX_SAMPLES;
 use crate::sampling::Philox;
 
@@ -43,25 +46,34 @@ pub fn cosine(w: u32) -> f64 {
 #[derive(Clone, Debug, PartialEq)]
 pub struct DiscrepancyDraws {
     radii: Vec<f64>,
+    /// Per draw, one of these factors of every radius (the term's size, [`SIZE_DRAWS`] of them).
+    factors: Vec<f64>,
     /// Per test point, the factor the radius is drawn with (empty: 1 everywhere).
     scales: Vec<f64>,
     key: [u32; 2],
 }
 
 impl DiscrepancyDraws {
-    /// Draws from `radii` (mm; 1 to [`MAX_SAMPLES`] of them) with the run's `seed`.
+    /// Draws from `radii` (mm; 1 to [`MAX_SAMPLES`] of them), each draw's times one of the
+    /// [`SIZE_DRAWS`] `factors` ([`crate::discrepancy::Discrepancy::draw_factors`]), with the
+    /// run's `seed`.
     ///
     /// # Panics
     ///
     /// When `radii` is empty or longer than [`MAX_SAMPLES`] ([`crate::discrepancy::Discrepancy::checked`] keeps
-    /// model files inside).
-    pub fn new(radii: Vec<f64>, seed: u64) -> DiscrepancyDraws {
+    /// model files inside), or there are not [`SIZE_DRAWS`] finite non-negative factors.
+    pub fn new(radii: Vec<f64>, factors: Vec<f64>, seed: u64) -> DiscrepancyDraws {
         assert!(
             !radii.is_empty() && radii.len() <= MAX_SAMPLES,
             "1 to {MAX_SAMPLES} radii"
         );
+        assert!(
+            factors.len() == SIZE_DRAWS && factors.iter().all(|g| g.is_finite() && *g >= 0.0),
+            "{SIZE_DRAWS} finite non-negative factors"
+        );
         DiscrepancyDraws {
             radii,
+            factors,
             scales: Vec::new(),
             key: Philox::new(seed).key,
         }
@@ -102,6 +114,17 @@ impl DiscrepancyDraws {
         &self.radii
     }
 
+    /// The per-draw factors of the radii ([`SIZE_DRAWS`], ascending).
+    pub fn factors(&self) -> &[f64] {
+        &self.factors
+    }
+
+    /// The factor of a draw whose Philox block has third word `c`: `factors[c ≫ 24]`.
+    #[inline(always)]
+    pub fn factor(&self, c: u32) -> f64 {
+        self.factors[(c >> 24) as usize]
+    }
+
     /// The Philox key.
     pub fn key(&self) -> [u32; 2] {
         self.key
@@ -113,10 +136,10 @@ impl DiscrepancyDraws {
         (((w >> 16) * self.radii.len() as u32) >> 16) as usize
     }
 
-    /// The word of `draw` at `point`.
-    fn word(&self, draw: u64, point: usize) -> u32 {
-        let [a, b, _, _] = Philox { key: self.key }.block(draw, 0, DISCREPANCY_STREAM);
-        point_word(a, b, point as u32)
+    /// The word of `draw` at `point`, and the draw's factor word.
+    fn word(&self, draw: u64, point: usize) -> (u32, u32) {
+        let [a, b, c, _] = Philox { key: self.key }.block(draw, 0, DISCREPANCY_STREAM);
+        (point_word(a, b, point as u32), c)
     }
 
     /// The error at `point` of `draw` whose kinematic part has length `e`:
@@ -150,7 +173,7 @@ impl DiscrepancyDraws {
             std::array::from_fn(|l| point_word(words[0][l], words[1][l], point as u32));
         let s = self.scale(point);
         for l in 0..L {
-            let r = self.radii[self.index(w[l])] * s;
+            let r = self.radii[self.index(w[l])] * s * self.factor(words[2][l]);
             let c = cosine(w[l]);
             let e = e2[l].sqrt();
             let v = e2[l] + r * r + 2.0 * e * r * c;
@@ -160,8 +183,11 @@ impl DiscrepancyDraws {
 
     /// The radius (mm) and direction cosine of `draw` at `point`.
     pub fn draw_pair(&self, draw: u64, point: usize) -> (f64, f64) {
-        let w = self.word(draw, point);
-        (self.radii[self.index(w)] * self.scale(point), cosine(w))
+        let (w, c) = self.word(draw, point);
+        (
+            self.radii[self.index(w)] * self.scale(point) * self.factor(c),
+            cosine(w),
+        )
     }
 }
 
@@ -171,7 +197,11 @@ mod tests {
 
     #[test]
     fn lanes_give_the_point_form_bits() {
-        let d = DiscrepancyDraws::new(vec![0.01, 0.02, 0.05, 0.3, 1.0], 77);
+        let d = DiscrepancyDraws::new(
+            vec![0.01, 0.02, 0.05, 0.3, 1.0],
+            (0..SIZE_DRAWS).map(|k| 0.5 + k as f64 / 128.0).collect(),
+            77,
+        );
         let draws: [u64; 8] = std::array::from_fn(|l| 1_000_000_007 + 3 * l as u64);
         let mut words = [[0u32; 8]; 4];
         for point in 0..5 {
@@ -194,7 +224,7 @@ mod tests {
     fn radii_are_drawn_uniformly_and_directions_isotropically() {
         // e = 0: the error is the drawn radius itself, each of the K equally often.
         let radii = vec![1.0, 2.0, 3.0, 4.0];
-        let d = DiscrepancyDraws::new(radii.clone(), 5);
+        let d = DiscrepancyDraws::new(radii.clone(), vec![1.0; SIZE_DRAWS], 5);
         let n = 40_000u64;
         let mut counts = [0usize; 4];
         let mut cross = 0.0;
@@ -214,9 +244,33 @@ mod tests {
     }
 
     #[test]
+    fn each_draw_takes_one_factor_at_every_point_and_every_factor_equally_often() {
+        // Radius 1 and factor k + 1 for quantile k: at e = 0 the error is the factor itself,
+        // the same at every point of a draw.
+        let d = DiscrepancyDraws::new(
+            vec![1.0],
+            (0..SIZE_DRAWS).map(|k| k as f64 + 1.0).collect(),
+            9,
+        );
+        let n = 51_200u64;
+        let mut counts = vec![0usize; SIZE_DRAWS];
+        for k in 0..n {
+            let g = d.apply(0.0, k, 0);
+            for point in 1..6 {
+                assert_eq!(d.apply(0.0, k, point), g, "draw {k} point {point}");
+            }
+            counts[g as usize - 1] += 1;
+        }
+        // 200 expected per factor, binomial σ ≈ 14.1: every count within 5σ
+        for (k, c) in counts.iter().enumerate() {
+            assert!((*c as f64 - 200.0).abs() < 5.0 * 14.1, "factor {k}: {c}");
+        }
+    }
+
+    #[test]
     fn the_index_rule_covers_every_radius_and_stays_in_range() {
         for k in [1usize, 2, 3, 1000, MAX_SAMPLES] {
-            let d = DiscrepancyDraws::new(vec![0.0; k], 1);
+            let d = DiscrepancyDraws::new(vec![0.0; k], vec![1.0; SIZE_DRAWS], 1);
             assert_eq!(d.index(0), 0);
             assert_eq!(d.index(u32::MAX), k - 1);
         }

@@ -85,8 +85,12 @@ pub enum ProblemError {
 }
 
 /// The draws of `model`'s discrepancy term for `usage`: none without a term, and none for the
-/// robot when the term is all measurement noise (share 0: no lack of fit found).
-/// A compensated model's term is drawn at each of `points` (radians) with its predictive σ there.
+/// robot when every draw of the term's size is measurement noise ([`Discrepancy::drawn`]).
+/// Each draw scales the radii by its draw of the size ([`Discrepancy::draw_factors`]); a
+/// compensated model's term is drawn at each of `points` (radians) with its predictive σ there.
+///
+/// [`Discrepancy::drawn`]: crate::discrepancy::Discrepancy::drawn
+/// [`Discrepancy::draw_factors`]: crate::discrepancy::Discrepancy::draw_factors
 fn discrepancy_draws(
     model: &RobotModel,
     points: &[Joints],
@@ -97,7 +101,10 @@ fn discrepancy_draws(
         .discrepancy
         .as_ref()
         .filter(|d| usage == DiscrepancyUse::Measured || d.drawn())
-        .map(|d| DiscrepancyDraws::new(d.radii(usage), seed).with_scales(d.point_scales(points)))
+        .map(|d| {
+            DiscrepancyDraws::new(d.radii().to_vec(), d.draw_factors(usage), seed)
+                .with_scales(d.point_scales(points))
+        })
 }
 
 /// Model + test points + reference + seed.

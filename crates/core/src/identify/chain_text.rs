@@ -135,8 +135,10 @@ pub fn render_chain_report(c: &ChainReport) -> String {
 fn render_lack_of_fit(s: &mut String, l: &crate::discrepancy::LackOfFit) {
     let split = match (l.noise_sigma_mm, l.unexplained_rms_mm) {
         (Some(sig), Some(u)) => format!(
-            "measurement noise σ {sig:.4} mm per coordinate ({:.4} mm 3-D), unexplained by the model {u:.4} mm ({:.0} % of the residual{})",
+            "measurement noise σ {sig:.4} mm per coordinate ({:.4} mm 3-D), unexplained by the model {u:.4} mm{} ({:.0} % of the residual{})",
             sig * 3f64.sqrt(),
+            l.unexplained_upper_mm
+                .map_or(String::new(), |v| format!(", up to {v:.4} mm at 95 %")),
             100.0 * l.robot_share,
             if l.found == Some(true) { "" } else { ": no lack of fit found" }
         ),

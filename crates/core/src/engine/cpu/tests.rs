@@ -225,7 +225,13 @@ fn discrepancy_term_matches_its_point_form() {
     ];
     let pb = Problem::new(m, &pts, &Reference::Calibrated, 42).unwrap();
     let dd = pb.discrepancy.clone().expect("the model's term is drawn");
-    assert!((dd.radii()[24] - 0.24 * 0.8).abs() < 1e-15);
+    assert!((dd.radii()[24] - 0.24).abs() < 1e-15);
+    // the draws' sizes: around √0.64 = 0.8 of the norms
+    assert!(
+        (dd.factors()[128] - 0.8).abs() < 0.1,
+        "{}",
+        dd.factors()[128]
+    );
     let mut ev = CpuEvaluator::new(pb.clone());
     let n = 37;
     let (mut w, mut e) = (vec![0.0; n], vec![0.0; n * 3]);
