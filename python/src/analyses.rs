@@ -306,10 +306,8 @@ problem_function! {
         let built = spec.build(&estimate)?;
         let evaluators = spec.evaluators();
         let (result, notes) = py.detach(|| -> PyResult<_> {
-            let (term_free, term_note) = built.problem.without_discrepancy_for("tail");
-            let (mut ev, mut notes) = evaluators.make(term_free.clone())?;
-            notes.extend(term_note);
-            let problem = evaluators.problem(term_free);
+            let (mut ev, notes) = evaluators.make(built.problem.clone())?;
+            let problem = evaluators.problem(built.problem);
             let r = run_tail(ev.as_mut(), &problem, &opts, None).map_err(tail_error)?;
             Ok((r, notes))
         })?;

@@ -97,16 +97,10 @@ impl Run for TailArgs {
         let (result, rows) = pool.install(|| -> Result<_> {
             let built = a.problem.build()?;
             let rows = problem_rows(&a.problem, &built.problem);
-            let (term_free, term_note) = built.problem.without_discrepancy_for("tail");
-            let built = super::args::Built {
-                problem: term_free,
-                ..built
-            };
-            let (mut ev, mut notes) = a
+            let (mut ev, notes) = a
                 .problem
                 .backend
                 .frame_evaluator(built.problem.clone(), a.problem.frame)?;
-            notes.extend(term_note);
             let problem = frame_problem(built.problem, a.problem.frame);
             if !a.reports.quiet {
                 for n in &notes {

@@ -738,3 +738,60 @@ fn tail_subcommand_writes_svg() {
     );
     assert!(!log_ticks(&text).is_empty());
 }
+
+/// A model with a discrepancy term (heavy-tailed norms, noise unknown): subset simulation in the
+/// space of the parameters' and the term's normals (`mc/tail/term.rs`) agrees with crude Monte
+/// Carlo on the counter draws, which the kernels draw the term for, within 3 combined standard
+/// deviations; the parameters alone give a far smaller probability at the same threshold, so
+/// the agreement is the term's.
+#[test]
+fn a_discrepancy_term_is_part_of_the_tail() {
+    use gpu_amcs::discrepancy::{Discrepancy, NoiseSource};
+    let mut m = tx60();
+    m.discrepancy = Some(
+        Discrepancy {
+            // exponential-like quantiles: a few large norms, as real residuals have
+            residual_norms: (0..200)
+                .map(|i| -0.03 * (1.0 - (f64::from(i) + 0.5) / 200.0).ln())
+                .collect(),
+            robot_share: 1.0,
+            noise: NoiseSource::Unknown,
+            noise_sigma_mm: None,
+            compensation: None,
+        }
+        .checked()
+        .unwrap(),
+    );
+    let pick = problem(m.clone(), 10, 7);
+    let mut w = vec![0.0; 200_000];
+    CpuEvaluator::new(pick).evaluate(0, &mut w, None).unwrap();
+    w.sort_by(|a, b| b.total_cmp(a));
+    // P_f ≈ 1e-3
+    let l = w[199];
+    let pb = problem(m, 10, 8);
+    let ss = run_cpu(&pb, &subset(vec![l], 1000, 0.1, 2_000_000));
+    assert_eq!(ss.dimension, 20 + 2 * 10 + 1, "the term's 2m + 1 normals");
+    let mc = run_cpu(
+        &pb,
+        &TailOptions {
+            method: TailMethod::MonteCarlo,
+            ..subset(vec![l], 1000, 0.05, 2_000_000)
+        },
+    );
+    let (a, b) = (&ss.estimates[0], &mc.estimates[0]);
+    let (da, db) = (a.cov.unwrap() * a.p_f, b.cov.unwrap() * b.p_f);
+    eprintln!(
+        "TX60 + term, 10 points, l = {l:.4} mm: subset {:.4e} ± {da:.1e}, crude MC {:.4e} ± {db:.1e}",
+        a.p_f, b.p_f
+    );
+    assert!((a.p_f - b.p_f).abs() <= 3.0 * da.hypot(db));
+    let alone = run_cpu(
+        &pb.clone().without_discrepancy(),
+        &subset(vec![l], 1000, 0.2, 2_000_000),
+    );
+    assert!(
+        alone.estimates[0].p_f < 0.1 * b.p_f,
+        "parameters alone {:.3e}",
+        alone.estimates[0].p_f
+    );
+}

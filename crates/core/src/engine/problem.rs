@@ -239,20 +239,6 @@ impl Problem {
         self
     }
 
-    /// The problem of an analysis that works in the standard-normal space of the parameters
-    /// (`analysis`: the tail's subset simulation), which the empirical discrepancy term is not
-    /// part of: the problem without it, and a note saying so when the
-    /// model has one.
-    pub fn without_discrepancy_for(self, analysis: &str) -> (Problem, Option<String>) {
-        let note = self.model.discrepancy.as_ref().filter(|d| d.drawn()).map(|d| {
-            format!(
-                "{analysis}: the model's discrepancy term (RMS {:.4} mm, what the geometric model does not explain) is not part of this analysis, which covers the parameters' uncertainty alone; mcs, amcs and sensitivity include it",
-                d.robot_rms_mm()
-            )
-        });
-        (self.without_discrepancy(), note)
-    }
-
     /// The problem drawing the model's discrepancy term for `usage` (the default is
     /// [`DiscrepancyUse::Robot`]); nothing changes for a model without one.
     pub fn with_discrepancy_use(mut self, usage: DiscrepancyUse) -> Problem {

@@ -13,7 +13,9 @@
 //! of their covariance on its free inputs ([`PlacementSpread`](crate::engine::PlacementSpread),
 //! `docs/METHOD.md §2.8`). Subset simulation works on `u`; every evaluation maps `u` to the
 //! offsets `δ = L u` and goes through [`Evaluator::evaluate_offsets`], so the CPU and the GPU
-//! backends carry it alike.
+//! backends carry it alike. A model's discrepancy term adds `2m + 1` normals after the
+//! parameters' (a radius and a direction per test point, the draw's size; `term.rs`), applied
+//! to the offset rows' per-point errors.
 //!
 //! # Subset simulation
 //!
@@ -123,6 +125,7 @@ mod quantile;
 mod result;
 mod space;
 mod subset;
+mod term;
 
 pub use mcmc::{INITIAL_SCALE, TARGET_ACCEPTANCE};
 pub use options::{ChainProposal, TailError, TailMethod, TailOptions, TailSetting};

@@ -1,6 +1,7 @@
 //! The standard-normal space of a run: the map `u ↦ δ = L u` to parameter offsets, and the
 //! evaluator with its generator and evaluation count ([`Model`]).
 
+use super::term::TermSpace;
 use super::TailError;
 use crate::engine::{Evaluator, PlacementSpread, Problem};
 use crate::mc::result::Progress;
@@ -17,6 +18,8 @@ pub(super) struct NormalSpace {
     /// ([`crate::engine::Evaluator::offset_space`]: 33 for six joints, 39 when the placement is
     /// drawn).
     pub(super) width: usize,
+    /// The model's discrepancy term, whose normals follow the parameters' (`None`: not drawn).
+    pub(super) term: Option<TermSpace>,
 }
 
 impl NormalSpace {
@@ -29,6 +32,7 @@ impl NormalSpace {
                 factor: sp.chol,
                 diagonal: false,
                 width: sp.space.len(),
+                term: None,
             }
         } else if let Some((free, chol)) = problem.sampler.cholesky() {
             NormalSpace {
@@ -36,6 +40,7 @@ impl NormalSpace {
                 factor: chol.to_vec(),
                 diagonal: false,
                 width: problem.sampler.n_inputs(),
+                term: None,
             }
         } else {
             let s = problem.sampler.sigmas().unwrap_or(&[]);
@@ -47,22 +52,30 @@ impl NormalSpace {
                 free,
                 diagonal: true,
                 width: problem.sampler.n_inputs(),
+                term: None,
             }
         };
-        if space.free.is_empty() {
+        let mut space = space;
+        space.term = problem
+            .discrepancy
+            .clone()
+            .map(|d| TermSpace::new(d, problem.points.len()));
+        if space.free.is_empty() && space.term.is_none() {
             return Err(TailError::NoUncertainty);
         }
         Ok(space)
     }
 
+    /// Normals per state: the free parameters', then the term's.
     pub(super) fn dim(&self) -> usize {
-        self.free.len()
+        self.free.len() + self.term.as_ref().map_or(0, TermSpace::dim)
     }
 
-    /// Writes the offsets of `u` (length d) into `out` (length [`Self::width`](NormalSpace)).
+    /// Writes the offsets of `u` (length [`Self::dim`]; the parameters' normals come first)
+    /// into `out` (length [`Self::width`](NormalSpace)).
     pub(super) fn offsets(&self, u: &[f64], out: &mut [f64]) {
         out.fill(0.0);
-        let d = self.dim();
+        let d = self.free.len();
         for (a, &p) in self.free.iter().enumerate() {
             out[p] = if self.diagonal {
                 self.factor[a] * u[a]
@@ -90,13 +103,26 @@ impl Model<'_> {
     pub(super) fn eval_u(&mut self, u: &[f64], w: &mut [f64]) -> Result<(), TailError> {
         let d = self.space.dim();
         let mut offsets = Vec::new();
+        let mut per_point = Vec::new();
         let width = self.space.width;
+        let m = self.eval.n_points();
+        let params = self.space.free.len();
         for (uc, wc) in u.chunks(self.batch * d).zip(w.chunks_mut(self.batch)) {
             offsets.resize(wc.len() * width, 0.0);
             for (row, o) in uc.chunks(d).zip(offsets.chunks_mut(width)) {
                 self.space.offsets(row, o);
             }
-            self.eval.evaluate_offsets(&offsets, wc, None)?;
+            match &self.space.term {
+                None => self.eval.evaluate_offsets(&offsets, wc, None)?,
+                Some(term) => {
+                    per_point.resize(wc.len() * m, 0.0);
+                    self.eval
+                        .evaluate_offsets(&offsets, wc, Some(&mut per_point))?;
+                    for ((row, e), v) in uc.chunks(d).zip(per_point.chunks(m)).zip(wc.iter_mut()) {
+                        *v = term.max_error(e, &row[params..]);
+                    }
+                }
+            }
             self.account(wc)?;
         }
         Ok(())
