@@ -137,15 +137,12 @@ impl Compensation {
         q_deg
             .iter()
             .map(|q| {
-                let k = nalgebra::DVector::from_iterator(
-                    x.len(),
-                    x.iter()
-                        .map(|c| kernel(q.as_ref(), c, &self.length_scales_deg, sf2)),
-                );
-                let v = l
+                let k = kernel_column(q.as_ref(), &x, &self.length_scales_deg, sf2);
+                // kᵀ K_y⁻¹ k = |L⁻¹ k|²
+                let explained = l
                     .solve_lower_triangular(&k)
-                    .unwrap_or_else(|| k.clone() * 0.0);
-                ((sf2 - v.norm_squared()).max(0.0) + sw2).sqrt()
+                    .map_or(0.0, |v| v.norm_squared());
+                predictive_sd(sf2, sw2, explained)
             })
             .collect()
     }
@@ -279,6 +276,18 @@ fn kernel(a: &[f64], b: &[f64], ell: &[f64], sf2: f64) -> f64 {
         .map(|((x, y), l)| ((x - y) / l).powi(2))
         .sum();
     sf2 * (-0.5 * s).exp()
+}
+
+/// The kernel values `k(q, x_i)` over configurations `x`.
+fn kernel_column(q: &[f64], x: &[&[f64]], ell: &[f64], sf2: f64) -> nalgebra::DVector<f64> {
+    nalgebra::DVector::from_iterator(x.len(), x.iter().map(|c| kernel(q, c, ell, sf2)))
+}
+
+/// The predictive σ per coordinate of a new measurement, `√(σ_f² − kᵀK_y⁻¹k + σ_w²)`, from the
+/// part `kᵀK_y⁻¹k` the poses explain (the fit and the stored compensation compute it each in
+/// their own units and factorisation).
+fn predictive_sd(sf2: f64, sw2: f64, explained: f64) -> f64 {
+    ((sf2 - explained).max(0.0) + sw2).sqrt()
 }
 
 /// `K_f` over `x` (the smooth part only).
@@ -522,14 +531,14 @@ impl GpFit {
     /// `√(σ_f² − kᵀ K_y⁻¹ k + σ_w²)`.
     pub fn predictive_sigma(&self, q: &[f64]) -> f64 {
         let sf2 = self.signal_sigma * self.signal_sigma;
-        let k = nalgebra::DVector::from_iterator(
-            self.training.len(),
-            self.training
-                .iter()
-                .map(|&t| kernel(q, &self.configs[t], &self.length_scales, sf2)),
-        );
+        let x: Vec<&[f64]> = self
+            .training
+            .iter()
+            .map(|&t| self.configs[t].as_slice())
+            .collect();
+        let k = kernel_column(q, &x, &self.length_scales, sf2);
         let explained = (k.transpose() * &self.inverse * &k)[(0, 0)];
-        ((sf2 - explained).max(0.0) + self.white_sigma * self.white_sigma).sqrt()
+        predictive_sd(sf2, self.white_sigma * self.white_sigma, explained)
     }
 
     /// Leave-one-out residuals of `values` (one vector per pose, the poses it was fitted on):

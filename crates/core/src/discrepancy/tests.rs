@@ -258,6 +258,19 @@ mod gp_tests {
             let got = Vector3::from(c.correction_mm(&deg));
             assert!((got - r * fit.mean(&q[k])).norm() < 1e-12, "{got}");
         }
+        // The stored form's predictive σ (degrees, a Cholesky solve) is the fit's (radians,
+        // through K_y⁻¹) at training poses, between them and far away (the prior σ there).
+        let far: Vec<f64> = q[0].iter().map(|v| v + 3.0).collect();
+        let mid: Vec<f64> = q[1].iter().zip(&q[2]).map(|(a, b)| 0.5 * (a + b)).collect();
+        let probes = [q[0].clone(), q[40].clone(), mid, far];
+        let deg: Vec<Vec<f64>> = probes
+            .iter()
+            .map(|p| p.iter().map(|v| v.to_degrees()).collect())
+            .collect();
+        for (p, stored) in probes.iter().zip(c.predictive_sigmas(&deg)) {
+            let fitted = fit.predictive_sigma(p);
+            assert!((stored - fitted).abs() < 1e-9 * fitted, "{stored} vs {fitted}");
+        }
         // A file's compensation of another joint count names the field.
         let (field, msg) = c.check(7).unwrap_err();
         assert!(
