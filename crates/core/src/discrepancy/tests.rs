@@ -269,7 +269,10 @@ mod gp_tests {
             .collect();
         for (p, stored) in probes.iter().zip(c.predictive_sigmas(&deg)) {
             let fitted = fit.predictive_sigma(p);
-            assert!((stored - fitted).abs() < 1e-9 * fitted, "{stored} vs {fitted}");
+            assert!(
+                (stored - fitted).abs() < 1e-9 * fitted,
+                "{stored} vs {fitted}"
+            );
         }
         // A file's compensation of another joint count names the field.
         let (field, msg) = c.check(7).unwrap_err();
