@@ -128,7 +128,7 @@ mod subset;
 mod term;
 
 pub use mcmc::{INITIAL_SCALE, TARGET_ACCEPTANCE};
-pub use options::{ChainProposal, TailError, TailMethod, TailOptions, TailSetting};
+pub use options::{ChainProposal, TailError, TailMethod, TailOptions, TailSetting, MIN_CHAINS};
 pub use quantile::normal_quantile;
 pub use result::{LevelSummary, SubsetRun, SubsetSettings, TailEstimate, TailOutcome, TailResult};
 pub use subset::gamma;

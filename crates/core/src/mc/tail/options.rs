@@ -6,6 +6,12 @@ use serde::Serialize;
 use super::{MAX_BATCH, MAX_SAMPLES_PER_LEVEL};
 use crate::engine::EngineError;
 
+/// Fewest Markov chains a subset level may have (`p0 · N`): the coefficient of variation comes
+/// from the correlation within and between the chains, which a handful of chains cannot give
+/// (one chain: γ = −1 and a CoV of NaN; two or five: every chain stuck and P_f = 0 with the
+/// default TX60).
+pub const MIN_CHAINS: usize = 10;
+
 /// How the Markov chains of a subset level propose their next state.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -161,8 +167,8 @@ impl TailOptions {
     /// a finite positive length, a target coefficient of variation outside (0, 1), a batch size
     /// outside 1 … [`MAX_BATCH`], an evaluation cap of 0 or below one level, and for subset
     /// simulation `p0` outside (0, 0.5], a proposal spread that is not finite and positive, or
-    /// samples per level outside 2 … [`MAX_SAMPLES_PER_LEVEL`] or not divisible into `p0 · N`
-    /// chains.
+    /// samples per level outside 2 … [`MAX_SAMPLES_PER_LEVEL`], not divisible into `p0 · N`
+    /// chains or giving fewer than [`MIN_CHAINS`] of them.
     pub fn check(&self) -> Result<(), TailError> {
         if self.thresholds.is_empty() {
             return Err(setting(
@@ -228,6 +234,16 @@ impl TailOptions {
                 format!(
                     "p0 · N = {} · {n} = {nc} must be a whole number of chains that divides N",
                     self.p0
+                ),
+            ));
+        }
+        if chains < MIN_CHAINS {
+            return Err(setting(
+                TailSetting::SamplesPerLevel,
+                format!(
+                    "{n} at p0 = {} gives {chains} Markov chain(s) per level; the estimate and its coefficient of variation need at least {MIN_CHAINS}: N ≥ {}",
+                    self.p0,
+                    (MIN_CHAINS as f64 / self.p0).ceil()
                 ),
             ));
         }

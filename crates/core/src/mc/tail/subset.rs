@@ -231,10 +231,11 @@ pub(super) fn subset_simulation(
     let mut runs: Vec<SubsetRun> = Vec::new();
     let outcome = loop {
         let (run, outcome) = subset_run(m, opts, n, runs.len() as u32)?;
+        // A CoV that is not a number is never within the target (`f64::max` would drop it).
         let worst = run
             .estimates
             .iter()
-            .map(|e| e.cov.unwrap_or(f64::INFINITY))
+            .map(|e| e.cov.filter(|c| !c.is_nan()).unwrap_or(f64::INFINITY))
             .fold(0.0, f64::max);
         let cost = run.evaluations as f64 / n as f64;
         let complete = run.complete;
