@@ -22,7 +22,7 @@ pub struct PointsArgs {
     /// cube in the working space (edges parallel to the base frame; P1 at the centre, P2–P5 at
     /// 10 % of the diagonal from the corners), one flange orientation for all (default: the
     /// tool pointing down). The cube is printed to stderr.
-    #[arg(long, conflicts_with_all = ["n", "points_seed"])]
+    #[arg(long, conflicts_with_all = ["n", "points_seed", "box_center", "box_size"])]
     pub iso9283: bool,
     /// With --iso9283: the flange orientation of the poses, roll,pitch,yaw in degrees.
     #[arg(
@@ -54,6 +54,17 @@ impl Run for PointsArgs {
     fn run(self) -> Result<()> {
         let mut outputs = Outputs::new(self.model.model.as_deref().map(|m| ("--model", m)));
         outputs.file("--out", self.out.as_deref())?;
+        if !self.iso9283 {
+            // clap lets these through beside N (N conflicts with --iso9283).
+            let flag = match (&self.iso_rpy, self.position_only) {
+                (Some(_), _) => Some("--iso-rpy"),
+                (None, true) => Some("--position-only"),
+                (None, false) => None,
+            };
+            if let Some(flag) = flag {
+                anyhow::bail!("{flag}: only with --iso9283 (it orients the ISO 9283 test poses; N points in a box take no orientation)");
+            }
+        }
         self.workspace.check()?;
         if self.iso9283 {
             let model = self.model.load()?;
@@ -66,11 +77,15 @@ impl Run for PointsArgs {
                 .map_err(|e| anyhow::anyhow!("--iso9283: {}", e.0))?;
             let c = cube.centre_mm;
             eprintln!(
-                "ISO 9283 test cube: centre ({:.1}, {:.1}, {:.1}) mm, edge {:.1} mm, base frame; {}",
+                "ISO 9283 test cube: centre ({:.1}, {:.1}, {:.1}) mm, edge {:.1} mm, {}; {}",
                 c[0],
                 c[1],
                 c[2],
                 cube.edge_mm,
+                match model.base {
+                    None => "base frame",
+                    Some(_) => "world frame (fk's: the model's base transform applied)",
+                },
                 match cube.rpy_deg {
                     Some(r) => format!("flange rpy ({}, {}, {})°", r[0], r[1], r[2]),
                     None => "position only".into(),

@@ -20,11 +20,16 @@
 //! `Pr[e_j ≤ s]`, and at all poses together `R(s)` with the poses as the test points: the
 //! engine's own quantities, which the command line computes at the test poses.
 
+mod certify;
 mod report;
 
+pub use certify::{
+    barycentre_standard_error, certify, largest_predicted, CertifyError, CHECK_DRAWS,
+    CHECK_STANDARD_ERRORS,
+};
 pub use report::PoseReport;
 
-use crate::engine::{CpuEvaluator, Problem, Reference};
+use crate::engine::CpuEvaluator;
 use crate::identify::validate::Measurement;
 use crate::identify::Placement;
 use crate::kinematics::{Joints, RobotModel};
@@ -256,12 +261,7 @@ pub fn certificate(
     draws: u64,
     seed: u64,
 ) -> Result<Certificate, CertificateError> {
-    let mut problem = Problem::new(model.clone(), poses, &Reference::Calibrated, seed)
-        .map_err(|e| CertificateError(e.to_string()))?;
-    if frame == Placement::Known {
-        problem = problem.without_placement();
-    }
-    let mut ev = CpuEvaluator::new(problem);
+    let mut ev = CpuEvaluator::new(certify::problem(model, poses, frame, seed)?);
     let opts = McsOptions {
         draws,
         settings: RunSettings {
@@ -334,23 +334,28 @@ mod tests;
 /// The ISO 9283 test cube placed in a robot's working space, and its five test poses.
 ///
 /// What the standard's public descriptions say, and what is assumed here where they are thin:
-/// the cube is the largest one in the working space with its edges parallel to the base frame
-/// (searched with its centre in the x–z half-plane in front of the robot, y = 0); the poses lie
+/// the cube is the largest one in the working space with its edges parallel to the robot base
+/// frame (the frame of the model's joint chain; searched with its centre in the x–z half-plane
+/// in front of the robot, y = 0); the poses lie
 /// on the diagonal plane through the cube's corners C1 = (−,−,−), C2 = (+,−,−), C7 = (+,+,+) and
 /// C8 = (−,+,+) (half-edges from the centre); P1 is the centre and P2 … P5 lie on that plane's
 /// diagonals at 10 % of a diagonal's length from C1, C2, C7 and C8; every pose has one stated
 /// flange orientation (default: the tool pointing down), and all eight corners must be
 /// reachable with it too.
+///
+/// Positions and the orientation are in the world frame, the frame `fk` reports in: the robot
+/// base frame moved by the model's base transform when it has one (the KR 6's turns its chain
+/// upside down: Rx(180°)), as a workspace box or a map's targets are.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct TestCube {
-    /// Centre, mm, base frame.
+    /// Centre, mm, world frame.
     pub centre_mm: [f64; 3],
     /// Edge length, mm.
     pub edge_mm: f64,
-    /// Flange orientation of every pose (roll, pitch, yaw in degrees), `None` for position
-    /// only.
+    /// Flange orientation of every pose (roll, pitch, yaw in degrees, world frame), `None` for
+    /// position only.
     pub rpy_deg: Option<[f64; 3]>,
-    /// P1 … P5, mm, base frame.
+    /// P1 … P5, mm, world frame.
     pub poses_mm: [[f64; 3]; 5],
     /// P1 … P5 as joint angles, degrees (one angle per joint).
     pub poses_q_deg: [Joints; 5],
@@ -415,8 +420,8 @@ fn cube_solution(
 }
 
 /// Places the ISO 9283 test cube of `model` (see [`TestCube`]) with the flange orientation
-/// `rpy_deg` (`None`: position only): a coarse search over centres in front of the robot, the
-/// largest edge at each by bisection, then a finer search around the best centre.
+/// `rpy_deg` (world frame; `None`: position only): a coarse search over centres in front of the
+/// robot, the largest edge at each by bisection, then a finer search around the best centre.
 ///
 /// # Errors
 ///
@@ -427,7 +432,7 @@ pub fn test_cube(
 ) -> Result<TestCube, CertificateError> {
     let reference = crate::map::default_reference_deg(model).map(f64::to_radians);
     let ik = crate::map::ik::Ik::new(model, reference, 0);
-    let rotation = rpy_deg.map(crate::map::ik::rpy_rotation);
+    let rotation = rpy_deg.map(|r| crate::map::rotation_in_base(model, r));
     let reach = crate::map::ik::reach_bound(model).max(1.0);
     let d1 = model.params[1];
     let largest = |c: [f64; 3], hi: f64, steps: usize| -> f64 {
@@ -497,11 +502,12 @@ pub fn test_cube(
     let q = cube_solution(&ik, rotation, centre, edge).ok_or_else(|| {
         CertificateError("the cube found is not reachable on a second solve".into())
     })?;
+    let world = |p: [f64; 3]| model.base.as_ref().map_or(p, |b| b.apply(p));
     Ok(TestCube {
-        centre_mm: centre,
+        centre_mm: world(centre),
         edge_mm: edge,
         rpy_deg,
-        poses_mm: cube_points(centre, edge).1,
+        poses_mm: cube_points(centre, edge).1.map(world),
         poses_q_deg: q,
     })
 }

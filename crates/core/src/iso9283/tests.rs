@@ -44,6 +44,16 @@ fn the_test_cube_is_reachable_maximal_and_its_poses_sit_where_the_standard_puts_
 
 use crate::kinematics::tx60;
 
+/// The TX60 with every σ of its parameters 0 (and its tool point exactly known).
+fn tx60_without_spread() -> crate::kinematics::RobotModel {
+    let mut m = tx60();
+    m.uncertainty = crate::kinematics::Uncertainty::Independent(crate::kinematics::Params::filled(
+        m.layout().n_params(),
+        0.0,
+    ));
+    m
+}
+
 fn cycle(q: Joints, p: [f64; 3], line: u64) -> Measurement {
     Measurement {
         q_deg: q,
@@ -134,11 +144,7 @@ fn known_offset_and_spread_give_the_hand_figures() {
 /// binomial interval.
 #[test]
 fn certificate_of_a_tool_spread_has_its_closed_form() {
-    let mut m = tx60();
-    m.uncertainty = crate::kinematics::Uncertainty::Independent(crate::kinematics::Params::filled(
-        m.layout().n_params(),
-        0.0,
-    ));
+    let mut m = tx60_without_spread();
     m.tool_sigma = [0.01, 0.0, 0.0];
     let poses: [Joints; 3] = [
         [10.0, -20.0, 90.0, 0.0, 30.0, 0.0].into(),
@@ -152,4 +158,64 @@ fn certificate_of_a_tool_spread_has_its_closed_form() {
         assert!((r.r - 0.95).abs() < 0.004, "{r:?}");
     }
     assert!(render_certificate(&c).contains("all"));
+}
+
+/// Cycles the model cannot explain get no certificate: the tool spread of σ = 0.01 mm in x
+/// predicts errors of a few hundredths of a mm, so cycles 1 mm off (or in metres) contradict it;
+/// cycles 0.01 mm off are certified; a model without uncertainty is refused outright.
+#[test]
+fn certify_refuses_cycles_beyond_every_predicted_error_and_a_model_without_spread() {
+    let mut m = tx60_without_spread();
+    let q = Joints::from([10.0, -20.0, 90.0, 0.0, 30.0, 0.0]);
+    let c = position(&m.params, &m.tool, &q.map(f64::to_radians));
+    let rows = |off: f64, scale: f64| -> Vec<Measurement> {
+        (0..10)
+            .map(|i| {
+                let dy = 0.001 * (i % 3) as f64;
+                cycle(
+                    q,
+                    [(c[0] + off) * scale, (c[1] + dy) * scale, c[2] * scale],
+                    2 + i,
+                )
+            })
+            .collect()
+    };
+    // No spread at all.
+    let f = pose_figures(&m, &rows(0.01, 1.0), Placement::Known).unwrap();
+    assert_eq!(
+        certify(&m, &f, 0.05, Placement::Known, 1000, 7),
+        Err(CertifyError::NoUncertainty {
+            model: m.name.clone()
+        })
+    );
+    m.tool_sigma = [0.01, 0.0, 0.0];
+    assert!(certify(&m, &f, 0.05, Placement::Known, 20_000, 7).is_ok());
+    for (off, scale, metres) in [(1.0, 1.0, false), (0.0, 0.001, true)] {
+        let f = pose_figures(&m, &rows(off, scale), Placement::Known).unwrap();
+        let e = certify(&m, &f, 0.05, Placement::Known, 20_000, 7).unwrap_err();
+        let CertifyError::Contradiction {
+            pose, line, draws, ..
+        } = &e
+        else {
+            panic!("{e}");
+        };
+        assert_eq!((*pose, *line, *draws), (1, 2, 20_000));
+        assert_eq!(e.to_string().contains("metres"), metres, "{e}");
+    }
+    // The barycentre's standard error from l̄ and S_l: l = (0.01, 0.01, 0.03, 0.03) gives
+    // √(0.002 / 12).
+    let f = PoseFigures {
+        pose: 1,
+        q_deg: q,
+        cycles: 4,
+        command_mm: c,
+        barycentre_mm: c,
+        ap_mm: 0.0,
+        ap_xyz_mm: [0.0; 3],
+        l_mean_mm: 0.02,
+        s_l_mm: (4.0 * 1e-4 / 3.0f64).sqrt(),
+        rp_mm: 0.0,
+        first_line: 2,
+    };
+    assert!((barycentre_standard_error(&f) - (0.002f64 / 12.0).sqrt()).abs() < 1e-15);
 }

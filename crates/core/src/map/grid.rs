@@ -88,6 +88,22 @@ pub fn tool_down_rpy_deg(model: &RobotModel) -> [f64; 3] {
     }
 }
 
+/// The flange orientation `rpy_deg` (roll, pitch, yaw in degrees, world frame: the frame `fk`
+/// reports in) as a rotation in `model`'s robot base frame, the frame its inverse kinematics
+/// works in (the same rotation without a base transform).
+pub fn rotation_in_base(model: &RobotModel, rpy_deg: [f64; 3]) -> ik::Rot3 {
+    let r = ik::rpy_rotation(rpy_deg);
+    match &model.base {
+        None => r,
+        Some(b) => {
+            let m = b.isometry().rotation.inverse().to_rotation_matrix();
+            std::array::from_fn(|i| {
+                std::array::from_fn(|j| (0..3).map(|k| m[(i, k)] * r[k][j]).sum())
+            })
+        }
+    }
+}
+
 /// Most extra inverse-kinematics seeds per cell.
 pub const MAX_IK_SEEDS: usize = 1000;
 
@@ -305,18 +321,7 @@ impl MapSpec {
         // Targets and the tool orientation are given in the world frame (the frame `fk` reports
         // in); the IK works in the robot's base frame, which a model's base transform moves.
         let to_base = model.base.as_ref().map(|b| b.isometry().inverse());
-        let rotation = self.orientation_rpy_deg.map(|o| {
-            let r = ik::rpy_rotation(o);
-            match &to_base {
-                None => r,
-                Some(t) => {
-                    let m = t.rotation.to_rotation_matrix();
-                    std::array::from_fn(|i| {
-                        std::array::from_fn(|j| (0..3).map(|k| m[(i, k)] * r[k][j]).sum())
-                    })
-                }
-            }
-        });
+        let rotation = self.orientation_rpy_deg.map(|o| rotation_in_base(model, o));
         let in_base = |p: [f64; 3]| match &to_base {
             None => p,
             Some(t) => {

@@ -27,8 +27,8 @@ pub use evaluate::{
     BYTES_PER_CELL,
 };
 pub use grid::{
-    default_reference_deg, tool_down_rpy_deg, CellIk, CellTarget, Grid, MapSpec, Plane,
-    MAX_IK_SEEDS, TOOL_DOWN_RPY_DEG,
+    default_reference_deg, rotation_in_base, tool_down_rpy_deg, CellIk, CellTarget, Grid, MapSpec,
+    Plane, MAX_IK_SEEDS, TOOL_DOWN_RPY_DEG,
 };
 pub use result::{round_trip_error, test_points, MapCell, MapResult, Timings};
 

@@ -1,0 +1,277 @@
+//! Issue 35 (hardening, round 3), items 5, 7, 9, 12 and 13: silent wrong answers and errors
+//! that named the wrong thing. Each refusal is one line naming the flag (and the file and line
+//! where there is one), exit 2, and nothing written; where a right answer exists, it is given.
+
+use crate::common::{assert_fails_naming, run, stderr, stdout, tmpdir, tree};
+use std::path::{Path, PathBuf};
+
+fn s(p: &Path) -> &str {
+    p.to_str().unwrap()
+}
+
+/// Runs `args` and asserts success, returning stdout.
+fn ok(args: &[&str]) -> String {
+    let o = run(args);
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    stdout(&o)
+}
+
+/// The ISO 9283 poses of `model` (a model file, or the TX60 preset), each repeated `cycles`
+/// times, measured `--tracker-sigma 0.005` in the base frame on `truth`: the cycles file.
+fn iso_cycles(dir: &Path, model: Option<&Path>, truth: &Path, cycles: usize) -> PathBuf {
+    let iso = dir.join("iso.csv");
+    let mut args = vec!["points", "--iso9283", "-o", s(&iso)];
+    if let Some(m) = model {
+        args.extend(["--model", s(m)]);
+    }
+    ok(&args);
+    let text = std::fs::read_to_string(&iso).unwrap();
+    let mut lines = text.lines();
+    let mut rep = format!("{}\n", lines.next().unwrap());
+    let rows: Vec<&str> = lines.collect();
+    for _ in 0..cycles {
+        for r in &rows {
+            rep += &format!("{r}\n");
+        }
+    }
+    let rep_path = dir.join("repeated.csv");
+    std::fs::write(&rep_path, rep).unwrap();
+    let out = dir.join("cycles.csv");
+    let n = (rows.len() * cycles).to_string();
+    let mut args = vec![
+        "simulate",
+        "--poses",
+        &n,
+        "--points-file",
+        s(&rep_path),
+        "--truth",
+        s(truth),
+        "--placement",
+        "base",
+        "--tracker-sigma",
+        "0.005",
+        "-o",
+        s(&out),
+    ];
+    if let Some(m) = model {
+        args.extend(["--model", s(m)]);
+    }
+    ok(&args);
+    out
+}
+
+/// Item 5: the certificate is refused when the cycles contradict the model (positions in
+/// metres: AP of hundreds of mm was certified Pr[AP ≤ 0.05 mm] = 1) or when the model carries
+/// no uncertainty (certified 1 with no note); consistent cycles are still certified.
+#[test]
+fn the_iso9283_certificate_refuses_cycles_the_model_cannot_explain() {
+    let dir = tmpdir("r3-iso-certificate");
+    let cal = dir.join("cal.csv");
+    let truth = dir.join("truth.toml");
+    let model = dir.join("model.toml");
+    ok(&[
+        "simulate",
+        "--poses",
+        "60",
+        "--seed",
+        "3",
+        "--placement",
+        "base",
+        "-o",
+        s(&cal),
+        "--truth-out",
+        s(&truth),
+    ]);
+    ok(&["identify", s(&cal), "-o", s(&model), "-q", "--base-known"]);
+    let cycles = iso_cycles(&dir, None, &truth, 30);
+    // Consistent cycles: the certificate.
+    let out = ok(&[
+        "validate",
+        "--model",
+        s(&model),
+        s(&cycles),
+        "--iso9283",
+        "--spec",
+        "0.05",
+        "--draws",
+        "20000",
+    ]);
+    assert!(out.contains("certificate: Pr[AP ≤ 0.05 mm]"), "{out}");
+    // The same cycles in metres.
+    let text = std::fs::read_to_string(&cycles).unwrap();
+    let mut metres = String::new();
+    for (k, l) in text.lines().enumerate() {
+        if k == 0 {
+            metres += &format!("{l}\n");
+            continue;
+        }
+        let v: Vec<&str> = l.split(',').collect();
+        let (q, p) = v.split_at(6);
+        let p: Vec<String> = p
+            .iter()
+            .map(|x| format!("{}", x.parse::<f64>().unwrap() / 1000.0))
+            .collect();
+        metres += &format!("{},{}\n", q.join(","), p.join(","));
+    }
+    let in_metres = dir.join("cycles-m.csv");
+    std::fs::write(&in_metres, metres).unwrap();
+    let json = dir.join("iso.json");
+    let before = tree(&dir);
+    let o = run(&[
+        "validate",
+        "--model",
+        s(&model),
+        s(&in_metres),
+        "--iso9283",
+        "--spec",
+        "0.05",
+        "--draws",
+        "20000",
+        "--json",
+        s(&json),
+    ]);
+    for want in ["--spec", s(&in_metres), "P1", "line 2", "AP", "metres"] {
+        assert_fails_naming(&o, want, "cycles in metres");
+    }
+    assert_eq!(tree(&dir), before, "a refused certificate wrote files");
+    // A preset without uncertainty.
+    let ur5e = dir.join("ur5e.toml");
+    std::fs::write(&ur5e, ok(&["model", "--preset", "ur5e"])).unwrap();
+    let ur_dir = dir.join("ur");
+    std::fs::create_dir_all(&ur_dir).unwrap();
+    let ur_cycles = iso_cycles(&ur_dir, Some(&ur5e), &ur5e, 10);
+    let o = run(&[
+        "validate",
+        "--model",
+        s(&ur5e),
+        s(&ur_cycles),
+        "--iso9283",
+        "--spec",
+        "0.05",
+    ]);
+    for want in ["--spec", s(&ur5e), "no uncertainty"] {
+        assert_fails_naming(&o, want, "σ = 0");
+    }
+    // Its figures alone are still given.
+    ok(&["validate", "--model", s(&ur5e), s(&ur_cycles), "--iso9283"]);
+}
+
+/// The x, y, z of `fk`'s output rows.
+fn fk_positions(args: &[&str]) -> Vec<[f64; 3]> {
+    let mut a = vec!["fk"];
+    a.extend(args);
+    ok(&a)
+        .lines()
+        .skip(1)
+        .map(|l| {
+            let v: Vec<f64> = l.split(',').map(|x| x.parse().unwrap()).collect();
+            let n = v.len();
+            [v[n - 3], v[n - 2], v[n - 1]]
+        })
+        .collect()
+}
+
+/// The positions `points --iso9283` prints for P1 … P5, mm.
+fn printed_poses(err: &str) -> Vec<[f64; 3]> {
+    err.lines()
+        .filter(|l| l.trim_start().starts_with('P'))
+        .map(|l| {
+            let inner = &l[l.find('(').unwrap() + 1..l.find(')').unwrap()];
+            let v: Vec<f64> = inner
+                .split(',')
+                .map(|x| x.trim().parse().unwrap())
+                .collect();
+            [v[0], v[1], v[2]]
+        })
+        .collect()
+}
+
+/// Item 9: the ISO 9283 cube of a robot whose base transform turns its chain (the KR 6,
+/// base Rx(180°)) is printed in the frame `fk` reports in, where the written poses are: the
+/// centre used to be printed at z = −827 mm with fk giving +827 and the opposite y. The TX60
+/// (no base transform) prints what it printed.
+#[test]
+fn the_iso9283_cube_is_printed_in_the_frame_fk_reports() {
+    let dir = tmpdir("r3-iso-frame");
+    for preset in ["kr6r700sixx", "tx60"] {
+        let poses = dir.join(format!("{preset}.csv"));
+        let o = run(&["points", "--iso9283", "--preset", preset, "-o", s(&poses)]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let printed = printed_poses(&stderr(&o));
+        assert_eq!(printed.len(), 5, "{}", stderr(&o));
+        let fk = fk_positions(&["--preset", preset, "--points-file", s(&poses)]);
+        for (p, f) in printed.iter().zip(&fk) {
+            assert!(
+                (0..3).all(|k| (p[k] - f[k]).abs() < 0.06),
+                "{preset}: printed {p:?}, fk {f:?}"
+            );
+        }
+        let e = stderr(&o);
+        let frame = if preset == "tx60" {
+            "base frame"
+        } else {
+            "world frame"
+        };
+        assert!(e.contains(frame), "{e}");
+    }
+}
+
+/// Item 12: a pilot run too small for the subset estimator (one Markov chain per level: γ = −1,
+/// CoV NaN, "target CoV reached"; two or five: P_f = 0) is refused naming the flag and the
+/// smallest size that works; that size runs and reaches the target.
+#[test]
+fn tail_refuses_too_few_samples_per_level() {
+    let dir = tmpdir("r3-tail-n");
+    let json = dir.join("t.json");
+    for n in ["10", "20", "50"] {
+        let o = run(&[
+            "tail",
+            "--samples-per-level",
+            n,
+            "--threshold",
+            "0.5",
+            "--backend",
+            "cpu",
+            "--json",
+            s(&json),
+        ]);
+        for want in ["--samples-per-level", "N ≥ 100"] {
+            assert_fails_naming(&o, want, n);
+        }
+        assert!(tree(&dir).is_empty(), "{n}: {:?}", tree(&dir));
+    }
+    let out = ok(&[
+        "tail",
+        "--samples-per-level",
+        "100",
+        "--threshold",
+        "0.5",
+        "--backend",
+        "cpu",
+    ]);
+    assert!(
+        out.contains("target CoV reached") && !out.contains("NaN"),
+        "{out}"
+    );
+}
+
+/// Item 7 (points): flags that did nothing are refused in one line: a workspace box with
+/// --iso9283 (the cube is placed by its own search), --iso-rpy or --position-only without it.
+#[test]
+fn points_refuses_flags_it_would_ignore() {
+    for (args, flag) in [
+        (
+            &["points", "--iso9283", "--box-center", "100,0,100"][..],
+            "--box-center",
+        ),
+        (
+            &["points", "--iso9283", "--box-size", "100,100,100"],
+            "--box-size",
+        ),
+        (&["points", "3", "--iso-rpy", "0,0,0"], "--iso-rpy"),
+        (&["points", "3", "--position-only"], "--position-only"),
+        (&["points", "--iso-rpy", "0,0,0"], "--iso"),
+    ] {
+        assert_fails_naming(&run(args), flag, &format!("{args:?}"));
+    }
+}
