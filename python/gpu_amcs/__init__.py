@@ -27,7 +27,11 @@ NumPy, OpenTURNS and SALib users:
   they are predicted to give at the task points (``.reliability``, ``.to_dict()`` = the
   ``--json`` document).
 * ``identify(sweeps, ...)`` -> ``IdentifyResult``: ``.model`` (``.to_toml()`` is the file
-  ``gpu-amcs identify --out`` writes), ``.warnings``, ``.to_text()``.
+  ``gpu-amcs identify --out`` writes, ``[provenance]`` included), ``.warnings``, ``.to_text()``.
+* ``validate(model, measured, nominal=True, ...)`` -> ``ValidationResult``: the positioning
+  accuracy as ``gpu-amcs validate`` computes it (the model's own nominal from its
+  ``[provenance]``, the nominal geometry with its own placement on tracker data, no silent
+  change of frame); ``.to_text()``, ``.to_dict()`` / ``.to_json()`` (the ``--json`` document).
 * ``model.salib_problem()`` -> SALib's problem dict (independent normals, ``bounds`` = [mean,
   sd]); ``model.openturns_function(q_deg)`` -> an ``ot.Function`` of the inputs evaluating whole
   samples through ``max_error``.
@@ -55,9 +59,12 @@ from ._gpu_amcs import (  # noqa: F401
     presets,
     sensitivity,
     tail,
+    validate,
+    ValidationResult,
 )
 
 __all__ = ["Model", "RunResult", "SensitivityResult", "TailResult", "MapResult",
            "IdentifyResult", "PlanResult", "adapters", "amcs", "mcs", "sensitivity", "tail",
            "map", "plan",
-           "identify", "presets", "N_PARAMS", "N_UNCERTAIN", "__version__"]
+           "identify", "validate", "ValidationResult", "presets", "N_PARAMS", "N_UNCERTAIN",
+           "__version__"]

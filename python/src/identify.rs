@@ -29,11 +29,19 @@ pub struct PyIdentifyResult {
     file_text: String,
 }
 
-/// A model as a Python `Model` (not from a preset).
-fn py_model(m: &RobotModel) -> PyModel {
+/// A model as a Python `Model` (not from a preset), with the `[provenance]` table of
+/// `file_text` (its model file: the model's TOML, then the table) when given, as written there.
+fn py_model(m: &RobotModel, file_text: Option<&str>) -> PyModel {
+    let own = m.to_toml();
     PyModel {
         model: m.clone(),
         preset: None,
+        provenance: file_text.and_then(|t| {
+            t.strip_prefix(own.as_str())
+                .filter(|rest| !rest.is_empty())
+                .map(str::to_string)
+                .or_else(|| lib::validate::provenance_table(t))
+        }),
     }
 }
 
@@ -46,16 +54,17 @@ impl crate::reports::PyReport for PyIdentifyResult {
 crate::report_class!(PyIdentifyResult, {
     /// The identified model: one run's parameters with the nominal model's uncertainty, or the
     /// mean of several runs with their run-to-run σ (or full covariance with
-    /// `covariance=True`). `model.to_toml()` is the file `gpu-amcs identify --out` writes.
+    /// `covariance=True`). `model.to_toml()` is the file `gpu-amcs identify --out` writes,
+    /// its `[provenance]` (frame, nominal model) included.
     #[getter]
     fn model(&self) -> PyModel {
-        py_model(&self.model)
+        py_model(&self.model, Some(&self.file_text))
     }
 
     /// The model of each run.
     #[getter]
     fn models(&self) -> Vec<PyModel> {
-        self.runs.iter().map(|i| py_model(&i.model)).collect()
+        self.runs.iter().map(|i| py_model(&i.model, None)).collect()
     }
 
     /// The warnings the command line prints (one line per joint and kind of problem).

@@ -14,6 +14,7 @@ mod planning;
 mod problem;
 mod reports;
 mod run;
+mod validate;
 
 use pyo3::prelude::*;
 
@@ -66,6 +67,8 @@ fn _gpu_amcs(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(analyses::workspace_map, m)?)?;
     m.add_class::<identify::PyIdentifyResult>()?;
     m.add_function(wrap_pyfunction!(identify::identify, m)?)?;
+    m.add_class::<validate::PyValidation>()?;
+    m.add_function(wrap_pyfunction!(validate::validate, m)?)?;
     m.add_function(wrap_pyfunction!(adapters, m)?)?;
     m.add_function(wrap_pyfunction!(presets, m)?)?;
     Ok(())

@@ -11,6 +11,7 @@
 use crate::arrays;
 use crate::errors::{lib_error, value_error};
 use gpu_amcs_core::engine::{BackendChoice, MAX_ANGLE_OFFSET};
+use gpu_amcs_core::identify::validate::provenance_table;
 use gpu_amcs_core::kinematics::{
     Block, InputSpace, RobotModel, Uncertainty, MAX_LENGTH_MM, MAX_ROBOT_INPUTS,
 };
@@ -46,9 +47,21 @@ pub struct PyModel {
     pub model: RobotModel,
     /// The preset it was made from, if any: the default nominal model.
     pub preset: Option<String>,
+    /// The `[provenance]` table of the model file it came from (an identification's: the data,
+    /// the fit, the frame and the nominal model), kept so that `to_toml()` writes it again.
+    pub provenance: Option<String>,
 }
 
 impl PyModel {
+    /// The model file text: the model, then its `[provenance]` table if it has one.
+    pub fn file_text(&self) -> String {
+        let mut s = self.model.to_toml();
+        if let Some(p) = &self.provenance {
+            s.push_str(p);
+        }
+        s
+    }
+
     /// The model's values of its [`RobotModel::robot_inputs`] in file units (mm, degrees):
     /// the `5n` parameters, then the tool point.
     fn input_values(&self) -> Vec<f64> {
@@ -201,15 +214,20 @@ impl PyModel {
         Ok(PyModel {
             model: preset(name).map_err(lib_error)?,
             preset: Some(name.to_ascii_lowercase()),
+            provenance: None,
         })
     }
 
-    /// A model file (TOML, mm and degrees; README "Model file").
+    /// A model file (TOML, mm and degrees; README "Model file"); its `[provenance]` table, if
+    /// any, is kept (`to_toml()` writes it again).
     #[staticmethod]
     fn from_file(path: PathBuf) -> PyResult<Self> {
+        let model = RobotModel::from_file(&path).map_err(lib_error)?;
+        let text = std::fs::read_to_string(&path).unwrap_or_default();
         Ok(PyModel {
-            model: RobotModel::from_file(&path).map_err(lib_error)?,
+            model,
             preset: None,
+            provenance: provenance_table(&text),
         })
     }
 
@@ -220,6 +238,7 @@ impl PyModel {
         Ok(PyModel {
             model: RobotModel::from_toml(text, origin).map_err(lib_error)?,
             preset: None,
+            provenance: provenance_table(text),
         })
     }
 
@@ -272,12 +291,14 @@ impl PyModel {
         Ok(PyModel {
             model: imported.model,
             preset: None,
+            provenance: None,
         })
     }
 
-    /// The model file text (TOML, mm and degrees).
+    /// The model file text (TOML, mm and degrees), with the `[provenance]` table of the
+    /// identification it came from (as `gpu-amcs identify --out` writes it), if it has one.
     fn to_toml(&self) -> String {
-        self.model.to_toml()
+        self.file_text()
     }
 
     /// The model's name.

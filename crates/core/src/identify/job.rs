@@ -183,7 +183,7 @@ impl IdentifyJob {
         // The file's bytes for its SHA-256 (already read once within the size bound).
         let bytes = std::fs::read(&self.data).unwrap_or_default();
         Ok(IdentifyOutcome {
-            file_text: model_file_text(&model, &runs, &origin, &bytes),
+            file_text: model_file_text(&model, &self.nominal, &runs, &origin, &bytes),
             reports: IdentifyReports::new(&self.nominal.name, &runs),
             runs,
             model,

@@ -1,10 +1,13 @@
 //! Where an identified model came from, written into its model file as a `[provenance]` table:
 //! the data file and its SHA-256, the number of points and runs, the fit's residuals, the rank
-//! and condition number, how the noise was obtained and the frame. The model reader accepts and
-//! ignores the table, so the file stays a plain model file.
+//! and condition number, how the noise was obtained, the frame, and the nominal model the fit
+//! started from (its name, a SHA-256 of its geometry and the model itself, so that a validation
+//! can compare against the model's own nominal). The model reader accepts and ignores the table,
+//! so the file stays a plain model file.
 
 use super::chain::Placement;
 use super::Identification;
+use crate::kinematics::{InputSpace, RobotModel};
 
 /// Provenance of an identified model.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
@@ -31,14 +34,45 @@ pub struct Provenance {
     pub noise: String,
     /// The frame of the data and the model.
     pub frame: String,
+    /// The nominal model's name.
+    pub nominal_name: String,
+    /// [`geometry_sha256`] of the nominal model.
+    pub nominal_sha256: String,
+    /// The nominal model's file text (TOML).
+    pub nominal_model: String,
+}
+
+/// SHA-256 (hex) of a model's geometry: its number of joints, the `5n` MDH parameters (mm,
+/// degrees) and the tool point (mm), each rounded to 1e-6 in file units so that a model and its
+/// model file (written and read back) give the same value. Names, limits and uncertainties do
+/// not enter: two files of the same robot geometry agree.
+pub fn geometry_sha256(model: &RobotModel) -> String {
+    let space = InputSpace::parameters(model.joints());
+    // Rounded, and −0 folded into +0.
+    let fixed = |v: f64| format!("{:.6}", (v * 1e6).round() / 1e6 + 0.0);
+    let mut s = format!("joints {}\n", model.joints());
+    for (i, v) in model.params.iter().enumerate() {
+        s.push_str(&fixed(v / space.to_internal(i)));
+        s.push('\n');
+    }
+    for v in model.tool {
+        s.push_str(&fixed(v));
+        s.push('\n');
+    }
+    sha256_hex(s.as_bytes())
 }
 
 pub use crate::digest::sha256_hex;
 
 impl Provenance {
     /// The provenance of `ids` (runs through the whole-chain fit; `None` when none did),
-    /// identified from `data` read from `data_file`.
-    pub fn new(ids: &[Identification], data_file: &str, data: &[u8]) -> Option<Provenance> {
+    /// identified from `data` read from `data_file` with `nominal` as the nominal model.
+    pub fn new(
+        ids: &[Identification],
+        nominal: &RobotModel,
+        data_file: &str,
+        data: &[u8],
+    ) -> Option<Provenance> {
         let chains: Vec<_> = ids.iter().filter_map(|i| i.report.chain.as_ref()).collect();
         let first = chains.first()?;
         let points: usize = chains.iter().map(|c| c.points).sum();
@@ -68,6 +102,9 @@ impl Provenance {
                 Placement::Identify => "measurement".into(),
                 Placement::Known => "robot base".into(),
             },
+            nominal_name: nominal.name.clone(),
+            nominal_sha256: geometry_sha256(nominal),
+            nominal_model: nominal.to_toml(),
         })
     }
 
@@ -85,7 +122,7 @@ impl Provenance {
             "\n# Where this model came from (read and ignored by the model reader)\n[provenance]\n\
              data_file = {}\ndata_sha256 = {}\npoints = {}\nruns = {}\nrms_residual_mm = {}\n\
              max_residual_mm = {}\nrank = {}\nparameters = {}\ncondition_number = {}\nnoise = {}\n\
-             frame = {}\n",
+             frame = {}\nnominal_name = {}\nnominal_sha256 = {}\nnominal_model = {}\n",
             q(&self.data_file),
             q(&self.data_sha256),
             self.points,
@@ -96,7 +133,10 @@ impl Provenance {
             self.parameters,
             num(self.condition_number),
             q(&self.noise),
-            q(&self.frame)
+            q(&self.frame),
+            q(&self.nominal_name),
+            q(&self.nominal_sha256),
+            q(&self.nominal_model)
         )
     }
 }
@@ -111,16 +151,69 @@ pub fn provenance_frame(model_file_text: &str) -> Option<Placement> {
     }
 }
 
+/// The nominal model a model file's `[provenance]` records.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RecordedNominal {
+    /// Its name.
+    pub name: String,
+    /// Its [`geometry_sha256`].
+    pub sha256: String,
+    /// The model itself, or why the recorded text does not give it (unreadable, or its geometry
+    /// does not match the recorded SHA-256).
+    pub model: Result<RobotModel, String>,
+}
+
+/// The nominal model a model file's `[provenance]` records (`None` when the file has no
+/// `[provenance]` or it names no nominal model: files written before it did).
+pub fn recorded_nominal(model_file_text: &str) -> Option<RecordedNominal> {
+    let table: toml::Table = model_file_text.parse().ok()?;
+    let p = table.get("provenance")?;
+    let text = |k: &str| p.get(k).and_then(|v| v.as_str()).map(str::to_string);
+    let (name, sha256) = (text("nominal_name")?, text("nominal_sha256")?);
+    let model = match text("nominal_model") {
+        None => Err("the field provenance.nominal_model is missing".to_string()),
+        Some(t) => RobotModel::from_toml(&t, "provenance.nominal_model")
+            .map_err(|e| e.to_string())
+            .and_then(|m| {
+                if geometry_sha256(&m) == sha256 {
+                    Ok(m)
+                } else {
+                    Err("provenance.nominal_model does not match provenance.nominal_sha256".into())
+                }
+            }),
+    };
+    Some(RecordedNominal {
+        name,
+        sha256,
+        model,
+    })
+}
+
+/// A model file's `[provenance]` table alone, as TOML text (`None` when it has none), to
+/// append to the model's [`RobotModel::to_toml`] again.
+pub fn provenance_table(model_file_text: &str) -> Option<String> {
+    let table: toml::Table = model_file_text.parse().ok()?;
+    let p = table.get("provenance")?.clone();
+    let mut only = toml::Table::new();
+    only.insert("provenance".into(), p);
+    let text = toml::to_string(&only).ok()?;
+    Some(format!(
+        "\n# Where this model came from (read and ignored by the model reader)\n{text}"
+    ))
+}
+
 /// The identified model's file: the model's TOML, then (for runs through the whole-chain fit)
-/// the `[provenance]` table of `ids` identified from `data` (the data file's bytes).
+/// the `[provenance]` table of `ids` identified from `data` (the data file's bytes) with
+/// `nominal` as the nominal model.
 pub fn model_file_text(
-    model: &crate::kinematics::RobotModel,
+    model: &RobotModel,
+    nominal: &RobotModel,
     ids: &[Identification],
     data_file: &str,
     data: &[u8],
 ) -> String {
     let mut s = model.to_toml();
-    if let Some(p) = Provenance::new(ids, data_file, data) {
+    if let Some(p) = Provenance::new(ids, nominal, data_file, data) {
         s.push_str(&p.to_toml());
     }
     s
@@ -155,11 +248,43 @@ mod tests {
             condition_number: 17.3,
             noise: "estimated from the residuals".into(),
             frame: "measurement".into(),
+            nominal_name: "UR5e".into(),
+            nominal_sha256: geometry_sha256(&crate::presets::preset("ur5e").unwrap()),
+            nominal_model: crate::presets::preset("ur5e").unwrap().to_toml(),
         };
         let text = m.to_toml() + &p.to_toml();
         let back = crate::kinematics::RobotModel::from_toml(&text, "t").unwrap();
         assert_eq!(back, m);
         let table: toml::Table = text.parse().unwrap();
         assert_eq!(table["provenance"]["points"].as_integer(), Some(60));
+        // The recorded nominal reads back as the model it was.
+        let n = recorded_nominal(&text).unwrap();
+        assert_eq!(n.name, "UR5e");
+        let ur5e = crate::presets::preset("ur5e").unwrap();
+        assert_eq!(
+            geometry_sha256(n.model.as_ref().unwrap()),
+            geometry_sha256(&ur5e)
+        );
+        // The table alone, appended to the model again, gives the same provenance.
+        let again = m.to_toml() + &provenance_table(&text).unwrap();
+        assert_eq!(recorded_nominal(&again), Some(n));
+        assert_eq!(provenance_frame(&again), Some(Placement::Identify));
+        // A tampered geometry is not taken for the recorded one.
+        let bad = text.replace(&p.nominal_sha256, &sha256_hex(b"y"));
+        assert!(recorded_nominal(&bad).unwrap().model.is_err());
+    }
+
+    /// The geometry's SHA-256 survives a round trip through the model file, and tells robots
+    /// apart.
+    #[test]
+    fn geometry_sha256_is_stable_and_distinguishes() {
+        for name in crate::presets::PRESETS {
+            let m = crate::presets::preset(name).unwrap();
+            let back = RobotModel::from_toml(&m.to_toml(), "t").unwrap();
+            assert_eq!(geometry_sha256(&m), geometry_sha256(&back), "{name}");
+        }
+        let a = geometry_sha256(&crate::presets::preset("ur5e").unwrap());
+        let b = geometry_sha256(&crate::presets::preset("ur10e").unwrap());
+        assert_ne!(a, b);
     }
 }

@@ -7,6 +7,22 @@
 //! of an identified placement). The error at a point is `‖P(model, q) − p_measured‖`;
 //! [`validate`] reports its mean, RMS and maximum for a model and optionally for a nominal model,
 //! with the improvement in percent ([`Validation::improvement_percent`]).
+//!
+//! Which nominal model and which frame a validation uses are decided first ([`choose_nominal`],
+//! [`choose_frame`]): the model file's own nominal, a given one of the same robot, or a
+//! refusal; a stated or recorded frame, or the base frame where the data plausibly are. On
+//! measurement-frame data the nominal model gets its own best-fit placement
+//! ([`register_nominal`]), so that the improvement is the geometry's alone.
+
+mod baseline;
+mod setup;
+
+pub use super::provenance::{geometry_sha256, provenance_table, recorded_nominal, RecordedNominal};
+pub use baseline::{register_nominal, Registration};
+pub use setup::{
+    choose_frame, choose_nominal, run_validation, FrameSource, NominalSource, ValidateError,
+    ValidateRequest, OTHER_FRAME_MM, OTHER_ROBOT_MM,
+};
 
 use super::poses::pose_columns;
 use super::sweeps::{column_indices, csv_error, csv_reader, joint_count, open_input, parse_number};
@@ -126,7 +142,7 @@ pub fn write_measurements<W: Write>(m: &[Measurement], writer: W) -> Result<(), 
 }
 
 /// Positioning error statistics, mm.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct AccuracyStats {
     /// Number of points.
     pub points: usize,
@@ -220,8 +236,12 @@ pub struct Validation {
     /// The nominal model's name and errors, if one was given.
     pub nominal: Option<(String, AccuracyStats)>,
     /// The nominal model's own tool point (mm) when it was more than [`SAME_TOOL_MM`] from the
-    /// model's and the nominal errors were computed with the model's tool instead.
+    /// model's and the nominal errors were computed with the model's tool instead (robot base
+    /// frame only).
     pub nominal_tool_replaced: Option<[f64; 3]>,
+    /// On measurement-frame data: how the nominal model was placed (its own best-fit placement,
+    /// [`register_nominal`]).
+    pub nominal_registration: Option<Registration>,
 }
 
 impl Validation {
@@ -235,6 +255,103 @@ impl Validation {
             pct(n.rms_mm, self.model.rms_mm),
             pct(n.max_mm, self.model.max_mm),
         ])
+    }
+}
+
+/// A validation with what it compared and how, as every front end prints and writes it
+/// ([`ValidationReport::text`], [`ValidationReport::json`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ValidationReport {
+    /// The errors.
+    pub validation: Validation,
+    /// The frame of the measurements.
+    pub frame: Placement,
+    /// Where the frame came from.
+    pub frame_source: FrameSource,
+    /// Where the nominal model came from, when there is one.
+    pub nominal_source: Option<NominalSource>,
+    /// The predictive check, when it was run.
+    pub predictive: Option<super::predictive::PredictiveCheck>,
+}
+
+/// The frame of validated measurements, in words.
+pub fn frame_words(frame: Placement) -> &'static str {
+    match frame {
+        Placement::Identify => "measurement (the model's placement applies)",
+        Placement::Known => "robot base",
+    }
+}
+
+impl ValidationReport {
+    /// The method of the nominal baseline in one sentence, when there is a nominal model.
+    pub fn nominal_method(&self) -> Option<String> {
+        self.validation.nominal.as_ref()?;
+        Some(match &self.validation.nominal_registration {
+            Some(r) => r.method(),
+            None if self.validation.nominal_tool_replaced.is_some() => {
+                "nominal geometry in the robot base frame with the model's target offset".into()
+            }
+            None => "nominal model as it is, in the robot base frame".into(),
+        })
+    }
+
+    /// The text for the terminal: the error table, the nominal model's source and method, the
+    /// frame and the predictive check.
+    pub fn text(&self) -> String {
+        let mut s = super::render_validation(&self.validation);
+        if let (Some(source), Some(method)) = (&self.nominal_source, self.nominal_method()) {
+            s.push_str(&format!("nominal: {}\n", source.words()));
+            s.push_str(&format!("nominal baseline: {method}\n"));
+            if let Some(r) = &self.validation.nominal_registration {
+                let (x, a, t) = (r.base_xyz_mm, r.base_rpy_deg, r.tool_mm);
+                s.push_str(&format!(
+                    "  its placement: xyz ({:.3}, {:.3}, {:.3}) mm, rpy ({:.4}, {:.4}, {:.4}) \
+                     deg; target ({:.3}, {:.3}, {:.3}) mm\n",
+                    x[0], x[1], x[2], a[0], a[1], a[2], t[0], t[1], t[2]
+                ));
+            }
+        }
+        let source = match self.frame_source {
+            FrameSource::Stated => "as stated",
+            FrameSource::Recorded => "recorded in the model file",
+            FrameSource::Default => "the model file records none",
+        };
+        s.push_str(&format!("frame: {} — {source}\n", frame_words(self.frame)));
+        if let Some(p) = &self.predictive {
+            s.push_str(&p.render());
+        }
+        s
+    }
+
+    /// The JSON document (pretty-printed).
+    pub fn json(&self) -> String {
+        let v = &self.validation;
+        let nominal = v.nominal.as_ref().map(|(name, stats)| {
+            serde_json::json!({
+                "name": name,
+                "source": self.nominal_source,
+                "method": self.nominal_method(),
+                "errors_mm": stats,
+                "registration": v.nominal_registration,
+                "tool_replaced_mm": v.nominal_tool_replaced,
+            })
+        });
+        let doc = serde_json::json!({
+            "model": { "name": v.model_name, "errors_mm": v.model, "geometric_errors_mm": v.geometric },
+            "nominal": nominal,
+            "improvement_percent": v.improvement_percent().map(|[m, r, x]| {
+                serde_json::json!({ "mean": m, "rms": r, "max": x })
+            }),
+            "frame": match self.frame {
+                Placement::Identify => "measurement",
+                Placement::Known => "robot base",
+            },
+            "frame_source": self.frame_source,
+            "predictive_check": self.predictive,
+        });
+        let mut s = serde_json::to_string_pretty(&doc).unwrap_or_default();
+        s.push('\n');
+        s
     }
 }
 
@@ -257,9 +374,10 @@ pub fn validate(
 }
 
 /// [`validate`] with the measurements in `frame`: in the measurement frame
-/// ([`Placement::Identify`]) the model's placement applies, and a nominal model is placed where
-/// the model is (its `base` replaced by the model's), so that it is compared on the geometry
-/// alone.
+/// ([`Placement::Identify`]) the model's placement applies, and a nominal model gets its own
+/// best-fit placement and target offset ([`register_nominal`]; the model's placement, fitted
+/// with the model's geometry, would leave the nominal geometry worse off than it is), so that
+/// it is compared on the geometry alone.
 ///
 /// # Errors
 ///
@@ -302,7 +420,16 @@ pub fn validate_in(
             })?;
     }
     let mut nominal_tool_replaced = None;
+    let mut nominal_registration = None;
     let nominal = nominal.map(|n| {
+        if frame == Placement::Identify {
+            let (placed, reg) = register_nominal(n, measurements, model.tool);
+            nominal_registration = Some(reg);
+            return (
+                n.name.clone(),
+                stats(&point_errors_geometric(&placed, measurements, frame)),
+            );
+        }
         let mut n = n.clone();
         let gap = (0..3)
             .map(|k| (n.tool[k] - model.tool[k]).powi(2))
@@ -311,9 +438,6 @@ pub fn validate_in(
         if gap.is_nan() || gap > SAME_TOOL_MM {
             nominal_tool_replaced = Some(n.tool);
             n.tool = model.tool;
-        }
-        if frame == Placement::Identify {
-            n.base = model.base;
         }
         (n.name.clone(), accuracy_in(&n, measurements, frame))
     });
@@ -325,6 +449,7 @@ pub fn validate_in(
             .then(|| stats(&point_errors_geometric(model, measurements, frame))),
         nominal,
         nominal_tool_replaced,
+        nominal_registration,
     })
 }
 

@@ -1,0 +1,89 @@
+"""Validation from Python equals the command line's (issue 34): ``IdentifyResult.model.to_toml()``
+keeps ``[provenance]`` (the frame and the nominal model), ``gpu_amcs.validate`` uses the model's
+own nominal with its own best-fit placement on tracker data, and neither front end silently
+changes the frame."""
+
+import json
+
+import pytest
+
+import gpu_amcs
+
+
+def run_ok(cli, *args):
+    r = cli(*[str(a) for a in args])
+    assert r.returncode == 0, r.stderr
+    return r
+
+
+@pytest.fixture
+def ur5e(cli, tmp_path):
+    """A UR5e identified from simulated tracker poses: (result, held-out poses)."""
+    poses, truth, held = tmp_path / "poses.csv", tmp_path / "truth.toml", tmp_path / "held.csv"
+    run_ok(cli, "simulate", "--preset", "ur5e", "--poses", 60, "--seed", 3, "-o", poses,
+           "--truth-out", truth)
+    run_ok(cli, "simulate", "--preset", "ur5e", "--poses", 40, "--seed", 11, "--truth", truth,
+           "-o", held)
+    return gpu_amcs.identify(poses, preset="ur5e"), held
+
+
+def test_model_to_toml_keeps_provenance(ur5e, tmp_path):
+    res, _ = ur5e
+    text = res.model.to_toml()
+    assert text == res.to_toml()
+    assert "[provenance]" in text and "nominal_sha256" in text
+    assert 'frame = "measurement"' in text
+    # Read back, written again: the same table.
+    f = tmp_path / "m.toml"
+    f.write_text(text)
+    again = gpu_amcs.Model.from_file(f).to_toml()
+    assert "[provenance]" in again and "nominal_model" in again
+    # A per-run model and a preset have none.
+    assert "[provenance]" not in gpu_amcs.Model.preset("ur5e").to_toml()
+
+
+def test_validate_equals_cli(cli, ur5e, tmp_path):
+    res, held = ur5e
+    f = tmp_path / "m.toml"
+    f.write_text(res.model.to_toml())
+    doc_file = tmp_path / "v.json"
+    r = run_ok(cli, "validate", "--model", f, held, "--nominal", "--check-draws", 2000,
+               "--json", doc_file)
+    for model in [res.model, f, str(f)]:
+        v = gpu_amcs.validate(model, held, nominal=True, check_draws=2000)
+        assert v.frame == "measurement"
+        assert v.to_dict() == json.loads(doc_file.read_text())
+    v = gpu_amcs.validate(f, held, nominal=True, check_draws=2000)
+    assert r.stdout == v.to_text()
+    d = v.to_dict()
+    assert d["nominal"]["name"] == "Universal Robots UR5e"
+    assert d["nominal"]["source"]["kind"] == "recorded"
+    assert "by least squares" in d["nominal"]["method"]
+    # The recorded nominal given as a preset or a model: the same; another robot's: refused,
+    # by both front ends, with the same line.
+    same = gpu_amcs.validate(res.model, held, nominal=gpu_amcs.Model.preset("ur5e"),
+                             check_draws=0)
+    assert same.to_dict()["nominal"]["errors_mm"] == d["nominal"]["errors_mm"]
+    with pytest.raises(ValueError, match=r"^nominal: .*is not the one") as e:
+        gpu_amcs.validate(res.model, held, nominal=True, preset="tx60")
+    r = cli("validate", "--model", str(f), str(held), "--nominal", "--preset", "tx60")
+    assert r.returncode == 2 and "is not the one" in r.stderr
+    assert "'Staubli TX60'" in str(e.value) and "'Staubli TX60'" in r.stderr
+
+
+def test_no_silent_change_of_frame(cli, ur5e, tmp_path):
+    res, held = ur5e
+    # A model file without its [provenance] (as model.to_toml() wrote it before): refused in
+    # Python and on the command line, instead of metres of error in the base frame.
+    text = res.model.to_toml()
+    bare = tmp_path / "bare.toml"
+    bare.write_text(text[: text.index("[provenance]")])
+    with pytest.raises(ValueError, match=r"^frame: .*state the frame"):
+        gpu_amcs.validate(bare, held)
+    r = cli("validate", "--model", str(bare), str(held))
+    assert r.returncode == 2 and "state the frame" in r.stderr
+    v = gpu_amcs.validate(bare, held, frame="measurement", check_draws=0)
+    assert v.to_dict()["frame_source"] == "stated"
+    assert v.to_dict()["model"]["errors_mm"]["rms_mm"] < 0.1
+    with pytest.raises(ValueError, match=r"^frame: unknown frame"):
+        gpu_amcs.validate(bare, held, frame="tracker")
