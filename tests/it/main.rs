@@ -26,6 +26,7 @@ mod mc_known_answers;
 mod module_cycles;
 mod placement_analyses;
 mod plan;
+mod pose_repeats;
 mod real_data;
 mod reports;
 mod sensitivity;

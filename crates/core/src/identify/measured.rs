@@ -18,12 +18,14 @@ use super::chain_fit::ChainState;
 use super::circle::CircleFitMethod;
 use super::identifiability::check_something_free;
 use super::lines::{common_normal, Line};
+use super::noise::chi2_upper_tail;
 use super::pipeline::{identify_run, Identification, IdentifyOptions, IdentifyReport};
 use super::poses::{PoseData, TrackerData};
+use super::repeats::{fit_input, FitInput};
 use super::sweeps::{SweepData, SweepRun};
 use super::{mdh, IdentifyError, IdentifyWarning};
-use crate::kinematics::{param_index, ParamKind, RobotModel};
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use crate::kinematics::{param_index, Block, ParamKind, RobotModel};
+use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 
 /// An identification report for data without circle fits (poses): the whole-chain report and
 /// the target, nothing per joint.
@@ -47,7 +49,10 @@ fn pose_report(
     }
 }
 
-/// Identifies one model per run of pose data.
+/// Identifies one model per run of pose data. Poses measured more than once enter as their
+/// means, weighted by the noise (σ/√k), and their scatter is the noise when none is stated
+/// ([`super::repeats`]); the report says so. Several runs whose joint parameters disagree beyond
+/// their uncertainty are flagged ([`disagreeing_runs`]).
 ///
 /// # Errors
 ///
@@ -62,30 +67,126 @@ pub fn identify_poses(
         return Err(IdentifyError::NoData("no poses to identify from".into()));
     }
     let chain = &per_run_options(chain, data.runs.len());
-    data.runs
+    let fits = data
+        .runs
         .iter()
         .map(|r| {
             let label = super::sweeps::run_label(r.run.as_deref());
-            let points: Vec<MeasuredPoint> = r
-                .points
-                .iter()
-                .map(|p| MeasuredPoint {
-                    q_deg: p.q_deg,
-                    position_mm: p.position_mm,
-                    sigma_mm: p.sigma_mm,
-                    line: p.line,
-                })
-                .collect();
-            let result = identify_chain(&points, nominal, None, options.nominal_prior, chain)?;
+            let input = fit_input(r, &chain.noise);
+            let opts = ChainOptions {
+                noise: input.noise,
+                ..chain.clone()
+            };
+            let mut result =
+                identify_chain(&input.points, nominal, None, options.nominal_prior, &opts)?;
+            note_repeats(&mut result.report, &input);
             let model = chain_model(
                 nominal,
                 &result,
                 format!("{} (identified{label})", nominal.name),
             );
-            let report = pose_report(r.run.clone(), nominal, result.report, model.tool);
-            Ok(Identification { model, report })
+            Ok((model, result))
         })
-        .collect()
+        .collect::<Result<Vec<_>, IdentifyError>>()?;
+    let disagree = disagreeing_runs(
+        &data
+            .runs
+            .iter()
+            .zip(&fits)
+            .map(|(r, (_, f))| (r.run.clone(), f.state, f.covariance.as_slice()))
+            .collect::<Vec<_>>(),
+    );
+    Ok(data
+        .runs
+        .iter()
+        .zip(fits)
+        .enumerate()
+        .map(|(i, (r, (model, result)))| {
+            let mut report = pose_report(r.run.clone(), nominal, result.report, model.tool);
+            if i == 0 {
+                report
+                    .warnings
+                    .extend(disagree.iter().map(|m| IdentifyWarning::Chain {
+                        run: String::new(),
+                        message: m.clone(),
+                    }));
+            }
+            Identification { model, report }
+        })
+        .collect())
+}
+
+/// The report of a fit of repeated poses: where the noise came from, its test (an F test of the
+/// means' χ² against the pure error, which was estimated), and the warnings of the comparison
+/// with a stated σ.
+fn note_repeats(report: &mut ChainReport, input: &FitInput) {
+    if let Some(source) = &input.source {
+        report.noise.source = source.clone();
+    }
+    if let Some(p) = input
+        .noise
+        .pure_error_p_value(report.noise.chi2, report.noise.dof)
+    {
+        report.noise.p_value = Some(p);
+        report.lack_of_fit.summary.push_str(&format!(
+            " The noise is the pure error of the repeated measurements ({}); the test is the F test of the pose means' residuals against it.",
+            report.noise.source
+        ));
+    }
+    report.warnings.extend(input.warnings.iter().cloned());
+}
+
+/// Runs whose joint (MDH) parameters disagree beyond their uncertainty: for each pair, `χ² =
+/// dᵀ (C_a + C_b)⁺ d` over the parameters both identified, against χ² with the rank's degrees
+/// of freedom at 1 % over the number of pairs (Bonferroni). `runs` holds each run's label, state
+/// and row-major covariance over [`ChainState::space`]. One line per pair that disagrees.
+pub fn disagreeing_runs(runs: &[(Option<String>, ChainState, &[f64])]) -> Vec<String> {
+    let pairs = runs.len() * runs.len().saturating_sub(1) / 2;
+    let mut out = Vec::new();
+    for (a, (la, sa, ca)) in runs.iter().enumerate() {
+        for (lb, sb, cb) in &runs[a + 1..] {
+            let space = sa.space();
+            let n = space.len();
+            if ca.len() != n * n || cb.len() != n * n || sb.space().len() != n {
+                continue;
+            }
+            let idx: Vec<usize> = (0..n)
+                .filter(|&i| space.locate(i).0 == Block::Joints)
+                .filter(|&i| ca[i * n + i] > 0.0 && cb[i * n + i] > 0.0)
+                .collect();
+            let m = idx.len();
+            if m == 0 {
+                continue;
+            }
+            let s = DMatrix::from_fn(m, m, |r, c| {
+                let (i, j) = (idx[r], idx[c]);
+                ca[i * n + j] + cb[i * n + j]
+            });
+            let d = DVector::from_fn(m, |r, _| sa.get(idx[r]) - sb.get(idx[r]));
+            let eig = s.symmetric_eigen();
+            let top = eig.eigenvalues.iter().fold(0.0f64, |t, v| t.max(*v));
+            let (mut chi2, mut rank) = (0.0, 0);
+            for (k, l) in eig.eigenvalues.iter().enumerate() {
+                if *l > 1e-12 * top && top > 0.0 {
+                    chi2 += eig.eigenvectors.column(k).dot(&d).powi(2) / l;
+                    rank += 1;
+                }
+            }
+            if rank == 0 {
+                continue;
+            }
+            let p = chi2_upper_tail(chi2, rank);
+            if p < 0.01 / pairs.max(1) as f64 {
+                let name = |l: &Option<String>| l.clone().unwrap_or_else(|| "(unnamed)".into());
+                out.push(format!(
+                    "runs {} and {} disagree beyond their uncertainty (joint parameters: χ² = {chi2:.1} for {rank} degrees of freedom, p = {p:.1e}): their mean model averages different robots, set-ups or regions of the workspace; identify them separately or find what changed",
+                    name(la),
+                    name(lb)
+                ));
+            }
+        }
+    }
+    out
 }
 
 /// Identifies tracker data of either kind: poses through [`identify_poses`], sweeps through

@@ -36,22 +36,75 @@ pub enum NoiseModel {
         /// Tracker position in the data's frame, mm.
         position_mm: [f64; 3],
     },
+    /// No σ stated, but poses measured several times: σ per coordinate is the pooled scatter
+    /// of the repeats about their pose's mean (pure error, docs/METHOD.md §2.6), and each pose
+    /// enters the fit as its mean with σ/√k ([`super::repeats`]).
+    PureError {
+        /// Pooled σ per coordinate, mm.
+        sigma_mm: f64,
+        /// Degrees of freedom pooled over x, y, z: `3 Σ (k_i − 1)`.
+        dof: usize,
+        /// Poses measured more than once.
+        repeated: usize,
+        /// Fewest measurements of a repeated pose.
+        min_k: usize,
+        /// Most measurements of a repeated pose.
+        max_k: usize,
+    },
 }
 
 impl NoiseModel {
     /// The default for `data`: the data's own `sx, sy, sz` when every point has them, else
+    /// the pure error of repeated measurements when poses were measured more than once, else
     /// estimated from the residuals.
     pub fn default_for(data: &super::TrackerData) -> NoiseModel {
         if data.has_sigmas() {
-            NoiseModel::PerPoint
-        } else {
-            NoiseModel::FromResiduals
+            return NoiseModel::PerPoint;
+        }
+        match data {
+            super::TrackerData::Poses(p) => super::repeats::pure_error(&p.runs)
+                .map_or(NoiseModel::FromResiduals, |e| e.noise_model()),
+            super::TrackerData::Sweeps(_) => NoiseModel::FromResiduals,
+        }
+    }
+
+    /// For [`NoiseModel::PureError`], the lack-of-fit test's `Pr[F > χ²/dof]` with `(dof,
+    /// pure-error dof)` degrees of freedom: the whitened residuals' `χ²` over `dof` (of the pose
+    /// means) is the lack-of-fit mean square over the pure-error one, an F variate when the
+    /// model fits (σ was estimated, so χ² would overstate the evidence). `None` for other models.
+    pub fn pure_error_p_value(&self, chi2: f64, dof: usize) -> Option<f64> {
+        match self {
+            NoiseModel::PureError { dof: pe, .. } if dof > 0 && *pe > 0 => {
+                Some(f_upper_tail(chi2 / dof as f64, dof as f64, *pe as f64))
+            }
+            _ => None,
         }
     }
 
     /// Whether the noise is stated (not estimated from the residuals).
     pub fn is_stated(&self) -> bool {
         !matches!(self, NoiseModel::FromResiduals)
+    }
+
+    /// A tracker model with every MPE part divided by `factor` (the noise of the mean of
+    /// `factor²` measurements at one point); other models unchanged.
+    pub fn mpe_divided_by(&self, factor: f64) -> NoiseModel {
+        match *self {
+            NoiseModel::Tracker {
+                constant_um,
+                per_metre_um,
+                radial_um,
+                mpe_sigmas,
+                position_mm,
+            } => NoiseModel::Tracker {
+                constant_um: constant_um / factor,
+                per_metre_um: per_metre_um / factor,
+                radial_um: radial_um / factor,
+                mpe_sigmas,
+                position_mm,
+            },
+            other => other,
+        }
     }
 
     /// One line saying where σ came from.
@@ -70,19 +123,34 @@ impl NoiseModel {
                 "stated tracker model: MPE ±({constant_um} µm + {per_metre_um} µm/m) across the \
                  line of sight, ±{radial_um} µm along it, MPE = {mpe_sigmas}σ"
             ),
+            NoiseModel::PureError {
+                sigma_mm,
+                dof,
+                repeated,
+                min_k,
+                max_k,
+            } => format!(
+                "from repeated measurements (pure error): {repeated} poses measured {} times, σ = {} mm per coordinate ({dof} degrees of freedom over x, y, z); each pose enters as its mean, σ/√k",
+                if min_k == max_k { min_k.to_string() } else { format!("{min_k}–{max_k}") },
+                fmt_sig(*sigma_mm)
+            ),
         }
     }
 
     /// The whitening matrix of a point measured at `p` (data frame, mm) with the stated
-    /// per-point σ `sigma` (when the data have them); the identity for [`Self::FromResiduals`]
-    /// (scaled later by the estimated σ). `None` when the model needs per-point σ and the point
-    /// has none.
+    /// per-point σ `sigma` (when the data have them; for [`Self::PureError`] a pose mean's
+    /// σ/√k, the pooled σ without); the identity for [`Self::FromResiduals`] (scaled later by
+    /// the estimated σ). `None` when the model needs per-point σ and the point has none.
     pub fn whiten(&self, p: &[f64; 3], sigma: Option<[f64; 3]>) -> Option<Matrix3<f64>> {
         match self {
             NoiseModel::FromResiduals => Some(Matrix3::identity()),
             NoiseModel::PerPoint => sigma
                 .map(|s| Matrix3::from_diagonal(&Vector3::new(1.0 / s[0], 1.0 / s[1], 1.0 / s[2]))),
             NoiseModel::Isotropic { sigma_mm } => Some(Matrix3::identity() / *sigma_mm),
+            NoiseModel::PureError { sigma_mm, .. } => Some(sigma.map_or_else(
+                || Matrix3::identity() / *sigma_mm,
+                |s| Matrix3::from_diagonal(&Vector3::new(1.0 / s[0], 1.0 / s[1], 1.0 / s[2])),
+            )),
             NoiseModel::Tracker {
                 constant_um,
                 per_metre_um,
@@ -232,6 +300,97 @@ pub fn normal_upper_tail(z: f64) -> f64 {
     0.5 * erfc
 }
 
+/// σ in mm to 0.01 µm (scientific below 1 µm).
+pub(crate) fn fmt_sig(v: f64) -> String {
+    if v >= 1e-3 {
+        format!("{v:.5}")
+    } else {
+        format!("{v:.3e}")
+    }
+}
+
+/// `ln Γ(x)` for `x > 0` (Lanczos approximation, g = 7, nine terms; relative error ~1e-15).
+fn ln_gamma(x: f64) -> f64 {
+    const C: [f64; 9] = [
+        0.999_999_999_999_809_9,
+        676.520_368_121_885_1,
+        -1_259.139_216_722_402_8,
+        771.323_428_777_653_1,
+        -176.615_029_162_140_6,
+        12.507_343_278_686_905,
+        -0.138_571_095_265_720_12,
+        9.984_369_578_019_572e-6,
+        1.505_632_735_149_311_6e-7,
+    ];
+    if x < 0.5 {
+        // reflection: Γ(x) Γ(1 − x) = π / sin(πx)
+        let pi = std::f64::consts::PI;
+        return (pi / (pi * x).sin()).ln() - ln_gamma(1.0 - x);
+    }
+    let x = x - 1.0;
+    let t = x + 7.5;
+    let series = C[1..]
+        .iter()
+        .enumerate()
+        .fold(C[0], |acc, (i, c)| acc + c / (x + i as f64 + 1.0));
+    0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + series.ln()
+}
+
+/// The continued fraction of the incomplete beta function (modified Lentz), valid for
+/// `x < (a + 1) / (a + b + 2)`.
+fn beta_fraction(a: f64, b: f64, x: f64) -> f64 {
+    const TINY: f64 = 1e-300;
+    let clamp = |v: f64| if v.abs() < TINY { TINY } else { v };
+    let mut c = 1.0;
+    let mut d = 1.0 / clamp(1.0 - (a + b) * x / (a + 1.0));
+    let mut h = d;
+    for m in 1..=300 {
+        let m = m as f64;
+        let even = m * (b - m) * x / ((a + 2.0 * m - 1.0) * (a + 2.0 * m));
+        d = 1.0 / clamp(1.0 + even * d);
+        c = clamp(1.0 + even / c);
+        h *= d * c;
+        let odd = -(a + m) * (a + b + m) * x / ((a + 2.0 * m) * (a + 2.0 * m + 1.0));
+        d = 1.0 / clamp(1.0 + odd * d);
+        c = clamp(1.0 + odd / c);
+        let step = d * c;
+        h *= step;
+        if (step - 1.0).abs() < 1e-14 {
+            break;
+        }
+    }
+    h
+}
+
+/// The regularised incomplete beta function `I_x(a, b)`.
+fn incomplete_beta(a: f64, b: f64, x: f64) -> f64 {
+    if x <= 0.0 {
+        return 0.0;
+    }
+    if x >= 1.0 {
+        return 1.0;
+    }
+    let front =
+        (ln_gamma(a + b) - ln_gamma(a) - ln_gamma(b) + a * x.ln() + b * (1.0 - x).ln()).exp();
+    if x < (a + 1.0) / (a + b + 2.0) {
+        front * beta_fraction(a, b, x) / a
+    } else {
+        1.0 - front * beta_fraction(b, a, 1.0 - x) / b
+    }
+}
+
+/// `Pr[F_{d1,d2} > f]` of Fisher's F distribution (exact, through the incomplete beta
+/// function: `I_{d2/(d2 + d1 f)}(d2/2, d1/2)`).
+pub fn f_upper_tail(f: f64, d1: f64, d2: f64) -> f64 {
+    if f.is_nan() || d1 <= 0.0 || d2 <= 0.0 {
+        return f64::NAN;
+    }
+    if f <= 0.0 {
+        return 1.0;
+    }
+    incomplete_beta(0.5 * d2, 0.5 * d1, d2 / (d2 + d1 * f))
+}
+
 /// `Pr[χ²_ν > x]` by the Wilson–Hilferty cube-root normal approximation (accurate to a few
 /// 1e-3 in probability for ν ≥ 10, which a calibration always has).
 pub fn chi2_upper_tail(x: f64, dof: usize) -> f64 {
@@ -254,6 +413,20 @@ mod tests {
         // χ²_100 upper 5 % point 124.342 (tables)
         assert!((chi2_upper_tail(124.342, 100) - 0.05).abs() < 2e-3);
         assert!((chi2_upper_tail(100.0, 100) - 0.481).abs() < 3e-3);
+    }
+
+    /// F and its special functions against tables: Γ(5) = 24, Γ(½) = √π, F(5, 10) upper 5 %
+    /// point 3.3258, F(10, 360) upper 1 % point 2.37 (≈ χ²₁₀/10), F(1, 1) median 1.
+    #[test]
+    fn f_tail_matches_tables() {
+        assert!((ln_gamma(5.0) - 24f64.ln()).abs() < 1e-12);
+        assert!((ln_gamma(0.5) - std::f64::consts::PI.sqrt().ln()).abs() < 1e-12);
+        assert!((f_upper_tail(3.3258, 5.0, 10.0) - 0.05).abs() < 1e-4);
+        assert!((f_upper_tail(1.0, 1.0, 1.0) - 0.5).abs() < 1e-12);
+        assert!((f_upper_tail(2.3209, 10.0, 1e6) - 0.01).abs() < 2e-4);
+        assert_eq!(f_upper_tail(0.0, 3.0, 4.0), 1.0);
+        assert!(f_upper_tail(1e6, 3.0, 4.0) < 1e-9);
+        assert!(f_upper_tail(f64::NAN, 3.0, 4.0).is_nan());
     }
 
     #[test]

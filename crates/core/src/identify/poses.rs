@@ -4,12 +4,17 @@
 //! Header `q1,…,qn,x,y,z` for an `n`-joint robot (`n` = 4 to 7; `q1,q2,q3,q4,q5,q6,x,y,z` for a
 //! six-axis arm), optionally with `run` (any position, any label) and with per-point standard
 //! uncertainties `sx,sy,sz` (mm; all three or none). The angles are commanded
-//! joint angles in degrees, `x,y,z` the measured target position in mm in any measurement frame.
+//! joint angles in degrees (or radians, declared by naming every joint column `q1_rad`, …;
+//! `q1_deg`, … are degrees), `x,y,z` the measured target position in mm in any measurement
+//! frame. Rows of a run with the same joint angles are repeated measurements of one pose
+//! ([`super::repeats`]).
 //! [`read_tracker_data`] reads either this or a sweep file (a `joint` column); the checks that
-//! need the nominal model (joint limits, units that look like metres) are made by
+//! need the nominal model (joint limits, positions that look like metres, angles that look like
+//! radians) are made by
 //! [`check_tracker_data`] (which also checks that the data have the model's number of joints).
 //! Every error is one line naming the file, the line and the column.
 
+use super::pose_units::{angle_unit, check_not_radians, split_unit};
 use super::sweeps::{
     column_indices, csv_error, csv_reader, joint_count, open_input, parse_number, parse_sweeps,
     run_label, SweepData, Q_COLUMNS,
@@ -118,12 +123,15 @@ impl TrackerData {
 /// [`IdentifyError::MissingColumn`] for a missing required column (fewer than four `q` columns or a
 /// gap in them, or one of `sx,sy,sz` while another is present), [`IdentifyError::Csv`] for a
 /// malformed row, a value that is not a finite number, a σ outside
-/// [`MIN_SIGMA_MM`](super::noise::MIN_SIGMA_MM) … [`MAX_SIGMA_MM`](super::noise::MAX_SIGMA_MM), or a row that
-/// repeats an earlier one exactly (same run, angles and position), naming its line;
-/// [`IdentifyError::Empty`] for no data rows.
+/// [`MIN_SIGMA_MM`](super::noise::MIN_SIGMA_MM) … [`MAX_SIGMA_MM`](super::noise::MAX_SIGMA_MM), joint
+/// columns that mix units (`q1_rad` beside `q2`), or a row that repeats an earlier one exactly
+/// (same run, angles and position) in a file without repeated measurements that differ (a
+/// copied row; where poses were measured several times, identical readings are repeats that a
+/// coarse resolution made equal), naming its line; [`IdentifyError::Empty`] for no data rows.
 pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, IdentifyError> {
     let mut rdr = csv_reader(reader);
-    let header = rdr.headers().map_err(|e| csv_error(e, origin))?.clone();
+    let declared = rdr.headers().map_err(|e| csv_error(e, origin))?.clone();
+    let (header, radians) = angle_unit(&declared, origin)?;
     let n = joint_count(&header, origin, FORMATS)?;
     let columns = pose_columns(n);
     let cols = column_indices(&header, &columns, origin)?;
@@ -141,6 +149,7 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
     };
     let mut data = PoseData::default();
     let mut seen: HashMap<(Option<String>, Vec<u64>), u64> = HashMap::new();
+    let mut copies: Vec<(u64, u64)> = Vec::new();
     for rec in rdr.records() {
         let rec = rec.map_err(|e| csv_error(e, origin))?;
         let line = rec.position().map(|p| p.line()).unwrap_or(0);
@@ -150,6 +159,9 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
         let v = &mut v[..n + 3];
         for (k, x) in v.iter_mut().enumerate() {
             *x = parse_number(&rec, cols[k], columns[k], line, origin, &context)?;
+            if radians && k < n {
+                *x = x.to_degrees();
+            }
         }
         let sigma_mm = match &sigma_cols {
             None => None,
@@ -176,13 +188,7 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
         };
         let key = (run.clone(), v.iter().map(|x| x.to_bits()).collect());
         if let Some(first) = seen.insert(key, line) {
-            return Err(IdentifyError::Csv {
-                origin: origin.to_string(),
-                line,
-                message: format!(
-                    "repeats line {first} (same run, joint angles and position): a copied row?"
-                ),
-            });
+            copies.push((line, first));
         }
         let point = PosePoint {
             q_deg: Joints::from_slice(&v[..n]),
@@ -203,7 +209,28 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
             origin: origin.to_string(),
         });
     }
+    if let Some(&(line, first)) = copies.first() {
+        if !has_differing_repeats(&data) {
+            return Err(IdentifyError::Csv {
+                origin: origin.to_string(),
+                line,
+                message: format!(
+                    "repeats line {first} (same run, joint angles and position): a copied row? (repeated measurements of a pose differ in x, y, z by the tracker's noise)"
+                ),
+            });
+        }
+    }
     Ok(data)
+}
+
+/// Whether some pose of `data` was measured more than once with positions that differ.
+fn has_differing_repeats(data: &PoseData) -> bool {
+    data.runs.iter().any(|r| {
+        super::repeats::pose_groups(r).iter().any(|g| {
+            g.iter()
+                .any(|&i| r.points[i].position_mm != r.points[g[0]].position_mm)
+        })
+    })
 }
 
 /// Reads a pose file.
@@ -241,7 +268,7 @@ pub fn parse_tracker_data(text: &str, origin: &str) -> Result<TrackerData, Ident
         .unwrap_or("");
     let names: Vec<String> = header_line
         .split(',')
-        .map(|h| h.trim().trim_matches('"').to_ascii_lowercase())
+        .map(|h| split_unit(h.trim().trim_matches('"')).0)
         .collect();
     if names.iter().any(|n| n == "joint") {
         return Ok(TrackerData::Sweeps(parse_sweeps(text.as_bytes(), origin)?));
@@ -266,19 +293,20 @@ pub fn parse_tracker_data(text: &str, origin: &str) -> Result<TrackerData, Ident
 const METRES_LIMIT: f64 = 10.0;
 
 /// Checks data against the nominal model: every row with one angle per joint of the model, within
-/// the joint limits, and positions that are not in metres.
+/// the joint limits, angles that are not radians and positions that are not in metres.
 ///
 /// # Errors
 ///
 /// [`IdentifyError::Csv`] naming the first row with another number of joint angles than the
 /// model has joints or outside the limits (joint, value, limits), or the first row of data that
-/// look like metres.
+/// look like radians or metres.
 pub fn check_tracker_data(
     data: &TrackerData,
     nominal: &RobotModel,
     origin: &str,
 ) -> Result<(), IdentifyError> {
     let rows = data.rows();
+    check_not_radians(&rows, origin)?;
     for (q, _, line) in &rows {
         if q.len() != nominal.joints() {
             return Err(IdentifyError::Csv {
@@ -471,6 +499,23 @@ mod tests {
                 "{e}"
             );
         }
+    }
+
+    /// Repeated measurements of a pose are read as rows of one pose; an identical reading is
+    /// kept where other repeats differ (a coarse resolution), refused as a copy where none do.
+    #[test]
+    fn repeats_are_read_and_copies_refused_only_without_them() {
+        let text = "q1,q2,q3,q4,q5,q6,x,y,z\n0,1,2,3,4,5,100,200,300\n0,1,2,3,4,5,100.01,200,300\n0,1,2,3,4,5,100,200,300\n";
+        let d = parse_poses(text.as_bytes(), "f.csv").unwrap();
+        assert_eq!(
+            super::super::repeats::pose_groups(&d.runs[0]),
+            vec![vec![0, 1, 2]]
+        );
+        let copy = "q1,q2,q3,q4,q5,q6,x,y,z\n0,1,2,3,4,5,100,200,300\n9,1,2,3,4,5,100,200,300\n0,1,2,3,4,5,100,200,300\n";
+        let e = parse_poses(copy.as_bytes(), "f.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("line 4") && e.contains("repeats line 2"), "{e}");
     }
 
     #[test]

@@ -43,7 +43,10 @@ pub(super) fn lack_of_fit(
         &points,
         opts.compensate.then_some(configurations),
         opts.noise.is_stated(),
-        noise.p_value,
+        // σ from repeated measurements was estimated: the F test against the pure error
+        opts.noise
+            .pure_error_p_value(noise.chi2, noise.dof)
+            .or(noise.p_value),
         opts.seed,
     )
 }
