@@ -143,7 +143,7 @@ problem_function! {
         let built = spec.build(&estimate)?;
         let evaluators = spec.evaluators();
         let (result, notes) = py.detach(|| -> PyResult<_> {
-            let model = built.problem.model.clone();
+            let model = planner::model_to_plan(&built.problem);
             let task: Vec<Joints> =
                 built.problem.points.iter().map(|q| q.map(f64::to_degrees)).collect();
             let opts = PlanOptions {

@@ -140,7 +140,7 @@ impl Run for PlanArgs {
         let pool = thread_pool(a.problem.threads)?;
         let (plan, rows) = pool.install(|| -> Result<_> {
             let built = a.problem.build()?;
-            let model = built.problem.model.clone();
+            let model = plan::model_to_plan(&built.problem);
             let task: Vec<gpu_amcs::kinematics::Joints> = if a.iso9283 {
                 let rpy = gpu_amcs::map::tool_down_rpy_deg(&model);
                 let cube = gpu_amcs::iso9283::test_cube(&model, Some(rpy))

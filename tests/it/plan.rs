@@ -401,3 +401,57 @@ fn plan_for_the_iso9283_poses_gives_each_poses_certificate() {
     }
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// A plan from an identified model of the robot carries its discrepancy term into the
+/// prediction (what a new geometric calibration leaves too): R at the nominal-only prediction's
+/// median falls well below ½; `--no-discrepancy` (a problem without the term) plans without it;
+/// a compensated term goes back to the geometric model's size.
+#[test]
+fn a_plan_from_an_identified_model_predicts_with_its_discrepancy_term() {
+    use gpu_amcs::discrepancy::{Discrepancy, NoiseSource};
+    use gpu_amcs::engine::{Problem, Reference};
+    use gpu_amcs::plan::model_to_plan;
+    let o = PlanOptions {
+        random_designs: 2,
+        ..PlanOptions::default()
+    };
+    let plain = with_target(tx60(), &o);
+    let mut identified = plain.clone();
+    identified.discrepancy = Some(
+        Discrepancy {
+            residual_norms: (1..=40).map(|i| 0.001 * f64::from(i)).collect(),
+            robot_share: 1.0,
+            noise: NoiseSource::Unknown,
+            noise_sigma_mm: None,
+            compensation: None,
+        }
+        .checked()
+        .unwrap(),
+    );
+    let task = task(&plain);
+    let problem = Problem::new(identified.clone(), &task, &Reference::Calibrated, 3).unwrap();
+    // The model an analysis plans from keeps the term, or leaves it out on request.
+    assert!(model_to_plan(&problem).discrepancy.is_some());
+    assert!(model_to_plan(&problem.clone().without_discrepancy())
+        .discrepancy
+        .is_none());
+    let predict_median = |m: &RobotModel, at: Option<f64>| {
+        let p = plan(m, &task, &o).expect("plan");
+        assert_eq!(
+            p.model().discrepancy.is_some(),
+            m.discrepancy.is_some(),
+            "the planned model carries the given model's term"
+        );
+        let mut ev = CpuEvaluator::new(prediction_problem(&p, &task, 7).unwrap());
+        let l = at.unwrap_or(p.planned.q95_mm);
+        let pred = predict(&mut ev, 20_000, &[l]).unwrap();
+        (pred.reliability[0].r, l)
+    };
+    let (r_plain, l) = predict_median(&plain, None);
+    let (r_term, _) = predict_median(&identified, Some(l));
+    eprintln!("R({l:.4} mm): nominal-only {r_plain:.4}, with the term {r_term:.4}");
+    assert!(
+        r_plain > 0.8 && r_term < 0.5 * r_plain,
+        "{r_plain} {r_term}"
+    );
+}

@@ -401,6 +401,8 @@ fn analyses_draw_the_placement_in_the_measurement_frame() {
             "5",
             "--threshold",
             "0.03",
+            // the placement's own effect, as for mcs above
+            "--no-discrepancy",
         ];
         args.extend_from_slice(extra);
         json_of(&args, "tail")

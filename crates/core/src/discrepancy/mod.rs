@@ -245,6 +245,25 @@ impl Discrepancy {
         })
     }
 
+    /// The term a new calibration of the same robot is expected to leave, for planning it: the
+    /// same norms and noise split, without the compensation (a new fit has its own), so a
+    /// compensated term's norms go back to the geometric model's size (times its held-out RMS
+    /// ratio, geometric over compensated). Conservative when the new fit compensates too.
+    pub fn for_new_calibration(&self) -> Discrepancy {
+        let ratio = self.compensation.as_ref().map_or(1.0, |c| {
+            if c.loo_rms_compensated_mm > 0.0 {
+                (c.loo_rms_geometric_mm / c.loo_rms_compensated_mm).max(1.0)
+            } else {
+                1.0
+            }
+        });
+        Discrepancy {
+            residual_norms: self.residual_norms.iter().map(|r| r * ratio).collect(),
+            compensation: None,
+            ..self.clone()
+        }
+    }
+
     /// The factor the norms are drawn with at each configuration (radians): the
     /// compensation's [`Compensation::point_scales`]; empty (all 1) without one.
     pub fn point_scales<Q: AsRef<[f64]>>(&self, q_rad: &[Q]) -> Vec<f64> {

@@ -325,3 +325,24 @@ fn size_posterior_has_the_sampling_spread() {
     assert_eq!(size::factors(&ratios, 1.2), vec![0.0; 3]);
     assert_eq!(size::factors(&ratios, 0.0)[1], 1.0);
 }
+
+/// A plan of a new calibration takes the term without the compensation, its norms back at the
+/// geometric model's size.
+#[test]
+fn a_new_calibration_keeps_the_term_at_the_geometric_size() {
+    let mut t = term((1..=20).map(f64::from).collect(), 1.0);
+    assert_eq!(t.for_new_calibration(), t);
+    t.compensation = Some(Compensation {
+        length_scales_deg: vec![30.0; 6],
+        signal_sigma_mm: 1.0,
+        white_sigma_mm: 0.5,
+        loo_rms_geometric_mm: 0.4,
+        loo_rms_compensated_mm: 0.3,
+        loo_sigma_mm: 0.5,
+        configurations_deg: vec![vec![0.0; 6]],
+        weights: vec![[0.0; 3]],
+    });
+    let planned = t.for_new_calibration();
+    assert!(planned.compensation.is_none());
+    assert!((planned.residual_norms[19] - 20.0 * 0.4 / 0.3).abs() < 1e-12);
+}

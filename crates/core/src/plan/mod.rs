@@ -35,7 +35,7 @@ mod search;
 #[cfg(test)]
 mod tests;
 
-pub use prediction::{predict, prediction_problem};
+pub use prediction::{model_to_plan, predict, prediction_problem};
 pub use report::render_text;
 
 use crate::engine::{BackendInfo, EngineError, ProblemError};
@@ -326,15 +326,23 @@ pub struct Plan {
 
 impl Plan {
     /// The model the plan predicts: the nominal geometry and target, the design's covariance,
-    /// the placement drawn in the measurement frame.
+    /// the placement drawn in the measurement frame, and the discrepancy term of the given model
+    /// when it carries one (an identified model of the robot: what a new geometric calibration
+    /// leaves too, [`crate::discrepancy::Discrepancy::for_new_calibration`]).
     pub fn model(&self) -> RobotModel {
-        state_model(
+        let mut m = state_model(
             &self.nominal,
             &nominal_state(&self.nominal),
             &self.covariance,
             Placement::Identify,
             format!("{} (planned calibration)", self.nominal.name),
-        )
+        );
+        m.discrepancy = self
+            .nominal
+            .discrepancy
+            .as_ref()
+            .map(|d| d.for_new_calibration());
+        m
     }
 }
 

@@ -76,6 +76,17 @@ pub fn predict(
     })
 }
 
+/// The model to plan from, as an analysis of `problem` takes it: its discrepancy term (an
+/// identified model of the robot carries one) stays when the problem draws it, and is left out
+/// when the analysis was asked to leave it out.
+pub fn model_to_plan(problem: &Problem) -> crate::kinematics::RobotModel {
+    let mut model = problem.model.clone();
+    if problem.discrepancy.is_none() {
+        model.discrepancy = None;
+    }
+    model
+}
+
 /// The problem [`predict`] evaluates: the planned model at the task points.
 ///
 /// # Errors
