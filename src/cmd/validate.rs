@@ -18,17 +18,20 @@ pub struct ValidateArgs {
     /// Model to check (TOML).
     #[arg(long, value_name = "FILE")]
     pub model: PathBuf,
-    /// Also check a nominal model (FILE, or the preset when no file is given) and report the
-    /// improvement.
+    /// Also check a nominal model and report the improvement. Bare: the model file's own
+    /// nominal (recorded in its [provenance] by identify), else --preset, else the built-in
+    /// preset of the model's geometry. A nominal of another robot, or another than the one the
+    /// model file records, is refused. On measurement-frame data the nominal geometry gets its
+    /// own best-fit placement (and target offset, where the data determine it).
     #[arg(long, value_name = "FILE", num_args = 0..=1)]
     pub nominal: Option<Option<PathBuf>>,
-    /// Built-in nominal model for a bare --nominal.
-    #[arg(long, default_value = "tx60", value_name = "NAME")]
-    pub preset: String,
+    /// Built-in nominal model for a bare --nominal (checked against the model file's own).
+    #[arg(long, value_name = "NAME")]
+    pub preset: Option<String>,
     /// Frame of the measured positions: `measurement` (the tracker frame the model's placement
-    /// was identified in; a nominal model is placed where the model is) or `base` (the robot's
-    /// base frame). Default: the frame the model was identified in (its `[provenance]` table),
-    /// else base.
+    /// was identified in) or `base` (the robot's base frame). Default: the frame the model was
+    /// identified in (its `[provenance]` table), else base — refused when the positions are far
+    /// from the model there (data in a tracker frame and a model file that records no frame).
     #[arg(long, value_enum, value_name = "FRAME")]
     pub frame: Option<ValidateFrame>,
     /// ISO 9283: the rows are cycles at test poses (rows sharing one commanded configuration are
@@ -66,54 +69,83 @@ pub enum ValidateFrame {
 impl Run for ValidateArgs {
     fn run(self) -> Result<()> {
         let a = self;
-        use gpu_amcs::identify;
+        use gpu_amcs::identify::{self, validate as v};
         let model = RobotModel::from_file(&a.model)?;
-        let nominal = match &a.nominal {
-            None => None,
-            Some(f) => Some(load_model(f.as_deref(), &a.preset).context("--nominal")?),
-        };
+        let model_text = std::fs::read_to_string(&a.model).unwrap_or_default();
+        let origin = a.model.display().to_string();
+        let measured = a.measured.display().to_string();
         let m = identify::read_measurements(&a.measured)?;
-        let frame = match a.frame {
-            Some(ValidateFrame::Measurement) => identify::Placement::Identify,
-            Some(ValidateFrame::Base) => identify::Placement::Known,
-            // The frame the model was identified in, as its provenance records it.
-            None => std::fs::read_to_string(&a.model)
-                .ok()
-                .and_then(|t| identify::provenance_frame(&t))
-                .unwrap_or(identify::Placement::Known),
-        };
+        let stated = a.frame.map(|f| match f {
+            ValidateFrame::Measurement => identify::Placement::Identify,
+            ValidateFrame::Base => identify::Placement::Known,
+        });
         if a.iso9283 {
+            // A model with a placement and no recorded frame may be either frame's: refused
+            // where the base frame does not fit. Without a placement, the base frame.
+            let recorded = identify::provenance_frame(&model_text);
+            let frame = match (stated, recorded, model.base) {
+                (None, None, Some(_)) => {
+                    v::choose_frame(&model, &origin, None, None, &m, &measured)
+                        .map_err(cli_error)?
+                        .0
+                }
+                (s, r, _) => s.or(r).unwrap_or(identify::Placement::Known),
+            };
             return iso9283(&a, &model, &m, frame);
         }
-        if let Some(flag) = a.reports.given() {
-            anyhow::bail!("{flag}: only validate --iso9283 writes report files");
+        let mut outputs = Outputs::new([
+            ("MEASURED.csv", a.measured.as_path()),
+            ("--model", a.model.as_path()),
+        ]);
+        if let Some(flag) = a.reports.given().filter(|f| *f != "--json") {
+            anyhow::bail!(
+                "{flag}: only validate --iso9283 writes report files (validate writes --json)"
+            );
         }
-        let v =
-            identify::validate_in(&model, &m, nominal.as_ref(), frame).map_err(|e| match e {
-                // The library names the line; the file is named here.
-                identify::IdentifyError::OutsideLimits { .. } => {
-                    anyhow::anyhow!("{}: {e} of model {}", a.measured.display(), model.name)
-                }
-                e => e.into(),
-            })?;
-        let mut text = identify::render_validation(&v);
-        text.push_str(&format!("frame: {}\n", frame_words(frame)));
-        if a.check_draws > 0 && m.len() >= 2 {
-            let check =
-                identify::predictive::predictive_check(&model, &m, frame, a.check_draws, a.seed)
-                    .context("predictive check")?;
-            text.push_str(&check.render());
+        outputs.file("--json", a.reports.json.as_deref())?;
+        // A bare --nominal is the model file's own nominal unless --preset names one.
+        let nominal = match (&a.nominal, &a.preset) {
+            (None, _) => None,
+            (Some(None), None) => Some(None),
+            (Some(file), preset) => Some(Some(
+                load_model(file.as_deref(), preset.as_deref().unwrap_or_default())
+                    .context("--nominal")?,
+            )),
+        };
+        let report = v::run_validation(v::ValidateRequest {
+            model: &model,
+            model_text: &model_text,
+            origin: &origin,
+            measurements: &m,
+            measured: &measured,
+            frame: stated,
+            nominal,
+            check_draws: a.check_draws,
+            seed: a.seed,
+        })
+        .map_err(|e| match e {
+            // The library names the line; the file is named here.
+            v::ValidateError::Identify(identify::IdentifyError::OutsideLimits { .. }) => {
+                anyhow::anyhow!("{measured}: {e} of model {}", model.name)
+            }
+            e => cli_error(e),
+        })?;
+        outputs.stage_file("--json", report.json())?;
+        outputs.commit()?;
+        if !a.reports.quiet {
+            crate::cmd::stdout::print(&report.text())?;
         }
-        crate::cmd::stdout::print(&text)?;
         Ok(())
     }
 }
 
-/// The frame of the measurements, in words.
-fn frame_words(frame: gpu_amcs::identify::Placement) -> &'static str {
-    match frame {
-        gpu_amcs::identify::Placement::Identify => "measurement (the model's placement applies)",
-        gpu_amcs::identify::Placement::Known => "robot base",
+/// A validation error with the flag that settles it.
+fn cli_error(e: gpu_amcs::identify::validate::ValidateError) -> anyhow::Error {
+    use gpu_amcs::identify::validate::ValidateError as E;
+    match e {
+        E::UnknownFrame { .. } => anyhow::anyhow!("{e} (--frame measurement or --frame base)"),
+        E::Identify(e) => e.into(),
+        e => anyhow::anyhow!("--nominal: {e}"),
     }
 }
 
@@ -140,18 +172,20 @@ fn iso9283(
     let figures =
         iso9283::pose_figures(model, m, frame).with_context(|| a.measured.display().to_string())?;
     let certificate = match a.spec {
-        Some(spec) => {
-            let poses: Vec<_> = figures.iter().map(|f| f.q_deg).collect();
-            Some(
-                iso9283::certificate(model, &poses, spec, frame, a.draws, 2025)
-                    .context("--spec")?,
-            )
-        }
+        Some(spec) => Some(
+            iso9283::certify(model, &figures, spec, frame, a.draws, 2025).map_err(|e| {
+                let file = match e {
+                    iso9283::CertifyError::NoUncertainty { .. } => &a.model,
+                    _ => &a.measured,
+                };
+                anyhow::anyhow!("--spec: {}: {e}", file.display())
+            })?,
+        ),
         None => None,
     };
     let report = iso9283::PoseReport {
         model_name: model.name.clone(),
-        frame: frame_words(frame).into(),
+        frame: gpu_amcs::identify::validate::frame_words(frame).into(),
         poses: figures,
         certificate,
     };

@@ -839,17 +839,17 @@ fn validate_iso9283_reports_ap_rp_and_the_certificate() {
         .collect();
     assert_eq!(cert.len(), 6, "{out}");
     assert!(cert[..5].iter().all(|&p| p >= cert[5] && p <= 1.0), "{out}");
-    // Report files belong to --iso9283 only.
+    // Report directories belong to --iso9283 only (validate writes --json, issue 34).
     let o = run(&[
         "validate",
         "--model",
         &model,
         &cycles,
-        "--json",
-        &arg(&d, "v.json"),
+        "--csv",
+        &arg(&d, "v-csv"),
     ]);
-    common::assert_fails_naming(&o, "--json", "");
-    assert!(!d.join("v.json").exists());
+    common::assert_fails_naming(&o, "--csv", "");
+    assert!(!d.join("v-csv").exists());
     // One cycle at a sixth pose: refused, naming it.
     std::fs::write(&cycles, format!("{csv}1,2,3,4,5,6,0,0,0\n")).unwrap();
     let o = run(&["validate", "--model", &model, &cycles, "--iso9283"]);

@@ -13,6 +13,7 @@ mod fuzz;
 #[cfg(feature = "gpu")]
 mod gpu;
 mod hardening;
+mod hardening_round3;
 mod honesty;
 mod html;
 mod identify;
@@ -35,3 +36,4 @@ mod summary;
 mod tail;
 mod tracker_cli;
 mod tracker_data;
+mod validate_nominal;
