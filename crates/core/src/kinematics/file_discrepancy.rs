@@ -10,7 +10,8 @@ pub(super) fn write_discrepancy(s: &mut String, d: &crate::discrepancy::Discrepa
         s,
         "\n# What the geometric model does not explain (docs/METHOD.md §18): every analysis draws,\n\
          # at every test point, a deviation whose length is one of these standardised residual\n\
-         # norms (mm) times sqrt(robot_share), in a uniformly random direction.\n\
+         # norms (mm) times sqrt(robot_share), in a uniformly random direction; each draw takes\n\
+         # that share from its posterior given these norms (§18.3), the same at all its points.\n\
          # robot_share: the part of the residuals' mean square that is the robot's, not tracker noise."
     );
     let _ = writeln!(
