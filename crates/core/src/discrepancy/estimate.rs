@@ -100,7 +100,8 @@ pub struct LackOfFit {
     /// is unknown.
     pub unexplained_rms_mm: Option<f64>,
     /// The 95 % upper bound of that RMS the residuals allow (the posterior of the term's size,
-    /// [`super::size`]); `None` when the noise is unknown or the points are too few.
+    /// [`super::size`]); `None` when the noise is unknown, the points are too few, or the
+    /// residuals rule out any part beyond the noise.
     pub unexplained_upper_mm: Option<f64>,
     /// Share of the residual mean square that is the robot's.
     pub robot_share: f64,
@@ -319,7 +320,8 @@ impl LackOfFit {
             unexplained_upper_mm: term
                 .as_ref()
                 .filter(|_| noise == NoiseSource::Stated)
-                .map(Discrepancy::robot_rms_upper_mm),
+                .map(Discrepancy::robot_rms_upper_mm)
+                .filter(|&v| v > 0.0),
             term,
             loo,
             compensation: report,
