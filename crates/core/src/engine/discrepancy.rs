@@ -47,7 +47,8 @@ pub fn cosine(w: u32) -> f64 {
 pub struct DiscrepancyDraws {
     radii: Vec<f64>,
     /// Per draw, one of these factors of every radius (the term's size, [`SIZE_DRAWS`] of them).
-    factors: Vec<f64>,
+    /// (A fixed-size array: the 8-bit index needs no bounds check in the lanes.)
+    factors: Box<[f64; SIZE_DRAWS]>,
     /// Per test point, the factor the radius is drawn with (empty: 1 everywhere).
     scales: Vec<f64>,
     key: [u32; 2],
@@ -71,6 +72,10 @@ impl DiscrepancyDraws {
             factors.len() == SIZE_DRAWS && factors.iter().all(|g| g.is_finite() && *g >= 0.0),
             "{SIZE_DRAWS} finite non-negative factors"
         );
+        let factors: Box<[f64; SIZE_DRAWS]> = factors
+            .into_boxed_slice()
+            .try_into()
+            .expect("checked length");
         DiscrepancyDraws {
             radii,
             factors,
@@ -116,7 +121,7 @@ impl DiscrepancyDraws {
 
     /// The per-draw factors of the radii ([`SIZE_DRAWS`], ascending).
     pub fn factors(&self) -> &[f64] {
-        &self.factors
+        &self.factors[..]
     }
 
     /// The factor of a draw whose Philox block has third word `c`: `factors[c ≫ 24]`.
