@@ -38,6 +38,25 @@ impl Run for CalibrateArgs {
             bail!("--accuracy-points must be at least 1");
         }
         let (exp, f) = a.factors.experiment()?;
+        // A sweep too short for its circle fit, named by the flags that set it (the fit itself
+        // names only the run and the joint).
+        let plan = exp.plan_for(&f);
+        let (min, min_arc) = (
+            gpu_amcs::identify::circle::MIN_POINTS as u64,
+            gpu_amcs::identify::MIN_ARC_DEG,
+        );
+        let arc = |n: u64| n.saturating_sub(1) as f64 * f.step_deg;
+        if let Some((j, n)) = (1..=exp.nominal.joints())
+            .map(|j| (j, plan.sweep_len(j)))
+            .find(|&(_, n)| n < min || arc(n) < min_arc)
+        {
+            bail!(
+                "--range {} --step {}: joint {j}'s sweep would have {n} point(s) over {}°, and its circle fit needs at least {min} over {min_arc}°: give a wider --range or a smaller --step",
+                a.factors.range,
+                a.factors.step,
+                arc(n)
+            );
+        }
         a.memory.check(&a.factors.sweep_estimate(Estimate::new(
             format!("{} calibration runs at a {}° step", f.runs, f.step_deg),
             "use fewer --runs or a larger --step, or raise --memory-limit",

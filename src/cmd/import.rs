@@ -107,6 +107,25 @@ impl Run for ImportArgs {
             ImportError::Chain { ref message, .. } if message.contains("hold") => {
                 anyhow::anyhow!("{e} (--hold-joint JOINT=DEG)")
             }
+            // A geometry the chain without holds does not have: the holds made it (two free
+            // joints left turning about one line, say).
+            ImportError::NotRepresentable { .. }
+                if !opts.held.is_empty()
+                    && import_file(
+                        &a.source,
+                        &ImportOptions {
+                            held: Vec::new(),
+                            ..opts.clone()
+                        },
+                    )
+                    .is_ok() =>
+            {
+                let held: Vec<String> = a.hold.iter().map(|(j, d)| format!("{j}={d}")).collect();
+                anyhow::anyhow!(
+                    "--hold-joint {}: with these joints held, {e}; the chain without them imports, so hold other joints or at other angles",
+                    held.join(", ")
+                )
+            }
             _ => e.into(),
         })?;
         outputs.stage_file("--out", imported.to_toml())?;

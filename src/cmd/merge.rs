@@ -61,7 +61,7 @@ impl Run for MergeArgs {
                 .iter()
                 .map(|(f, t)| Ok((f.clone(), MapShard::from_json(t, f)?)))
                 .collect::<Result<Vec<_>>>()?;
-            let result = map_shard::merge(&named)?;
+            let result = map_shard::merge(&named).map_err(merge_error)?;
             flags.declare(&mut outputs, &result.layout())?;
             return write_reports(outputs, &result, flags, &rows);
         }
@@ -71,7 +71,10 @@ impl Run for MergeArgs {
                 .iter()
                 .map(|(f, t)| Ok((f.clone(), SensitivityShard::from_json(t, f)?)))
                 .collect::<Result<Vec<_>>>()?;
-            let result = summary::merge_sensitivity(&named)?;
+            let result = summary::merge_sensitivity(&named).map_err(|e| match e {
+                summary::SensitivityMergeError::Shards(e) => merge_error(e),
+                e => e.into(),
+            })?;
             return write_reports(outputs, &result, flags, &rows);
         }
         flags.declare(&mut outputs, &RunReport::planned_layout())?;
@@ -79,7 +82,7 @@ impl Run for MergeArgs {
             .iter()
             .map(|(f, t)| Ok((f.clone(), Summary::from_json(t, f)?)))
             .collect::<Result<Vec<_>>>()?;
-        let merged = summary::merge(&named)?;
+        let merged = summary::merge(&named).map_err(merge_error)?;
         let rep = report_of(&merged, Vec::new());
         write_reports(outputs, &rep, flags, &rows)
     }
@@ -431,6 +434,23 @@ pub fn run_sensitivity_shard(
     outputs.stage_file("--summary-out", s.to_json())?;
     outputs.commit()?;
     Ok(())
+}
+
+/// A merge error for the command line: a model hash that differs says what makes it differ
+/// (the hash alone named no cause the user could act on).
+fn merge_error(e: SummaryError) -> anyhow::Error {
+    match e {
+        SummaryError::Mismatch {
+            file,
+            field: "model_hash",
+            found,
+            first_file,
+            expected,
+        } => anyhow!(
+            "{file}: the model as drawn differs from {first_file}'s (field `model_hash` {found}, there {expected}): the shards come from other model files, or from one model with another --frame (base leaves the placement out) or --no-discrepancy; merge the shards of one run"
+        ),
+        e => e.into(),
+    }
 }
 
 /// A summary error for the command line: settings name their flag, a histogram that

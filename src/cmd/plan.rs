@@ -21,7 +21,10 @@ static PLAN_THRESHOLDS: std::sync::LazyLock<String> =
 #[command(
     mut_arg("json", |a| a.help("Write the plan as JSON to FILE")),
     mut_arg("csv", |a| a.help("Write plan_compare.csv and plan_curve.csv into DIR")),
-    mut_arg("svg", |a| a.help("Write plan_curve.svg (q95 of w against the number of poses) into DIR"))
+    mut_arg("svg", |a| a.help("Write plan_curve.svg (q95 of w against the number of poses) into DIR")),
+    mut_arg("reference", |a| a.hide(true)),
+    mut_arg("nominal", |a| a.hide(true)),
+    mut_arg("frame", |a| a.hide(true))
 )]
 pub struct PlanArgs {
     /// The nominal robot (--model/--preset) and the task points (--points/--points-file), where
@@ -127,9 +130,27 @@ fn plan_error(e: PlanError) -> anyhow::Error {
     }
 }
 
+/// The problem flags `plan` has no use for: a plan predicts the planned calibration's error
+/// against its own model (not a nominal robot), in the measurement frame the calibration
+/// identifies the placement in.
+fn refuse_unused(p: &super::args::ProblemArgs) -> Result<()> {
+    use super::args::{FrameArg, ReferenceArg};
+    if p.reference != ReferenceArg::Calibrated {
+        bail!("--reference: plan predicts the planned calibration's error against its own model (--reference calibrated); a nominal reference does not apply");
+    }
+    if p.nominal.is_some() {
+        bail!("--nominal: plan predicts the planned calibration's error against its own model; the robot to plan for is --model or --preset");
+    }
+    if p.frame != FrameArg::Measurement {
+        bail!("--frame: plan predicts in the measurement frame, with the placement the calibration identifies (--frame measurement); --frame base does not apply");
+    }
+    Ok(())
+}
+
 impl Run for PlanArgs {
     fn run(self) -> Result<()> {
         let a = self;
+        refuse_unused(&a.problem)?;
         a.problem.check()?;
         let mut outputs = Outputs::new(a.problem.inputs());
         outputs.file("--out", Some(&a.out))?;

@@ -32,11 +32,12 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "FILE")]
     pub truth_out: Option<PathBuf>,
     /// Measure the target at N random configurations within the joint limits (pose data: one
-    /// run, q1..qn,x,y,z) instead of circle-point sweeps.
-    #[arg(long, value_name = "N")]
+    /// run, q1..qn,x,y,z) instead of circle-point sweeps (whose settings --runs, --range,
+    /// --step, --speed and --start then do not apply).
+    #[arg(long, value_name = "N", conflicts_with_all = ["runs", "range", "step", "speed", "start"])]
     pub poses: Option<usize>,
     /// With --poses: the configurations to measure at (CSV of q1..qn, degrees) instead of random
-    /// ones.
+    /// ones; N must be its number of rows.
     #[arg(long, value_name = "FILE", requires = "poses")]
     pub points_file: Option<PathBuf>,
     /// Where the robot base stands in the tracker's frame (default: --truth's own `base` when it
@@ -92,8 +93,19 @@ impl Run for SimulateArgs {
         let (text, what) = match a.poses {
             Some(n) => {
                 let configs = match &a.points_file {
-                    Some(p) => gpu_amcs::points::read_csv(p, exp.truth.joints())
-                        .with_context(|| format!("--points-file {}", p.display()))?,
+                    Some(p) => {
+                        let c = gpu_amcs::points::read_csv(p, exp.truth.joints())
+                            .with_context(|| format!("--points-file {}", p.display()))?;
+                        if c.len() != n {
+                            bail!(
+                                "--poses: {n} poses, but --points-file {} holds {} configurations: give --poses {}",
+                                p.display(),
+                                c.len(),
+                                c.len()
+                            );
+                        }
+                        c
+                    }
                     None => {
                         if n == 0 || n > 10_000_000 {
                             bail!("--poses: {n} is not a number of poses in 1–10000000");

@@ -275,3 +275,174 @@ fn points_refuses_flags_it_would_ignore() {
         assert_fails_naming(&run(args), flag, &format!("{args:?}"));
     }
 }
+
+/// Items 7 and 13 (plan): flags plan ignored (--reference, --nominal, --frame: the same R for
+/// all) are refused; a tracker σ outside identify's 1e-9 … 1000 mm blamed `tool_sigma[0]`
+/// (1e300) or ran (1e-300); a target 1 km off the flange blamed --candidates. Each is one line
+/// naming the flag, exit 2, no design written.
+#[test]
+fn plan_refuses_what_it_ignored_and_names_the_right_flag() {
+    let dir = tmpdir("r3-plan");
+    let out = dir.join("design.csv");
+    let nominal = dir.join("ur5e.toml");
+    std::fs::write(&nominal, ok(&["model", "--preset", "ur5e"])).unwrap();
+    let before = tree(&dir);
+    for (extra, flag, also) in [
+        (vec!["--reference", "nominal"], "--reference", "calibrated"),
+        (vec!["--nominal", s(&nominal)], "--nominal", "--model"),
+        (vec!["--frame", "base"], "--frame", "measurement"),
+        (vec!["--tracker-sigma", "1e300"], "--tracker-sigma", "1e-9"),
+        (
+            vec!["--tracker-sigma", "1e-300"],
+            "--tracker-sigma",
+            "1000 mm",
+        ),
+        (vec!["--target", "1e6,0,0"], "--target", "flange"),
+    ] {
+        let mut args = vec![
+            "plan",
+            "--out",
+            s(&out),
+            "-q",
+            "--draws",
+            "1000",
+            "--candidates",
+            "300",
+        ];
+        args.extend(extra.iter().copied());
+        let o = run(&args);
+        let label = format!("{extra:?}");
+        assert_fails_naming(&o, flag, &label);
+        assert_fails_naming(&o, also, &label);
+        assert!(!stderr(&o).contains("tool_sigma") && !stderr(&o).contains("--candidates"));
+        assert_eq!(tree(&dir), before, "{label} wrote a file");
+    }
+}
+
+/// Item 7 (simulate): --runs, --step and the other sweep settings did nothing with --poses, and
+/// --poses 10 with a 20-row --points-file wrote 20 poses; both are refused, the matching count
+/// runs.
+#[test]
+fn simulate_poses_refuses_sweep_settings_and_a_count_the_file_does_not_hold() {
+    let dir = tmpdir("r3-simulate");
+    let out = dir.join("data.csv");
+    for (flag, value) in [
+        ("--runs", "3"),
+        ("--step", "5"),
+        ("--range", "20"),
+        ("--speed", "50"),
+        ("--start", "pos-to-neg"),
+    ] {
+        let o = run(&["simulate", "--poses", "10", flag, value, "-o", s(&out)]);
+        assert_fails_naming(&o, flag, flag);
+        assert_fails_naming(&o, "--poses", flag);
+    }
+    let configs = dir.join("q.csv");
+    ok(&["points", "20", "-o", s(&configs)]);
+    let before = tree(&dir);
+    let o = run(&[
+        "simulate",
+        "--poses",
+        "10",
+        "--points-file",
+        s(&configs),
+        "-o",
+        s(&out),
+    ]);
+    for want in ["--poses", s(&configs), "20 configurations", "--poses 20"] {
+        assert_fails_naming(&o, want, "10 of 20");
+    }
+    assert_eq!(tree(&dir), before);
+    ok(&[
+        "simulate",
+        "--poses",
+        "20",
+        "--points-file",
+        s(&configs),
+        "-o",
+        s(&out),
+    ]);
+    assert_eq!(std::fs::read_to_string(&out).unwrap().lines().count(), 21);
+}
+
+/// Item 13: calibrate's sweeps too short for their circle fit named no flag; two held joints
+/// that leave two others about one axis blamed only the geometry; shards of another --frame
+/// named only the field `model_hash`.
+#[test]
+fn errors_name_the_flag_that_causes_them() {
+    let dir = tmpdir("r3-names");
+    for (range, step) in [("1", "10"), ("1", "0.5")] {
+        let o = run(&["calibrate", "--range", range, "--runs", "2", "--step", step]);
+        for want in ["--range", "--step", "joint 1"] {
+            assert_fails_naming(&o, want, &format!("--range {range} --step {step}"));
+        }
+    }
+    // The LBR iiwa's DH table: joints 2 and 4 held at 0° leave joints 1 and 3 on one axis.
+    let mut table = String::from(
+        "convention,standard\nunits,mm-deg\nname,LBR iiwa 14 R820\ntheta,d,a,alpha,lower,upper\n",
+    );
+    for (d, alpha, l) in [
+        (360, -90, 170),
+        (0, 90, 120),
+        (420, 90, 170),
+        (0, -90, 120),
+        (400, -90, 170),
+        (0, 90, 120),
+        (126, 0, 175),
+    ] {
+        table += &format!("0,{d},0,{alpha},-{l},{l}\n");
+    }
+    let iiwa = dir.join("iiwa.csv");
+    std::fs::write(&iiwa, table).unwrap();
+    let out = dir.join("held.toml");
+    let o = run(&[
+        "import",
+        s(&iiwa),
+        "-o",
+        s(&out),
+        "--hold-joint",
+        "2=0",
+        "--hold-joint",
+        "4=0",
+    ]);
+    for want in ["--hold-joint 2=0, 4=0", "joint 1", "hold other joints"] {
+        assert_fails_naming(&o, want, "two holds");
+    }
+    assert!(!out.exists());
+    ok(&["import", s(&iiwa), "-o", s(&out), "--hold-joint", "3=0"]);
+    // Shards of one identified model, in two frames.
+    let data = dir.join("poses.csv");
+    let model = dir.join("model.toml");
+    ok(&["simulate", "--poses", "40", "--seed", "3", "-o", s(&data)]);
+    ok(&["identify", s(&data), "-o", s(&model), "-q"]);
+    let shard = |k: &str, frame: &str, name: &str| -> PathBuf {
+        let p = dir.join(name);
+        ok(&[
+            "mcs",
+            "--model",
+            s(&model),
+            "--draws",
+            "4000",
+            "--points",
+            "5",
+            "--backend",
+            "cpu",
+            "--shard",
+            k,
+            "--summary-out",
+            s(&p),
+            "--frame",
+            frame,
+            "-q",
+        ]);
+        p
+    };
+    let (a, b) = (
+        shard("0/2", "base", "a.json"),
+        shard("1/2", "measurement", "b.json"),
+    );
+    let o = run(&["merge", s(&a), s(&b)]);
+    for want in ["--frame", s(&b), s(&a), "model as drawn"] {
+        assert_fails_naming(&o, want, "frames");
+    }
+}

@@ -14,16 +14,18 @@ pub(super) fn check(model: &RobotModel, task: &[Joints], o: &PlanOptions) -> Res
     check_settings(model, o)?;
     check_task(model, task)?;
     check_tracker(o)?;
-    check_target(o)
+    check_target(model, o)
 }
 
 /// The numbers of a plan: σ, the thresholds, the numbers of candidates and poses (more
 /// coordinates than inputs to identify), the search draws, the margin and the condition bound.
 fn check_settings(model: &RobotModel, o: &PlanOptions) -> Result<(), PlanError> {
-    if !(o.sigma_mm.is_finite() && o.sigma_mm > 0.0) {
+    // The range identify accepts: far outside it the weights 1/σ² of the design's
+    // information overflow or underflow.
+    if !crate::identify::noise::sigma_in_range(o.sigma_mm) {
         return Err(setting(
             PlanField::Sigma,
-            format!("must be a positive number of mm, got {}", o.sigma_mm),
+            crate::identify::noise::NoiseSettingError::Sigma(o.sigma_mm).to_string(),
         ));
     }
     if let Some(t) = o.thresholds.iter().find(|t| !(t.is_finite() && **t > 0.0)) {
@@ -125,12 +127,32 @@ fn check_tracker(o: &PlanOptions) -> Result<(), PlanError> {
     Ok(())
 }
 
-/// The target on the flange: finite.
-fn check_target(o: &PlanOptions) -> Result<(), PlanError> {
+/// The target on the flange: finite, and no farther from the flange than the arm reaches from
+/// its base (the sum of its links' lengths and offsets): a tracker target sits on the flange or
+/// a tool, and one far beyond leaves no candidate within the singularity bound.
+fn check_target(model: &RobotModel, o: &PlanOptions) -> Result<(), PlanError> {
     if !o.target_mm.iter().all(|v| v.is_finite()) {
         return Err(setting(
             PlanField::Target,
             format!("{:?} must be finite", o.target_mm),
+        ));
+    }
+    let mut arm = model.clone();
+    arm.tool = [0.0; 3];
+    let reach = crate::map::ik::reach_bound(&arm);
+    let off = o.target_mm.iter().map(|v| v * v).sum::<f64>().sqrt();
+    if off > reach {
+        let t = o.target_mm.map(crate::number::fmt_plain);
+        return Err(setting(
+            PlanField::Target,
+            format!(
+                "({}, {}, {}) mm is {} mm from the flange, farther than {} reaches from its base ({reach:.0} mm): a tracker target sits on the flange or a tool",
+                t[0],
+                t[1],
+                t[2],
+                crate::number::fmt_plain(off),
+                model.name
+            ),
         ));
     }
     Ok(())
