@@ -380,13 +380,11 @@ fn cli_error(args: &[&str]) -> String {
 
 #[test]
 fn each_cause_is_printed_once() {
-    // A simulated calibration whose 1 % range leaves two points per sweep.
+    // A simulated calibration whose 1 % range leaves two points per sweep: refused before any
+    // sweep is simulated, naming the flags once (issue 35, item 13).
     let e = cli_error(&["calibrate", "--range", "1", "--runs", "2"]);
-    assert_eq!(e.matches("only 2 points").count(), 1, "{e}");
-    assert!(
-        e.contains("calibration run 1") && e.contains("joint 1"),
-        "{e}"
-    );
+    assert_eq!(e.matches("joint 1's sweep").count(), 1, "{e}");
+    assert!(e.contains("--range") && e.contains("2 point(s)"), "{e}");
     // A directory is not a sweep file, and no line of it is to blame.
     let d = tmpdir("dir");
     let e = cli_error(&["identify", d.to_str().unwrap()]);
