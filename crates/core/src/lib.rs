@@ -48,6 +48,7 @@ pub mod kinematics;
 pub mod map;
 pub mod mc;
 pub mod memory;
+pub mod normal;
 pub mod number;
 pub mod plan;
 pub mod points;

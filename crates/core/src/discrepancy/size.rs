@@ -20,7 +20,7 @@
 //! draws carry a small term and most none. The factors are [`SIZE_DRAWS`] evenly spaced
 //! quantiles of the posterior, so a run picks one per draw with 8 bits of its Philox block.
 
-use crate::mc::tail::normal_quantile;
+use crate::normal::normal_quantile;
 use rand::{Rng, SeedableRng};
 
 /// Quantiles of the size's posterior a run draws from (one per draw, from the top 8 bits of a

@@ -121,15 +121,14 @@
 mod crude;
 mod mcmc;
 mod options;
-mod quantile;
 mod result;
 mod space;
 mod subset;
 mod term;
 
+pub use crate::normal::normal_quantile;
 pub use mcmc::{INITIAL_SCALE, TARGET_ACCEPTANCE};
 pub use options::{ChainProposal, TailError, TailMethod, TailOptions, TailSetting, MIN_CHAINS};
-pub use quantile::normal_quantile;
 pub use result::{LevelSummary, SubsetRun, SubsetSettings, TailEstimate, TailOutcome, TailResult};
 pub use subset::gamma;
 
