@@ -1,7 +1,27 @@
 //! The `gpu-amcs` binary: parse the command line, call the library, print errors.
 
+/// `eprintln!` that never panics: std's panics when stderr cannot be written (`2>/dev/full`,
+/// a closed pipe), which turned a usage error into a crash. Defined before the modules, it
+/// shadows std's in all of them; a line that cannot be written is dropped (there is nowhere
+/// left to say so), and the exit code still tells the outcome.
+macro_rules! eprintln {
+    () => {
+        $crate::to_stderr(format_args!(""))
+    };
+    ($($arg:tt)*) => {
+        $crate::to_stderr(format_args!($($arg)*))
+    };
+}
+
 mod cli;
 mod cmd;
+
+/// Writes one line to stderr, ignoring a failed write (the `eprintln!` above).
+fn to_stderr(args: std::fmt::Arguments) {
+    use std::io::Write;
+    let mut err = std::io::stderr().lock();
+    let _ = err.write_fmt(args).and_then(|()| err.write_all(b"\n"));
+}
 
 use clap::Parser;
 

@@ -128,6 +128,11 @@ impl Run for ImportArgs {
             }
             _ => e.into(),
         })?;
+        // A xacro's included files are known only now: --out must not be one of them.
+        outputs.inputs_read(
+            "read by the xacro expansion",
+            imported.files.iter().map(PathBuf::as_path),
+        )?;
         outputs.stage_file("--out", imported.to_toml())?;
         outputs.commit()?;
         for n in &imported.notes {

@@ -9,7 +9,9 @@
 //! is written once), and [`Outputs::commit`] writes every file to a temporary file beside it
 //! (`.NAME.tmpPID`), and only when all are written renames them into place. On any error, and
 //! on SIGINT, SIGTERM or SIGHUP (see [`install_signal_cleanup`]), the temporary files and the
-//! directories the commit created are removed.
+//! directories the commit created are removed. A signal that arrives once every report is in
+//! place does not turn the finished run into a failure: the run prints its summary and exits 0,
+//! unless it is still running [`COMMITTED_GRACE`] later (stdout blocked, say).
 
 use anyhow::{anyhow, bail, Result};
 use std::path::{Component, Path, PathBuf};
@@ -19,12 +21,19 @@ use std::sync::Mutex;
 static PENDING: Mutex<Pending> = Mutex::new(Pending {
     files: Vec::new(),
     dirs: Vec::new(),
+    committed: false,
 });
 
 struct Pending {
     files: Vec<PathBuf>,
     dirs: Vec<PathBuf>,
+    /// Every report of the last commit is in place: what is left of the run is its summary.
+    committed: bool,
 }
+
+/// How long a signal that arrives after the commit waits for the run to end by itself (exit 0)
+/// before it ends it with 128 + the signal number.
+pub const COMMITTED_GRACE: std::time::Duration = std::time::Duration::from_secs(2);
 
 impl Pending {
     /// Removes the temporary files and (when empty) the created directories, deepest first.
@@ -43,7 +52,8 @@ fn pending() -> std::sync::MutexGuard<'static, Pending> {
 }
 
 /// Starts a thread that, on SIGINT, SIGTERM or SIGHUP, removes the pending temporary files and
-/// exits with 128 + the signal number. SIGXFSZ (file size limit) is caught too, so a write over
+/// exits with 128 + the signal number; after a completed commit it first gives the run
+/// [`COMMITTED_GRACE`] to finish (a run whose reports are all written is not a failure). SIGXFSZ (file size limit) is caught too, so a write over
 /// the limit fails with an error that the commit cleans up after instead of killing the process.
 pub fn install_signal_cleanup() {
     use signal_hook::consts::{SIGHUP, SIGINT, SIGTERM, SIGXFSZ};
@@ -60,6 +70,13 @@ pub fn install_signal_cleanup() {
             // a temporary file finishes it first (and it is then removed), and none can start
             // another between the cleanup and the exit.
             let mut p = pending();
+            if p.committed {
+                // Every report is in place: let the run print its summary and exit 0 (the
+                // process ends this thread), unless it is still running after the grace.
+                drop(p);
+                std::thread::sleep(COMMITTED_GRACE);
+                p = pending();
+            }
             p.clean();
             std::process::exit(128 + sig);
         }
@@ -165,6 +182,25 @@ impl Outputs {
                 .collect(),
             ..Outputs::default()
         }
+    }
+
+    /// Adds inputs known only after the work (the files a xacro expansion included, as
+    /// `what`): an output declared already that is one of them is an error, before anything
+    /// is written.
+    pub fn inputs_read<'a>(
+        &mut self,
+        what: &'static str,
+        files: impl IntoIterator<Item = &'a Path>,
+    ) -> Result<()> {
+        for f in files {
+            self.inputs.push((what, f.to_path_buf(), resolve(f)));
+        }
+        for t in &self.targets {
+            for (shown, f) in Self::files_of(t) {
+                self.check_not_input(t.flag, &shown, &f)?;
+            }
+        }
+        Ok(())
     }
 
     /// Adds and checks a file output given by `flag` (nothing when `path` is `None`).
@@ -347,6 +383,7 @@ impl Outputs {
         staged: &[(&'static str, PathBuf, String)],
         special: &[usize],
     ) -> Result<Vec<PathBuf>> {
+        pending().committed = false;
         let mut temps = Vec::new();
         for (i, (flag, path, contents)) in staged.iter().enumerate() {
             if special.contains(&i) {
@@ -380,6 +417,7 @@ impl Outputs {
             }
             p.files.clear();
             p.dirs.clear();
+            p.committed = special.is_empty();
         }
         let mut written: Vec<PathBuf> = temps.into_iter().map(|(_, _, p)| p).collect();
         for &i in special {
@@ -388,6 +426,7 @@ impl Outputs {
                 .map_err(|e| anyhow!("{flag}: cannot write {}: {e}", path.display()))?;
             written.push(path.clone());
         }
+        pending().committed = true;
         Ok(written)
     }
 }

@@ -18,7 +18,7 @@ fn ok(args: &[&str]) -> String {
 
 /// The ISO 9283 poses of `model` (a model file, or the TX60 preset), each repeated `cycles`
 /// times, measured `--tracker-sigma 0.005` in the base frame on `truth`: the cycles file.
-fn iso_cycles(dir: &Path, model: Option<&Path>, truth: &Path, cycles: usize) -> PathBuf {
+pub(crate) fn iso_cycles(dir: &Path, model: Option<&Path>, truth: &Path, cycles: usize) -> PathBuf {
     let iso = dir.join("iso.csv");
     let mut args = vec!["points", "--iso9283", "-o", s(&iso)];
     if let Some(m) = model {
@@ -444,5 +444,184 @@ fn errors_name_the_flag_that_causes_them() {
     let o = run(&["merge", s(&a), s(&b)]);
     for want in ["--frame", s(&b), s(&a), "model as drawn"] {
         assert_fails_naming(&o, want, "frames");
+    }
+}
+
+/// A six-joint arm as a xacro package: `top.xacro` includes `macro.xacro` (the macro) and
+/// calls it. Returns the top file.
+fn xacro_package(dir: &Path) -> PathBuf {
+    let urdf = dir.join("pkg_b").join("urdf");
+    std::fs::create_dir_all(&urdf).unwrap();
+    let joint = |k: usize, xyz: &str, axis: &str| {
+        format!(
+            r#"<joint name="j{k}" type="revolute"><origin xyz="{xyz}" rpy="0 0 0"/><parent link="l{}"/><child link="l{k}"/><axis xyz="{axis}"/><limit lower="-3" upper="3" effort="0" velocity="1"/></joint>"#,
+            k - 1
+        )
+    };
+    let mut body = (0..=6)
+        .map(|k| format!("<link name=\"l{k}\"/>"))
+        .collect::<String>();
+    for (k, xyz, axis) in [
+        (1, "0 0 0.4", "0 0 1"),
+        (2, "0.15 0 0", "0 1 0"),
+        (3, "0 0 0.6", "0 1 0"),
+        (4, "0 0 0.2", "1 0 0"),
+        (5, "0.6 0 0", "0 1 0"),
+        (6, "0.1 0 0", "1 0 0"),
+    ] {
+        body += &joint(k, xyz, axis);
+    }
+    let ns = "xmlns:xacro=\"http://www.ros.org/wiki/xacro\"";
+    std::fs::write(
+        urdf.join("macro.xacro"),
+        format!("<robot {ns}><xacro:macro name=\"arm\" params=\"\">{body}</xacro:macro></robot>\n"),
+    )
+    .unwrap();
+    let top = urdf.join("top.xacro");
+    std::fs::write(
+        &top,
+        format!("<robot {ns} name=\"b\"><xacro:include filename=\"macro.xacro\"/><xacro:arm/></robot>\n"),
+    )
+    .unwrap();
+    top
+}
+
+/// Item 8: `import top.xacro -o macro.xacro` (a file the xacro includes) overwrote the macro
+/// with TOML and exited 0. Now any file the expansion read is refused as the output, however
+/// the path is spelled: one line naming --out and the file, exit 2, nothing written.
+#[test]
+fn import_refuses_to_overwrite_a_file_the_xacro_included() {
+    let dir = tmpdir("r3-xacro-overwrite");
+    let top = xacro_package(&dir);
+    let urdf = top.parent().unwrap();
+    let macro_before = std::fs::read(urdf.join("macro.xacro")).unwrap();
+    let spelled = urdf.join("..").join("urdf").join("macro.xacro");
+    for out in [urdf.join("macro.xacro"), spelled, top.clone()] {
+        let before = tree(&dir);
+        let o = run(&["import", s(&top), "-o", s(&out)]);
+        assert_fails_naming(&o, "--out", &format!("{out:?}"));
+        assert!(
+            stderr(&o).contains("macro.xacro") || out == top,
+            "{}",
+            stderr(&o)
+        );
+        assert_eq!(tree(&dir), before, "{out:?}");
+        assert_eq!(
+            std::fs::read(urdf.join("macro.xacro")).unwrap(),
+            macro_before
+        );
+    }
+    // Through a symbolic link to the included file, too.
+    #[cfg(unix)]
+    {
+        let link = dir.join("link.xacro");
+        std::os::unix::fs::symlink(urdf.join("macro.xacro"), &link).unwrap();
+        let o = run(&["import", s(&top), "-o", s(&link)]);
+        assert_fails_naming(&o, "--out", "symlink");
+        assert_eq!(
+            std::fs::read(urdf.join("macro.xacro")).unwrap(),
+            macro_before
+        );
+    }
+    // Any other path is written.
+    let model = dir.join("b.toml");
+    ok(&["import", s(&top), "-o", s(&model)]);
+    assert!(std::fs::read_to_string(&model)
+        .unwrap()
+        .starts_with("# Imported by"));
+}
+
+/// Item 11: `mcs --draws x 2>/dev/full` panicked (exit 101) printing its usage error. With
+/// stderr or stdout full or closed, a usage error still exits 2, a failed run 2, and a run that
+/// succeeds 0 (its notes on stderr are lost, nothing else); never a panic.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_full_or_closed_stderr_or_stdout_never_panics() {
+    let dir = tmpdir("r3-full-stderr");
+    let top = xacro_package(&dir);
+    let model = dir.join("m.toml");
+    let cases: &[(&str, i32)] = &[
+        ("$BIN mcs --draws x 2>/dev/full", 2),
+        ("$BIN mcs --draws x 2>&-", 2),
+        ("$BIN mcs --draws x >/dev/full 2>/dev/full", 2),
+        ("$BIN mcs --model nowhere.toml 2>/dev/full", 2),
+        ("$BIN fk --joints 0,0,0,0,0,0 >/dev/full 2>/dev/full", 2),
+        ("$BIN fk --joints 0,0,0,0,0,0 >/dev/full 2>&-", 2),
+        ("$BIN fk --joints 0,0,0,0,0,0 >&- 2>&-", 2),
+        ("$BIN --help >/dev/full 2>/dev/full", 0),
+        ("$BIN --version >&- 2>&-", 0),
+    ];
+    let import = format!(
+        "$BIN import '{}' -o '{}' >/dev/null 2>/dev/full",
+        s(&top),
+        s(&model)
+    );
+    for (script, want) in cases
+        .iter()
+        .map(|(c, w)| (c.to_string(), *w))
+        .chain([(import, 0)])
+    {
+        let o = crate::common::sh(&dir, &script);
+        assert_eq!(o.status.code(), Some(want), "{script}: {:?}", o.status);
+    }
+    assert!(model.exists());
+}
+
+/// Item 13 (signals): a signal that arrived once every report was in place exited 128 + N,
+/// a failure for a run that had written everything. Now the run finishes (its summary on
+/// stdout, exit 0) when it can within the grace; one that cannot (its stdout blocked past the
+/// grace) still ends with 128 + N, its reports complete and no temporary file left.
+#[cfg(unix)]
+#[test]
+fn a_signal_after_every_report_is_written_does_not_fail_the_run() {
+    use std::io::Read;
+    use std::time::{Duration, Instant};
+    let dir = tmpdir("r3-signal-committed");
+    for (drain, want) in [(true, 0), (false, 128 + 15)] {
+        let truth = dir.join(format!("truth-{drain}.toml"));
+        // 4000 poses on stdout, far more than a pipe holds: the run blocks printing them, after
+        // its --truth-out report is in place.
+        let mut child = crate::common::bin()
+            .args([
+                "simulate",
+                "--poses",
+                "4000",
+                "--seed",
+                "5",
+                "--truth-out",
+                s(&truth),
+            ])
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .unwrap();
+        let t0 = Instant::now();
+        while !truth.exists() {
+            assert!(t0.elapsed() < Duration::from_secs(60), "no --truth-out");
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        std::thread::sleep(Duration::from_millis(300));
+        assert!(child.try_wait().unwrap().is_none(), "not blocked on stdout");
+        let k = std::process::Command::new("kill")
+            .args(["-TERM", &child.id().to_string()])
+            .status()
+            .unwrap();
+        assert!(k.success());
+        let mut out = child.stdout.take().unwrap();
+        let mut text = String::new();
+        if drain {
+            out.read_to_string(&mut text).unwrap();
+            assert_eq!(text.lines().count(), 4001, "the whole summary");
+        } else {
+            std::thread::sleep(Duration::from_secs(3));
+        }
+        let status = child.wait().unwrap();
+        assert_eq!(status.code(), Some(want), "drain {drain}: {status:?}");
+        assert!(truth.exists(), "the report is in place");
+        assert!(
+            !tree(&dir).iter().any(|f| f.contains(".tmp")),
+            "{:?}",
+            tree(&dir)
+        );
     }
 }

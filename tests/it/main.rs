@@ -9,6 +9,7 @@ mod amcs_vs_mcs;
 mod blocks;
 mod cli;
 mod docs;
+mod flag_properties;
 mod fuzz;
 #[cfg(feature = "gpu")]
 mod gpu;

@@ -77,7 +77,9 @@ pub fn import_file(path: &std::path::Path, opts: &ImportOptions) -> Result<Impor
             chain.name = n.clone();
         }
         chain.hold(&opts.held, &p)?;
-        return convert(&chain, &p);
+        let mut imported = convert(&chain, &p)?;
+        imported.files = e.files;
+        return Ok(imported);
     }
     let text = crate::input::read_text(
         path,
@@ -108,7 +110,9 @@ pub fn import_file(path: &std::path::Path, opts: &ImportOptions) -> Result<Impor
         chain.name = n.clone();
     }
     chain.hold(&opts.held, &p)?;
-    convert(&chain, &p)
+    let mut imported = convert(&chain, &p)?;
+    imported.files = std::fs::canonicalize(path).into_iter().collect();
+    Ok(imported)
 }
 
 /// A URDF reader's error on expanded xacro text, naming the source file and line the offending

@@ -183,6 +183,10 @@ pub struct Imported {
     /// The joints held at a fixed angle, one line each (also in `notes`); the model file's
     /// header records them.
     pub held: Vec<String>,
+    /// Every file the import read, canonical: the description and, for xacro, each included
+    /// file and package.xml (empty from [`convert`], which reads none). An output must not be
+    /// one of them.
+    pub files: Vec<std::path::PathBuf>,
 }
 
 /// Reach below which an imported arm is suspected of lengths in the wrong unit, mm.
@@ -294,6 +298,7 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         warnings,
         notes: chain.notes.clone(),
         held: chain.held.clone(),
+        files: Vec::new(),
     })
 }
 

@@ -88,6 +88,9 @@ pub struct Expanded {
     pub text: String,
     /// `origins[k]` is the (file, line) of output line k + 1.
     pub origins: Vec<(String, usize)>,
+    /// Every file the expansion read (the given file, each included file, each package.xml
+    /// looked into), canonical, each once: the files an output must not overwrite.
+    pub files: Vec<PathBuf>,
 }
 
 struct Expander<'a> {
@@ -97,6 +100,8 @@ struct Expander<'a> {
     overrides: &'a BTreeMap<String, String>,
     packages: &'a BTreeMap<String, PathBuf>,
     includes: Vec<PathBuf>,
+    /// Every file read so far, canonical ([`Expanded::files`]).
+    read: Vec<PathBuf>,
     macro_depth: usize,
     /// Current element and property nesting (bounded by [`MAX_NESTING`]: the walk recurses).
     nesting: usize,
@@ -126,6 +131,7 @@ pub fn expand_file(
         overrides: args,
         packages,
         includes: Vec::new(),
+        read: Vec::new(),
         macro_depth: 0,
         nesting: 0,
         bytes: 0,
@@ -146,6 +152,7 @@ pub fn expand_file(
     let mut e = Expanded {
         text: String::new(),
         origins: Vec::new(),
+        files: std::mem::take(&mut x.read),
     };
     e.text.push_str("<?xml version=\"1.0\"?>\n");
     e.origins.push((root.at.0.to_string(), 1));
@@ -203,6 +210,7 @@ impl Expander<'_> {
             crate::input::DESCRIPTION_FILE_LIMIT,
             "robot description",
         )?;
+        note_read(&mut self.read, path);
         self.grow(text.len() / 16)?;
         let text = super::xml::leading_declaration_blanked(&text);
         let doc = roxmltree::Document::parse(&text).map_err(|e| ImportError::Syntax {
@@ -379,7 +387,7 @@ impl Expander<'_> {
         }
         // By the <name> in package.xml: the current package and its siblings.
         for dir in start.ancestors() {
-            if package_name(dir).as_deref() == Some(pkg) {
+            if package_name(dir, &mut self.read).as_deref() == Some(pkg) {
                 return Ok(dir.display().to_string());
             }
             let Ok(rd) = std::fs::read_dir(dir) else {
@@ -387,7 +395,7 @@ impl Expander<'_> {
             };
             for entry in rd.flatten().take(10_000) {
                 let p = entry.path();
-                if p.is_dir() && package_name(&p).as_deref() == Some(pkg) {
+                if p.is_dir() && package_name(&p, &mut self.read).as_deref() == Some(pkg) {
                     return Ok(p.display().to_string());
                 }
             }
@@ -487,13 +495,23 @@ fn close(s: &str, close: char) -> Option<usize> {
     None
 }
 
-/// The `<package><name>` of the package.xml in `dir`, if any.
-fn package_name(dir: &Path) -> Option<String> {
+/// Records the file `path` as read (canonical, once).
+fn note_read(read: &mut Vec<PathBuf>, path: &Path) {
+    if let Ok(c) = std::fs::canonicalize(path) {
+        if !read.contains(&c) {
+            read.push(c);
+        }
+    }
+}
+
+/// The `<package><name>` of the package.xml in `dir`, if any (the file recorded in `read`).
+fn package_name(dir: &Path, read: &mut Vec<PathBuf>) -> Option<String> {
     let p = dir.join("package.xml");
     if !p.is_file() {
         return None;
     }
     let text = crate::input::read_text(&p, PACKAGE_XML_LIMIT, "package.xml").ok()?;
+    note_read(read, &p);
     let start = text.find("<name>")? + "<name>".len();
     let end = text[start..].find("</name>")?;
     Some(text[start..start + end].trim().to_string())
