@@ -625,3 +625,42 @@ fn a_signal_after_every_report_is_written_does_not_fail_the_run() {
         );
     }
 }
+
+/// Item 10: piped data got the SHA-256 of nothing (`cat poses.csv | identify /dev/stdin`
+/// recorded e3b0c442…: the file was opened twice, the second read found the pipe empty) and a
+/// named pipe hung. The data are read once; the recorded checksum is the file's.
+#[cfg(unix)]
+#[test]
+fn piped_pose_data_get_their_own_checksum() {
+    let dir = tmpdir("r3-piped-data");
+    // The property test's pose data (40 simulated poses).
+    let cal = dir.join("cal.csv");
+    std::fs::copy(crate::flag_properties::inputs().join("cal.csv"), &cal).unwrap();
+    let want = gpu_amcs::identify::sha256_hex(&std::fs::read(&cal).unwrap());
+    let recorded = |model: &Path| -> String {
+        let text = std::fs::read_to_string(model).unwrap();
+        let line = text
+            .lines()
+            .find(|l| l.starts_with("data_sha256"))
+            .unwrap_or_else(|| panic!("no data_sha256 in {text}"))
+            .to_string();
+        line
+    };
+    let o = crate::common::sh(
+        &dir,
+        "cat cal.csv | timeout 60 \"$BIN\" identify /dev/stdin -q -o piped.toml",
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(recorded(&dir.join("piped.toml")).contains(&want));
+    let o = crate::common::sh(
+        &dir,
+        "mkfifo fifo.csv && (cat cal.csv > fifo.csv &) && timeout 60 \"$BIN\" identify fifo.csv -q -o fifo.toml",
+    );
+    assert!(o.status.success(), "{:?}: {}", o.status, stderr(&o));
+    assert!(recorded(&dir.join("fifo.toml")).contains(&want));
+    ok(&["identify", s(&cal), "-q", "-o", s(&dir.join("file.toml"))]);
+    assert_eq!(
+        recorded(&dir.join("file.toml")),
+        recorded(&dir.join("piped.toml"))
+    );
+}

@@ -73,6 +73,17 @@ fn human_bytes(n: u64) -> String {
 /// [`ReadError::Io`] when the file cannot be opened or read, [`ReadError::TooLarge`] when it has
 /// more than `limit` bytes, and [`ReadError::NotUtf8`] (naming the line) when it is not UTF-8.
 pub fn read_text(path: &Path, limit: u64, what: &'static str) -> Result<String, ReadError> {
+    read_text_and_bytes(path, limit, what, false).map(|(text, _)| text)
+}
+
+/// [`read_text`], and with `keep` the bytes as read (empty without): one read, so that a pipe
+/// or FIFO, which can be read only once, gives its checksum too.
+fn read_text_and_bytes(
+    path: &Path,
+    limit: u64,
+    what: &'static str,
+    keep: bool,
+) -> Result<(String, Vec<u8>), ReadError> {
     let p = path.display().to_string();
     let io = |source| ReadError::Io {
         what,
@@ -92,17 +103,19 @@ pub fn read_text(path: &Path, limit: u64, what: &'static str) -> Result<String, 
             limit,
         });
     }
+    let raw = if keep { buf.clone() } else { Vec::new() };
     if buf.starts_with(b"\xef\xbb\xbf") {
         buf.drain(..3);
     }
-    String::from_utf8(buf).map_err(|e| {
+    let text = String::from_utf8(buf).map_err(|e| {
         let valid = &e.as_bytes()[..e.utf8_error().valid_up_to()];
         ReadError::NotUtf8 {
             what,
             path: p.clone(),
             line: 1 + valid.iter().filter(|&&b| b == b'\n').count(),
         }
-    })
+    })?;
+    Ok((text, raw))
 }
 
 /// Reads a CSV file (at most [`CSV_FILE_LIMIT`]) with `\r\n` and lone `\r` line ends made `\n`.
@@ -111,12 +124,23 @@ pub fn read_text(path: &Path, limit: u64, what: &'static str) -> Result<String, 
 ///
 /// As [`read_text`]: the file cannot be read, is larger than [`CSV_FILE_LIMIT`] or is not UTF-8.
 pub fn read_csv_text(path: &Path) -> Result<String, ReadError> {
-    let text = read_text(path, CSV_FILE_LIMIT, "CSV file")?;
-    Ok(if text.contains('\r') {
+    read_csv_text_and_bytes(path, false).map(|(text, _)| text)
+}
+
+/// [`read_csv_text`], and with `keep` the file's bytes as read (for their checksum; empty
+/// without).
+///
+/// # Errors
+///
+/// As [`read_csv_text`].
+pub fn read_csv_text_and_bytes(path: &Path, keep: bool) -> Result<(String, Vec<u8>), ReadError> {
+    let (text, raw) = read_text_and_bytes(path, CSV_FILE_LIMIT, "CSV file", keep)?;
+    let text = if text.contains('\r') {
         text.replace("\r\n", "\n").replace('\r', "\n")
     } else {
         text
-    })
+    };
+    Ok((text, raw))
 }
 
 #[cfg(test)]

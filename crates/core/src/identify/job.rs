@@ -34,7 +34,7 @@ use std::path::PathBuf;
 use super::noise::NoiseSetting;
 use super::{
     check_tracker_data, grouped_warnings, identified_model, identify_data, model_file_text,
-    read_tracker_data, ChainOptions, CircleFitMethod, Identification, IdentifyError,
+    parse_tracker_data, ChainOptions, CircleFitMethod, Identification, IdentifyError,
     IdentifyOptions, IdentifyReports, NoiseModel, NominalPrior, Placement, TrackerData,
     UncertaintyMethod,
 };
@@ -170,8 +170,10 @@ impl IdentifyJob {
     /// cannot be used, fewer than [`MIN_MC_DRAWS`] Monte Carlo draws, or a sweeps-only setting
     /// with pose data; [`IdentifyJobError::Strict`] when strict and a result looks implausible.
     pub fn run(&self) -> Result<IdentifyOutcome, IdentifyJobError> {
-        let origin = self.data.display().to_string();
-        let data = read_tracker_data(&self.data)?;
+        // Read once: a pipe (`/dev/stdin`) gives its bytes only once, for the data and their
+        // checksum both.
+        let (text, origin, bytes) = super::sweeps::open_input_keeping(&self.data, true)?;
+        let data = parse_tracker_data(&text, &origin)?;
         check_tracker_data(&data, &self.nominal, &origin)?;
         let chain = self.chain_options(&data)?;
         let runs = identify_data(&data, &self.nominal, &self.options(), &chain, !self.refine)?;
@@ -180,8 +182,6 @@ impl IdentifyJob {
             return Err(IdentifyJobError::Strict { warnings });
         }
         let (model, note) = identified_model(&runs, &self.nominal, self.covariance, &origin)?;
-        // The file's bytes for its SHA-256 (already read once within the size bound).
-        let bytes = std::fs::read(&self.data).unwrap_or_default();
         Ok(IdentifyOutcome {
             file_text: model_file_text(&model, &self.nominal, &runs, &origin, &bytes),
             reports: IdentifyReports::new(&self.nominal.name, &runs),

@@ -128,6 +128,14 @@ pub fn read_sweeps(path: &Path) -> Result<SweepData, IdentifyError> {
 /// editor's: [`crate::input::read_csv_text`]); a directory or an unreadable path is an error
 /// naming it. Returns the text and the file's name for messages.
 pub(crate) fn open_input(path: &Path) -> Result<(String, String), IdentifyError> {
+    open_input_keeping(path, false).map(|(text, origin, _)| (text, origin))
+}
+
+/// [`open_input`], and with `keep` the file's bytes as read (one read: a pipe gives them once).
+pub(crate) fn open_input_keeping(
+    path: &Path,
+    keep: bool,
+) -> Result<(String, String, Vec<u8>), IdentifyError> {
     let origin = path.display().to_string();
     let io = |cause| IdentifyError::Io {
         path: origin.clone(),
@@ -136,8 +144,8 @@ pub(crate) fn open_input(path: &Path) -> Result<(String, String), IdentifyError>
     if path.is_dir() {
         return Err(io(std::io::Error::other("is a directory, not a CSV file")));
     }
-    let text = crate::input::read_csv_text(path)?;
-    Ok((text, origin))
+    let (text, bytes) = crate::input::read_csv_text_and_bytes(path, keep)?;
+    Ok((text, origin, bytes))
 }
 
 /// Finds the columns of `names` in a header; `origin` names the source in errors.
