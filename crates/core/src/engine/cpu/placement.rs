@@ -2,7 +2,7 @@
 //! rows and offset rows, and the transforms `ΔB` that move each lane's end position
 //! (docs/METHOD.md §2.8).
 
-use super::{Normals, OffsetLanes, Source, LANES};
+use super::{shifted, shifted_exact, Normals, OffsetLanes, Source, LANES, SERIES_LIMIT};
 use crate::engine::Problem;
 use crate::kinematics::{Block, InputSpace};
 
@@ -15,15 +15,14 @@ use crate::kinematics::{Block, InputSpace};
 /// compute the chain with shifted sines, the point form with `sin_cos`).
 #[derive(Clone, Debug)]
 pub(super) struct PlacementLanes {
-    /// `M` as (base input k, input i, coefficient), nonzero entries only.
-    m: Vec<(usize, usize, f64)>,
-    /// `L_bb` as (base input k, base input k', coefficient), k' ≤ k.
-    lbb: Vec<(usize, usize, f64)>,
+    /// The rows of `M` and `L_bb` of each drawn placement input `k`: `(k, m, lbb)` with
+    /// `m` the nonzero `(input i, M_ki)` and `lbb` the `(placement input k', L_bb,kk')`, k' ≤ k.
+    rows: Vec<Row>,
     /// Philox blocks holding the placement's normals that the sampler does not compute (a
     /// block shared with the tool's normals is the sampler's).
     blocks: Vec<u32>,
-    /// Mean placement: x, y, z (mm), roll, pitch, yaw (rad).
-    base: [f64; 6],
+    /// `(sin, cos)` of the mean roll, pitch and yaw.
+    trig: [(f64, f64); 3],
     /// `R̂ᵀ`, row-major.
     r_mean_t: [[f64; 3]; 3],
     gen: crate::sampling::Philox,
@@ -49,19 +48,20 @@ impl PlacementLanes {
             .transpose()
             .solve_upper_triangular(&lba.transpose())
             .unwrap_or_else(|| nalgebra::DMatrix::zeros(na, p - na));
-        let mut m = Vec::new();
-        let mut lbb = Vec::new();
-        for (kb, &ib) in sp.free[na..].iter().enumerate() {
-            for (ka, &ia) in sp.free[..na].iter().enumerate() {
-                let v = mt[(ka, kb)];
-                if v != 0.0 {
-                    m.push((ib - nu, ia, v));
-                }
-            }
-            for (kb2, &ib2) in sp.free[na..].iter().enumerate().take(kb + 1) {
-                lbb.push((ib - nu, ib2 - nu, l[(na + kb, na + kb2)]));
-            }
-        }
+        let rows = sp.free[na..]
+            .iter()
+            .enumerate()
+            .map(|(kb, &ib)| Row {
+                k: ib - nu,
+                m: (sp.free[..na].iter().enumerate())
+                    .map(|(ka, &ia)| (ia, mt[(ka, kb)]))
+                    .filter(|&(_, v)| v != 0.0)
+                    .collect(),
+                lbb: (sp.free[na..].iter().enumerate().take(kb + 1))
+                    .map(|(kb2, &ib2)| (ib2 - nu, l[(na + kb, na + kb2)]))
+                    .collect(),
+            })
+            .collect();
         let mut blocks: Vec<u32> = sp.free[na..]
             .iter()
             .map(|&i| (sp.space.slot(i) / 4) as u32)
@@ -71,10 +71,9 @@ impl PlacementLanes {
         let rt =
             nalgebra::Rotation3::from_euler_angles(sp.base[3], sp.base[4], sp.base[5]).inverse();
         Some(PlacementLanes {
-            m,
-            lbb,
+            rows,
             blocks,
-            base: sp.base,
+            trig: std::array::from_fn(|k| sp.base[3 + k].sin_cos()),
             r_mean_t: std::array::from_fn(|r| std::array::from_fn(|c| rt[(r, c)])),
             gen: crate::sampling::Philox::new(problem.seed),
             first_slot: sp.space.slot_range(Block::Placement).start,
@@ -119,37 +118,82 @@ impl PlacementLanes {
                 crate::sampling::pick_freeze_normals(&self.gen, &self.blocks, &a, &b, &m, z);
             }
         }
-        for &(kb, i, v) in &self.m {
-            for l in 0..LANES {
-                db[kb][l] += v * d[i][l];
+        // One accumulator per row, kept in registers: the terms are added in the order of
+        // `M`'s columns, then `L_bb`'s.
+        for row in &self.rows {
+            let mut acc = [0.0; LANES];
+            for &(i, v) in &row.m {
+                for l in 0..LANES {
+                    acc[l] += v * d[i][l];
+                }
             }
-        }
-        for &(kb, kb2, v) in &self.lbb {
-            for l in 0..LANES {
-                db[kb][l] += v * z[self.first_slot + kb2][l];
+            for &(k2, v) in &row.lbb {
+                for l in 0..LANES {
+                    acc[l] += v * z[self.first_slot + k2][l];
+                }
             }
+            db[row.k] = acc;
         }
         db
     }
 
     /// `ΔB = B̂⁻¹B'` of the [`LANES`] placements `B̂ + δ_b` ([`Self::offsets`]): per lane the
-    /// rows of `[ΔR | Δt]`.
+    /// rows of `[ΔR | Δt]`, `ΔR = R̂ᵀR(rpy + δ)`, `Δt = R̂ᵀδ_xyz`, lane-wise so that it
+    /// vectorises.
+    ///
+    /// The sines and cosines of the drawn angles come from those of the mean and the series of
+    /// `small_sin_cos` (`engine::cpu`) in the offset, as the joints' do: for |δ| < `SERIES_LIMIT` =
+    /// 0.01 rad the truncation after δ⁷ (sine) and δ⁸ (cosine) is below |δ|⁹/9! ≤ 2.8e-24
+    /// (2.8e-22 of sin δ) and δ¹⁰/10! ≤ 2.8e-27, far below half an ulp of either, so the values
+    /// differ from `sin_cos(mean + δ)` only by the rounding of the mean's `sin_cos` and of
+    /// the few products and sums (a few 1e-16 absolute). An
+    /// offset at or above the limit takes `sin_cos` (placement offsets are ~1e-4 rad).
+    #[inline(always)]
     pub(super) fn transforms(&self, db: &[[f64; LANES]; 6]) -> [[[f64; LANES]; 4]; 3] {
+        // sin and cos of roll, pitch and yaw per lane.
+        let mut s = [[0.0; LANES]; 3];
+        let mut c = [[0.0; LANES]; 3];
+        for k in 0..3 {
+            for l in 0..LANES {
+                (s[k][l], c[k][l]) = shifted(self.trig[k], db[3 + k][l]);
+            }
+            for l in 0..LANES {
+                if db[3 + k][l].abs() >= SERIES_LIMIT {
+                    (s[k][l], c[k][l]) = shifted_exact(self.trig[k], db[3 + k][l]);
+                }
+            }
+        }
+        let rt = &self.r_mean_t;
         let mut out = [[[0.0; LANES]; 4]; 3];
         for l in 0..LANES {
-            let r = nalgebra::Rotation3::from_euler_angles(
-                self.base[3] + db[3][l],
-                self.base[4] + db[4][l],
-                self.base[5] + db[5][l],
-            );
-            let rt = &self.r_mean_t;
+            let ([sr, sp, sy], [cr, cp, cy]) =
+                ([s[0][l], s[1][l], s[2][l]], [c[0][l], c[1][l], c[2][l]]);
+            // R = Rz(yaw) Ry(pitch) Rx(roll) (nalgebra's `Rotation3::from_euler_angles`).
+            let r = [
+                [cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                [-sp, cp * sr, cp * cr],
+            ];
             for row in 0..3 {
-                for c in 0..3 {
-                    out[row][c][l] = (0..3).map(|k| rt[row][k] * r[(k, c)]).sum();
+                for col in 0..3 {
+                    out[row][col][l] =
+                        rt[row][0] * r[0][col] + rt[row][1] * r[1][col] + rt[row][2] * r[2][col];
                 }
-                out[row][3][l] = (0..3).map(|k| rt[row][k] * db[k][l]).sum();
+                out[row][3][l] =
+                    rt[row][0] * db[0][l] + rt[row][1] * db[1][l] + rt[row][2] * db[2][l];
             }
         }
         out
     }
+}
+
+/// One drawn placement input's row of `M` and of `L_bb` ([`PlacementLanes::offsets`]).
+#[derive(Clone, Debug)]
+struct Row {
+    /// The placement input (0–5: x, y, z, roll, pitch, yaw).
+    k: usize,
+    /// `(input i, M_ki)`, the nonzero entries.
+    m: Vec<(usize, f64)>,
+    /// `(placement input k', L_bb,kk')`, k' ≤ k.
+    lbb: Vec<(usize, f64)>,
 }
