@@ -26,6 +26,8 @@ pub struct CalibrateArgs {
     #[arg(long, default_value_t = 50, value_name = "N")]
     pub accuracy_points: usize,
     #[command(flatten)]
+    pub nongeometric: super::simulate::NonGeometricArgs,
+    #[command(flatten)]
     pub memory: MemoryArgs,
 }
 
@@ -37,7 +39,8 @@ impl Run for CalibrateArgs {
         if a.accuracy_points == 0 {
             bail!("--accuracy-points must be at least 1");
         }
-        let (exp, f) = a.factors.experiment()?;
+        let (mut exp, f) = a.factors.experiment()?;
+        a.nongeometric.apply(&mut exp, a.factors.robot_seed)?;
         // A sweep too short for its circle fit, named by the flags that set it (the fit itself
         // names only the run and the joint).
         let plan = exp.plan_for(&f);

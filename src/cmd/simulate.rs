@@ -8,7 +8,10 @@ use crate::cmd::args::{three_values, FactorArgs, MemoryArgs};
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use gpu_amcs::memory::Estimate;
-use gpu_amcs::simulate::{random_placement, simulate_poses, TrackerNoise};
+use gpu_amcs::simulate::{
+    random_placement, simulate_poses_of, Experiment, NonGeometricSetting, NonGeometricSizes,
+    TrackerNoise,
+};
 use std::path::PathBuf;
 
 /// Where the robot base stands in the tracker's frame.
@@ -18,6 +21,58 @@ pub enum PlacementArg {
     Random,
     /// The tracker frame is the robot base frame.
     Base,
+}
+
+/// The true robot's errors beyond geometry (issue 33), shared by `simulate` and `calibrate`.
+#[derive(Args, Debug, Clone, Default)]
+pub struct NonGeometricArgs {
+    /// Joint compliance of the true robot under gravity and payload, as a scale S in 0–10 (0:
+    /// rigid joints; 1: a 60 kg-class arm, 1–5·10⁻⁶ rad/(N·m) per joint drawn from
+    /// --robot-seed, link masses of a TX60-class arm scaled to the robot's size: plausible, not
+    /// published).
+    #[arg(long, default_value_t = 0.0, value_name = "S")]
+    pub compliance: f64,
+    /// Gear harmonics of the true robot (once and twice per joint turn), as a scale S in 0–10
+    /// (0: none; 1: amplitudes of 0.002–0.01° drawn from --robot-seed, random phases).
+    #[arg(long, default_value_t = 0.0, value_name = "S")]
+    pub harmonics: f64,
+    /// Payload at the target, kg (0–1000), bending the compliant joints (needs --compliance).
+    #[arg(long, default_value_t = 0.0, value_name = "KG")]
+    pub payload_kg: f64,
+}
+
+impl NonGeometricArgs {
+    /// Whether any error beyond geometry is asked for.
+    pub fn any(&self) -> bool {
+        !self.sizes().is_geometric()
+    }
+
+    fn sizes(&self) -> NonGeometricSizes {
+        NonGeometricSizes {
+            compliance: self.compliance,
+            harmonics: self.harmonics,
+            payload_kg: self.payload_kg,
+        }
+    }
+
+    /// Gives `exp`'s true robot these errors, drawn from `robot_seed`; an error names the flag.
+    pub fn apply(&self, exp: &mut Experiment, robot_seed: u64) -> Result<()> {
+        exp.set_nongeometric(&self.sizes(), robot_seed)
+            .map_err(|e| {
+                let flag = match e.setting {
+                    NonGeometricSetting::Compliance => "--compliance",
+                    NonGeometricSetting::Harmonics => "--harmonics",
+                    NonGeometricSetting::Payload => "--payload-kg",
+                };
+                anyhow::anyhow!("{flag}: {e}")
+            })?;
+        if self.payload_kg > 0.0 && self.compliance == 0.0 {
+            bail!(
+                "--payload-kg: the payload acts only through the joints' compliance: give --compliance too"
+            );
+        }
+        Ok(())
+    }
 }
 
 /// `simulate` options.
@@ -52,6 +107,8 @@ pub struct SimulateArgs {
     #[arg(long, value_name = "MM", requires = "poses")]
     pub tracker_sigma: Option<f64>,
     #[command(flatten)]
+    pub nongeometric: NonGeometricArgs,
+    #[command(flatten)]
     pub memory: MemoryArgs,
 }
 
@@ -64,6 +121,7 @@ impl Run for SimulateArgs {
         outputs.file("--out", a.out.as_deref())?;
         outputs.file("--truth-out", a.truth_out.as_deref())?;
         let (mut exp, f) = a.factors.experiment()?;
+        a.nongeometric.apply(&mut exp, a.factors.robot_seed)?;
         if let Some(t) = &a.target {
             let t = three_values("--target", "x, y, z in mm", t)?;
             if t.iter().any(|v| v.abs() > 1e5) {
@@ -127,7 +185,14 @@ impl Run for SimulateArgs {
                     xyz: [0.0; 3],
                     rpy: [0.0; 3],
                 });
-                let data = simulate_poses(&exp.truth, &configs, &b, &noise, a.factors.seed);
+                let data = simulate_poses_of(
+                    &exp.truth,
+                    exp.nongeometric.as_ref(),
+                    &configs,
+                    &b,
+                    &noise,
+                    a.factors.seed,
+                );
                 let mut buf = Vec::new();
                 gpu_amcs::identify::write_poses(&data, &mut buf)?;
                 (
@@ -173,6 +238,9 @@ impl Run for SimulateArgs {
                 outputs.commit()?;
                 crate::cmd::stdout::print(&text)?;
             }
+        }
+        if a.nongeometric.any() && a.truth_out.is_some() {
+            eprintln!("note: --truth-out holds the true robot's geometry only: its compliance and harmonics are drawn again from --robot-seed with the same --compliance and --harmonics");
         }
         Ok(())
     }

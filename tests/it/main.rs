@@ -32,6 +32,7 @@ mod pose_repeats;
 mod real_data;
 mod reports;
 mod sensitivity;
+mod simulate_nongeometric;
 mod study;
 mod summary;
 mod tail;

@@ -21,6 +21,7 @@
 //! subspace).
 
 use super::factors::{Factors, RobotErrorModel, SimulateError};
+use super::nongeometric::{true_position, NonGeometric, NonGeometricError, NonGeometricSizes};
 use super::robot::{perturbed_model, ParameterErrors};
 use super::sweep::SweepPlan;
 use super::tracker::TrackerModel;
@@ -28,7 +29,7 @@ use crate::identify::{
     correlated_statistics, identify_run, parameter_statistics, validate, IdentifyOptions,
     Measurement, Sweep, SweepData, SweepPoint, SweepRun, Validation,
 };
-use crate::kinematics::{position, tx60, Joints, RobotModel};
+use crate::kinematics::{tx60, Joints, RobotModel};
 use crate::points::{self, WorkspaceBox};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -59,6 +60,9 @@ pub struct Experiment {
     /// the base frame (the factor study's setting). With a placement the tracker stands at the
     /// measurement frame's origin and every point is reported in that frame.
     pub placement: Option<crate::kinematics::BaseTransform>,
+    /// The true robot's non-geometric errors (compliance under gravity and payload, gear
+    /// harmonics: [`super::nongeometric`]); `None`: a purely geometric robot.
+    pub nongeometric: Option<NonGeometric>,
 }
 
 impl Experiment {
@@ -96,7 +100,24 @@ impl Experiment {
             plan: SweepPlan::default(),
             identify: IdentifyOptions::default(),
             placement: None,
+            nongeometric: None,
         }
+    }
+
+    /// Gives the true robot non-geometric errors of `sizes`, drawn from `seed`
+    /// ([`NonGeometric::draw`]; sizes of a purely geometric robot remove them).
+    ///
+    /// # Errors
+    ///
+    /// [`NonGeometricError`] for a size out of range ([`NonGeometricSizes::check`]).
+    pub fn set_nongeometric(
+        &mut self,
+        sizes: &NonGeometricSizes,
+        seed: u64,
+    ) -> Result<(), NonGeometricError> {
+        sizes.check()?;
+        self.nongeometric = NonGeometric::draw(&self.truth, sizes, seed);
+        Ok(())
     }
 
     /// The sweep plan of a factor setting: [`Self::plan`] fitted into the nominal model's joint
@@ -143,9 +164,9 @@ impl Experiment {
                             f.speed_fraction,
                             rng,
                         );
-                        let p = position(
-                            &self.truth.params,
-                            &self.truth.tool,
+                        let p = true_position(
+                            &self.truth,
+                            self.nongeometric.as_ref(),
                             &q_act.map(f64::to_radians),
                         );
                         let s = self.robot.point_scatter_mm(f.speed_fraction, rng);
@@ -193,9 +214,9 @@ impl Experiment {
             .iter()
             .enumerate()
             .map(|(k, q)| {
-                let p = position(
-                    &self.truth.params,
-                    &self.truth.tool,
+                let p = true_position(
+                    &self.truth,
+                    self.nongeometric.as_ref(),
                     &q.map(f64::to_radians),
                 );
                 let s = self.robot.point_scatter_mm(0.0, rng);

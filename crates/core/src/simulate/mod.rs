@@ -11,11 +11,17 @@
 //! AT960 noise model, radial and transverse), [`factors`] (the paper's five factors and the
 //! physical models behind them: repeatability, range, step, speed, start position) and
 //! [`calibrate()`] (repeated simulate → identify runs → mean, σ and covariance).
+//!
+//! A true robot may also carry errors no geometric model holds ([`nongeometric`]: joint
+//! compliance under gravity and payload, gear harmonics; issue 33), in the pose data
+//! ([`simulate_poses_of`]) and in the sweeps and checks of an [`Experiment`]
+//! ([`Experiment::nongeometric`]).
 
 pub mod calibrate;
 pub mod factors;
 #[cfg(test)]
 mod joint_counts;
+pub mod nongeometric;
 pub mod poses;
 pub mod robot;
 pub mod sweep;
@@ -24,8 +30,12 @@ pub mod tracker;
 pub use crate::identify::{write_measurements, write_sweeps};
 pub use calibrate::{accuracy_check, calibrate, run_seed, Calibration, Experiment, DESIGN_TOOL_MM};
 pub use factors::{Factors, RobotErrorModel, SimulateError, SimulateSetting, SweepDirection};
+pub use nongeometric::{
+    true_position, NonGeometric, NonGeometricError, NonGeometricSetting, NonGeometricSizes,
+};
 pub use poses::{
-    random_placement, random_poses, simulate_poses, tracker_in_base_frame, TrackerNoise,
+    random_placement, random_poses, simulate_poses, simulate_poses_of, tracker_in_base_frame,
+    TrackerNoise,
 };
 pub use robot::{measure_positions, perturbed_model, random_configurations, ParameterErrors};
 pub use sweep::{

@@ -8,6 +8,7 @@
 //! robot's target there with the AT960 noise model of [`super::tracker`] (radial and transverse
 //! about the line of sight from the tracker), or with a plain σ per coordinate.
 
+use super::nongeometric::{true_position, NonGeometric};
 use super::tracker::TrackerModel;
 use crate::identify::{PoseData, PosePoint, PoseRun};
 use crate::kinematics::{BaseTransform, Joints, RobotModel};
@@ -56,13 +57,26 @@ pub fn simulate_poses(
     noise: &TrackerNoise,
     seed: u64,
 ) -> PoseData {
+    simulate_poses_of(truth, None, configs, placement, noise, seed)
+}
+
+/// [`simulate_poses`] of a true robot that also carries the non-geometric errors `errors`
+/// (compliance under gravity and payload, gear harmonics: [`super::nongeometric`]); `None` is
+/// [`simulate_poses`] itself, bit for bit.
+pub fn simulate_poses_of(
+    truth: &RobotModel,
+    errors: Option<&NonGeometric>,
+    configs: &[Joints],
+    placement: &BaseTransform,
+    noise: &TrackerNoise,
+    seed: u64,
+) -> PoseData {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let points = configs
         .iter()
         .enumerate()
         .map(|(k, q)| {
-            let p =
-                crate::kinematics::position(&truth.params, &truth.tool, &q.map(f64::to_radians));
+            let p = true_position(truth, errors, &q.map(f64::to_radians));
             let p = placement.apply(p);
             let position_mm = match noise {
                 TrackerNoise::Tracker(t) => TrackerModel {
