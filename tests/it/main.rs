@@ -19,6 +19,7 @@ mod honesty;
 mod html;
 mod identify;
 mod identify_limits;
+mod identify_undetermined;
 mod import;
 mod inputs;
 mod joint_counts;

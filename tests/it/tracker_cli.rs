@@ -130,14 +130,45 @@ fn poses_in_a_tracker_frame_end_to_end() {
 fn strict_refuses_unidentifiable_data() {
     let d = tmpdir("tracker-strict");
     let p = arg(&d, "p.csv");
-    // Five poses only: without a stated σ nothing is left to estimate the noise from.
+    // Five poses only: too few distinct poses for the 27 quantities, with or without a stated
+    // σ (issue 35, item 6).
     let o = run(&["simulate", "--poses", "5", "--seed", "2", "-o", &p]);
     assert!(o.status.success());
-    fails_leaving_nothing(
-        &d,
-        &["identify", &p, "-o", &arg(&d, "m.toml")],
-        "rank deficient",
-    );
+    let m = arg(&d, "m.toml");
+    for extra in [&[][..], &["--tracker-sigma", "0.01"][..]] {
+        let mut args = vec!["identify", p.as_str(), "-o", m.as_str()];
+        args.extend_from_slice(extra);
+        fails_leaving_nothing(&d, &args, "5 distinct pose(s)");
+    }
+    // 40 poses with J4 never moving: rank deficient, a warning naming what to measure.
+    let q = arg(&d, "q.csv");
+    assert!(run(&["points", "40", "-o", &q]).status.success());
+    let still: String = fs::read_to_string(&q)
+        .unwrap()
+        .lines()
+        .enumerate()
+        .map(|(k, l)| {
+            let mut v: Vec<&str> = l.split(',').collect();
+            if k > 0 {
+                v[3] = "10";
+            }
+            v.join(",") + "\n"
+        })
+        .collect();
+    fs::write(&q, still).unwrap();
+    let p = arg(&d, "still.csv");
+    let o = run(&[
+        "simulate",
+        "--poses",
+        "40",
+        "--points-file",
+        &q,
+        "--seed",
+        "2",
+        "-o",
+        &p,
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
     let o = run(&[
         "identify",
         &p,
@@ -146,9 +177,9 @@ fn strict_refuses_unidentifiable_data() {
         "-o",
         &arg(&d, "m.toml"),
     ]);
-    assert!(o.status.success());
+    assert!(o.status.success(), "{}", stderr(&o));
     assert!(stderr(&o).contains("rank deficient"), "{}", stderr(&o));
-    assert!(stderr(&o).contains("measure more poses"), "{}", stderr(&o));
+    assert!(stderr(&o).contains("move every joint"), "{}", stderr(&o));
     fs::remove_file(d.join("m.toml")).unwrap();
     let before = crate::common::tree(&d);
     let o = run(&[

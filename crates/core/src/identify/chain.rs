@@ -18,10 +18,16 @@ mod report;
 mod target_tests;
 #[cfg(test)]
 mod tests;
+mod undetermined;
 mod warnings;
 
 pub use model::{chain_model, state_model};
 pub use report::{ChainReport, ChainResult, MonteCarloCheck, NoiseReport, ParameterRow};
+pub use undetermined::{
+    not_identified, not_identified_note, not_identified_note_of_file, prior_sigma,
+    NOT_IDENTIFIED_KEY, UNDETERMINED_PLACEMENT_SIGMA_DEG, UNDETERMINED_PLACEMENT_SIGMA_MM,
+    UNDETERMINED_TOOL_SIGMA_MM,
+};
 
 use super::chain_fit::{
     default_free, fit, initial_state, residuals, ChainState, Observation, Prior,
@@ -180,7 +186,13 @@ pub fn identify_chain(
 ) -> Result<ChainResult, IdentifyError> {
     check_points(points, nominal, start)?;
     let (mut run, fixed_by_user) = Fitted::start(points, nominal, start, opts)?;
+    check_pose_count(points, run.free.len())?;
     let nulls = run.fit_free();
+    // Inputs the data leave undetermined: held at nominal, with their prior σ in the model.
+    let held: Vec<usize> = nulls
+        .iter()
+        .filter_map(|n| run.space.find(&n.fixed))
+        .collect();
     let dof = (3 * run.obs.len()).saturating_sub(run.free.len());
     let estimated_sigma = if opts.noise.is_stated() {
         None
@@ -223,14 +235,15 @@ pub fn identify_chain(
         linearised,
         monte_carlo,
     };
-    let covariance = embed(cov.chosen(), &run.free, run.space.len());
+    let kept = report::Kept::new(&run, &held, nominal, &cov, prior.as_ref());
+    let covariance = embed(&kept.matrix, &kept.inputs, run.space.len());
     let discrepancy = lack.term.clone();
     let checks = report::Checks {
         noise,
         identifiability,
         lack_of_fit: lack,
     };
-    let report = report::build_report(&run, points, nominal, opts, checks, &cov);
+    let report = report::build_report(&run, points, nominal, opts, checks, &cov, &kept);
     Ok(ChainResult {
         state: run.state,
         covariance,
@@ -265,6 +278,34 @@ fn check_points(
             s.params.len(),
             nominal.name,
             lay.n_params()
+        )));
+    }
+    Ok(())
+}
+
+/// Refuses data with too few distinct poses for the `free` inputs: each pose gives three
+/// equations, and at least one more than the inputs is needed (poses measured more than once
+/// count once).
+///
+/// # Errors
+///
+/// [`IdentifyError::NoData`] saying how many poses there are and how many are needed.
+fn check_pose_count(points: &[MeasuredPoint], free: usize) -> Result<(), IdentifyError> {
+    let mut seen = std::collections::HashSet::new();
+    for p in points {
+        // + 0.0 makes −0 and 0 the same angle
+        seen.insert(
+            p.q_deg
+                .iter()
+                .map(|v| (v + 0.0).to_bits())
+                .collect::<Vec<u64>>(),
+        );
+    }
+    let (n, need) = (seen.len(), free / 3 + 1);
+    if n < need {
+        return Err(IdentifyError::NoData(format!(
+            "{n} distinct pose(s) (rows with the same joint angles are one pose) give {} equations for the {free} quantities the fit identifies: at least {need} distinct poses are needed, and 30–60 spread over the joint ranges are usual",
+            3 * n
         )));
     }
     Ok(())

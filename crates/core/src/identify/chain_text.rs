@@ -67,8 +67,14 @@ pub fn render_chain_summary(c: &ChainReport) -> String {
     for n in &a.null_directions {
         let _ = writeln!(
             s,
-            "  not identifiable: {} (relative singular value {:.1e}) → fixed {} at nominal",
-            n.combination, n.relative_singular_value, n.fixed
+            "  not identifiable: {} (relative singular value {:.1e}) → {} held at nominal with its prior σ{}",
+            n.combination,
+            n.relative_singular_value,
+            n.fixed,
+            c.parameters
+                .iter()
+                .find(|p| p.name == n.fixed)
+                .map_or(String::new(), |p| format!(" ({:.4} {})", p.sigma, p.unit))
         );
     }
     if !a.fixed_by_user.is_empty() {

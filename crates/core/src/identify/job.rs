@@ -137,6 +137,90 @@ pub struct IdentifyOutcome {
     pub chain: ChainOptions,
 }
 
+/// The mean model of several `runs` keeps the prior σ of every input some run's data did not
+/// determine: the runs' spread of an input they all held at nominal is 0, which would claim it
+/// known exactly. Its variance gets the prior's added (diagonal), which keeps a covariance
+/// positive definite.
+fn keep_prior_of_held(model: &mut RobotModel, nominal: &RobotModel, runs: &[Identification]) {
+    use crate::kinematics::{Block, Covariance, Uncertainty};
+    let space = nominal.layout().measured();
+    let held: Vec<usize> = runs
+        .iter()
+        .filter_map(|r| r.report.chain.as_ref())
+        .flat_map(|c| c.identifiability.null_directions.iter())
+        .filter_map(|n| space.find(&n.fixed))
+        .fold(Vec::new(), |mut all, i| {
+            if !all.contains(&i) {
+                all.push(i);
+            }
+            all
+        });
+    let prior = |i: usize| super::chain::prior_sigma(nominal, space, i);
+    match &mut model.uncertainty {
+        Uncertainty::Independent(sigma) => {
+            for &i in &held {
+                match space.locate(i) {
+                    (Block::Joints, k) => sigma[k] = sigma[k].max(prior(i)),
+                    (Block::Tool, k) => model.tool_sigma[k] = model.tool_sigma[k].max(prior(i)),
+                    (Block::Placement, _) => {}
+                }
+            }
+        }
+        Uncertainty::Covariance(c) => {
+            let (cs, n) = (c.space(), c.space().len());
+            let mut m = c.matrix().to_vec();
+            for &i in &held {
+                if let Some(k) = cs.find(&space.name(i)) {
+                    m[k * n + k] += prior(i).powi(2);
+                }
+            }
+            if let Some(c) = Covariance::new(cs, m) {
+                model.set_covariance(c);
+            }
+        }
+    }
+}
+
+/// Refuses an identified model whose file (`text`) the analyses would refuse to read: the data
+/// from `origin` determine it too poorly (a σ beyond what a model file holds, a covariance
+/// without a Cholesky factor), most often because `runs` left parameters undetermined and their
+/// prior uncertainty spreads into the rest.
+///
+/// # Errors
+///
+/// [`IdentifyError::NoData`] naming the data file, the model field, why, and what to measure.
+fn check_usable(text: &str, origin: &str, runs: &[Identification]) -> Result<(), IdentifyError> {
+    let Err(e) = RobotModel::from_toml(text, "the identified model") else {
+        return Ok(());
+    };
+    let why = match &e {
+        crate::kinematics::ModelError::Invalid { field, message, .. } => {
+            format!("{field}: {message}")
+        }
+        other => other.to_string(),
+    };
+    let undetermined = runs
+        .iter()
+        .filter_map(|r| r.report.chain.as_ref())
+        .map(|c| &c.identifiability)
+        .find(|a| !a.null_directions.is_empty());
+    Err(IdentifyError::NoData(match undetermined {
+        Some(a) => format!(
+            "{origin}: the data do not determine {} (first combination: {}); at their prior uncertainty they spread into the rest beyond what a model file holds ({why}); no model written: {}",
+            a.null_directions
+                .iter()
+                .map(|n| n.fixed.as_str())
+                .collect::<Vec<_>>()
+                .join(", "),
+            a.null_directions[0].combination,
+            super::identifiability::advice(&a.null_directions[0].combination, a)
+        ),
+        None => format!(
+            "{origin}: the data determine the model too poorly for a usable model file ({why}); no model written: measure more poses spread over every joint's range, or state a smaller tracker σ"
+        ),
+    }))
+}
+
 impl IdentifyJob {
     /// The job with the defaults of `gpu-amcs identify`: placement identified, noise from the
     /// data, linearised covariance, seed 1, commanded-angle circles, prior and refinement on.
@@ -167,8 +251,14 @@ impl IdentifyJob {
     ///
     /// [`IdentifyJobError::Identify`] when the data cannot be read, do not fit the nominal
     /// model or cannot be identified; [`IdentifyJobError::Setting`] for a noise setting that
-    /// cannot be used, fewer than [`MIN_MC_DRAWS`] Monte Carlo draws, or a sweeps-only setting
-    /// with pose data; [`IdentifyJobError::Strict`] when strict and a result looks implausible.
+    /// cannot be used, fewer than [`MIN_MC_DRAWS`] Monte Carlo draws (or not more than the
+    /// quantities the fit identifies), or a sweeps-only setting
+    /// with pose data; [`IdentifyJobError::Strict`] when strict and a result looks implausible;
+    /// [`IdentifyJobError::Identify`] with [`IdentifyError::NoData`] when the identified model
+    /// would be a file the analyses refuse (an uncertainty beyond what a model file holds:
+    /// the data determine the parameters too poorly), so that no such file is written; as
+    /// [`IdentifyJobError::Setting`] of the stated noise when one was given and the data
+    /// determined every parameter (the stated σ then sets that spread).
     pub fn run(&self) -> Result<IdentifyOutcome, IdentifyJobError> {
         // Read once: a pipe (`/dev/stdin`) gives its bytes only once, for the data and their
         // checksum both.
@@ -181,9 +271,14 @@ impl IdentifyJob {
         if self.strict && !warnings.is_empty() {
             return Err(IdentifyJobError::Strict { warnings });
         }
-        let (model, note) = identified_model(&runs, &self.nominal, self.covariance, &origin)?;
+        let (mut model, note) = identified_model(&runs, &self.nominal, self.covariance, &origin)?;
+        if runs.len() > 1 {
+            keep_prior_of_held(&mut model, &self.nominal, &runs);
+        }
+        let file_text = model_file_text(&model, &self.nominal, &runs, &origin, &bytes);
+        check_usable(&file_text, &origin, &runs).map_err(|e| self.blame_stated_noise(e, &runs))?;
         Ok(IdentifyOutcome {
-            file_text: model_file_text(&model, &self.nominal, &runs, &origin, &bytes),
+            file_text,
             reports: IdentifyReports::new(&self.nominal.name, &runs),
             runs,
             model,
@@ -191,6 +286,49 @@ impl IdentifyJob {
             warnings,
             chain,
         })
+    }
+
+    /// A refusal of [`check_usable`] as the stated noise's setting when one was given and every
+    /// parameter was determined: the stated σ then sets the parameters' spread.
+    fn blame_stated_noise(&self, e: IdentifyError, runs: &[Identification]) -> IdentifyJobError {
+        let determined = runs
+            .iter()
+            .filter_map(|r| r.report.chain.as_ref())
+            .all(|c| c.identifiability.null_directions.is_empty());
+        let setting = if self.tracker_sigma_mm.is_some() {
+            Some(IdentifySetting::TrackerSigma)
+        } else if self.tracker_mpe.is_some() {
+            Some(IdentifySetting::TrackerMpe)
+        } else {
+            None
+        };
+        match setting {
+            Some(setting) if determined => IdentifyJobError::Setting {
+                setting,
+                message: e.to_string(),
+            },
+            _ => e.into(),
+        }
+    }
+
+    /// The number of inputs the whole-chain fit moves: the default free ones less those fixed
+    /// by name (an upper bound: directions the data leave free are held too).
+    fn free_count(&self) -> usize {
+        if !(crate::kinematics::MIN_JOINTS..=crate::kinematics::MAX_JOINTS)
+            .contains(&self.nominal.joints())
+        {
+            return 0;
+        }
+        let space = self.nominal.layout().measured();
+        let named: Vec<usize> = self
+            .fix
+            .iter()
+            .filter_map(|n| space.find(&n.trim().to_ascii_lowercase()))
+            .collect();
+        super::chain_fit::default_free(&self.nominal.fixed, self.placement == Placement::Identify)
+            .into_iter()
+            .filter(|i| !named.contains(i))
+            .count()
     }
 
     /// The options of the circle-point steps.
@@ -220,12 +358,23 @@ impl IdentifyJob {
             message: e.to_string(),
         })?;
         if let UncertaintyMethod::MonteCarlo { draws } = self.uncertainty {
-            if draws < MIN_MC_DRAWS {
+            // A sample covariance of p quantities from k ≤ p draws is singular: no model file
+            // holds it.
+            let p = self.free_count();
+            let message = if draws < MIN_MC_DRAWS {
+                format!("at least {MIN_MC_DRAWS} re-identifications are needed for a covariance")
+            } else if draws <= p {
+                format!(
+                    "at least {} re-identifications are needed for a covariance of the {p} quantities the fit identifies (got {draws})",
+                    p + 1
+                )
+            } else {
+                String::new()
+            };
+            if !message.is_empty() {
                 return Err(IdentifyJobError::Setting {
                     setting: IdentifySetting::McDraws,
-                    message: format!(
-                        "at least {MIN_MC_DRAWS} re-identifications are needed for a covariance"
-                    ),
+                    message,
                 });
             }
         }

@@ -40,6 +40,9 @@ pub struct Provenance {
     pub nominal_sha256: String,
     /// The nominal model's file text (TOML).
     pub nominal_model: String,
+    /// Inputs the data did not determine in some run (held at nominal with their prior σ;
+    /// written as `not_identified` only when there are some; files without it read as none).
+    pub not_identified: Vec<String>,
 }
 
 /// SHA-256 (hex) of a model's geometry: its number of joints, the `5n` MDH parameters (mm,
@@ -105,6 +108,14 @@ impl Provenance {
             nominal_name: nominal.name.clone(),
             nominal_sha256: geometry_sha256(nominal),
             nominal_model: nominal.to_toml(),
+            not_identified: chains.iter().fold(Vec::new(), |mut all, c| {
+                for n in &c.identifiability.null_directions {
+                    if !all.contains(&n.fixed) {
+                        all.push(n.fixed.clone());
+                    }
+                }
+                all
+            }),
         })
     }
 
@@ -118,11 +129,21 @@ impl Provenance {
                 "inf".to_string()
             }
         };
+        let listed = if self.not_identified.is_empty() {
+            String::new()
+        } else {
+            let names: Vec<String> = self.not_identified.iter().map(|n| q(n)).collect();
+            format!(
+                "# not determined by the data: at nominal with their prior uncertainty\n{} = [{}]\n",
+                super::chain::NOT_IDENTIFIED_KEY,
+                names.join(", ")
+            )
+        };
         format!(
             "\n# Where this model came from (read and ignored by the model reader)\n[provenance]\n\
              data_file = {}\ndata_sha256 = {}\npoints = {}\nruns = {}\nrms_residual_mm = {}\n\
              max_residual_mm = {}\nrank = {}\nparameters = {}\ncondition_number = {}\nnoise = {}\n\
-             frame = {}\nnominal_name = {}\nnominal_sha256 = {}\nnominal_model = {}\n",
+             frame = {}\nnominal_name = {}\nnominal_sha256 = {}\n{listed}nominal_model = {}\n",
             q(&self.data_file),
             q(&self.data_sha256),
             self.points,
@@ -251,12 +272,17 @@ mod tests {
             nominal_name: "UR5e".into(),
             nominal_sha256: geometry_sha256(&crate::presets::preset("ur5e").unwrap()),
             nominal_model: crate::presets::preset("ur5e").unwrap().to_toml(),
+            not_identified: vec!["alpha4".into(), "tool_x".into()],
         };
         let text = m.to_toml() + &p.to_toml();
         let back = crate::kinematics::RobotModel::from_toml(&text, "t").unwrap();
         assert_eq!(back, m);
         let table: toml::Table = text.parse().unwrap();
         assert_eq!(table["provenance"]["points"].as_integer(), Some(60));
+        assert_eq!(
+            crate::identify::chain::not_identified(&text),
+            vec!["alpha4", "tool_x"]
+        );
         // The recorded nominal reads back as the model it was.
         let n = recorded_nominal(&text).unwrap();
         assert_eq!(n.name, "UR5e");

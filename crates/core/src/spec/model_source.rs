@@ -80,7 +80,8 @@ impl ModelSource {
     }
 
     /// [`Self::load`], with what an import chose on the user's behalf (the tip link of a URDF
-    /// given without one), one line each.
+    /// given without one), and for an identified model file whose data did not determine some
+    /// parameters, that it was not fully identified; one line each.
     ///
     /// # Errors
     /// As [`Self::load`].
@@ -92,7 +93,13 @@ impl ModelSource {
         Ok(match self {
             ModelSource::Preset(name) => (preset(name)?, Vec::new()),
             ModelSource::File(p) if is_description(p) => imported(p, &ImportOptions::default())?,
-            ModelSource::File(p) => (RobotModel::from_file(p)?, Vec::new()),
+            ModelSource::File(p) => (
+                RobotModel::from_file(p)?,
+                // an identified model whose data left parameters at their prior says so
+                crate::identify::chain::not_identified_note_of_file(p)
+                    .into_iter()
+                    .collect(),
+            ),
             ModelSource::Description { path, tip } => imported(
                 path,
                 &ImportOptions {

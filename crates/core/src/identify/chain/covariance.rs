@@ -50,8 +50,12 @@ pub(super) fn linearised_covariance(
     free: &[usize],
     prior: Option<&Prior>,
 ) -> DMatrix<f64> {
-    let j = jacobian(obs, state, free);
-    let mut a = j.transpose() * &j;
+    invert_spd(&information(&jacobian(obs, state, free), free, prior))
+}
+
+/// The information `JᵀJ + prior` of the free inputs `free` whose whitened Jacobian is `j`.
+pub(super) fn information(j: &DMatrix<f64>, free: &[usize], prior: Option<&Prior>) -> DMatrix<f64> {
+    let mut a = j.transpose() * j;
     if let Some(p) = prior {
         for (k, &i) in free.iter().enumerate() {
             if p.sigma[i] > 0.0 {
@@ -59,7 +63,7 @@ pub(super) fn linearised_covariance(
             }
         }
     }
-    invert_spd(&a)
+    a
 }
 
 /// The standard uncertainties of the first `p` inputs of covariance `c` (negative variances

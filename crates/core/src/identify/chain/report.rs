@@ -5,9 +5,10 @@
 use super::covariance::{correlation, residual_norms, standard_deviations, FreeCovariance};
 use super::model::reported_space;
 use super::monte_carlo::monte_carlo_check;
+use super::undetermined::{prior_sigma, with_held_inputs};
 use super::warnings::run_warnings;
 use super::{ChainOptions, Fitted, MeasuredPoint, Placement, UncertaintyMethod};
-use crate::identify::chain_fit::{default_free, ChainState};
+use crate::identify::chain_fit::{default_free, ChainState, Prior};
 use crate::identify::identifiability::Identifiability;
 use crate::kinematics::RobotModel;
 use nalgebra::DMatrix;
@@ -29,7 +30,8 @@ pub struct ParameterRow {
     pub sigma_monte_carlo: Option<f64>,
     /// `"mm"` or `"deg"`.
     pub unit: &'static str,
-    /// `identified`, `fixed: convention`, `fixed: not identifiable`, `fixed: by request`.
+    /// `identified`, `fixed: convention`, `not identifiable: nominal, prior σ` (the data do not
+    /// determine it; it keeps its prior uncertainty), `fixed: by request`.
     pub status: String,
 }
 
@@ -111,6 +113,59 @@ pub struct ChainResult {
     pub report: ChainReport,
 }
 
+/// The covariance the model keeps: over the free inputs, then those the data leave
+/// undetermined with their prior σ ([`with_held_inputs`]).
+pub(super) struct Kept {
+    /// The inputs, free ones first (indices into the fit inputs).
+    pub inputs: Vec<usize>,
+    /// Their covariance, internal units.
+    pub matrix: DMatrix<f64>,
+}
+
+impl Kept {
+    /// The covariance of `run`'s free inputs (`cov`'s choice) with `held` (inputs the data do not
+    /// determine, at `nominal`'s values) added at their prior σ; `prior` is the fit's.
+    pub fn new(
+        run: &Fitted,
+        held: &[usize],
+        nominal: &RobotModel,
+        cov: &FreeCovariance,
+        prior: Option<&Prior>,
+    ) -> Kept {
+        let mut inputs = run.free.clone();
+        if held.is_empty() {
+            // exactly symmetric, as a model file must be (a Cholesky inverse is so only to
+            // rounding, which an ill-conditioned fit makes visible)
+            let c = cov.chosen();
+            return Kept {
+                inputs,
+                matrix: (c + c.transpose()) * 0.5,
+            };
+        }
+        let sigma: Vec<f64> = held
+            .iter()
+            .map(|&i| prior_sigma(nominal, run.space, i))
+            .collect();
+        let matrix = with_held_inputs(
+            &run.obs,
+            &run.state,
+            &run.free,
+            held,
+            &sigma,
+            cov.chosen(),
+            prior,
+        );
+        inputs.extend_from_slice(held);
+        Kept { inputs, matrix }
+    }
+
+    /// The standard uncertainty of fit input `i` (internal units), `None` when not kept.
+    fn sigma(&self, i: usize) -> Option<f64> {
+        let k = self.inputs.iter().position(|&x| x == i)?;
+        Some(self.matrix[(k, k)].max(0.0).sqrt())
+    }
+}
+
 /// What a finished fit was checked for: the noise, identifiability and lack of fit.
 pub(super) struct Checks {
     /// The noise check.
@@ -131,6 +186,7 @@ pub(super) fn build_report(
     opts: &ChainOptions,
     checks: Checks,
     cov: &FreeCovariance,
+    kept: &Kept,
 ) -> ChainReport {
     let Checks {
         noise,
@@ -149,7 +205,7 @@ pub(super) fn build_report(
         nominal,
         opts.placement,
         &identifiability,
-        chosen,
+        kept,
         mc_sigma.as_deref(),
     );
     let correlation = correlation(chosen, p);
@@ -182,13 +238,14 @@ pub(super) fn build_report(
 }
 
 /// The report rows of the inputs a model of `placement` keeps (report units): identified, with
-/// σ from `chosen` (and from the Monte Carlo σ `mc_sigma` when computed), or fixed and why.
+/// σ from the covariance the model keeps (and from the Monte Carlo σ `mc_sigma` when
+/// computed), or held and why (the prior σ for an input the data do not determine).
 fn parameter_rows(
     run: &Fitted,
     nominal: &RobotModel,
     placement: Placement,
     identifiability: &Identifiability,
-    chosen: &DMatrix<f64>,
+    kept: &Kept,
     mc_sigma: Option<&[f64]>,
 ) -> Vec<ParameterRow> {
     let space = run.space;
@@ -210,7 +267,7 @@ fn parameter_rows(
                 .iter()
                 .any(|n| n.fixed == space.name(i))
             {
-                "fixed: not identifiable".to_string()
+                "not identifiable: nominal, prior σ".to_string()
             } else if conventional(i) {
                 "fixed: convention".to_string()
             } else {
@@ -220,7 +277,7 @@ fn parameter_rows(
                 name: space.name(i),
                 nominal: run.nominal.get(i) * f,
                 value: run.state.get(i) * f,
-                sigma: k.map_or(0.0, |k| chosen[(k, k)].max(0.0).sqrt() * f),
+                sigma: kept.sigma(i).unwrap_or(0.0) * f,
                 sigma_monte_carlo: k.and_then(|k| mc_sigma.map(|m| m[k] * f)),
                 unit: space.quantity(i).file_unit(),
                 status,

@@ -19,7 +19,7 @@ pub(super) fn chain_warnings(
         let fixed: Vec<&str> = a.null_directions.iter().map(|n| n.fixed.as_str()).collect();
         let first = &a.null_directions[0].combination;
         w.push(format!(
-            "rank deficient: the data do not determine {} combination(s) of the parameters (first: {first}); fixed at nominal: {}; {}",
+            "rank deficient: the data do not determine {} combination(s) of the parameters (first: {first}); held at nominal with their prior uncertainty, so the model is not fully identified: {}; {}",
             a.null_directions.len(),
             fixed.join(", "),
             advice(first, a)
