@@ -8,7 +8,10 @@ use super::reports::{problem_rows, write_reports, ReportFlags};
 use super::Run;
 use anyhow::{bail, Result};
 use clap::Args;
-use gpu_amcs::plan::{self, Plan, PlanError, PlanField, PlanOptions, TrackerSite};
+use gpu_amcs::plan::program::ProgramFormat;
+use gpu_amcs::plan::{
+    self, KeepOut, Plan, PlanError, PlanField, PlanOptions, TrackerSite, Workcell,
+};
 use std::path::PathBuf;
 
 /// The library's default plan thresholds (`gpu_amcs::plan::DEFAULT_THRESHOLDS_MM`) as one
@@ -100,6 +103,36 @@ pub struct PlanArgs {
     /// Write the design (q1..qn in degrees, in visiting order) to FILE.
     #[arg(long, short, value_name = "FILE")]
     pub out: PathBuf,
+    /// The floor's height, mm, in the model's measurement frame (its base frame for a model
+    /// without `base`; z up): no moving link's capsule may reach below it (default: no floor).
+    #[arg(long, value_name = "Z", allow_hyphen_values = true)]
+    pub floor: Option<f64>,
+    /// A box no link may reach into, mm, corners x0,y0,z0,x1,y1,z1 in the measurement frame
+    /// (repeatable).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "X0,Y0,Z0,X1,Y1,Z1",
+        allow_hyphen_values = true,
+        action = clap::ArgAction::Append
+    )]
+    pub keep_out: Vec<f64>,
+    /// Let the arm's links pass through each other (no self-collision check).
+    #[arg(long)]
+    pub no_self_collision: bool,
+    /// Radius of every link's capsule, mm (default: 15 % of each link's length, 20 … 50 mm).
+    #[arg(long, value_name = "MM")]
+    pub link_radius: Option<f64>,
+    /// Write the design as a robot program to FILE: URScript (.script), RAPID (.mod) or KRL
+    /// (.src), by the extension or --program-format.
+    #[arg(long, value_name = "FILE")]
+    pub program: Option<PathBuf>,
+    /// The robot program's language, when FILE's extension does not say it.
+    #[arg(long, value_name = "FORMAT", requires = "program", value_parser = ["urscript", "rapid", "krl"])]
+    pub program_format: Option<String>,
+    /// With --program: seconds to wait at each pose for the tracker's measurement.
+    #[arg(long, default_value_t = 2.0, value_name = "S", requires = "program")]
+    pub settle: f64,
     #[command(flatten)]
     pub reports: ReportFlags,
 }
@@ -115,11 +148,21 @@ fn flag(f: PlanField) -> &'static str {
         PlanField::Search => "--draws",
         PlanField::TaskPoints => "--points-file",
         PlanField::Target => "--target",
+        PlanField::Floor => "--floor",
+        PlanField::KeepOut => "--keep-out",
+        PlanField::LinkRadius => "--link-radius",
+        PlanField::Program => "--program",
     }
 }
 
-fn plan_error(e: PlanError) -> anyhow::Error {
+fn plan_error(e: PlanError, iso9283: bool) -> anyhow::Error {
     match e {
+        PlanError::Setting {
+            field: PlanField::TaskPoints,
+            message,
+        } if iso9283 => {
+            anyhow::anyhow!("the ISO 9283 test poses (--iso9283): {message} (--floor, --keep-out)")
+        }
         PlanError::Setting { field, message } => {
             anyhow::anyhow!("{} ({}): {message}", field, flag(field))
         }
@@ -154,7 +197,10 @@ impl Run for PlanArgs {
         a.problem.check()?;
         let mut outputs = Outputs::new(a.problem.inputs());
         outputs.file("--out", Some(&a.out))?;
+        outputs.file("--program", a.program.as_deref())?;
         a.reports.declare(&mut outputs, &Plan::planned_layout())?;
+        let program_format = program_format(&a)?;
+        let workcell = workcell(&a)?;
         if a.draws < 100 || a.draws > 100_000_000 {
             bail!("--draws: must be 100 … 100000000, got {}", a.draws);
         }
@@ -184,6 +230,14 @@ impl Run for PlanArgs {
                 .as_deref()
                 .map(|t| three_values("--tracker-at", "x, y, z in mm", t))
                 .transpose()?;
+            if a.iso9283 || a.problem.points_file.is_some() {
+                // A task the robot cannot reach above the floor and outside the boxes cannot
+                // be planned for; generated points are a stand-in and are not checked.
+                let mut arm = model.clone();
+                arm.tool = target;
+                plan::workcell::check_task(&arm, &task, &workcell)
+                    .map_err(|e| plan_error(e, a.iso9283))?;
+            }
             let opts = PlanOptions {
                 poses: a.poses,
                 candidates: a.candidates,
@@ -196,14 +250,15 @@ impl Run for PlanArgs {
                 thresholds: a.threshold.clone(),
                 target_mm: target,
                 seed: a.problem.seed,
+                workcell,
                 ..PlanOptions::default()
             };
             let bar = Progress::new(a.reports.quiet, "plan", "steps");
             bar.update(0, 2);
-            let mut p = plan::plan(&model, &task, &opts).map_err(plan_error)?;
+            let mut p = plan::plan(&model, &task, &opts).map_err(|e| plan_error(e, a.iso9283))?;
             bar.update(1, 2);
-            let problem =
-                plan::prediction_problem(&p, &task, a.problem.seed).map_err(plan_error)?;
+            let problem = plan::prediction_problem(&p, &task, a.problem.seed)
+                .map_err(|e| plan_error(e, a.iso9283))?;
             let rows = problem_rows(&a.problem, &problem);
             let (mut ev, notes) = a.problem.backend.evaluator(problem)?;
             if !a.reports.quiet {
@@ -211,13 +266,65 @@ impl Run for PlanArgs {
                     eprintln!("note: {n}");
                 }
             }
-            p.prediction =
-                Some(plan::predict(ev.as_mut(), a.draws, &a.threshold).map_err(plan_error)?);
+            p.prediction = Some(
+                plan::predict(ev.as_mut(), a.draws, &a.threshold)
+                    .map_err(|e| plan_error(e, a.iso9283))?,
+            );
             bar.update(2, 2);
             bar.finish();
             Ok((p, rows))
         })?;
         outputs.stage_file("--out", plan.design_csv())?;
+        if let (Some(path), Some(format)) = (&a.program, program_format) {
+            let name = path
+                .file_stem()
+                .map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default();
+            let text = plan::program::robot_program(&plan, format, &name, a.settle)
+                .map_err(|e| plan_error(e, false))?;
+            outputs.stage_file("--program", text)?;
+        }
         write_reports(outputs, &plan, &a.reports, &rows)
     }
+}
+
+/// The robot program's language: --program-format, else the extension of --program's file.
+fn program_format(a: &PlanArgs) -> Result<Option<ProgramFormat>> {
+    let Some(path) = &a.program else {
+        return Ok(None);
+    };
+    let named = a
+        .program_format
+        .as_deref()
+        .or_else(|| path.extension().and_then(|e| e.to_str()));
+    match named.and_then(ProgramFormat::from_extension) {
+        Some(f) => Ok(Some(f)),
+        None => bail!(
+            "--program: {} does not end in .script (URScript), .mod (RAPID) or .src (KRL); give --program-format",
+            path.display()
+        ),
+    }
+}
+
+/// The workcell of --floor, --keep-out, --no-self-collision and --link-radius.
+fn workcell(a: &PlanArgs) -> Result<Workcell> {
+    if !a.keep_out.len().is_multiple_of(6) {
+        bail!(
+            "--keep-out: each box is six numbers x0,y0,z0,x1,y1,z1 (mm), got {} numbers",
+            a.keep_out.len()
+        );
+    }
+    Ok(Workcell {
+        floor_mm: a.floor,
+        keep_out: a
+            .keep_out
+            .chunks(6)
+            .map(|c| KeepOut {
+                min_mm: [c[0].min(c[3]), c[1].min(c[4]), c[2].min(c[5])],
+                max_mm: [c[0].max(c[3]), c[1].max(c[4]), c[2].max(c[5])],
+            })
+            .collect(),
+        self_collision: !a.no_self_collision,
+        link_radius_mm: a.link_radius,
+    })
 }

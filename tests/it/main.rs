@@ -29,6 +29,7 @@ mod mc_known_answers;
 mod module_cycles;
 mod placement_analyses;
 mod plan;
+mod plan_runnable;
 mod pose_repeats;
 mod real_data;
 mod reports;

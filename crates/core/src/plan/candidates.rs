@@ -7,6 +7,7 @@ use crate::identify::chain_fit::{default_free, ChainState};
 use crate::kinematics::{transform, Joints, RobotModel};
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
+use serde::Serialize;
 
 /// Checks the settings `o`, the task points `task` and the target of a plan of `model`, in that
 /// order; the first setting out of range is the error.
@@ -14,7 +15,19 @@ pub(super) fn check(model: &RobotModel, task: &[Joints], o: &PlanOptions) -> Res
     check_settings(model, o)?;
     check_task(model, task)?;
     check_tracker(o)?;
+    super::workcell::check(&o.workcell)?;
     check_target(model, o)
+}
+
+/// Configurations a plan's candidate draw refused for its workcell.
+#[derive(Clone, Debug, Default, PartialEq, Serialize)]
+pub struct Rejected {
+    /// A link below the floor.
+    pub floor: usize,
+    /// A link in a keep-out box.
+    pub keep_out: usize,
+    /// Links of the arm into each other.
+    pub self_collision: usize,
 }
 
 /// The numbers of a plan: σ, the thresholds, the numbers of candidates and poses (more
@@ -171,24 +184,38 @@ fn target_and_facing(
     (p, s.rotation() * z)
 }
 
-/// Draws the candidates: configurations within the limits less the margin, away from
-/// singularities and, with a tracker, within its range and incidence. Returns them and how many
-/// were drawn.
+/// The range a candidate's joint is drawn from: within `limits` (degrees) less the margin.
+/// (Drawing a joint that turns more than a full turn within one turn would lose no pose, but
+/// changes the candidates of every arm with such a joint; the visiting order picks the turn
+/// instead.)
+pub(super) fn draw_ranges(limits: &[(f64, f64)], margin_deg: f64) -> Vec<(f64, f64)> {
+    limits
+        .iter()
+        .map(|&(lo, hi)| within_margin(lo, hi, margin_deg))
+        .collect()
+}
+
+/// The limits `lo … hi` (degrees, at most ±360°) less the margin (at most a quarter of the
+/// range).
+pub(super) fn within_margin(lo: f64, hi: f64, margin_deg: f64) -> (f64, f64) {
+    let (lo, hi) = (lo.max(-360.0), hi.min(360.0));
+    let m = margin_deg.min((hi - lo) / 4.0);
+    (lo + m, hi - m)
+}
+
+/// Draws the candidates: configurations within `limits` (degrees) less the margin, away from
+/// singularities, clear of the workcell's floor, boxes and the arm itself and, with a tracker,
+/// within its range and incidence. Returns them, how many were drawn and how many the workcell
+/// refused.
 pub(super) fn candidates(
     model: &RobotModel,
     s: &ChainState,
+    limits: &[(f64, f64)],
     o: &PlanOptions,
-) -> Result<(Vec<Joints>, usize), PlanError> {
+) -> Result<(Vec<Joints>, usize, Rejected), PlanError> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(o.seed);
-    let ranges: Vec<(f64, f64)> = model
-        .limits_deg
-        .iter()
-        .map(|&(lo, hi)| {
-            let (lo, hi) = (lo.max(-360.0), hi.min(360.0));
-            let m = o.margin_deg.min((hi - lo) / 4.0);
-            (lo + m, hi - m)
-        })
-        .collect();
+    let ranges = draw_ranges(limits, o.margin_deg);
+    let mut rejected = Rejected::default();
     if let Some(t) = &o.tracker {
         // A tracker within the robot's reach would be in its way (and in danger).
         let origin = Vector3::new(s.base[0], s.base[1], s.base[2]);
@@ -235,22 +262,31 @@ pub(super) fn candidates(
                 continue;
             }
         }
-        out.push(q);
+        use super::workcell::Clash;
+        match super::workcell::clash(model, s, &q.map(f64::to_radians), &o.workcell, true) {
+            Some(Clash::Floor { .. }) => rejected.floor += 1,
+            Some(Clash::KeepOut { .. }) => rejected.keep_out += 1,
+            Some(Clash::SelfCollision { .. }) => rejected.self_collision += 1,
+            None => out.push(q),
+        }
     }
     if out.len() < o.candidates {
         return Err(setting(
             PlanField::Candidates,
             format!(
-                "only {} of {} configurations met the limits, the singularity bound{} after {drawn} draws",
+                "only {} of {} configurations met the limits, the singularity bound{} after {drawn} draws ({} below the floor, {} in a keep-out box, {} into the arm itself)",
                 out.len(),
                 o.candidates,
                 if o.tracker.is_some() {
-                    " and the tracker's range and incidence"
+                    ", the tracker's range and incidence"
                 } else {
                     ""
-                }
+                },
+                rejected.floor,
+                rejected.keep_out,
+                rejected.self_collision
             ),
         ));
     }
-    Ok((out, drawn))
+    Ok((out, drawn, rejected))
 }

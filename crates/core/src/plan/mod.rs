@@ -30,13 +30,16 @@ mod compare;
 mod geometry;
 mod order;
 mod prediction;
+pub mod program;
 mod report;
 mod search;
 #[cfg(test)]
 mod tests;
+pub mod workcell;
 
 pub use prediction::{model_to_plan, predict, prediction_problem};
 pub use report::render_text;
+pub use workcell::{KeepOut, Workcell};
 
 use crate::engine::{BackendInfo, EngineError, ProblemError};
 use crate::identify::chain::{nominal_state, state_model, Placement};
@@ -93,6 +96,9 @@ pub struct PlanOptions {
     pub target_mm: [f64; 3],
     /// Seed of the candidates, the search and the comparison.
     pub seed: u64,
+    /// The floor, keep-out boxes and self-collision every candidate must respect
+    /// ([`workcell`]).
+    pub workcell: Workcell,
 }
 
 /// Distance from the last joint's axis below which a model's tool is not taken as the plan's
@@ -135,6 +141,7 @@ impl Default for PlanOptions {
             curve_from: 10,
             target_mm: [30.0, -20.0, 80.0],
             seed: 1,
+            workcell: Workcell::default(),
         }
     }
 }
@@ -158,6 +165,14 @@ pub enum PlanField {
     TaskPoints,
     /// [`PlanOptions::target_mm`].
     Target,
+    /// [`Workcell::floor_mm`].
+    Floor,
+    /// [`Workcell::keep_out`].
+    KeepOut,
+    /// [`Workcell::link_radius_mm`].
+    LinkRadius,
+    /// A robot program of the design ([`program::robot_program`]).
+    Program,
 }
 
 impl std::fmt::Display for PlanField {
@@ -171,6 +186,10 @@ impl std::fmt::Display for PlanField {
             PlanField::Search => "search setting",
             PlanField::TaskPoints => "task points",
             PlanField::Target => "target",
+            PlanField::Floor => "floor",
+            PlanField::KeepOut => "keep-out box",
+            PlanField::LinkRadius => "link radius",
+            PlanField::Program => "robot program",
         })
     }
 }
@@ -276,6 +295,18 @@ pub struct Plan {
     pub design_deg: Vec<Joints>,
     /// Joint travel along the visiting order: Σ max_j |Δq_j| between consecutive poses, degrees.
     pub travel_deg: f64,
+    /// The same travel in the order the search chose the poses, before ordering, degrees.
+    pub travel_unordered_deg: f64,
+    /// The joint limits the candidates kept within (the controller's where narrower than the
+    /// model's, [`workcell::controller_limits`]), degrees.
+    pub limits_deg: Vec<(f64, f64)>,
+    /// Where limits narrower than the model's come from, if any.
+    pub limits_note: Option<String>,
+    /// The floor, keep-out boxes and self-collision the candidates respected.
+    pub workcell: Workcell,
+    /// Configurations refused for the workcell: below the floor, into a keep-out box, into
+    /// the arm itself.
+    pub rejected: candidates::Rejected,
     /// The plan's figures.
     pub planned: DesignFigures,
     /// The greedy log-det (D-optimal) design's figures.
@@ -367,7 +398,8 @@ pub fn plan(model: &RobotModel, task: &[Joints], o: &PlanOptions) -> Result<Plan
     let s = nominal_state(model);
     let lay = model.layout();
     let free = default_free(&model.fixed, true);
-    let (cands, drawn) = candidates::candidates(model, &s, o)?;
+    let (limits, limits_note) = workcell::controller_limits(model);
+    let (cands, drawn, rejected) = candidates::candidates(model, &s, &limits, o)?;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(o.seed ^ 0x005E_ED0F_C0DE);
     let g = Geometry::new(&s, &free, &cands, task, o, &mut rng);
     let (dopt, greedy_q95) = search::initial_design(&g, o.poses, &free, lay)?;
@@ -380,11 +412,17 @@ pub fn plan(model: &RobotModel, task: &[Joints], o: &PlanOptions) -> Result<Plan
     let curve = compare::curve(&g, &design, o);
     let covariance = g.covariance(&design, &free, lay.measured().len(), o.sigma_mm)?;
     let design_q: Vec<Joints> = design.iter().map(|&i| cands[i]).collect();
-    let (order, travel_deg) = order::visiting_order(&design_q);
+    let travel_unordered_deg = order::travel(&design_q);
+    let (design_deg, travel_deg) = order::visiting_order(&design_q, &limits, o.margin_deg);
     Ok(Plan {
         model_name: model.name.clone(),
-        design_deg: order.iter().map(|&i| design_q[i]).collect(),
+        design_deg,
         travel_deg,
+        travel_unordered_deg,
+        limits_deg: limits,
+        limits_note,
+        workcell: o.workcell.clone(),
+        rejected,
         planned,
         log_det_design,
         log_det_design_deg: dopt.iter().map(|&i| cands[i]).collect(),

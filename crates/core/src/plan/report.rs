@@ -164,19 +164,54 @@ fn text_setup(s: &mut String, p: &Plan) {
     );
     let _ = writeln!(
         s,
-        "design     {} poses of {} candidates ({} drawn), joint travel {:.0}° in visiting order, {:.2} s",
+        "design     {} poses of {} candidates ({} drawn), joint travel {:.0}° in visiting order ({:.0}° as chosen), {:.2} s",
         p.design_deg.len(),
         p.candidates,
         p.candidates_drawn,
         p.travel_deg,
+        p.travel_unordered_deg,
         p.seconds
     );
+    text_workcell(s, p);
     let _ = writeln!(
         s,
         "identified {} inputs: {}",
         p.identified.len(),
         p.identified.join(" ")
     );
+}
+
+/// The workcell and the controller's limits: what the candidates respected and what they
+/// refused.
+fn text_workcell(s: &mut String, p: &Plan) {
+    let w = &p.workcell;
+    let mut parts = Vec::new();
+    if let Some(f) = w.floor_mm {
+        parts.push(format!("floor z = {} mm", fmt_g(f)));
+    }
+    if !w.keep_out.is_empty() {
+        parts.push(format!("{} keep-out boxes", w.keep_out.len()));
+    }
+    parts.push(if w.self_collision {
+        match w.link_radius_mm {
+            Some(r) => format!("self-collision (link capsules {} mm)", fmt_g(r)),
+            None => "self-collision (link capsules 20 … 50 mm)".to_string(),
+        }
+    } else {
+        "no self-collision check".to_string()
+    });
+    let r = &p.rejected;
+    let _ = writeln!(
+        s,
+        "workcell   {}; refused {} below the floor, {} in keep-out boxes, {} into the arm",
+        parts.join(", "),
+        r.floor,
+        r.keep_out,
+        r.self_collision
+    );
+    if let Some(n) = &p.limits_note {
+        let _ = writeln!(s, "limits     {n}");
+    }
 }
 
 /// The engine's Monte Carlo of the planned model at the task points (with the per-point
