@@ -7,7 +7,10 @@ use crate::errors::value_error;
 use crate::problem::{check_estimate, problem_function, BYTES_PER_POINT};
 use gpu_amcs_core::kinematics::Joints;
 use gpu_amcs_core::memory::Estimate;
-use gpu_amcs_core::plan::{self as planner, Plan, PlanError, PlanField, PlanOptions, TrackerSite};
+use gpu_amcs_core::plan::program::{robot_program, ProgramFormat};
+use gpu_amcs_core::plan::{
+    self as planner, KeepOut, Plan, PlanError, PlanField, PlanOptions, TrackerSite, Workcell,
+};
 use gpu_amcs_core::report::Report;
 use pyo3::prelude::*;
 
@@ -22,6 +25,10 @@ fn keyword(f: PlanField) -> &'static str {
         PlanField::Search => "draws",
         PlanField::TaskPoints => "q_deg",
         PlanField::Target => "target",
+        PlanField::Floor => "floor",
+        PlanField::KeepOut => "keep_out",
+        PlanField::LinkRadius => "link_radius",
+        PlanField::Program => "program",
     }
 }
 
@@ -73,6 +80,19 @@ crate::report_class!(PyPlan, text, {
             .unwrap_or_default()
     }
 
+    /// The design as a robot program (the command line's `--program`): `language` is
+    /// "urscript", "rapid" or "krl" (or the file extensions "script", "mod", "src"), `name` the
+    /// program's name, `settle` the seconds to wait at each pose for the tracker.
+    #[pyo3(signature = (language, name = "calibration", settle = 2.0))]
+    fn program(&self, language: &str, name: &str, settle: f64) -> PyResult<String> {
+        let format = ProgramFormat::from_extension(language).ok_or_else(|| {
+            value_error(format!(
+                "language: expected urscript, rapid or krl, got {language:?}"
+            ))
+        })?;
+        robot_program(&self.plan, format, name, settle).map_err(plan_error)
+    }
+
     /// Notes on the backend choice (the command line prints them to stderr).
     #[getter]
     fn notes(&self) -> Vec<String> {
@@ -88,6 +108,38 @@ crate::report_class!(PyPlan, text, {
         )
     }
 });
+
+/// The workcell of the keywords `floor`, `keep_out` (boxes of six numbers x0, y0, z0, x1,
+/// y1, z1 mm), `self_collision` and `link_radius`.
+fn workcell(
+    floor: Option<f64>,
+    keep_out: Vec<Vec<f64>>,
+    self_collision: bool,
+    link_radius: Option<f64>,
+) -> PyResult<Workcell> {
+    let boxes = keep_out
+        .iter()
+        .enumerate()
+        .map(|(i, c)| {
+            if c.len() != 6 {
+                return Err(value_error(format!(
+                    "keep_out[{i}]: a box is six numbers x0, y0, z0, x1, y1, z1 (mm), got {}",
+                    c.len()
+                )));
+            }
+            Ok(KeepOut {
+                min_mm: [c[0].min(c[3]), c[1].min(c[4]), c[2].min(c[5])],
+                max_mm: [c[0].max(c[3]), c[1].max(c[4]), c[2].max(c[5])],
+            })
+        })
+        .collect::<PyResult<Vec<_>>>()?;
+    Ok(Workcell {
+        floor_mm: floor,
+        keep_out: boxes,
+        self_collision,
+        link_radius_mm: link_radius,
+    })
+}
 
 /// Three numbers, or `None`.
 fn triple(v: Option<Vec<f64>>, name: &str) -> PyResult<Option<[f64; 3]>> {
@@ -108,6 +160,9 @@ problem_function! {
     /// last joint's axis, else 30, -20, 80) and, with `tracker_at` (x, y, z mm), candidates within `tracker_range`
     /// that face the tracker within `max_incidence` degrees; predicts R(L) at `threshold` (mm)
     /// with `draws` draws of the planned model at the task points (the problem's points).
+    /// The workcell: `floor` (mm, z up in the measurement frame), `keep_out` (boxes of six
+    /// numbers x0, y0, z0, x1, y1, z1 mm), `self_collision` and `link_radius` (mm), as the
+    /// command line's `--floor`, `--keep-out`, `--no-self-collision` and `--link-radius`.
     /// Problem arguments as `mcs`. Returns a `PlanResult`.
     fn plan(
         poses: usize = 30,
@@ -118,13 +173,18 @@ problem_function! {
         target: Option<Vec<f64>> = None,
         threshold: Option<Vec<f64>> = None,
         candidates: usize = 2000,
-        draws: usize = 100_000
+        draws: usize = 100_000,
+        floor: Option<f64> = None,
+        keep_out: Vec<Vec<f64>> = Vec::new(),
+        self_collision: bool = true,
+        link_radius: Option<f64> = None
     ) -> PyPlan |py, problem| {
         if !(100..=100_000_000).contains(&draws) {
             return Err(value_error(format!("draws: must be 100 … 100000000, got {draws}")));
         }
         let tracker_at = triple(tracker_at, "tracker_at")?;
         let target = triple(target, "target")?;
+        let workcell = workcell(floor, keep_out, self_collision, link_radius)?;
         let thresholds =
             threshold.unwrap_or_else(|| gpu_amcs_core::plan::DEFAULT_THRESHOLDS_MM.to_vec());
         let seed = problem.seed;
@@ -158,6 +218,7 @@ problem_function! {
                 thresholds: thresholds.clone(),
                 target_mm: target.unwrap_or_else(|| PlanOptions::default_target(&model)),
                 seed,
+                workcell,
                 ..PlanOptions::default()
             };
             let mut p = planner::plan(&model, &task, &opts).map_err(plan_error)?;

@@ -361,6 +361,29 @@ def test_plan_errors_name_the_keyword(cli):
         gpu_amcs.plan(points=5, tracker_at=[1, 2], backend="cpu")
 
 
+def test_plan_workcell_and_program_equal_cli(cli, tmp_path):
+    """floor, keep_out and program(): the command line's --floor, --keep-out and --program."""
+    design, prog = tmp_path / "design.csv", tmp_path / "cal.script"
+    run_ok(cli, "plan", "--preset", "ur5e", "--points", 6, "--poses", 14, "--candidates", 300,
+           "--draws", 2000, "--backend", "cpu", "--seed", 3, "--floor", -20,
+           "--keep-out", "300,-800,-20,900,-300,400", "--out", design, "--program", prog)
+    res = gpu_amcs.plan(preset="ur5e", points=6, poses=14, candidates=300, draws=2000,
+                        backend="cpu", seed=3, floor=-20,
+                        keep_out=[[900, -300, 400, 300, -800, -20]])
+    assert res.design_csv() == design.read_text()
+    assert res.program("urscript", name="cal") == prog.read_text()
+    assert res.program("script", name="cal") == res.program("urscript", name="cal")
+    assert "MODULE" in res.program("rapid") and "PTP" in res.program("krl")
+    # Without the floor and the box the design differs: the workcell is used.
+    free = gpu_amcs.plan(preset="ur5e", points=6, poses=14, candidates=300, draws=2000,
+                         backend="cpu", seed=3)
+    assert free.design_csv() != res.design_csv()
+    with pytest.raises(ValueError, match=r"keep_out\[0\]: a box is six numbers"):
+        gpu_amcs.plan(preset="ur5e", points=6, keep_out=[[0, 0, 0, 1, 1]], backend="cpu")
+    with pytest.raises(ValueError, match=r"language: expected urscript, rapid or krl"):
+        res.program("gcode")
+
+
 def test_discrepancy_term_is_carried_and_can_be_left_out(cli, tmp_path):
     # Noise not stated: the identified model carries a discrepancy term drawn from its
     # residuals; mcs draws it (as the command line does) unless discrepancy=False
