@@ -5,7 +5,8 @@ use super::Run;
 use crate::cmd::args::ModelArgs;
 use anyhow::{Context, Result};
 use clap::Args;
-use gpu_amcs::import::export;
+use gpu_amcs::identify::{provenance_frame, Placement};
+use gpu_amcs::import::export::{self, ExportError, UrdfBase};
 use std::path::PathBuf;
 
 /// `export` options.
@@ -20,6 +21,11 @@ pub struct ExportArgs {
     /// Write the model as a UR calibration file (YAML) to FILE.
     #[arg(long, value_name = "FILE")]
     pub ur_calibration: Option<PathBuf>,
+    /// End the UR calibration file at the flange and give the model's tool point as a separate
+    /// TCP for the controller (printed, and written in the file as a comment): for a tool point
+    /// off the joint-6 axis, such as the target of a model identified from tracker data.
+    #[arg(long, requires = "ur_calibration")]
+    pub ur_tcp: bool,
     /// Robot name in the URDF (default: the model's name).
     #[arg(long, value_name = "NAME")]
     pub name: Option<String>,
@@ -32,15 +38,56 @@ impl Run for ExportArgs {
         outputs.file("--urdf", a.urdf.as_deref())?;
         outputs.file("--ur-calibration", a.ur_calibration.as_deref())?;
         let model = a.model.load()?;
+        // A model identified in a measurement frame has that frame's placement as its base: the
+        // URDF writes it as its own joint from `world`, not in joint 1's origin.
+        let measured = a
+            .model
+            .model
+            .as_deref()
+            .and_then(|f| std::fs::read_to_string(f).ok())
+            .is_some_and(|t| provenance_frame(&t) == Some(Placement::Identify));
         // Build everything before writing anything.
+        let mut tcp = None;
         if a.ur_calibration.is_some() {
-            let text = export::to_ur_calibration(&model).context("--ur-calibration")?;
+            let text = if a.ur_tcp {
+                let (text, t) =
+                    export::to_ur_calibration_tcp(&model).context("--ur-calibration")?;
+                tcp = Some(t);
+                text
+            } else {
+                export::to_ur_calibration(&model).map_err(|e| match e {
+                    ExportError::ToolOffAxis { .. } => {
+                        anyhow::anyhow!("--ur-calibration: {e} (--ur-tcp)")
+                    }
+                    e => anyhow::Error::new(e).context("--ur-calibration"),
+                })?
+            };
             outputs.stage_file("--ur-calibration", text)?;
         }
         if a.urdf.is_some() {
-            outputs.stage_file("--urdf", export::to_urdf(&model, a.name.as_deref()))?;
+            let base = if measured {
+                UrdfBase::World
+            } else {
+                UrdfBase::FirstJoint
+            };
+            let text = export::to_urdf_with(&model, a.name.as_deref(), base);
+            outputs.stage_file("--urdf", text)?;
         }
         outputs.commit()?;
+        let mut text = String::new();
+        if let Some(t) = tcp {
+            let mm = t.xyz_m.map(|v| format!("{:.4}", v * 1000.0));
+            text.push_str(&format!(
+                "TCP (the tool point in the flange frame, not in the UR calibration file): x {} mm, y {} mm, z {} mm; URScript set_tcp({t})\n",
+                mm[0], mm[1], mm[2]
+            ));
+        }
+        if let (Some(_), true, Some(_)) = (&a.urdf, measured, model.base) {
+            text.push_str(
+                "URDF: the placement in the measurement frame is the fixed joint world_joint (world → base_link); tool0 is the target\n",
+            );
+        }
+        crate::cmd::stdout::print(&text)?;
         // UR's file is the arm in its own base frame: a base other than the REP-103 turn UR's
         // description adds itself is where the arm stands, and belongs in the description.
         if let (Some(_), Some(b)) = (&a.ur_calibration, model.base) {
@@ -48,7 +95,11 @@ impl Run for ExportArgs {
                 && b.rpy[0].abs() < 1e-12
                 && b.rpy[1].abs() < 1e-12
                 && (b.rpy[2].abs() - std::f64::consts::PI).abs() < 1e-12;
-            if !ur_turn {
+            if measured {
+                eprintln!(
+                    "note: --ur-calibration: the model's placement in the measurement frame (its base) is not part of UR's kinematics file, which starts at the arm's own base frame"
+                );
+            } else if !ur_turn {
                 eprintln!(
                     "note: --ur-calibration: the model's base transform is not part of UR's kinematics file (it starts at the arm's own base frame); place the arm in its description"
                 );

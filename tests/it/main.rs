@@ -9,6 +9,7 @@ mod amcs_vs_mcs;
 mod blocks;
 mod cli;
 mod docs;
+mod export_tracker;
 mod flag_properties;
 mod fuzz;
 #[cfg(feature = "gpu")]
@@ -26,6 +27,7 @@ mod joint_counts;
 mod map;
 mod map_shards;
 mod mc_known_answers;
+mod memory_limits;
 mod module_cycles;
 mod placement_analyses;
 mod plan;

@@ -9,6 +9,12 @@
 //! fits these formats: the parameter uncertainty (σ, covariance) does not, and the model file
 //! stays the full record; the writers say so in a comment. A UR calibration file has UR's six
 //! joints: a model of another joint count is refused ([`ExportError::JointCount`]).
+//!
+//! A model identified in a measurement frame (a tracker's) carries that frame's placement as its
+//! base and the tracker target as its tool point. [`UrdfBase::World`] writes the placement as its
+//! own fixed joint `world` → `base_link`, so the arm's chain starts at its own base as ROS tools
+//! expect; [`to_ur_calibration_tcp`] ends a UR file at the flange and gives the target as a
+//! separate TCP for the controller.
 
 use super::ur::{UR_JOINTS, UR_KEYS};
 use crate::kinematics::{joint_transform, RobotModel};
@@ -31,7 +37,7 @@ pub enum ExportError {
     },
     /// A UR calibration file ends at the flange, on the joint-6 axis: a tool point off that
     /// axis cannot be written.
-    #[error("the tool point is {} mm off the joint-6 axis; a UR calibration file ends on that axis (flange) and cannot hold it", crate::number::fmt_plain(*.offset_mm))]
+    #[error("the tool point is {} mm off the joint-6 axis; a UR calibration file ends on that axis (flange) and cannot hold it; the file can end at the flange with the tool point as a separate TCP", crate::number::fmt_plain(*.offset_mm))]
     ToolOffAxis {
         /// Distance of the tool point from the joint-6 axis, mm.
         offset_mm: f64,
@@ -53,16 +59,23 @@ fn fixed_part(model: &RobotModel, i: usize) -> Isometry3<f64> {
 }
 
 /// The joint origins, one per joint of the model (joint i's, in joint i−1's frame after its
-/// rotation), and the tip.
+/// rotation), and the tip. Joint 1's origin is the model's base transform.
 pub fn origins(model: &RobotModel) -> (Vec<Isometry3<f64>>, Isometry3<f64>) {
+    origins_with(model, UrdfBase::FirstJoint)
+}
+
+/// [`origins`] with the base where `base` puts it: joint 1's origin is the identity with
+/// [`UrdfBase::World`] (the base is then its own fixed joint).
+fn origins_with(model: &RobotModel, base: UrdfBase) -> (Vec<Isometry3<f64>>, Isometry3<f64>) {
     let n = model.joints();
     let o = (0..n)
         .map(|i| {
             if i == 0 {
                 // The base transform places joint 1 in the description's frame.
-                model
-                    .base
-                    .map_or_else(Isometry3::identity, |b| b.isometry())
+                match (base, model.base) {
+                    (UrdfBase::FirstJoint, Some(b)) => b.isometry(),
+                    _ => Isometry3::identity(),
+                }
             } else {
                 fixed_part(model, i - 1)
             }
@@ -98,13 +111,33 @@ fn xml_escape(s: &str) -> String {
         .replace('\'', "&apos;")
 }
 
+/// Where a URDF export writes the model's base transform ([`RobotModel::base`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UrdfBase {
+    /// In joint 1's origin, from `base_link`: the base is part of the arm's description (an
+    /// imported robot's mount or turn), and an import of the file gives the same model back.
+    FirstJoint,
+    /// As its own fixed joint `world_joint` from a root link `world` to `base_link`, joint 1's
+    /// origin the identity: the base is where the arm stands in another frame (the placement of
+    /// a model identified in a tracker's frame), which ROS tools take as a separate joint.
+    World,
+}
+
 /// The model as URDF: links `base_link`, `link_1`…`link_n`, `tool0` (the tool point), revolute
 /// joints `joint_1`…`joint_n` about z with the model's limits (n the model's joint count), and a
-/// fixed `tool0_joint`.
+/// fixed `tool0_joint`; the base transform in joint 1's origin ([`UrdfBase::FirstJoint`]).
 /// `name` is the robot name (default: the model's).
 pub fn to_urdf(model: &RobotModel, name: Option<&str>) -> String {
+    to_urdf_with(model, name, UrdfBase::FirstJoint)
+}
+
+/// [`to_urdf`] with the base transform where `base` puts it. With [`UrdfBase::World`] and a
+/// model with a base, the file starts with a link `world` and a fixed joint `world_joint` to
+/// `base_link` carrying the base; without a base it equals [`to_urdf`]'s.
+pub fn to_urdf_with(model: &RobotModel, name: Option<&str>, base: UrdfBase) -> String {
     let name = xml_escape(name.unwrap_or(&model.name));
-    let (o, tip) = origins(model);
+    let world = base == UrdfBase::World && model.base.is_some();
+    let (o, tip) = origins_with(model, base);
     let mut s = String::new();
     let _ = writeln!(s, "<?xml version=\"1.0\"?>");
     let _ = writeln!(
@@ -117,6 +150,16 @@ pub fn to_urdf(model: &RobotModel, name: Option<&str>) -> String {
         s,
         "     geometry; tool0 is the model's tool point (its orientation is the last MDH frame's)."
     );
+    if world {
+        let _ = writeln!(
+            s,
+            "     world is the frame the model was identified in (the tracker's); world_joint places"
+        );
+        let _ = writeln!(
+            s,
+            "     the robot's base_link in it (the identified placement); tool0 is the measured target."
+        );
+    }
     let _ = writeln!(
         s,
         "     The parameter uncertainty (sigma, covariance) does not fit in URDF: the gpu-amcs model"
@@ -132,6 +175,9 @@ pub fn to_urdf(model: &RobotModel, name: Option<&str>) -> String {
         .chain((1..=n).map(|j| format!("link_{j}")))
         .chain(std::iter::once("tool0".to_string()))
         .collect();
+    if world {
+        let _ = writeln!(s, "  <link name=\"world\"/>");
+    }
     for l in &links {
         let _ = writeln!(s, "  <link name=\"{l}\"/>");
     }
@@ -147,6 +193,16 @@ pub fn to_urdf(model: &RobotModel, name: Option<&str>) -> String {
             num(r[2])
         )
     };
+    let fixed = |s: &mut String, joint: &str, t: &Isometry3<f64>, parent: &str, child: &str| {
+        let _ = writeln!(s, "  <joint name=\"{joint}\" type=\"fixed\">");
+        let _ = writeln!(s, "    {}", origin(t));
+        let _ = writeln!(s, "    <parent link=\"{parent}\"/>");
+        let _ = writeln!(s, "    <child link=\"{child}\"/>");
+        let _ = writeln!(s, "  </joint>");
+    };
+    if let (true, Some(b)) = (world, model.base) {
+        fixed(&mut s, "world_joint", &b.isometry(), "world", &links[0]);
+    }
     for j in 0..n {
         let (lo, hi) = model.limits_deg[j];
         let _ = writeln!(s, "  <joint name=\"joint_{}\" type=\"revolute\">", j + 1);
@@ -162,11 +218,7 @@ pub fn to_urdf(model: &RobotModel, name: Option<&str>) -> String {
         );
         let _ = writeln!(s, "  </joint>");
     }
-    let _ = writeln!(s, "  <joint name=\"tool0_joint\" type=\"fixed\">");
-    let _ = writeln!(s, "    {}", origin(&tip));
-    let _ = writeln!(s, "    <parent link=\"{}\"/>", links[n]);
-    let _ = writeln!(s, "    <child link=\"tool0\"/>");
-    let _ = writeln!(s, "  </joint>");
+    fixed(&mut s, "tool0_joint", &tip, &links[n], "tool0");
     let _ = writeln!(s, "</robot>");
     s
 }
@@ -190,6 +242,51 @@ pub fn to_urdf(model: &RobotModel, name: Option<&str>) -> String {
 /// [`ExportError::ToolOffAxis`] when the tool point lies off the joint-6 axis (a UR calibration
 /// file ends on that axis and cannot hold it).
 pub fn to_ur_calibration(model: &RobotModel) -> Result<String, ExportError> {
+    ur_file(model, false).map(|(text, _)| text)
+}
+
+/// A tool point as a UR controller's TCP: the pose of the tool point in the flange frame (the
+/// frame a UR calibration file ends in), metres and a rotation vector in radians, as URScript's
+/// `set_tcp(p[x, y, z, rx, ry, rz])` takes it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct UrTcp {
+    /// Position of the tool point in the flange frame, m.
+    pub xyz_m: [f64; 3],
+    /// Orientation of the model's last MDH frame in the flange frame, as a rotation vector
+    /// (axis times angle), rad.
+    pub rotation_vector: [f64; 3],
+}
+
+impl std::fmt::Display for UrTcp {
+    /// URScript's pose literal, `p[x, y, z, rx, ry, rz]`.
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let v: Vec<String> = self
+            .xyz_m
+            .iter()
+            .chain(&self.rotation_vector)
+            .map(|v| num(*v))
+            .collect();
+        write!(f, "p[{}]", v.join(", "))
+    }
+}
+
+/// The model as a UR calibration file that ends at the flange, with the tool point as a separate
+/// [`UrTcp`] (written in the file as a comment too): for a tool point off the joint-6 axis,
+/// such as the target of a model identified from tracker data, which the file itself cannot
+/// hold ([`to_ur_calibration`]). The flange is joint 6's origin in the file (its rotation and
+/// its shift along z, θ6 and d6); the rest of joint 6 (a6, α6, β6) and the tool point are the
+/// TCP, so the file and the TCP together give the model's tool point exactly.
+///
+/// # Errors
+///
+/// [`ExportError::JointCount`] when the model does not have six joints.
+pub fn to_ur_calibration_tcp(model: &RobotModel) -> Result<(String, UrTcp), ExportError> {
+    ur_file(model, true)
+}
+
+/// The UR calibration file of `model`, ending on the joint-6 axis at the tool point
+/// or (`at_flange`) at the flange, and the tool point as the [`UrTcp`].
+fn ur_file(model: &RobotModel, at_flange: bool) -> Result<(String, UrTcp), ExportError> {
     if model.joints() != UR_JOINTS.len() {
         return Err(ExportError::JointCount {
             joints: model.joints(),
@@ -219,10 +316,16 @@ pub fn to_ur_calibration(model: &RobotModel) -> Result<String, ExportError> {
     let t = model.tool;
     let w = Vector3::from_fn(|r, _| m[r][0] * t[0] + m[r][1] * t[1] + m[r][2] * t[2] + m[r][3]);
     let offset_mm = w.x.hypot(w.y);
-    if !offset_mm.is_finite() || offset_mm > UR_TOOL_AXIS_EPS_MM {
-        return Err(ExportError::ToolOffAxis { offset_mm });
+    let tcp = UrTcp {
+        xyz_m: [w.x / 1000.0, w.y / 1000.0, w.z / 1000.0],
+        rotation_vector: iso(&m).rotation.scaled_axis().into(),
+    };
+    if !at_flange {
+        if !offset_mm.is_finite() || offset_mm > UR_TOOL_AXIS_EPS_MM {
+            return Err(ExportError::ToolOffAxis { offset_mm });
+        }
+        o[last] *= Isometry3::translation(0.0, 0.0, w.z);
     }
-    o[last] *= Isometry3::translation(0.0, 0.0, w.z);
     let mut s = String::new();
     let _ = writeln!(
         s,
@@ -238,6 +341,16 @@ pub fn to_ur_calibration(model: &RobotModel) -> Result<String, ExportError> {
         s,
         "# (TOML) is the full record. 'hash' is not the controller's checksum: a digest of these lines."
     );
+    if at_flange {
+        let _ = writeln!(
+            s,
+            "# The chain ends at the flange; the model's tool point is the TCP, not part of this file:"
+        );
+        let _ = writeln!(
+            s,
+            "# set it on the controller (URScript set_tcp, m and rad): TCP {tcp}"
+        );
+    }
     let mut body = String::new();
     for (j, t) in o.iter().enumerate() {
         let (x, r) = xyz_rpy_of(t);
@@ -250,5 +363,5 @@ pub fn to_ur_calibration(model: &RobotModel) -> Result<String, ExportError> {
     let _ = writeln!(s, "kinematics:");
     s.push_str(&body);
     let _ = writeln!(s, "  hash: calib_gpu_amcs_{}", &digest[..16]);
-    Ok(s)
+    Ok((s, tcp))
 }
