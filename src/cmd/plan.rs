@@ -8,6 +8,7 @@ use super::reports::{problem_rows, write_reports, ReportFlags};
 use super::Run;
 use anyhow::{bail, Result};
 use clap::Args;
+use gpu_amcs::memory::Estimate;
 use gpu_amcs::plan::program::ProgramFormat;
 use gpu_amcs::plan::{
     self, KeepOut, Plan, PlanError, PlanField, PlanOptions, TrackerSite, Workcell,
@@ -201,6 +202,21 @@ impl Run for PlanArgs {
         a.reports.declare(&mut outputs, &Plan::planned_layout())?;
         let program_format = program_format(&a)?;
         let workcell = workcell(&a)?;
+        // The library checks the tracker's site as one setting; each number is named here.
+        if a.tracker_at.is_some() {
+            if !(a.tracker_range.is_finite() && a.tracker_range > 0.0) {
+                bail!(
+                    "--tracker-range: {} is not a range > 0 (mm)",
+                    a.tracker_range
+                );
+            }
+            if !(a.max_incidence > 0.0 && a.max_incidence <= 90.0) {
+                bail!(
+                    "--max-incidence: {} is not an angle in (0, 90] degrees",
+                    a.max_incidence
+                );
+            }
+        }
         if a.draws < 100 || a.draws > 100_000_000 {
             bail!("--draws: must be 100 … 100000000, got {}", a.draws);
         }
@@ -253,6 +269,35 @@ impl Run for PlanArgs {
                 workcell,
                 ..PlanOptions::default()
             };
+            // The candidates' matrices and the prediction's draws, sized before either exists.
+            let what = format!(
+                "a plan from {} candidates at {} task points",
+                opts.candidates,
+                task.len()
+            );
+            let search = plan::plan_estimate(
+                &model,
+                task.len(),
+                &opts,
+                Estimate::new(
+                    what.clone(),
+                    "use fewer --candidates, or raise --memory-limit",
+                ),
+            );
+            a.problem.memory.check(&search)?;
+            a.problem.memory.check(&plan::prediction_estimate(
+                task.len(),
+                a.draws,
+                plan::plan_estimate(
+                    &model,
+                    task.len(),
+                    &opts,
+                    Estimate::new(
+                        format!("{what} and a prediction of {} draws", a.draws),
+                        "use fewer --draws, or raise --memory-limit",
+                    ),
+                ),
+            ))?;
             let bar = Progress::new(a.reports.quiet, "plan", "steps");
             bar.update(0, 2);
             let mut p = plan::plan(&model, &task, &opts).map_err(|e| plan_error(e, a.iso9283))?;

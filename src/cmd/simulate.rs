@@ -75,6 +75,16 @@ impl NonGeometricArgs {
     }
 }
 
+/// Bytes a simulated pose keeps beside its CSV line: its configuration and the pose itself.
+const POSE_BYTES: u64 = (std::mem::size_of::<gpu_amcs::kinematics::Joints>()
+    + std::mem::size_of::<gpu_amcs::identify::PosePoint>()) as u64;
+
+/// Bytes of one pose's CSV line at most: up to 24 characters per number (`-0.00012345678901234`
+/// and a comma), one per joint, three for the position and three for stated σ.
+fn pose_line_bytes(joints: u64) -> u64 {
+    24 * (joints + 6)
+}
+
 /// `simulate` options.
 #[derive(Args, Debug, Clone)]
 pub struct SimulateArgs {
@@ -150,6 +160,17 @@ impl Run for SimulateArgs {
         }
         let (text, what) = match a.poses {
             Some(n) => {
+                // The configurations, the simulated poses and their CSV text are all kept
+                // until the output is written: sized before any of them is made.
+                let joints = exp.truth.joints() as u64;
+                let line = pose_line_bytes(joints);
+                a.memory.check(
+                    &Estimate::new(
+                        format!("{n} poses"),
+                        "use fewer --poses, or raise --memory-limit",
+                    )
+                    .plus(&[n as u64, POSE_BYTES + line]),
+                )?;
                 let configs = match &a.points_file {
                     Some(p) => {
                         let c = gpu_amcs::points::read_csv(p, exp.truth.joints())
@@ -193,7 +214,16 @@ impl Run for SimulateArgs {
                     &noise,
                     a.factors.seed,
                 );
+                // Reserved up front: a vector doubling its way to the size would need half as
+                // much again at its last step.
                 let mut buf = Vec::new();
+                buf.try_reserve_exact((configs.len() as u64).saturating_mul(line) as usize)
+                    .map_err(|_| {
+                        anyhow::anyhow!(
+                            "--poses: the CSV text of {} poses does not fit in memory; use fewer",
+                            configs.len()
+                        )
+                    })?;
                 gpu_amcs::identify::write_poses(&data, &mut buf)?;
                 (
                     String::from_utf8(buf).context("pose CSV")?,

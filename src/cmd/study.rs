@@ -1,6 +1,6 @@
 //! `study`: the paper's factor study on a virtual TX60, written all or nothing into a directory.
 
-use super::args::{sweeps_estimate, BYTES_PER_DRAW};
+use super::args::{sweeps_estimate, BYTES_PER_DRAW, BYTES_PER_POINT};
 use super::flags::simulate_error;
 use super::outputs::Outputs;
 use super::progress::Progress;
@@ -112,14 +112,20 @@ impl Run for StudyArgs {
         s.check().map_err(simulate_error)?;
         a.reports
             .declare(&mut outputs, &StudyResult::planned_layout(&s))?;
+        // The test point sets are kept for the whole study, and each is copied into the two
+        // evaluators (independent and correlated) of its level.
+        let all_points: u64 = s.point_counts.iter().map(|&m| m as u64).sum();
+        let most_points = s.point_counts.iter().max().map_or(0, |&m| m as u64);
         let e = Estimate::new(
             format!(
-                "a study with {} MCS draws and {} calibration runs",
+                "a study with {} MCS draws, {} calibration runs and {all_points} test points",
                 s.mcs_draws, s.baseline.runs
             ),
-            "lower --mcs-draws or --runs, or raise --memory-limit",
+            "lower --mcs-draws, --runs or --points, or raise --memory-limit",
         )
-        .plus(&[s.mcs_draws, BYTES_PER_DRAW]);
+        .plus(&[s.mcs_draws, BYTES_PER_DRAW])
+        .plus(&[all_points, BYTES_PER_POINT])
+        .plus(&[most_points, 2, BYTES_PER_POINT]);
         a.memory.check(&sweeps_estimate(e, &s.baseline))?;
         let bar = Progress::new(a.reports.quiet, "study", "steps");
         let cb = |done: u64, total: u64, msg: &str| {

@@ -1,12 +1,13 @@
 //! `validate`: positioning accuracy of a model against measured positions.
 
-use super::args::load_model;
+use super::args::{load_model, MemoryArgs, BYTES_PER_DRAW, BYTES_PER_POINT};
 use super::outputs::Outputs;
 use super::reports::{write_reports, ReportFlags};
 use super::Run;
 use anyhow::{Context, Result};
 use clap::Args;
 use gpu_amcs::kinematics::RobotModel;
+use gpu_amcs::memory::Estimate;
 use std::path::PathBuf;
 
 /// `validate` options.
@@ -42,11 +43,11 @@ pub struct ValidateArgs {
     /// model's uncertainty.
     #[arg(long, value_name = "MM", requires = "iso9283")]
     pub spec: Option<f64>,
-    /// Draws of the certificate's Monte Carlo run.
+    /// Draws of the certificate's Monte Carlo run (2000 … 100000000).
     #[arg(long, default_value_t = 100_000, value_name = "N", requires = "spec")]
     pub draws: u64,
     /// Draws per pose of the predictive check (is the model's predicted error distribution
-    /// honest at these poses?); 0 leaves the check out.
+    /// honest at these poses?), at most 1000000; 0 leaves the check out.
     #[arg(long, default_value_t = 20_000, value_name = "N")]
     pub check_draws: usize,
     /// Seed of the predictive check.
@@ -55,7 +56,15 @@ pub struct ValidateArgs {
     /// With --iso9283: the report files (JSON, CSV, SVG, HTML).
     #[command(flatten)]
     pub reports: ReportFlags,
+    #[command(flatten)]
+    pub memory: MemoryArgs,
 }
+
+/// Most draws of the certificate's run (`--draws`).
+const MAX_DRAWS: u64 = 100_000_000;
+
+/// Most draws per pose of the predictive check (`--check-draws`).
+const MAX_CHECK_DRAWS: usize = 1_000_000;
 
 /// The frame of the measurements.
 #[derive(clap::ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -70,6 +79,12 @@ impl Run for ValidateArgs {
     fn run(self) -> Result<()> {
         let a = self;
         use gpu_amcs::identify::{self, validate as v};
+        if a.check_draws > MAX_CHECK_DRAWS {
+            anyhow::bail!(
+                "--check-draws: must be 0 … {MAX_CHECK_DRAWS}, got {}",
+                a.check_draws
+            );
+        }
         let model = RobotModel::from_file(&a.model)?;
         let model_text = std::fs::read_to_string(&a.model).unwrap_or_default();
         let origin = a.model.display().to_string();
@@ -149,6 +164,10 @@ fn cli_error(e: gpu_amcs::identify::validate::ValidateError) -> anyhow::Error {
     }
 }
 
+/// Draws of the certificate's run evaluated at a time (the library's default chunk), each
+/// keeping its per-pose errors.
+const CERTIFICATE_CHUNK: u64 = 100_000;
+
 /// `validate --iso9283`: the ISO 9283 figures of the measured cycles and, with `--spec`, the
 /// certificate at their poses.
 fn iso9283(
@@ -168,19 +187,36 @@ fn iso9283(
         if !(spec.is_finite() && spec > 0.0) {
             anyhow::bail!("--spec: {spec} is not a length > 0 (mm)");
         }
+        // The certificate's run keeps every draw's w: its number is checked here, where the
+        // flag is known, and sized against the memory once the poses are known.
+        let min =
+            gpu_amcs::mc::min_draws(gpu_amcs::mc::RunSettings::default().coverage_probability);
+        if a.draws < min || a.draws > MAX_DRAWS {
+            anyhow::bail!("--draws: must be {min} … {MAX_DRAWS}, got {}", a.draws);
+        }
     }
     let figures =
         iso9283::pose_figures(model, m, frame).with_context(|| a.measured.display().to_string())?;
     let certificate = match a.spec {
-        Some(spec) => Some(
+        Some(spec) => Some({
+            let poses = figures.len() as u64;
+            a.memory.check(
+                &Estimate::new(
+                    format!("a certificate of {} draws", a.draws),
+                    "use fewer --draws, or raise --memory-limit",
+                )
+                .plus(&[a.draws, BYTES_PER_DRAW])
+                .plus(&[poses, BYTES_PER_POINT])
+                .plus(&[a.draws.min(CERTIFICATE_CHUNK), poses, 2 * 8]),
+            )?;
             iso9283::certify(model, &figures, spec, frame, a.draws, 2025).map_err(|e| {
                 let file = match e {
                     iso9283::CertifyError::NoUncertainty { .. } => &a.model,
                     _ => &a.measured,
                 };
                 anyhow::anyhow!("--spec: {}: {e}", file.display())
-            })?,
-        ),
+            })?
+        }),
         None => None,
     };
     let report = iso9283::PoseReport {

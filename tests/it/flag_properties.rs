@@ -10,7 +10,7 @@
 //! (a count beyond that is item 4's: an estimate and a cap); each case is stopped after
 //! [`CASE_LIMIT`].
 
-use crate::common::{run, stderr, tmpdir, tree};
+use crate::common::{assert_fails_naming, run, stderr, tmpdir, tree};
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -20,16 +20,40 @@ use std::time::{Duration, Instant};
 /// The longest a case may run.
 const CASE_LIMIT: Duration = Duration::from_secs(30);
 
-/// Refusals that name another flag than the one at fault, reported (issue 35, item 13) and
-/// left to the owners of those commands: `(command, flag)`. The test still holds them to exit
-/// 0 or 2 and one error line naming a flag.
-const KNOWN_WRONG_FLAG: &[(&str, &str)] = &[
-    // "tracker position (--tracker-at): ... range -1 mm positive and incidence 60° in (0, 90]"
-    ("plan", "--tracker-range"),
-    ("plan", "--max-incidence"),
-    // "--spec: cycles.csv: certificate: number of draws: must be at least ... got 0"
-    ("validate", "--draws"),
-];
+/// Refusals that name another flag than the one at fault (issue 35, item 13): `(command,
+/// flag)`. The test still holds them to exit 0 or 2 and one error line naming a flag. None is
+/// left: plan's `--tracker-range` and `--max-incidence` were blamed on `--tracker-at`, and
+/// `validate --iso9283 --draws 0` on `--spec` ([`the_flag_at_fault_is_named`]).
+const KNOWN_WRONG_FLAG: &[(&str, &str)] = &[];
+
+/// The refusals once listed in [`KNOWN_WRONG_FLAG`] name their own flag.
+#[test]
+fn the_flag_at_fault_is_named() {
+    let d = tmpdir("flag-at-fault");
+    let out = d.join("plan.csv");
+    let out = out.to_str().unwrap();
+    for (flag, v) in [
+        ("--tracker-range", "-1"),
+        ("--tracker-range", "NaN"),
+        ("--tracker-range", "0"),
+        ("--max-incidence", "0"),
+        ("--max-incidence", "91"),
+        ("--max-incidence", "inf"),
+    ] {
+        let o = run(&[
+            "plan",
+            "-q",
+            "-o",
+            out,
+            "--tracker-at",
+            "3000,0,500",
+            flag,
+            v,
+        ]);
+        assert_fails_naming(&o, flag, &format!("plan {flag} {v}"));
+        assert!(tree(&d).is_empty(), "plan {flag} {v} left {:?}", tree(&d));
+    }
+}
 
 /// A value no setting could take: not a number, NaN, ±inf (or beyond f64), zero or negative.
 fn malformed(v: &str) -> bool {

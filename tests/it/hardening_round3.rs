@@ -60,12 +60,9 @@ pub(crate) fn iso_cycles(dir: &Path, model: Option<&Path>, truth: &Path, cycles:
     out
 }
 
-/// Item 5: the certificate is refused when the cycles contradict the model (positions in
-/// metres: AP of hundreds of mm was certified Pr[AP ≤ 0.05 mm] = 1) or when the model carries
-/// no uncertainty (certified 1 with no note); consistent cycles are still certified.
-#[test]
-fn the_iso9283_certificate_refuses_cycles_the_model_cannot_explain() {
-    let dir = tmpdir("r3-iso-certificate");
+/// The true robot of 60 simulated poses (seed 3, base frame) and the model identified from
+/// them with `--base-known`, written into `dir`: `(truth.toml, model.toml)`.
+pub(crate) fn identified_model(dir: &Path) -> (PathBuf, PathBuf) {
     let cal = dir.join("cal.csv");
     let truth = dir.join("truth.toml");
     let model = dir.join("model.toml");
@@ -83,6 +80,16 @@ fn the_iso9283_certificate_refuses_cycles_the_model_cannot_explain() {
         s(&truth),
     ]);
     ok(&["identify", s(&cal), "-o", s(&model), "-q", "--base-known"]);
+    (truth, model)
+}
+
+/// Item 5: the certificate is refused when the cycles contradict the model (positions in
+/// metres: AP of hundreds of mm was certified Pr[AP ≤ 0.05 mm] = 1) or when the model carries
+/// no uncertainty (certified 1 with no note); consistent cycles are still certified.
+#[test]
+fn the_iso9283_certificate_refuses_cycles_the_model_cannot_explain() {
+    let dir = tmpdir("r3-iso-certificate");
+    let (truth, model) = identified_model(&dir);
     let cycles = iso_cycles(&dir, None, &truth, 30);
     // Consistent cycles: the certificate.
     let out = ok(&[

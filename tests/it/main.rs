@@ -27,6 +27,7 @@ mod joint_counts;
 mod map;
 mod map_shards;
 mod mc_known_answers;
+mod memory_limits;
 mod module_cycles;
 mod placement_analyses;
 mod plan;

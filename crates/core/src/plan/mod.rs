@@ -37,7 +37,7 @@ mod search;
 mod tests;
 pub mod workcell;
 
-pub use prediction::{model_to_plan, predict, prediction_problem};
+pub use prediction::{model_to_plan, predict, prediction_estimate, prediction_problem};
 pub use report::render_text;
 pub use workcell::{KeepOut, Workcell};
 
@@ -379,6 +379,31 @@ impl Plan {
 
 /// Standard-normal vectors behind every reported linearised figure.
 pub const EVAL_DRAWS: usize = 2000;
+
+/// Adds to `e` the bytes [`plan`] keeps for `model` (its free inputs p), `task_points` task
+/// points and the settings `o`: per candidate its configuration, its observation, its 3 × p
+/// Jacobian rows (stacked, apart and while they are built) and its p × p information matrix;
+/// per task point its rows and p × p Gram matrix; the search's and the figures' p-vectors of
+/// standard normals.
+pub fn plan_estimate(
+    model: &RobotModel,
+    task_points: usize,
+    o: &PlanOptions,
+    e: crate::memory::Estimate,
+) -> crate::memory::Estimate {
+    let p = default_free(&model.fixed, true).len() as u64;
+    // A heap matrix's header and the allocator's own bookkeeping.
+    const MATRIX: u64 = 64;
+    let joints = std::mem::size_of::<Joints>() as u64;
+    let rows = 3 * p * 8;
+    let gram = p * p * 8 + MATRIX;
+    e.plus(&[
+        o.candidates as u64,
+        2 * joints + 3 * rows + MATRIX + gram + 256,
+    ])
+    .plus(&[task_points as u64, joints + 2 * rows + gram])
+    .plus(&[(o.search_draws + EVAL_DRAWS) as u64, p, 8])
+}
 
 /// Plans the calibration of `model` (its nominal geometry and target; its base, if any, is the
 /// nominal placement in the measurement frame) for the task configurations `task` (degrees).

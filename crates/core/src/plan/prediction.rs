@@ -11,6 +11,17 @@ use rayon::prelude::*;
 /// Draws per evaluation call of the prediction.
 const PREDICTION_CHUNK: usize = 1 << 16;
 
+/// Adds to `e` the bytes [`predict`] keeps for `draws` draws at `points` task points: every
+/// draw's w, and a chunk's per-point errors in its buffer and the evaluator's.
+pub fn prediction_estimate(
+    points: usize,
+    draws: usize,
+    e: crate::memory::Estimate,
+) -> crate::memory::Estimate {
+    e.plus(&[draws as u64, 8])
+        .plus(&[PREDICTION_CHUNK.min(draws) as u64, points as u64, 2 * 8])
+}
+
 /// The engine's Monte Carlo of the planned model ([`Plan::model`]) at the task points:
 /// `draws` draws on `ev` (an evaluator of that model's problem), R(L) at `thresholds`.
 ///
