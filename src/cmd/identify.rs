@@ -11,8 +11,10 @@ use clap::{Args, ValueEnum};
 use gpu_amcs::identify::{
     CircleFitMethod, IdentifyJob, IdentifyReports, IdentifySetting, Placement, UncertaintyMethod,
 };
+use gpu_amcs::kinematics::RobotModel;
+use gpu_amcs::presets::{preset, PRESETS};
 use gpu_amcs::report::Report;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 
 /// Circle model of the identification.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -106,9 +108,9 @@ pub struct IdentifyArgs {
     /// or a robot description (.urdf, DH table .csv, UR calibration .yaml).
     #[arg(long, value_name = "FILE")]
     pub nominal: Option<PathBuf>,
-    /// Built-in nominal model used when --nominal is not given.
-    #[arg(long, default_value = "tx60", value_name = "NAME")]
-    pub preset: String,
+    /// Built-in nominal model used when --nominal is not given [default: tx60].
+    #[arg(long, value_name = "NAME")]
+    pub preset: Option<String>,
     /// Circle model.
     #[arg(long, value_enum, default_value_t = FitArg::Commanded)]
     pub fit: FitArg,
@@ -146,8 +148,14 @@ impl Run for IdentifyArgs {
         outputs.file("--out", a.out.as_deref())?;
         a.reports
             .declare(&mut outputs, &IdentifyReports::planned_layout())?;
-        let nominal = load_model(a.nominal.as_deref(), &a.preset).context("--nominal")?;
-        let job = a.job(nominal);
+        let preset = a.preset.as_deref().unwrap_or(DEFAULT_PRESET);
+        let nominal = load_model(a.nominal.as_deref(), preset).context("--nominal")?;
+        // Where a preset does not fit the data, the refusal says which presets do.
+        let hint = |nominal: &RobotModel| match a.nominal {
+            Some(_) => None,
+            None => preset_hint(&a.sweeps, nominal, a.preset.is_none()),
+        };
+        let job = a.job(nominal.clone());
         let outcome = match job.run() {
             Ok(o) => o,
             Err(IdentifyJobError::Strict { warnings }) => {
@@ -162,7 +170,10 @@ impl Run for IdentifyArgs {
             Err(IdentifyJobError::Setting { setting, message }) => {
                 bail!("{}: {message}", setting_flag(setting))
             }
-            Err(e) => return Err(e.into()),
+            Err(IdentifyJobError::Identify(e)) => match hint(&nominal) {
+                Some(h) => bail!("{e} ({h})"),
+                None => return Err(e.into()),
+            },
         };
         // stdout is built first and printed after the model file is written, so a reader that
         // stops early (`| head`) cannot cost the file.
@@ -208,6 +219,47 @@ impl Run for IdentifyArgs {
     }
 }
 
+/// The preset `identify` takes as the nominal model when neither --nominal nor --preset is
+/// given.
+const DEFAULT_PRESET: &str = "tx60";
+
+/// What to pass when the preset `nominal` (the default one when `defaulted`) does not take the
+/// data's rows (their joint count or a joint limit): the presets that do, else --nominal. `None`
+/// when it takes them (the refusal is about something else) or the data cannot be read again (a
+/// pipe).
+fn preset_hint(data: &Path, nominal: &RobotModel, defaulted: bool) -> Option<String> {
+    let d = gpu_amcs::identify::read_tracker_data(data).ok()?;
+    let fits = |m: &RobotModel| gpu_amcs::identify::check_tracker_data(&d, m, "").is_ok();
+    if fits(nominal) {
+        return None;
+    }
+    let which = if defaulted {
+        format!(
+            "the nominal model is the built-in {} when neither --nominal nor --preset is given",
+            nominal.name
+        )
+    } else {
+        format!("the nominal model is the preset {}", nominal.name)
+    };
+    let names: Vec<&str> = PRESETS
+        .iter()
+        .copied()
+        .filter(|p| preset(p).is_ok_and(|m| fits(&m)))
+        .collect();
+    Some(match names.first() {
+        Some(first) => format!(
+            "{which}; {} these data: pass --preset {first}, or --nominal FILE with your robot's model",
+            match names.len() {
+                1 => format!("the preset {first} takes"),
+                _ => format!("the presets {} take", names.join(", ")),
+            }
+        ),
+        None => format!(
+            "{which}; no preset takes these data: pass --nominal FILE with your robot's model (a model file, URDF, DH table or UR calibration file)"
+        ),
+    })
+}
+
 /// The flag of a setting an identification names in its errors.
 fn setting_flag(s: IdentifySetting) -> &'static str {
     match s {
@@ -222,7 +274,7 @@ fn setting_flag(s: IdentifySetting) -> &'static str {
 
 impl IdentifyArgs {
     /// The library's job of the flags.
-    fn job(&self, nominal: gpu_amcs::kinematics::RobotModel) -> IdentifyJob {
+    fn job(&self, nominal: RobotModel) -> IdentifyJob {
         IdentifyJob {
             placement: if self.base_known {
                 Placement::Known

@@ -220,6 +220,21 @@ fn readme_is_short_and_keeps_the_two_commands() {
     }
 }
 
+/// The README's examples call `gpu-amcs` by name: it says how to put it on the PATH (issue 34).
+#[test]
+fn readme_says_how_to_put_gpu_amcs_on_the_path() {
+    let readme = std::fs::read_to_string(root().join("README.md")).unwrap();
+    assert!(
+        readme.contains("`cargo install --path .` puts `gpu-amcs` on the PATH"),
+        "README.md does not say how to install the binary"
+    );
+    let manifest = std::fs::read_to_string(root().join("Cargo.toml")).unwrap();
+    assert!(
+        manifest.contains("name = \"gpu-amcs\""),
+        "the root package is gpu-amcs"
+    );
+}
+
 #[test]
 fn nothing_points_outside_the_repository() {
     // The folder beside a checkout where the project's notes live, spelled so that this file

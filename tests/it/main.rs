@@ -19,6 +19,7 @@ mod hardening_round3;
 mod honesty;
 mod html;
 mod identify;
+mod identify_friction;
 mod identify_limits;
 mod identify_undetermined;
 mod import;

@@ -1,7 +1,7 @@
 //! The page of an identification ([`IdentifyReports::page`](crate::report::Report::page)) and
 //! its circle-fit residual figure.
 
-use super::{IdentifyReports, RESIDUALS_SVG};
+use super::{IdentifyReports, JOINTS_CSV, RESIDUALS_SVG};
 use crate::identify::chain_outputs::chain_sections;
 use crate::kinematics::{ParamKind, MAX_JOINTS};
 use crate::report::html::pages::{add_settings, link_all};
@@ -55,37 +55,52 @@ pub(super) fn residual_plot(r: &IdentifyReports) -> LinePlot {
 }
 
 /// The page of an identification: the runs, the fits, the identified parameters and the figure.
+/// The circle fits, their parameter tables and their figure appear only for sweeps: pose data
+/// go straight to the whole-chain fit, and the page then opens with it.
 pub(super) fn identify_page(
     r: &IdentifyReports,
     settings: &[(String, String)],
     files: &[(String, String)],
 ) -> Page {
     let mut page = Page::new(&format!("Identification against {}", r.nominal));
-    let worst = r
-        .runs
-        .iter()
-        .flat_map(|run| run.joints.iter().map(|j| j.rms_residual_mm))
-        .fold(f64::NEG_INFINITY, f64::max);
-    let method = r.runs.first().map_or("-", |x| x.method.name());
-    page.summary("runs", &r.runs.len().to_string())
-        .summary("circle fit", method)
-        .summary("largest circle-fit RMS residual", &format!("{worst:.5} mm"));
+    let sweeps = r.runs.iter().any(|run| !run.joints.is_empty());
+    page.summary("runs", &r.runs.len().to_string());
     for w in r.runs.iter().flat_map(|run| &run.warnings) {
         page.note(&w.to_string());
     }
-    page.paragraph(
-        "Each run's sweeps move one joint at a time; a circle fitted to the tracker's points gives \
-         the joint's axis line, consecutive axes give the MDH parameters and the last joint's \
-         sweep the tool point. The values are in joints.csv and runs.csv.",
-    );
-    circle_fits_section(&mut page, r);
-    parameters_section(&mut page, r);
-    figures_section(&mut page, r, worst);
+    let method = r.runs.first().map_or("-", |x| x.method.name());
+    if sweeps {
+        let worst = r
+            .runs
+            .iter()
+            .flat_map(|run| run.joints.iter().map(|j| j.rms_residual_mm))
+            .fold(f64::NEG_INFINITY, f64::max);
+        page.summary("circle fit", method)
+            .summary("largest circle-fit RMS residual", &format!("{worst:.5} mm"));
+        page.paragraph(
+            "Each run's sweeps move one joint at a time; a circle fitted to the tracker's points \
+             gives the joint's axis line, consecutive axes give the MDH parameters and the last \
+             joint's sweep the tool point. The values are in joints.csv and runs.csv.",
+        );
+        circle_fits_section(&mut page, r);
+        parameters_section(&mut page, r);
+        figures_section(&mut page, r, worst);
+    } else {
+        page.summary("data", "poses (whole-chain fit)");
+    }
     chain_sections(&mut page, &r.labelled(), &r.nominal);
     page.setting("nominal model", &r.nominal);
     add_settings(&mut page, settings);
-    page.setting("circle fit", method);
-    link_all(&mut page, files);
+    if sweeps {
+        page.setting("circle fit", method);
+    }
+    // Without sweeps the circle-fit files hold no rows (joints.csv) or no points (the figure).
+    let shown: Vec<(String, String)> = files
+        .iter()
+        .filter(|(name, _)| sweeps || (name != RESIDUALS_SVG && name != JOINTS_CSV))
+        .cloned()
+        .collect();
+    link_all(&mut page, &shown);
     page
 }
 
