@@ -123,7 +123,9 @@ crate::report_class!(PyIdentifyResult, {
 /// Sweeps only: `fit` "commanded" or "point-cloud", `no_prior`, `no_refine` (the plain
 /// circle-point result; with `base_known=True`). With several runs `covariance=True` keeps the
 /// full sample covariance. `no_compensation=True` leaves out the Gaussian-process compensation
-/// of a single run's residuals. `strict=True` raises a `ValueError` for the warnings. Returns an
+/// of a single run's residuals. `beyond_geometry=True` also fits joint compliance and gear
+/// harmonics and reports whether they predict left-out poses better (the command line's
+/// `--beyond-geometry`; the model stays geometric). `strict=True` raises a `ValueError` for the warnings. Returns an
 /// `IdentifyResult` whose `to_toml()` is the model file the command writes and whose
 /// `to_dict()` is its `--json` document.
 #[pyfunction]
@@ -131,7 +133,7 @@ crate::report_class!(PyIdentifyResult, {
     base_known = false, fix = Vec::new(), tracker_sigma = None, tracker_mpe = None,
     tracker_at = None, uncertainty = "linearised".to_string(), mc_draws = 200, seed = 1,
     fit = "commanded".to_string(), no_prior = false, no_refine = false, covariance = false,
-    strict = false, no_compensation = false))]
+    strict = false, no_compensation = false, beyond_geometry = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify(
     py: Python<'_>,
@@ -152,6 +154,7 @@ pub fn identify(
     covariance: bool,
     strict: bool,
     no_compensation: bool,
+    beyond_geometry: bool,
 ) -> PyResult<PyIdentifyResult> {
     let method = match fit.as_str() {
         "commanded" => CircleFitMethod::CommandedAngles,
@@ -210,6 +213,7 @@ pub fn identify(
         covariance,
         strict,
         compensate: !no_compensation,
+        beyond_geometry,
         ..IdentifyJob::new(data, nominal)
     };
     let outcome = py.detach(|| job.run()).map_err(|e| match e {

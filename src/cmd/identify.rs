@@ -101,6 +101,11 @@ pub struct IdentifyArgs {
     /// robot"). Data with several runs never get one (their mean model has none).
     #[arg(long)]
     pub no_compensation: bool,
+    /// Also fit joint compliance under gravity (default link masses) and gear harmonics (once
+    /// and twice per turn) with the geometry, and report whether they predict left-out poses
+    /// better (a check: the model file still holds the geometry).
+    #[arg(long)]
+    pub beyond_geometry: bool,
     /// Write the identified model (TOML) to FILE.
     #[arg(long, short, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -301,6 +306,7 @@ impl IdentifyArgs {
             covariance: self.covariance,
             strict: self.strict,
             compensate: !self.no_compensation,
+            beyond_geometry: self.beyond_geometry,
             ..IdentifyJob::new(self.sweeps.clone(), nominal)
         }
     }

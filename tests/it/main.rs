@@ -6,6 +6,7 @@
 mod common;
 
 mod amcs_vs_mcs;
+mod beyond_geometry;
 mod blocks;
 mod cli;
 mod docs;

@@ -281,6 +281,7 @@ pub const CHAIN_OPTIONS: Table = Table {
         ("uncertainty", Flags(&["--uncertainty", "--mc-draws"])),
         ("seed", Flags(&["--seed"])),
         ("compensate", Flags(&["--no-compensation"])),
+        ("beyond_geometry", Flags(&["--beyond-geometry"])),
     ],
 };
 

@@ -168,7 +168,8 @@ fn every_field_of_every_options_struct_has_an_entry() {
         noise,
         uncertainty,
         seed,
-        compensate
+        compensate,
+        beyond_geometry
     });
     same_fields(&CHAIN_OPTIONS, &chain);
     let import = fields!(ImportOptions {

@@ -9,6 +9,7 @@
 //! statistics), `monte_carlo` (the re-identification check), `warnings`, `model` (state and
 //! covariance → model file).
 
+mod beyond;
 mod covariance;
 mod lack_of_fit;
 mod model;
@@ -21,6 +22,7 @@ mod tests;
 mod undetermined;
 mod warnings;
 
+pub use beyond::{BeyondGeometry, ExtendedModel, PRIOR_RAD};
 pub use model::{chain_model, state_model};
 pub use report::{ChainReport, ChainResult, MonteCarloCheck, NoiseReport, ParameterRow};
 pub use undetermined::{
@@ -82,6 +84,9 @@ pub struct ChainOptions {
     /// Fit a compensation (a Gaussian process over the configuration, docs/METHOD.md §18.1)
     /// to the residuals and keep it when it predicts held-out poses better.
     pub compensate: bool,
+    /// Check whether joint compliance under gravity and gear harmonics predict the robot
+    /// better ([`BeyondGeometry`]; the model file still carries the geometry).
+    pub beyond_geometry: bool,
 }
 
 impl Default for ChainOptions {
@@ -93,6 +98,7 @@ impl Default for ChainOptions {
             uncertainty: UncertaintyMethod::Linearised,
             seed: 1,
             compensate: true,
+            beyond_geometry: false,
         }
     }
 }
@@ -214,6 +220,11 @@ pub fn identify_chain(
         fixed_by_user,
     );
     let lack = lack_of_fit::lack_of_fit(&run, &linearised, &noise, opts);
+    let beyond = if opts.beyond_geometry {
+        beyond::check(&run, nominal, prior.as_ref())
+    } else {
+        None
+    };
     // A stated noise the residuals reject: the lack of fit acts on the parameters as noise of
     // that size would, so the covariance is scaled by the residuals' mean square over the noise's.
     let scale = lack.covariance_scale;
@@ -243,12 +254,15 @@ pub fn identify_chain(
         identifiability,
         lack_of_fit: lack,
     };
-    let report = report::build_report(&run, points, nominal, opts, checks, &cov, &kept);
+    let mut report = report::build_report(&run, points, nominal, opts, checks, &cov, &kept);
+    let (beyond_geometry, extended) = beyond.unzip();
+    report.beyond_geometry = beyond_geometry;
     Ok(ChainResult {
         state: run.state,
         covariance,
         discrepancy,
         report,
+        extended,
     })
 }
 

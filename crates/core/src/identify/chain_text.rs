@@ -52,6 +52,9 @@ pub fn render_chain_summary(c: &ChainReport) -> String {
         (None, None) => {}
     }
     render_lack_of_fit(&mut s, &c.lack_of_fit);
+    if let Some(b) = &c.beyond_geometry {
+        render_beyond_geometry(&mut s, b);
+    }
     let weak = if a.condition_number > super::identifiability::WEAK_CONDITION
         && a.condition_number <= super::identifiability::CONDITION_LIMIT
     {
@@ -138,6 +141,24 @@ pub fn render_chain_report(c: &ChainReport) -> String {
 
 /// The lack-of-fit lines: noise against what the model does not explain, the term, the
 /// leave-one-out self-check.
+fn render_beyond_geometry(s: &mut String, b: &super::chain::BeyondGeometry) {
+    let _ = writeln!(s, "  {}", b.sentence());
+    let joints: Vec<String> = (0..b.harmonic_amplitudes_deg.len())
+        .map(|j| {
+            let [h1, h2] = b.harmonic_amplitudes_deg[j];
+            let k = b.compliance_urad_per_nm[j].map_or(String::new(), |[k, sk]| {
+                format!(", compliance {k:.2} ± {sk:.2} µrad/(N·m)")
+            });
+            format!(
+                "J{}: harmonics {h1:.4}°/{h2:.4}°{k}, deflection RMS {:.4}°",
+                j + 1,
+                b.deflection_rms_deg[j]
+            )
+        })
+        .collect();
+    let _ = writeln!(s, "    {}", joints.join("; "));
+}
+
 fn render_lack_of_fit(s: &mut String, l: &crate::discrepancy::LackOfFit) {
     let split = match (l.noise_sigma_mm, l.unexplained_rms_mm) {
         (Some(sig), Some(u)) => format!(

@@ -116,6 +116,9 @@ pub struct IdentifyJob {
     pub strict: bool,
     /// Fit a compensation to a single run's residuals (docs/METHOD.md §18.1).
     pub compensate: bool,
+    /// Check whether joint compliance and gear harmonics predict the robot better
+    /// ([`crate::identify::chain::BeyondGeometry`]).
+    pub beyond_geometry: bool,
 }
 
 /// What an [`IdentifyJob`] gives.
@@ -241,6 +244,7 @@ impl IdentifyJob {
             covariance: false,
             strict: false,
             compensate: true,
+            beyond_geometry: false,
         }
     }
 
@@ -403,6 +407,7 @@ impl IdentifyJob {
             uncertainty: self.uncertainty,
             seed: self.seed,
             compensate: self.compensate,
+            beyond_geometry: self.beyond_geometry,
         })
     }
 }

@@ -22,6 +22,7 @@ mod check;
 mod file;
 mod file_discrepancy;
 mod fk;
+pub mod gravity;
 mod index;
 mod inputs;
 pub mod lines;

@@ -93,6 +93,9 @@ pub struct ChainReport {
     pub covariance_from: UncertaintyMethod,
     /// Noise against lack of fit, the discrepancy term and the leave-one-out self-check.
     pub lack_of_fit: crate::discrepancy::LackOfFit,
+    /// The check beyond geometry (joint compliance and gear harmonics), when asked for.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub beyond_geometry: Option<super::BeyondGeometry>,
     /// Problems found (one line each, with what to measure instead).
     pub warnings: Vec<String>,
 }
@@ -111,6 +114,9 @@ pub struct ChainResult {
     pub discrepancy: Option<crate::discrepancy::Discrepancy>,
     /// The report.
     pub report: ChainReport,
+    /// The model with compliance and harmonics of the check beyond geometry, when asked for
+    /// (not yet carried by the model file).
+    pub extended: Option<super::ExtendedModel>,
 }
 
 /// The covariance the model keeps: over the free inputs, then those the data leave
@@ -233,6 +239,7 @@ pub(super) fn build_report(
         monte_carlo,
         covariance_from: opts.uncertainty,
         lack_of_fit,
+        beyond_geometry: None,
         warnings,
     }
 }

@@ -1,0 +1,327 @@
+//! Beyond geometry (issue 33, first step): would joint compliance under gravity and gear
+//! harmonics predict the robot better than its geometry alone?
+//!
+//! The extended model lets each joint stand at `q_i + Δθ_i(q)` when commanded to `q_i`, with
+//!
+//! * gear harmonics `h_i = a_i1 sin q_i + b_i1 cos q_i + a_i2 sin 2q_i + b_i2 cos 2q_i`;
+//! * joint compliance `k_i · τ_i(q + h)`, `τ_i` the gravity torque about joint i's axis of the
+//!   links beyond it ([`crate::kinematics::gravity`]: the default link masses, gravity along −z of
+//!   the robot's base frame, no payload);
+//!
+//! and fits `k_i, a_i1, b_i1, a_i2, b_i2` together with the geometry's free inputs by
+//! Levenberg–Marquardt from the geometric solution, with a zero-mean prior on each so that a
+//! joint that moved little does not give wild coefficients: σ [`PRIOR_RAD`] on each harmonic
+//! coefficient and on the compliance's deflection at the joint's RMS torque over the poses
+//! (`σ_k = PRIOR_RAD / τ_rms,i`, which does not depend on the assumed masses' scale). Compliance is fitted only for joints whose torque varies over the poses
+//! (a vertical first axis carries none).
+//!
+//! Both models are judged by their leave-one-out prediction error, `W⁻¹ (I − H_ii)⁻¹ W r_i` per
+//! point (exact for a linear model, the linearisation at the solution otherwise; `H_ii` the
+//! point's leverage block): the RMS a new pose would show. The check reports both; the model
+//! file does not carry the extended model yet.
+
+use super::Fitted;
+use crate::identify::chain_fit::{ChainState, Observation, Prior};
+use crate::identify::lm::levenberg_marquardt;
+use crate::kinematics::gravity::{default_link_masses, gravity_torques};
+use crate::kinematics::{Joints, RobotModel};
+use nalgebra::{DMatrix, Matrix3, Vector3};
+use serde::Serialize;
+
+/// Coefficients per joint: `k, a1, b1, a2, b2`.
+const PER_JOINT: usize = 5;
+
+/// σ of the zero-mean prior on a harmonic coefficient and on a joint's compliance deflection at
+/// its RMS torque, rad (0.05°; a 60 kg-class arm has harmonics of 0.002–0.01° and deflections of
+/// 0.01°, the public data sets' arms 0.02–0.1°).
+pub const PRIOR_RAD: f64 = 0.05 * std::f64::consts::PI / 180.0;
+
+/// A joint's compliance is fitted when the RMS of its gravity torque over the poses is at least
+/// this share of the largest joint's.
+const TORQUE_SHARE: f64 = 0.01;
+
+/// The check's report.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BeyondGeometry {
+    /// Coefficients fitted beyond the geometry.
+    pub parameters: usize,
+    /// Leave-one-out RMS (3-D) of the geometric model, mm.
+    pub loo_rms_geometric_mm: f64,
+    /// Leave-one-out RMS (3-D) with compliance and harmonics, mm.
+    pub loo_rms_extended_mm: f64,
+    /// Whether the extended model predicts new poses better by the compensation's margin
+    /// ([`crate::discrepancy::gp::required_gain`]).
+    pub predicts_better: bool,
+    /// Per joint: the fitted compliance and its standard uncertainty, µrad/(N·m) (`None`: not
+    /// fitted, the joint's torque does not vary).
+    pub compliance_urad_per_nm: Vec<Option<[f64; 2]>>,
+    /// Per joint: amplitudes of the first and second harmonic, degrees.
+    pub harmonic_amplitudes_deg: Vec<[f64; 2]>,
+    /// The link masses the torques assume, kg.
+    pub link_mass_kg: Vec<f64>,
+    /// RMS over the poses of the fitted joint deflections, degrees, per joint.
+    pub deflection_rms_deg: Vec<f64>,
+}
+
+impl BeyondGeometry {
+    /// One paragraph for the report.
+    pub fn sentence(&self) -> String {
+        let change = 100.0 * (self.loo_rms_extended_mm / self.loo_rms_geometric_mm - 1.0);
+        format!(
+            "Beyond geometry: with joint compliance under gravity and gear harmonics ({} more coefficients) the leave-one-out RMS is {:.4} mm against {:.4} mm for the geometry alone ({change:+.0} %): {}. (A check only: the model file carries the geometry.)",
+            self.parameters,
+            self.loo_rms_extended_mm,
+            self.loo_rms_geometric_mm,
+            if self.predicts_better {
+                "the robot shows errors of these kinds"
+            } else {
+                "no gain worth the coefficients"
+            }
+        )
+    }
+}
+
+/// The geometry and the coefficients beyond it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ExtendedModel {
+    /// The geometric inputs.
+    pub state: ChainState,
+    /// `k, a1, b1, a2, b2` per joint.
+    pub beta: Vec<f64>,
+    /// The link masses of the torques, kg.
+    pub link_mass_kg: Joints,
+}
+
+impl ExtendedModel {
+    /// The joint deflections at the commanded angles `q` (rad).
+    pub fn deflections(&self, q: &[f64]) -> Joints {
+        let n = q.len();
+        let h = Joints::from_fn(n, |i| {
+            let b = &self.beta[PER_JOINT * i..PER_JOINT * (i + 1)];
+            let (s1, c1) = q[i].sin_cos();
+            let (s2, c2) = (2.0 * q[i]).sin_cos();
+            b[1] * s1 + b[2] * c1 + b[3] * s2 + b[4] * c2
+        });
+        let geared = Joints::from_fn(n, |i| q[i] + h[i]);
+        let tau = gravity_torques(
+            &self.state.params,
+            &self.state.tool,
+            &self.link_mass_kg,
+            0.0,
+            &geared,
+        );
+        Joints::from_fn(n, |i| h[i] + self.beta[PER_JOINT * i] * tau[i])
+    }
+
+    /// The target's position in the measurement frame at the commanded angles `q` (rad), mm.
+    pub fn predict(&self, q: &[f64]) -> [f64; 3] {
+        let d = self.deflections(q);
+        let actual = Joints::from_fn(q.len(), |i| q[i] + d[i]);
+        self.state.predict(&actual)
+    }
+}
+
+/// The free inputs of a fit: `free` (geometric first, `geo` of them, then coefficients), the
+/// geometry's prior and σ of each coefficient's prior.
+#[derive(Clone, Copy)]
+struct Inputs<'a> {
+    free: &'a [usize],
+    geo: usize,
+    prior: Option<&'a Prior>,
+    sigma: &'a [f64],
+}
+
+/// Whitened residuals of `m` at `obs`, then the prior rows of the free inputs.
+fn residuals(obs: &[Observation], m: &ExtendedModel, x: &Inputs<'_>) -> Vec<f64> {
+    let (free, geo, prior) = (x.free, x.geo, x.prior);
+    let mut out = Vec::with_capacity(3 * obs.len() + free.len());
+    for o in obs {
+        let p = m.predict(&o.q);
+        let e = o.whiten * Vector3::new(p[0] - o.p[0], p[1] - o.p[1], p[2] - o.p[2]);
+        out.extend_from_slice(&[e.x, e.y, e.z]);
+    }
+    for (k, &i) in free.iter().enumerate() {
+        if k < geo {
+            if let Some(p) = prior.filter(|p| p.sigma[i] > 0.0) {
+                out.push((m.state.get(i) - p.centre.get(i)) / p.sigma[i]);
+            }
+        } else {
+            out.push(m.beta[i] / x.sigma[i]);
+        }
+    }
+    out
+}
+
+/// Finite-difference step of free input `k` (geometric inputs first, `geo` of them).
+fn step(state: &ChainState, free: &[usize], geo: usize, k: usize) -> f64 {
+    if k >= geo {
+        if free[k].is_multiple_of(PER_JOINT) {
+            1e-9
+        } else {
+            1e-8
+        }
+    } else if state.space().is_angle(free[k]) {
+        1e-8
+    } else {
+        1e-5
+    }
+}
+
+/// `m` moved by `d` over the free inputs.
+fn moved(m: &ExtendedModel, free: &[usize], geo: usize, d: &[f64]) -> ExtendedModel {
+    let mut n = m.clone();
+    for (k, (&i, v)) in free.iter().zip(d).enumerate() {
+        if k < geo {
+            n.state.set(i, m.state.get(i) + v);
+        } else {
+            n.beta[i] += v;
+        }
+    }
+    n
+}
+
+/// The leave-one-out RMS (3-D, mm) of `m` fitted over the inputs `x` (prior rows as in
+/// [`residuals`]), and the covariance of the free inputs.
+fn loo_rms(obs: &[Observation], m: &ExtendedModel, x: &Inputs<'_>) -> Option<(f64, DMatrix<f64>)> {
+    use rayon::prelude::*;
+    let (free, geo) = (x.free, x.geo);
+    let rows = 3 * obs.len();
+    let r0 = residuals(obs, m, x);
+    let cols: Vec<Vec<f64>> = (0..free.len())
+        .into_par_iter()
+        .map(|k| {
+            let h = step(&m.state, free, geo, k);
+            let mut d = vec![0.0; free.len()];
+            d[k] = h;
+            let a = residuals(obs, &moved(m, free, geo, &d), x);
+            d[k] = -h;
+            let b = residuals(obs, &moved(m, free, geo, &d), x);
+            a.iter().zip(&b).map(|(x, y)| (x - y) / (2.0 * h)).collect()
+        })
+        .collect();
+    let all = DMatrix::from_fn(r0.len(), free.len(), |r, c| cols[c][r]);
+    let info = all.transpose() * &all;
+    let cov = info.clone().try_inverse()?;
+    let j = all.rows(0, rows);
+    let mut sum = 0.0;
+    for (i, o) in obs.iter().enumerate() {
+        let ji = j.rows(3 * i, 3);
+        let h: Matrix3<f64> =
+            Matrix3::from_fn(|a, b| (ji.row(a) * &cov * ji.row(b).transpose())[(0, 0)]);
+        let free_inv = (Matrix3::identity() - h).try_inverse()?;
+        let w_inv = o.whiten.try_inverse()?;
+        let z = Vector3::new(r0[3 * i], r0[3 * i + 1], r0[3 * i + 2]);
+        sum += (w_inv * free_inv * z).norm_squared();
+    }
+    Some(((sum / obs.len().max(1) as f64).sqrt(), cov))
+}
+
+/// Fits the extended model to `run`'s observations from its geometric solution and compares
+/// the leave-one-out RMS of both. `None` when the data cannot support it (fewer equations than
+/// twice the coefficients, or a singular information matrix).
+pub(super) fn check(
+    run: &Fitted,
+    nominal: &RobotModel,
+    prior: Option<&Prior>,
+) -> Option<(BeyondGeometry, ExtendedModel)> {
+    let n = run.state.layout().joints();
+    let masses = default_link_masses(nominal);
+    let geometric = ExtendedModel {
+        state: run.state,
+        beta: vec![0.0; PER_JOINT * n],
+        link_mass_kg: masses,
+    };
+    // Joints whose torque varies over the poses.
+    let torques: Vec<Joints> = run
+        .obs
+        .iter()
+        .map(|o| gravity_torques(&run.state.params, &run.state.tool, &masses, 0.0, &o.q))
+        .collect();
+    let rms_tau: Vec<f64> = (0..n)
+        .map(|i| {
+            (torques.iter().map(|t| t[i] * t[i]).sum::<f64>() / torques.len().max(1) as f64).sqrt()
+        })
+        .collect();
+    let top = rms_tau.iter().copied().fold(0.0, f64::max);
+    let extras: Vec<usize> = (0..PER_JOINT * n)
+        .filter(|&i| !i.is_multiple_of(PER_JOINT) || rms_tau[i / PER_JOINT] >= TORQUE_SHARE * top.max(1e-12))
+        .collect();
+    if 3 * run.obs.len() < 2 * (run.free.len() + extras.len()) {
+        return None;
+    }
+    let geo = run.free.len();
+    let sigma: Vec<f64> = (0..PER_JOINT * n)
+        .map(|i| {
+            if i.is_multiple_of(PER_JOINT) {
+                PRIOR_RAD / rms_tau[i / PER_JOINT].max(1e-12)
+            } else {
+                PRIOR_RAD
+            }
+        })
+        .collect();
+    let plain = Inputs {
+        free: &run.free,
+        geo,
+        prior,
+        sigma: &sigma,
+    };
+    let (loo_geometric, _) = loo_rms(&run.obs, &geometric, &plain)?;
+    let free: Vec<usize> = run
+        .free
+        .iter()
+        .copied()
+        .chain(extras.iter().copied())
+        .collect();
+    let all = Inputs {
+        free: &free,
+        ..plain
+    };
+    let steps: Vec<f64> = (0..free.len())
+        .map(|k| step(&run.state, &free, geo, k))
+        .collect();
+    let fitted = levenberg_marquardt(
+        geometric,
+        &steps,
+        |m, d| moved(m, &free, geo, d),
+        |m| residuals(&run.obs, m, &all),
+    );
+    let (loo_extended, cov) = loo_rms(&run.obs, &fitted, &all)?;
+    // The coefficients' positions among the free inputs (after the geometry's, whose indices
+    // are of another space).
+    let sigma_of = |i: usize| {
+        free[geo..]
+            .iter()
+            .position(|&f| f == i)
+            .map(|k| cov[(geo + k, geo + k)].max(0.0).sqrt())
+    };
+    let deflections: Vec<Joints> = run.obs.iter().map(|o| fitted.deflections(&o.q)).collect();
+    let report = BeyondGeometry {
+        parameters: extras.len(),
+        loo_rms_geometric_mm: loo_geometric,
+        loo_rms_extended_mm: loo_extended,
+        predicts_better: loo_extended
+            < (1.0 - crate::discrepancy::gp::required_gain(run.obs.len())) * loo_geometric,
+        compliance_urad_per_nm: (0..n)
+            .map(|j| {
+                let i = PER_JOINT * j;
+                sigma_of(i).map(|s| [fitted.beta[i] * 1e6, s * 1e6])
+            })
+            .collect(),
+        harmonic_amplitudes_deg: (0..n)
+            .map(|j| {
+                let b = &fitted.beta[PER_JOINT * j..PER_JOINT * (j + 1)];
+                [b[1].hypot(b[2]).to_degrees(), b[3].hypot(b[4]).to_degrees()]
+            })
+            .collect(),
+        link_mass_kg: masses.to_vec(),
+        deflection_rms_deg: (0..n)
+            .map(|j| {
+                (deflections.iter().map(|d| d[j] * d[j]).sum::<f64>()
+                    / deflections.len().max(1) as f64)
+                    .sqrt()
+                    .to_degrees()
+            })
+            .collect(),
+    };
+    Some((report, fitted))
+}
