@@ -164,3 +164,86 @@ fn noisy_compliance_and_harmonics_come_close_to_a_geometric_robot() {
     );
     assert!(mean < 1.8 && ratios.iter().all(|&r| r < 2.0), "{ratios:?}");
 }
+
+/// The command line: `identify --beyond-geometry` on `simulate --compliance 1 --harmonics 1`
+/// data reports the check in its text and JSON (J2's and J3's compliance with σ), and leaves
+/// the model file's geometry as without the flag; without the flag the JSON has no such field.
+#[test]
+fn the_command_line_reports_the_check() {
+    let d = crate::common::tmpdir("beyond-geometry-cli");
+    let p = |f: &str| d.join(f).display().to_string();
+    let ok = |args: &[&str]| {
+        let o = crate::common::run(args);
+        assert!(
+            o.status.success(),
+            "{args:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        String::from_utf8_lossy(&o.stdout).into_owned()
+    };
+    ok(&[
+        "simulate",
+        "--poses",
+        "150",
+        "--tracker-sigma",
+        "0.01",
+        "--compliance",
+        "1",
+        "--harmonics",
+        "1",
+        "-o",
+        &p("cal.csv"),
+    ]);
+    let text = ok(&[
+        "identify",
+        &p("cal.csv"),
+        "--tracker-sigma",
+        "0.01",
+        "--beyond-geometry",
+        "-o",
+        &p("with.toml"),
+        "--json",
+        &p("with.json"),
+    ]);
+    assert!(text.contains("Beyond geometry:"), "{text}");
+    ok(&[
+        "identify",
+        &p("cal.csv"),
+        "--tracker-sigma",
+        "0.01",
+        "-o",
+        &p("without.toml"),
+        "--json",
+        &p("without.json"),
+    ]);
+    let json = |f: &str| -> serde_json::Value {
+        serde_json::from_str(&std::fs::read_to_string(p(f)).unwrap()).unwrap()
+    };
+    let with = json("with.json");
+    let b = &with["identify"]["runs"][0]["chain"]["beyond_geometry"];
+    assert_eq!(b["predicts_better"], true, "{b}");
+    assert!(
+        b["loo_rms_extended_mm"].as_f64().unwrap()
+            < 0.5 * b["loo_rms_geometric_mm"].as_f64().unwrap(),
+        "{b}"
+    );
+    for j in [1, 2] {
+        let k = &b["compliance_urad_per_nm"][j];
+        assert!(
+            k[0].as_f64().unwrap() > 0.0 && k[1].as_f64().unwrap() > 0.0,
+            "{b}"
+        );
+    }
+    assert!(json("without.json")["identify"]["runs"][0]["chain"]
+        .get("beyond_geometry")
+        .is_none());
+    let strip = |f: &str| -> String {
+        std::fs::read_to_string(p(f))
+            .unwrap()
+            .lines()
+            .filter(|l| !l.contains(".toml") && !l.contains("created"))
+            .collect::<Vec<_>>()
+            .join("\n")
+    };
+    assert_eq!(strip("with.toml"), strip("without.toml"));
+}
