@@ -102,13 +102,13 @@ impl AxisPrior {
 }
 
 /// Refits with the prior's pseudo-observations appended (see [`AxisPrior`]).
-fn with_prior<S: Clone>(
+fn with_prior<S: Clone + Sync>(
     fitted: S,
     prior: Option<&AxisPrior>,
-    normal: impl Fn(&S) -> Vector3<f64>,
+    normal: impl Fn(&S) -> Vector3<f64> + Sync,
     steps: &[f64],
-    apply: impl Fn(&S, &[f64]) -> S,
-    residuals: impl Fn(&S) -> Vec<f64>,
+    apply: impl Fn(&S, &[f64]) -> S + Sync,
+    residuals: impl Fn(&S) -> Vec<f64> + Sync,
 ) -> S {
     let Some(prior) = prior else { return fitted };
     let r = residuals(&fitted);
