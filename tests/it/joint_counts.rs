@@ -99,7 +99,7 @@ fn iso9283_cycles_with_another_joint_count_are_refused() {
         (&six, cycles(&dir, 7), 6, 7),
     ] {
         let (m, d) = (model.to_str().unwrap(), data.to_str().unwrap());
-        for extra in [&[][..], &["--spec", "1", "--draws", "1000"]] {
+        for extra in [&[][..], &["--spec", "1", "--draws", "2000"]] {
             let mut args = vec!["validate", "--model", m, d, "--iso9283"];
             args.extend(extra);
             let o = run(&args);

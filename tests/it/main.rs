@@ -12,6 +12,7 @@ mod cli;
 mod docs;
 mod export_tracker;
 mod flag_properties;
+mod frame_invariance;
 mod fuzz;
 #[cfg(feature = "gpu")]
 mod gpu;

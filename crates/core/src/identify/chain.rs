@@ -39,7 +39,7 @@ use super::noise::NoiseModel;
 use super::pipeline::NominalPrior;
 use super::IdentifyError;
 use crate::kinematics::{Block, InputSpace, Joints, RobotModel};
-use covariance::{embed, linearised_covariance, noise_report, FreeCovariance};
+use covariance::{embed, linearised_covariances, noise_report, FreeCovariance};
 use monte_carlo::monte_carlo_covariance;
 use nalgebra::Matrix3;
 use serde::Serialize;
@@ -209,17 +209,21 @@ pub fn identify_chain(
     if prior.is_some() {
         run.state = fit(&run.obs, &run.state, &run.free, prior.as_ref());
     }
-    let linearised = linearised_covariance(&run.obs, &run.state, &run.free, prior.as_ref());
+    // The identifiability analysis and the lack of fit take the placement's rotation as small
+    // rotations about the measurement frame's axes (the same figures however the tracker frame
+    // is turned); the model keeps roll, pitch and yaw.
+    let (local, linearised) =
+        linearised_covariances(&run.obs, &run.state, &run.free, prior.as_ref());
     let noise = noise_report(&run.obs, &run.state, &opts.noise, estimated_sigma, dof);
     let identifiability = analyse(
         &run.obs,
         &run.state,
         &run.free,
-        &linearised,
+        &local,
         nulls,
         fixed_by_user,
     );
-    let lack = lack_of_fit::lack_of_fit(&run, &linearised, &noise, opts);
+    let lack = lack_of_fit::lack_of_fit(&run, &local, &noise, opts);
     let beyond = if opts.beyond_geometry {
         beyond::check(&run, nominal, prior.as_ref())
     } else {

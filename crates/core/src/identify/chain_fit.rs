@@ -202,6 +202,57 @@ pub fn jacobian(obs: &[Observation], s: &ChainState, free: &[usize]) -> DMatrix<
     DMatrix::from_fn(m, free.len(), |r, c| cols[c][r])
 }
 
+/// Whether the placement's three rotation inputs are all among `free`: the fit's
+/// identifiability analysis then takes them as small rotations about the measurement frame's
+/// axes at the estimate ([`local_jacobian`]).
+pub fn rotation_free(space: InputSpace, free: &[usize]) -> bool {
+    space
+        .range(Block::Placement)
+        .is_some_and(|r| (r.start + 3..r.end).all(|i| free.contains(&i)))
+}
+
+/// [`jacobian`] with the placement's roll, pitch and yaw columns replaced, when all three are
+/// free ([`rotation_free`]), by the derivatives with respect to small rotations `ω` about the
+/// measurement frame's x, y and z axes at the estimate, `W (e_k × R p)`: a parameterisation
+/// that turns with the tracker frame, so that the condition number and the correlations of the
+/// same data do not depend on how the tracker stood (roll-pitch-yaw degenerates at ±90° pitch,
+/// where roll and yaw turn about one axis). `δω = M δ(roll, pitch, yaw)` ([`rpy_to_local`]).
+pub fn local_jacobian(obs: &[Observation], s: &ChainState, free: &[usize]) -> DMatrix<f64> {
+    let mut j = jacobian(obs, s, free);
+    let space = s.space();
+    if !rotation_free(space, free) {
+        return j;
+    }
+    let r = s.rotation();
+    for (c, &i) in free.iter().enumerate() {
+        let (Block::Placement, k @ 3..=5) = space.locate(i) else {
+            continue;
+        };
+        let axis = Vector3::ith(k - 3, 1.0);
+        for (n, o) in obs.iter().enumerate() {
+            let rp = r * Vector3::from(position(&s.params, &s.tool, &o.q));
+            let d = o.whiten * axis.cross(&rp);
+            for a in 0..3 {
+                j[(3 * n + a, c)] = d[a];
+            }
+        }
+    }
+    j
+}
+
+/// `M` with `δω = M δ(roll, pitch, yaw)`: the small rotation about the measurement frame's axes
+/// that increments of the placement's roll, pitch and yaw make at `s` (columns `Rz Ry e_x`,
+/// `Rz e_y`, `e_z`; singular at ±90° pitch).
+pub fn rpy_to_local(s: &ChainState) -> Matrix3<f64> {
+    let rz = Rotation3::from_euler_angles(0.0, 0.0, s.base[5]);
+    let ry = Rotation3::from_euler_angles(0.0, s.base[4], 0.0);
+    Matrix3::from_columns(&[
+        rz * (ry * Vector3::x()),
+        rz * Vector3::y(),
+        Vector3::z(),
+    ])
+}
+
 /// A prior on some inputs: pseudo-observations `(x_i − centre_i)/σ_i` in the whitened units of
 /// the data (σ = 0: no prior on that input).
 #[derive(Clone, Debug, PartialEq)]

@@ -19,7 +19,7 @@
 //! combination and the joint ranges the data actually cover.
 
 use super::chain::Placement;
-use super::chain_fit::{default_free, input_joint, jacobian, ChainState, Observation};
+use super::chain_fit::{default_free, input_joint, local_jacobian, ChainState, Observation};
 use super::IdentifyError;
 use crate::kinematics::{Layout, RobotModel, MAX_JOINTS, MIN_JOINTS};
 use nalgebra::DMatrix;
@@ -121,9 +121,43 @@ pub struct ScaledSvd {
 
 /// Column-scales `j` and decomposes it.
 pub fn scaled_svd(j: &DMatrix<f64>) -> ScaledSvd {
+    scaled_svd_grouped(j, &[])
+}
+
+/// The columns of the placement's translation and, when all three are free, of its rotation
+/// ([`crate::identify::chain_fit::rotation_free`]): each triple is scaled by one factor, so
+/// that turning the tracker frame (which mixes a triple's columns orthogonally) changes no
+/// singular value.
+fn placement_groups(state: &ChainState, free: &[usize]) -> Vec<Vec<usize>> {
+    let space = state.space();
+    let Some(r) = space.range(crate::kinematics::Block::Placement) else {
+        return Vec::new();
+    };
+    let cols = |inputs: std::ops::Range<usize>| -> Vec<usize> {
+        inputs
+            .filter_map(|i| free.iter().position(|&f| f == i))
+            .collect()
+    };
+    let mut groups = vec![cols(r.start..r.start + 3)];
+    if crate::identify::chain_fit::rotation_free(space, free) {
+        groups.push(cols(r.start + 3..r.end));
+    }
+    groups.retain(|g| g.len() == 3);
+    groups
+}
+
+/// [`scaled_svd`] with the columns of each of `groups` scaled by their RMS norm together.
+pub fn scaled_svd_grouped(j: &DMatrix<f64>, groups: &[Vec<usize>]) -> ScaledSvd {
     let norms: Vec<f64> = (0..j.ncols()).map(|c| j.column(c).norm()).collect();
+    let mut scale = norms.clone();
+    for g in groups {
+        let rms = (g.iter().map(|&c| norms[c] * norms[c]).sum::<f64>() / g.len() as f64).sqrt();
+        for &c in g {
+            scale[c] = rms;
+        }
+    }
     let mut s = j.clone();
-    for (c, &n) in norms.iter().enumerate() {
+    for (c, &n) in scale.iter().enumerate() {
         if n > 0.0 {
             s.column_mut(c).scale_mut(1.0 / n);
         }
@@ -234,8 +268,8 @@ pub fn fix_null_directions(
     let lay = state.layout();
     let mut found = Vec::new();
     while !free.is_empty() {
-        let j = jacobian(obs, state, free);
-        let svd = scaled_svd(&j);
+        let j = local_jacobian(obs, state, free);
+        let svd = scaled_svd_grouped(&j, &placement_groups(state, free));
         if let Some(c) = svd.norms.iter().position(|&n| n == 0.0) {
             found.push(NullDirection {
                 combination: lay.measured().name(free[c]),
@@ -269,8 +303,10 @@ pub fn fix_null_directions(
     found
 }
 
-/// Measures the identifiability of `free` at `state`; `covariance` (over `free`, any units) gives
-/// the correlations.
+/// Measures the identifiability of `free` at `state`, the placement's rotation as small
+/// rotations about the measurement frame's axes when all three are free
+/// ([`local_jacobian`]: the same figures however the tracker frame is turned); `covariance`
+/// (over `free` in those coordinates, any units) gives the correlations.
 pub fn analyse(
     obs: &[Observation],
     state: &ChainState,
@@ -280,8 +316,8 @@ pub fn analyse(
     fixed_by_user: Vec<String>,
 ) -> Identifiability {
     let lay = state.layout();
-    let j = jacobian(obs, state, free);
-    let svd = scaled_svd(&j);
+    let j = local_jacobian(obs, state, free);
+    let svd = scaled_svd_grouped(&j, &placement_groups(state, free));
     let p = svd.values.len();
     let max = svd.values.first().copied().unwrap_or(0.0);
     let min = svd.values.last().copied().unwrap_or(0.0);

@@ -4,8 +4,10 @@
 
 use super::NoiseReport;
 use crate::identify::chain_fit::{
-    jacobian, position_residuals, residuals, ChainState, Observation, Prior,
+    jacobian, local_jacobian, position_residuals, residuals, rotation_free, rpy_to_local,
+    ChainState, Observation, Prior,
 };
+use crate::kinematics::Block;
 use crate::identify::noise::{chi2_upper_tail, NoiseModel};
 use nalgebra::DMatrix;
 
@@ -51,6 +53,41 @@ pub(super) fn linearised_covariance(
     prior: Option<&Prior>,
 ) -> DMatrix<f64> {
     invert_spd(&information(&jacobian(obs, state, free), free, prior))
+}
+
+/// The linearised covariance of the free inputs `free` with the placement's rotation as small
+/// rotations about the measurement frame's axes ([`local_jacobian`]), and the same covariance in
+/// the model's roll, pitch and yaw (`δ(r, p, y) = M⁻¹ δω`, [`rpy_to_local`]). Where `M` cannot
+/// be inverted (±90° pitch) or the rotation is not free, both are the roll-pitch-yaw one.
+pub(super) fn linearised_covariances(
+    obs: &[Observation],
+    state: &ChainState,
+    free: &[usize],
+    prior: Option<&Prior>,
+) -> (DMatrix<f64>, DMatrix<f64>) {
+    let space = state.space();
+    let to_rpy = rotation_free(space, free)
+        .then(|| rpy_to_local(state).try_inverse())
+        .flatten();
+    let Some(m_inv) = to_rpy else {
+        let c = linearised_covariance(obs, state, free, prior);
+        return (c.clone(), c);
+    };
+    let local = invert_spd(&information(&local_jacobian(obs, state, free), free, prior));
+    let mut t = DMatrix::<f64>::identity(free.len(), free.len());
+    let at: Vec<usize> = free
+        .iter()
+        .enumerate()
+        .filter(|(_, &i)| matches!(space.locate(i), (Block::Placement, 3..=5)))
+        .map(|(c, _)| c)
+        .collect();
+    for (a, &ca) in at.iter().enumerate() {
+        for (b, &cb) in at.iter().enumerate() {
+            t[(ca, cb)] = m_inv[(a, b)];
+        }
+    }
+    let rpy = &t * &local * t.transpose();
+    (local, (&rpy + rpy.transpose()) * 0.5)
 }
 
 /// The information `JᵀJ + prior` of the free inputs `free` whose whitened Jacobian is `j`.

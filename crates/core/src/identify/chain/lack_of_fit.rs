@@ -5,18 +5,19 @@
 
 use super::{ChainOptions, Fitted, NoiseReport};
 use crate::discrepancy::{Configurations, FittedPoint, LackOfFit};
-use crate::identify::chain_fit::{jacobian, position_residuals};
+use crate::identify::chain_fit::{local_jacobian, position_residuals};
 use nalgebra::{DMatrix, Matrix3};
 
 /// The lack of fit of `run` with `linearised` = `(JᵀWJ + prior)⁻¹` over its free inputs
-/// (whitened units) and the noise check `noise`.
+/// (whitened units; the placement's rotation as [`local_jacobian`] takes it) and the noise
+/// check `noise`.
 pub(super) fn lack_of_fit(
     run: &Fitted,
     linearised: &DMatrix<f64>,
     noise: &NoiseReport,
     opts: &ChainOptions,
 ) -> LackOfFit {
-    let j = jacobian(&run.obs, &run.state, &run.free);
+    let j = local_jacobian(&run.obs, &run.state, &run.free);
     let plain = position_residuals(&run.obs, &run.state);
     let points: Vec<FittedPoint> = run
         .obs
