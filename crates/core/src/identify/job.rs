@@ -173,8 +173,13 @@ fn keep_prior_of_held(model: &mut RobotModel, nominal: &RobotModel, runs: &[Iden
             let (cs, n) = (c.space(), c.space().len());
             let mut m = c.matrix().to_vec();
             for &i in &held {
-                if let Some(k) = cs.find(&space.name(i)) {
-                    m[k * n + k] += prior(i).powi(2);
+                match (cs.find(&space.name(i)), space.locate(i)) {
+                    (Some(k), _) => m[k * n + k] += prior(i).powi(2),
+                    // A covariance without the tool block: the tool's own σ.
+                    (None, (Block::Tool, k)) => {
+                        model.tool_sigma[k] = model.tool_sigma[k].max(prior(i));
+                    }
+                    (None, _) => {}
                 }
             }
             if let Some(c) = Covariance::new(cs, m) {
