@@ -11,7 +11,8 @@ NumPy, OpenTURNS and SALib users:
   flange frame). ``N_PARAMS`` = 30 and ``N_UNCERTAIN`` = 33 are the six-joint counts; a
   seven-joint model has 35 and 38 (``len(model.param_names)``). Every shape below is the
   model's own: n columns of joint angles, 5n + 3 (or 5n) columns of inputs.
-* ``model.fk(q_deg)`` -> (m, 3) tool positions, mm, for q_deg of shape (m, n).
+* ``model.fk(q_deg)`` -> (m, 3) tool positions, mm, for q_deg of shape (m, n); (3,) for one
+  configuration of n angles (every ``q_deg`` takes a 1-D configuration as one row).
 * ``model.max_error(params, q_deg, ...)`` -> (N,) maximum point errors of caller-chosen
   input rows (N × (5n + 3), N × 33 for six joints; N × 5n = the parameters with the tool at
   the model's tool; or the inputs named by ``columns``), or (N, m) with ``per_point=True``,
@@ -35,6 +36,9 @@ NumPy, OpenTURNS and SALib users:
 * ``model.salib_problem()`` -> SALib's problem dict (independent normals, ``bounds`` = [mean,
   sd]); ``model.openturns_function(q_deg)`` -> an ``ot.Function`` of the inputs evaluating whole
   samples through ``max_error``.
+
+``thresholds``/``threshold`` take a number or a sequence. ``help()`` shows every default; the
+type stubs (``_gpu_amcs.pyi``, ``py.typed``) serve mypy, pyright and editors.
 
 Errors are ``ValueError`` with the command line's one-line message, naming the argument.
 """

@@ -5,6 +5,7 @@
 //!
 //! Over 600 lines: three analyses with the same shape (keywords → options → driver → report); one file keeps them parallel.
 
+use crate::arrays::numbers;
 use crate::errors::{arg_error, lib_error, value_error};
 use crate::model::PyModel;
 use crate::problem::{check_estimate, keyword, problem_function, BYTES_PER_POINT};
@@ -153,17 +154,18 @@ problem_function! {
     /// with `bootstrap` resamples (seed `bootstrap_seed`) for the 95 % intervals; `thresholds`
     /// (mm) adds the indices of the failure indicators 1[w ≥ l_c]. Problem arguments as `mcs`.
     /// Returns a `SensitivityResult`.
+    text_signature = "(model=None, *, draws=8192, bootstrap=300, bootstrap_seed=1, thresholds=(), preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True)";
     fn sensitivity(
         draws: usize = 1 << 13,
         bootstrap: usize = 300,
         bootstrap_seed: u64 = 1,
-        thresholds: Vec<f64> = Vec::new()
+        thresholds: Option<Bound<'py, PyAny>> = None
     ) -> PySensitivityResult |py, problem| {
         let opts = SensitivityOptions {
             draws,
             bootstrap,
             bootstrap_seed,
-            thresholds,
+            thresholds: numbers(thresholds.as_ref(), "thresholds", "mm")?.unwrap_or_default(),
             ..SensitivityOptions::default()
         };
         opts.check().map_err(sensitivity_error)?;
@@ -244,27 +246,13 @@ crate::report_class!(PyTailResult, text, {
     }
 });
 
-/// Numbers from a number or a sequence of numbers.
-fn numbers(v: Option<&Bound<'_, PyAny>>, name: &str) -> PyResult<Vec<f64>> {
-    match v {
-        None => Ok(Vec::new()),
-        Some(v) => match v.extract::<f64>() {
-            Ok(x) => Ok(vec![x]),
-            Err(_) => v.extract::<Vec<f64>>().map_err(|_| {
-                value_error(format!(
-                    "{name}: expected a number or a sequence of numbers (mm)"
-                ))
-            }),
-        },
-    }
-}
-
 problem_function! {
     /// Tail probabilities P_f = Pr[w ≥ L] and β down to 1e-9 (`gpu-amcs tail`) at the
     /// thresholds `threshold` (mm; a number or a sequence), by subset simulation
     /// (`method="subset"`, `samples_per_level` per level, level probability `p0`) or crude
     /// Monte Carlo (`method="mc"`), to a coefficient of variation `cov`, at most
     /// `max_evaluations` evaluations of w. Problem arguments as `mcs`. Returns a `TailResult`.
+    text_signature = "(model=None, *, threshold=None, cov=0.1, method='subset', max_evaluations=5000000, samples_per_level=1000, p0=0.1, preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True)";
     fn tail(
         threshold: Option<Bound<'py, PyAny>> = None,
         cov: f64 = 0.1,
@@ -284,7 +272,7 @@ problem_function! {
         };
         let opts = TailOptions {
             method,
-            thresholds: numbers(threshold.as_ref(), "threshold")?,
+            thresholds: numbers(threshold.as_ref(), "threshold", "mm")?.unwrap_or_default(),
             target_cov: cov,
             max_evaluations,
             samples_per_level,
@@ -432,13 +420,15 @@ fn grid(plane: Option<&str>, at: Option<f64>, cells: Option<Vec<usize>>) -> PyRe
 /// flange orientation `orientation` (roll, pitch, yaw in degrees; default the tool pointing
 /// down; `free_orientation=True` for position only), nearest `reference_q` (degrees), from
 /// `ik_seeds` extra seeds; then `draws` parameter draws (seed `seed`) are evaluated at all
-/// reached cells, with reliabilities at `thresholds` (mm). Returns a `MapResult`.
+/// reached cells, with reliabilities at `thresholds` (mm; a number or a sequence). Returns a
+/// `MapResult`.
 #[pyfunction(name = "map")]
 #[pyo3(signature = (model = None, *, preset = None, box_center = None, box_size = None,
     plane = None, at = None, cells = None, orientation = None, free_orientation = false,
     reference_q = None, ik_seeds = 0, draws = 10_000,
-    thresholds = gpu_amcs_core::mc::DEFAULT_THRESHOLDS_MM.to_vec(), seed = 2025,
-    backend = "auto".to_string(), adapter = None, memory_limit = None))]
+    thresholds = None, seed = 2025, backend = "auto".to_string(), adapter = None,
+    memory_limit = None),
+    text_signature = "(model=None, *, preset=None, box_center=None, box_size=None, plane=None, at=None, cells=None, orientation=None, free_orientation=False, reference_q=None, ik_seeds=0, draws=10000, thresholds=(0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8), seed=2025, backend='auto', adapter=None, memory_limit=None)")]
 #[allow(clippy::too_many_arguments)]
 pub fn workspace_map<'py>(
     py: Python<'py>,
@@ -454,12 +444,14 @@ pub fn workspace_map<'py>(
     reference_q: Option<Vec<f64>>,
     ik_seeds: usize,
     draws: u64,
-    thresholds: Vec<f64>,
+    thresholds: Option<Bound<'py, PyAny>>,
     seed: u64,
     backend: String,
     adapter: Option<String>,
     memory_limit: Option<Bound<'py, PyAny>>,
 ) -> PyResult<PyMapResult> {
+    let thresholds = numbers(thresholds.as_ref(), "thresholds", "mm")?
+        .unwrap_or_else(|| gpu_amcs_core::mc::DEFAULT_THRESHOLDS_MM.to_vec());
     map::check_run(&thresholds, draws).map_err(map_error)?;
     let source = match &model {
         Some(m) => ModelSource::Model(Box::new(m.model.clone())),

@@ -10,7 +10,7 @@ use gpu_amcs_core::identify::{
 };
 use gpu_amcs_core::kinematics::RobotModel;
 use gpu_amcs_core::report::Report;
-use gpu_amcs_core::spec::{ModelSource, DEFAULT_PRESET};
+use gpu_amcs_core::spec::ModelSource;
 use pyo3::prelude::*;
 use std::path::PathBuf;
 
@@ -129,26 +129,28 @@ crate::report_class!(PyIdentifyResult, {
 /// `IdentifyResult` whose `to_toml()` is the model file the command writes and whose
 /// `to_dict()` is its `--json` document.
 #[pyfunction]
-#[pyo3(signature = (data, *, nominal = None, preset = DEFAULT_PRESET.to_string(),
-    base_known = false, fix = Vec::new(), tracker_sigma = None, tracker_mpe = None,
-    tracker_at = None, uncertainty = "linearised".to_string(), mc_draws = 200, seed = 1,
-    fit = "commanded".to_string(), no_prior = false, no_refine = false, covariance = false,
-    strict = false, no_compensation = false, beyond_geometry = false))]
+// Plain literal defaults, so that help() and inspect.signature show them (PyO3 writes `...`
+// for any other expression); `preset` is the command line's default (spec::DEFAULT_PRESET, which
+// python/tests/test_signatures.py checks).
+#[pyo3(signature = (data, *, nominal = None, preset = "tx60", base_known = false, fix = None,
+    tracker_sigma = None, tracker_mpe = None, tracker_at = None, uncertainty = "linearised",
+    mc_draws = 200, seed = 1, fit = "commanded", no_prior = false, no_refine = false,
+    covariance = false, strict = false, no_compensation = false, beyond_geometry = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify(
     py: Python<'_>,
     data: PathBuf,
     nominal: Option<Bound<'_, PyAny>>,
-    preset: String,
+    preset: &str,
     base_known: bool,
-    fix: Vec<String>,
+    fix: Option<Vec<String>>,
     tracker_sigma: Option<f64>,
     tracker_mpe: Option<Vec<f64>>,
     tracker_at: Option<Vec<f64>>,
-    uncertainty: String,
+    uncertainty: &str,
     mc_draws: usize,
     seed: u64,
-    fit: String,
+    fit: &str,
     no_prior: bool,
     no_refine: bool,
     covariance: bool,
@@ -156,7 +158,7 @@ pub fn identify(
     no_compensation: bool,
     beyond_geometry: bool,
 ) -> PyResult<PyIdentifyResult> {
-    let method = match fit.as_str() {
+    let method = match fit {
         "commanded" => CircleFitMethod::CommandedAngles,
         "point-cloud" | "point_cloud" => CircleFitMethod::PointCloud,
         other => {
@@ -165,7 +167,7 @@ pub fn identify(
             )))
         }
     };
-    let uncertainty = match uncertainty.as_str() {
+    let uncertainty = match uncertainty {
         "linearised" | "linearized" => UncertaintyMethod::Linearised,
         "montecarlo" | "monte-carlo" | "monte_carlo" => {
             UncertaintyMethod::MonteCarlo { draws: mc_draws }
@@ -177,7 +179,7 @@ pub fn identify(
         }
     };
     let source = match &nominal {
-        None => ModelSource::Preset(preset),
+        None => ModelSource::Preset(preset.to_string()),
         Some(n) => match n.cast::<PyModel>() {
             Ok(m) => ModelSource::Model(Box::new(m.get().model.clone())),
             Err(_) => ModelSource::File(n.extract::<PathBuf>().map_err(|_| {
@@ -201,7 +203,7 @@ pub fn identify(
         } else {
             Placement::Identify
         },
-        fix,
+        fix: fix.unwrap_or_default(),
         tracker_sigma_mm: tracker_sigma,
         tracker_mpe,
         tracker_at_mm: tracker_at,

@@ -421,7 +421,7 @@ impl PyModel {
     }
 
     /// Tool positions (mm) at joint configurations `q_deg` (m × n, degrees, one column per
-    /// joint): m × 3, in the description's frame (the model's base transform applied, as
+    /// joint): m × 3 (for one configuration given as n angles, 3), in the description's frame (the model's base transform applied, as
     /// `gpu-amcs fk` does), with the model's compensation added when it has one
     /// (`compensation=False`: the geometric model alone, `fk --no-compensation`).
     #[pyo3(signature = (q_deg, *, compensation = true))]
@@ -430,8 +430,8 @@ impl PyModel {
         py: Python<'py>,
         q_deg: &Bound<'py, PyAny>,
         compensation: bool,
-    ) -> PyResult<Bound<'py, PyArray2<f64>>> {
-        let q = arrays::joint_rows(q_deg, "q_deg", self.model.joints())?;
+    ) -> PyResult<Bound<'py, PyAny>> {
+        let (q, single) = arrays::joint_rows(q_deg, "q_deg", self.model.joints())?;
         let model = &self.model;
         let out = py.detach(|| {
             let mut out = Array2::zeros((q.len(), 3));
@@ -446,12 +446,17 @@ impl PyModel {
             }
             out
         });
-        Ok(out.into_pyarray(py))
+        Ok(if single {
+            out.row(0).to_owned().into_pyarray(py).into_any()
+        } else {
+            out.into_pyarray(py).into_any()
+        })
     }
 
     /// The maximum point error `w = max_j ‖P(params_i, q_j) − P_ref,j‖` (mm) of each row of
     /// `params` (N × D, mm and degrees: absolute values, or offsets from the model's values
-    /// with `offsets=True`) at the configurations `q_deg` (m × n, one column per joint): an
+    /// with `offsets=True`) at the configurations `q_deg` (m × n, one column per joint; or n
+    /// angles, one configuration): an
     /// array of N, or N × m per-point errors with `per_point=True`. The columns are the model's
     /// `5n + 3` inputs in order (the `5n` parameters, then the tool point's x, y, z in the
     /// flange frame, mm; 33 for six joints), or the `5n` parameters alone (a `5n`-column
@@ -485,8 +490,8 @@ impl PyModel {
             Some(c) => (vec![c.len()], format!("(N, {})", c.len())),
             None => (vec![nu, np], format!("(N, {nu}) or (N, {np})")),
         };
-        let matrix = arrays::read(params, "params", &widths, &shape)?;
-        let q = arrays::joint_rows(q_deg, "q_deg", lay.joints())?;
+        let (matrix, _) = arrays::read(params, "params", &widths, &shape, false)?;
+        let (q, _) = arrays::joint_rows(q_deg, "q_deg", lay.joints())?;
         let m = q.len();
         let choice = self::backend(backend)?;
         let spec = crate::problem::given_points(self, q, reference, nominal.as_deref(), choice)?;

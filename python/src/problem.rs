@@ -285,7 +285,7 @@ impl ProblemKw<'_> {
                         .map_err(|e| arg_error(keyword(model.field()), e))?
                         .joints(),
                 };
-                PointsSource::Given(arrays::joint_rows(q, "q_deg", joints)?)
+                PointsSource::Given(arrays::joint_rows(q, "q_deg", joints)?.0)
             }
             (None, Some(f)) => PointsSource::File(f.clone()),
             (None, None) => PointsSource::Generate(GeneratedPoints {
@@ -321,8 +321,18 @@ impl ProblemKw<'_> {
 /// Defines a function on a problem: its own keyword arguments, then the problem keywords every
 /// such function shares (the command line's flags, spelled as keywords, with their defaults),
 /// gathered into a [`ProblemKw`] for `$body`.
+///
+/// `text_signature` is the signature `help()` and `inspect.signature` show: every keyword with
+/// its default as Python writes it (PyO3 shows `...` for a default that is not a plain literal,
+/// such as a list of thresholds). It must list the same keywords in the same order, ending with
+/// the problem keywords: `preset=None, points=50, q_deg=None, points_file=None, points_seed=1,
+/// box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None,
+/// backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True`.
+/// `python/tests/test_signatures.py` checks the defaults and that every keyword shown is taken;
+/// `mypy.stubtest` (in `.ci/run`) that `gpu_amcs/_gpu_amcs.pyi` agrees.
 macro_rules! problem_function {
-    ($(#[$doc:meta])* fn $name:ident($($arg:ident: $ty:ty = $default:expr),*)
+    ($(#[$doc:meta])* text_signature = $sig:literal;
+        fn $name:ident($($arg:ident: $ty:ty = $default:expr),*)
         -> $ret:ty |$py:ident, $problem:ident| $body:block) => {
         $(#[$doc])*
         #[pyfunction]
@@ -331,7 +341,8 @@ macro_rules! problem_function {
             box_center = None, box_size = None, seed = 2025,
             reference = "calibrated".to_string(), nominal = None,
             backend = "auto".to_string(), adapter = None, memory_limit = None,
-            frame = "measurement".to_string(), discrepancy = true))]
+            frame = "measurement".to_string(), discrepancy = true),
+            text_signature = $sig)]
         #[allow(clippy::too_many_arguments)]
         pub fn $name<'py>(
             $py: ::pyo3::Python<'py>,

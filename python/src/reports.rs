@@ -83,7 +83,7 @@ macro_rules! report_class {
                 &self,
                 py: pyo3::Python<'py>,
             ) -> pyo3::PyResult<pyo3::Bound<'py, pyo3::PyAny>> {
-                crate::analyses::parse_json(py, self.to_json())
+                $crate::analyses::parse_json(py, self.to_json())
             }
 
             /// A CSV file the command line writes with `--csv`, by name (`table`, with or
@@ -107,7 +107,7 @@ macro_rules! report_class {
                         return f;
                     }
                 }
-                crate::analyses::frame(py, self.to_csv(table)?)
+                $crate::analyses::frame(py, self.to_csv(table)?)
             }
 
             /// An SVG figure the command line writes with `--svg`, by name (`figure`, with or

@@ -203,6 +203,13 @@ impl Built {
     }
 }
 
+/// The `thresholds` of `mcs` and `amcs` (a number or a sequence, mm), the command line's
+/// default when not given.
+fn run_thresholds(v: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<f64>> {
+    Ok(crate::arrays::numbers(v, "thresholds", "mm")?
+        .unwrap_or_else(|| DEFAULT_THRESHOLDS_MM.to_vec()))
+}
+
 /// Draws per evaluation chunk of an MCS run of `draws` draws (the command line's chunk, so the
 /// trace and the values are the same).
 fn mcs_chunk(draws: u64) -> u64 {
@@ -215,15 +222,17 @@ problem_function! {
     /// degrees, one column per joint of the model), the CSV `points_file`, or `points`
     /// generated with `points_seed` in the box `box_center`/`box_size` (mm; by default the
     /// robot's own box, scaled with its reach as the command line's). Returns a `RunResult`; errors are `ValueError` naming the
-    /// argument.
+    /// argument. `thresholds`: the L of R(L) (mm; a number or a sequence; default 0.1 … 0.8).
+    text_signature = "(model=None, *, draws=1000000, coverage=0.95, interval='shortest', thresholds=(0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8), per_point=False, preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True)";
     fn mcs(
         draws: u64 = 1_000_000,
         coverage: f64 = 0.95,
         interval: String = "shortest".to_string(),
-        thresholds: Vec<f64> = DEFAULT_THRESHOLDS_MM.to_vec(),
+        thresholds: Option<Bound<'py, PyAny>> = None,
         per_point: bool = false
     ) -> RunResult |py, problem| {
         let chunk = mcs_chunk(draws);
+        let thresholds = run_thresholds(thresholds.as_ref())?;
         let settings = settings(coverage, &interval, thresholds, per_point)?;
         let built = build(
             &problem,
@@ -248,6 +257,7 @@ problem_function! {
     /// twice the standard deviation of every batch estimate is within `delta` mm (default
     /// 0.01; or the tolerance from `ndig` significant digits), at most `max_draws`. Problem and
     /// reporting arguments as `mcs`.
+    text_signature = "(model=None, *, delta=None, ndig=None, batch=10000, max_draws=10000000, coverage=0.95, interval='shortest', thresholds=(0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8), per_point=False, preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True)";
     fn amcs(
         delta: Option<f64> = None,
         ndig: Option<u32> = None,
@@ -255,9 +265,10 @@ problem_function! {
         max_draws: u64 = 10_000_000,
         coverage: f64 = 0.95,
         interval: String = "shortest".to_string(),
-        thresholds: Vec<f64> = DEFAULT_THRESHOLDS_MM.to_vec(),
+        thresholds: Option<Bound<'py, PyAny>> = None,
         per_point: bool = false
     ) -> RunResult |py, problem| {
+        let thresholds = run_thresholds(thresholds.as_ref())?;
         let tolerance = match (delta, ndig) {
             (Some(_), Some(_)) => {
                 return Err(value_error("delta and ndig exclude each other: give one"))

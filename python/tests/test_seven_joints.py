@@ -201,14 +201,15 @@ def test_shapes_are_refused_naming_the_models_shape(iiwa, q):
         iiwa.max_error(p[:, :33], q)
     with pytest.raises(ValueError, match=re.escape("(N, 38) or (N, 35), got shape (38,)")):
         iiwa.max_error(p[0], q)
-    msg = "q_deg: expected a 2-D array of shape (m, 7) joint angles in degrees, got shape (12, 6)"
+    msg = ("q_deg: expected a 2-D array of shape (m, 7) joint angles in degrees, or a 1-D array "
+           "of shape (7,) for one row, got shape (12, 6)")
     with pytest.raises(ValueError, match=re.escape(msg)):
         iiwa.max_error(p, q[:, :6])
     with pytest.raises(ValueError, match=re.escape(msg)):
         iiwa.fk(q[:, :6])
     # A six-joint model names its own shapes.
-    with pytest.raises(ValueError, match=re.escape("shape (m, 6) joint angles in degrees, got "
-                                                   "shape (12, 7)")):
+    msg = "shape (m, 6) joint angles in degrees, or a 1-D array of shape (6,) for one row, got "
+    with pytest.raises(ValueError, match=re.escape(msg + "shape (12, 7)")):
         tx60.fk(q)
     with pytest.raises(ValueError, match=re.escape("(N, 33) or (N, 30), got shape (5, 38)")):
         tx60.max_error(p, q[:, :6])
