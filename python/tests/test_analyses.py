@@ -411,11 +411,13 @@ def test_discrepancy_term_is_carried_and_can_be_left_out(cli, tmp_path):
 
 
 def test_compensation_is_fitted_applied_and_can_be_left_out(cli, tmp_path):
-    # The simulator's robot leaves structure a Gaussian process over the joint angles predicts:
-    # the identified model carries a compensation, fk adds its mean (as `gpu-amcs fk` does) and
-    # compensation=False / no_compensation=True leave it out.
+    # A simulated robot with joint compliance and gear harmonics leaves structure a Gaussian
+    # process over the joint angles predicts: the identified model carries a compensation, fk
+    # adds its mean (as `gpu-amcs fk` does) and compensation=False / no_compensation=True leave
+    # it out. (A geometric robot leaves white residuals and gets none.)
     poses = tmp_path / "poses.csv"
-    run_ok(cli, "simulate", "--poses", 150, "--seed", 3, "-o", poses)
+    run_ok(cli, "simulate", "--poses", 150, "--seed", 3, "--compliance", 1, "--harmonics", 1,
+           "-o", poses)
     res = gpu_amcs.identify(poses)
     model_file = tmp_path / "m.toml"
     model_file.write_text(res.to_toml())

@@ -10,6 +10,22 @@ import pytest
 import gpu_amcs
 
 
+def assert_close(a, b, rel=1e-9, path="doc"):
+    """Equal documents, numbers within `rel` relative (or 1e-12 absolute)."""
+    if isinstance(a, dict):
+        assert isinstance(b, dict) and a.keys() == b.keys(), path
+        for k in a:
+            assert_close(a[k], b[k], rel, f"{path}.{k}")
+    elif isinstance(a, list):
+        assert isinstance(b, list) and len(a) == len(b), path
+        for i, (x, y) in enumerate(zip(a, b)):
+            assert_close(x, y, rel, f"{path}[{i}]")
+    elif isinstance(a, float) and isinstance(b, (int, float)):
+        assert abs(a - b) <= max(rel * abs(b), 1e-12), f"{path}: {a} vs {b}"
+    else:
+        assert a == b, f"{path}: {a!r} vs {b!r}"
+
+
 def run_ok(cli, *args):
     r = cli(*[str(a) for a in args])
     assert r.returncode == 0, r.stderr
@@ -49,10 +65,16 @@ def test_validate_equals_cli(cli, ur5e, tmp_path):
     doc_file = tmp_path / "v.json"
     r = run_ok(cli, "validate", "--model", f, held, "--nominal", "--check-draws", 2000,
                "--json", doc_file)
-    for model in [res.model, f, str(f)]:
+    doc = json.loads(doc_file.read_text())
+    for model in [f, str(f)]:
         v = gpu_amcs.validate(model, held, nominal=True, check_draws=2000)
         assert v.frame == "measurement"
-        assert v.to_dict() == json.loads(doc_file.read_text())
+        assert v.to_dict() == doc
+    # The model in memory holds the fit's radians, its file decimal degrees: the same to
+    # rounding (the errors agree to 1e-13 mm), so within 1e-9 relative.
+    v = gpu_amcs.validate(res.model, held, nominal=True, check_draws=2000)
+    assert v.frame == "measurement"
+    assert_close(v.to_dict(), doc)
     v = gpu_amcs.validate(f, held, nominal=True, check_draws=2000)
     assert r.stdout == v.to_text()
     d = v.to_dict()
