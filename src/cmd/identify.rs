@@ -1,7 +1,7 @@
 //! `identify`: MDH parameters, target and placement from laser-tracker data (sweeps or poses, in
 //! any measurement frame), with the covariance the data produce.
 
-use super::args::load_model;
+use super::args::{load_model, MemoryArgs};
 use super::outputs::Outputs;
 use super::reports::stage_reports;
 use super::Run;
@@ -141,6 +141,8 @@ pub struct IdentifyArgs {
     pub verbose: bool,
     #[command(flatten)]
     pub reports: ReportFlags,
+    #[command(flatten)]
+    pub memory: MemoryArgs,
 }
 
 impl Run for IdentifyArgs {
@@ -161,6 +163,7 @@ impl Run for IdentifyArgs {
             None => preset_hint(&a.sweeps, nominal, a.preset.is_none()),
         };
         let job = a.job(nominal.clone());
+        a.check_memory(&job)?;
         let outcome = match job.run() {
             Ok(o) => o,
             Err(IdentifyJobError::Strict { warnings }) => {
@@ -277,7 +280,68 @@ fn setting_flag(s: IdentifySetting) -> &'static str {
     }
 }
 
+/// The length of the data file and its number of lines (an upper bound on its rows), counted
+/// without keeping the text; `None` for what is not a regular file (a pipe gives its bytes only
+/// once, to the identification).
+fn data_size(path: &Path) -> Option<(u64, u64)> {
+    use std::io::Read;
+    let meta = std::fs::metadata(path).ok()?;
+    if !meta.is_file() {
+        return None;
+    }
+    let mut f = std::fs::File::open(path).ok()?;
+    let mut buf = vec![0u8; 1 << 16];
+    let mut lines = 1u64;
+    loop {
+        match f.read(&mut buf) {
+            Ok(0) => break,
+            Ok(k) => lines += buf[..k].iter().filter(|&&b| b == b'\n').count() as u64,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
+            Err(_) => return None,
+        }
+    }
+    Some((meta.len(), lines))
+}
+
 impl IdentifyArgs {
+    /// Sizes the identification from the data file's rows before reading it: the fit, the lack
+    /// of fit and its compensation (naming --memory-limit), then the Monte Carlo
+    /// re-identifications (naming --mc-draws).
+    fn check_memory(&self, job: &IdentifyJob) -> Result<()> {
+        use gpu_amcs::memory::Estimate;
+        let Some((bytes, rows)) = data_size(&self.sweeps) else {
+            return Ok(());
+        };
+        let threads = rayon::current_num_threads() as u64;
+        let what = format!("identifying the {rows} lines of {}", self.sweeps.display());
+        self.memory.check(&job.memory_estimate(
+            rows,
+            bytes,
+            threads,
+            false,
+            Estimate::new(
+                what.clone(),
+                "identify a subset of the rows, or raise --memory-limit",
+            ),
+        ))?;
+        if self.uncertainty == UncertaintyArg::Montecarlo {
+            self.memory.check(&job.memory_estimate(
+                rows,
+                bytes,
+                threads,
+                true,
+                Estimate::new(
+                    format!(
+                        "{what} with {} Monte Carlo re-identifications",
+                        self.mc_draws
+                    ),
+                    "use fewer --mc-draws (or --uncertainty linearised), or raise --memory-limit",
+                ),
+            ))?;
+        }
+        Ok(())
+    }
+
     /// The library's job of the flags.
     fn job(&self, nominal: RobotModel) -> IdentifyJob {
         IdentifyJob {

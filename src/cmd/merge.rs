@@ -3,7 +3,7 @@
 //! `[K·n/N, (K+1)·n/N)` of the one stream, summarised without keeping the values.
 
 use super::analysis::outputs;
-use super::args::{thread_pool, BYTES_PER_POINT};
+use super::args::{thread_pool, MemoryArgs, BYTES_PER_POINT};
 use super::flags::{sensitivity_error, Driver};
 use super::outputs::Outputs;
 use super::progress::Progress;
@@ -19,7 +19,7 @@ use gpu_amcs::mc::summary::{
     self, Provenance, SensitivityShard, Summary, SummaryError, BYTES_PER_BIN,
 };
 use gpu_amcs::mc::{min_draws, McError, Setting};
-use gpu_amcs::memory::Estimate;
+use gpu_amcs::memory::{Bytes, Estimate};
 use gpu_amcs::report::{Report, RunReport};
 use std::path::{Path, PathBuf};
 
@@ -41,36 +41,42 @@ pub struct MergeArgs {
     pub files: Vec<PathBuf>,
     #[command(flatten)]
     pub reports: ReportFlags,
+    #[command(flatten)]
+    pub memory: MemoryArgs,
 }
 
 impl Run for MergeArgs {
     fn run(self) -> Result<()> {
-        let texts = self
+        // Sized from the files' lengths before any is read: every shard is kept once parsed,
+        // and the largest passes through its text, its checksum-verified copy and its parse.
+        let sizes = self
             .files
             .iter()
-            .map(|f| read_text(f).map(|t| (f.display().to_string(), t)))
+            .map(|f| file_len(f))
             .collect::<Result<Vec<_>>>()?;
-        let kind = check_kinds(&texts)?;
-        let files: Vec<String> = texts.iter().map(|(n, _)| n.clone()).collect();
+        self.memory.check(&merge_estimate(&sizes, 1))?;
+        let texts = Texts::open(&self.files)?;
+        let kind = texts.kind.clone();
+        if kind.is_none() {
+            // Run summaries keep a B-tree entry for each histogram bin, written in as few as
+            // six characters (`"7":1,`).
+            self.memory
+                .check(&merge_estimate(&sizes, BYTES_PER_BIN.div_ceil(6)))?;
+        }
+        let files: Vec<String> = self.files.iter().map(|f| f.display().to_string()).collect();
         let rows = vec![("shard summaries".to_string(), files.join(", "))];
         let mut outputs = Outputs::new(self.files.iter().map(|f| ("FILE", f.as_path())));
         let flags = &self.reports;
         if kind.as_deref() == Some(MapShard::KIND) {
             // A map's files depend on its layers, known once its shards are read.
-            let named = texts
-                .iter()
-                .map(|(f, t)| Ok((f.clone(), MapShard::from_json(t, f)?)))
-                .collect::<Result<Vec<_>>>()?;
+            let named = texts.parse(|t, f| Ok(MapShard::from_json(t, f)?))?;
             let result = map_shard::merge(&named).map_err(merge_error)?;
             flags.declare(&mut outputs, &result.layout())?;
             return write_reports(outputs, &result, flags, &rows);
         }
         if kind.as_deref() == Some(SensitivityShard::KIND) {
             flags.declare(&mut outputs, &SensitivityResult::planned_layout())?;
-            let named = texts
-                .iter()
-                .map(|(f, t)| Ok((f.clone(), SensitivityShard::from_json(t, f)?)))
-                .collect::<Result<Vec<_>>>()?;
+            let named = texts.parse(|t, f| Ok(SensitivityShard::from_json(t, f)?))?;
             let result = summary::merge_sensitivity(&named).map_err(|e| match e {
                 summary::SensitivityMergeError::Shards(e) => merge_error(e),
                 e => e.into(),
@@ -78,14 +84,30 @@ impl Run for MergeArgs {
             return write_reports(outputs, &result, flags, &rows);
         }
         flags.declare(&mut outputs, &RunReport::planned_layout())?;
-        let named = texts
-            .iter()
-            .map(|(f, t)| Ok((f.clone(), Summary::from_json(t, f)?)))
-            .collect::<Result<Vec<_>>>()?;
+        let named = texts.parse(|t, f| Ok(Summary::from_json(t, f)?))?;
         let merged = summary::merge(&named).map_err(merge_error)?;
         let rep = report_of(&merged, Vec::new());
         write_reports(outputs, &rep, flags, &rows)
     }
+}
+
+/// What merging files of `sizes` bytes keeps at most: every file once parsed (`per_byte` bytes
+/// a byte of its text: 1 for map and sensitivity shards, whose draws are 16 or about 20
+/// characters of text and 8 bytes parsed) and, while the largest is read, its text, its
+/// checksum-verified copy and its parse at once.
+fn merge_estimate(sizes: &[u64], per_byte: u64) -> Estimate {
+    let total = sizes.iter().try_fold(0u64, |a, &s| a.checked_add(s));
+    let largest = sizes.iter().copied().max().unwrap_or(0);
+    Estimate::new(
+        format!(
+            "merging {} file(s) of {}",
+            sizes.len(),
+            total.map_or("more than 2^64 bytes".to_string(), |t| Bytes(t).to_string())
+        ),
+        "merge on a machine with more memory, or raise --memory-limit",
+    )
+    .plus(&[total.unwrap_or(u64::MAX), per_byte])
+    .plus(&[largest, 3])
 }
 
 /// The `kind` field of a shard file (absent in a run summary).
@@ -104,29 +126,70 @@ fn kind_words(kind: Option<&str>) -> String {
     }
 }
 
-/// The kind of the first file, after checking that every file that tells its kind is of the
-/// same (a file that is not JSON is refused by its own reader, naming it).
-fn check_kinds(texts: &[(String, String)]) -> Result<Option<String>> {
-    let kinds: Vec<Option<Option<String>>> = texts
-        .iter()
-        .map(|(_, t)| serde_json::from_str::<Kind>(t).ok().map(|k| k.kind))
-        .collect();
-    let first = kinds.first().cloned().flatten().flatten();
-    for ((file, _), kind) in texts.iter().zip(&kinds).skip(1) {
-        if let Some(k) = kind.as_ref().filter(|k| **k != first) {
-            bail!(
-                "{file}: {}, but {} is {}; merge the files of one run",
-                kind_words(k.as_deref()),
-                texts[0].0,
-                kind_words(first.as_deref())
-            );
-        }
-    }
-    Ok(first)
+/// The kind a file's `text` tells: `None` when it is not JSON of that form (its own reader
+/// refuses it, naming it), `Some(None)` for a run summary.
+fn kind_of(text: &str) -> Option<Option<String>> {
+    serde_json::from_str::<Kind>(text).ok().map(|k| k.kind)
 }
 
-/// Reads one shard file, naming it in every error.
-fn read_text(path: &Path) -> Result<String> {
+/// The files to merge, read one at a time so that only one file's text is held at once: the
+/// first file's text and kind, then each other file checked to be of the same kind.
+struct Texts<'a> {
+    /// The files, in the order given.
+    files: &'a [PathBuf],
+    /// The first file's text, until it is parsed.
+    first: Option<String>,
+    /// The first file's kind (`None` for a run summary or a file that is not JSON).
+    kind: Option<String>,
+}
+
+impl<'a> Texts<'a> {
+    /// Reads the first of `files` (at least one: clap requires it).
+    fn open(files: &'a [PathBuf]) -> Result<Texts<'a>> {
+        let first = match files.first() {
+            Some(f) => read_text(f)?,
+            None => bail!("no files to merge"),
+        };
+        let kind = kind_of(&first).flatten();
+        Ok(Texts {
+            files,
+            first: Some(first),
+            kind,
+        })
+    }
+
+    /// Each file parsed by `parse(text, name)` and named, every file's text dropped once it is
+    /// parsed; a file that tells another kind than the first is refused before it is parsed.
+    fn parse<T>(mut self, parse: impl Fn(&str, &str) -> Result<T>) -> Result<Vec<(String, T)>> {
+        let mut out = Vec::with_capacity(self.files.len());
+        for (i, f) in self.files.iter().enumerate() {
+            let name = f.display().to_string();
+            let text = match self.first.take() {
+                Some(t) if i == 0 => t,
+                _ => {
+                    let t = read_text(f)?;
+                    if let Some(k) = kind_of(&t).filter(|k| *k != self.kind) {
+                        bail!(
+                            "{name}: {}, but {} is {}; merge the files of one run",
+                            kind_words(k.as_deref()),
+                            self.files[0].display(),
+                            kind_words(self.kind.as_deref())
+                        );
+                    }
+                    t
+                }
+            };
+            let parsed = parse(&text, &name)?;
+            drop(text);
+            out.push((name, parsed));
+        }
+        Ok(out)
+    }
+}
+
+/// The length of one shard file, naming it in every error; longer than [`MAX_SUMMARY_BYTES`]
+/// is refused.
+fn file_len(path: &Path) -> Result<u64> {
     let shown = path.display().to_string();
     let len = std::fs::metadata(path)
         .with_context(|| format!("{shown}: cannot read"))?
@@ -134,6 +197,13 @@ fn read_text(path: &Path) -> Result<String> {
     if len > MAX_SUMMARY_BYTES {
         bail!("{shown}: not a summary: {len} bytes, more than {MAX_SUMMARY_BYTES}");
     }
+    Ok(len)
+}
+
+/// Reads one shard file, naming it in every error.
+fn read_text(path: &Path) -> Result<String> {
+    let shown = path.display().to_string();
+    file_len(path)?;
     std::fs::read_to_string(path).with_context(|| format!("{shown}: cannot read"))
 }
 

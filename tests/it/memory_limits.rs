@@ -118,3 +118,100 @@ fn study_points_honour_the_limits() {
     );
     refused(&d, &o, "--points", "as given", "study --memory-limit");
 }
+
+/// `identify` of 10^5 poses keeps the whole-chain fit's 3n × p Jacobian and the lack of fit's
+/// 200 draws per pose (486 MiB at its peak): under a 500 MB address space it aborted after
+/// three minutes (exit 134, allocating the draws), and it took no `--memory-limit`. Now sized
+/// from the file's rows before it is read.
+#[test]
+fn identify_honours_the_limits() {
+    let data = tmpdir("mem-identify-data");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    let o = unlimited(&data, "simulate --poses 100000 -o big.csv");
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let o = unlimited(&data, "simulate --poses 300 -o small.csv");
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    let (big, small) = (s(&data.join("big.csv")), s(&data.join("small.csv")));
+    let out = tmpdir("mem-identify-out");
+    let o = under_ulimit(&out, 500_000, &format!("identify -q {big} -o m.toml"));
+    refused(
+        &out,
+        &o,
+        "--memory-limit",
+        "RLIMIT_AS",
+        "identify under ulimit -v",
+    );
+    let o = unlimited(
+        &out,
+        &format!("identify -q {big} -o m.toml --memory-limit 300M"),
+    );
+    refused(
+        &out,
+        &o,
+        "--memory-limit",
+        "as given",
+        "identify --memory-limit",
+    );
+    // Monte Carlo re-identifications too many to keep: 10^9 aborted (exit 134) collecting
+    // their estimates once the fit was done.
+    let mc = format!("identify -q {small} -o m.toml --uncertainty montecarlo");
+    let o = under_ulimit(&out, 500_000, &format!("{mc} --mc-draws 1000000000"));
+    refused(
+        &out,
+        &o,
+        "--mc-draws",
+        "RLIMIT_AS",
+        "identify --mc-draws under ulimit -v",
+    );
+    let o = unlimited(&out, &format!("{mc} --mc-draws 18446744073709551615"));
+    assert_fails_naming(&o, "--mc-draws", "--mc-draws 2^64 - 1");
+    assert!(tree(&out).is_empty(), "left {:?}", tree(&out));
+    // What fits still runs under the same limit.
+    let o = under_ulimit(&out, 500_000, &format!("identify -q {small} -o m.toml"));
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(out.join("m.toml").exists());
+}
+
+/// `merge` held every shard's text and then every parsed shard at once (4.5 times the files):
+/// two map shards of 2·10^6 draws (32 MB each) aborted under a 200 MB address space (exit 134),
+/// and merge took no `--memory-limit`. Now the files are read one at a time and sized from their
+/// lengths before any is read.
+#[test]
+fn merge_of_large_map_shards_honours_the_limits() {
+    let data = tmpdir("mem-merge-data");
+    let s = |p: &Path| p.to_str().unwrap().to_string();
+    for k in 0..2 {
+        let o = unlimited(
+            &data,
+            &format!(
+                "map -q --draws 2000000 --cells 3,3 --plane xy --at 200 --shard {k}/2 --summary-out s{k}.json"
+            ),
+        );
+        assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    }
+    let shards = format!("{} {}", s(&data.join("s0.json")), s(&data.join("s1.json")));
+    let out = tmpdir("mem-merge-out");
+    let o = under_ulimit(&out, 200_000, &format!("merge -q {shards} --json m.json"));
+    refused(
+        &out,
+        &o,
+        "--memory-limit",
+        "RLIMIT_AS",
+        "merge under ulimit -v",
+    );
+    let o = unlimited(
+        &out,
+        &format!("merge -q {shards} --json m.json --memory-limit 100M"),
+    );
+    refused(
+        &out,
+        &o,
+        "--memory-limit",
+        "as given",
+        "merge --memory-limit",
+    );
+    // What fits still runs under a larger limit.
+    let o = under_ulimit(&out, 400_000, &format!("merge -q {shards} --json m.json"));
+    assert_eq!(o.status.code(), Some(0), "{}", stderr(&o));
+    assert!(out.join("m.json").exists());
+}

@@ -340,6 +340,105 @@ impl IdentifyJob {
             .count()
     }
 
+    /// What identifying `rows` data rows (poses, or sweep points) read from a text of
+    /// `text_bytes` keeps at most, added to `e`, with `threads` workers: the text and the parsed
+    /// rows, and the largest of the phases that follow one another (each frees its work before
+    /// the next): the whole-chain fit (a `3n × p` Jacobian, its column buffers and transpose),
+    /// the lack of fit (its Jacobian, the points, the compensation's kernel matrices over at
+    /// most [`crate::discrepancy::gp::MAX_TRAINING`] poses and the leave-one-out check's draws
+    /// per point), the beyond-geometry fit when asked and, with `monte_carlo`, the Monte Carlo
+    /// re-identifications (`min(K, threads)` fits at once and `K` estimates kept).
+    pub fn memory_estimate(
+        &self,
+        rows: u64,
+        text_bytes: u64,
+        threads: u64,
+        monte_carlo: bool,
+        e: crate::memory::Estimate,
+    ) -> crate::memory::Estimate {
+        use crate::memory::Estimate;
+        let n = rows;
+        let p = self.free_count().max(1) as u64;
+        let joints = self.nominal.joints() as u64;
+        let threads = threads.max(1);
+        let obs = std::mem::size_of::<super::chain_fit::Observation>() as u64;
+        let row = std::mem::size_of::<super::poses::PosePoint>() as u64 + obs;
+        // The Levenberg-Marquardt fit over `cols` inputs: the columns, the Jacobian and its
+        // transpose of 3n + cols rows, and each worker's two residual vectors and column.
+        let fit = |cols: u64| {
+            let rows = n.saturating_mul(3).saturating_add(cols);
+            Estimate::new("", "")
+                .plus(&[3, rows, cols, 8])
+                .plus(&[threads, 3, rows, 8])
+                .bytes
+        };
+        // The leave-one-out check's draws per point (as `discrepancy::estimate::loo_check`
+        // draws them): two values each.
+        let draws = (20_000_000 / n.max(1)).clamp(200, 2000);
+        let training = n.min(crate::discrepancy::gp::MAX_TRAINING as u64);
+        // The points (residual, whitening, leverage, configuration, left-out residuals) and,
+        // one after the other, the Jacobian with its column buffers, the Jacobian with the
+        // compensation's kernel matrices, the Jacobian with the check's draws.
+        let jacobian = Estimate::new("", "").plus(&[3, n, p, 8]).bytes;
+        let lack_of_fit = Estimate::new("", "")
+            .plus(&[n, 2 * 72 + 24 + 24 + 8 * joints + 8 * 24])
+            .plus(&[jacobian.unwrap_or(u64::MAX)])
+            .bytes
+            .zip(
+                [
+                    jacobian,
+                    Estimate::new("", "")
+                        .plus(&[4, training, training, 8])
+                        .bytes,
+                    Estimate::new("", "").plus(&[2, n, draws, 8]).bytes,
+                ]
+                .into_iter()
+                .try_fold(0u64, |m, b| b.map(|b| m.max(b))),
+            )
+            .and_then(|(a, b)| a.checked_add(b));
+        // Joint compliance and the once- and twice-per-turn harmonics: five more inputs a joint,
+        // and the leave-one-out's Jacobian beside the fit's.
+        let beyond = if self.beyond_geometry {
+            fit(p + 5 * joints)
+                .zip(
+                    Estimate::new("", "")
+                        .plus(&[
+                            n.saturating_mul(3).saturating_add(p + 5 * joints),
+                            p + 5 * joints,
+                            8,
+                        ])
+                        .bytes,
+                )
+                .and_then(|(a, b)| a.checked_add(b))
+        } else {
+            Some(0)
+        };
+        let mc = match self.uncertainty {
+            UncertaintyMethod::MonteCarlo { draws: k } if monte_carlo => {
+                let k = k as u64;
+                fit(p)
+                    .and_then(|f| f.checked_add(obs.checked_mul(n)?))
+                    .and_then(|one| one.checked_mul(k.min(threads)))
+                    .zip(
+                        Estimate::new("", "")
+                            .plus(&[k, 8 * p + 48])
+                            .plus(&[n, 24 + 72])
+                            .bytes,
+                    )
+                    .and_then(|(a, b)| a.checked_add(b))
+            }
+            _ => Some(0),
+        };
+        let phases = [fit(p), lack_of_fit, beyond, mc];
+        let largest = phases.iter().try_fold(0u64, |m, b| b.map(|b| m.max(b)));
+        // Each row's residuals and report lines besides.
+        let e = e.plus(&[text_bytes]).plus(&[n, row + 256]);
+        match largest {
+            Some(b) => e.plus(&[b]),
+            None => Estimate { bytes: None, ..e },
+        }
+    }
+
     /// The options of the circle-point steps.
     fn options(&self) -> IdentifyOptions {
         IdentifyOptions {
