@@ -246,11 +246,7 @@ pub fn local_jacobian(obs: &[Observation], s: &ChainState, free: &[usize]) -> DM
 pub fn rpy_to_local(s: &ChainState) -> Matrix3<f64> {
     let rz = Rotation3::from_euler_angles(0.0, 0.0, s.base[5]);
     let ry = Rotation3::from_euler_angles(0.0, s.base[4], 0.0);
-    Matrix3::from_columns(&[
-        rz * (ry * Vector3::x()),
-        rz * Vector3::y(),
-        Vector3::z(),
-    ])
+    Matrix3::from_columns(&[rz * (ry * Vector3::x()), rz * Vector3::y(), Vector3::z()])
 }
 
 /// A prior on some inputs: pseudo-observations `(x_i − centre_i)/σ_i` in the whitened units of

@@ -244,7 +244,9 @@ pub(super) fn check(
         .collect();
     let top = rms_tau.iter().copied().fold(0.0, f64::max);
     let extras: Vec<usize> = (0..PER_JOINT * n)
-        .filter(|&i| !i.is_multiple_of(PER_JOINT) || rms_tau[i / PER_JOINT] >= TORQUE_SHARE * top.max(1e-12))
+        .filter(|&i| {
+            !i.is_multiple_of(PER_JOINT) || rms_tau[i / PER_JOINT] >= TORQUE_SHARE * top.max(1e-12)
+        })
         .collect();
     if 3 * run.obs.len() < 2 * (run.free.len() + extras.len()) {
         return None;

@@ -7,8 +7,8 @@ use crate::identify::chain_fit::{
     jacobian, local_jacobian, position_residuals, residuals, rotation_free, rpy_to_local,
     ChainState, Observation, Prior,
 };
-use crate::kinematics::Block;
 use crate::identify::noise::{chi2_upper_tail, NoiseModel};
+use crate::kinematics::Block;
 use nalgebra::DMatrix;
 
 /// The inverse of a symmetric positive (semi)definite matrix: Cholesky, or the pseudo-inverse by
