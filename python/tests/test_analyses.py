@@ -197,6 +197,24 @@ def test_identify_equals_cli(cli, tmp_path, sweeps, case):
     assert [j["joint"] for j in runs[0]["joints"]] == [1, 2, 3, 4, 5, 6]
 
 
+def test_identify_beyond_geometry_equals_cli(cli, tmp_path):
+    """beyond_geometry=True: the command line's --beyond-geometry check, the same document."""
+    poses = tmp_path / "poses.csv"
+    run_ok(cli, "simulate", "--poses", 120, "--seed", 3, "--tracker-sigma", 0.01,
+           "--compliance", 1, "--harmonics", 1, "-o", poses)
+    doc_file = tmp_path / "id.json"
+    run_ok(cli, "identify", poses, "--tracker-sigma", 0.01, "--beyond-geometry",
+           "--out", tmp_path / "m.toml", "--json", doc_file)
+    res = gpu_amcs.identify(poses, tracker_sigma=0.01, beyond_geometry=True)
+    assert res.to_dict() == json.loads(doc_file.read_text())
+    check = res.to_dict()["identify"]["runs"][0]["chain"]["beyond_geometry"]
+    assert check["predicts_better"] and check["parameters"] > 0
+    assert check["loo_rms_extended_mm"] < check["loo_rms_geometric_mm"]
+    plain = gpu_amcs.identify(poses, tracker_sigma=0.01)
+    assert "beyond_geometry" not in plain.to_dict()["identify"]["runs"][0]["chain"]
+    assert plain.to_toml() == res.to_toml()
+
+
 def test_identify_poses_in_a_tracker_frame_equals_cli(cli, tmp_path):
     poses = tmp_path / "poses.csv"
     run_ok(cli, "simulate", "--poses", 60, "--seed", 3, "-o", poses)
