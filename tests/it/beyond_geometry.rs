@@ -2,7 +2,7 @@
 //! gravity and gear harmonics fitted with the geometry, on robots of the library's simulator
 //! (`simulate::nongeometric`) with known truth.
 
-use gpu_amcs::identify::chain::{identify_chain, ChainOptions, ChainResult, MeasuredPoint};
+use gpu_amcs::identify::chain::{identify_chain, ChainOptions, ChainResult};
 use gpu_amcs::identify::noise::NoiseModel;
 use gpu_amcs::identify::NominalPrior;
 use gpu_amcs::kinematics::{tx60, Joints};
@@ -32,16 +32,7 @@ fn experiment(
         &TrackerNoise::Isotropic(sigma),
         seed + 2,
     );
-    let points: Vec<MeasuredPoint> = data.runs[0]
-        .points
-        .iter()
-        .map(|p| MeasuredPoint {
-            q_deg: p.q_deg,
-            position_mm: p.position_mm,
-            sigma_mm: None,
-            line: p.line,
-        })
-        .collect();
+    let points = crate::common::measured_points(&data);
     let opts = ChainOptions {
         noise: NoiseModel::Isotropic {
             sigma_mm: sigma.max(1e-4),
@@ -172,15 +163,7 @@ fn noisy_compliance_and_harmonics_come_close_to_a_geometric_robot() {
 fn the_command_line_reports_the_check() {
     let d = crate::common::tmpdir("beyond-geometry-cli");
     let p = |f: &str| d.join(f).display().to_string();
-    let ok = |args: &[&str]| {
-        let o = crate::common::run(args);
-        assert!(
-            o.status.success(),
-            "{args:?}: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
-        String::from_utf8_lossy(&o.stdout).into_owned()
-    };
+    let ok = crate::common::run_ok;
     ok(&[
         "simulate",
         "--poses",

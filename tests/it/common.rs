@@ -22,6 +22,30 @@ pub fn run(args: &[&str]) -> Output {
     bin().args(args).output().unwrap()
 }
 
+/// Runs the binary with `args`, asserts it succeeded (naming the arguments and its stderr) and
+/// returns its stdout.
+pub fn run_ok(args: &[&str]) -> String {
+    let o = run(args);
+    assert!(o.status.success(), "{args:?}: {}", stderr(&o));
+    stdout(&o)
+}
+
+/// The points of a pose file's first run as the whole-chain fit takes them (no stated σ).
+pub fn measured_points(
+    data: &gpu_amcs::identify::PoseData,
+) -> Vec<gpu_amcs::identify::chain::MeasuredPoint> {
+    data.runs[0]
+        .points
+        .iter()
+        .map(|p| gpu_amcs::identify::chain::MeasuredPoint {
+            q_deg: p.q_deg,
+            position_mm: p.position_mm,
+            sigma_mm: None,
+            line: p.line,
+        })
+        .collect()
+}
+
 /// A shard file's text with its content checksum recomputed after an edit: what a deliberate
 /// forger would do, so that the checks behind the checksum are tested too.
 pub fn reseal(text: &str) -> String {

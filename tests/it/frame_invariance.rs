@@ -45,16 +45,7 @@ fn turning_the_tracker_frame_changes_nothing() {
         &TrackerNoise::Isotropic(0.01),
         7,
     );
-    let points: Vec<MeasuredPoint> = data.runs[0]
-        .points
-        .iter()
-        .map(|p| MeasuredPoint {
-            q_deg: p.q_deg,
-            position_mm: p.position_mm,
-            sigma_mm: None,
-            line: p.line,
-        })
-        .collect();
+    let points = crate::common::measured_points(&data);
     // Turns that bring the base's pitch to 80° and 89.5° (then a turn about the vertical).
     let base = Rotation3::from_euler_angles(placement.rpy[0], placement.rpy[1], placement.rpy[2]);
     let turn = |pitch_deg: f64| -> Matrix3<f64> {

@@ -89,15 +89,7 @@ fn the_command_line_keeps_no_compensation_on_a_geometric_robot() {
     let d = crate::common::tmpdir("geometric-compensation");
     let p = |f: &str| d.join(f).display().to_string();
     for seed in ["1", "4"] {
-        let ok = |args: &[&str]| {
-            let o = crate::common::run(args);
-            assert!(
-                o.status.success(),
-                "{args:?}: {}",
-                String::from_utf8_lossy(&o.stderr)
-            );
-            String::from_utf8_lossy(&o.stdout).into_owned()
-        };
+        let ok = crate::common::run_ok;
         ok(&[
             "simulate",
             "--poses",
