@@ -37,6 +37,7 @@ pub fn keyword(field: SpecField) -> &'static str {
         SpecField::Backend => "backend",
         SpecField::Adapter => "adapter",
         SpecField::Discrepancy => "discrepancy",
+        SpecField::Payload => "payload_kg",
     }
 }
 
@@ -116,6 +117,7 @@ pub fn given_points(
             backend,
             adapter: None,
             discrepancy: true,
+            payload: None,
         },
         nominal_from_preset,
         // Parameter rows carry the 5n + 3 inputs (no placement): the robot's own frame.
@@ -311,6 +313,7 @@ impl ProblemKw<'_> {
                 backend,
                 adapter: self.adapter.clone(),
                 discrepancy: self.discrepancy,
+                payload: None,
             },
             nominal_from_preset,
             frame: frame(&self.frame)?,

@@ -198,7 +198,8 @@ def test_identify_equals_cli(cli, tmp_path, sweeps, case):
 
 
 def test_identify_beyond_geometry_equals_cli(cli, tmp_path):
-    """beyond_geometry=True: the command line's --beyond-geometry check, the same document."""
+    """beyond_geometry=True: the command line's --beyond-geometry check, the same document and
+    the same model file, which carries the joint errors (a plain fit's does not)."""
     poses = tmp_path / "poses.csv"
     run_ok(cli, "simulate", "--poses", 120, "--seed", 3, "--tracker-sigma", 0.01,
            "--compliance", 1, "--harmonics", 1, "-o", poses)
@@ -210,9 +211,12 @@ def test_identify_beyond_geometry_equals_cli(cli, tmp_path):
     check = res.to_dict()["identify"]["runs"][0]["chain"]["beyond_geometry"]
     assert check["predicts_better"] and check["parameters"] > 0
     assert check["loo_rms_extended_mm"] < check["loo_rms_geometric_mm"]
+    assert check["kept"]
+    assert "[joint_errors]" in res.to_toml()
+    assert res.to_toml() == (tmp_path / "m.toml").read_text()
     plain = gpu_amcs.identify(poses, tracker_sigma=0.01)
     assert "beyond_geometry" not in plain.to_dict()["identify"]["runs"][0]["chain"]
-    assert plain.to_toml() == res.to_toml()
+    assert "[joint_errors]" not in plain.to_toml()
 
 
 def test_identify_poses_in_a_tracker_frame_equals_cli(cli, tmp_path):

@@ -154,6 +154,23 @@ pub struct ProblemArgs {
     /// found by identify): the reliability then covers the parameters' uncertainty alone.
     #[arg(long)]
     pub no_discrepancy: bool,
+    /// Payload at the task, kg, for a model with joint compliance (identify
+    /// --beyond-geometry): its torques bend the joints; default: the model's own (the payload
+    /// during calibration).
+    #[arg(long, value_name = "KG")]
+    pub payload_kg: Option<f64>,
+    /// Standard uncertainty of --payload-kg, kg (drawn with every draw).
+    #[arg(long, value_name = "KG", requires = "payload_kg")]
+    pub payload_sigma_kg: Option<f64>,
+    /// Centre of mass of --payload-kg in the flange frame, mm [default: the model's].
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_name = "X,Y,Z",
+        allow_hyphen_values = true,
+        requires = "payload_kg"
+    )]
+    pub payload_com: Option<Vec<f64>>,
     /// Reference positions the errors are measured from.
     #[arg(long, value_enum, default_value_t = ReferenceArg::Calibrated)]
     pub reference: ReferenceArg,
@@ -493,6 +510,21 @@ impl ProblemArgs {
             backend: self.backend.backend.into(),
             adapter: self.backend.adapter.clone(),
             discrepancy: !self.no_discrepancy,
+            payload: match self.payload_kg {
+                None => None,
+                Some(mass_kg) => Some(gpu_amcs::spec::PayloadSpec {
+                    mass_kg,
+                    sigma_kg: self.payload_sigma_kg.unwrap_or(0.0),
+                    com_mm: match self.payload_com.as_deref() {
+                        None => None,
+                        Some([x, y, z]) => Some([*x, *y, *z]),
+                        Some(v) => bail!(
+                            "--payload-com needs 3 numbers X,Y,Z (mm), found {}",
+                            v.len()
+                        ),
+                    },
+                }),
+            },
         })
     }
 

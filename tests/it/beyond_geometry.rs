@@ -220,13 +220,55 @@ fn the_command_line_reports_the_check() {
     assert!(json("without.json")["identify"]["runs"][0]["chain"]
         .get("beyond_geometry")
         .is_none());
-    let strip = |f: &str| -> String {
-        std::fs::read_to_string(p(f))
-            .unwrap()
-            .lines()
-            .filter(|l| !l.contains(".toml") && !l.contains("created"))
-            .collect::<Vec<_>>()
-            .join("\n")
+    assert_eq!(b["kept"], true, "{b}");
+    // The model carries the joint errors; every analysis draws them, and a payload at the task
+    // bends the robot away from its calibrated predictions.
+    let with = std::fs::read_to_string(p("with.toml")).unwrap();
+    assert!(with.contains("[joint_errors]"), "{with}");
+    assert!(!std::fs::read_to_string(p("without.toml"))
+        .unwrap()
+        .contains("[joint_errors]"));
+    let mean = |extra: &[&str]| -> f64 {
+        let out = p("w.json");
+        let mut args = vec![
+            "mcs",
+            "--model",
+            &p("with.toml"),
+            "--points",
+            "10",
+            "--draws",
+            "20000",
+            "--backend",
+            "cpu",
+            "--json",
+            &out,
+        ]
+        .into_iter()
+        .map(String::from)
+        .collect::<Vec<_>>();
+        args.extend(extra.iter().map(|s| s.to_string()));
+        let refs: Vec<&str> = args.iter().map(String::as_str).collect();
+        crate::common::run_ok(&refs);
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+        v["result"]["estimate"].as_f64().unwrap()
     };
-    assert_eq!(strip("with.toml"), strip("without.toml"));
+    let (light, heavy) = (mean(&[]), mean(&["--payload-kg", "8"]));
+    assert!(
+        heavy > 1.5 * light,
+        "w: {light} mm without a payload, {heavy} mm with 8 kg"
+    );
+    // A payload for a model without compliance is refused, naming the flag.
+    crate::common::fails_naming(
+        &[
+            "mcs",
+            "--model",
+            &p("without.toml"),
+            "--points",
+            "5",
+            "--payload-kg",
+            "5",
+        ],
+        "--payload-kg",
+    );
 }

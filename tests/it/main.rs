@@ -27,6 +27,7 @@ mod identify_undetermined;
 mod import;
 mod inputs;
 mod joint_counts;
+mod joint_errors;
 mod map;
 mod map_shards;
 mod mc_known_answers;

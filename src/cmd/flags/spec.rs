@@ -21,6 +21,7 @@ pub fn spec_flag(field: SpecField) -> &'static str {
         SpecField::Backend => "--backend",
         SpecField::Adapter => "--adapter",
         SpecField::Discrepancy => "--no-discrepancy",
+        SpecField::Payload => "--payload-kg",
     }
 }
 

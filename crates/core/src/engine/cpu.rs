@@ -18,8 +18,10 @@
 //! point the chain starts from: `p_7 = p_tool + δ_tool` in the flange frame. With no tool spread
 //! `δ_tool = 0` and `p_tool + 0 = p_tool` exactly, so the results keep their bits.
 
+use super::joint_errors::JointErrorDraws;
 use super::DiscrepancyDraws;
 use super::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
+use crate::kinematics::joint_errors::{PointTerms, COEFFICIENTS_PER_JOINT};
 use crate::kinematics::{
     param_index, Block, Capped, InputSpace, ParamKind, MAX_JOINTS, MAX_ROBOT_INPUTS,
 };
@@ -55,6 +57,13 @@ type Normals = [[f64; LANES]; crate::sampling::MAX_NORMALS];
 
 /// The discrepancy term of a block of counter draws: the term and the lanes' draw indices.
 type Disc<'a> = Option<(&'a DiscrepancyDraws, &'a [u64; LANES])>;
+
+/// The joint errors' lane factors of a block (per joint `[f0, f1, δa1, δb1, δa2, δb2][lane]`,
+/// [`CpuEvaluator::term_lanes`]).
+type JeLanes = [[[f64; LANES]; 6]; MAX_JOINTS];
+
+/// The joint errors of a block of lanes: their factors and the test points' quantities.
+type Je<'a> = Option<(&'a JeLanes, &'a [PointTerms])>;
 
 /// Where the parameter offsets δ of a range of evaluations come from.
 #[derive(Clone, Copy)]
@@ -188,7 +197,7 @@ impl CpuEvaluator {
     /// Prepares the per-point constants.
     pub fn new(problem: Problem) -> Self {
         let points = problem
-            .points
+            .chain_points
             .iter()
             .zip(&problem.reference)
             .map(|(q, r)| PointPre {
@@ -291,9 +300,23 @@ impl CpuEvaluator {
             .range(Block::Tool)
             .map_or(0, |r| r.start);
         let mut e_lanes = vec![0.0; if e.is_some() { LANES * m } else { 0 }];
+        let space = self.problem.sampler.space();
+        // The joint errors are drawn for counter draws and pick-freeze rows, not offset rows.
+        let term = match src {
+            Source::Offsets(..) => None,
+            _ => self.problem.joint_errors.as_ref(),
+        };
+        let mut jel: JeLanes = [[[0.0; LANES]; 6]; MAX_JOINTS];
         for (b, wb) in w.chunks_mut(LANES).enumerate() {
             src.skip(b * LANES)
                 .lanes(&self.problem.sampler, &mut d, &mut z);
+            let mut db = self
+                .placement
+                .as_ref()
+                .map(|p| p.offsets(src.skip(b * LANES), &d, &mut z));
+            if let Some(t) = term {
+                self.term_lanes(t, src.skip(b * LANES), space, &mut d, db.as_mut(), &mut jel);
+            }
             self.fill_lanes(&d, &mut jl);
             let tool = &self.problem.model.tool;
             let tl: [[f64; LANES]; 3] =
@@ -304,10 +327,10 @@ impl CpuEvaluator {
             } else {
                 None
             };
-            let place = self
-                .placement
-                .as_ref()
-                .map(|p| p.transforms(&p.offsets(src.skip(b * LANES), &d, &mut z)));
+            let place = match (&self.placement, &db) {
+                (Some(p), Some(db)) => Some(p.transforms(db)),
+                _ => None,
+            };
             // The discrepancy term is drawn for counter draws and pick-freeze rows (from the
             // row's `a` or `b` draw by its mask; see `crate::discrepancy`), not for offset rows.
             let draws: [u64; LANES] = match src {
@@ -326,8 +349,16 @@ impl CpuEvaluator {
                 (Source::Draws(_) | Source::PickFreeze(..), Some(dd)) => Some((dd, &draws)),
                 _ => None,
             };
+            let je = term.map(|t| (&jel, t.terms.as_slice()));
             match &place {
-                None => self.run_block(&jl, &tl, &mut w2, el, disc),
+                None => with_joints!(self.joints, &jl, |j| block_kernel(
+                    j,
+                    &tl,
+                    &self.points,
+                    &mut w2,
+                    el,
+                    (disc, je)
+                )),
                 Some(t) => with_joints!(self.joints, &jl, |j| block_kernel_placed(
                     j,
                     &tl,
@@ -335,7 +366,7 @@ impl CpuEvaluator {
                     t,
                     &mut w2,
                     el,
-                    disc
+                    (disc, je)
                 )),
             }
             for (l, v) in wb.iter_mut().enumerate() {
@@ -348,23 +379,50 @@ impl CpuEvaluator {
         }
     }
 
-    #[inline(always)]
-    fn run_block(
+    /// The joint errors of the [`LANES`] evaluations of `src` (counter draws or pick-freeze
+    /// rows): each lane's geometric offsets `d` (and placement offsets `db`) moved by `A δβ`, and
+    /// the lane factors of its joint-angle offsets in `jel` (per joint `[f0, f1, δa1, δb1, δa2,
+    /// δb2]`, [`JointErrorDraws::factors`]).
+    #[inline(never)]
+    fn term_lanes(
         &self,
-        jl: &JointLanes,
-        tool: &[[f64; LANES]; 3],
-        w2: &mut [f64; LANES],
-        e: Option<&mut [f64]>,
-        disc: Disc,
+        term: &JointErrorDraws,
+        src: Source,
+        space: InputSpace,
+        d: &mut OffsetLanes,
+        mut db: Option<&mut [[f64; LANES]; 6]>,
+        jel: &mut JeLanes,
     ) {
-        with_joints!(self.joints, jl, |j| block_kernel(
-            j,
-            tool,
-            &self.points,
-            w2,
-            e,
-            disc
-        ));
+        for l in 0..LANES {
+            let td = match src {
+                Source::Draws(k) => term.draw(k + l as u64),
+                Source::PickFreeze(pf, row) if row + l < pf.rows() => {
+                    let (a, b, _) = pf.row(row + l);
+                    term.draw_mixed(a, b, pf.joint_errors_from_b(row + l))
+                }
+                _ => term.draw(0),
+            };
+            term.shift_each(&td, |block, k, v| match block {
+                Block::Placement => {
+                    if let Some(db) = db.as_deref_mut() {
+                        db[k][l] += v;
+                    }
+                }
+                b => {
+                    if let Some(i) = space.index(b, k) {
+                        d[i][l] += v;
+                    }
+                }
+            });
+            let f = term.factors(&td);
+            for (j, lanes) in jel.iter_mut().enumerate().take(self.joints) {
+                let beta = &td.beta[COEFFICIENTS_PER_JOINT * j..COEFFICIENTS_PER_JOINT * (j + 1)];
+                let v = [f[j][0], f[j][1], beta[1], beta[2], beta[3], beta[4]];
+                for (c, x) in v.into_iter().enumerate() {
+                    lanes[c][l] = x;
+                }
+            }
+        }
     }
 }
 
@@ -378,12 +436,15 @@ fn block_kernel_placed<const N: usize>(
     t: &[[[f64; LANES]; 4]; 3],
     w2: &mut [f64; LANES],
     mut e: Option<&mut [f64]>,
-    disc: Disc,
+    (disc, je): (Disc, Je),
 ) {
     let m = pts.len();
     let mut words = [[0u32; LANES]; 4];
     for (pj, p) in pts.iter().enumerate() {
-        let (x, y, z) = chain_lanes(jl, tool, p);
+        let (x, y, z) = match je {
+            None => chain_lanes(jl, tool, p),
+            Some((jel, terms)) => chain_lanes_offset(jl, tool, p, &joint_offsets(jel, &terms[pj])),
+        };
         let mut e2 = [0.0; LANES];
         for l in 0..LANES {
             let px = t[0][0][l] * x[l] + t[0][1][l] * y[l] + t[0][2][l] * z[l] + t[0][3][l];
@@ -406,6 +467,26 @@ fn block_kernel_placed<const N: usize>(
     }
 }
 
+/// The joint-angle offsets of `LANES` draws at a test point with quantities `t`
+/// ([`JointErrorDraws`]) from their lane factors `jel`.
+#[inline(always)]
+fn joint_offsets(jel: &JeLanes, t: &PointTerms) -> [[f64; LANES]; MAX_JOINTS] {
+    let mut o = [[0.0; LANES]; MAX_JOINTS];
+    for (i, oi) in o.iter_mut().enumerate() {
+        let [tl, tu, s1, c1, s2, c2] = t[i];
+        let f = &jel[i];
+        for l in 0..LANES {
+            oi[l] = f[0][l] * tl
+                + f[1][l] * tu
+                + f[2][l] * s1
+                + f[3][l] * c1
+                + f[4][l] * s2
+                + f[5][l] * c2;
+        }
+    }
+    o
+}
+
 /// The end positions of `LANES` draws at point `p` (the chain from the tool to the base; one
 /// entry of `jl` per joint, `N` of them, so that the joint loop's bound is known when compiled).
 #[inline(always)]
@@ -414,12 +495,49 @@ fn chain_lanes<const N: usize>(
     tool: &[[f64; LANES]; 3],
     p: &PointPre,
 ) -> ([f64; LANES], [f64; LANES], [f64; LANES]) {
+    chain_lanes_turned::<N, false>(jl, tool, p, &[[0.0; LANES]; MAX_JOINTS])
+}
+
+/// [`chain_lanes`] with each joint turned further by its lane's offset `o[i][l]` (rad): the
+/// joint errors' draws. The rotation by the offset uses the series of [`small_sin_cos`], exact
+/// for |o| < [`SERIES_LIMIT`]; larger offsets take `sin_cos`.
+#[inline(always)]
+fn chain_lanes_offset<const N: usize>(
+    jl: &[[[f64; LANES]; 8]; N],
+    tool: &[[f64; LANES]; 3],
+    p: &PointPre,
+    o: &[[f64; LANES]; MAX_JOINTS],
+) -> ([f64; LANES], [f64; LANES], [f64; LANES]) {
+    chain_lanes_turned::<N, true>(jl, tool, p, o)
+}
+
+/// The chain of [`chain_lanes`], each joint turned by `o` when `TURN` (compiled out otherwise,
+/// so the plain chain keeps its instructions and bits).
+#[inline(always)]
+fn chain_lanes_turned<const N: usize, const TURN: bool>(
+    jl: &[[[f64; LANES]; 8]; N],
+    tool: &[[f64; LANES]; 3],
+    p: &PointPre,
+    o: &[[f64; LANES]; MAX_JOINTS],
+) -> ([f64; LANES], [f64; LANES], [f64; LANES]) {
     let mut x = tool[0];
     let mut y = tool[1];
     let mut z = tool[2];
     for i in (0..N).rev() {
         let [ct, st, ca, sa, cb, sb, a, d] = &jl[i];
         let (cq, sq) = (p.cq[i], p.sq[i]);
+        let mut so = [0.0; LANES];
+        let mut co = [1.0; LANES];
+        if TURN {
+            for l in 0..LANES {
+                (so[l], co[l]) = small_sin_cos(o[i][l]);
+            }
+            for l in 0..LANES {
+                if o[i][l].abs() >= SERIES_LIMIT {
+                    (so[l], co[l]) = o[i][l].sin_cos();
+                }
+            }
+        }
         for l in 0..LANES {
             // Ry(β)
             let x1 = cb[l] * x[l] + sb[l] * z[l];
@@ -428,9 +546,12 @@ fn chain_lanes<const N: usize>(
             let y2 = ca[l] * y[l] - sa[l] * z1;
             let z2 = sa[l] * y[l] + ca[l] * z1 + d[l];
             let x2 = x1 + a[l];
-            // Rz(θ+q)
-            let c = ct[l] * cq - st[l] * sq;
-            let s = st[l] * cq + ct[l] * sq;
+            // Rz(θ+q), then turned by the offset
+            let mut c = ct[l] * cq - st[l] * sq;
+            let mut s = st[l] * cq + ct[l] * sq;
+            if TURN {
+                (c, s) = (c * co[l] - s * so[l], s * co[l] + c * so[l]);
+            }
             x[l] = c * x2 - s * y2;
             y[l] = s * x2 + c * y2;
             z[l] = z2;
@@ -448,12 +569,15 @@ fn block_kernel<const N: usize>(
     pts: &[PointPre],
     w2: &mut [f64; LANES],
     mut e: Option<&mut [f64]>,
-    disc: Disc,
+    (disc, je): (Disc, Je),
 ) {
     let m = pts.len();
     let mut words = [[0u32; LANES]; 4];
     for (pj, p) in pts.iter().enumerate() {
-        let (x, y, z) = chain_lanes(jl, tool, p);
+        let (x, y, z) = match je {
+            None => chain_lanes(jl, tool, p),
+            Some((jel, terms)) => chain_lanes_offset(jl, tool, p, &joint_offsets(jel, &terms[pj])),
+        };
         let mut e2 = [0.0; LANES];
         for l in 0..LANES {
             let (dx, dy, dz) = (x[l] - p.r[0], y[l] - p.r[1], z[l] - p.r[2]);

@@ -68,7 +68,7 @@ pub fn point_constants(problem: &Problem) -> Vec<[f32; 4]> {
     let n = problem.model.joints();
     let wpp = words_per_point(n);
     let mut out = Vec::with_capacity(problem.points.len() * wpp);
-    for (q, r) in problem.points.iter().zip(&problem.reference) {
+    for (q, r) in problem.chain_points.iter().zip(&problem.reference) {
         let mut words = vec![[0f32; 4]; wpp];
         let mut p = problem.model.tool;
         for i in (0..n).rev() {

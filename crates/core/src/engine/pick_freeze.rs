@@ -45,6 +45,13 @@ impl PickFreeze<'_> {
         }
     }
 
+    /// Whether row `row` takes its joint errors' normals from draw `b` (its mask has
+    /// [`super::JOINT_ERRORS_MASK`]).
+    #[inline]
+    pub fn joint_errors_from_b(&self, row: usize) -> bool {
+        self.row(row).2 & super::JOINT_ERRORS_MASK != 0
+    }
+
     /// Row `row` of the request (matrix-major): draws `(a, b)` and the mask.
     #[inline]
     pub fn row(&self, row: usize) -> (u64, u64, u64) {
@@ -61,14 +68,13 @@ impl PickFreeze<'_> {
     /// 1.
     pub fn check(&self) -> Result<(), EngineError> {
         let bad = |m: String| Err(EngineError::PickFreezeRequest(m));
-        if let Some((s, m)) = self
-            .masks
-            .iter()
-            .enumerate()
-            .find(|(_, &m)| m & !(ALL_NORMALS | DISCREPANCY_MASK) != 0)
+        if let Some((s, m)) =
+            self.masks.iter().enumerate().find(|(_, &m)| {
+                m & !(ALL_NORMALS | DISCREPANCY_MASK | super::JOINT_ERRORS_MASK) != 0
+            })
         {
             return bad(format!(
-                "mask of matrix {s} is {m:#x}: a draw has {MAX_NORMALS} normals (and bit 63 for the discrepancy term)"
+                "mask of matrix {s} is {m:#x}: a draw has {MAX_NORMALS} normals (bit 62 for the joint errors, bit 63 for the discrepancy term)"
             ));
         }
         if self.count.checked_mul(self.masks.len()).is_none() {

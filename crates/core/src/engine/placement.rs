@@ -21,6 +21,7 @@
 //! [`Frame::Base`] leaves the placement out (the marginal 33 × 33 block), as for a model without
 //! one.
 
+use super::joint_errors::TermDraw;
 use super::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
 use crate::kinematics::{
     position_with_trig, twist_trig, Block, InputSpace, Layout, Params, MAX_INPUTS,
@@ -197,7 +198,8 @@ impl PlacementEvaluator {
     /// `e_j` of draw `k` at every test point.
     pub fn point_errors(&self, k: u64) -> Vec<f64> {
         let mut e = vec![0.0; self.problem.points.len()];
-        self.errors_of_draw(&self.spread.deltas(&self.gen, k), &mut e, Some(k));
+        let term = self.problem.joint_errors.as_ref().map(|t| t.draw(k));
+        self.errors_of_draw(&self.spread.deltas(&self.gen, k), &mut e, Some(k), term);
         e
     }
 
@@ -205,13 +207,31 @@ impl PlacementEvaluator {
     /// the placement's six; internal units) into `e`; returns their maximum `w`. These are the
     /// kinematic errors alone: the discrepancy term belongs to counter draws ([`Self::point_errors`]).
     pub fn errors_of(&self, d: &[f64], e: &mut [f64]) -> f64 {
-        self.errors_of_draw(d, e, None)
+        self.errors_of_draw(d, e, None, None)
     }
 
-    /// [`Self::errors_of`], with the discrepancy term of counter draw `draw` when given.
-    fn errors_of_draw(&self, d: &[f64], e: &mut [f64], draw: Option<u64>) -> f64 {
+    /// [`Self::errors_of`], with the discrepancy term of counter draw `draw` and the joint
+    /// errors' draw `term` when given.
+    fn errors_of_draw(
+        &self,
+        d: &[f64],
+        e: &mut [f64],
+        draw: Option<u64>,
+        term: Option<TermDraw>,
+    ) -> f64 {
         let m = &self.problem.model;
         let sp = self.spread.space;
+        // The joint errors move the geometric inputs by A δβ (their correlation with them).
+        let mut moved = [0.0; MAX_INPUTS];
+        moved[..d.len().min(MAX_INPUTS)].copy_from_slice(&d[..d.len().min(MAX_INPUTS)]);
+        if let (Some(t), Some(td)) = (&self.problem.joint_errors, &term) {
+            t.shift_each(td, |block, k, v| {
+                if let Some(i) = sp.index(block, k) {
+                    moved[i] += v;
+                }
+            });
+        }
+        let d = &moved;
         let at = |b: Block| sp.range(b).map_or(0, |r| r.start);
         // Block::Joints: the link transforms.
         let params = Params::from_fn(m.params.len(), |i| m.params[i] + d[at(Block::Joints) + i]);
@@ -229,13 +249,21 @@ impl PlacementEvaluator {
         let mut w = 0.0f64;
         for (j, ((q, r), ej)) in self
             .problem
-            .points
+            .chain_points
             .iter()
             .zip(&self.problem.reference)
             .zip(e)
             .enumerate()
         {
-            let p = dr * Vector3::from(position_with_trig(&params, &trig, &tool, q)) + dt;
+            // The joint errors' draw turns each joint further (exactly, with `sin_cos`).
+            let q = match (&self.problem.joint_errors, &term) {
+                (Some(t), Some(td)) => {
+                    let o = t.offsets(td, j);
+                    q.iter().zip(o.iter()).map(|(a, b)| a + b).collect()
+                }
+                _ => *q,
+            };
+            let p = dr * Vector3::from(position_with_trig(&params, &trig, &tool, &q)) + dt;
             *ej = (p - Vector3::from(*r)).norm();
             if let Some((k, dd)) = disc {
                 *ej = dd.apply(*ej, k, j);
@@ -250,6 +278,7 @@ impl PlacementEvaluator {
         &self,
         rows: impl Fn(usize) -> [f64; MAX_INPUTS] + Sync,
         draw: impl Fn(usize) -> Option<u64> + Sync,
+        term: impl Fn(usize) -> Option<TermDraw> + Sync,
         w: &mut [f64],
         per_point: Option<&mut [f64]>,
     ) {
@@ -257,13 +286,15 @@ impl PlacementEvaluator {
         match per_point {
             None => w.par_iter_mut().enumerate().for_each_init(
                 || vec![0.0; m],
-                |e, (i, wi)| *wi = self.errors_of_draw(&rows(i), e, draw(i)),
+                |e, (i, wi)| *wi = self.errors_of_draw(&rows(i), e, draw(i), term(i)),
             ),
             Some(e) => w
                 .par_iter_mut()
                 .zip(e.par_chunks_mut(m.max(1)))
                 .enumerate()
-                .for_each(|(i, (wi, ei))| *wi = self.errors_of_draw(&rows(i), ei, draw(i))),
+                .for_each(|(i, (wi, ei))| {
+                    *wi = self.errors_of_draw(&rows(i), ei, draw(i), term(i))
+                }),
         }
     }
 }
@@ -290,6 +321,10 @@ impl Evaluator for PlacementEvaluator {
         self.eval_rows(
             |i| self.spread.deltas(&self.gen, first + i as u64),
             |i| Some(first + i as u64),
+            |i| {
+                let t = self.problem.joint_errors.as_ref();
+                t.map(|t| t.draw(first + i as u64))
+            },
             w,
             per_point,
         );
@@ -314,7 +349,7 @@ impl Evaluator for PlacementEvaluator {
         let row = |i: usize| -> [f64; MAX_INPUTS] {
             std::array::from_fn(|p| if p < nb { offsets[i * nb + p] } else { 0.0 })
         };
-        self.eval_rows(row, |_| None, w, per_point);
+        self.eval_rows(row, |_| None, |_| None, w, per_point);
         Ok(())
     }
 
@@ -323,7 +358,12 @@ impl Evaluator for PlacementEvaluator {
             let (a, b, mask) = request.row(i);
             self.spread.pick_freeze_deltas(&self.gen, a, b, mask)
         };
-        self.eval_rows(row, |i| Some(request.discrepancy_draw(i)), w, None);
+        let term = |i: usize| {
+            let (a, b, _) = request.row(i);
+            let t = self.problem.joint_errors.as_ref();
+            t.map(|t| t.draw_mixed(a, b, request.joint_errors_from_b(i)))
+        };
+        self.eval_rows(row, |i| Some(request.discrepancy_draw(i)), term, w, None);
         Ok(())
     }
 }

@@ -10,6 +10,7 @@
 //! it was measured with; using the nominal model's own tool would add the tool offset (tens of
 //! mm) to every error.
 
+use super::joint_errors::JointErrorDraws;
 use super::DiscrepancyDraws;
 use crate::discrepancy::DiscrepancyUse;
 use crate::kinematics::{position, Joints, RobotModel};
@@ -114,6 +115,10 @@ pub struct Problem {
     pub model: RobotModel,
     /// Joint configurations of the test points, radians (one angle per joint of the model).
     pub points: Vec<Joints>,
+    /// The joint angles (radians) the model's mean chain stands at for each test point: the
+    /// commanded angles plus the mean deflections of the model's joint errors
+    /// ([`RobotModel::chain_angles`]); the points themselves for a geometric model.
+    pub chain_points: Vec<Joints>,
     /// Reference position of each test point, mm.
     pub reference: Vec<[f64; 3]>,
     /// Parameter sampler (mean = model values, seed).
@@ -123,6 +128,10 @@ pub struct Problem {
     /// The model's discrepancy term as this run draws it at every test point (counter draws;
     /// [`crate::discrepancy`]); `None` when the model has none or the analysis leaves it out.
     pub discrepancy: Option<DiscrepancyDraws>,
+    /// The model's joint errors as this run draws them ([`JointErrorDraws`]); `None` for a
+    /// geometric model or one whose joint errors carry no uncertainty (their mean deflections
+    /// are in [`Self::chain_points`] either way).
+    pub joint_errors: Option<JointErrorDraws>,
 }
 
 impl Problem {
@@ -213,19 +222,31 @@ impl Problem {
             .iter()
             .map(|q| q.as_ref().iter().map(|v| v.to_radians()).collect())
             .collect();
+        let chain_points: Vec<Joints> = points.iter().map(|q| model.chain_angles(q)).collect();
+        // The calibrated reference is where the calibrated model puts the target (with its
+        // joint errors at the payload during calibration: a task payload that differs bends the
+        // robot away from it), the nominal one where the design geometry would, at the commanded
+        // angles.
         let reference = points
             .iter()
             .map(|q| match reference {
-                Reference::Calibrated => position(&model.params, &model.tool, q),
+                Reference::Calibrated => position(
+                    &model.params,
+                    &model.tool,
+                    &model.calibrated_chain_angles(q),
+                ),
                 Reference::Nominal(n) => position(&n.params, &model.tool, q),
             })
             .collect();
         let sampler = ParamSampler::new(&model, seed)?;
         let discrepancy = discrepancy_draws(&model, &points, DiscrepancyUse::Robot, seed);
+        let joint_errors = JointErrorDraws::new(&model, &points, seed)?;
         Ok(Problem {
+            joint_errors,
             discrepancy,
             model,
             points,
+            chain_points,
             reference,
             sampler,
             seed,
@@ -260,7 +281,7 @@ impl Problem {
     /// [`Self::point_errors`] with the tool point moved by `tool_offset` (mm, flange frame).
     pub fn point_errors_at(&self, params: &[f64], tool_offset: &[f64; 3]) -> Vec<f64> {
         let tool: [f64; 3] = std::array::from_fn(|k| self.model.tool[k] + tool_offset[k]);
-        self.points
+        self.chain_points
             .iter()
             .zip(&self.reference)
             .map(|(q, r)| {

@@ -190,6 +190,68 @@ pub fn identify_chain(
     prior: Option<NominalPrior>,
     opts: &ChainOptions,
 ) -> Result<ChainResult, IdentifyError> {
+    let (first, extended) = identify_geometry(points, nominal, start, prior, opts)?;
+    let Some(ext) = extended.filter(|e| e.report.predicts_better) else {
+        return Ok(ChainResult {
+            extended: extended_model(&first),
+            ..first
+        });
+    };
+    // The joint errors predict new poses better: the geometry is fitted again to the angles the
+    // joints stood at (commanded plus the fitted deflections), so its covariance is the
+    // geometry's given the coefficients and the lack of fit is judged on what remains.
+    let corrected: Vec<MeasuredPoint> = points
+        .iter()
+        .map(|p| {
+            let q = p.q_deg.map(f64::to_radians);
+            let d = ext.model.deflections(&q);
+            MeasuredPoint {
+                q_deg: Joints::from_fn(q.len(), |i| (q[i] + d[i]).to_degrees()),
+                ..*p
+            }
+        })
+        .collect();
+    let geometric_only = ChainOptions {
+        beyond_geometry: false,
+        ..opts.clone()
+    };
+    let (mut second, _) = identify_geometry(&corrected, nominal, start, prior, &geometric_only)?;
+    // The coefficients' covariance was whitened with the noise of the geometric fit; the data's
+    // noise is what the second fit finds (estimated) or the stated one times its lack of fit.
+    let scale = match (first.report.noise.sigma_mm, second.report.noise.sigma_mm) {
+        (Some(a), Some(b)) if a > 0.0 => (b / a).powi(2),
+        _ => {
+            second.report.lack_of_fit.covariance_scale
+                / first.report.lack_of_fit.covariance_scale.max(1e-300)
+        }
+    };
+    let space = model::reported_space(second.state.space(), second.report.frame);
+    let prior_k = crate::kinematics::gravity::compliance_prior(nominal);
+    let mut errors = ext.joint_errors(second.state.space(), space, scale, prior_k);
+    // A payload's centre of mass defaults to the tool point (the target the data measured).
+    errors.calibration_payload.com_mm = second.state.tool;
+    errors.payload = errors.calibration_payload;
+    second.joint_errors = Some(errors);
+    let mut beyond = ext.report.clone();
+    beyond.kept = true;
+    second.report.beyond_geometry = Some(beyond);
+    second.extended = Some(ext.model);
+    Ok(second)
+}
+
+/// The extended model of a result whose check beyond geometry did not keep it.
+fn extended_model(r: &ChainResult) -> Option<ExtendedModel> {
+    r.extended.clone()
+}
+
+/// The geometric identification of [`identify_chain`], and the extended fit when asked for.
+fn identify_geometry(
+    points: &[MeasuredPoint],
+    nominal: &RobotModel,
+    start: Option<ChainState>,
+    prior: Option<NominalPrior>,
+    opts: &ChainOptions,
+) -> Result<(ChainResult, Option<beyond::ExtendedFit>), IdentifyError> {
     check_points(points, nominal, start)?;
     let (mut run, fixed_by_user) = Fitted::start(points, nominal, start, opts)?;
     check_pose_count(points, run.free.len())?;
@@ -259,15 +321,18 @@ pub fn identify_chain(
         lack_of_fit: lack,
     };
     let mut report = report::build_report(&run, points, nominal, opts, checks, &cov, &kept);
-    let (beyond_geometry, extended) = beyond.unzip();
-    report.beyond_geometry = beyond_geometry;
-    Ok(ChainResult {
-        state: run.state,
-        covariance,
-        discrepancy,
-        report,
-        extended,
-    })
+    report.beyond_geometry = beyond.as_ref().map(|b| b.report.clone());
+    Ok((
+        ChainResult {
+            state: run.state,
+            covariance,
+            discrepancy,
+            report,
+            extended: beyond.as_ref().map(|b| b.model.clone()),
+            joint_errors: None,
+        },
+        beyond,
+    ))
 }
 
 /// Checks the shapes of the data: some points, each with one angle per joint of `nominal`, and

@@ -119,6 +119,7 @@ pub fn parameter_statistics(models: &[RobotModel]) -> Option<RobotModel> {
         sigma[param_index(j, f.kind())] = 0.0;
     }
     Some(RobotModel {
+        joint_errors: None,
         discrepancy: None,
         name: format!("{} (mean of {} runs)", first.name, models.len()),
         params: Params::from_slice(&mean[..np]),

@@ -276,6 +276,7 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         }
     })?;
     let model = RobotModel {
+        joint_errors: None,
         discrepancy: None,
         name: chain.name.clone(),
         params: c.params,

@@ -100,6 +100,8 @@ struct ModelFile {
     covariance: Option<CovarianceFile>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
     discrepancy: Option<crate::discrepancy::Discrepancy>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    joint_errors: Option<super::file_joint_errors::JointErrorsFile>,
     /// Where an identified model came from (data hash, fit figures): written by the
     /// identification after the model, read and ignored here.
     #[serde(default, skip_serializing)]
@@ -279,8 +281,20 @@ impl RobotModel {
                 Some(d)
             }
         };
+        let space = match &uncertainty {
+            Uncertainty::Covariance(c) => c.space(),
+            Uncertainty::Independent(_) => InputSpace::robot(n_joints),
+        };
+        let joint_errors = match file.joint_errors {
+            None => None,
+            Some(j) => Some(
+                j.into_model(n_joints, space)
+                    .map_err(|(field, message)| invalid(InvalidField { field, message }))?,
+            ),
+        };
         let mut model = RobotModel {
             discrepancy,
+            joint_errors,
             name: file.name,
             params,
             fixed,
@@ -461,6 +475,9 @@ impl RobotModel {
         }
         if let Some(d) = &self.discrepancy {
             super::file_discrepancy::write_discrepancy(&mut s, d);
+        }
+        if let Some(e) = &self.joint_errors {
+            super::file_joint_errors::write_joint_errors(&mut s, e);
         }
         s
     }

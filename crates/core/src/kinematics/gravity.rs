@@ -34,6 +34,19 @@ pub fn default_link_masses(model: &RobotModel) -> Joints {
     })
 }
 
+/// The compliance a joint of `model` is assumed to have when the data do not determine it,
+/// rad/(N·m), as one standard deviation of a zero-mean prior: 5·10⁻⁶ rad/(N·m), the upper end of
+/// a 60 kg-class arm's (the TX60's size), scaled by the cube of the TX60's size over the
+/// robot's (the [`default_link_masses`]' size), so that a link bends by the same angle under
+/// its own weight (masses ∝ size², lever ∝ size). Plausible, not published.
+pub fn compliance_prior(model: &RobotModel) -> f64 {
+    let n = model.joints();
+    let size: f64 = (0..n)
+        .map(|j| model.params[5 * j + 1].abs() + model.params[5 * j + 2].abs())
+        .sum();
+    5e-6 * (TX60_SIZE_MM / size.max(1.0)).powi(3)
+}
+
 /// The gravity torque about each joint's axis, N·m, of the links beyond it (masses
 /// `link_mass_kg`, one per joint) and of a payload of `payload_kg` at the tool point, for the
 /// chain of MDH parameters `params` (5 per joint) and tool `tool` (mm) at joint angles `q`

@@ -278,6 +278,7 @@ pub fn axes_to_chain(
 pub fn chain_from_zero_pose(axes: &[Line], tip: Vector3<f64>) -> Result<Chain, GeometryError> {
     let n = axes.len();
     let reference = RobotModel {
+        joint_errors: None,
         discrepancy: None,
         name: String::new(),
         params: Params::filled(5 * n, 0.0),

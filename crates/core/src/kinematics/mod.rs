@@ -21,10 +21,12 @@ mod capped;
 mod check;
 mod file;
 mod file_discrepancy;
+mod file_joint_errors;
 mod fk;
 pub mod gravity;
 mod index;
 mod inputs;
+pub mod joint_errors;
 pub mod lines;
 pub mod mdh;
 mod model;
@@ -48,5 +50,6 @@ pub use index::{
 pub use inputs::{
     Action, Block, InputSpace, InputSpaceError, Quantity, MAX_INPUTS, MAX_ROBOT_INPUTS,
 };
+pub use joint_errors::{JointErrors, Payload};
 pub use model::{rpy_of, BaseTransform, Covariance, FixedParams, Limits, RobotModel, Uncertainty};
 pub use tx60::tx60;

@@ -255,6 +255,9 @@ pub struct RobotModel {
     /// every test point by every analysis ([`crate::discrepancy`]); `None` for a model without
     /// a lack of fit found (presets, design models, fits that explain the data).
     pub discrepancy: Option<crate::discrepancy::Discrepancy>,
+    /// Joint compliance and gear harmonics beyond the geometry, from an identification that
+    /// kept them ([`super::JointErrors`], docs/METHOD.md §19); `None` for a geometric model.
+    pub joint_errors: Option<super::JointErrors>,
 }
 
 impl RobotModel {
@@ -352,7 +355,7 @@ impl RobotModel {
     /// correction added (the MDH chain's position when the model has none): where the
     /// calibrated robot is predicted to be (docs/METHOD.md §18.1).
     pub fn compensated_position(&self, q: &[f64]) -> [f64; 3] {
-        let mut p = super::position(&self.params, &self.tool, q);
+        let mut p = super::position(&self.params, &self.tool, &self.chain_angles(q));
         if let Some(d) = &self.discrepancy {
             let q_deg: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
             let c = d.correction_mm(&q_deg);
@@ -370,6 +373,26 @@ impl RobotModel {
         match &self.base {
             None => p,
             Some(b) => b.apply(p),
+        }
+    }
+
+    /// The joint angles (rad) the model's chain stands at when commanded to `q` (rad): `q` plus
+    /// the mean deflections of its [`super::JointErrors`] (compliance at the task payload, gear
+    /// harmonics), `q` itself for a geometric model.
+    pub fn chain_angles(&self, q: &[f64]) -> super::Joints {
+        match &self.joint_errors {
+            Some(e) => e.actual_angles(&self.params, q),
+            None => q.iter().copied().collect(),
+        }
+    }
+
+    /// The joint angles (rad) at `q` (rad) of the model as calibrated: with the mean deflections
+    /// at the payload during calibration (what a controller given this model predicts without
+    /// knowing the task payload); `q` itself for a geometric model.
+    pub fn calibrated_chain_angles(&self, q: &[f64]) -> super::Joints {
+        match &self.joint_errors {
+            Some(e) => e.angles_with(&self.params, q, &e.calibration_payload),
+            None => q.iter().copied().collect(),
         }
     }
 

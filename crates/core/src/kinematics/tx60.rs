@@ -60,6 +60,7 @@ pub fn tx60() -> RobotModel {
         }
     }
     RobotModel {
+        joint_errors: None,
         discrepancy: None,
         name: "Staubli TX60".into(),
         params,

@@ -40,11 +40,13 @@ pub enum SpecField {
     Adapter,
     /// Whether the model's discrepancy term is drawn ([`ProblemSpec::discrepancy`](super::ProblemSpec::discrepancy)).
     Discrepancy,
+    /// The payload at the task ([`ProblemSpec::payload`](super::ProblemSpec::payload)).
+    Payload,
 }
 
 impl SpecField {
     /// Every field.
-    pub const ALL: [SpecField; 14] = [
+    pub const ALL: [SpecField; 15] = [
         SpecField::Model,
         SpecField::Preset,
         SpecField::Points,
@@ -59,6 +61,7 @@ impl SpecField {
         SpecField::Backend,
         SpecField::Adapter,
         SpecField::Discrepancy,
+        SpecField::Payload,
     ];
 
     /// The field's name in messages, e.g. `points_file`.
@@ -78,6 +81,7 @@ impl SpecField {
             SpecField::Backend => "backend",
             SpecField::Adapter => "adapter",
             SpecField::Discrepancy => "discrepancy",
+            SpecField::Payload => "payload",
         }
     }
 
@@ -99,6 +103,7 @@ impl SpecField {
             SpecField::Backend => "backend",
             SpecField::Adapter => "adapter",
             SpecField::Discrepancy => "discrepancy",
+            SpecField::Payload => "payload",
         }
     }
 
@@ -169,6 +174,9 @@ pub enum SpecErrorKind {
         /// Its joints.
         model_joints: usize,
     },
+    /// A payload for a model without joint compliance, or out of range.
+    #[error("{0}")]
+    Payload(String),
     /// An adapter was named for the CPU backend.
     #[error("'{0}' needs the gpu or auto backend: the CPU backend uses no adapter")]
     AdapterWithCpu(String),

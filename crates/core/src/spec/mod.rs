@@ -170,6 +170,60 @@ pub struct ProblemSpec {
     /// Draw the model's discrepancy term ([`crate::discrepancy`]) at every test point (the
     /// default); `false` leaves it out: the parameters' uncertainty alone.
     pub discrepancy: bool,
+    /// The payload at the task, for a model that carries joint compliance
+    /// ([`crate::kinematics::JointErrors`]); `None` keeps the model's own (by default the one
+    /// during its calibration).
+    pub payload: Option<PayloadSpec>,
+}
+
+/// A payload at the task: mass with its standard uncertainty, and optionally its centre of mass.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PayloadSpec {
+    /// Mass, kg.
+    pub mass_kg: f64,
+    /// Standard uncertainty of the mass, kg.
+    #[serde(default)]
+    pub sigma_kg: f64,
+    /// Centre of mass in the flange frame, mm; `None` keeps the model's.
+    #[serde(default)]
+    pub com_mm: Option<[f64; 3]>,
+}
+
+impl PayloadSpec {
+    /// `model` with this payload at the task.
+    ///
+    /// # Errors
+    ///
+    /// A message when the model carries no joint compliance (a payload changes nothing it
+    /// predicts) or a value is out of range (mass and σ 0–10000 kg, centre within 100 m).
+    pub fn apply(&self, model: &mut crate::kinematics::RobotModel) -> Result<(), String> {
+        let name = model.name.clone();
+        let Some(e) = model.joint_errors.as_mut() else {
+            return Err(format!("the model '{name}' carries no joint compliance (identify it with the check beyond geometry), so a payload changes nothing it predicts"));
+        };
+        let ok = |v: f64| (0.0..=1e4).contains(&v);
+        if !ok(self.mass_kg) || !ok(self.sigma_kg) {
+            return Err(format!(
+                "payload {} kg with σ {} kg: both must lie within 0 to 10000 kg",
+                self.mass_kg, self.sigma_kg
+            ));
+        }
+        if let Some(c) = self
+            .com_mm
+            .filter(|c| c.iter().any(|v| !v.is_finite() || v.abs() > 1e5))
+        {
+            return Err(format!(
+                "payload centre of mass {c:?} mm: must be finite, within 100 m"
+            ));
+        }
+        e.payload = crate::kinematics::Payload {
+            mass_kg: self.mass_kg,
+            sigma_kg: self.sigma_kg,
+            com_mm: self.com_mm.unwrap_or(e.payload.com_mm),
+        };
+        Ok(())
+    }
 }
 
 impl Default for ProblemSpec {
@@ -184,6 +238,7 @@ impl Default for ProblemSpec {
             backend: BackendChoice::Auto,
             adapter: None,
             discrepancy: true,
+            payload: None,
         }
     }
 }
@@ -465,7 +520,11 @@ impl ProblemSpec {
     /// name the model.
     pub fn build_problem(&self) -> Result<BuiltProblem, SpecError> {
         self.check()?;
-        let (model, notes) = self.load_model_noted()?;
+        let (mut model, notes) = self.load_model_noted()?;
+        if let Some(p) = &self.payload {
+            p.apply(&mut model)
+                .map_err(|m| SpecError::new(SpecField::Payload, SpecErrorKind::Payload(m)))?;
+        }
         let pts = self.load_points(&model)?;
         let reference = self.load_reference(&model)?;
         let label = reference.label(&model);

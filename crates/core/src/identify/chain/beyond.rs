@@ -24,7 +24,8 @@ use super::Fitted;
 use crate::identify::chain_fit::{ChainState, Observation, Prior};
 use crate::identify::lm::levenberg_marquardt;
 use crate::kinematics::gravity::{default_link_masses, gravity_torques};
-use crate::kinematics::{Joints, RobotModel};
+use crate::kinematics::joint_errors::PointTerms;
+use crate::kinematics::{InputSpace, JointErrors, Joints, Payload, RobotModel};
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use serde::Serialize;
 
@@ -52,6 +53,9 @@ pub struct BeyondGeometry {
     /// Whether the extended model predicts new poses better by the compensation's margin
     /// ([`crate::discrepancy::gp::required_gain`]).
     pub predicts_better: bool,
+    /// Whether the identified model carries the joint errors (it does when they predict better;
+    /// the geometry is then fitted again to the corrected joint angles).
+    pub kept: bool,
     /// Per joint: the fitted compliance and its standard uncertainty, µrad/(N·m) (`None`: not
     /// fitted, the joint's torque does not vary).
     pub compliance_urad_per_nm: Vec<Option<[f64; 2]>>,
@@ -68,14 +72,14 @@ impl BeyondGeometry {
     pub fn sentence(&self) -> String {
         let change = 100.0 * (self.loo_rms_extended_mm / self.loo_rms_geometric_mm - 1.0);
         format!(
-            "Beyond geometry: with joint compliance under gravity and gear harmonics ({} more coefficients) the leave-one-out RMS is {:.4} mm against {:.4} mm for the geometry alone ({change:+.0} %): {}. (A check only: the model file carries the geometry.)",
+            "Beyond geometry: with joint compliance under gravity and gear harmonics ({} more coefficients) the leave-one-out RMS is {:.4} mm against {:.4} mm for the geometry alone ({change:+.0} %): {}.",
             self.parameters,
             self.loo_rms_extended_mm,
             self.loo_rms_geometric_mm,
-            if self.predicts_better {
-                "the robot shows errors of these kinds"
-            } else {
-                "no gain worth the coefficients"
+            match (self.predicts_better, self.kept) {
+                (true, true) => "the robot shows errors of these kinds, and the model carries them (geometry fitted again to the corrected joint angles; every analysis draws them)",
+                (true, false) => "the robot shows errors of these kinds",
+                _ => "no gain worth the coefficients; the model carries the geometry alone",
             }
         )
     }
@@ -93,24 +97,11 @@ pub struct ExtendedModel {
 }
 
 impl ExtendedModel {
-    /// The joint deflections at the commanded angles `q` (rad).
+    /// The joint deflections at the commanded angles `q` (rad): the formula of
+    /// [`JointErrors::deflections_with`] (torques at the commanded angles, no payload).
     pub fn deflections(&self, q: &[f64]) -> Joints {
-        let n = q.len();
-        let h = Joints::from_fn(n, |i| {
-            let b = &self.beta[PER_JOINT * i..PER_JOINT * (i + 1)];
-            let (s1, c1) = q[i].sin_cos();
-            let (s2, c2) = (2.0 * q[i]).sin_cos();
-            b[1] * s1 + b[2] * c1 + b[3] * s2 + b[4] * c2
-        });
-        let geared = Joints::from_fn(n, |i| q[i] + h[i]);
-        let tau = gravity_torques(
-            &self.state.params,
-            &self.state.tool,
-            &self.link_mass_kg,
-            0.0,
-            &geared,
-        );
-        Joints::from_fn(n, |i| h[i] + self.beta[PER_JOINT * i] * tau[i])
+        let t = point_terms(&self.state.params, &self.link_mass_kg, q);
+        JointErrors::deflections_with(&self.beta, 0.0, &t, q.len())
     }
 
     /// The target's position in the measurement frame at the commanded angles `q` (rad), mm.
@@ -119,6 +110,21 @@ impl ExtendedModel {
         let actual = Joints::from_fn(q.len(), |i| q[i] + d[i]);
         self.state.predict(&actual)
     }
+}
+
+/// The per-point quantities of [`JointErrors::point_terms`] without a payload.
+fn point_terms(params: &[f64], masses: &Joints, q: &[f64]) -> PointTerms {
+    let e = JointErrors {
+        coefficients: Vec::new(),
+        link_mass_kg: *masses,
+        calibration_payload: Payload::NONE,
+        payload: Payload::NONE,
+        free: Vec::new(),
+        covariance: Vec::new(),
+        shift_space: crate::kinematics::InputSpace::parameters(q.len()),
+        shift: Vec::new(),
+    };
+    e.point_terms(params, q)
 }
 
 /// The free inputs of a fit: `free` (geometric first, `geo` of them, then coefficients), the
@@ -223,7 +229,7 @@ pub(super) fn check(
     run: &Fitted,
     nominal: &RobotModel,
     prior: Option<&Prior>,
-) -> Option<(BeyondGeometry, ExtendedModel)> {
+) -> Option<ExtendedFit> {
     let n = run.state.layout().joints();
     let masses = default_link_masses(nominal);
     let geometric = ExtendedModel {
@@ -303,6 +309,7 @@ pub(super) fn check(
         loo_rms_extended_mm: loo_extended,
         predicts_better: loo_extended
             < (1.0 - crate::discrepancy::gp::required_gain(run.obs.len())) * loo_geometric,
+        kept: false,
         compliance_urad_per_nm: (0..n)
             .map(|j| {
                 let i = PER_JOINT * j;
@@ -325,5 +332,102 @@ pub(super) fn check(
             })
             .collect(),
     };
-    Some((report, fitted))
+    Some(ExtendedFit {
+        report,
+        model: fitted,
+        free,
+        geo,
+        covariance: cov,
+    })
+}
+
+/// The extended fit of [`check`]: its report, model, and the covariance of its free inputs.
+#[derive(Clone, Debug)]
+pub struct ExtendedFit {
+    /// The comparison with the geometry alone.
+    pub report: BeyondGeometry,
+    /// The geometry and the coefficients.
+    pub model: ExtendedModel,
+    /// The free inputs: `geo` geometric ones (indices of the fit's input space), then
+    /// coefficients (indices of `k, a1, b1, a2, b2` per joint).
+    free: Vec<usize>,
+    geo: usize,
+    /// Their covariance (internal units), with the noise the fit was whitened with.
+    covariance: DMatrix<f64>,
+}
+
+impl ExtendedFit {
+    /// The joint errors a model keeps of this fit: the coefficients, their marginal covariance
+    /// times `scale` (the noise of the data the geometry is finally fitted to, over the one
+    /// this fit was whitened with), and the shift `A = Σ_gβ Σ_ββ⁻¹` of the inputs of `space`
+    /// (the model covariance's) per unit of each coefficient; `fit` is the space of the
+    /// geometric indices.
+    ///
+    /// A compliance the data did not determine (its joint's torque hardly varied over the
+    /// poses) is kept at 0 with the prior σ `prior_k` (rad/(N·m),
+    /// [`crate::kinematics::gravity::compliance_prior`]) and no correlation: a payload at the
+    /// task bends such a joint by an amount the calibration never saw.
+    pub fn joint_errors(
+        &self,
+        fit: InputSpace,
+        space: InputSpace,
+        scale: f64,
+        prior_k: f64,
+    ) -> JointErrors {
+        let geo = self.geo;
+        let fitted = self.free.len() - geo;
+        // The fitted coefficients, then the undetermined compliances, in coefficient order.
+        let mut coeffs: Vec<(usize, Option<usize>)> = self.free[geo..]
+            .iter()
+            .enumerate()
+            .map(|(k, &i)| (i, Some(k)))
+            .collect();
+        for i in (0..self.model.beta.len()).step_by(PER_JOINT) {
+            if !self.free[geo..].contains(&i) {
+                coeffs.push((i, None));
+            }
+        }
+        coeffs.sort_by_key(|c| c.0);
+        let p = coeffs.len();
+        let sbb = self
+            .covariance
+            .view((geo, geo), (fitted, fitted))
+            .into_owned();
+        let sgb = self.covariance.view((0, geo), (geo, fitted)).into_owned();
+        // A = Σ_gβ Σ_ββ⁻¹ = (Σ_ββ⁻¹ Σ_βg)ᵀ (Σ_ββ symmetric); a singular block leaves no shift.
+        let a = sbb
+            .clone()
+            .cholesky()
+            .map(|c| c.solve(&sgb.transpose()).transpose());
+        let mut shift = vec![0.0; space.len() * p];
+        if let Some(a) = &a {
+            for (k, &i) in self.free[..geo].iter().enumerate() {
+                let (block, place) = fit.locate(i);
+                if let Some(r) = space.index(block, place) {
+                    for (c, &(_, f)) in coeffs.iter().enumerate() {
+                        if let Some(f) = f {
+                            shift[r * p + c] = a[(k, f)];
+                        }
+                    }
+                }
+            }
+        }
+        let covariance = (0..p * p)
+            .map(|e| match (coeffs[e / p].1, coeffs[e % p].1) {
+                (Some(a), Some(b)) => scale * sbb[(a, b)],
+                (None, None) if e / p == e % p => prior_k * prior_k,
+                _ => 0.0,
+            })
+            .collect();
+        JointErrors {
+            coefficients: self.model.beta.clone(),
+            link_mass_kg: self.model.link_mass_kg,
+            calibration_payload: Payload::NONE,
+            payload: Payload::NONE,
+            free: coeffs.iter().map(|c| c.0).collect(),
+            covariance,
+            shift_space: space,
+            shift: if a.is_some() { shift } else { Vec::new() },
+        }
+    }
 }

@@ -19,6 +19,7 @@ pub fn chain_model(nominal: &RobotModel, result: &ChainResult, name: String) -> 
         name,
     );
     model.discrepancy = result.discrepancy.clone();
+    model.joint_errors = result.joint_errors.clone();
     model
 }
 
@@ -48,6 +49,7 @@ pub fn state_model(
         .expect("a covariance of the fit inputs")
         .restricted(kept);
     let mut model = RobotModel {
+        joint_errors: None,
         discrepancy: None,
         name,
         params: s.params,

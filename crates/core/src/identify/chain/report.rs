@@ -114,9 +114,11 @@ pub struct ChainResult {
     pub discrepancy: Option<crate::discrepancy::Discrepancy>,
     /// The report.
     pub report: ChainReport,
-    /// The model with compliance and harmonics of the check beyond geometry, when asked for
-    /// (not yet carried by the model file).
+    /// The model with compliance and harmonics of the check beyond geometry, when asked for.
     pub extended: Option<super::ExtendedModel>,
+    /// The joint errors the identified model carries: those of the check beyond geometry when
+    /// they predict new poses better ([`super::BeyondGeometry::kept`]).
+    pub joint_errors: Option<crate::kinematics::JointErrors>,
 }
 
 /// The covariance the model keeps: over the free inputs, then those the data leave

@@ -53,14 +53,29 @@ pub(super) fn robot_groups(lay: Layout, free: &[usize]) -> Vec<InputGroup> {
 /// The name of the discrepancy term's input (the last, when the problem draws the term).
 pub const DISCREPANCY_INPUT: &str = "model_discrepancy";
 
-/// [`robot_groups`], then the discrepancy term's own group ("model discrepancy", the column
-/// after the free inputs) when the problem draws one.
-pub(super) fn input_groups(lay: Layout, free: &[usize], discrepancy: bool) -> Vec<InputGroup> {
+/// The name of the joint errors' input (after the free inputs, when the problem draws them).
+pub const JOINT_ERRORS_INPUT: &str = "joint_errors";
+
+/// [`robot_groups`], then the joint errors' own group ("joint errors", the column after the
+/// free inputs) and the discrepancy term's ("model discrepancy", the column after that) when
+/// the problem draws them.
+pub(super) fn input_groups(
+    lay: Layout,
+    free: &[usize],
+    joint_errors: bool,
+    discrepancy: bool,
+) -> Vec<InputGroup> {
     let mut g = robot_groups(lay, free);
+    if joint_errors {
+        g.push(InputGroup {
+            name: "joint errors (compliance, gear harmonics, payload)".into(),
+            members: vec![free.len()],
+        });
+    }
     if discrepancy {
         g.push(InputGroup {
             name: "model discrepancy".into(),
-            members: vec![free.len()],
+            members: vec![free.len() + usize::from(joint_errors)],
         });
     }
     g

@@ -97,10 +97,11 @@ pub use estimator::{
 
 use serde::{Deserialize, Serialize};
 
-pub use groups::{param_name, DISCREPANCY_INPUT};
+pub use groups::{param_name, DISCREPANCY_INPUT, JOINT_ERRORS_INPUT};
 
 use crate::engine::{
     BackendInfo, EngineError, Evaluator, PickFreeze, PlacementSpread, Problem, DISCREPANCY_MASK,
+    JOINT_ERRORS_MASK,
 };
 use crate::kinematics::{Layout, MAX_JOINTS, MIN_JOINTS};
 use crate::sampling::ALL_NORMALS;
@@ -453,18 +454,23 @@ pub fn run_outputs(
         });
     }
     let discrepancy = problem.discrepancy.is_some();
-    let groups = input_groups(lay, &free, discrepancy);
-    // Input column c is the standard normal free[c] of a draw, and with a discrepancy term the
-    // last column is the term (its mask bit DISCREPANCY_MASK): A takes none from the B draw,
-    // B all, A_B^(S) those of the columns in S.
+    let joint_errors = problem.joint_errors.is_some();
+    let groups = input_groups(lay, &free, joint_errors, discrepancy);
+    // Input column c is the standard normal free[c] of a draw; then, when drawn, the joint
+    // errors (mask bit JOINT_ERRORS_MASK) and the discrepancy term (DISCREPANCY_MASK): A takes
+    // none from the B draw, B all, A_B^(S) those of the columns in S.
     let bit = |col: usize| {
-        if col == free.len() {
-            DISCREPANCY_MASK
-        } else {
+        if col < free.len() {
             1 << free[col]
+        } else if col == free.len() && joint_errors {
+            JOINT_ERRORS_MASK
+        } else {
+            DISCREPANCY_MASK
         }
     };
-    let all = ALL_NORMALS | if discrepancy { DISCREPANCY_MASK } else { 0 };
+    let all = ALL_NORMALS
+        | if discrepancy { DISCREPANCY_MASK } else { 0 }
+        | if joint_errors { JOINT_ERRORS_MASK } else { 0 };
     let eval = |k0: usize, c: usize, sets: &[Vec<usize>]| {
         let masks: Vec<u64> = [0, all]
             .into_iter()
@@ -483,7 +489,7 @@ pub fn run_outputs(
         ev.evaluate_pick_freeze(&request, &mut w)?;
         Ok(w)
     };
-    let columns = free.len() + usize::from(discrepancy);
+    let columns = free.len() + usize::from(joint_errors) + usize::from(discrepancy);
     let out = pick_freeze_chunks(columns, &groups, eval, opts, range)?;
     Ok((
         out,
@@ -491,6 +497,7 @@ pub fn run_outputs(
             input_kind,
             free,
             joints: lay.joints(),
+            joint_errors,
             discrepancy,
         },
     ))
@@ -514,6 +521,10 @@ pub struct Design {
     /// when true, so a design without one reads as before).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub discrepancy: bool,
+    /// The model's joint errors are an input after the free ones ([`JOINT_ERRORS_INPUT`];
+    /// written only when true).
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub joint_errors: bool,
 }
 
 fn six_joints() -> usize {
@@ -557,6 +568,9 @@ impl Design {
             )));
         }
         let mut names: Vec<String> = self.free.iter().map(|&i| param_name(lay, i)).collect();
+        if self.joint_errors {
+            names.push(JOINT_ERRORS_INPUT.to_string());
+        }
         if self.discrepancy {
             names.push(DISCREPANCY_INPUT.to_string());
         }
@@ -564,7 +578,7 @@ impl Design {
             .filter(|i| !self.free.contains(i))
             .map(|i| param_name(lay, i))
             .collect();
-        let groups = input_groups(lay, &self.free, self.discrepancy);
+        let groups = input_groups(lay, &self.free, self.joint_errors, self.discrepancy);
         let analysis = analyse_outputs(&names, &groups, out, opts)?;
         Ok(SensitivityResult {
             model,

@@ -198,6 +198,11 @@ pub fn run_tail(
     progress: Option<Progress>,
 ) -> Result<TailResult, TailError> {
     opts.check()?;
+    if problem.joint_errors.is_some() {
+        return Err(TailError::JointErrors {
+            model: problem.model.name.clone(),
+        });
+    }
     let start = std::time::Instant::now();
     let space = NormalSpace::new(problem)?;
     if space.width != eval.offset_width() {

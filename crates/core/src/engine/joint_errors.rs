@@ -1,0 +1,201 @@
+//! The model's joint errors (compliance, gear harmonics, payload; [`crate::kinematics::JointErrors`],
+//! docs/METHOD.md §19) as a run draws them: per draw, the coefficients' offsets `δβ ~ N(0,
+//! Σ_ββ)` and the payload's `δm ~ N(0, σ_m²)` from the draw's own normals, the geometric inputs
+//! moved by `A δβ`, and at each test point the joint-angle offsets
+//!
+//! ```text
+//! Δ_i = δk_i τ_links,i + ((k̄_i + δk_i)(m̄ + δm) − k̄_i m̄) τ_unit,i
+//!       + δa_i1 sin q_i + δb_i1 cos q_i + δa_i2 sin 2q_i + δb_i2 cos 2q_i
+//! ```
+//!
+//! on top of the mean deflections, which the problem's chain points hold already
+//! ([`super::Problem::chain_points`]). The torques are those of the mean geometry at the
+//! commanded angles: a draw's own geometry would change them by its relative size (~1e-3), a
+//! change of ~1e-7 rad in a deflection of 1e-4 rad.
+//!
+//! # Normals
+//!
+//! Draw `k`'s normals are the Philox counters `(k mod 2³², k div 2³², b, JOINT_ERROR_STREAM)` for
+//! blocks `b = 0, 1, …` (four normals each by Box–Muller, as the parameters'): normal `c` feeds
+//! free coefficient `c`, the one after the last coefficient the payload. They are not slots of
+//! the input space: a pick-freeze row takes all of them from its `b` draw when its mask has
+//! [`JOINT_ERRORS_MASK`], else from `a` (sensitivity's group "joint errors").
+
+use super::ProblemError;
+use crate::kinematics::joint_errors::{
+    JointErrors, PointTerms, COEFFICIENTS_PER_JOINT, MAX_COEFFICIENTS,
+};
+use crate::kinematics::{Block, Joints, RobotModel, MAX_JOINTS};
+use crate::sampling::{normals_block, Philox};
+
+/// The Philox stream of the joint errors' normals.
+pub const JOINT_ERROR_STREAM: u32 = 0x10E7_0000;
+
+/// The pick-freeze mask bit of the joint errors' normals (all of them: one group).
+pub const JOINT_ERRORS_MASK: u64 = 1 << 62;
+
+/// Most normals of a draw: every coefficient and the payload.
+const MAX_TERM_NORMALS: usize = MAX_COEFFICIENTS + 1;
+
+/// One draw of the term: coefficient offsets (all coefficients, internal units), the payload's
+/// offset (kg) and the free coefficients' offsets in order (for the shift).
+#[derive(Clone, Copy, Debug)]
+pub struct TermDraw {
+    /// `δβ` of every coefficient (zero without spread).
+    pub beta: [f64; MAX_COEFFICIENTS],
+    /// `δβ` of the free coefficients, in order.
+    pub free: [f64; MAX_COEFFICIENTS],
+    /// `δm`, kg.
+    pub mass: f64,
+}
+
+/// The joint errors as a run draws them (module docs).
+#[derive(Clone, Debug)]
+pub struct JointErrorDraws {
+    joints: usize,
+    free: Vec<usize>,
+    /// Lower Cholesky factor of the free coefficients' covariance, row-major.
+    chol: Vec<f64>,
+    mass: f64,
+    mass_sigma: f64,
+    compliance: Joints,
+    /// `(block, k, row of A)`: the geometric input `k` of `block` and its mean shift per unit of
+    /// each free coefficient; rows that are all zero are left out.
+    shift: Vec<(Block, usize, Vec<f64>)>,
+    gen: Philox,
+    /// Per test point, the quantities the offsets are linear in.
+    pub terms: Vec<PointTerms>,
+}
+
+impl JointErrorDraws {
+    /// The term of `model` at the commanded angles `points` (rad) for a run keyed by `seed`;
+    /// `None` when the model has no joint errors or nothing of them is uncertain.
+    ///
+    /// # Errors
+    ///
+    /// [`ProblemError::Model`] when the coefficients' covariance has no Cholesky factor.
+    pub fn new(
+        model: &RobotModel,
+        points: &[Joints],
+        seed: u64,
+    ) -> Result<Option<JointErrorDraws>, ProblemError> {
+        let Some(e) = model.joint_errors.as_ref().filter(|e| e.drawn()) else {
+            return Ok(None);
+        };
+        let p = e.free.len();
+        let chol = if p == 0 {
+            Vec::new()
+        } else {
+            let c = nalgebra::DMatrix::from_row_slice(p, p, &e.covariance);
+            let l = nalgebra::linalg::Cholesky::new(c)
+                .ok_or_else(|| ProblemError::Model {
+                    model: model.name.clone(),
+                    field: "joint_errors.covariance".into(),
+                    message: "is not positive definite".into(),
+                })?
+                .l();
+            (0..p * p).map(|i| l[(i / p, i % p)]).collect()
+        };
+        let shift = shift_rows(e);
+        let n = model.joints();
+        Ok(Some(JointErrorDraws {
+            joints: n,
+            free: e.free.clone(),
+            chol,
+            mass: e.payload.mass_kg,
+            mass_sigma: e.payload.sigma_kg,
+            compliance: Joints::from_fn(n, |i| e.coefficients[COEFFICIENTS_PER_JOINT * i]),
+            shift,
+            gen: Philox::new(seed),
+            terms: points
+                .iter()
+                .map(|q| e.point_terms(&model.params, q))
+                .collect(),
+        }))
+    }
+
+    /// Number of normals a draw uses.
+    fn normals(&self) -> usize {
+        self.free.len() + 1
+    }
+
+    /// The term's draw from the normals of counter draw `k`.
+    pub fn draw(&self, k: u64) -> TermDraw {
+        self.draw_mixed(k, k, false)
+    }
+
+    /// The term's draw of a pick-freeze row: the normals of draw `b` when `from_b`, else `a`.
+    pub fn draw_mixed(&self, a: u64, b: u64, from_b: bool) -> TermDraw {
+        let k = if from_b { b } else { a };
+        let mut z = [0.0; MAX_TERM_NORMALS];
+        for blk in 0..self.normals().div_ceil(4) {
+            let v = normals_block(&self.gen, k, blk as u32, JOINT_ERROR_STREAM);
+            for (c, x) in v.into_iter().enumerate() {
+                if 4 * blk + c < MAX_TERM_NORMALS {
+                    z[4 * blk + c] = x;
+                }
+            }
+        }
+        let p = self.free.len();
+        let mut d = TermDraw {
+            beta: [0.0; MAX_COEFFICIENTS],
+            free: [0.0; MAX_COEFFICIENTS],
+            mass: self.mass_sigma * z[p],
+        };
+        for r in 0..p {
+            let v: f64 = (0..=r).map(|c| self.chol[r * p + c] * z[c]).sum();
+            d.free[r] = v;
+            d.beta[self.free[r]] = v;
+        }
+        d
+    }
+
+    /// The geometric inputs' mean shift `A δβ` of draw `d`: `f(block, k, v)` for input `k` of
+    /// `block` moved by `v` (placement rows included; the caller drops those it does not draw).
+    #[inline]
+    pub fn shift_each(&self, d: &TermDraw, mut f: impl FnMut(Block, usize, f64)) {
+        let p = self.free.len();
+        for (block, k, row) in &self.shift {
+            let v: f64 = (0..p).map(|c| row[c] * d.free[c]).sum();
+            f(*block, *k, v);
+        }
+    }
+
+    /// Per joint the two lane factors of a draw: `δk_i` and `(k̄_i + δk_i)(m̄ + δm) − k̄_i m̄`.
+    pub fn factors(&self, d: &TermDraw) -> [[f64; 2]; MAX_JOINTS] {
+        let mut f = [[0.0; 2]; MAX_JOINTS];
+        for (i, fi) in f.iter_mut().enumerate().take(self.joints) {
+            let dk = d.beta[COEFFICIENTS_PER_JOINT * i];
+            let k = self.compliance[i];
+            *fi = [dk, (k + dk) * (self.mass + d.mass) - k * self.mass];
+        }
+        f
+    }
+
+    /// The joint-angle offsets (rad) of draw `d` at test point `point`, on top of the mean
+    /// deflections.
+    pub fn offsets(&self, d: &TermDraw, point: usize) -> Joints {
+        let f = self.factors(d);
+        let t = &self.terms[point];
+        Joints::from_fn(self.joints, |i| {
+            let b = &d.beta[COEFFICIENTS_PER_JOINT * i..COEFFICIENTS_PER_JOINT * (i + 1)];
+            let [tl, tu, s1, c1, s2, c2] = t[i];
+            f[i][0] * tl + f[i][1] * tu + b[1] * s1 + b[2] * c1 + b[3] * s2 + b[4] * c2
+        })
+    }
+}
+
+/// The nonzero rows of `e`'s shift, by block and place.
+fn shift_rows(e: &JointErrors) -> Vec<(Block, usize, Vec<f64>)> {
+    let p = e.free.len();
+    if e.shift.is_empty() || p == 0 {
+        return Vec::new();
+    }
+    (0..e.shift_space.len())
+        .filter_map(|r| {
+            let row = e.shift[r * p..(r + 1) * p].to_vec();
+            let (b, k) = e.shift_space.locate(r);
+            row.iter().any(|&v| v != 0.0).then_some((b, k, row))
+        })
+        .collect()
+}

@@ -1,0 +1,298 @@
+//! Joint errors beyond geometry (docs/METHOD.md §19): joint compliance under gravity and a
+//! payload, and gear harmonics, as a robot model carries them.
+//!
+//! Commanded to `q`, joint `i` stands at `q_i + Δθ_i(q)` with
+//!
+//! ```text
+//! Δθ_i(q) = k_i · τ_i(q, m) + a_i1 sin q_i + b_i1 cos q_i + a_i2 sin 2q_i + b_i2 cos 2q_i
+//! τ_i(q, m) = τ_links,i(q) + m · τ_unit,i(q)
+//! ```
+//!
+//! `τ_links,i` the gravity torque about joint i's axis of the links beyond it (the model's link
+//! masses, [`super::gravity`]), `τ_unit,i` that of 1 kg at the payload's centre of mass, `m` the
+//! payload (kg), all at the commanded angles and the model's mean geometry. The coefficients
+//! `k_i` (rad/(N·m)) and `a, b` (rad) come from an identification (`identify` with the check
+//! beyond geometry); the payload at the task can differ from the one during calibration, which is
+//! what the "what if the payload changes" analyses ask.
+//!
+//! # Uncertainty
+//!
+//! The coefficients with spread (`free`) have the covariance `Σ_ββ` of the identification, and
+//! the geometric inputs drawn with them are correlated with them: a draw takes
+//! `δβ ~ N(0, Σ_ββ)` from its own stream and moves the geometric inputs by `A δβ` (`shift`, `A =
+//! Σ_gβ Σ_ββ⁻¹`) on top of their own draw, whose covariance is then the geometry's given the
+//! coefficients (what a fit with the coefficients held reports). Together that is the joint
+//! distribution of the identification. The task payload has its own σ, independent of the rest.
+
+use super::gravity::gravity_torques;
+use super::{InputSpace, Joints, MAX_JOINTS};
+
+/// Coefficients per joint: `k, a1, b1, a2, b2`.
+pub const COEFFICIENTS_PER_JOINT: usize = 5;
+
+/// Most coefficients of a model ([`MAX_JOINTS`] joints).
+pub const MAX_COEFFICIENTS: usize = COEFFICIENTS_PER_JOINT * MAX_JOINTS;
+
+/// A payload: its mass (kg) with a standard uncertainty, at a centre of mass in the flange frame
+/// (mm).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Payload {
+    /// Mass, kg.
+    pub mass_kg: f64,
+    /// Standard uncertainty of the mass, kg.
+    pub sigma_kg: f64,
+    /// Centre of mass in the flange frame, mm.
+    pub com_mm: [f64; 3],
+}
+
+impl Payload {
+    /// No payload.
+    pub const NONE: Payload = Payload {
+        mass_kg: 0.0,
+        sigma_kg: 0.0,
+        com_mm: [0.0; 3],
+    };
+}
+
+/// The per-point quantities the joint errors at a configuration are linear in: per joint
+/// `[τ_links, τ_unit, sin q, cos q, sin 2q, cos 2q]` (N·m, N·m/kg, 1).
+pub type PointTerms = [[f64; 6]; MAX_JOINTS];
+
+/// Joint compliance and gear harmonics of a model, with their uncertainty (module docs).
+#[derive(Clone, Debug, PartialEq)]
+pub struct JointErrors {
+    /// Per joint `k, a1, b1, a2, b2` (rad/(N·m), rad), joint-major.
+    pub coefficients: Vec<f64>,
+    /// The link masses the gravity torques assume, kg, one per joint.
+    pub link_mass_kg: Joints,
+    /// The payload during the calibration the coefficients come from.
+    pub calibration_payload: Payload,
+    /// The payload at the task (analyses): the calibration's unless changed.
+    pub payload: Payload,
+    /// Indices of the coefficients with spread.
+    pub free: Vec<usize>,
+    /// Covariance of the free coefficients, row-major, internal units.
+    pub covariance: Vec<f64>,
+    /// The geometric inputs the shift acts on (the model covariance's space).
+    pub shift_space: InputSpace,
+    /// `A`, row-major `shift_space.len() × free.len()`: the geometric inputs' mean shift per unit
+    /// of each free coefficient (internal units); empty for none.
+    pub shift: Vec<f64>,
+}
+
+impl JointErrors {
+    /// Number of joints.
+    pub fn joints(&self) -> usize {
+        self.link_mass_kg.len()
+    }
+
+    /// The name of coefficient `i` as files and reports write it: `k2`, `sin1_2`, `cos1_2`,
+    /// `sin2_2`, `cos2_2` (1-based joint).
+    pub fn coefficient_name(i: usize) -> String {
+        let j = i / COEFFICIENTS_PER_JOINT + 1;
+        match i % COEFFICIENTS_PER_JOINT {
+            0 => format!("k{j}"),
+            1 => format!("sin1_{j}"),
+            2 => format!("cos1_{j}"),
+            3 => format!("sin2_{j}"),
+            _ => format!("cos2_{j}"),
+        }
+    }
+
+    /// Whether coefficient `i` is a compliance (else a harmonic, an angle).
+    pub fn is_compliance(i: usize) -> bool {
+        i.is_multiple_of(COEFFICIENTS_PER_JOINT)
+    }
+
+    /// Factor from file units (µrad/(N·m), deg) to internal units (rad/(N·m), rad) of
+    /// coefficient `i`.
+    pub fn to_internal(i: usize) -> f64 {
+        if Self::is_compliance(i) {
+            1e-6
+        } else {
+            std::f64::consts::PI / 180.0
+        }
+    }
+
+    /// Standard uncertainty of coefficient `i`, internal units (0 when it has no spread).
+    pub fn sigma(&self, i: usize) -> f64 {
+        let p = self.free.len();
+        self.free
+            .iter()
+            .position(|&f| f == i)
+            .map_or(0.0, |k| self.covariance[k * p + k].max(0.0).sqrt())
+    }
+
+    /// Whether a draw moves anything: some coefficient or the task payload has spread.
+    pub fn drawn(&self) -> bool {
+        !self.free.is_empty() || self.payload.sigma_kg > 0.0
+    }
+
+    /// The quantities the joint errors at the commanded angles `q` (rad) are linear in, for the
+    /// chain `params` of the model's mean and the task payload's centre of mass
+    /// ([`PointTerms`]).
+    pub fn point_terms(&self, params: &[f64], q: &[f64]) -> PointTerms {
+        self.point_terms_for(params, q, &self.payload)
+    }
+
+    /// [`Self::point_terms`] with `payload`'s centre of mass.
+    fn point_terms_for(&self, params: &[f64], q: &[f64], payload: &Payload) -> PointTerms {
+        let n = q.len();
+        let tau_links = gravity_torques(params, &[0.0; 3], &self.link_mass_kg, 0.0, q);
+        let zero = Joints::filled(n, 0.0);
+        let tau_unit = gravity_torques(params, &payload.com_mm, &zero, 1.0, q);
+        let mut t = [[0.0; 6]; MAX_JOINTS];
+        for i in 0..n {
+            let (s1, c1) = q[i].sin_cos();
+            let (s2, c2) = (2.0 * q[i]).sin_cos();
+            t[i] = [tau_links[i], tau_unit[i], s1, c1, s2, c2];
+        }
+        t
+    }
+
+    /// The deflections `Δθ` (rad) at the commanded angles `q` of coefficients `beta` (all of
+    /// them, internal units) with a payload of `mass_kg`, from the point's [`PointTerms`].
+    pub fn deflections_with(beta: &[f64], mass_kg: f64, t: &PointTerms, n: usize) -> Joints {
+        Joints::from_fn(n, |i| {
+            let b = &beta[COEFFICIENTS_PER_JOINT * i..COEFFICIENTS_PER_JOINT * (i + 1)];
+            let [tl, tu, s1, c1, s2, c2] = t[i];
+            b[0] * (tl + mass_kg * tu) + b[1] * s1 + b[2] * c1 + b[3] * s2 + b[4] * c2
+        })
+    }
+
+    /// The mean deflections (rad) at the commanded angles `q` (rad) of the chain `params` with
+    /// the task payload.
+    pub fn deflections(&self, params: &[f64], q: &[f64]) -> Joints {
+        let t = self.point_terms(params, q);
+        Self::deflections_with(&self.coefficients, self.payload.mass_kg, &t, q.len())
+    }
+
+    /// The joint angles (rad) the mean model stands at when commanded to `q` (rad), with the
+    /// task payload.
+    pub fn actual_angles(&self, params: &[f64], q: &[f64]) -> Joints {
+        self.angles_with(params, q, &self.payload)
+    }
+
+    /// The joint angles (rad) the mean model stands at when commanded to `q` (rad) carrying
+    /// `payload`.
+    pub fn angles_with(&self, params: &[f64], q: &[f64], payload: &Payload) -> Joints {
+        let t = self.point_terms_for(params, q, payload);
+        let d = Self::deflections_with(&self.coefficients, payload.mass_kg, &t, q.len());
+        Joints::from_fn(q.len(), |i| q[i] + d[i])
+    }
+
+    /// Checks the values: finite, one set per joint, a positive semi-definite-looking covariance
+    /// (non-negative diagonal) of the right size, a shift of the right size.
+    ///
+    /// # Errors
+    ///
+    /// `(field, message)` naming the first bad field, as the model file spells it.
+    pub fn check(&self, joints: usize) -> Result<(), (String, String)> {
+        let bad = |f: &str, m: String| Err((format!("joint_errors.{f}"), m));
+        if self.coefficients.len() != COEFFICIENTS_PER_JOINT * joints {
+            return bad(
+                "compliance_urad_per_nm",
+                format!("needs one value per joint ({joints})"),
+            );
+        }
+        if self.link_mass_kg.len() != joints {
+            return bad(
+                "link_mass_kg",
+                format!("needs one mass per joint ({joints})"),
+            );
+        }
+        if let Some(i) = self.coefficients.iter().position(|v| !v.is_finite()) {
+            return bad(
+                if Self::is_compliance(i) {
+                    "compliance_urad_per_nm"
+                } else {
+                    "harmonics_deg"
+                },
+                format!("{} is not a finite number", Self::coefficient_name(i)),
+            );
+        }
+        // Deflections beyond 1° are not a compliance or a gear error of a calibrated robot.
+        let limit = 1f64.to_radians();
+        for j in 0..joints {
+            let h: f64 = (1..5)
+                .map(|k| self.coefficients[COEFFICIENTS_PER_JOINT * j + k].abs())
+                .sum();
+            if h > limit {
+                return bad(
+                    "harmonics_deg",
+                    format!(
+                        "joint {}: harmonic amplitudes summing to {:.3} deg (at most 1 deg)",
+                        j + 1,
+                        h.to_degrees()
+                    ),
+                );
+            }
+        }
+        if let Some(j) = (0..joints).find(|&j| !(0.0..=1e4).contains(&self.link_mass_kg[j])) {
+            return bad(
+                "link_mass_kg",
+                format!(
+                    "joint {}: {} kg (0 to 10000 kg)",
+                    j + 1,
+                    self.link_mass_kg[j]
+                ),
+            );
+        }
+        for (name, p) in [
+            ("calibration_payload_kg", &self.calibration_payload),
+            ("payload_kg", &self.payload),
+        ] {
+            if !(0.0..=1e4).contains(&p.mass_kg) || !(0.0..=1e4).contains(&p.sigma_kg) {
+                return bad(
+                    name,
+                    format!("{} kg with σ {} kg (0 to 10000 kg)", p.mass_kg, p.sigma_kg),
+                );
+            }
+            if p.com_mm.iter().any(|v| !v.is_finite() || v.abs() > 1e5) {
+                return bad(
+                    name,
+                    format!(
+                        "centre of mass {:?} mm is not a finite length within 100 m",
+                        p.com_mm
+                    ),
+                );
+            }
+        }
+        let p = self.free.len();
+        if self.free.iter().any(|&i| i >= self.coefficients.len())
+            || self.free.windows(2).any(|w| w[0] >= w[1])
+        {
+            return bad(
+                "free",
+                "names unknown, repeated or unordered coefficients".into(),
+            );
+        }
+        if self.covariance.len() != p * p {
+            return bad(
+                "covariance",
+                format!("needs {p} × {p} entries, one row per free coefficient"),
+            );
+        }
+        if self.covariance.iter().any(|v| !v.is_finite())
+            || (0..p).any(|k| self.covariance[k * p + k] < 0.0)
+        {
+            return bad(
+                "covariance",
+                "entries must be finite, the diagonal non-negative".into(),
+            );
+        }
+        if !self.shift.is_empty()
+            && (self.shift.len() != self.shift_space.len() * p
+                || self.shift.iter().any(|v| !v.is_finite()))
+        {
+            return bad(
+                "geometry_shift",
+                format!(
+                    "needs {} rows (the covariance's inputs) of {p} finite numbers",
+                    self.shift_space.len()
+                ),
+            );
+        }
+        Ok(())
+    }
+}
