@@ -123,7 +123,7 @@ fn the_predicted_bound_covers_held_out_errors_of_a_real_ur10() {
             .unwrap_or_else(|| panic!("{label}: {text}"));
         l.split_whitespace().rev().nth(1).unwrap().parse().unwrap()
     };
-    let (geometric, compensated) = (rms("(geometric only)"), rms("(compensated)"));
+    let (geometric, compensated) = (rms("(without compensation)"), rms("(compensated)"));
     assert!(compensated < 0.85 * geometric, "{text}");
     compensation_outputs(&d, &m, &test);
 }

@@ -21,7 +21,7 @@
 use super::joint_errors::JointErrorDraws;
 use super::DiscrepancyDraws;
 use super::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
-use crate::kinematics::joint_errors::{PointTerms, COEFFICIENTS_PER_JOINT};
+use crate::kinematics::joint_errors::{PointTerms, MAX_COEFFICIENTS};
 use crate::kinematics::{
     param_index, Block, Capped, InputSpace, ParamKind, MAX_JOINTS, MAX_ROBOT_INPUTS,
 };
@@ -383,7 +383,7 @@ impl CpuEvaluator {
     /// rows): each lane's geometric offsets `d` (and placement offsets `db`) moved by `A δβ`, and
     /// the lane factors of its joint-angle offsets in `jel` (per joint `[f0, f1, δa1, δb1, δa2,
     /// δb2]`, [`JointErrorDraws::factors`]).
-    #[inline(never)]
+    #[inline(always)]
     fn term_lanes(
         &self,
         term: &JointErrorDraws,
@@ -393,35 +393,43 @@ impl CpuEvaluator {
         mut db: Option<&mut [[f64; LANES]; 6]>,
         jel: &mut JeLanes,
     ) {
-        for l in 0..LANES {
-            let td = match src {
-                Source::Draws(k) => term.draw(k + l as u64),
-                Source::PickFreeze(pf, row) if row + l < pf.rows() => {
+        let draws: [u64; LANES] = match src {
+            Source::Draws(k) => std::array::from_fn(|l| k + l as u64),
+            Source::PickFreeze(pf, row) => std::array::from_fn(|l| {
+                if row + l < pf.rows() {
                     let (a, b, _) = pf.row(row + l);
-                    term.draw_mixed(a, b, pf.joint_errors_from_b(row + l))
-                }
-                _ => term.draw(0),
-            };
-            term.shift_each(&td, |block, k, v| match block {
-                Block::Placement => {
-                    if let Some(db) = db.as_deref_mut() {
-                        db[k][l] += v;
+                    if pf.joint_errors_from_b(row + l) {
+                        b
+                    } else {
+                        a
                     }
+                } else {
+                    0
                 }
-                b => {
-                    if let Some(i) = space.index(b, k) {
-                        d[i][l] += v;
+            }),
+            Source::Offsets(..) => [0; LANES],
+        };
+        let mut free = [[0.0; LANES]; MAX_COEFFICIENTS];
+        let mut mass = [0.0; LANES];
+        term.draw_lanes(&draws, &mut free, &mut mass);
+        term.shift_lanes(&free, |block, k, v| match block {
+            Block::Placement => {
+                if let Some(db) = db.as_deref_mut() {
+                    for l in 0..LANES {
+                        db[k][l] += v[l];
                     }
-                }
-            });
-            let f = term.factors(&td);
-            for (j, lanes) in jel.iter_mut().enumerate().take(self.joints) {
-                let beta = &td.beta[COEFFICIENTS_PER_JOINT * j..COEFFICIENTS_PER_JOINT * (j + 1)];
-                let v = [f[j][0], f[j][1], beta[1], beta[2], beta[3], beta[4]];
-                for (c, x) in v.into_iter().enumerate() {
-                    lanes[c][l] = x;
                 }
             }
+            b => {
+                if let Some(i) = space.index(b, k) {
+                    for l in 0..LANES {
+                        d[i][l] += v[l];
+                    }
+                }
+            }
+        });
+        for (j, lanes) in jel.iter_mut().enumerate().take(self.joints) {
+            term.factor_lanes(j, &free, &mass, lanes);
         }
     }
 }
@@ -443,7 +451,9 @@ fn block_kernel_placed<const N: usize>(
     for (pj, p) in pts.iter().enumerate() {
         let (x, y, z) = match je {
             None => chain_lanes(jl, tool, p),
-            Some((jel, terms)) => chain_lanes_offset(jl, tool, p, &joint_offsets(jel, &terms[pj])),
+            Some((jel, terms)) => {
+                chain_lanes_offset(jl, tool, p, &joint_offsets::<N>(jel, &terms[pj]))
+            }
         };
         let mut e2 = [0.0; LANES];
         for l in 0..LANES {
@@ -468,11 +478,11 @@ fn block_kernel_placed<const N: usize>(
 }
 
 /// The joint-angle offsets of `LANES` draws at a test point with quantities `t`
-/// ([`JointErrorDraws`]) from their lane factors `jel`.
+/// ([`JointErrorDraws`]) from their lane factors `jel`, for the first `N` joints.
 #[inline(always)]
-fn joint_offsets(jel: &JeLanes, t: &PointTerms) -> [[f64; LANES]; MAX_JOINTS] {
+fn joint_offsets<const N: usize>(jel: &JeLanes, t: &PointTerms) -> [[f64; LANES]; MAX_JOINTS] {
     let mut o = [[0.0; LANES]; MAX_JOINTS];
-    for (i, oi) in o.iter_mut().enumerate() {
+    for (i, oi) in o.iter_mut().enumerate().take(N) {
         let [tl, tu, s1, c1, s2, c2] = t[i];
         let f = &jel[i];
         for l in 0..LANES {
@@ -487,6 +497,21 @@ fn joint_offsets(jel: &JeLanes, t: &PointTerms) -> [[f64; LANES]; MAX_JOINTS] {
     o
 }
 
+/// Offsets below this (rad) turn a joint by the short series of [`tiny_sin_cos`]; larger ones
+/// take `sin_cos`.
+const TINY_LIMIT: f64 = 1e-3;
+
+/// `(sin δ, cos δ)` to δ⁵ and δ⁴: for |δ| < [`TINY_LIMIT`] the truncation, δ⁵/120 ≤ 8.4e-18
+/// and δ⁶/720 ≤ 1.4e-21, is below half an ulp of either (joint errors' draws are ~1e-5 rad).
+#[inline(always)]
+fn tiny_sin_cos(d: f64) -> (f64, f64) {
+    let d2 = d * d;
+    (
+        d * (1.0 - d2 * (1.0 / 6.0)),
+        1.0 - d2 * (0.5 - d2 * (1.0 / 24.0)),
+    )
+}
+
 /// The end positions of `LANES` draws at point `p` (the chain from the tool to the base; one
 /// entry of `jl` per joint, `N` of them, so that the joint loop's bound is known when compiled).
 #[inline(always)]
@@ -499,8 +524,8 @@ fn chain_lanes<const N: usize>(
 }
 
 /// [`chain_lanes`] with each joint turned further by its lane's offset `o[i][l]` (rad): the
-/// joint errors' draws. The rotation by the offset uses the series of [`small_sin_cos`], exact
-/// for |o| < [`SERIES_LIMIT`]; larger offsets take `sin_cos`.
+/// joint errors' draws. The rotation by the offset uses the series of [`tiny_sin_cos`], exact
+/// for |o| < [`TINY_LIMIT`]; larger offsets take `sin_cos`.
 #[inline(always)]
 fn chain_lanes_offset<const N: usize>(
     jl: &[[[f64; LANES]; 8]; N],
@@ -530,10 +555,10 @@ fn chain_lanes_turned<const N: usize, const TURN: bool>(
         let mut co = [1.0; LANES];
         if TURN {
             for l in 0..LANES {
-                (so[l], co[l]) = small_sin_cos(o[i][l]);
+                (so[l], co[l]) = tiny_sin_cos(o[i][l]);
             }
             for l in 0..LANES {
-                if o[i][l].abs() >= SERIES_LIMIT {
+                if o[i][l].abs() >= TINY_LIMIT {
                     (so[l], co[l]) = o[i][l].sin_cos();
                 }
             }
@@ -576,7 +601,9 @@ fn block_kernel<const N: usize>(
     for (pj, p) in pts.iter().enumerate() {
         let (x, y, z) = match je {
             None => chain_lanes(jl, tool, p),
-            Some((jel, terms)) => chain_lanes_offset(jl, tool, p, &joint_offsets(jel, &terms[pj])),
+            Some((jel, terms)) => {
+                chain_lanes_offset(jl, tool, p, &joint_offsets::<N>(jel, &terms[pj]))
+            }
         };
         let mut e2 = [0.0; LANES];
         for l in 0..LANES {

@@ -26,7 +26,7 @@ use crate::kinematics::joint_errors::{
     JointErrors, PointTerms, COEFFICIENTS_PER_JOINT, MAX_COEFFICIENTS,
 };
 use crate::kinematics::{Block, Joints, RobotModel, MAX_JOINTS};
-use crate::sampling::{normals_block, Philox};
+use crate::sampling::{box_muller, normals_block, philox4x32_10_lanes, Philox};
 
 /// The Philox stream of the joint errors' normals.
 pub const JOINT_ERROR_STREAM: u32 = 0x10E7_0000;
@@ -63,6 +63,8 @@ pub struct JointErrorDraws {
     /// each free coefficient; rows that are all zero are left out.
     shift: Vec<(Block, usize, Vec<f64>)>,
     gen: Philox,
+    /// Per coefficient, its place among the free ones.
+    position: [Option<usize>; MAX_COEFFICIENTS],
     /// Per test point, the quantities the offsets are linear in.
     pub terms: Vec<PointTerms>,
 }
@@ -107,6 +109,7 @@ impl JointErrorDraws {
             compliance: Joints::from_fn(n, |i| e.coefficients[COEFFICIENTS_PER_JOINT * i]),
             shift,
             gen: Philox::new(seed),
+            position: std::array::from_fn(|i| e.free.iter().position(|&f| f == i)),
             terms: points
                 .iter()
                 .map(|q| e.point_terms(&model.params, q))
@@ -148,6 +151,96 @@ impl JointErrorDraws {
             d.beta[self.free[r]] = v;
         }
         d
+    }
+
+    /// The draws `draws[l]` of `L` lanes at once (lane `l` equal to [`Self::draw`] of
+    /// `draws[l]` to rounding: the same normals, the sums in the same order): the free
+    /// coefficients' offsets `free[c][l]` and the payload's `mass[l]`.
+    #[inline(always)]
+    pub fn draw_lanes<const L: usize>(
+        &self,
+        draws: &[u64; L],
+        free: &mut [[f64; L]; MAX_COEFFICIENTS],
+        mass: &mut [f64; L],
+    ) {
+        let p = self.free.len();
+        let mut z = [[0.0; L]; MAX_TERM_NORMALS];
+        let lo: [u32; L] = std::array::from_fn(|l| draws[l] as u32);
+        let hi: [u32; L] = std::array::from_fn(|l| (draws[l] >> 32) as u32);
+        for blk in 0..self.normals().div_ceil(4) {
+            let w = philox4x32_10_lanes(
+                [lo, hi, [blk as u32; L], [JOINT_ERROR_STREAM; L]],
+                self.gen.key,
+            );
+            for l in 0..L {
+                let (a, b) = box_muller(w[0][l], w[1][l]);
+                let (c, d) = box_muller(w[2][l], w[3][l]);
+                for (t, v) in [a, b, c, d].into_iter().enumerate() {
+                    if 4 * blk + t < MAX_TERM_NORMALS {
+                        z[4 * blk + t][l] = v;
+                    }
+                }
+            }
+        }
+        for r in 0..p {
+            let row = &self.chol[r * p..r * p + r + 1];
+            let mut acc = [0.0; L];
+            for (c, &v) in row.iter().enumerate() {
+                for l in 0..L {
+                    acc[l] += v * z[c][l];
+                }
+            }
+            free[r] = acc;
+        }
+        for l in 0..L {
+            mass[l] = self.mass_sigma * z[p][l];
+        }
+    }
+
+    /// The mean shift `A δβ` of `L` lanes of free-coefficient offsets `free`: `f(block, k, v)`
+    /// with `v[l]` the shift of input `k` of `block` in lane `l`.
+    #[inline(always)]
+    pub fn shift_lanes<const L: usize>(
+        &self,
+        free: &[[f64; L]; MAX_COEFFICIENTS],
+        mut f: impl FnMut(Block, usize, &[f64; L]),
+    ) {
+        for (block, k, row) in &self.shift {
+            let mut acc = [0.0; L];
+            for (c, &v) in row.iter().enumerate() {
+                for l in 0..L {
+                    acc[l] += v * free[c][l];
+                }
+            }
+            f(*block, *k, &acc);
+        }
+    }
+
+    /// The lane factors of joint `i` (`[f0, f1, δa1, δb1, δa2, δb2]`, [`Self::factors`]) from
+    /// `L` lanes of free-coefficient offsets and payload offsets.
+    #[inline(always)]
+    pub fn factor_lanes<const L: usize>(
+        &self,
+        i: usize,
+        free: &[[f64; L]; MAX_COEFFICIENTS],
+        mass: &[f64; L],
+        out: &mut [[f64; L]; 6],
+    ) {
+        let of = |c: usize| -> [f64; L] {
+            match self.position[COEFFICIENTS_PER_JOINT * i + c] {
+                Some(r) => free[r],
+                None => [0.0; L],
+            }
+        };
+        let dk = of(0);
+        let k = self.compliance[i];
+        for l in 0..L {
+            out[0][l] = dk[l];
+            out[1][l] = (k + dk[l]) * (self.mass + mass[l]) - k * self.mass;
+        }
+        for c in 1..COEFFICIENTS_PER_JOINT {
+            out[c + 1] = of(c);
+        }
     }
 
     /// The geometric inputs' mean shift `A δβ` of draw `d`: `f(block, k, v)` for input `k` of

@@ -187,7 +187,9 @@ fn point_errors_with(
                 (Placement::Identify, true) => model.compensated_world_position(&q),
                 (Placement::Known, true) => model.compensated_position(&q),
                 (Placement::Identify, false) => model.world_position(&q),
-                (Placement::Known, false) => position(&model.params, &model.tool, &q),
+                (Placement::Known, false) => {
+                    position(&model.params, &model.tool, &model.chain_angles(&q))
+                }
             };
             (0..3)
                 .map(|k| (x[k] - p.position_mm[k]).powi(2))

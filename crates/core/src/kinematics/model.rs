@@ -335,9 +335,11 @@ impl RobotModel {
     }
 
     /// Tool-point position (mm) at joint angles `q` (radians) in the description's frame: the
-    /// MDH chain's [`super::position`], then the [`RobotModel::base`] transform.
+    /// MDH chain's [`super::position`] at the angles the joints stand at
+    /// ([`RobotModel::chain_angles`]: `q` itself for a geometric model), then the
+    /// [`RobotModel::base`] transform. No compensation.
     pub fn world_position(&self, q: &[f64]) -> [f64; 3] {
-        let p = super::position(&self.params, &self.tool, q);
+        let p = super::position(&self.params, &self.tool, &self.chain_angles(q));
         match &self.base {
             None => p,
             Some(b) => b.apply(p),

@@ -226,7 +226,12 @@ pub fn render_validation(v: &Validation) -> String {
         .iter()
         .map(|(n, _)| n.chars().count())
         .chain([
-            v.model_name.chars().count() + if v.geometric.is_some() { 18 } else { 0 },
+            v.model_name.chars().count()
+                + if v.geometric.is_some() {
+                    " (without compensation)".len()
+                } else {
+                    0
+                },
             "improvement".len(),
         ])
         .max()
@@ -248,7 +253,11 @@ pub fn render_validation(v: &Validation) -> String {
         row(&mut s, name, n);
     }
     if let Some(g) = &v.geometric {
-        row(&mut s, &format!("{} (geometric only)", v.model_name), g);
+        row(
+            &mut s,
+            &format!("{} (without compensation)", v.model_name),
+            g,
+        );
         row(&mut s, &format!("{} (compensated)", v.model_name), &v.model);
     } else {
         row(&mut s, &v.model_name, &v.model);
