@@ -210,6 +210,9 @@ def mcs(
     memory_limit: _MemoryLimit | None = None,
     frame: _Frame = "measurement",
     discrepancy: bool = True,
+    payload_kg: float | None = None,
+    payload_sigma_kg: float = 0.0,
+    payload_com: tuple[float, float, float] | None = None,
 ) -> RunResult: ...
 def amcs(
     model: Model | None = None,
@@ -237,6 +240,9 @@ def amcs(
     memory_limit: _MemoryLimit | None = None,
     frame: _Frame = "measurement",
     discrepancy: bool = True,
+    payload_kg: float | None = None,
+    payload_sigma_kg: float = 0.0,
+    payload_com: tuple[float, float, float] | None = None,
 ) -> RunResult: ...
 def sensitivity(
     model: Model | None = None,
@@ -260,6 +266,9 @@ def sensitivity(
     memory_limit: _MemoryLimit | None = None,
     frame: _Frame = "measurement",
     discrepancy: bool = True,
+    payload_kg: float | None = None,
+    payload_sigma_kg: float = 0.0,
+    payload_com: tuple[float, float, float] | None = None,
 ) -> SensitivityResult: ...
 def tail(
     model: Model | None = None,
@@ -285,6 +294,9 @@ def tail(
     memory_limit: _MemoryLimit | None = None,
     frame: _Frame = "measurement",
     discrepancy: bool = True,
+    payload_kg: float | None = None,
+    payload_sigma_kg: float = 0.0,
+    payload_com: tuple[float, float, float] | None = None,
 ) -> TailResult: ...
 def map(
     model: Model | None = None,
@@ -337,6 +349,9 @@ def plan(
     memory_limit: _MemoryLimit | None = None,
     frame: _Frame = "measurement",
     discrepancy: bool = True,
+    payload_kg: float | None = None,
+    payload_sigma_kg: float = 0.0,
+    payload_com: tuple[float, float, float] | None = None,
 ) -> PlanResult: ...
 def identify(
     data: _Path,

@@ -61,6 +61,12 @@ pub struct ProblemKw<'py> {
     pub frame: String,
     /// Draw the model's discrepancy term (`False`: the command line's `--no-discrepancy`).
     pub discrepancy: bool,
+    /// The payload at the task, kg (the command line's `--payload-kg`; `None`: the model's).
+    pub payload_kg: Option<f64>,
+    /// Its standard uncertainty, kg.
+    pub payload_sigma_kg: f64,
+    /// Its centre of mass in the flange frame, mm (`None`: the model's).
+    pub payload_com: Option<[f64; 3]>,
 }
 
 /// The reference from the keywords `reference` and `nominal`; without `nominal`, a nominal
@@ -313,7 +319,19 @@ impl ProblemKw<'_> {
                 backend,
                 adapter: self.adapter.clone(),
                 discrepancy: self.discrepancy,
-                payload: None,
+                payload: match self.payload_kg {
+                    Some(mass_kg) => Some(gpu_amcs_core::spec::PayloadSpec {
+                        mass_kg,
+                        sigma_kg: self.payload_sigma_kg,
+                        com_mm: self.payload_com,
+                    }),
+                    None if self.payload_sigma_kg != 0.0 || self.payload_com.is_some() => {
+                        return Err(pyo3::exceptions::PyValueError::new_err(
+                            "payload_sigma_kg and payload_com need payload_kg",
+                        ))
+                    }
+                    None => None,
+                },
             },
             nominal_from_preset,
             frame: frame(&self.frame)?,
@@ -330,7 +348,8 @@ impl ProblemKw<'_> {
 /// such as a list of thresholds). It must list the same keywords in the same order, ending with
 /// the problem keywords: `preset=None, points=50, q_deg=None, points_file=None, points_seed=1,
 /// box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None,
-/// backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True`.
+/// backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True,
+/// payload_kg=None, payload_sigma_kg=0.0, payload_com=None`.
 /// `python/tests/test_signatures.py` checks the defaults and that every keyword shown is taken;
 /// `mypy.stubtest` (in `.ci/run`) that `gpu_amcs/_gpu_amcs.pyi` agrees.
 macro_rules! problem_function {
@@ -344,7 +363,8 @@ macro_rules! problem_function {
             box_center = None, box_size = None, seed = 2025,
             reference = "calibrated".to_string(), nominal = None,
             backend = "auto".to_string(), adapter = None, memory_limit = None,
-            frame = "measurement".to_string(), discrepancy = true),
+            frame = "measurement".to_string(), discrepancy = true, payload_kg = None,
+            payload_sigma_kg = 0.0, payload_com = None),
             text_signature = $sig)]
         #[allow(clippy::too_many_arguments)]
         pub fn $name<'py>(
@@ -366,6 +386,9 @@ macro_rules! problem_function {
             memory_limit: Option<::pyo3::Bound<'py, ::pyo3::PyAny>>,
             frame: String,
             discrepancy: bool,
+            payload_kg: Option<f64>,
+            payload_sigma_kg: f64,
+            payload_com: Option<[f64; 3]>,
         ) -> ::pyo3::PyResult<$ret> {
             let $problem = $crate::problem::ProblemKw {
                 model,
@@ -384,6 +407,9 @@ macro_rules! problem_function {
                 memory_limit,
                 frame,
                 discrepancy,
+                payload_kg,
+                payload_sigma_kg,
+                payload_com,
             };
             $body
         }

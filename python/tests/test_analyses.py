@@ -217,6 +217,17 @@ def test_identify_beyond_geometry_equals_cli(cli, tmp_path):
     plain = gpu_amcs.identify(poses, tracker_sigma=0.01)
     assert "beyond_geometry" not in plain.to_dict()["identify"]["runs"][0]["chain"]
     assert "[joint_errors]" not in plain.to_toml()
+    # The payload at the task: the command line's --payload-kg, refused for a geometric model.
+    bent = gpu_amcs.Model.from_file(tmp_path / "m.toml")
+    kw = dict(points=10, draws=20000, backend="cpu")
+    heavy = gpu_amcs.mcs(bent, payload_kg=8.0, **kw)
+    doc_file = tmp_path / "heavy.json"
+    run_ok(cli, "mcs", "--model", tmp_path / "m.toml", "--points", 10, "--draws", 20000,
+           "--backend", "cpu", "--payload-kg", 8, "--json", doc_file)
+    assert heavy.estimate == json.loads(doc_file.read_text())["result"]["estimate"]
+    assert heavy.estimate > 1.5 * gpu_amcs.mcs(bent, **kw).estimate
+    with pytest.raises(ValueError, match="payload_kg"):
+        gpu_amcs.mcs(plain.model, payload_kg=5.0, **kw)
 
 
 def test_identify_poses_in_a_tracker_frame_equals_cli(cli, tmp_path):

@@ -190,12 +190,29 @@ pub fn identify_chain(
     prior: Option<NominalPrior>,
     opts: &ChainOptions,
 ) -> Result<ChainResult, IdentifyError> {
-    let (first, extended) = identify_geometry(points, nominal, start, prior, opts)?;
+    if !opts.beyond_geometry {
+        return Ok(identify_geometry(points, nominal, start, prior, opts)?.0);
+    }
+    // The check first, without the compensation (a Gaussian process over the residuals is the
+    // identification's most expensive step; the final fit below decides on it).
+    let check_opts = ChainOptions {
+        compensate: false,
+        ..opts.clone()
+    };
+    let (first, extended) = identify_geometry(points, nominal, start, prior, &check_opts)?;
+    let geometric_only = ChainOptions {
+        beyond_geometry: false,
+        ..opts.clone()
+    };
     let Some(ext) = extended.filter(|e| e.report.predicts_better) else {
-        return Ok(ChainResult {
-            extended: extended_model(&first),
-            ..first
-        });
+        let (mut r, _) = if opts.compensate {
+            identify_geometry(points, nominal, start, prior, &geometric_only)?
+        } else {
+            (first.clone(), None)
+        };
+        r.report.beyond_geometry = first.report.beyond_geometry;
+        r.extended = first.extended;
+        return Ok(r);
     };
     // The joint errors predict new poses better: the geometry is fitted again to the angles the
     // joints stood at (commanded plus the fitted deflections), so its covariance is the
@@ -211,10 +228,6 @@ pub fn identify_chain(
             }
         })
         .collect();
-    let geometric_only = ChainOptions {
-        beyond_geometry: false,
-        ..opts.clone()
-    };
     let (mut second, _) = identify_geometry(&corrected, nominal, start, prior, &geometric_only)?;
     // The coefficients' covariance was whitened with the noise of the geometric fit; the data's
     // noise is what the second fit finds (estimated) or the stated one times its lack of fit.
@@ -237,11 +250,6 @@ pub fn identify_chain(
     second.report.beyond_geometry = Some(beyond);
     second.extended = Some(ext.model);
     Ok(second)
-}
-
-/// The extended model of a result whose check beyond geometry did not keep it.
-fn extended_model(r: &ChainResult) -> Option<ExtendedModel> {
-    r.extended.clone()
 }
 
 /// The geometric identification of [`identify_chain`], and the extended fit when asked for.
