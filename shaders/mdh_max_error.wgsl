@@ -28,6 +28,10 @@
 // the word h(a ⊕ h(b + j)), (a, b, c, _) the draw's Philox block (draw, 0, DISCREPANCY_STREAM),
 // r times the draw's size factor from c's top 8 bits
 // (crates/core/src/discrepancy/mod.rs, size.rs, crates/core/src/engine/discrepancy.rs).
+// A model with uncertain joint errors (cfg.term_on; compliance, gear harmonics, payload,
+// docs/METHOD.md §19.2) draws them per counter draw and pick-freeze row (term_draw, from draw b
+// where the mask has bit 62): the geometric offsets moved by A δβ, and each joint turned
+// further at each point by its offset (chain_step_turned); offset rows keep the mean.
 // Only small quantities (offsets, rotation differences, deviations) are formed in f32; the
 // ~1000 mm nominal positions enter only multiplied by small rotation differences.
 
@@ -45,6 +49,12 @@ struct Config {
     disc_count: u32,
     // 1: m per-point factors of the radii follow them in disc_radii (a compensated model)
     disc_scaled: u32,
+    // 1: counter draws and pick-freeze rows draw the model's joint errors (term)
+    term_on: u32,
+    // free coefficients of the joint errors, rows of their shift, start of the point words
+    term_free: u32,
+    term_rows: u32,
+    term_pts: u32,
 }
 
 struct Chunk {
@@ -78,6 +88,11 @@ struct Chunk {
 @group(0) @binding(9) var<storage, read> masks: array<vec2<u32>>;
 // the discrepancy term's radii, mm (cfg.disc_count of them; one unused entry without a term)
 @group(0) @binding(10) var<storage, read> disc_radii: array<f32>;
+// The joint errors (crates/core/src/engine/joint_errors.rs, TermPacking): L (p × p), the shift
+// rows (input position, then p entries of A), per joint k̄ and the free positions of k, a1, b1,
+// a2, b2 (−1: none), the payload's mean and σ; from cfg.term_pts, 8 words per point and joint:
+// (τ_links, τ_unit, sin q, cos q), (sin 2q, cos 2q, 0, 0).
+@group(0) @binding(11) var<storage, read> term: array<f32>;
 
 const WORDS_PER_POINT: u32 = 2u * N_JOINTS + 1u;
 // N_PARAMS, TOOL_AT, N_INPUTS, PLACEMENT_AT and N_PLACED come from the host (see the top).
@@ -88,6 +103,10 @@ const N_NORMALS: u32 = 4u * N_BLOCKS;
 const WORKGROUP_SIZE: u32 = 64u;
 // The Philox stream of the discrepancy term (engine::DISCREPANCY_STREAM).
 const DISCREPANCY_STREAM: u32 = 0xD15C0000u;
+// The joint errors' Philox stream (engine::JOINT_ERROR_STREAM) and their most normals: 5 per
+// joint and the payload.
+const JOINT_ERROR_STREAM: u32 = 0x10E70000u;
+const TERM_NORMALS: u32 = 4u * ((5u * N_JOINTS + 4u) / 4u);
 // The discrepancy term's per-draw size factors (discrepancy::size::SIZE_DRAWS), indexed by 8 bits.
 const SIZE_DRAWS: u32 = 256u;
 
@@ -300,10 +319,82 @@ fn with_discrepancy(e: f32, wd: u32, k: u32, pj: u32, g: f32) -> f32 {
     return sqrt(dr * dr + 2.0 * e * r * one_plus_c);
 }
 
+// The joint errors of draw `draw` (docs/METHOD.md §19.2): δβ = L z from the normals of Philox
+// blocks (draw, b, JOINT_ERROR_STREAM), the payload's δm = σ_m z_p, the geometric offsets d
+// moved by A δβ, and per joint the factors (δk, (k̄ + δk)(m̄ + δm) − k̄ m̄, δa1, δb1) and
+// (δa2, δb2, 0, 0) of its per-point angle offsets.
+fn term_draw(draw: vec2<u32>, d: ptr<function, array<f32, N_PLACED>>) -> array<vec4<f32>, 2u * N_JOINTS> {
+    let p = cfg.term_free;
+    var z: array<f32, TERM_NORMALS>;
+    for (var b = 0u; b < (p + 4u) / 4u; b++) {
+        let v = normals_block(draw, b, JOINT_ERROR_STREAM, cfg.key);
+        z[4u * b] = v.x;
+        z[4u * b + 1u] = v.y;
+        z[4u * b + 2u] = v.z;
+        z[4u * b + 3u] = v.w;
+    }
+    var beta: array<f32, 5u * N_JOINTS>;
+    for (var r = 0u; r < p; r++) {
+        var acc = 0.0;
+        for (var c = 0u; c <= r; c++) {
+            acc = acc + term[r * p + c] * z[c];
+        }
+        beta[r] = acc;
+    }
+    var at = p * p;
+    for (var r = 0u; r < cfg.term_rows; r++) {
+        let idx = u32(term[at]);
+        var acc = 0.0;
+        for (var c = 0u; c < p; c++) {
+            acc = acc + term[at + 1u + c] * beta[c];
+        }
+        (*d)[idx] = (*d)[idx] + acc;
+        at = at + p + 1u;
+    }
+    let joints_at = at;
+    let mass = term[joints_at + 6u * N_JOINTS];
+    let dm = term[joints_at + 6u * N_JOINTS + 1u] * z[p];
+    var f: array<vec4<f32>, 2u * N_JOINTS>;
+    for (var j = 0u; j < N_JOINTS; j++) {
+        let q = joints_at + 6u * j;
+        var v: array<f32, 5>;
+        for (var c = 0u; c < 5u; c++) {
+            let pos = term[q + 1u + c];
+            v[c] = select(0.0, beta[u32(max(pos, 0.0))], pos >= 0.0);
+        }
+        let k = term[q];
+        f[2u * j] = vec4<f32>(v[0], (k + v[0]) * (mass + dm) - k * mass, v[1], v[2]);
+        f[2u * j + 1u] = vec4<f32>(v[3], v[4], 0.0, 0.0);
+    }
+    return f;
+}
+
+// Joint j's angle offset at point pj from the draw's factors f: (f0, f1, δa1, δb1)·(τ_links,
+// τ_unit, sin q, cos q) + (δa2, δb2)·(sin 2q, cos 2q).
+fn term_offset(f: array<vec4<f32>, 2u * N_JOINTS>, pj: u32, j: u32) -> f32 {
+    let at = cfg.term_pts + 8u * (pj * N_JOINTS + j);
+    let t0 = vec4<f32>(term[at], term[at + 1u], term[at + 2u], term[at + 3u]);
+    let t1 = vec2<f32>(term[at + 4u], term[at + 5u]);
+    return dot(f[2u * j], t0) + dot(f[2u * j + 1u].xy, t1);
+}
+
+// The joint offsets o of a draw with joint j turned further by `extra` (θ offset dth + extra).
+fn turned(o: JointOffsets, dth: f32, extra: f32) -> JointOffsets {
+    let ht = sincos_small(0.5 * (dth + extra));
+    return JointOffsets(o.ra, o.rb, vec4<f32>(ht.x, ht.y, o.rt.z, o.rt.w));
+}
+
 // Errors of the parameter vector mean + d at every test point: e_out row i (if asked for) and
 // w_out[i] = max_j e_j. With disc_count > 0 (counter draws and pick-freeze rows) the
 // discrepancy term of draw `draw` is applied at every point.
-fn point_errors(i: u32, d: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u32) {
+fn point_errors(i: u32, d0: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u32, term_draw_of: vec2<u32>, with_term: bool) {
+    // The joint errors move the geometric offsets and give the factors of each point's angle
+    // offsets (counter draws and pick-freeze rows of a model that draws them).
+    var d = d0;
+    var f: array<vec4<f32>, 2u * N_JOINTS>;
+    if (with_term) {
+        f = term_draw(term_draw_of, &d);
+    }
     // Per joint: α' and β' as (cos', sin', cos' − cos, sin' − sin); θ as (sin h, cos h) with
     // h = δθ/2; and (δa, δd); and the mean (cos α, sin α, cos β, sin β). The host writes
     // chain_offsets and chain_step out joint by joint with constant indices, so that they stay
@@ -325,7 +416,11 @@ fn point_errors(i: u32, d: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u3
         let base = pj * WORDS_PER_POINT;
         // Δ_{n+1}: the tool point's offset in the flange frame
         var dv = vec3<f32>(d[TOOL_AT], d[TOOL_AT + 1u], d[TOOL_AT + 2u]);
-        dv = chain_step(dv, base, chain);
+        if (with_term) {
+            dv = chain_step_turned(dv, base, chain, f, pj);
+        } else {
+            dv = chain_step(dv, base, chain);
+        }
         if (cfg.mode == 2u) {
             // x0 = Rz(φ_0) u0_0, the mean chain's position (f32 is enough: it only multiplies
             // small sines)
@@ -358,7 +453,7 @@ fn max_point_error(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let draw = draw_plus(chunk.first, i);
-    point_errors(i, draw_offsets(draw), draw, cfg.disc_count);
+    point_errors(i, draw_offsets(draw), draw, cfg.disc_count, draw, cfg.term_on != 0u);
 }
 
 // Explicit offsets: row i of offsets_in (chunk.first is unused).
@@ -377,8 +472,8 @@ fn max_point_error_offsets(@builtin(global_invocation_id) gid: vec3<u32>) {
     for (var p = 0u; p < width; p++) {
         d[p] = offsets_in[i * width + p];
     }
-    // No draw, no discrepancy term.
-    point_errors(i, d, vec2<u32>(0u), 0u);
+    // No draw, no discrepancy term, no joint errors' spread.
+    point_errors(i, d, vec2<u32>(0u), 0u, vec2<u32>(0u), false);
 }
 
 // Pick-freeze rows: invocation i is row row0 + i of the request, row r of matrix s.
@@ -397,5 +492,7 @@ fn max_point_error_pick_freeze(@builtin(global_invocation_id) gid: vec3<u32>) {
     // The discrepancy term is one more Sobol input: from draw b where the mask has bit 63
     // (DISCREPANCY_MASK), else from a.
     let disc_draw = select(a, b, (masks[s].y & 0x80000000u) != 0u);
-    point_errors(i, spread_offsets(z), disc_draw, cfg.disc_count);
+    // So are the joint errors: from b where the mask has bit 62 (JOINT_ERRORS_MASK).
+    let term_of = select(a, b, (masks[s].y & 0x40000000u) != 0u);
+    point_errors(i, spread_offsets(z), disc_draw, cfg.disc_count, term_of, cfg.term_on != 0u);
 }

@@ -220,7 +220,7 @@ fn shaders_validate_with_naga() {
 
     // Every binding of the shader is the Rust constant of that name; the uniforms have the
     // size of the packed Rust structs.
-    let expected: [(&str, u32, Option<usize>); 11] = [
+    let expected: [(&str, u32, Option<usize>); 12] = [
         (
             "cfg",
             gpu::binding::CONFIG,
@@ -240,6 +240,7 @@ fn shaders_validate_with_naga() {
         ("offsets_in", gpu::binding::OFFSETS, None),
         ("masks", gpu::binding::MASKS, None),
         ("disc_radii", gpu::binding::DISC_RADII, None),
+        ("term", gpu::binding::TERM, None),
     ];
     let globals: Vec<_> = module
         .global_variables

@@ -396,3 +396,115 @@ fn the_payload_what_if_covers_robots_that_carry_the_payload() {
     assert!((0.2..=0.8).contains(&mean), "PIT mean {mean}: {pits:?}");
     assert!(extreme <= 1, "{pits:?}");
 }
+
+/// The WGSL kernel draws the joint errors as the CPU lanes do (same normals, same shift and
+/// factors; f32 deviation form): per sample within the GPU's bound of docs/METHOD.md §7 (1e-5
+/// mm), for counter draws of a base-frame model and of a model identified in a tracker frame
+/// (placement drawn), and for pick-freeze rows that take the joint errors from the B draw.
+#[test]
+fn the_gpu_draws_joint_errors_as_the_cpu() {
+    use gpu_amcs::gpu::{GpuEvaluator, GpuOptions};
+    use gpu_amcs::identify::chain::{chain_model, identify_chain, ChainOptions};
+    use gpu_amcs::identify::NominalPrior;
+    use gpu_amcs::simulate::{
+        random_placement, random_poses, simulate_poses_of, Experiment, NonGeometric,
+        NonGeometricSizes, TrackerNoise,
+    };
+    if !crate::common::have_adapter("the_gpu_draws_joint_errors_as_the_cpu") {
+        return;
+    }
+    let sizes = NonGeometricSizes {
+        compliance: 1.0,
+        harmonics: 1.0,
+        payload_kg: 0.0,
+    };
+    let truth = Experiment::tx60(5).truth;
+    let errors = NonGeometric::draw(&truth, &sizes, 5).unwrap();
+    let placement = random_placement(5);
+    let data = simulate_poses_of(
+        &truth,
+        Some(&errors),
+        &random_poses(&truth, 150, 6),
+        &placement,
+        &TrackerNoise::Isotropic(0.01),
+        7,
+    );
+    let opts = ChainOptions {
+        beyond_geometry: true,
+        ..ChainOptions::default()
+    };
+    let r = identify_chain(
+        &crate::common::measured_points(&data),
+        &tx60(),
+        None,
+        Some(NominalPrior::default()),
+        &opts,
+    )
+    .unwrap();
+    let mut identified = chain_model(&tx60(), &r, "identified".into());
+    identified.joint_errors.as_mut().unwrap().payload.mass_kg = 4.0;
+    identified.joint_errors.as_mut().unwrap().payload.sigma_kg = 0.5;
+    let task = random_poses(&truth, 25, 8);
+    for (label, model, pts) in [
+        (
+            "base frame",
+            model_with_joint_errors(3.0),
+            points().iter().map(|q| q.to_vec()).collect::<Vec<_>>(),
+        ),
+        (
+            "tracker frame",
+            identified,
+            task.iter().map(|q| q.to_vec()).collect(),
+        ),
+    ] {
+        let pb = Problem::new(model, &pts, &Reference::Calibrated, 99).unwrap();
+        assert!(pb.joint_errors.is_some());
+        let n = 20_000;
+        let m = pb.n_points();
+        let mut cpu = CpuEvaluator::new(pb.clone());
+        let mut gpu = GpuEvaluator::new(pb.clone(), &GpuOptions::default()).unwrap();
+        let (mut wc, mut ec, mut wg, mut eg) = (
+            vec![0.0; n],
+            vec![0.0; n * m],
+            vec![0.0; n],
+            vec![0.0; n * m],
+        );
+        cpu.evaluate(1000, &mut wc, Some(&mut ec)).unwrap();
+        gpu.evaluate(1000, &mut wg, Some(&mut eg)).unwrap();
+        let diff = |a: &[f64], b: &[f64]| {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| (x - y).abs())
+                .fold(0.0, f64::max)
+        };
+        let (dw, de) = (diff(&wc, &wg), diff(&ec, &eg));
+        let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
+        eprintln!(
+            "{label}: max |Δw| {dw:.2e} mm, max |Δe| {de:.2e} mm, mean w cpu {:.6} gpu {:.6}",
+            mean(&wc),
+            mean(&wg)
+        );
+        assert!(dw <= 1e-5 && de <= 1e-5, "{label}: {dw} {de}");
+        // Without the term's spread the draws differ: the comparison sees the term.
+        let mut plain = pb.clone();
+        plain.joint_errors = None;
+        let mut w0 = vec![0.0; n];
+        CpuEvaluator::new(plain)
+            .evaluate(1000, &mut w0, None)
+            .unwrap();
+        assert!(diff(&w0, &wg) > 1e-3, "{label}: the term moved nothing");
+        // Pick-freeze rows with the joint errors from B.
+        let masks = [0, JOINT_ERRORS_MASK, gpu_amcs::sampling::ALL_NORMALS];
+        let req = PickFreeze {
+            first: 5,
+            b_first: 77_777,
+            count: 3000,
+            masks: &masks,
+        };
+        let (mut pc, mut pg) = (vec![0.0; req.rows()], vec![0.0; req.rows()]);
+        cpu.evaluate_pick_freeze(&req, &mut pc).unwrap();
+        gpu.evaluate_pick_freeze(&req, &mut pg).unwrap();
+        let dp = diff(&pc, &pg);
+        assert!(dp <= 1e-5, "{label}: pick-freeze {dp}");
+    }
+}

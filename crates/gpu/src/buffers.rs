@@ -28,6 +28,15 @@ pub struct ConfigUniform {
     /// 1: the term's per-point factors follow its radii in `disc_radii` (a compensated model);
     /// 0: factor 1 everywhere.
     pub disc_scaled: u32,
+    /// 1: counter draws and pick-freeze rows draw the model's joint errors (`term`, Method
+    /// §19.2); 0: none (the mean deflections are in the point constants either way).
+    pub term_on: u32,
+    /// Free coefficients of the joint errors.
+    pub term_free: u32,
+    /// Rows of their shift of the geometric inputs.
+    pub term_rows: u32,
+    /// Where the per-point words start in `term` (f32 entries).
+    pub term_pts: u32,
 }
 
 /// The per-chunk uniform (`chunk` in the shader).
@@ -63,6 +72,8 @@ pub(crate) struct ProblemBuffers {
     pub(crate) points: Buffer,
     /// The discrepancy term's radii as f32 (one unused entry without a term).
     pub(crate) disc_radii: Buffer,
+    /// The joint errors' words, then their per-point words (one unused entry without them).
+    pub(crate) term: Buffer,
     pub(crate) m: usize,
     /// The draws include the base placement (counter draws only).
     pub(crate) placed: bool,
@@ -98,6 +109,16 @@ impl ProblemBuffers {
             None => (Vec::new(), 0, 0),
         };
         let disc_radii = if disc.is_empty() { vec![0.0f32] } else { disc };
+        let packing_term = problem.joint_errors.as_ref().map(|t| t.packing());
+        let (term, term_pts): (Vec<f32>, u32) = match &packing_term {
+            Some(t) => {
+                let at = t.words.len() as u32;
+                let mut v = t.words.clone();
+                v.extend(t.points.iter().flatten());
+                (v, at)
+            }
+            None => (vec![0.0], 0),
+        };
         let cfg = ConfigUniform {
             key: problem.sampler.key(),
             m: m as u32,
@@ -106,6 +127,10 @@ impl ProblemBuffers {
             block_mask: packing.block_mask,
             disc_count,
             disc_scaled,
+            term_on: u32::from(packing_term.is_some()),
+            term_free: packing_term.as_ref().map_or(0, |t| t.free),
+            term_rows: packing_term.as_ref().map_or(0, |t| t.rows),
+            term_pts,
         };
         let config = gpu.uniform("config", std::mem::size_of::<ConfigUniform>() as u64);
         gpu.write(&config, bytemuck::bytes_of(&cfg));
@@ -118,6 +143,7 @@ impl ProblemBuffers {
             free: gpu.storage_init("free", bytemuck::cast_slice(&packing.free)),
             points: gpu.storage_init("points", bytemuck::cast_slice(&pts)),
             disc_radii: gpu.storage_init("discrepancy radii", bytemuck::cast_slice(&disc_radii)),
+            term: gpu.storage_init("joint errors", bytemuck::cast_slice(&term)),
             m,
             placed: packing.placement,
             layout: problem.model.layout(),
@@ -162,6 +188,7 @@ pub(crate) fn bind_slot(ctx: &GpuContext, problem: &ProblemBuffers, s: SlotBuffe
             (binding::OFFSETS, s.offsets),
             (binding::MASKS, s.masks),
             (binding::DISC_RADII, &problem.disc_radii),
+            (binding::TERM, &problem.term),
         ],
     )
 }

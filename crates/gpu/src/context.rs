@@ -48,7 +48,7 @@ pub struct Kernels {
 }
 
 /// The evaluator shader's bind group 0, by name.
-const LAYOUT: [(u32, BindingKind); 11] = [
+const LAYOUT: [(u32, BindingKind); 12] = [
     (binding::CONFIG, BindingKind::Uniform),
     (binding::CHUNK, BindingKind::Uniform),
     (binding::JOINT_TRIG, BindingKind::StorageRead),
@@ -60,6 +60,7 @@ const LAYOUT: [(u32, BindingKind); 11] = [
     (binding::OFFSETS, BindingKind::StorageRead),
     (binding::MASKS, BindingKind::StorageRead),
     (binding::DISC_RADII, BindingKind::StorageRead),
+    (binding::TERM, BindingKind::StorageRead),
 ];
 
 impl GpuContext {

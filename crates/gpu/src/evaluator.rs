@@ -51,20 +51,12 @@ impl GpuEvaluator {
     ///
     /// # Errors
     ///
-    /// [`EngineError::Gpu`] when the device reports an error creating the buffers, or the
-    /// problem draws joint errors (the CPU evaluators do).
+    /// [`EngineError::Gpu`] when the device reports an error creating the buffers.
     pub fn with_context(
         ctx: Arc<GpuContext>,
         problem: &Problem,
         opts: &GpuOptions,
     ) -> Result<Self, EngineError> {
-        if problem.joint_errors.is_some() {
-            // Their mean deflections are in the point constants; their spread is drawn only
-            // by the CPU evaluators so far (docs/METHOD.md §19).
-            return Err(EngineError::Gpu(
-                "the GPU kernel does not draw a model's joint errors (compliance, gear harmonics, payload) yet".into(),
-            ));
-        }
         let gpu = &ctx.gpu;
         let chunk = opts.chunk.max(1).min(ctx.max_chunk()).max(1);
         let by_bytes = ctx.max_binding_words();

@@ -44,6 +44,12 @@
 //!   relative from the arithmetic; the unit axes and `R̂ᵀ` rounded to f32 add u relative to the
 //!   increments. Measured against the f64 placement evaluator: 2.7e-8 mm (`tests/it/gpu.rs`).
 //!
+//! * the joint errors (docs/METHOD.md §19.2): a joint's half-angle offset becomes `(δθ +
+//!   Δ_ij)/2` with `Δ_ij` ≲ 1e-4 rad formed in f32 from the draw's factors and the point's torques
+//!   and sines (relative error ≲ 1e-6 of Δ, so ≲ 1e-10 rad); the coefficients' offsets `L z`
+//!   and their shift of the geometric inputs `A δβ` carry the relative error of the normals.
+//!   Measured against the f64 lanes: 5.6e-8 mm (`tests/it/joint_errors.rs`).
+//!
 //! Together `|e_f32 − e_f64| ≲ 2e-6·e_j + 1e-6 mm + u·|o_j|`, i.e. well under 1e-5 mm for the
 //! TX60 at the paper's spreads (e ≈ 0.1–1 mm). Measured on lavapipe (`tests/it/gpu.rs`, 50 test
 //! points, 4–6·10^4 draws): max `|w_gpu − w_cpu|` = 9.6e-8 mm (independent), 6.9e-8 mm

@@ -278,6 +278,70 @@ impl JointErrorDraws {
     }
 }
 
+/// The joint errors as an f32 kernel uploads them (the WGSL shader's `term` and `term_pts`
+/// buffers, docs/METHOD.md §19.2).
+#[derive(Clone, Debug, PartialEq)]
+pub struct TermPacking {
+    /// Free coefficients `p`.
+    pub free: u32,
+    /// Rows of the shift.
+    pub rows: u32,
+    /// `L` (`p × p`, row-major); then per shift row its input's position in a row with the
+    /// placement ([`crate::kinematics::InputSpace::measured`]) and its `p` entries of `A`; then
+    /// per joint `k̄` and the free positions of `k, a1, b1, a2, b2` (−1: no spread); then the
+    /// payload's mean and σ (kg).
+    pub words: Vec<f32>,
+    /// Per test point and joint two vec4: `(τ_links, τ_unit, sin q, cos q)`, `(sin 2q, cos 2q,
+    /// 0, 0)`.
+    pub points: Vec<[f32; 4]>,
+}
+
+impl JointErrorDraws {
+    /// The f32 words of [`TermPacking`].
+    pub fn packing(&self) -> TermPacking {
+        let p = self.free.len();
+        let measured = crate::kinematics::InputSpace::measured(self.joints);
+        let mut words: Vec<f32> = self.chol.iter().map(|&v| v as f32).collect();
+        let mut rows = 0;
+        for (block, k, row) in &self.shift {
+            if let Some(i) = measured.index(*block, *k) {
+                words.push(i as f32);
+                words.extend(row.iter().map(|&v| v as f32));
+                rows += 1;
+            }
+        }
+        for j in 0..self.joints {
+            words.push(self.compliance[j] as f32);
+            for c in 0..COEFFICIENTS_PER_JOINT {
+                words
+                    .push(self.position[COEFFICIENTS_PER_JOINT * j + c].map_or(-1.0, |r| r as f32));
+            }
+        }
+        words.push(self.mass as f32);
+        words.push(self.mass_sigma as f32);
+        debug_assert!(p <= MAX_COEFFICIENTS);
+        let points = self
+            .terms
+            .iter()
+            .flat_map(|t| {
+                (0..self.joints).flat_map(move |j| {
+                    let [tl, tu, s1, c1, s2, c2] = t[j];
+                    [
+                        [tl as f32, tu as f32, s1 as f32, c1 as f32],
+                        [s2 as f32, c2 as f32, 0.0, 0.0],
+                    ]
+                })
+            })
+            .collect();
+        TermPacking {
+            free: p as u32,
+            rows,
+            words,
+            points,
+        }
+    }
+}
+
 /// The nonzero rows of `e`'s shift, by block and place.
 fn shift_rows(e: &JointErrors) -> Vec<(Block, usize, Vec<f64>)> {
     let p = e.free.len();
