@@ -10,7 +10,8 @@
 # and run `BIN=.devbin OUT=/tmp/gpu-figures bash scripts/gpu-hardware-bench.sh` where the GPU is.
 # Everything goes to $OUT/log.txt (and the terminal); the last lines are a summary table.
 # Optional: GPU_ONLY_STEPS="tests mcs9" runs only the steps named (tests evaluators mcs mcs9
-# mcs9cpu sensitivity20 analyses plan discrepancy throughput; all by default); GPU_BENCH_DEADLINE=seconds.
+# mcs9cpu sensitivity20 analyses plan discrepancy jointerrors throughput; all by default);
+# GPU_BENCH_DEADLINE=seconds.
 set -u
 BIN=${BIN:-.devbin}
 OUT=${OUT:-/tmp/gpu-figures}
@@ -164,6 +165,26 @@ if want discrepancy; then
                     --draws 1000000 --backend "$backend" "${flag[@]}" -q \
                     --json "$JS/disc-$backend-$term.json"
                 say "    $(json_brief "$JS/disc-$backend-$term.json")"
+            done
+        done
+    done
+fi
+if want jointerrors; then
+    # Joint errors beyond geometry (Method §19.2) on each backend: a TX60 with compliance and
+    # harmonics identified from 200 simulated poses with and without --beyond-geometry; mcs
+    # 10^6 × 50 of each model (the first draws the joint errors, the second has none).
+    "$GPU_AMCS_BIN" simulate --poses 200 --seed 3 --tracker-sigma 0.01 --compliance 1 \
+        --harmonics 1 -o "$JS/je-poses.csv" >/dev/null 2>&1
+    "$GPU_AMCS_BIN" identify "$JS/je-poses.csv" --tracker-sigma 0.01 --beyond-geometry \
+        -o "$JS/je-with.toml" -q
+    "$GPU_AMCS_BIN" identify "$JS/je-poses.csv" --tracker-sigma 0.01 -o "$JS/je-without.toml" -q
+    for backend in gpu cpu; do
+        for term in with without; do
+            for rep in 1 2 3; do
+                step "mcs 1e6 $backend, $term joint errors #$rep" 60 \
+                    "$GPU_AMCS_BIN" mcs --model "$JS/je-$term.toml" --points 50 \
+                    --draws 1000000 --backend "$backend" -q --json "$JS/je-$backend-$term.json"
+                say "    $(json_brief "$JS/je-$backend-$term.json")"
             done
         done
     done

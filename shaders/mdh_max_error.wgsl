@@ -30,7 +30,7 @@
 // (crates/core/src/discrepancy/mod.rs, size.rs, crates/core/src/engine/discrepancy.rs).
 // A model with uncertain joint errors (cfg.term_on; compliance, gear harmonics, payload,
 // docs/METHOD.md §19.2) draws them per counter draw and pick-freeze row (term_draw, from draw b
-// where the mask has bit 62): the geometric offsets moved by A δβ, and each joint turned
+// where the mask has bit 60, 61, 62 for compliance, harmonics, payload): the geometric offsets moved by A δβ, and each joint turned
 // further at each point by its offset (chain_step_turned); offset rows keep the mean.
 // Only small quantities (offsets, rotation differences, deviations) are formed in f32; the
 // ~1000 mm nominal positions enter only multiplied by small rotation differences.
@@ -323,15 +323,37 @@ fn with_discrepancy(e: f32, wd: u32, k: u32, pj: u32, g: f32) -> f32 {
 // blocks (draw, b, JOINT_ERROR_STREAM), the payload's δm = σ_m z_p, the geometric offsets d
 // moved by A δβ, and per joint the factors (δk, (k̄ + δk)(m̄ + δm) − k̄ m̄, δa1, δb1) and
 // (δa2, δb2, 0, 0) of its per-point angle offsets.
-fn term_draw(draw: vec2<u32>, d: ptr<function, array<f32, N_PLACED>>) -> array<vec4<f32>, 2u * N_JOINTS> {
+fn term_draw(draws: array<vec2<u32>, 3>, d: ptr<function, array<f32, N_PLACED>>) -> array<vec4<f32>, 2u * N_JOINTS> {
     let p = cfg.term_free;
+    // Where the per-joint words and the groups of the normals start.
+    var at = p * p;
+    for (var r = 0u; r < cfg.term_rows; r++) {
+        at = at + p + 1u;
+    }
+    let joints_at = at;
+    let groups_at = joints_at + 6u * N_JOINTS + 2u;
+    // Normal n of group g (compliance, harmonics, payload: term[groups_at + n]) from draws[g]; a
+    // block is computed once per distinct draw.
+    let two = any(draws[1] != draws[0]);
+    let three = any(draws[2] != draws[0]) && any(draws[2] != draws[1]);
     var z: array<f32, TERM_NORMALS>;
     for (var b = 0u; b < (p + 4u) / 4u; b++) {
-        let v = normals_block(draw, b, JOINT_ERROR_STREAM, cfg.key);
-        z[4u * b] = v.x;
-        z[4u * b + 1u] = v.y;
-        z[4u * b + 2u] = v.z;
-        z[4u * b + 3u] = v.w;
+        let v0 = normals_block(draws[0], b, JOINT_ERROR_STREAM, cfg.key);
+        var v1 = v0;
+        if (two) {
+            v1 = normals_block(draws[1], b, JOINT_ERROR_STREAM, cfg.key);
+        }
+        var v2 = select(v0, v1, all(draws[2] == draws[1]));
+        if (three) {
+            v2 = normals_block(draws[2], b, JOINT_ERROR_STREAM, cfg.key);
+        }
+        for (var t = 0u; t < 4u; t++) {
+            let n = 4u * b + t;
+            if (n <= p) {
+                let g = u32(term[groups_at + n]);
+                z[n] = select(select(v0[t], v1[t], g == 1u), v2[t], g == 2u);
+            }
+        }
     }
     var beta: array<f32, 5u * N_JOINTS>;
     for (var r = 0u; r < p; r++) {
@@ -341,7 +363,7 @@ fn term_draw(draw: vec2<u32>, d: ptr<function, array<f32, N_PLACED>>) -> array<v
         }
         beta[r] = acc;
     }
-    var at = p * p;
+    at = p * p;
     for (var r = 0u; r < cfg.term_rows; r++) {
         let idx = u32(term[at]);
         var acc = 0.0;
@@ -351,7 +373,6 @@ fn term_draw(draw: vec2<u32>, d: ptr<function, array<f32, N_PLACED>>) -> array<v
         (*d)[idx] = (*d)[idx] + acc;
         at = at + p + 1u;
     }
-    let joints_at = at;
     let mass = term[joints_at + 6u * N_JOINTS];
     let dm = term[joints_at + 6u * N_JOINTS + 1u] * z[p];
     var f: array<vec4<f32>, 2u * N_JOINTS>;
@@ -387,13 +408,13 @@ fn turned(o: JointOffsets, dth: f32, extra: f32) -> JointOffsets {
 // Errors of the parameter vector mean + d at every test point: e_out row i (if asked for) and
 // w_out[i] = max_j e_j. With disc_count > 0 (counter draws and pick-freeze rows) the
 // discrepancy term of draw `draw` is applied at every point.
-fn point_errors(i: u32, d0: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u32, term_draw_of: vec2<u32>, with_term: bool) {
+fn point_errors(i: u32, d0: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u32, term_draws: array<vec2<u32>, 3>, with_term: bool) {
     // The joint errors move the geometric offsets and give the factors of each point's angle
     // offsets (counter draws and pick-freeze rows of a model that draws them).
     var d = d0;
     var f: array<vec4<f32>, 2u * N_JOINTS>;
     if (with_term) {
-        f = term_draw(term_draw_of, &d);
+        f = term_draw(term_draws, &d);
     }
     // Per joint: α' and β' as (cos', sin', cos' − cos, sin' − sin); θ as (sin h, cos h) with
     // h = δθ/2; and (δa, δd); and the mean (cos α, sin α, cos β, sin β). The host writes
@@ -453,7 +474,7 @@ fn max_point_error(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let draw = draw_plus(chunk.first, i);
-    point_errors(i, draw_offsets(draw), draw, cfg.disc_count, draw, cfg.term_on != 0u);
+    point_errors(i, draw_offsets(draw), draw, cfg.disc_count, array<vec2<u32>, 3>(draw, draw, draw), cfg.term_on != 0u);
 }
 
 // Explicit offsets: row i of offsets_in (chunk.first is unused).
@@ -473,7 +494,7 @@ fn max_point_error_offsets(@builtin(global_invocation_id) gid: vec3<u32>) {
         d[p] = offsets_in[i * width + p];
     }
     // No draw, no discrepancy term, no joint errors' spread.
-    point_errors(i, d, vec2<u32>(0u), 0u, vec2<u32>(0u), false);
+    point_errors(i, d, vec2<u32>(0u), 0u, array<vec2<u32>, 3>(), false);
 }
 
 // Pick-freeze rows: invocation i is row row0 + i of the request, row r of matrix s.
@@ -492,7 +513,13 @@ fn max_point_error_pick_freeze(@builtin(global_invocation_id) gid: vec3<u32>) {
     // The discrepancy term is one more Sobol input: from draw b where the mask has bit 63
     // (DISCREPANCY_MASK), else from a.
     let disc_draw = select(a, b, (masks[s].y & 0x80000000u) != 0u);
-    // So are the joint errors: from b where the mask has bit 62 (JOINT_ERRORS_MASK).
-    let term_of = select(a, b, (masks[s].y & 0x40000000u) != 0u);
+    // So are the groups of the joint errors (compliance, harmonics, payload): from b where the
+    // mask has bit 60, 61, 62 (TermGroup::mask).
+    let my = masks[s].y;
+    let term_of = array<vec2<u32>, 3>(
+        select(a, b, (my & 0x10000000u) != 0u),
+        select(a, b, (my & 0x20000000u) != 0u),
+        select(a, b, (my & 0x40000000u) != 0u),
+    );
     point_errors(i, spread_offsets(z), disc_draw, cfg.disc_count, term_of, cfg.term_on != 0u);
 }

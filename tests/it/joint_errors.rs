@@ -3,7 +3,7 @@
 //! drawn robot, the model file round trip, the payload's effect and the pick-freeze group.
 
 use gpu_amcs::engine::{
-    CpuEvaluator, Evaluator, PickFreeze, Problem, Reference, JOINT_ERRORS_MASK,
+    CpuEvaluator, Evaluator, PickFreeze, Problem, Reference, TermGroup, JOINT_ERRORS_MASK,
 };
 use gpu_amcs::kinematics::joint_errors::COEFFICIENTS_PER_JOINT;
 use gpu_amcs::kinematics::{position, tx60, Block, InputSpace, JointErrors, Payload, RobotModel};
@@ -251,8 +251,11 @@ fn a_heavier_payload_moves_the_robot_the_way_its_compliance_says() {
     assert!((0.01..1.0).contains(&moved), "{moved} mm");
 }
 
+/// Sobol designs take the joint errors as three groups (compliance, gear harmonics, payload):
+/// a pick-freeze row takes each group's normals from draw b where its mask has the group's bit
+/// (the rest from a), exactly as plain forward kinematics of that mixed draw gives.
 #[test]
-fn the_joint_errors_are_one_group_of_a_pick_freeze_design() {
+fn the_joint_errors_are_three_groups_of_a_pick_freeze_design() {
     let pb = Problem::new(
         model_with_joint_errors(3.0),
         &points(),
@@ -260,44 +263,63 @@ fn the_joint_errors_are_one_group_of_a_pick_freeze_design() {
         3,
     )
     .unwrap();
+    let term = pb.joint_errors.as_ref().unwrap();
+    assert_eq!(term.groups(), TermGroup::ALL.to_vec(), "σ on all three");
     let mut ev = CpuEvaluator::new(pb.clone());
     let count = 16;
-    let masks = [0, JOINT_ERRORS_MASK];
+    let masks = [
+        0,
+        TermGroup::Compliance.mask(),
+        TermGroup::Harmonics.mask(),
+        TermGroup::Payload.mask() | 1,
+        JOINT_ERRORS_MASK,
+    ];
     let req = PickFreeze {
         first: 10,
         b_first: 1000,
         count,
         masks: &masks,
     };
-    let mut w = vec![0.0; 2 * count];
+    let mut w = vec![0.0; req.rows()];
     ev.evaluate_pick_freeze(&req, &mut w).unwrap();
     let mut a = vec![0.0; count];
     ev.evaluate(10, &mut a, None).unwrap();
     assert_eq!(&w[..count], &a[..], "mask 0 is draw a itself");
-    // With the bit, the geometry of draw a and the joint errors of draw b.
-    for r in 0..count {
-        let term = pb.joint_errors.as_ref().unwrap();
-        let td = term.draw_mixed(10 + r as u64, 1000 + r as u64, true);
-        let space = pb.sampler.space();
-        let mut d = vec![0.0; space.len()];
-        pb.sampler.deltas(10 + r as u64, &mut d);
-        term.shift_each(&td, |b, i, v| {
-            if let Some(x) = space.index(b, i) {
-                d[x] += v;
+    let space = pb.sampler.space();
+    for (s, &mask) in masks.iter().enumerate() {
+        for r in 0..count {
+            let (da, db) = (10 + r as u64, 1000 + r as u64);
+            let by_group = TermGroup::ALL.map(|g| if mask & g.mask() != 0 { db } else { da });
+            let td = term.draw_mixed(by_group);
+            let mut d = vec![0.0; space.len()];
+            pb.sampler
+                .pick_freeze_deltas(da, db, mask & gpu_amcs::sampling::ALL_NORMALS, &mut d);
+            term.shift_each(&td, |b, i, v| {
+                if let Some(x) = space.index(b, i) {
+                    d[x] += v;
+                }
+            });
+            let params: Vec<f64> = (0..30).map(|i| pb.model.params[i] + d[i]).collect();
+            let tool: [f64; 3] = std::array::from_fn(|c| pb.model.tool[c] + d[30 + c]);
+            let wmax = (0..4)
+                .map(|j| {
+                    let o = term.offsets(&td, j);
+                    let q: Vec<f64> = (0..6).map(|i| pb.chain_points[j][i] + o[i]).collect();
+                    let p = position(&params, &tool, &q);
+                    let rf = pb.reference[j];
+                    ((p[0] - rf[0]).powi(2) + (p[1] - rf[1]).powi(2) + (p[2] - rf[2]).powi(2))
+                        .sqrt()
+                })
+                .fold(0.0, f64::max);
+            let got = w[s * count + r];
+            assert!(
+                (got - wmax).abs() < 1e-9,
+                "mask {mask:#x}, row {r}: {got} vs {wmax}"
+            );
+            if s > 0 {
+                assert_ne!(got, a[r], "mask {mask:#x} moves row {r}");
             }
-        });
-        let params: Vec<f64> = (0..30).map(|i| pb.model.params[i] + d[i]).collect();
-        let tool: [f64; 3] = std::array::from_fn(|c| pb.model.tool[c] + d[30 + c]);
-        let wmax = (0..4)
-            .map(|j| {
-                let o = term.offsets(&td, j);
-                let q: Vec<f64> = (0..6).map(|i| pb.chain_points[j][i] + o[i]).collect();
-                let p = position(&params, &tool, &q);
-                let rf = pb.reference[j];
-                ((p[0] - rf[0]).powi(2) + (p[1] - rf[1]).powi(2) + (p[2] - rf[2]).powi(2)).sqrt()
-            })
-            .fold(0.0, f64::max);
-        assert!((w[count + r] - wmax).abs() < 1e-9, "row {r}");
+        }
     }
 }
 
@@ -494,7 +516,13 @@ fn the_gpu_draws_joint_errors_as_the_cpu() {
             .unwrap();
         assert!(diff(&w0, &wg) > 1e-3, "{label}: the term moved nothing");
         // Pick-freeze rows with the joint errors from B.
-        let masks = [0, JOINT_ERRORS_MASK, gpu_amcs::sampling::ALL_NORMALS];
+        let masks = [
+            0,
+            JOINT_ERRORS_MASK,
+            gpu_amcs::sampling::ALL_NORMALS,
+            TermGroup::Compliance.mask(),
+            TermGroup::Harmonics.mask() | TermGroup::Payload.mask(),
+        ];
         let req = PickFreeze {
             first: 5,
             b_first: 77_777,

@@ -393,22 +393,17 @@ impl CpuEvaluator {
         mut db: Option<&mut [[f64; LANES]; 6]>,
         jel: &mut JeLanes,
     ) {
-        let draws: [u64; LANES] = match src {
-            Source::Draws(k) => std::array::from_fn(|l| k + l as u64),
-            Source::PickFreeze(pf, row) => std::array::from_fn(|l| {
-                if row + l < pf.rows() {
-                    let (a, b, _) = pf.row(row + l);
-                    if pf.joint_errors_from_b(row + l) {
-                        b
-                    } else {
-                        a
-                    }
-                } else {
-                    0
-                }
-            }),
-            Source::Offsets(..) => [0; LANES],
-        };
+        let mut draws = [[0u64; LANES]; 3];
+        for l in 0..LANES {
+            let by_group = match src {
+                Source::Draws(k) => [k + l as u64; 3],
+                Source::PickFreeze(pf, row) if row + l < pf.rows() => pf.joint_error_draws(row + l),
+                _ => [0; 3],
+            };
+            for (g, d) in by_group.into_iter().enumerate() {
+                draws[g][l] = d;
+            }
+        }
         let mut free = [[0.0; LANES]; MAX_COEFFICIENTS];
         let mut mass = [0.0; LANES];
         term.draw_lanes(&draws, &mut free, &mut mass);

@@ -18,8 +18,9 @@
 //! Draw `k`'s normals are the Philox counters `(k mod 2³², k div 2³², b, JOINT_ERROR_STREAM)` for
 //! blocks `b = 0, 1, …` (four normals each by Box–Muller, as the parameters'): normal `c` feeds
 //! free coefficient `c`, the one after the last coefficient the payload. They are not slots of
-//! the input space: a pick-freeze row takes all of them from its `b` draw when its mask has
-//! [`JOINT_ERRORS_MASK`], else from `a` (sensitivity's group "joint errors").
+//! the input space: a pick-freeze row takes the normals of each of the three groups —
+//! compliance, gear harmonics, payload ([`TermGroup`]) — from its `b` draw when its mask has the
+//! group's bit ([`TermGroup::mask`]), else from `a` (sensitivity's groups of these names).
 
 use super::ProblemError;
 use crate::kinematics::joint_errors::{
@@ -31,8 +32,51 @@ use crate::sampling::{box_muller, normals_block, philox4x32_10_lanes, Philox};
 /// The Philox stream of the joint errors' normals.
 pub const JOINT_ERROR_STREAM: u32 = 0x10E7_0000;
 
-/// The pick-freeze mask bit of the joint errors' normals (all of them: one group).
-pub const JOINT_ERRORS_MASK: u64 = 1 << 62;
+/// The groups of the joint errors' normals a Sobol design tells apart.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TermGroup {
+    /// The normals of the compliance coefficients.
+    Compliance = 0,
+    /// The normals of the harmonic coefficients.
+    Harmonics = 1,
+    /// The payload's normal.
+    Payload = 2,
+}
+
+impl TermGroup {
+    /// Every group, in order.
+    pub const ALL: [TermGroup; 3] = [
+        TermGroup::Compliance,
+        TermGroup::Harmonics,
+        TermGroup::Payload,
+    ];
+
+    /// The group's pick-freeze mask bit: 60, 61, 62.
+    pub const fn mask(self) -> u64 {
+        1 << (60 + self as u64)
+    }
+
+    /// How sensitivity reports name the group.
+    pub const fn label(self) -> &'static str {
+        match self {
+            TermGroup::Compliance => "joint compliance",
+            TermGroup::Harmonics => "gear harmonics",
+            TermGroup::Payload => "payload",
+        }
+    }
+
+    /// The group's input name in sensitivity reports.
+    pub const fn input_name(self) -> &'static str {
+        match self {
+            TermGroup::Compliance => "joint_compliance",
+            TermGroup::Harmonics => "gear_harmonics",
+            TermGroup::Payload => "payload",
+        }
+    }
+}
+
+/// The pick-freeze mask bits of all the joint errors' normals ([`TermGroup::mask`] of each).
+pub const JOINT_ERRORS_MASK: u64 = 0b111 << 60;
 
 /// Most normals of a draw: every coefficient and the payload.
 const MAX_TERM_NORMALS: usize = MAX_COEFFICIENTS + 1;
@@ -122,21 +166,51 @@ impl JointErrorDraws {
         self.free.len() + 1
     }
 
-    /// The term's draw from the normals of counter draw `k`.
-    pub fn draw(&self, k: u64) -> TermDraw {
-        self.draw_mixed(k, k, false)
+    /// The group of normal `c` (free coefficient `c`, or the payload after them).
+    fn group_of(&self, c: usize) -> TermGroup {
+        match self.free.get(c) {
+            Some(&i) if JointErrors::is_compliance(i) => TermGroup::Compliance,
+            Some(_) => TermGroup::Harmonics,
+            None => TermGroup::Payload,
+        }
     }
 
-    /// The term's draw of a pick-freeze row: the normals of draw `b` when `from_b`, else `a`.
-    pub fn draw_mixed(&self, a: u64, b: u64, from_b: bool) -> TermDraw {
-        let k = if from_b { b } else { a };
+    /// The groups whose normals move something: compliance and harmonics with a free
+    /// coefficient, the payload with a σ.
+    pub fn groups(&self) -> Vec<TermGroup> {
+        TermGroup::ALL
+            .into_iter()
+            .filter(|&g| match g {
+                TermGroup::Payload => self.mass_sigma > 0.0,
+                g => (0..self.free.len()).any(|c| self.group_of(c) == g),
+            })
+            .collect()
+    }
+
+    /// The term's draw from the normals of counter draw `k`.
+    pub fn draw(&self, k: u64) -> TermDraw {
+        self.draw_mixed([k; 3])
+    }
+
+    /// The term's draw of a pick-freeze row: the normals of each [`TermGroup`] `g` from draw
+    /// `draws[g]`.
+    pub fn draw_mixed(&self, draws: [u64; 3]) -> TermDraw {
         let mut z = [0.0; MAX_TERM_NORMALS];
         for blk in 0..self.normals().div_ceil(4) {
-            let v = normals_block(&self.gen, k, blk as u32, JOINT_ERROR_STREAM);
-            for (c, x) in v.into_iter().enumerate() {
-                if 4 * blk + c < MAX_TERM_NORMALS {
-                    z[4 * blk + c] = x;
-                }
+            let mut by_draw: [Option<(u64, [f64; 4])>; 3] = [None; 3];
+            for (c, slot) in z.iter_mut().enumerate().skip(4 * blk).take(4) {
+                let k = draws[self.group_of(c) as usize];
+                let v = match by_draw.iter().flatten().find(|(d, _)| *d == k) {
+                    Some((_, v)) => *v,
+                    None => {
+                        let v = normals_block(&self.gen, k, blk as u32, JOINT_ERROR_STREAM);
+                        if let Some(free) = by_draw.iter_mut().find(|x| x.is_none()) {
+                            *free = Some((k, v));
+                        }
+                        v
+                    }
+                };
+                *slot = v[c - 4 * blk];
             }
         }
         let p = self.free.len();
@@ -153,31 +227,40 @@ impl JointErrorDraws {
         d
     }
 
-    /// The draws `draws[l]` of `L` lanes at once (lane `l` equal to [`Self::draw`] of
-    /// `draws[l]` to rounding: the same normals, the sums in the same order): the free
-    /// coefficients' offsets `free[c][l]` and the payload's `mass[l]`.
+    /// The draws of `L` lanes at once, the normals of group `g` ([`TermGroup`]) of lane `l`
+    /// from draw `draws[g][l]` (lane `l` equal to [`Self::draw_mixed`] to rounding: the same
+    /// normals, the sums in the same order): the free coefficients' offsets `free[c][l]` and
+    /// the payload's `mass[l]`.
     #[inline(always)]
     pub fn draw_lanes<const L: usize>(
         &self,
-        draws: &[u64; L],
+        draws: &[[u64; L]; 3],
         free: &mut [[f64; L]; MAX_COEFFICIENTS],
         mass: &mut [f64; L],
     ) {
         let p = self.free.len();
         let mut z = [[0.0; L]; MAX_TERM_NORMALS];
-        let lo: [u32; L] = std::array::from_fn(|l| draws[l] as u32);
-        let hi: [u32; L] = std::array::from_fn(|l| (draws[l] >> 32) as u32);
+        // Counter draws (all groups from one draw) compute each block once.
+        let same = draws[1] == draws[0] && draws[2] == draws[0];
         for blk in 0..self.normals().div_ceil(4) {
-            let w = philox4x32_10_lanes(
-                [lo, hi, [blk as u32; L], [JOINT_ERROR_STREAM; L]],
-                self.gen.key,
-            );
-            for l in 0..L {
-                let (a, b) = box_muller(w[0][l], w[1][l]);
-                let (c, d) = box_muller(w[2][l], w[3][l]);
-                for (t, v) in [a, b, c, d].into_iter().enumerate() {
-                    if 4 * blk + t < MAX_TERM_NORMALS {
-                        z[4 * blk + t][l] = v;
+            for (g, d) in draws.iter().enumerate() {
+                if same && g > 0 {
+                    break;
+                }
+                let lo: [u32; L] = std::array::from_fn(|l| d[l] as u32);
+                let hi: [u32; L] = std::array::from_fn(|l| (d[l] >> 32) as u32);
+                let w = philox4x32_10_lanes(
+                    [lo, hi, [blk as u32; L], [JOINT_ERROR_STREAM; L]],
+                    self.gen.key,
+                );
+                for l in 0..L {
+                    let (a, b) = box_muller(w[0][l], w[1][l]);
+                    let (c, e) = box_muller(w[2][l], w[3][l]);
+                    for (t, v) in [a, b, c, e].into_iter().enumerate() {
+                        let n = 4 * blk + t;
+                        if n < MAX_TERM_NORMALS && (same || self.group_of(n) as usize == g) {
+                            z[n][l] = v;
+                        }
                     }
                 }
             }
@@ -289,7 +372,7 @@ pub struct TermPacking {
     /// `L` (`p × p`, row-major); then per shift row its input's position in a row with the
     /// placement ([`crate::kinematics::InputSpace::measured`]) and its `p` entries of `A`; then
     /// per joint `k̄` and the free positions of `k, a1, b1, a2, b2` (−1: no spread); then the
-    /// payload's mean and σ (kg).
+    /// payload's mean and σ (kg); then the [`TermGroup`] of each of the `p + 1` normals.
     pub words: Vec<f32>,
     /// Per test point and joint two vec4: `(τ_links, τ_unit, sin q, cos q)`, `(sin 2q, cos 2q,
     /// 0, 0)`.
@@ -319,6 +402,8 @@ impl JointErrorDraws {
         }
         words.push(self.mass as f32);
         words.push(self.mass_sigma as f32);
+        // The group of each normal (TermGroup), the coefficients' then the payload's.
+        words.extend((0..=p).map(|c| self.group_of(c) as u8 as f32));
         debug_assert!(p <= MAX_COEFFICIENTS);
         let points = self
             .terms

@@ -58,7 +58,9 @@ mod problem;
 pub use backend::{cpu_evaluator, BackendChoice, Backends, CpuOnly};
 pub use cpu::CpuEvaluator;
 pub use discrepancy::{DiscrepancyDraws, DISCREPANCY_STREAM};
-pub use joint_errors::{JointErrorDraws, TermPacking, JOINT_ERRORS_MASK, JOINT_ERROR_STREAM};
+pub use joint_errors::{
+    JointErrorDraws, TermGroup, TermPacking, JOINT_ERRORS_MASK, JOINT_ERROR_STREAM,
+};
 pub use pick_freeze::{PickFreeze, DISCREPANCY_MASK};
 pub use placement::{Frame, PlacementEvaluator, PlacementSpread};
 pub use problem::{Problem, ProblemError, Reference};

@@ -45,11 +45,12 @@ impl PickFreeze<'_> {
         }
     }
 
-    /// Whether row `row` takes its joint errors' normals from draw `b` (its mask has
-    /// [`super::JOINT_ERRORS_MASK`]).
+    /// The draws row `row` takes its joint errors' normals from, per [`super::TermGroup`]: `b`
+    /// where its mask has the group's bit, else `a`.
     #[inline]
-    pub fn joint_errors_from_b(&self, row: usize) -> bool {
-        self.row(row).2 & super::JOINT_ERRORS_MASK != 0
+    pub fn joint_error_draws(&self, row: usize) -> [u64; 3] {
+        let (a, b, mask) = self.row(row);
+        super::TermGroup::ALL.map(|g| if mask & g.mask() != 0 { b } else { a })
     }
 
     /// Row `row` of the request (matrix-major): draws `(a, b)` and the mask.
@@ -74,7 +75,7 @@ impl PickFreeze<'_> {
             })
         {
             return bad(format!(
-                "mask of matrix {s} is {m:#x}: a draw has {MAX_NORMALS} normals (bit 62 for the joint errors, bit 63 for the discrepancy term)"
+                "mask of matrix {s} is {m:#x}: a draw has {MAX_NORMALS} normals (bits 60–62 for the joint errors, bit 63 for the discrepancy term)"
             ));
         }
         if self.count.checked_mul(self.masks.len()).is_none() {

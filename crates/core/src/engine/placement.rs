@@ -359,9 +359,8 @@ impl Evaluator for PlacementEvaluator {
             self.spread.pick_freeze_deltas(&self.gen, a, b, mask)
         };
         let term = |i: usize| {
-            let (a, b, _) = request.row(i);
             let t = self.problem.joint_errors.as_ref();
-            t.map(|t| t.draw_mixed(a, b, request.joint_errors_from_b(i)))
+            t.map(|t| t.draw_mixed(request.joint_error_draws(i)))
         };
         self.eval_rows(row, |i| Some(request.discrepancy_draw(i)), term, w, None);
         Ok(())

@@ -2,6 +2,7 @@
 //! parameter, per other block of the input space, and the model's discrepancy term.
 
 use super::InputGroup;
+use crate::engine::TermGroup;
 use crate::kinematics::{param_joint, param_kind, Block, Layout, ParamKind};
 
 /// Report name of input `i` of the inputs of layout `lay` (positions of
@@ -53,29 +54,26 @@ pub(super) fn robot_groups(lay: Layout, free: &[usize]) -> Vec<InputGroup> {
 /// The name of the discrepancy term's input (the last, when the problem draws the term).
 pub const DISCREPANCY_INPUT: &str = "model_discrepancy";
 
-/// The name of the joint errors' input (after the free inputs, when the problem draws them).
-pub const JOINT_ERRORS_INPUT: &str = "joint_errors";
-
-/// [`robot_groups`], then the joint errors' own group ("joint errors", the column after the
-/// free inputs) and the discrepancy term's ("model discrepancy", the column after that) when
-/// the problem draws them.
+/// [`robot_groups`], then one group per group of the joint errors the problem draws
+/// (`joint_errors`, in [`TermGroup::ALL`] order: the columns after the free inputs) and the
+/// discrepancy term's ("model discrepancy", the column after those) when it draws one.
 pub(super) fn input_groups(
     lay: Layout,
     free: &[usize],
-    joint_errors: bool,
+    joint_errors: &[TermGroup],
     discrepancy: bool,
 ) -> Vec<InputGroup> {
     let mut g = robot_groups(lay, free);
-    if joint_errors {
+    for (k, t) in joint_errors.iter().enumerate() {
         g.push(InputGroup {
-            name: "joint errors (compliance, gear harmonics, payload)".into(),
-            members: vec![free.len()],
+            name: t.label().into(),
+            members: vec![free.len() + k],
         });
     }
     if discrepancy {
         g.push(InputGroup {
             name: "model discrepancy".into(),
-            members: vec![free.len() + usize::from(joint_errors)],
+            members: vec![free.len() + joint_errors.len()],
         });
     }
     g

@@ -97,11 +97,11 @@ pub use estimator::{
 
 use serde::{Deserialize, Serialize};
 
-pub use groups::{param_name, DISCREPANCY_INPUT, JOINT_ERRORS_INPUT};
+pub use groups::{param_name, DISCREPANCY_INPUT};
 
 use crate::engine::{
-    BackendInfo, EngineError, Evaluator, PickFreeze, PlacementSpread, Problem, DISCREPANCY_MASK,
-    JOINT_ERRORS_MASK,
+    BackendInfo, EngineError, Evaluator, PickFreeze, PlacementSpread, Problem, TermGroup,
+    DISCREPANCY_MASK,
 };
 use crate::kinematics::{Layout, MAX_JOINTS, MIN_JOINTS};
 use crate::sampling::ALL_NORMALS;
@@ -454,23 +454,26 @@ pub fn run_outputs(
         });
     }
     let discrepancy = problem.discrepancy.is_some();
-    let joint_errors = problem.joint_errors.is_some();
-    let groups = input_groups(lay, &free, joint_errors, discrepancy);
-    // Input column c is the standard normal free[c] of a draw; then, when drawn, the joint
-    // errors (mask bit JOINT_ERRORS_MASK) and the discrepancy term (DISCREPANCY_MASK): A takes
-    // none from the B draw, B all, A_B^(S) those of the columns in S.
+    let joint_errors: Vec<TermGroup> = problem
+        .joint_errors
+        .as_ref()
+        .map_or(Vec::new(), |t| t.groups());
+    let groups = input_groups(lay, &free, &joint_errors, discrepancy);
+    // Input column c is the standard normal free[c] of a draw; then, when drawn, the groups of
+    // the joint errors (their mask bits, TermGroup::mask) and the discrepancy term
+    // (DISCREPANCY_MASK): A takes none from the B draw, B all, A_B^(S) those of the columns in S.
     let bit = |col: usize| {
         if col < free.len() {
             1 << free[col]
-        } else if col == free.len() && joint_errors {
-            JOINT_ERRORS_MASK
+        } else if let Some(g) = joint_errors.get(col - free.len()) {
+            g.mask()
         } else {
             DISCREPANCY_MASK
         }
     };
     let all = ALL_NORMALS
         | if discrepancy { DISCREPANCY_MASK } else { 0 }
-        | if joint_errors { JOINT_ERRORS_MASK } else { 0 };
+        | joint_errors.iter().fold(0, |m, g| m | g.mask());
     let eval = |k0: usize, c: usize, sets: &[Vec<usize>]| {
         let masks: Vec<u64> = [0, all]
             .into_iter()
@@ -489,7 +492,7 @@ pub fn run_outputs(
         ev.evaluate_pick_freeze(&request, &mut w)?;
         Ok(w)
     };
-    let columns = free.len() + usize::from(joint_errors) + usize::from(discrepancy);
+    let columns = free.len() + joint_errors.len() + usize::from(discrepancy);
     let out = pick_freeze_chunks(columns, &groups, eval, opts, range)?;
     Ok((
         out,
@@ -497,7 +500,10 @@ pub fn run_outputs(
             input_kind,
             free,
             joints: lay.joints(),
-            joint_errors,
+            joint_errors: joint_errors
+                .iter()
+                .map(|g| g.input_name().to_string())
+                .collect(),
             discrepancy,
         },
     ))
@@ -521,10 +527,11 @@ pub struct Design {
     /// when true, so a design without one reads as before).
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub discrepancy: bool,
-    /// The model's joint errors are an input after the free ones ([`JOINT_ERRORS_INPUT`];
-    /// written only when true).
-    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
-    pub joint_errors: bool,
+    /// The groups of the model's joint errors drawn, inputs after the free ones
+    /// ([`TermGroup::input_name`]: `joint_compliance`, `gear_harmonics`, `payload`; written only
+    /// when there are some).
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub joint_errors: Vec<String>,
 }
 
 fn six_joints() -> usize {
@@ -568,9 +575,21 @@ impl Design {
             )));
         }
         let mut names: Vec<String> = self.free.iter().map(|&i| param_name(lay, i)).collect();
-        if self.joint_errors {
-            names.push(JOINT_ERRORS_INPUT.to_string());
-        }
+        let term_groups = self
+            .joint_errors
+            .iter()
+            .map(|n| {
+                TermGroup::ALL
+                    .into_iter()
+                    .find(|g| g.input_name() == n)
+                    .ok_or_else(|| {
+                        SensitivityError::Design(format!(
+                            "unknown joint-error group '{n}' (known: joint_compliance, gear_harmonics, payload)"
+                        ))
+                    })
+            })
+            .collect::<Result<Vec<_>, _>>()?;
+        names.extend(self.joint_errors.iter().cloned());
         if self.discrepancy {
             names.push(DISCREPANCY_INPUT.to_string());
         }
@@ -578,7 +597,7 @@ impl Design {
             .filter(|i| !self.free.contains(i))
             .map(|i| param_name(lay, i))
             .collect();
-        let groups = input_groups(lay, &self.free, self.joint_errors, self.discrepancy);
+        let groups = input_groups(lay, &self.free, &term_groups, self.discrepancy);
         let analysis = analyse_outputs(&names, &groups, out, opts)?;
         Ok(SensitivityResult {
             model,

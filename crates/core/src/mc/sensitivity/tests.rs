@@ -141,7 +141,7 @@ fn seven_joint_inputs_are_laid_out_by_the_model() {
         free: free.clone(),
         joints: 7,
         discrepancy: false,
-        joint_errors: false,
+        joint_errors: Vec::new(),
     };
     let json = serde_json::to_string(&seven).unwrap();
     assert!(json.contains("\"joints\":7"), "{json}");
@@ -159,7 +159,7 @@ fn seven_joint_inputs_are_laid_out_by_the_model() {
     assert_eq!(serde_json::from_str::<Design>(&json).unwrap(), six);
     let with_term = Design {
         discrepancy: true,
-        joint_errors: false,
+        joint_errors: Vec::new(),
         ..six.clone()
     };
     let json = serde_json::to_string(&with_term).unwrap();
