@@ -17,17 +17,22 @@
 //! The tool point's offset (the last three inputs of a draw, docs/METHOD.md §14) moves the
 //! point the chain starts from: `p_7 = p_tool + δ_tool` in the flange frame. With no tool spread
 //! `δ_tool = 0` and `p_tool + 0 = p_tool` exactly, so the results keep their bits.
+//!
+//! (A little over 600 lines: the block driver and the point kernels share the private lane
+//! types and must inline into one AVX2 entry point; the placement's and the joint errors' lanes
+//! are the submodules `placement` and `joint_errors`.)
 
-use super::joint_errors::JointErrorDraws;
 use super::DiscrepancyDraws;
 use super::{BackendInfo, EngineError, Evaluator, PickFreeze, Problem};
-use crate::kinematics::joint_errors::{PointTerms, MAX_COEFFICIENTS};
+use crate::kinematics::joint_errors::PointTerms;
 use crate::kinematics::{
     param_index, Block, Capped, InputSpace, ParamKind, MAX_JOINTS, MAX_ROBOT_INPUTS,
 };
 use rayon::prelude::*;
 
+mod joint_errors;
 mod placement;
+use joint_errors::{chain_lanes_offset, joint_offsets, term_lanes, tiny_sin_cos, TINY_LIMIT};
 use placement::PlacementLanes;
 
 /// Draws per vector block.
@@ -315,7 +320,15 @@ impl CpuEvaluator {
                 .as_ref()
                 .map(|p| p.offsets(src.skip(b * LANES), &d, &mut z));
             if let Some(t) = term {
-                self.term_lanes(t, src.skip(b * LANES), space, &mut d, db.as_mut(), &mut jel);
+                term_lanes(
+                    self,
+                    t,
+                    src.skip(b * LANES),
+                    space,
+                    &mut d,
+                    db.as_mut(),
+                    &mut jel,
+                );
             }
             self.fill_lanes(&d, &mut jl);
             let tool = &self.problem.model.tool;
@@ -378,55 +391,6 @@ impl CpuEvaluator {
             }
         }
     }
-
-    /// The joint errors of the [`LANES`] evaluations of `src` (counter draws or pick-freeze
-    /// rows): each lane's geometric offsets `d` (and placement offsets `db`) moved by `A δβ`, and
-    /// the lane factors of its joint-angle offsets in `jel` (per joint `[f0, f1, δa1, δb1, δa2,
-    /// δb2]`, [`JointErrorDraws::factors`]).
-    #[inline(always)]
-    fn term_lanes(
-        &self,
-        term: &JointErrorDraws,
-        src: Source,
-        space: InputSpace,
-        d: &mut OffsetLanes,
-        mut db: Option<&mut [[f64; LANES]; 6]>,
-        jel: &mut JeLanes,
-    ) {
-        let mut draws = [[0u64; LANES]; 3];
-        for l in 0..LANES {
-            let by_group = match src {
-                Source::Draws(k) => [k + l as u64; 3],
-                Source::PickFreeze(pf, row) if row + l < pf.rows() => pf.joint_error_draws(row + l),
-                _ => [0; 3],
-            };
-            for (g, d) in by_group.into_iter().enumerate() {
-                draws[g][l] = d;
-            }
-        }
-        let mut free = [[0.0; LANES]; MAX_COEFFICIENTS];
-        let mut mass = [0.0; LANES];
-        term.draw_lanes(&draws, &mut free, &mut mass);
-        term.shift_lanes(&free, |block, k, v| match block {
-            Block::Placement => {
-                if let Some(db) = db.as_deref_mut() {
-                    for l in 0..LANES {
-                        db[k][l] += v[l];
-                    }
-                }
-            }
-            b => {
-                if let Some(i) = space.index(b, k) {
-                    for l in 0..LANES {
-                        d[i][l] += v[l];
-                    }
-                }
-            }
-        });
-        for (j, lanes) in jel.iter_mut().enumerate().take(self.joints) {
-            term.factor_lanes(j, &free, &mass, lanes);
-        }
-    }
 }
 
 /// [`block_kernel`] with each lane's end position moved by its placement offset `ΔB` (rows of
@@ -472,41 +436,6 @@ fn block_kernel_placed<const N: usize>(
     }
 }
 
-/// The joint-angle offsets of `LANES` draws at a test point with quantities `t`
-/// ([`JointErrorDraws`]) from their lane factors `jel`, for the first `N` joints.
-#[inline(always)]
-fn joint_offsets<const N: usize>(jel: &JeLanes, t: &PointTerms) -> [[f64; LANES]; MAX_JOINTS] {
-    let mut o = [[0.0; LANES]; MAX_JOINTS];
-    for (i, oi) in o.iter_mut().enumerate().take(N) {
-        let [tl, tu, s1, c1, s2, c2] = t[i];
-        let f = &jel[i];
-        for l in 0..LANES {
-            oi[l] = f[0][l] * tl
-                + f[1][l] * tu
-                + f[2][l] * s1
-                + f[3][l] * c1
-                + f[4][l] * s2
-                + f[5][l] * c2;
-        }
-    }
-    o
-}
-
-/// Offsets below this (rad) turn a joint by the short series of [`tiny_sin_cos`]; larger ones
-/// take `sin_cos`.
-const TINY_LIMIT: f64 = 1e-3;
-
-/// `(sin δ, cos δ)` to δ⁵ and δ⁴: for |δ| < [`TINY_LIMIT`] the truncation, δ⁵/120 ≤ 8.4e-18
-/// and δ⁶/720 ≤ 1.4e-21, is below half an ulp of either (joint errors' draws are ~1e-5 rad).
-#[inline(always)]
-fn tiny_sin_cos(d: f64) -> (f64, f64) {
-    let d2 = d * d;
-    (
-        d * (1.0 - d2 * (1.0 / 6.0)),
-        1.0 - d2 * (0.5 - d2 * (1.0 / 24.0)),
-    )
-}
-
 /// The end positions of `LANES` draws at point `p` (the chain from the tool to the base; one
 /// entry of `jl` per joint, `N` of them, so that the joint loop's bound is known when compiled).
 #[inline(always)]
@@ -516,19 +445,6 @@ fn chain_lanes<const N: usize>(
     p: &PointPre,
 ) -> ([f64; LANES], [f64; LANES], [f64; LANES]) {
     chain_lanes_turned::<N, false>(jl, tool, p, &[[0.0; LANES]; MAX_JOINTS])
-}
-
-/// [`chain_lanes`] with each joint turned further by its lane's offset `o[i][l]` (rad): the
-/// joint errors' draws. The rotation by the offset uses the series of [`tiny_sin_cos`], exact
-/// for |o| < [`TINY_LIMIT`]; larger offsets take `sin_cos`.
-#[inline(always)]
-fn chain_lanes_offset<const N: usize>(
-    jl: &[[[f64; LANES]; 8]; N],
-    tool: &[[f64; LANES]; 3],
-    p: &PointPre,
-    o: &[[f64; LANES]; MAX_JOINTS],
-) -> ([f64; LANES], [f64; LANES], [f64; LANES]) {
-    chain_lanes_turned::<N, true>(jl, tool, p, o)
 }
 
 /// The chain of [`chain_lanes`], each joint turned by `o` when `TURN` (compiled out otherwise,

@@ -2,6 +2,9 @@
 //! (and of the failure indicators `1[w ≥ l_c]`) for every free parameter, per joint and per
 //! kind of parameter.
 //!
+//! (A little over 600 lines: the estimators' notes below belong with the design that runs
+//! them; the groups, the estimators and the bootstrap are submodules.)
+//!
 //! # Estimators
 //!
 //! With inputs `X = (X_1 … X_D)` independent and `Y = f(X)`, the first-order index of a set `S`
