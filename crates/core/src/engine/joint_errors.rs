@@ -253,14 +253,20 @@ impl JointErrorDraws {
                     [lo, hi, [blk as u32; L], [JOINT_ERROR_STREAM; L]],
                     self.gen.key,
                 );
+                // Which of the block's four normals this draw feeds (decided once, outside the
+                // lanes, so that the lane loop vectorises).
+                let take: [bool; 4] = std::array::from_fn(|t| {
+                    let n = 4 * blk + t;
+                    n < MAX_TERM_NORMALS && (same || self.group_of(n) as usize == g)
+                });
+                let mut v = [[0.0; L]; 4];
                 for l in 0..L {
-                    let (a, b) = box_muller(w[0][l], w[1][l]);
-                    let (c, e) = box_muller(w[2][l], w[3][l]);
-                    for (t, v) in [a, b, c, e].into_iter().enumerate() {
-                        let n = 4 * blk + t;
-                        if n < MAX_TERM_NORMALS && (same || self.group_of(n) as usize == g) {
-                            z[n][l] = v;
-                        }
+                    (v[0][l], v[1][l]) = box_muller(w[0][l], w[1][l]);
+                    (v[2][l], v[3][l]) = box_muller(w[2][l], w[3][l]);
+                }
+                for (t, vt) in v.iter().enumerate() {
+                    if take[t] {
+                        z[4 * blk + t] = *vt;
                     }
                 }
             }
