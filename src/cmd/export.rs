@@ -88,6 +88,20 @@ impl Run for ExportArgs {
             );
         }
         crate::cmd::stdout::print(&text)?;
+        // URDF and UR files hold geometry only: the joint errors the geometry was fitted with
+        // are not in them, so a controller given the file misses their deflections.
+        if let Some(e) = &model.joint_errors {
+            let worst = (0..model.joints())
+                .map(|j| {
+                    let c = &e.coefficients[5 * j..5 * j + 5];
+                    c[1].abs() + c[2].abs() + c[3].abs() + c[4].abs()
+                })
+                .fold(0.0, f64::max)
+                .to_degrees();
+            eprintln!(
+                "note: the model carries joint errors beyond geometry (compliance, gear harmonics; identify --beyond-geometry) that URDF and UR calibration files cannot hold: the exported geometry is the one fitted with them, and a controller given the file misses their deflections (gear harmonics up to {worst:.4}° per joint, plus the compliance under load); the model file keeps them"
+            );
+        }
         // UR's file is the arm in its own base frame: a base other than the REP-103 turn UR's
         // description adds itself is where the arm stands, and belongs in the description.
         if let (Some(_), Some(b)) = (&a.ur_calibration, model.base) {

@@ -258,6 +258,16 @@ fn the_command_line_reports_the_check() {
         heavy > 1.5 * light,
         "w: {light} mm without a payload, {heavy} mm with 8 kg"
     );
+    // URDF cannot hold them: the export says so.
+    let o = crate::common::run(&[
+        "export",
+        "--model",
+        &p("with.toml"),
+        "--urdf",
+        &p("with.urdf"),
+    ]);
+    assert!(o.status.success(), "{}", crate::common::stderr(&o));
+    assert!(crate::common::stderr(&o).contains("joint errors beyond geometry"));
     // A payload for a model without compliance is refused, naming the flag.
     crate::common::fails_naming(
         &[
