@@ -78,7 +78,7 @@ fn robot(
 
 fn options() -> ChainOptions {
     ChainOptions {
-        beyond_geometry: true,
+        beyond_geometry: gpu_amcs::identify::JointErrorFit::On,
         ..ChainOptions::default()
     }
 }

@@ -21,8 +21,8 @@
 use gpu_amcs::engine::{CpuEvaluator, Evaluator, Problem, Reference};
 use gpu_amcs::identify::chain::ChainOptions;
 use gpu_amcs::identify::{
-    identified_model, identify_data, IdentifyOptions, NoiseModel, PoseData, PosePoint, PoseRun,
-    TrackerData,
+    identified_model, identify_data, IdentifyOptions, JointErrorFit, NoiseModel, PoseData,
+    PosePoint, PoseRun, TrackerData,
 };
 use gpu_amcs::kinematics::{tx60, Joints, RobotModel};
 use rand::{Rng, SeedableRng};
@@ -371,10 +371,16 @@ pub fn measure(
 /// `--tracker-sigma σ` for `Some(σ)` (mm) and the noise estimated from the residuals for `None`:
 /// `identify_data` then `identified_model`, without the file in between.
 pub fn identify(data: PoseData, sigma_mm: Option<f64>) -> RobotModel {
+    identify_with(data, sigma_mm, JointErrorFit::Auto)
+}
+
+/// [`identify`] with the joint errors fitted as `beyond` says (`--beyond-geometry`).
+pub fn identify_with(data: PoseData, sigma_mm: Option<f64>, beyond: JointErrorFit) -> RobotModel {
     let data = TrackerData::Poses(data);
     let nominal = tx60();
     let chain = ChainOptions {
         noise: NoiseModel::from_settings(sigma_mm, None, None, &data).unwrap(),
+        beyond_geometry: beyond,
         ..ChainOptions::default()
     };
     let runs = identify_data(&data, &nominal, &IdentifyOptions::default(), &chain, false)

@@ -372,7 +372,7 @@ def identify(
     covariance: bool = False,
     strict: bool = False,
     no_compensation: bool = False,
-    beyond_geometry: bool = False,
+    beyond_geometry: bool | str | None = None,
 ) -> IdentifyResult: ...
 def validate(
     model: Model | _Path,

@@ -6,7 +6,7 @@ use crate::errors::{arg_error, lib_error, value_error};
 use crate::model::PyModel;
 use gpu_amcs_core::identify::{
     self as lib, CircleFitMethod, Identification, IdentifyJob, IdentifyJobError, IdentifySetting,
-    Placement, UncertaintyMethod,
+    JointErrorFit, Placement, UncertaintyMethod,
 };
 use gpu_amcs_core::kinematics::RobotModel;
 use gpu_amcs_core::report::Report;
@@ -123,11 +123,37 @@ crate::report_class!(PyIdentifyResult, {
 /// Sweeps only: `fit` "commanded" or "point-cloud", `no_prior`, `no_refine` (the plain
 /// circle-point result; with `base_known=True`). With several runs `covariance=True` keeps the
 /// full sample covariance. `no_compensation=True` leaves out the Gaussian-process compensation
-/// of a single run's residuals. `beyond_geometry=True` also fits joint compliance and gear
-/// harmonics and reports whether they predict left-out poses better (the command line's
-/// `--beyond-geometry`; the model stays geometric). `strict=True` raises a `ValueError` for the warnings. Returns an
+/// of a single run's residuals. `beyond_geometry` says when joint compliance and gear
+/// harmonics are fitted with the geometry (the command line's `--beyond-geometry`): None or "auto"
+/// (the default: when the geometric fit shows a lack of fit, kept when they predict left-out poses
+/// better), "on" or True (always checked), "keep" (always kept), "off" or False. `strict=True` raises a `ValueError` for the warnings. Returns an
 /// `IdentifyResult` whose `to_toml()` is the model file the command writes and whose
 /// `to_dict()` is its `--json` document.
+/// The `beyond_geometry` keyword: a bool or one of the command line's words.
+fn joint_error_fit(v: &Bound<'_, PyAny>) -> PyResult<JointErrorFit> {
+    if let Ok(b) = v.extract::<bool>() {
+        return Ok(if b {
+            JointErrorFit::On
+        } else {
+            JointErrorFit::Off
+        });
+    }
+    let word: String = v.extract().map_err(|_| {
+        value_error(
+            "beyond_geometry: expected True, False or one of \"auto\", \"on\", \"keep\", \"off\"",
+        )
+    })?;
+    match word.as_str() {
+        "auto" => Ok(JointErrorFit::Auto),
+        "on" => Ok(JointErrorFit::On),
+        "keep" => Ok(JointErrorFit::Keep),
+        "off" => Ok(JointErrorFit::Off),
+        other => Err(value_error(format!(
+            "beyond_geometry: unknown mode '{other}' (expected \"auto\", \"on\", \"keep\" or \"off\")"
+        ))),
+    }
+}
+
 #[pyfunction]
 // Plain literal defaults, so that help() and inspect.signature show them (PyO3 writes `...`
 // for any other expression); `preset` is the command line's default (spec::DEFAULT_PRESET, which
@@ -135,7 +161,7 @@ crate::report_class!(PyIdentifyResult, {
 #[pyo3(signature = (data, *, nominal = None, preset = "tx60", base_known = false, fix = None,
     tracker_sigma = None, tracker_mpe = None, tracker_at = None, uncertainty = "linearised",
     mc_draws = 200, seed = 1, fit = "commanded", no_prior = false, no_refine = false,
-    covariance = false, strict = false, no_compensation = false, beyond_geometry = false))]
+    covariance = false, strict = false, no_compensation = false, beyond_geometry = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify(
     py: Python<'_>,
@@ -156,8 +182,12 @@ pub fn identify(
     covariance: bool,
     strict: bool,
     no_compensation: bool,
-    beyond_geometry: bool,
+    beyond_geometry: Option<Bound<'_, PyAny>>,
 ) -> PyResult<PyIdentifyResult> {
+    let beyond_geometry = match &beyond_geometry {
+        None => JointErrorFit::Auto,
+        Some(v) => joint_error_fit(v)?,
+    };
     let method = match fit {
         "commanded" => CircleFitMethod::CommandedAngles,
         "point-cloud" | "point_cloud" => CircleFitMethod::PointCloud,

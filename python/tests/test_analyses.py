@@ -199,7 +199,8 @@ def test_identify_equals_cli(cli, tmp_path, sweeps, case):
 
 def test_identify_beyond_geometry_equals_cli(cli, tmp_path):
     """beyond_geometry=True: the command line's --beyond-geometry check, the same document and
-    the same model file, which carries the joint errors (a plain fit's does not)."""
+    the same model file, which carries the joint errors (the default finds them too; "off"
+    does not)."""
     poses = tmp_path / "poses.csv"
     run_ok(cli, "simulate", "--poses", 120, "--seed", 3, "--tracker-sigma", 0.01,
            "--compliance", 1, "--harmonics", 1, "-o", poses)
@@ -214,9 +215,16 @@ def test_identify_beyond_geometry_equals_cli(cli, tmp_path):
     assert check["kept"]
     assert "[joint_errors]" in res.to_toml()
     assert res.to_toml() == (tmp_path / "m.toml").read_text()
-    plain = gpu_amcs.identify(poses, tracker_sigma=0.01)
+    # The default (auto) finds the lack of fit and keeps them as well; "off" (or False) does not.
+    assert gpu_amcs.identify(poses, tracker_sigma=0.01).to_toml() == res.to_toml()
+    plain = gpu_amcs.identify(poses, tracker_sigma=0.01, beyond_geometry="off")
     assert "beyond_geometry" not in plain.to_dict()["identify"]["runs"][0]["chain"]
+    assert plain.to_dict()["identify"]["runs"][0]["chain"]["joint_error_fit"] == "off"
     assert "[joint_errors]" not in plain.to_toml()
+    assert gpu_amcs.identify(poses, tracker_sigma=0.01, beyond_geometry=False).to_toml() == \
+        plain.to_toml()
+    with pytest.raises(ValueError, match="beyond_geometry"):
+        gpu_amcs.identify(poses, tracker_sigma=0.01, beyond_geometry="sometimes")
     # The payload at the task: the command line's --payload-kg, refused for a geometric model.
     bent = gpu_amcs.Model.from_file(tmp_path / "m.toml")
     kw = dict(points=10, draws=20000, backend="cpu")
@@ -447,11 +455,12 @@ def test_compensation_is_fitted_applied_and_can_be_left_out(cli, tmp_path):
     # A simulated robot with joint compliance and gear harmonics leaves structure a Gaussian
     # process over the joint angles predicts: the identified model carries a compensation, fk
     # adds its mean (as `gpu-amcs fk` does) and compensation=False / no_compensation=True leave
-    # it out. (A geometric robot leaves white residuals and gets none.)
+    # it out. (A geometric robot leaves white residuals and gets none.) The joint errors are
+    # left out (by default they would be fitted and leave nothing for a process to predict).
     poses = tmp_path / "poses.csv"
     run_ok(cli, "simulate", "--poses", 150, "--seed", 3, "--compliance", 1, "--harmonics", 1,
            "-o", poses)
-    res = gpu_amcs.identify(poses)
+    res = gpu_amcs.identify(poses, beyond_geometry="off")
     model_file = tmp_path / "m.toml"
     model_file.write_text(res.to_toml())
     m = gpu_amcs.Model.from_file(model_file)

@@ -99,7 +99,13 @@ impl Run for ExportArgs {
                 .fold(0.0, f64::max)
                 .to_degrees();
             eprintln!(
-                "note: the model carries joint errors beyond geometry (compliance, gear harmonics; identify --beyond-geometry) that URDF and UR calibration files cannot hold: the exported geometry is the one fitted with them, and a controller given the file misses their deflections (gear harmonics up to {worst:.4}° per joint, plus the compliance under load); the model file keeps them"
+                "note: the model carries joint errors beyond geometry (compliance, gear harmonics; identify kept them) that URDF and UR calibration files cannot hold: the exported geometry is the one fitted with them, and a controller given the file misses their deflections (gear harmonics up to {worst:.4}° per joint, plus the compliance under load); the model file keeps them"
+            );
+        }
+        // The link masses: URDF holds them (<inertial>), UR's calibration file does not.
+        if let (Some(_), Some(_)) = (&a.ur_calibration, &model.links) {
+            eprintln!(
+                "note: --ur-calibration: the model's link masses ([links]) are not part of UR's kinematics file (its description holds them)"
             );
         }
         // UR's file is the arm in its own base frame: a base other than the REP-103 turn UR's

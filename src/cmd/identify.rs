@@ -9,7 +9,8 @@ use crate::cmd::reports::ReportFlags;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use gpu_amcs::identify::{
-    CircleFitMethod, IdentifyJob, IdentifyReports, IdentifySetting, Placement, UncertaintyMethod,
+    CircleFitMethod, IdentifyJob, IdentifyReports, IdentifySetting, JointErrorFit, Placement,
+    UncertaintyMethod,
 };
 use gpu_amcs::kinematics::RobotModel;
 use gpu_amcs::presets::{preset, PRESETS};
@@ -32,6 +33,20 @@ pub enum UncertaintyArg {
     Linearised,
     /// The sample covariance of --mc-draws re-identifications of synthetic data.
     Montecarlo,
+}
+
+/// When joint compliance and gear harmonics are fitted with the geometry.
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+pub enum BeyondArg {
+    /// Never: the geometry alone.
+    Off,
+    /// When the geometric fit shows a lack of fit (or the noise is not stated); kept when they
+    /// predict left-out poses better.
+    Auto,
+    /// Always checked; kept when they predict left-out poses better.
+    On,
+    /// Always fitted and kept (for --payload-kg on data that do not show the compliance).
+    Keep,
 }
 
 /// `identify` options.
@@ -101,11 +116,20 @@ pub struct IdentifyArgs {
     /// robot"). Data with several runs never get one (their mean model has none).
     #[arg(long)]
     pub no_compensation: bool,
-    /// Also fit joint compliance under gravity (default link masses) and gear harmonics (once
-    /// and twice per turn) with the geometry, and report whether they predict left-out poses
-    /// better (a check: the model file still holds the geometry).
-    #[arg(long)]
-    pub beyond_geometry: bool,
+    /// Fit joint compliance under gravity (default link masses) and gear harmonics (once and
+    /// twice per turn) with the geometry: by default (auto) when the geometric fit shows a lack
+    /// of fit, kept in the model when they predict left-out poses better (the report says
+    /// which and why). A bare --beyond-geometry means on; off, on and keep choose explicitly.
+    #[arg(
+        long,
+        value_enum,
+        value_name = "WHEN",
+        num_args = 0..=1,
+        require_equals = true,
+        default_value_t = BeyondArg::Auto,
+        default_missing_value = "on"
+    )]
+    pub beyond_geometry: BeyondArg,
     /// Write the identified model (TOML) to FILE.
     #[arg(long, short, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -370,7 +394,12 @@ impl IdentifyArgs {
             covariance: self.covariance,
             strict: self.strict,
             compensate: !self.no_compensation,
-            beyond_geometry: self.beyond_geometry,
+            beyond_geometry: match self.beyond_geometry {
+                BeyondArg::Off => JointErrorFit::Off,
+                BeyondArg::Auto => JointErrorFit::Auto,
+                BeyondArg::On => JointErrorFit::On,
+                BeyondArg::Keep => JointErrorFit::Keep,
+            },
             ..IdentifyJob::new(self.sweeps.clone(), nominal)
         }
     }

@@ -37,7 +37,7 @@ fn experiment(
         noise: NoiseModel::Isotropic {
             sigma_mm: sigma.max(1e-4),
         },
-        beyond_geometry: true,
+        beyond_geometry: gpu_amcs::identify::JointErrorFit::On,
         compensate: false,
         ..ChainOptions::default()
     };
@@ -156,33 +156,76 @@ fn noisy_compliance_and_harmonics_come_close_to_a_geometric_robot() {
     assert!(mean < 1.8 && ratios.iter().all(|&r| r < 2.0), "{ratios:?}");
 }
 
-/// The command line: `identify --beyond-geometry` on `simulate --compliance 1 --harmonics 1`
-/// data reports the check in its text and JSON (J2's and J3's compliance with σ), and leaves
-/// the model file's geometry as without the flag; without the flag the JSON has no such field.
+/// Poses in which joint 4 never moves: its harmonics are constants (cos1_4, cos2_4 an offset of
+/// θ4, sin1_4, sin2_4 nothing), so the report names them as not determined; with all joints
+/// moving (the same robot, 200 random poses) it names none of joint 4's.
+#[test]
+fn the_report_names_what_the_data_cannot_determine() {
+    let seed = 2025u64;
+    let truth = Experiment::tx60(seed).truth;
+    let errors = NonGeometric::draw(&truth, &BENT, seed);
+    let placement = random_placement(seed);
+    let run = |still: bool| {
+        let mut configs = random_poses(&truth, 200, seed + 1);
+        if still {
+            configs.iter_mut().for_each(|q| q[3] = 0.0);
+        }
+        let data = simulate_poses_of(
+            &truth,
+            errors.as_ref(),
+            &configs,
+            &placement,
+            &TrackerNoise::Isotropic(0.01),
+            seed + 2,
+        );
+        let opts = ChainOptions {
+            noise: NoiseModel::Isotropic { sigma_mm: 0.01 },
+            beyond_geometry: gpu_amcs::identify::JointErrorFit::On,
+            compensate: false,
+            ..ChainOptions::default()
+        };
+        let points = crate::common::measured_points(&data);
+        let r =
+            identify_chain(&points, &tx60(), None, Some(NominalPrior::default()), &opts).unwrap();
+        r.report.beyond_geometry.unwrap().undetermined
+    };
+    let still = run(true);
+    eprintln!("joint 4 still: {still:?}");
+    for c in ["sin1_4", "cos1_4", "sin2_4", "cos2_4"] {
+        assert!(
+            still.iter().any(|l| l.starts_with(&format!("{c}:"))),
+            "{c}: {still:?}"
+        );
+    }
+    let moving = run(false);
+    eprintln!("all moving: {moving:?}");
+    assert!(!moving.iter().any(|l| l.contains("_4:")), "{moving:?}");
+}
+
+/// The command line: `identify` with its defaults on `simulate --compliance 1 --harmonics 1`
+/// data finds the lack of fit, runs the check and keeps the joint errors, reporting them in its
+/// text and JSON (J2's and J3's compliance with σ); `--beyond-geometry=off` gives the geometry
+/// alone, without the field. On a geometric robot the default does not check (no lack of fit
+/// against the stated noise), a bare `--beyond-geometry` checks and keeps nothing, and `=keep`
+/// keeps them all the same.
 #[test]
 fn the_command_line_reports_the_check() {
     let d = crate::common::tmpdir("beyond-geometry-cli");
     let p = |f: &str| d.join(f).display().to_string();
     let ok = crate::common::run_ok;
-    ok(&[
-        "simulate",
-        "--poses",
-        "150",
-        "--tracker-sigma",
-        "0.01",
-        "--compliance",
-        "1",
-        "--harmonics",
-        "1",
-        "-o",
-        &p("cal.csv"),
-    ]);
+    let simulate = |extra: &[&str], out: &str| {
+        let mut args = vec!["simulate", "--poses", "150", "--tracker-sigma", "0.01"];
+        args.extend_from_slice(extra);
+        let out = p(out);
+        args.extend_from_slice(&["-o", &out]);
+        ok(&args);
+    };
+    simulate(&["--compliance", "1", "--harmonics", "1"], "cal.csv");
     let text = ok(&[
         "identify",
         &p("cal.csv"),
         "--tracker-sigma",
         "0.01",
-        "--beyond-geometry",
         "-o",
         &p("with.toml"),
         "--json",
@@ -194,6 +237,7 @@ fn the_command_line_reports_the_check() {
         &p("cal.csv"),
         "--tracker-sigma",
         "0.01",
+        "--beyond-geometry=off",
         "-o",
         &p("without.toml"),
         "--json",
@@ -217,9 +261,49 @@ fn the_command_line_reports_the_check() {
             "{b}"
         );
     }
-    assert!(json("without.json")["identify"]["runs"][0]["chain"]
-        .get("beyond_geometry")
-        .is_none());
+    let without = &json("without.json")["identify"]["runs"][0]["chain"];
+    assert!(without.get("beyond_geometry").is_none());
+    assert_eq!(without["joint_error_fit"], "off");
+    // A geometric robot: by default no check (its residuals agree with the stated noise).
+    simulate(&[], "geo.csv");
+    let identify_geo = |mode: Option<&str>, name: &str| -> (String, serde_json::Value) {
+        let (toml, js) = (p(&format!("{name}.toml")), p(&format!("{name}.json")));
+        let mut args = vec![
+            "identify",
+            "--tracker-sigma",
+            "0.01",
+            "-o",
+            &toml,
+            "--json",
+            &js,
+        ];
+        let geo = p("geo.csv");
+        args.insert(1, &geo);
+        if let Some(m) = mode {
+            args.push(m);
+        }
+        let text = ok(&args);
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&js).unwrap()).unwrap();
+        let chain = v["identify"]["runs"][0]["chain"].clone();
+        (text + &std::fs::read_to_string(&toml).unwrap(), chain)
+    };
+    let (text, chain) = identify_geo(None, "geo-auto");
+    assert_eq!(chain["joint_error_fit"], "auto");
+    assert!(chain.get("beyond_geometry").is_none(), "{chain}");
+    assert!(text.contains("beyond geometry: not checked"), "{text}");
+    assert!(!text.contains("[joint_errors]"));
+    let (text, chain) = identify_geo(Some("--beyond-geometry"), "geo-on");
+    assert_eq!(chain["joint_error_fit"], "on");
+    assert_eq!(
+        chain["beyond_geometry"]["predicts_better"], false,
+        "{chain}"
+    );
+    assert_eq!(chain["beyond_geometry"]["kept"], false);
+    assert!(!text.contains("[joint_errors]"));
+    let (text, chain) = identify_geo(Some("--beyond-geometry=keep"), "geo-keep");
+    assert_eq!(chain["beyond_geometry"]["kept"], true, "{chain}");
+    assert!(text.contains("[joint_errors]"));
     assert_eq!(b["kept"], true, "{b}");
     // The model carries the joint errors; every analysis draws them, and a payload at the task
     // bends the robot away from its calibrated predictions.

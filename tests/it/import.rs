@@ -9,6 +9,7 @@
 use crate::common;
 
 mod held;
+mod inertial;
 mod seven;
 mod xacro;
 mod xacro_ns;

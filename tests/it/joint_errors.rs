@@ -64,7 +64,7 @@ fn model_with_joint_errors(payload_kg: f64) -> RobotModel {
     m.tool = [10.0, -5.0, 60.0];
     m.joint_errors = Some(JointErrors {
         coefficients,
-        link_mass_kg: gpu_amcs::kinematics::gravity::default_link_masses(&m),
+        links: gpu_amcs::kinematics::gravity::LinkMasses::of(&m),
         calibration_payload: Payload::NONE,
         payload: Payload {
             mass_kg: payload_kg,
@@ -362,7 +362,7 @@ fn the_payload_what_if_covers_robots_that_carry_the_payload() {
         );
         let points = crate::common::measured_points(&data);
         let opts = ChainOptions {
-            beyond_geometry: true,
+            beyond_geometry: gpu_amcs::identify::JointErrorFit::On,
             ..ChainOptions::default()
         };
         let r =
@@ -452,7 +452,7 @@ fn the_gpu_draws_joint_errors_as_the_cpu() {
         7,
     );
     let opts = ChainOptions {
-        beyond_geometry: true,
+        beyond_geometry: gpu_amcs::identify::JointErrorFit::On,
         ..ChainOptions::default()
     };
     let r = identify_chain(

@@ -114,8 +114,9 @@ fn the_predicted_bound_covers_held_out_errors_of_a_real_ur10() {
     assert!((0.3..=0.8).contains(&pit) && top <= 15.0, "{text}");
     let (alone, pit_alone, _) = figures(&text, "parameters' uncertainty alone");
     assert!(alone < 10.0 && pit_alone > 0.95, "{text}");
-    // The compensation (a Gaussian process over the configuration) predicts the held-out poses
-    // better than the geometric model: measured RMS 0.434 → 0.316 mm.
+    // identify's defaults keep the joint errors (compliance, harmonics: held-out RMS 0.383 mm
+    // against 0.434 mm for the geometry alone, `--beyond-geometry=off`) and the compensation (a
+    // Gaussian process over the configuration) predicts the held-out poses better still: 0.326.
     let rms = |label: &str| -> f64 {
         let l = text
             .lines()
@@ -124,7 +125,7 @@ fn the_predicted_bound_covers_held_out_errors_of_a_real_ur10() {
         l.split_whitespace().rev().nth(1).unwrap().parse().unwrap()
     };
     let (geometric, compensated) = (rms("(without compensation)"), rms("(compensated)"));
-    assert!(compensated < 0.85 * geometric, "{text}");
+    assert!(compensated < 0.9 * geometric && geometric < 0.41, "{text}");
     compensation_outputs(&d, &m, &test);
 }
 

@@ -10,7 +10,7 @@
 //! importer, and the conversion of a built-in table is the importer's own.
 
 use crate::import::dh::{Convention, DhRow, DhTable};
-use crate::import::{convert, SourceChain, SourceFormat, SourceJoint};
+use crate::import::{convert, SourceBody, SourceChain, SourceFormat, SourceJoint};
 use crate::kinematics::{ModelError, RobotModel};
 use nalgebra::{Isometry3, Unit, Vector3};
 use std::f64::consts::FRAC_PI_2;
@@ -31,12 +31,14 @@ pub const PRESETS: &[&str] = &[
 /// Joints of the UR arms.
 const UR_JOINTS: usize = 6;
 
-/// A UR-style standard DH table `(d, a, α)` in metres and radians, θ = 0, limits ±360°.
+/// A UR-style standard DH table `(d, a, α)` in metres and radians, θ = 0, limits ±360°, with
+/// the links' masses (kg) and centres of mass (m, each in its DH frame i) when published.
 fn ur_dh(
     name: &str,
     d: [f64; UR_JOINTS],
     a: [f64; UR_JOINTS],
     alpha: [f64; UR_JOINTS],
+    links: Option<UrLinks>,
 ) -> RobotModel {
     let table = DhTable {
         name: name.into(),
@@ -49,8 +51,40 @@ fn ur_dh(
             .collect(),
         tool: [0.0; 3],
     };
-    converted(&table.to_chain())
+    let mut chain = table.to_chain();
+    // Standard DH: joint i's frame (after its rotation) times Rz(θ)Tz(d)Tx(a)Rx(α) is DH frame
+    // i, in which UR gives the centre of mass.
+    chain.bodies = links.map(|(mass, com)| {
+        (0..UR_JOINTS)
+            .map(|j| {
+                let b = Isometry3::translation(0.0, 0.0, d[j] * 1000.0)
+                    * Isometry3::translation(a[j] * 1000.0, 0.0, 0.0)
+                    * Isometry3::rotation(Vector3::x() * alpha[j]);
+                SourceBody {
+                    mass_kg: mass[j],
+                    com_mm: (b * nalgebra::Point3::from(Vector3::from(com[j]) * 1000.0)).coords,
+                }
+            })
+            .collect()
+    });
+    converted(&chain)
 }
+
+/// Masses (kg) and centres of mass (m, DH frame i) of a UR arm's six links.
+type UrLinks = ([f64; UR_JOINTS], [[f64; 3]; UR_JOINTS]);
+
+/// The UR5e's links as UR publishes them (same source as [`ur5e`]'s geometry).
+const UR5E_LINKS: UrLinks = (
+    [3.761, 8.058, 2.846, 1.37, 1.3, 0.365],
+    [
+        [0.0, -0.02561, 0.00193],
+        [0.2125, 0.0, 0.11336],
+        [0.15, 0.0, 0.0265],
+        [0.0, -0.0018, 0.01634],
+        [0.0, 0.0018, 0.01634],
+        [0.0, 0.0, -0.001159],
+    ],
+);
 
 fn converted(chain: &SourceChain) -> RobotModel {
     // The conversion of a built-in table cannot fail: the tests of every preset prove it.
@@ -67,12 +101,15 @@ const UR_ALPHA: [f64; UR_JOINTS] = [FRAC_PI_2, 0.0, 0.0, FRAC_PI_2, -FRAC_PI_2, 
 /// d = (0.1625, 0, 0, 0.1333, 0.0997, 0.0996), a = (0, −0.425, −0.3922, 0, 0, 0),
 /// α = (π/2, 0, 0, π/2, −π/2, 0), θ offsets 0; limits ±360° on every joint. Base frame: UR's
 /// `Base` (the DH base); tool point: the flange centre, at (−817.2, −232.9, 62.8) mm at q = 0.
+/// Link masses 3.761, 8.058, 2.846, 1.37, 1.3, 0.365 kg and centres of mass from the same
+/// table (the model's `links`; joint compliance's gravity torques use them).
 pub fn ur5e() -> RobotModel {
     ur_dh(
         "Universal Robots UR5e",
         [0.1625, 0.0, 0.0, 0.1333, 0.0997, 0.0996],
         [0.0, -0.425, -0.3922, 0.0, 0.0, 0.0],
         UR_ALPHA,
+        Some(UR5E_LINKS),
     )
 }
 
@@ -85,6 +122,7 @@ pub fn ur10e() -> RobotModel {
         [0.1807, 0.0, 0.0, 0.17415, 0.11985, 0.11655],
         [0.0, -0.6127, -0.57155, 0.0, 0.0, 0.0],
         UR_ALPHA,
+        None,
     )
 }
 
@@ -236,6 +274,7 @@ fn urdf_preset(name: &str, figures: &[UrdfJointFigures]) -> RobotModel {
         notes: Vec::new(),
         held: Vec::new(),
         arm_frame: None,
+        bodies: None,
     })
 }
 

@@ -22,6 +22,7 @@ use super::size;
 use super::{Discrepancy, MAX_SAMPLES};
 use nalgebra::{Matrix3, Vector3};
 use rand::{Rng, SeedableRng};
+use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 /// Fewest points from which a discrepancy term is estimated.
@@ -218,18 +219,20 @@ impl LackOfFit {
         p_value: Option<f64>,
         seed: u64,
     ) -> LackOfFit {
-        Self::estimate_with(points, None, stated, p_value, seed)
+        Self::estimate_with(points, None, stated, p_value, seed, true)
     }
 
     /// [`Self::estimate`], and with `configurations` a compensation by a Gaussian process over
     /// the configuration ([`gp`]): kept when it predicts left-out points better, the term is then
-    /// drawn from what it leaves.
+    /// drawn from what it leaves. Without `self_check` the leave-one-out self-check is left out
+    /// (`loo` is `None`; for a fit whose lack of fit is only an intermediate).
     pub fn estimate_with(
         points: &[FittedPoint],
         configurations: Option<Configurations<'_>>,
         stated: bool,
         p_value: Option<f64>,
         seed: u64,
+        self_check: bool,
     ) -> LackOfFit {
         let n = points.len();
         let mut standardised = standardised_residuals(points);
@@ -293,7 +296,7 @@ impl LackOfFit {
             noise_sigma_mm: sigma,
             compensation,
         });
-        let loo = enough.then(|| {
+        let loo = (enough && self_check).then(|| {
             loo_check(
                 points,
                 Drawn {
@@ -449,41 +452,51 @@ fn loo_check(points: &[FittedPoint], drawn: Drawn<'_>, scale: f64, seed: u64) ->
     let n = points.len();
     // Draws per point: enough for a 95 % quantile, bounded in total work.
     let m = (20_000_000 / n).clamp(200, 2000);
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x100F_C0DE);
     let mut samples_with = vec![0.0; n * m];
     let mut samples_without = vec![0.0; n * m];
-    let mut observed = vec![0.0; n];
-    let (mut inside_with, mut inside_without) = (0usize, 0usize);
-    for (i, p) in points.iter().enumerate() {
-        let w_inv = p.whiten.try_inverse().unwrap_or_else(Matrix3::identity);
-        let free = Matrix3::identity() - p.leverage;
-        let free_inv = free.try_inverse().unwrap_or_else(Matrix3::identity);
-        observed[i] = left_out[i].norm();
-        let cov = w_inv * (p.leverage * free_inv) * w_inv.transpose() * scale;
-        let cov = (cov + cov.transpose()) * 0.5;
-        let l = cov.cholesky().map(|c| c.l()).unwrap_or_else(Matrix3::zeros);
-        for k in 0..m {
-            let z = Vector3::from_fn(|_, _| gaussian(&mut rng));
-            let dp = l * z;
-            // the other points' norms
-            let mut j = rng.random_range(0..n - 1);
-            if j >= i {
-                j += 1;
+    // Each point draws from its own stream of the seed (the points in parallel, the same
+    // figures on any number of threads).
+    let inside: Vec<(bool, bool)> = samples_with
+        .par_chunks_mut(m)
+        .zip(samples_without.par_chunks_mut(m))
+        .enumerate()
+        .map(|(i, (with, without))| {
+            let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x100F_C0DE);
+            rng.set_stream(i as u64 + 1);
+            let p = &points[i];
+            let w_inv = p.whiten.try_inverse().unwrap_or_else(Matrix3::identity);
+            let free = Matrix3::identity() - p.leverage;
+            let free_inv = free.try_inverse().unwrap_or_else(Matrix3::identity);
+            let cov = w_inv * (p.leverage * free_inv) * w_inv.transpose() * scale;
+            let cov = (cov + cov.transpose()) * 0.5;
+            let l = cov.cholesky().map(|c| c.l()).unwrap_or_else(Matrix3::zeros);
+            for k in 0..m {
+                let z = Vector3::from_fn(|_, _| gaussian(&mut rng));
+                let dp = l * z;
+                // the other points' norms
+                let mut j = rng.random_range(0..n - 1);
+                if j >= i {
+                    j += 1;
+                }
+                let g = factors[rng.random_range(0..factors.len())];
+                let d = unit(&mut rng) * (norms[j] * scales[i] * g);
+                with[k] = (dp + d).norm();
+                without[k] = dp.norm();
             }
-            let g = factors[rng.random_range(0..factors.len())];
-            let d = unit(&mut rng) * (norms[j] * scales[i] * g);
-            samples_with[i * m + k] = (dp + d).norm();
-            samples_without[i * m + k] = dp.norm();
-        }
-        let q = |s: &mut [f64]| {
-            s.sort_by(f64::total_cmp);
-            s[((0.95 * m as f64).ceil() as usize).min(m) - 1]
-        };
-        let mut a = samples_with[i * m..(i + 1) * m].to_vec();
-        let mut b = samples_without[i * m..(i + 1) * m].to_vec();
-        inside_with += usize::from(observed[i] <= q(&mut a));
-        inside_without += usize::from(observed[i] <= q(&mut b));
-    }
+            // The 95 % quantile: the ⌈0.95 m⌉-th smallest.
+            let rank = ((0.95 * m as f64).ceil() as usize).min(m) - 1;
+            let q = |s: &[f64]| {
+                let mut s = s.to_vec();
+                *s.select_nth_unstable_by(rank, f64::total_cmp).1
+            };
+            let observed = left_out[i].norm();
+            (observed <= q(with), observed <= q(without))
+        })
+        .collect();
+    let observed: Vec<f64> = left_out.iter().map(|v| v.norm()).collect();
+    let inside_with = inside.iter().filter(|p| p.0).count();
+    let inside_without = inside.iter().filter(|p| p.1).count();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x100F_C0DE);
     // PIT of the maximum over random subsets of SUBSET points (all points when fewer).
     let subsets = 200;
     let mut pits = Vec::with_capacity(subsets);

@@ -68,6 +68,50 @@ pub enum UncertaintyMethod {
     },
 }
 
+/// When the identification fits joint errors beyond the geometry (compliance under gravity and
+/// gear harmonics, [`BeyondGeometry`]); each mode but [`JointErrorFit::Off`] keeps them in the
+/// model only when the cross-validated check says they predict held-out poses better, or always
+/// with [`JointErrorFit::Keep`].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum JointErrorFit {
+    /// Geometry alone; no check.
+    Off,
+    /// The check runs when the geometric fit shows a lack of fit: a stated noise rejected by
+    /// the χ² test, or a noise that is not stated (the residuals then cannot tell, and the
+    /// cross-validation decides).
+    #[default]
+    Auto,
+    /// The check always runs.
+    On,
+    /// The check always runs and the model keeps the joint errors whatever it finds (for a
+    /// payload what-if on data that do not show the compliance: an undetermined compliance
+    /// keeps its prior σ).
+    Keep,
+}
+
+impl JointErrorFit {
+    /// The name in reports and on the command line.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            JointErrorFit::Off => "off",
+            JointErrorFit::Auto => "auto",
+            JointErrorFit::On => "on",
+            JointErrorFit::Keep => "keep",
+        }
+    }
+
+    /// Whether the check runs for a geometric fit whose lack of fit test gave `found` (`None`:
+    /// the noise is not stated).
+    pub fn checks(self, found: Option<bool>) -> bool {
+        match self {
+            JointErrorFit::Off => false,
+            JointErrorFit::Auto => found != Some(false),
+            JointErrorFit::On | JointErrorFit::Keep => true,
+        }
+    }
+}
+
 /// Options of the whole-chain identification.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ChainOptions {
@@ -84,9 +128,9 @@ pub struct ChainOptions {
     /// Fit a compensation (a Gaussian process over the configuration, docs/METHOD.md §18.1)
     /// to the residuals and keep it when it predicts held-out poses better.
     pub compensate: bool,
-    /// Check whether joint compliance under gravity and gear harmonics predict the robot
-    /// better ([`BeyondGeometry`]; the model file still carries the geometry).
-    pub beyond_geometry: bool,
+    /// When joint compliance under gravity and gear harmonics are fitted with the geometry and
+    /// kept ([`JointErrorFit`], [`BeyondGeometry`]).
+    pub beyond_geometry: JointErrorFit,
 }
 
 impl Default for ChainOptions {
@@ -98,7 +142,7 @@ impl Default for ChainOptions {
             uncertainty: UncertaintyMethod::Linearised,
             seed: 1,
             compensate: true,
-            beyond_geometry: false,
+            beyond_geometry: JointErrorFit::Auto,
         }
     }
 }
@@ -190,29 +234,19 @@ pub fn identify_chain(
     prior: Option<NominalPrior>,
     opts: &ChainOptions,
 ) -> Result<ChainResult, IdentifyError> {
-    if !opts.beyond_geometry {
-        return Ok(identify_geometry(points, nominal, start, prior, opts)?.0);
-    }
-    // The check first, without the compensation (a Gaussian process over the residuals is the
-    // identification's most expensive step; the final fit below decides on it).
-    let check_opts = ChainOptions {
-        compensate: false,
-        ..opts.clone()
+    // The check (when it runs) comes before the compensation: when the joint errors are kept
+    // the geometry is fitted again below, and the Gaussian process over the residuals, the
+    // identification's most expensive step, is left to that fit.
+    let (first, extended) = identify_geometry(points, nominal, start, prior, opts)?;
+    let keep = |e: &beyond::ExtendedFit| {
+        e.report.predicts_better || opts.beyond_geometry == JointErrorFit::Keep
     };
-    let (first, extended) = identify_geometry(points, nominal, start, prior, &check_opts)?;
+    let Some(ext) = extended.filter(keep) else {
+        return Ok(first);
+    };
     let geometric_only = ChainOptions {
-        beyond_geometry: false,
+        beyond_geometry: JointErrorFit::Off,
         ..opts.clone()
-    };
-    let Some(ext) = extended.filter(|e| e.report.predicts_better) else {
-        let (mut r, _) = if opts.compensate {
-            identify_geometry(points, nominal, start, prior, &geometric_only)?
-        } else {
-            (first.clone(), None)
-        };
-        r.report.beyond_geometry = first.report.beyond_geometry;
-        r.extended = first.extended;
-        return Ok(r);
     };
     // The joint errors predict new poses better: the geometry is fitted again to the angles the
     // joints stood at (commanded plus the fitted deflections), so its covariance is the
@@ -293,11 +327,34 @@ fn identify_geometry(
         nulls,
         fixed_by_user,
     );
-    let lack = lack_of_fit::lack_of_fit(&run, &local, &noise, opts);
-    let beyond = if opts.beyond_geometry {
+    // The lack of fit as the χ² test tells it (the estimate below says the same): the check of
+    // the joint errors runs on it.
+    let p_value = opts
+        .noise
+        .pure_error_p_value(noise.chi2, noise.dof)
+        .or(noise.p_value);
+    let found = match (opts.noise.is_stated(), p_value) {
+        (true, Some(p)) => Some(p < crate::discrepancy::SIGNIFICANCE),
+        _ => None,
+    };
+    let beyond = if opts.beyond_geometry.checks(found) {
         beyond::check(&run, nominal, prior.as_ref())
     } else {
         None
+    };
+    // Joint errors to be kept: the caller fits the geometry again, and the compensation and
+    // the self-check are left to that fit.
+    let kept_beyond = beyond
+        .as_ref()
+        .is_some_and(|b| b.report.predicts_better || opts.beyond_geometry == JointErrorFit::Keep);
+    let lack = if kept_beyond {
+        let plain = ChainOptions {
+            compensate: false,
+            ..opts.clone()
+        };
+        lack_of_fit::lack_of_fit(&run, &local, &noise, &plain, false)
+    } else {
+        lack_of_fit::lack_of_fit(&run, &local, &noise, opts, true)
     };
     // A stated noise the residuals reject: the lack of fit acts on the parameters as noise of
     // that size would, so the covariance is scaled by the residuals' mean square over the noise's.

@@ -52,8 +52,15 @@ pub fn render_chain_summary(c: &ChainReport) -> String {
         (None, None) => {}
     }
     render_lack_of_fit(&mut s, &c.lack_of_fit);
-    if let Some(b) = &c.beyond_geometry {
-        render_beyond_geometry(&mut s, b);
+    match &c.beyond_geometry {
+        Some(b) => render_beyond_geometry(&mut s, b),
+        None if c.joint_error_fit == super::chain::JointErrorFit::Auto => {
+            let _ = writeln!(
+                s,
+                "  beyond geometry: not checked: the geometric fit shows no lack of fit against the stated noise (joint compliance and gear harmonics are fitted when it does, or when asked for)"
+            );
+        }
+        None => {}
     }
     let weak = if a.condition_number > super::identifiability::WEAK_CONDITION
         && a.condition_number <= super::identifiability::CONDITION_LIMIT
@@ -157,6 +164,13 @@ fn render_beyond_geometry(s: &mut String, b: &super::chain::BeyondGeometry) {
         })
         .collect();
     let _ = writeln!(s, "    {}", joints.join("; "));
+    if !b.undetermined.is_empty() {
+        let _ = writeln!(
+            s,
+            "    not determined by these data: {}",
+            b.undetermined.join("; ")
+        );
+    }
 }
 
 fn render_lack_of_fit(s: &mut String, l: &crate::discrepancy::LackOfFit) {

@@ -35,8 +35,8 @@ use super::noise::NoiseSetting;
 use super::{
     check_tracker_data, grouped_warnings, identified_model, identify_data, model_file_text,
     parse_tracker_data, ChainOptions, CircleFitMethod, Identification, IdentifyError,
-    IdentifyOptions, IdentifyReports, NoiseModel, NominalPrior, Placement, TrackerData,
-    UncertaintyMethod,
+    IdentifyOptions, IdentifyReports, JointErrorFit, NoiseModel, NominalPrior, Placement,
+    TrackerData, UncertaintyMethod,
 };
 use crate::kinematics::RobotModel;
 
@@ -116,9 +116,9 @@ pub struct IdentifyJob {
     pub strict: bool,
     /// Fit a compensation to a single run's residuals (docs/METHOD.md §18.1).
     pub compensate: bool,
-    /// Check whether joint compliance and gear harmonics predict the robot better
-    /// ([`crate::identify::chain::BeyondGeometry`]).
-    pub beyond_geometry: bool,
+    /// When joint compliance and gear harmonics are fitted and kept
+    /// ([`crate::identify::JointErrorFit`], [`crate::identify::chain::BeyondGeometry`]).
+    pub beyond_geometry: JointErrorFit,
 }
 
 /// What an [`IdentifyJob`] gives.
@@ -249,7 +249,7 @@ impl IdentifyJob {
             covariance: false,
             strict: false,
             compensate: true,
-            beyond_geometry: false,
+            beyond_geometry: JointErrorFit::Auto,
         }
     }
 
@@ -398,7 +398,7 @@ impl IdentifyJob {
             .and_then(|(a, b)| a.checked_add(b));
         // Joint compliance and the once- and twice-per-turn harmonics: five more inputs a joint,
         // and the leave-one-out's Jacobian beside the fit's.
-        let beyond = if self.beyond_geometry {
+        let beyond = if self.beyond_geometry != JointErrorFit::Off {
             fit(p + 5 * joints)
                 .zip(
                     Estimate::new("", "")

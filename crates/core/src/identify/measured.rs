@@ -388,10 +388,16 @@ pub fn identify_sweeps_chain(
 }
 
 /// The whole-chain options of one of `runs` runs: several runs give their mean model, which no
-/// run's compensation describes, so they are fitted without one.
+/// run's compensation describes, so they are fitted without one (and without joint errors
+/// unless asked for, when each run's report shows its check: the mean model of several runs
+/// carries the geometry's statistics alone).
 fn per_run_options(chain: &ChainOptions, runs: usize) -> ChainOptions {
     ChainOptions {
         compensate: chain.compensate && runs == 1,
+        beyond_geometry: match chain.beyond_geometry {
+            super::JointErrorFit::Auto if runs > 1 => super::JointErrorFit::Off,
+            mode => mode,
+        },
         ..chain.clone()
     }
 }

@@ -87,7 +87,9 @@ pub mod targets;
 pub mod validate;
 
 pub use crate::kinematics::{lines, mdh};
-pub use chain::{ChainOptions, ChainReport, MeasuredPoint, Placement, UncertaintyMethod};
+pub use chain::{
+    ChainOptions, ChainReport, JointErrorFit, MeasuredPoint, Placement, UncertaintyMethod,
+};
 pub use chain_text::{frame_label, render_chain_report, render_chain_summary};
 pub use circle::{fit_circle, AxisPrior, CircleFit, CircleFitError, CircleFitMethod, MIN_ARC_DEG};
 pub use error::IdentifyError;

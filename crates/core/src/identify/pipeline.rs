@@ -323,6 +323,7 @@ pub fn identify_run(
     let j1 = common_normal(&base_z, &axes[0].line);
     let model = RobotModel {
         joint_errors: None,
+        links: nominal.links,
         discrepancy: None,
         name: format!("{} (identified{label})", nominal.name),
         params: chain.params,

@@ -120,6 +120,7 @@ pub fn parameter_statistics(models: &[RobotModel]) -> Option<RobotModel> {
     }
     Some(RobotModel {
         joint_errors: None,
+        links: first.links,
         discrepancy: None,
         name: format!("{} (mean of {} runs)", first.name, models.len()),
         params: Params::from_slice(&mean[..np]),

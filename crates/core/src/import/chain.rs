@@ -62,6 +62,16 @@ pub struct JointHold {
     pub angle_deg: f64,
 }
 
+/// The body a revolute joint turns (its child link and everything fixed to it), as a description's
+/// `<inertial>` data give it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct SourceBody {
+    /// Mass, kg.
+    pub mass_kg: f64,
+    /// Centre of mass in the joint's frame (after its rotation), mm.
+    pub com_mm: Vector3<f64>,
+}
+
 /// A serial chain of revolute joints as a file describes it (lengths in mm); a model takes
 /// [`MIN_JOINTS`](crate::kinematics::MIN_JOINTS) to [`MAX_JOINTS`](crate::kinematics::MAX_JOINTS)
 /// of them.
@@ -86,6 +96,9 @@ pub struct SourceChain {
     /// (UR's `base_link_inertia`, `base_link` turned half a turn about z, which UR's calibration
     /// files are relative to). Used as the model's base frame when its z is joint 1's axis.
     pub arm_frame: Option<Isometry3<f64>>,
+    /// The moving bodies, one per joint, when the description gives masses (URDF `<inertial>`);
+    /// dropped when joints are held.
+    pub bodies: Option<Vec<SourceBody>>,
 }
 
 impl SourceChain {
@@ -165,6 +178,12 @@ impl SourceChain {
             self.tip = p * self.tip;
         }
         self.joints = kept;
+        if !holds.is_empty() && self.bodies.take().is_some() {
+            self.held.push(
+                "link masses (<inertial>) not imported: joints are held (joint compliance assumes default masses)"
+                    .into(),
+            );
+        }
         self.notes.extend(self.held.iter().cloned());
         Ok(())
     }

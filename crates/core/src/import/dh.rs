@@ -118,6 +118,7 @@ impl DhTable {
             notes: Vec::new(),
             held: Vec::new(),
             arm_frame: None,
+            bodies: None,
         }
     }
 }

@@ -168,7 +168,15 @@ pub fn to_urdf_with(model: &RobotModel, name: Option<&str>, base: UrdfBase) -> S
         s,
         "     file (TOML) is the full record. effort/velocity are required by URDF; the model has no"
     );
-    let _ = writeln!(s, "     dynamics, so they are 0. -->");
+    let _ = writeln!(
+        s,
+        "     dynamics, so they are 0{} -->",
+        if model.links.is_some() {
+            "; each link's <inertial> is its mass at its centre of mass (the model's point masses, zero inertia tensor)."
+        } else {
+            "."
+        }
+    );
     let _ = writeln!(s, "<robot name=\"{name}\">");
     let n = model.joints();
     let links: Vec<String> = std::iter::once("base_link".to_string())
@@ -178,8 +186,16 @@ pub fn to_urdf_with(model: &RobotModel, name: Option<&str>, base: UrdfBase) -> S
     if world {
         let _ = writeln!(s, "  <link name=\"world\"/>");
     }
-    for l in &links {
-        let _ = writeln!(s, "  <link name=\"{l}\"/>");
+    let inertials = inertials(model, &o);
+    for (k, l) in links.iter().enumerate() {
+        match inertials.get(k.wrapping_sub(1)) {
+            Some(i) if k >= 1 => {
+                let _ = writeln!(s, "  <link name=\"{l}\">\n    {i}\n  </link>");
+            }
+            _ => {
+                let _ = writeln!(s, "  <link name=\"{l}\"/>");
+            }
+        }
     }
     let origin = |t: &Isometry3<f64>| {
         let (x, r) = xyz_rpy_of(t);
@@ -221,6 +237,32 @@ pub fn to_urdf_with(model: &RobotModel, name: Option<&str>, base: UrdfBase) -> S
     fixed(&mut s, "tool0_joint", &tip, &links[n], "tool0");
     let _ = writeln!(s, "</robot>");
     s
+}
+
+/// The `<inertial>` element of each moving link of `model` (none without link masses): its
+/// mass at its centre of mass, moved from its MDH frame into the exported link's frame (both
+/// attached to the link; `o` the exported joints' origins), with a zero inertia tensor (the
+/// model holds point masses).
+fn inertials(model: &RobotModel, o: &[Isometry3<f64>]) -> Vec<String> {
+    let Some(links) = &model.links else {
+        return Vec::new();
+    };
+    let centres = links.centres_mm(&model.params);
+    let (mut urdf, mut mdh) = (Isometry3::identity(), o[0]);
+    (0..model.joints())
+        .map(|j| {
+            urdf *= o[j];
+            mdh *= fixed_part(model, j);
+            let c = urdf.inverse() * (mdh * nalgebra::Point3::from(centres[j]));
+            format!(
+                "<inertial><origin xyz=\"{} {} {}\"/><mass value=\"{}\"/><inertia ixx=\"0\" ixy=\"0\" ixz=\"0\" iyy=\"0\" iyz=\"0\" izz=\"0\"/></inertial>",
+                num(c.x / 1000.0),
+                num(c.y / 1000.0),
+                num(c.z / 1000.0),
+                num(links.mass_kg[j])
+            )
+        })
+        .collect()
 }
 
 /// The model as a UR calibration file (`kinematics:` with x, y, z, roll, pitch, yaw per joint,

@@ -49,17 +49,18 @@ pub mod urdf;
 pub mod xacro;
 mod xml;
 
-pub use chain::{JointHold, SourceChain, SourceFormat, SourceJoint, MAX_SOURCE_JOINTS};
+pub use chain::{JointHold, SourceBody, SourceChain, SourceFormat, SourceJoint, MAX_SOURCE_JOINTS};
 pub use file::{import_file, kind_of, FileKind, ImportOptions};
 
 use crate::kinematics::lines::Line;
 use crate::kinematics::mdh::{chain_from_zero_pose, GeometryError};
 use crate::kinematics::{
-    Joints, Layout, Limits, Params, RobotModel, Uncertainty, MAX_JOINTS, MIN_JOINTS,
+    gravity::LinkMasses, joint_transform, Capped, Joints, Layout, Limits, Params, RobotModel,
+    Uncertainty, MAX_JOINTS, MIN_JOINTS,
 };
 use crate::number::fmt_plain;
 use base::{check_base, to_base_frame};
-use nalgebra::{Isometry3, Translation3, UnitQuaternion, Vector3};
+use nalgebra::{Isometry3, Point3, Translation3, UnitQuaternion, Vector3};
 use rand::{Rng, SeedableRng};
 use std::fmt::Write as _;
 
@@ -277,6 +278,7 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
     })?;
     let model = RobotModel {
         joint_errors: None,
+        links: None,
         discrepancy: None,
         name: chain.name.clone(),
         params: c.params,
@@ -288,6 +290,8 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         base,
     };
     check_model(&model, chain, path)?;
+    let mut model = model;
+    model.links = chain.bodies.as_ref().map(|b| link_masses(chain, b, &model));
     let (max_deviation_mm, configurations) = prove(chain, &model, path)?;
     let warnings = reach_warning(&model).into_iter().collect();
     Ok(Imported {
@@ -301,6 +305,39 @@ pub fn convert(chain: &SourceChain, path: &str) -> Result<Imported, ImportError>
         held: chain.held.clone(),
         files: Vec::new(),
     })
+}
+
+/// The bodies `bodies` of `chain` (masses, centres of mass in each joint's frame) as the link
+/// masses of `model`, its conversion: each centre of mass moved into its MDH frame through the
+/// two descriptions' frames at q = 0 (`model`'s base placement included), where both are
+/// attached to the same body.
+fn link_masses(chain: &SourceChain, bodies: &[SourceBody], model: &RobotModel) -> LinkMasses {
+    let n = model.joints();
+    let base = model
+        .base
+        .map_or_else(Isometry3::identity, |b| b.isometry());
+    let mut source = Isometry3::identity();
+    let mut mdh = base;
+    let com = Capped::from_fn(n, |j| {
+        source *= chain.joints[j].origin;
+        let p = &model.params[5 * j..5 * j + 5];
+        mdh *= mat4_isometry(&joint_transform(p[0], p[1], p[2], p[3], p[4], 0.0));
+        let c = mdh.inverse() * (source * Point3::from(bodies[j].com_mm));
+        [c.x, c.y, c.z]
+    });
+    LinkMasses {
+        mass_kg: Joints::from_fn(n, |j| bodies[j].mass_kg),
+        com_mm: Some(com),
+    }
+}
+
+/// A homogeneous transform (rotation and translation, mm) as an isometry.
+fn mat4_isometry(m: &[[f64; 4]; 4]) -> Isometry3<f64> {
+    let r = nalgebra::Matrix3::from_fn(|i, j| m[i][j]);
+    Isometry3::from_parts(
+        Translation3::new(m[0][3], m[1][3], m[2][3]),
+        UnitQuaternion::from_matrix(&r),
+    )
 }
 
 /// The chain has [`MIN_JOINTS`] to [`MAX_JOINTS`] joints; else the error names the count, the

@@ -190,5 +190,6 @@ pub fn parse(text: &str, path: &str, name: &str) -> Result<SourceChain, ImportEr
         notes: Vec::new(),
         held: Vec::new(),
         arm_frame: None,
+        bodies: None,
     })
 }

@@ -13,9 +13,11 @@
 //!
 //! A `<joint>` element is read in `joint`; this file finds the chain and checks it.
 
+mod inertial;
 mod joint;
 
 use super::{ImportError, SourceChain, SourceFormat, SourceJoint};
+use inertial::{inertial_of, Inertial};
 use joint::{joint_el, required, JointEl};
 use nalgebra::{Isometry3, Unit};
 use std::collections::HashMap;
@@ -39,12 +41,18 @@ pub fn parse(
     let text = super::xml::leading_declaration_blanked(text);
     let doc = document(&text, path)?;
     refuse_xacro(&doc, path)?;
-    let (robot_name, links, joints) = elements(&doc, path)?;
+    let (robot_name, links, joints, inertials) = elements(&doc, path)?;
     let parent_joint = parent_joints(&joints, &links, path)?;
     let base = base_link(base, &links, &parent_joint, path)?;
     let (tip, tip_note) = tip_link(tip, &links, &joints, &base, path)?;
     let chain_idx = chain_between(&joints, &parent_joint, &base, &tip, path)?;
     let chain = revolute_joints(&joints, &chain_idx, path)?;
+    let revolute: Vec<usize> = chain_idx
+        .iter()
+        .copied()
+        .filter(|&k| joints[k].kind != "fixed")
+        .collect();
+    let bodies = inertial::bodies(&joints, &revolute, &inertials);
     if chain.joints.len() > super::MAX_SOURCE_JOINTS {
         return Err(ImportError::Chain {
             path: path.into(),
@@ -65,6 +73,7 @@ pub fn parse(
         notes: tip_note.into_iter().collect(),
         held: Vec::new(),
         arm_frame: chain.arm_frame,
+        bodies,
     })
 }
 
@@ -123,11 +132,12 @@ fn refuse_xacro(doc: &roxmltree::Document, path: &str) -> Result<(), ImportError
     Ok(())
 }
 
-/// The robot's name, its links and its joints, in file order, from the root `<robot>`.
-fn elements(
-    doc: &roxmltree::Document,
-    path: &str,
-) -> Result<(String, Vec<String>, Vec<JointEl>), ImportError> {
+/// What [`elements`] reads: the robot's name, its links, its joints and the links' inertial data.
+type Elements = (String, Vec<String>, Vec<JointEl>, HashMap<String, Inertial>);
+
+/// The robot's name, its links and its joints, in file order, and the links' `<inertial>` data,
+/// from the root `<robot>`.
+fn elements(doc: &roxmltree::Document, path: &str) -> Result<Elements, ImportError> {
     let root = doc.root_element();
     if root.tag_name().name() != "robot" {
         return Err(ImportError::Element {
@@ -140,6 +150,7 @@ fn elements(
     let robot_name = root.attribute("name").unwrap_or("robot").to_string();
     let mut links = Vec::new();
     let mut joints = Vec::new();
+    let mut inertials = HashMap::new();
     for n in root.children().filter(|n| n.is_element()) {
         match n.tag_name().name() {
             "link" => {
@@ -152,13 +163,16 @@ fn elements(
                         message: "a second link of this name".into(),
                     });
                 }
+                if let Some(i) = inertial_of(&n, &name, path, line_of(doc, &n))? {
+                    inertials.insert(name.clone(), i);
+                }
                 links.push(name);
             }
             "joint" => joints.push(joint_el(&n, path, line_of(doc, &n))?),
             _ => {}
         }
     }
-    Ok((robot_name, links, joints))
+    Ok((robot_name, links, joints, inertials))
 }
 
 /// Child link → index of its parent joint; refuses a second joint of one name, a second parent

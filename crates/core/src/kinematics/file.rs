@@ -101,6 +101,8 @@ struct ModelFile {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     discrepancy: Option<crate::discrepancy::Discrepancy>,
     #[serde(default, skip_serializing_if = "Option::is_none")]
+    links: Option<super::file_links::LinksFile>,
+    #[serde(default, skip_serializing_if = "Option::is_none")]
     joint_errors: Option<super::file_joint_errors::JointErrorsFile>,
     /// Where an identified model came from (data hash, fit figures): written by the
     /// identification after the model, read and ignored here.
@@ -285,6 +287,13 @@ impl RobotModel {
             Uncertainty::Covariance(c) => c.space(),
             Uncertainty::Independent(_) => InputSpace::robot(n_joints),
         };
+        let links = match file.links {
+            None => None,
+            Some(l) => Some(
+                l.into_model(n_joints)
+                    .map_err(|(field, message)| invalid(InvalidField { field, message }))?,
+            ),
+        };
         let joint_errors = match file.joint_errors {
             None => None,
             Some(j) => Some(
@@ -295,6 +304,7 @@ impl RobotModel {
         let mut model = RobotModel {
             discrepancy,
             joint_errors,
+            links,
             name: file.name,
             params,
             fixed,
@@ -475,6 +485,9 @@ impl RobotModel {
         }
         if let Some(d) = &self.discrepancy {
             super::file_discrepancy::write_discrepancy(&mut s, d);
+        }
+        if let Some(l) = &self.links {
+            super::file_links::write_links(&mut s, l);
         }
         if let Some(e) = &self.joint_errors {
             super::file_joint_errors::write_joint_errors(&mut s, e);

@@ -2,6 +2,7 @@
 //! file by serde, converted and checked here, and written back.
 
 use super::file::fnum;
+use super::gravity::LinkMasses;
 use super::joint_errors::{JointErrors, Payload, COEFFICIENTS_PER_JOINT};
 use super::{InputSpace, Joints};
 use serde::{Deserialize, Serialize};
@@ -14,6 +15,8 @@ pub(super) struct JointErrorsFile {
     compliance_urad_per_nm: Vec<f64>,
     harmonics_deg: Vec<Vec<f64>>,
     link_mass_kg: Vec<f64>,
+    #[serde(default)]
+    link_com_mm: Option<Vec<Vec<f64>>>,
     #[serde(default)]
     calibration_payload_kg: f64,
     #[serde(default)]
@@ -80,6 +83,8 @@ impl JointErrorsFile {
                 ),
             ));
         }
+        let com_mm = super::file_links::com_rows(self.link_com_mm.as_deref(), joints)
+            .map_err(|m| bad("link_com_mm", m))?;
         let mut coefficients = vec![0.0; COEFFICIENTS_PER_JOINT * joints];
         for j in 0..joints {
             let c = &mut coefficients[COEFFICIENTS_PER_JOINT * j..COEFFICIENTS_PER_JOINT * (j + 1)];
@@ -160,7 +165,10 @@ impl JointErrorsFile {
         };
         let e = JointErrors {
             coefficients,
-            link_mass_kg: Joints::from_fn(joints, |j| self.link_mass_kg[j]),
+            links: LinkMasses {
+                mass_kg: Joints::from_fn(joints, |j| self.link_mass_kg[j]),
+                com_mm,
+            },
             calibration_payload,
             payload,
             free,
@@ -181,7 +189,8 @@ pub(super) fn write_joint_errors(s: &mut String, e: &JointErrors) {
         s,
         "\n# Joint errors beyond geometry (docs/METHOD.md §19): commanded to q, joint i stands at\n\
          # q_i + k_i * tau_i(q, payload) + sin1_i sin q_i + cos1_i cos q_i + sin2_i sin 2q_i + cos2_i cos 2q_i,\n\
-         # tau_i the gravity torque about joint i of the links (link_mass_kg) and the payload.\n\
+         # tau_i the gravity torque about joint i of the links (link_mass_kg at link_com_mm, MDH frame i;\n\
+         # without it the middle of the link's frame origins) and the payload.\n\
          # payload_*: the payload at the task (analyses draw its mass with payload_sigma_kg);\n\
          # calibration_payload_*: the one during the measurements.\n\
          [joint_errors]"
@@ -203,8 +212,11 @@ pub(super) fn write_joint_errors(s: &mut String, e: &JointErrors) {
     let _ = writeln!(
         s,
         "link_mass_kg = [{}]",
-        join(&mut e.link_mass_kg.iter().copied())
+        join(&mut e.links.mass_kg.iter().copied())
     );
+    if let Some(c) = &e.links.com_mm {
+        let _ = writeln!(s, "link_com_mm = {}", super::file_links::com_text(c));
+    }
     let c = &e.calibration_payload;
     let _ = writeln!(
         s,

@@ -24,7 +24,7 @@
 //! coefficients (what a fit with the coefficients held reports). Together that is the joint
 //! distribution of the identification. The task payload has its own σ, independent of the rest.
 
-use super::gravity::gravity_torques;
+use super::gravity::{gravity_torques, LinkMasses};
 use super::{InputSpace, Joints, MAX_JOINTS};
 
 /// Coefficients per joint: `k, a1, b1, a2, b2`.
@@ -63,8 +63,8 @@ pub type PointTerms = [[f64; 6]; MAX_JOINTS];
 pub struct JointErrors {
     /// Per joint `k, a1, b1, a2, b2` (rad/(N·m), rad), joint-major.
     pub coefficients: Vec<f64>,
-    /// The link masses the gravity torques assume, kg, one per joint.
-    pub link_mass_kg: Joints,
+    /// The link masses and centres of mass the gravity torques assume.
+    pub links: LinkMasses,
     /// The payload during the calibration the coefficients come from.
     pub calibration_payload: Payload,
     /// The payload at the task (analyses): the calibration's unless changed.
@@ -83,7 +83,7 @@ pub struct JointErrors {
 impl JointErrors {
     /// Number of joints.
     pub fn joints(&self) -> usize {
-        self.link_mass_kg.len()
+        self.links.joints()
     }
 
     /// The name of coefficient `i` as files and reports write it: `k2`, `sin1_2`, `cos1_2`,
@@ -138,8 +138,8 @@ impl JointErrors {
     /// [`Self::point_terms`] with `payload`'s centre of mass.
     fn point_terms_for(&self, params: &[f64], q: &[f64], payload: &Payload) -> PointTerms {
         let n = q.len();
-        let tau_links = gravity_torques(params, &[0.0; 3], &self.link_mass_kg, 0.0, q);
-        let zero = Joints::filled(n, 0.0);
+        let tau_links = gravity_torques(params, &[0.0; 3], &self.links, 0.0, q);
+        let zero = LinkMasses::at_midpoints(Joints::filled(n, 0.0));
         let tau_unit = gravity_torques(params, &payload.com_mm, &zero, 1.0, q);
         let mut t = [[0.0; 6]; MAX_JOINTS];
         for i in 0..n {
@@ -195,10 +195,14 @@ impl JointErrors {
                 format!("needs one value per joint ({joints})"),
             );
         }
-        if self.link_mass_kg.len() != joints {
+        if let Err((field, m)) = self.links.check(joints) {
             return bad(
-                "link_mass_kg",
-                format!("needs one mass per joint ({joints})"),
+                if field == "mass_kg" {
+                    "link_mass_kg"
+                } else {
+                    "link_com_mm"
+                },
+                m,
             );
         }
         if let Some(i) = self.coefficients.iter().position(|v| !v.is_finite()) {
@@ -227,16 +231,6 @@ impl JointErrors {
                     ),
                 );
             }
-        }
-        if let Some(j) = (0..joints).find(|&j| !(0.0..=1e4).contains(&self.link_mass_kg[j])) {
-            return bad(
-                "link_mass_kg",
-                format!(
-                    "joint {}: {} kg (0 to 10000 kg)",
-                    j + 1,
-                    self.link_mass_kg[j]
-                ),
-            );
         }
         for (name, p) in [
             ("calibration_payload_kg", &self.calibration_payload),

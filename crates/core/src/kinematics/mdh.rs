@@ -279,6 +279,7 @@ pub fn chain_from_zero_pose(axes: &[Line], tip: Vector3<f64>) -> Result<Chain, G
     let n = axes.len();
     let reference = RobotModel {
         joint_errors: None,
+        links: None,
         discrepancy: None,
         name: String::new(),
         params: Params::filled(5 * n, 0.0),

@@ -22,6 +22,7 @@ mod check;
 mod file;
 mod file_discrepancy;
 mod file_joint_errors;
+mod file_links;
 mod fk;
 pub mod gravity;
 mod index;

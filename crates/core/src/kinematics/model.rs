@@ -258,6 +258,10 @@ pub struct RobotModel {
     /// Joint compliance and gear harmonics beyond the geometry, from an identification that
     /// kept them ([`super::JointErrors`], docs/METHOD.md §19); `None` for a geometric model.
     pub joint_errors: Option<super::JointErrors>,
+    /// The masses and centres of mass of the moving links, when known (imported from a
+    /// description's `<inertial>` data; else joint compliance assumes
+    /// [`super::gravity::default_link_masses`]).
+    pub links: Option<super::gravity::LinkMasses>,
 }
 
 impl RobotModel {

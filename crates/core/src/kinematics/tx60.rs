@@ -61,6 +61,7 @@ pub fn tx60() -> RobotModel {
     }
     RobotModel {
         joint_errors: None,
+        links: None,
         discrepancy: None,
         name: "Staubli TX60".into(),
         params,

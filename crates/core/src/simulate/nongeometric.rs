@@ -19,17 +19,18 @@
 //! with phases uniform in [0, 2π). The draws do not depend on the sizes, so one seed gives one
 //! robot whose non-geometric errors scale with `s`.
 //!
-//! The robot model holds no inertial data, so the link masses are a documented default
-//! ([`default_link_masses`]): the figures 12, 10, 6, 5, 1.5, 0.5 kg for the six links of a
-//! TX60-class arm (further links 0.5 kg), scaled by the square of the robot's size against the
-//! TX60's (size: the sum of |a| and |d| over the chain). They are plausible, not published.
+//! The link masses are the model's own when it has them (imported `<inertial>` data, the
+//! `[links]` table), else a documented default ([`default_link_masses`]): the figures 12, 10, 6,
+//! 5, 1.5, 0.5 kg for the six links of a TX60-class arm (further links 0.5 kg), scaled by the
+//! square of the robot's size against the TX60's (size: the sum of |a| and |d| over the chain).
+//! They are plausible, not published.
 
 use crate::kinematics::{position, Capped, Joints, RobotModel, MAX_JOINTS};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::f64::consts::PI;
 
-pub use crate::kinematics::gravity::{default_link_masses, GRAVITY, TX60_LINK_MASS_KG};
+pub use crate::kinematics::gravity::{default_link_masses, LinkMasses, GRAVITY, TX60_LINK_MASS_KG};
 
 /// Compliance of a joint at scale 1, rad/(N·m): drawn uniformly in this range.
 pub const COMPLIANCE_RANGE: (f64, f64) = (1e-6, 5e-6);
@@ -133,8 +134,8 @@ pub struct NonGeometric {
     pub compliance: Joints,
     /// `A, φ, B, ψ` of each joint's harmonics, rad.
     pub harmonics: Capped<[f64; 4], MAX_JOINTS>,
-    /// Link masses, kg, per joint (link i is the body joint i turns).
-    pub link_mass_kg: Joints,
+    /// Link masses and centres of mass (link i is the body joint i turns).
+    pub links: LinkMasses,
     /// Payload at the tool point, kg.
     pub payload_kg: f64,
 }
@@ -166,7 +167,7 @@ impl NonGeometric {
         Some(NonGeometric {
             compliance,
             harmonics,
-            link_mass_kg: default_link_masses(model),
+            links: LinkMasses::of(model),
             payload_kg: sizes.payload_kg,
         })
     }
@@ -177,7 +178,7 @@ impl NonGeometric {
         crate::kinematics::gravity::gravity_torques(
             &model.params,
             &model.tool,
-            &self.link_mass_kg,
+            &self.links,
             self.payload_kg,
             q,
         )
@@ -273,7 +274,7 @@ mod tests {
         let e = NonGeometric {
             compliance: Joints::filled(6, 0.0),
             harmonics: Capped::filled(6, [0.0; 4]),
-            link_mass_kg: Joints::filled(6, 0.0),
+            links: LinkMasses::at_midpoints(Joints::filled(6, 0.0)),
             payload_kg: 1.0,
         };
         let q = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0];

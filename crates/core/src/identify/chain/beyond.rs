@@ -23,7 +23,7 @@
 use super::Fitted;
 use crate::identify::chain_fit::{ChainState, Observation, Prior};
 use crate::identify::lm::levenberg_marquardt;
-use crate::kinematics::gravity::{default_link_masses, gravity_torques};
+use crate::kinematics::gravity::{gravity_torques, LinkMasses};
 use crate::kinematics::joint_errors::PointTerms;
 use crate::kinematics::{InputSpace, JointErrors, Joints, Payload, RobotModel};
 use nalgebra::{DMatrix, Matrix3, Vector3};
@@ -65,6 +65,60 @@ pub struct BeyondGeometry {
     pub link_mass_kg: Vec<f64>,
     /// RMS over the poses of the fitted joint deflections, degrees, per joint.
     pub deflection_rms_deg: Vec<f64>,
+    /// The coefficients these data do not determine, one line each: held by their prior (a
+    /// posterior σ above [`PRIOR_HELD`] of the prior's), or not separated from another input
+    /// (a correlation beyond ±[`CONFOUNDED`]: a harmonic of a joint that hardly moved against
+    /// its offset, a first harmonic of q1 against the placement).
+    pub undetermined: Vec<String>,
+}
+
+/// A coefficient whose posterior σ exceeds this share of its prior's is held by the prior.
+pub const PRIOR_HELD: f64 = 0.7;
+
+/// A coefficient correlated beyond this with another free input is not separated from it.
+pub const CONFOUNDED: f64 = 0.95;
+
+/// The coefficients among `free` (the first `geo` geometric inputs of `space`, then
+/// coefficients) that the posterior covariance `cov` shows undetermined ([`BeyondGeometry`]'s
+/// `undetermined`); `sigma` the coefficients' prior σ.
+fn undetermined(
+    free: &[usize],
+    geo: usize,
+    space: crate::kinematics::InputSpace,
+    cov: &DMatrix<f64>,
+    sigma: &[f64],
+) -> Vec<String> {
+    let name = |k: usize| {
+        if k < geo {
+            space.name(free[k])
+        } else {
+            JointErrors::coefficient_name(free[k])
+        }
+    };
+    let sd = |k: usize| cov[(k, k)].max(0.0).sqrt();
+    (geo..free.len())
+        .filter_map(|k| {
+            let ratio = sd(k) / sigma[free[k]];
+            if ratio > PRIOR_HELD {
+                return Some(format!(
+                    "{}: held by its prior (σ {:.0} % of the prior's)",
+                    name(k),
+                    100.0 * ratio
+                ));
+            }
+            let (other, rho) = (0..free.len())
+                .filter(|&o| o != k && sd(o) > 0.0)
+                .map(|o| (o, cov[(k, o)] / (sd(k) * sd(o))))
+                .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
+            (rho.abs() > CONFOUNDED).then(|| {
+                format!(
+                    "{}: not separated from {} (correlation {rho:+.2})",
+                    name(k),
+                    name(other)
+                )
+            })
+        })
+        .collect()
 }
 
 impl BeyondGeometry {
@@ -79,6 +133,7 @@ impl BeyondGeometry {
             match (self.predicts_better, self.kept) {
                 (true, true) => "the robot shows errors of these kinds, and the model carries them (geometry fitted again to the corrected joint angles; every analysis draws them)",
                 (true, false) => "the robot shows errors of these kinds",
+                (false, true) => "no gain worth the coefficients, but the model carries them as asked (geometry fitted again to the corrected joint angles; every analysis draws them)",
                 _ => "no gain worth the coefficients; the model carries the geometry alone",
             }
         )
@@ -92,15 +147,15 @@ pub struct ExtendedModel {
     pub state: ChainState,
     /// `k, a1, b1, a2, b2` per joint.
     pub beta: Vec<f64>,
-    /// The link masses of the torques, kg.
-    pub link_mass_kg: Joints,
+    /// The link masses and centres of mass of the torques.
+    pub links: LinkMasses,
 }
 
 impl ExtendedModel {
     /// The joint deflections at the commanded angles `q` (rad): the formula of
     /// [`JointErrors::deflections_with`] (torques at the commanded angles, no payload).
     pub fn deflections(&self, q: &[f64]) -> Joints {
-        let t = point_terms(&self.state.params, &self.link_mass_kg, q);
+        let t = point_terms(&self.state.params, &self.links, q);
         JointErrors::deflections_with(&self.beta, 0.0, &t, q.len())
     }
 
@@ -113,10 +168,10 @@ impl ExtendedModel {
 }
 
 /// The per-point quantities of [`JointErrors::point_terms`] without a payload.
-fn point_terms(params: &[f64], masses: &Joints, q: &[f64]) -> PointTerms {
+fn point_terms(params: &[f64], links: &LinkMasses, q: &[f64]) -> PointTerms {
     let e = JointErrors {
         coefficients: Vec::new(),
-        link_mass_kg: *masses,
+        links: *links,
         calibration_payload: Payload::NONE,
         payload: Payload::NONE,
         free: Vec::new(),
@@ -145,7 +200,7 @@ struct Inputs<'a> {
 fn residuals(obs: &[Observation], m: &ExtendedModel, x: &Inputs<'_>) -> Vec<f64> {
     let (free, geo, prior) = (x.free, x.geo, x.prior);
     let mut out = Vec::with_capacity(3 * obs.len() + free.len());
-    let n = m.link_mass_kg.len();
+    let n = m.links.joints();
     for (o, t) in obs.iter().zip(x.terms) {
         let d = JointErrors::deflections_with(&m.beta, 0.0, t, n);
         let p = m.state.predict(&Joints::from_fn(n, |i| o.q[i] + d[i]));
@@ -237,17 +292,17 @@ pub(super) fn check(
     prior: Option<&Prior>,
 ) -> Option<ExtendedFit> {
     let n = run.state.layout().joints();
-    let masses = default_link_masses(nominal);
+    let links = LinkMasses::of(nominal);
     let geometric = ExtendedModel {
         state: run.state,
         beta: vec![0.0; PER_JOINT * n],
-        link_mass_kg: masses,
+        links,
     };
     // Joints whose torque varies over the poses.
     let torques: Vec<Joints> = run
         .obs
         .iter()
-        .map(|o| gravity_torques(&run.state.params, &run.state.tool, &masses, 0.0, &o.q))
+        .map(|o| gravity_torques(&run.state.params, &run.state.tool, &links, 0.0, &o.q))
         .collect();
     let rms_tau: Vec<f64> = (0..n)
         .map(|i| {
@@ -276,7 +331,7 @@ pub(super) fn check(
     let terms: Vec<PointTerms> = run
         .obs
         .iter()
-        .map(|o| point_terms(&run.state.params, &masses, &o.q))
+        .map(|o| point_terms(&run.state.params, &links, &o.q))
         .collect();
     let plain = Inputs {
         free: &run.free,
@@ -334,7 +389,7 @@ pub(super) fn check(
                 [b[1].hypot(b[2]).to_degrees(), b[3].hypot(b[4]).to_degrees()]
             })
             .collect(),
-        link_mass_kg: masses.to_vec(),
+        link_mass_kg: links.mass_kg.to_vec(),
         deflection_rms_deg: (0..n)
             .map(|j| {
                 (deflections.iter().map(|d| d[j] * d[j]).sum::<f64>()
@@ -343,6 +398,7 @@ pub(super) fn check(
                     .to_degrees()
             })
             .collect(),
+        undetermined: undetermined(&free, geo, run.space, &cov, &sigma),
     };
     Some(ExtendedFit {
         report,
@@ -433,7 +489,7 @@ impl ExtendedFit {
             .collect();
         JointErrors {
             coefficients: self.model.beta.clone(),
-            link_mass_kg: self.model.link_mass_kg,
+            links: self.model.links,
             calibration_payload: Payload::NONE,
             payload: Payload::NONE,
             free: coeffs.iter().map(|c| c.0).collect(),

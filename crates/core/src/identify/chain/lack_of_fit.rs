@@ -10,12 +10,13 @@ use nalgebra::{DMatrix, Matrix3};
 
 /// The lack of fit of `run` with `linearised` = `(JᵀWJ + prior)⁻¹` over its free inputs
 /// (whitened units; the placement's rotation as [`local_jacobian`] takes it) and the noise
-/// check `noise`.
+/// check `noise`; without `self_check`, no leave-one-out self-check (an intermediate fit).
 pub(super) fn lack_of_fit(
     run: &Fitted,
     linearised: &DMatrix<f64>,
     noise: &NoiseReport,
     opts: &ChainOptions,
+    self_check: bool,
 ) -> LackOfFit {
     let j = local_jacobian(&run.obs, &run.state, &run.free);
     let plain = position_residuals(&run.obs, &run.state);
@@ -49,5 +50,6 @@ pub(super) fn lack_of_fit(
             .pure_error_p_value(noise.chi2, noise.dof)
             .or(noise.p_value),
         opts.seed,
+        self_check,
     )
 }

@@ -50,6 +50,7 @@ pub fn state_model(
         .restricted(kept);
     let mut model = RobotModel {
         joint_errors: None,
+        links: nominal.links,
         discrepancy: None,
         name,
         params: s.params,

@@ -96,6 +96,8 @@ pub struct ChainReport {
     /// The check beyond geometry (joint compliance and gear harmonics), when asked for.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub beyond_geometry: Option<super::BeyondGeometry>,
+    /// When the check beyond geometry runs ([`super::JointErrorFit`]).
+    pub joint_error_fit: super::JointErrorFit,
     /// Problems found (one line each, with what to measure instead).
     pub warnings: Vec<String>,
 }
@@ -242,6 +244,7 @@ pub(super) fn build_report(
         covariance_from: opts.uncertainty,
         lack_of_fit,
         beyond_geometry: None,
+        joint_error_fit: opts.beyond_geometry,
         warnings,
     }
 }

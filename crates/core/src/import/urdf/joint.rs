@@ -112,7 +112,7 @@ pub(super) fn joint_el(
 
 /// The transform of the `<origin>` element `o` (lengths in mm): `xyz`, and `rpy` or
 /// `quat_xyzw` (not both). `bad` makes the error for a line and a message.
-fn origin_of(
+pub(super) fn origin_of(
     o: &roxmltree::Node,
     bad: &dyn Fn(usize, String) -> ImportError,
 ) -> Result<Isometry3<f64>, ImportError> {

@@ -18,6 +18,7 @@ fn chain(name: &str, rows: &[[f64; 5]], limits: &[(f64, f64)]) -> RobotModel {
     });
     RobotModel {
         joint_errors: None,
+        links: None,
         discrepancy: None,
         name: name.into(),
         params,
