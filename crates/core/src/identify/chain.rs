@@ -263,14 +263,14 @@ pub fn identify_chain(
         })
         .collect();
     let (mut second, _) = identify_geometry(&corrected, nominal, start, prior, &geometric_only)?;
-    // The coefficients' covariance was whitened with the noise of the geometric fit; the data's
-    // noise is what the second fit finds (estimated) or the stated one times its lack of fit.
+    // The coefficients' covariance is in the units the observations were whitened with: the
+    // noise the geometric fit estimated (then the data's noise is what the second fit
+    // estimates), or the stated noise (then the data's noise is the stated one times the lack
+    // of fit the second fit still finds; the geometric fit's far larger lack of fit is what the
+    // joint errors explained and must not enter).
     let scale = match (first.report.noise.sigma_mm, second.report.noise.sigma_mm) {
         (Some(a), Some(b)) if a > 0.0 => (b / a).powi(2),
-        _ => {
-            second.report.lack_of_fit.covariance_scale
-                / first.report.lack_of_fit.covariance_scale.max(1e-300)
-        }
+        _ => second.report.lack_of_fit.covariance_scale,
     };
     let space = model::reported_space(second.state.space(), second.report.frame);
     let prior_k = crate::kinematics::gravity::compliance_prior(nominal);
