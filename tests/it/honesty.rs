@@ -42,20 +42,28 @@ fn generator_agrees_with_the_library() {
     }
 }
 
+/// 30 experiments at size `size` (seeds from `first`, 5000 draws each), their PITs, the PIT
+/// mean and the share at u ≥ 0.99.
+fn thirty(size: f64, first: u64) -> (Vec<Outcome>, Vec<f64>, f64, f64) {
+    let out: Vec<Outcome> = (0..30u64)
+        .into_par_iter()
+        .map(|e| experiment(size, first + e, 5_000))
+        .collect();
+    let n = out.len() as f64;
+    let u: Vec<f64> = out.iter().map(|o| o.u).collect();
+    let mean = u.iter().sum::<f64>() / n;
+    let high = u.iter().filter(|&&v| v >= 0.99).count() as f64 / n;
+    (out, u, mean, high)
+}
+
 /// Geometric robots (size 0), 30 experiments: the PIT `u = R_pred(w_true)` of the realised
 /// largest error over 20 task points has a mean within [0.2, 0.8] and fewer than 30 % of the
 /// experiments have u ≥ 0.99 (the full experiment, with the tighter targets, is
 /// `cargo bench --bench honesty`).
 #[test]
 fn geometric_robots_pit_is_not_grossly_off() {
-    let out: Vec<Outcome> = (0..30u64)
-        .into_par_iter()
-        .map(|e| experiment(0.0, 20_000 + e, 5_000))
-        .collect();
+    let (out, u, mean, high) = thirty(0.0, 20_000);
     let n = out.len() as f64;
-    let u: Vec<f64> = out.iter().map(|o| o.u).collect();
-    let mean = u.iter().sum::<f64>() / n;
-    let high = u.iter().filter(|&&v| v >= 0.99).count() as f64 / n;
     eprintln!(
         "size 0: PIT mean {mean:.3}, u ≥ 0.99 in {:.0} %; mean held-out RMS {:.4} mm, w_true {:.4} mm, predicted median w {:.4} mm; {} of {} models draw a discrepancy term (mean robot RMS {:.4} mm); PIT mean from the parameters alone {:.3}",
         100.0 * high,
@@ -84,14 +92,8 @@ fn geometric_robots_pit_is_not_grossly_off() {
 /// u ≥ 0.99 over the bench's 100 experiments.
 #[test]
 fn kept_joint_errors_keep_the_prediction_honest() {
-    let out: Vec<Outcome> = (0..30u64)
-        .into_par_iter()
-        .map(|e| experiment(1.0, 40_000 + e, 5_000))
-        .collect();
+    let (out, u, mean, high) = thirty(1.0, 40_000);
     let n = out.len() as f64;
-    let u: Vec<f64> = out.iter().map(|o| o.u).collect();
-    let mean = u.iter().sum::<f64>() / n;
-    let high = u.iter().filter(|&&v| v >= 0.99).count() as f64 / n;
     eprintln!(
         "size 1: PIT mean {mean:.3}, u ≥ 0.99 in {:.0} %; w_true {:.4} mm, predicted median w {:.4} mm",
         100.0 * high,
