@@ -20,6 +20,7 @@ fn data(truth: &RobotModel, n: usize, rng: &mut ChaCha8Rng) -> Vec<MeasuredPoint
         .into_iter()
         .enumerate()
         .map(|(k, q)| MeasuredPoint {
+            payload_kg: 0.0,
             q_deg: q,
             position_mm: truth
                 .world_position(&q.map(f64::to_radians))

@@ -45,6 +45,7 @@ fn points(data: &PoseData) -> Vec<MeasuredPoint> {
             q_deg: p.q_deg,
             position_mm: p.position_mm,
             sigma_mm: None,
+            payload_kg: p.payload_kg,
             line: p.line,
         })
         .collect()

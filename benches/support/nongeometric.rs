@@ -355,6 +355,7 @@ pub fn measure(
         .iter()
         .enumerate()
         .map(|(i, q)| PosePoint {
+            payload_kg: 0.0,
             q_deg: *q,
             position_mm: truth.position(q).map(|v| v + sigma * normal(rng)),
             sigma_mm: None,

@@ -38,6 +38,7 @@ pub fn measured_points(
         .points
         .iter()
         .map(|p| gpu_amcs::identify::chain::MeasuredPoint {
+            payload_kg: p.payload_kg,
             q_deg: p.q_deg,
             position_mm: p.position_mm,
             sigma_mm: None,

@@ -19,6 +19,7 @@ fn identified(points: &[MeasuredPoint], q: &Matrix3<f64>) -> ChainResult {
         .map(|p| {
             let v = q * Vector3::from(p.position_mm);
             MeasuredPoint {
+                payload_kg: 0.0,
                 position_mm: [v.x, v.y, v.z],
                 ..*p
             }

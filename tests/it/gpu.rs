@@ -1080,6 +1080,7 @@ fn tracker_poses(truth: &RobotModel, n: usize) -> Vec<gpu_amcs::identify::Measur
         .iter()
         .enumerate()
         .map(|(k, q)| gpu_amcs::identify::MeasuredPoint {
+            payload_kg: 0.0,
             q_deg: *q,
             position_mm: truth
                 .world_position(&q.map(f64::to_radians))

@@ -33,6 +33,7 @@ mod map_shards;
 mod mc_known_answers;
 mod memory_limits;
 mod module_cycles;
+mod payload_data;
 mod placement_analyses;
 mod plan;
 mod plan_runnable;

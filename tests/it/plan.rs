@@ -47,6 +47,7 @@ fn measure(t: &ChainState, q: &[Joints], rng: &mut impl Rng) -> Vec<MeasuredPoin
         .map(|(k, q)| {
             let p = t.predict(&q.map(f64::to_radians));
             MeasuredPoint {
+                payload_kg: 0.0,
                 q_deg: *q,
                 position_mm: p.map(|v| v + SIGMA * standard_normal(rng)),
                 sigma_mm: None,

@@ -75,6 +75,7 @@ fn measure(
         .map(|(k, q)| {
             let p = truth.world_position(&q.map(f64::to_radians));
             MeasuredPoint {
+                payload_kg: 0.0,
                 q_deg: *q,
                 position_mm: p.map(|v| v + sigma * gpu_amcs::sampling::standard_normal(rng)),
                 sigma_mm: None,

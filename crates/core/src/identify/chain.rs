@@ -22,7 +22,7 @@ mod tests;
 mod undetermined;
 mod warnings;
 
-pub use beyond::{BeyondGeometry, ExtendedModel, PRIOR_RAD};
+pub use beyond::{BeyondGeometry, ExtendedModel, CONFOUNDED, PRIOR_HELD, PRIOR_RAD};
 pub use model::{chain_model, state_model};
 pub use report::{ChainReport, ChainResult, MonteCarloCheck, NoiseReport, ParameterRow};
 pub use undetermined::{
@@ -156,6 +156,9 @@ pub struct MeasuredPoint {
     pub position_mm: [f64; 3],
     /// Stated standard uncertainty per coordinate, mm, if the data have it.
     pub sigma_mm: Option<[f64; 3]>,
+    /// The payload the robot carried at this measurement, kg (its centre of mass at the
+    /// measured target); 0 without one.
+    pub payload_kg: f64,
     /// The line of the data file.
     pub line: u64,
 }
@@ -211,6 +214,7 @@ pub fn observations(
                 q: p.q_deg.map(f64::to_radians),
                 p: p.position_mm,
                 whiten,
+                payload_kg: p.payload_kg,
             })
         })
         .collect()
@@ -255,7 +259,7 @@ pub fn identify_chain(
         .iter()
         .map(|p| {
             let q = p.q_deg.map(f64::to_radians);
-            let d = ext.model.deflections(&q);
+            let d = ext.model.deflections_at(&q, p.payload_kg);
             MeasuredPoint {
                 q_deg: Joints::from_fn(q.len(), |i| (q[i] + d[i]).to_degrees()),
                 ..*p
@@ -275,8 +279,11 @@ pub fn identify_chain(
     let space = model::reported_space(second.state.space(), second.report.frame);
     let prior_k = crate::kinematics::gravity::compliance_prior(nominal);
     let mut errors = ext.joint_errors(second.state.space(), space, scale, prior_k);
-    // A payload's centre of mass defaults to the tool point (the target the data measured).
+    // A payload's centre of mass defaults to the tool point (the target the data measured); the
+    // payload during calibration is the one most poses were measured with (the calibrated
+    // prediction a controller makes is at that payload).
     errors.calibration_payload.com_mm = second.state.tool;
+    errors.calibration_payload.mass_kg = most_common_payload(points);
     errors.payload = errors.calibration_payload;
     second.joint_errors = Some(errors);
     let mut beyond = ext.report.clone();
@@ -284,6 +291,21 @@ pub fn identify_chain(
     second.report.beyond_geometry = Some(beyond);
     second.extended = Some(ext.model);
     Ok(second)
+}
+
+/// The payload (kg) most of `points` were measured with (the smallest of those tied).
+fn most_common_payload(points: &[MeasuredPoint]) -> f64 {
+    let mut counts: Vec<(f64, usize)> = Vec::new();
+    for p in points {
+        match counts.iter_mut().find(|(m, _)| *m == p.payload_kg) {
+            Some((_, c)) => *c += 1,
+            None => counts.push((p.payload_kg, 1)),
+        }
+    }
+    counts
+        .into_iter()
+        .max_by(|a, b| a.1.cmp(&b.1).then(b.0.total_cmp(&a.0)))
+        .map_or(0.0, |(m, _)| m)
 }
 
 /// The geometric identification of [`identify_chain`], and the extended fit when asked for.

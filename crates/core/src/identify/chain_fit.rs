@@ -105,6 +105,8 @@ pub struct Observation {
     /// `W` with `Wᵀ W` the inverse of the point's noise covariance (mm⁻¹); the identity for
     /// unit weights.
     pub whiten: Matrix3<f64>,
+    /// The payload during the measurement, kg (at the target; joint compliance bends under it).
+    pub payload_kg: f64,
 }
 
 /// The inputs position data can identify by default: the placement (when `base_free`), then per
@@ -402,6 +404,7 @@ mod tests {
                     q,
                     p: truth.predict(&q),
                     whiten: Matrix3::identity(),
+                    payload_kg: 0.0,
                 }
             })
             .collect()

@@ -164,6 +164,17 @@ fn render_beyond_geometry(s: &mut String, b: &super::chain::BeyondGeometry) {
         })
         .collect();
     let _ = writeln!(s, "    {}", joints.join("; "));
+    if b.calibration_payloads_kg.iter().any(|&m| m != 0.0) {
+        let _ = writeln!(
+            s,
+            "    payloads during the measurements: {} kg",
+            b.calibration_payloads_kg
+                .iter()
+                .map(|m| crate::number::fmt_plain(*m))
+                .collect::<Vec<_>>()
+                .join(", ")
+        );
+    }
     if !b.undetermined.is_empty() {
         let _ = writeln!(
             s,

@@ -246,6 +246,7 @@ fn sweep_points(run: &SweepRun) -> Vec<MeasuredPoint> {
             q_deg: p.q_deg,
             position_mm: p.position_mm,
             sigma_mm: None,
+            payload_kg: 0.0,
             line: p.line,
         })
         .collect()

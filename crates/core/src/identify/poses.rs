@@ -34,9 +34,14 @@ pub fn pose_columns(joints: usize) -> Vec<&'static str> {
 }
 
 /// The accepted headers, for the error of a file that has neither.
-const FORMATS: &str = "joint,q1,…,qn,x,y,z (sweeps) or q1,…,qn,x,y,z [,sx,sy,sz] (poses), one q column per joint (4 to 7), each optionally with run";
+const FORMATS: &str = "joint,q1,…,qn,x,y,z (sweeps) or q1,…,qn,x,y,z [,sx,sy,sz] [,payload_kg] (poses), one q column per joint (4 to 7), each optionally with run";
 /// The optional per-point standard uncertainty columns.
 pub const SIGMA_COLUMNS: [&str; 3] = ["sx", "sy", "sz"];
+/// The optional column of the payload during each measurement, kg (its centre of mass at the
+/// measured target): joint compliance bends the robot under it.
+pub const PAYLOAD_COLUMN: &str = "payload_kg";
+/// The largest payload a pose file may state, kg.
+pub const MAX_PAYLOAD_KG: f64 = 1000.0;
 
 /// One measured pose.
 #[derive(Clone, Debug, PartialEq)]
@@ -47,6 +52,9 @@ pub struct PosePoint {
     pub position_mm: [f64; 3],
     /// Stated standard uncertainty per coordinate, mm.
     pub sigma_mm: Option<[f64; 3]>,
+    /// The payload the robot carried, kg (the `payload_kg` column; 0 without it), its centre of
+    /// mass at the measured target.
+    pub payload_kg: f64,
     /// Line in the file.
     pub line: u64,
 }
@@ -141,6 +149,7 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
             .position(|h| h.trim().eq_ignore_ascii_case(name))
     };
     let run_col = find("run");
+    let payload_col = find(PAYLOAD_COLUMN);
     let present: Vec<bool> = SIGMA_COLUMNS.iter().map(|c| find(c).is_some()).collect();
     let sigma_cols = if present.iter().any(|&p| p) {
         Some(column_indices(&header, &SIGMA_COLUMNS, origin)?)
@@ -186,7 +195,30 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
                 Some(s)
             }
         };
-        let key = (run.clone(), v.iter().map(|x| x.to_bits()).collect());
+        let payload_kg = match payload_col {
+            None => 0.0,
+            Some(c) => {
+                let m = parse_number(&rec, c, PAYLOAD_COLUMN, line, origin, &context)?;
+                if !(0.0..=MAX_PAYLOAD_KG).contains(&m) {
+                    return Err(IdentifyError::Csv {
+                        origin: origin.to_string(),
+                        line,
+                        message: format!(
+                            "column {PAYLOAD_COLUMN} = {} is not a payload: it must be within 0 … {MAX_PAYLOAD_KG} kg",
+                            crate::number::fmt_plain(m)
+                        ),
+                    });
+                }
+                m
+            }
+        };
+        let key = (
+            run.clone(),
+            v.iter()
+                .chain(std::iter::once(&payload_kg))
+                .map(|x| x.to_bits())
+                .collect(),
+        );
         if let Some(first) = seen.insert(key, line) {
             copies.push((line, first));
         }
@@ -194,6 +226,7 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
             q_deg: Joints::from_slice(&v[..n]),
             position_mm: [v[n], v[n + 1], v[n + 2]],
             sigma_mm,
+            payload_kg,
             line,
         };
         match data.runs.iter_mut().find(|r| r.run == run) {
@@ -356,7 +389,7 @@ pub fn check_tracker_data(
 }
 
 /// Writes pose data in the format [`parse_poses`] reads: a `run` column when any run has a label,
-/// `sx,sy,sz` when every point has them. The `q` columns are those of the first pose's joints
+/// `sx,sy,sz` when every point has them, `payload_kg` when any point carried a payload. The `q` columns are those of the first pose's joints
 /// (six without poses).
 ///
 /// # Errors
@@ -373,6 +406,10 @@ pub fn write_poses<W: Write>(data: &PoseData, writer: W) -> Result<(), IdentifyE
         .runs
         .iter()
         .all(|r| r.points.iter().all(|p| p.sigma_mm.is_some()));
+    let with_payload = data
+        .runs
+        .iter()
+        .any(|r| r.points.iter().any(|p| p.payload_kg != 0.0));
     let mut points = data.runs.iter().flat_map(|r| &r.points);
     let n = points.clone().next().map_or(6, |p| p.q_deg.len());
     if points.any(|p| p.q_deg.len() != n) {
@@ -392,6 +429,9 @@ pub fn write_poses<W: Write>(data: &PoseData, writer: W) -> Result<(), IdentifyE
     if with_sigma {
         header.extend_from_slice(&SIGMA_COLUMNS);
     }
+    if with_payload {
+        header.push(PAYLOAD_COLUMN);
+    }
     w.write_record(&header).map_err(io)?;
     for r in &data.runs {
         for p in &r.points {
@@ -403,6 +443,9 @@ pub fn write_poses<W: Write>(data: &PoseData, writer: W) -> Result<(), IdentifyE
             row.extend(p.position_mm.iter().map(|v| format!("{v:?}")));
             if let (true, Some(s)) = (with_sigma, p.sigma_mm) {
                 row.extend(s.iter().map(|v| format!("{v:?}")));
+            }
+            if with_payload {
+                row.push(format!("{:?}", p.payload_kg));
             }
             w.write_record(&row).map_err(io)?;
         }

@@ -109,35 +109,67 @@ pub fn predictive_check(
         ));
     }
     let observed = point_errors_in(model, measurements, frame);
-    let q: Vec<_> = measurements.iter().map(|m| m.q_deg).collect();
-    let problem = Problem::new(model.clone(), &q, &Reference::Calibrated, seed)
-        .map_err(|e| IdentifyError::NoData(format!("predictive check: {e}")))?
-        .in_frame(match frame {
-            Placement::Identify => Frame::Measurement,
-            Placement::Known => Frame::Base,
-        });
+    // Poses measured with a payload (a `payload_kg` column) are predicted with it, as their
+    // observed errors are: one problem per payload, each drawing the same parameter draws
+    // (keyed by the draw's index), its columns put back in the poses' order.
+    let mut groups: Vec<(Option<f64>, Vec<usize>)> = Vec::new();
+    for (i, m) in measurements.iter().enumerate() {
+        let key = m
+            .payload_kg
+            .filter(|&kg| model.knowing_payload(kg).is_some());
+        match groups.iter_mut().find(|(k, _)| *k == key) {
+            Some((_, v)) => v.push(i),
+            None => groups.push((key, vec![i])),
+        }
+    }
+    let problems: Vec<(Problem, Vec<usize>)> = groups
+        .into_iter()
+        .map(|(kg, idx)| {
+            let m = kg
+                .and_then(|kg| model.knowing_payload(kg))
+                .unwrap_or_else(|| model.clone());
+            let q: Vec<_> = idx.iter().map(|&i| measurements[i].q_deg).collect();
+            let p = Problem::new(m, &q, &Reference::Calibrated, seed)
+                .map_err(|e| IdentifyError::NoData(format!("predictive check: {e}")))?
+                .in_frame(match frame {
+                    Placement::Identify => Frame::Measurement,
+                    Placement::Known => Frame::Base,
+                });
+            Ok((p, idx))
+        })
+        .collect::<Result<_, IdentifyError>>()?;
     let draws = draws.clamp(100, (MAX_CELLS / n).max(100));
     let subset = 20.min(n);
     let subsets = 1000;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x005E_ED0F_C0DE);
     let picks = crate::discrepancy::random_subsets(n, subset, subsets, &mut rng);
-    let coverage = |p: Problem| -> Result<Coverage, IdentifyError> {
-        let mut ev = CpuEvaluator::new(p);
-        let mut w = vec![0.0; draws];
+    let coverage = |term: bool| -> Result<Coverage, IdentifyError> {
         let mut e = vec![0.0; draws * n];
-        ev.evaluate(0, &mut w, Some(&mut e))
-            .map_err(|e| IdentifyError::NoData(format!("predictive check: {e}")))?;
+        for (p, idx) in &problems {
+            let p = if term {
+                p.clone().with_discrepancy_use(DiscrepancyUse::Measured)
+            } else {
+                p.clone().without_discrepancy()
+            };
+            let k = idx.len();
+            let mut ev = CpuEvaluator::new(p);
+            let mut w = vec![0.0; draws];
+            let mut part = vec![0.0; draws * k];
+            ev.evaluate(0, &mut w, Some(&mut part))
+                .map_err(|e| IdentifyError::NoData(format!("predictive check: {e}")))?;
+            for d in 0..draws {
+                for (c, &i) in idx.iter().enumerate() {
+                    e[d * n + i] = part[d * k + c];
+                }
+            }
+        }
         Ok(figures(&e, draws, &observed, &picks))
     };
     let with_term = match model.discrepancy {
-        Some(_) => Some(coverage(
-            problem
-                .clone()
-                .with_discrepancy_use(DiscrepancyUse::Measured),
-        )?),
+        Some(_) => Some(coverage(true)?),
         None => None,
     };
-    let parameters_only = coverage(problem.without_discrepancy())?;
+    let parameters_only = coverage(false)?;
     let rms_mm = (observed.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
     Ok(PredictiveCheck {
         points: n,
@@ -233,6 +265,7 @@ mod tests {
                 });
                 let p = position(&truth, &model.tool, &q.map(f64::to_radians));
                 Measurement {
+                    payload_kg: None,
                     q_deg: q,
                     position_mm: std::array::from_fn(|k| p[k] + s * gaussian(&mut rng)),
                     line: i + 2,

@@ -22,14 +22,19 @@ use std::collections::HashMap;
 /// Two-sided level at which a stated σ and the repeats' scatter are said to disagree.
 pub const DISAGREEMENT_LEVEL: f64 = 0.01;
 
-/// The rows of `run` grouped by identical joint angles, in order of first appearance (indices
-/// into `run.points`).
+/// The rows of `run` grouped by identical joint angles and payload, in order of first
+/// appearance (indices into `run.points`).
 pub fn pose_groups(run: &PoseRun) -> Vec<Vec<usize>> {
     let mut at: HashMap<Vec<u64>, usize> = HashMap::new();
     let mut groups: Vec<Vec<usize>> = Vec::new();
     for (i, p) in run.points.iter().enumerate() {
         // + 0.0 makes −0 and 0 the same angle
-        let key: Vec<u64> = p.q_deg.iter().map(|v| (v + 0.0).to_bits()).collect();
+        let key: Vec<u64> = p
+            .q_deg
+            .iter()
+            .chain(std::iter::once(&p.payload_kg))
+            .map(|v| (v + 0.0).to_bits())
+            .collect();
         match at.get(&key) {
             Some(&g) => groups[g].push(i),
             None => {
@@ -158,6 +163,7 @@ fn rows(run: &PoseRun) -> Vec<MeasuredPoint> {
             q_deg: p.q_deg,
             position_mm: p.position_mm,
             sigma_mm: p.sigma_mm,
+            payload_kg: p.payload_kg,
             line: p.line,
         })
         .collect()
@@ -217,6 +223,7 @@ pub fn fit_input(run: &PoseRun, noise: &NoiseModel) -> FitInput {
             q_deg: pts[0].q_deg,
             position_mm: [mean.x, mean.y, mean.z],
             sigma_mm: Some([0, 1, 2].map(|c| 1.0 / total[(c, c)].max(f64::MIN_POSITIVE).sqrt())),
+            payload_kg: pts[0].payload_kg,
             line: pts[0].line,
         });
     }
@@ -300,6 +307,7 @@ mod tests {
 
     fn point(q: f64, xyz: [f64; 3], line: u64) -> PosePoint {
         PosePoint {
+            payload_kg: 0.0,
             q_deg: Joints::from_slice(&[q, 0.0, 0.0, 0.0, 0.0, 0.0]),
             position_mm: xyz,
             sigma_mm: None,

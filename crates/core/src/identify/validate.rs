@@ -44,6 +44,9 @@ pub struct Measurement {
     pub q_deg: Joints,
     /// Measured target position, mm, base frame.
     pub position_mm: [f64; 3],
+    /// The payload during the measurement, kg (the optional `payload_kg` column; `None`
+    /// without it: the model's task payload). A model with joint compliance is compared at it.
+    pub payload_kg: Option<f64>,
     /// Line in the CSV file (for generated data: the line it has when written).
     pub line: u64,
 }
@@ -80,6 +83,9 @@ pub fn parse_measurements<R: Read>(
     )?;
     let columns = measurement_columns(n);
     let cols = column_indices(&header, &columns, origin)?;
+    let payload_col = header
+        .iter()
+        .position(|h| h.trim().eq_ignore_ascii_case(super::poses::PAYLOAD_COLUMN));
     let mut out = Vec::new();
     for rec in rdr.records() {
         let rec = rec.map_err(|e| csv_error(e, origin))?;
@@ -89,9 +95,29 @@ pub fn parse_measurements<R: Read>(
         for (k, x) in v.iter_mut().enumerate() {
             *x = parse_number(&rec, cols[k], columns[k], line, origin, "")?;
         }
+        let payload_kg = match payload_col {
+            None => None,
+            Some(c) => {
+                let name = super::poses::PAYLOAD_COLUMN;
+                let m = parse_number(&rec, c, name, line, origin, "")?;
+                if !(0.0..=super::poses::MAX_PAYLOAD_KG).contains(&m) {
+                    return Err(IdentifyError::Csv {
+                        origin: origin.to_string(),
+                        line,
+                        message: format!(
+                            "column {name} = {} is not a payload: it must be within 0 … {} kg",
+                            crate::number::fmt_plain(m),
+                            super::poses::MAX_PAYLOAD_KG
+                        ),
+                    });
+                }
+                Some(m)
+            }
+        };
         out.push(Measurement {
             q_deg: Joints::from_slice(&v[..n]),
             position_mm: [v[n], v[n + 1], v[n + 2]],
+            payload_kg,
             line,
         });
     }
@@ -183,6 +209,8 @@ fn point_errors_with(
     m.iter()
         .map(|p| {
             let q = p.q_deg.map(f64::to_radians);
+            let at = p.payload_kg.and_then(|kg| model.knowing_payload(kg));
+            let model = at.as_ref().unwrap_or(model);
             let x = match (frame, compensate) {
                 (Placement::Identify, true) => model.compensated_world_position(&q),
                 (Placement::Known, true) => model.compensated_position(&q),
@@ -468,11 +496,13 @@ mod tests {
         let p = position(&m.params, &m.tool, &q.map(f64::to_radians));
         let meas = vec![
             Measurement {
+                payload_kg: None,
                 q_deg: q,
                 position_mm: p,
                 line: 2,
             },
             Measurement {
+                payload_kg: None,
                 q_deg: q,
                 position_mm: [p[0] + 3.0, p[1] + 4.0, p[2]],
                 line: 3,

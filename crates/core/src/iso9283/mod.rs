@@ -137,6 +137,7 @@ pub enum Iso9283Error {
 ///     let c = position_deg(&model.params, &model.tool, &q);
 ///     for dy in [0.0, 0.02, -0.02] {
 ///         cycles.push(Measurement {
+///             payload_kg: None,
 ///             q_deg: q,
 ///             position_mm: [c[0] + 0.1, c[1] + dy, c[2]],
 ///             line: cycles.len() as u64 + 2,

@@ -56,6 +56,7 @@ fn tx60_without_spread() -> crate::kinematics::RobotModel {
 
 fn cycle(q: Joints, p: [f64; 3], line: u64) -> Measurement {
     Measurement {
+        payload_kg: None,
         q_deg: q,
         position_mm: p,
         line,

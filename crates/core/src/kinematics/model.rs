@@ -392,6 +392,29 @@ impl RobotModel {
         }
     }
 
+    /// The model predicting with a known payload of `mass_kg` (its centre of mass kept, no
+    /// spread): the robot at that payload and the calibrated prediction at it too, as a
+    /// controller that is told the payload predicts (validation against poses measured with
+    /// it). `None` for a model without joint errors or already at that payload (the model
+    /// itself serves).
+    pub fn knowing_payload(&self, mass_kg: f64) -> Option<RobotModel> {
+        let e = self.joint_errors.as_ref()?;
+        if e.payload.mass_kg == mass_kg
+            && e.calibration_payload.mass_kg == mass_kg
+            && e.payload.sigma_kg == 0.0
+        {
+            return None;
+        }
+        let mut m = self.clone();
+        if let Some(e) = m.joint_errors.as_mut() {
+            e.payload.mass_kg = mass_kg;
+            e.payload.sigma_kg = 0.0;
+            e.calibration_payload.mass_kg = mass_kg;
+            e.calibration_payload.com_mm = e.payload.com_mm;
+        }
+        Some(m)
+    }
+
     /// The joint angles (rad) at `q` (rad) of the model as calibrated: with the mean deflections
     /// at the payload during calibration (what a controller given this model predicts without
     /// knowing the task payload); `q` itself for a geometric model.

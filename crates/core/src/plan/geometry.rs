@@ -320,6 +320,7 @@ fn observations(s: &ChainState, q_deg: &[Joints]) -> Vec<Observation> {
                 q,
                 p: s.predict(&q),
                 whiten: Matrix3::identity(),
+                payload_kg: 0.0,
             }
         })
         .collect()

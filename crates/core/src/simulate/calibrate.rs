@@ -221,6 +221,7 @@ impl Experiment {
                 );
                 let s = self.robot.point_scatter_mm(0.0, rng);
                 Measurement {
+                    payload_kg: None,
                     q_deg: *q,
                     position_mm: self
                         .tracker

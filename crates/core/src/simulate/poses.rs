@@ -96,6 +96,7 @@ pub fn simulate_poses_of(
                 TrackerNoise::Isotropic(s) => super::add_tracker_noise(p, *s, &mut rng),
             };
             PosePoint {
+                payload_kg: errors.map_or(0.0, |e| e.payload_kg),
                 q_deg: *q,
                 position_mm,
                 sigma_mm: None,

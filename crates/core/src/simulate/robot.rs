@@ -85,6 +85,7 @@ pub fn measure_positions(
         .iter()
         .enumerate()
         .map(|(k, q)| Measurement {
+            payload_kg: None,
             q_deg: *q,
             position_mm: add_tracker_noise(
                 position(&truth.params, &truth.tool, &q.map(f64::to_radians)),

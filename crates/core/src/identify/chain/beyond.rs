@@ -63,6 +63,10 @@ pub struct BeyondGeometry {
     pub harmonic_amplitudes_deg: Vec<[f64; 2]>,
     /// The link masses the torques assume, kg.
     pub link_mass_kg: Vec<f64>,
+    /// The payloads the poses were measured with, kg, ascending (the data's `payload_kg`
+    /// column; `[0]` without it). Two or more let the fit tell compliance from what merely
+    /// follows the joint angles (a harmonic of the same shape as a link's torque).
+    pub calibration_payloads_kg: Vec<f64>,
     /// RMS over the poses of the fitted joint deflections, degrees, per joint.
     pub deflection_rms_deg: Vec<f64>,
     /// The coefficients these data do not determine, one line each: held by their prior (a
@@ -155,8 +159,13 @@ impl ExtendedModel {
     /// The joint deflections at the commanded angles `q` (rad): the formula of
     /// [`JointErrors::deflections_with`] (torques at the commanded angles, no payload).
     pub fn deflections(&self, q: &[f64]) -> Joints {
-        let t = point_terms(&self.state.params, &self.links, q);
-        JointErrors::deflections_with(&self.beta, 0.0, &t, q.len())
+        self.deflections_at(q, 0.0)
+    }
+
+    /// [`Self::deflections`] with a payload of `payload_kg` at the target (the tool point).
+    pub fn deflections_at(&self, q: &[f64], payload_kg: f64) -> Joints {
+        let t = point_terms(&self.state.params, &self.links, &self.state.tool, q);
+        JointErrors::deflections_with(&self.beta, payload_kg, &t, q.len())
     }
 
     /// The target's position in the measurement frame at the commanded angles `q` (rad), mm.
@@ -167,13 +176,18 @@ impl ExtendedModel {
     }
 }
 
-/// The per-point quantities of [`JointErrors::point_terms`] without a payload.
-fn point_terms(params: &[f64], links: &LinkMasses, q: &[f64]) -> PointTerms {
+/// The per-point quantities of [`JointErrors::point_terms`], a payload's centre of mass at
+/// `com_mm` (flange frame: the target).
+fn point_terms(params: &[f64], links: &LinkMasses, com_mm: &[f64; 3], q: &[f64]) -> PointTerms {
+    let at = Payload {
+        com_mm: *com_mm,
+        ..Payload::NONE
+    };
     let e = JointErrors {
         coefficients: Vec::new(),
         links: *links,
-        calibration_payload: Payload::NONE,
-        payload: Payload::NONE,
+        calibration_payload: at,
+        payload: at,
         free: Vec::new(),
         covariance: Vec::new(),
         shift_space: crate::kinematics::InputSpace::parameters(q.len()),
@@ -202,7 +216,7 @@ fn residuals(obs: &[Observation], m: &ExtendedModel, x: &Inputs<'_>) -> Vec<f64>
     let mut out = Vec::with_capacity(3 * obs.len() + free.len());
     let n = m.links.joints();
     for (o, t) in obs.iter().zip(x.terms) {
-        let d = JointErrors::deflections_with(&m.beta, 0.0, t, n);
+        let d = JointErrors::deflections_with(&m.beta, o.payload_kg, t, n);
         let p = m.state.predict(&Joints::from_fn(n, |i| o.q[i] + d[i]));
         let e = o.whiten * Vector3::new(p[0] - o.p[0], p[1] - o.p[1], p[2] - o.p[2]);
         out.extend_from_slice(&[e.x, e.y, e.z]);
@@ -302,7 +316,15 @@ pub(super) fn check(
     let torques: Vec<Joints> = run
         .obs
         .iter()
-        .map(|o| gravity_torques(&run.state.params, &run.state.tool, &links, 0.0, &o.q))
+        .map(|o| {
+            gravity_torques(
+                &run.state.params,
+                &run.state.tool,
+                &links,
+                o.payload_kg,
+                &o.q,
+            )
+        })
         .collect();
     let rms_tau: Vec<f64> = (0..n)
         .map(|i| {
@@ -331,7 +353,7 @@ pub(super) fn check(
     let terms: Vec<PointTerms> = run
         .obs
         .iter()
-        .map(|o| point_terms(&run.state.params, &links, &o.q))
+        .map(|o| point_terms(&run.state.params, &links, &run.state.tool, &o.q))
         .collect();
     let plain = Inputs {
         free: &run.free,
@@ -390,6 +412,12 @@ pub(super) fn check(
             })
             .collect(),
         link_mass_kg: links.mass_kg.to_vec(),
+        calibration_payloads_kg: {
+            let mut m: Vec<f64> = run.obs.iter().map(|o| o.payload_kg).collect();
+            m.sort_by(f64::total_cmp);
+            m.dedup();
+            m
+        },
         deflection_rms_deg: (0..n)
             .map(|j| {
                 (deflections.iter().map(|d| d[j] * d[j]).sum::<f64>()

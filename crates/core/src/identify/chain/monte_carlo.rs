@@ -43,6 +43,7 @@ pub(super) fn monte_carlo_covariance(
                         q: o.q,
                         p: [p[0] + e.x, p[1] + e.y, p[2] + e.z],
                         whiten: o.whiten,
+                        payload_kg: o.payload_kg,
                     }
                 })
                 .collect();

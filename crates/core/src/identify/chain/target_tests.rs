@@ -28,6 +28,7 @@ fn target_on_the_j6_axis_is_flagged() {
             q_deg: q,
             position_mm: s.predict(&q.map(f64::to_radians)),
             sigma_mm: None,
+            payload_kg: 0.0,
             line: k as u64,
         })
         .collect();

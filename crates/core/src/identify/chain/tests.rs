@@ -42,6 +42,7 @@ fn points(t: &ChainState, n: usize, sigma: f64, seed: u64) -> Vec<MeasuredPoint>
                 q_deg,
                 position_mm,
                 sigma_mm: None,
+                payload_kg: 0.0,
                 line: k as u64 + 2,
             }
         })

@@ -219,6 +219,7 @@ mod tests {
                 ]);
                 let p = position(&model.params, &tool, &q.map(f64::to_radians));
                 Measurement {
+                    payload_kg: None,
                     q_deg: q,
                     position_mm: b.apply(p),
                     line: i as u64 + 2,
@@ -274,6 +275,7 @@ mod tests {
                 let mut p = position(&nominal.params, &[0.0; 3], &q.map(f64::to_radians));
                 p[0] += i as f64 * 1e-9;
                 Measurement {
+                    payload_kg: None,
                     q_deg: q,
                     position_mm: b.apply(p),
                     line: i + 2,
