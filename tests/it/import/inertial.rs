@@ -417,3 +417,75 @@ fn the_ur5e_preset_has_urs_published_masses() {
     }
     assert!(worst < 1e-9, "largest torque difference {worst} N·m");
 }
+
+/// Edges: holding a joint drops the masses with a note (its body would join the one before);
+/// a description whose links have no mass gives no `[links]`; NaN and out-of-range values in the
+/// file's `[links]` and in a pose file's `payload_kg` are refused naming the field or column.
+#[test]
+fn masses_edges_are_refused_or_said() {
+    let dir = tmpdir("inertial-edges");
+    let p = write(&dir, "arm.urdf", &urdf("2.846"));
+    let held = import_file(
+        &p,
+        &ImportOptions {
+            tip: Some("tool0".into()),
+            held: vec![gpu_amcs::import::JointHold {
+                joint: "j4".into(),
+                angle_deg: 0.0,
+            }],
+            ..ImportOptions::default()
+        },
+    )
+    .unwrap();
+    assert!(held.model.links.is_none());
+    assert!(
+        held.held.iter().any(|n| n.contains("link masses")),
+        "{:?}",
+        held.held
+    );
+    let massless = urdf("0")
+        .replace("value=\"3.761\"", "value=\"0\"")
+        .replace("value=\"8.058\"", "value=\"0\"")
+        .replace("value=\"1.37\"", "value=\"0\"")
+        .replace("value=\"1.3\"", "value=\"0\"")
+        .replace("value=\"0.365\"", "value=\"0\"")
+        .replace("value=\"0.2\"", "value=\"0\"")
+        .replace("value=\"0.5\"", "value=\"0\"");
+    assert!(imported(&dir, &massless).unwrap().links.is_none());
+    let good = imported(&dir, &urdf("2.846")).unwrap().to_toml();
+    for (bad, field) in [
+        ("com_mm = [[1.0, 2.0, 3.0]]", "links.com_mm"),
+        ("com_mm = [[nan, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]", "links.com_mm"),
+    ] {
+        let start = good.find("com_mm = [").unwrap();
+        let end = start + good[start..].find('\n').unwrap();
+        let text = format!("{}{bad}{}", &good[..start], &good[end..]);
+        let f = write(&dir, "bad.toml", &text);
+        let err = RobotModel::from_file(&f).unwrap_err().to_string();
+        assert!(err.contains(field), "{bad}: {err}");
+    }
+    let mass = good.find("mass_kg = [").unwrap();
+    let end = mass + good[mass..].find('\n').unwrap();
+    let text = format!(
+        "{}mass_kg = [1.0, -2.0, 1.0, 1.0, 1.0, 1.0]{}",
+        &good[..mass],
+        &good[end..]
+    );
+    let err = RobotModel::from_file(&write(&dir, "bad.toml", &text))
+        .unwrap_err()
+        .to_string();
+    assert!(
+        err.contains("links.mass_kg") && err.contains("link 2"),
+        "{err}"
+    );
+    for value in ["nan", "inf", "", "1001"] {
+        let csv = format!("q1,q2,q3,q4,q5,q6,x,y,z,payload_kg\n0,0,90,0,0,0,500,0,800,{value}\n");
+        let err = gpu_amcs::identify::parse_poses(csv.as_bytes(), "p.csv")
+            .unwrap_err()
+            .to_string();
+        assert!(
+            err.contains("payload_kg") && err.contains("line 2"),
+            "{value:?}: {err}"
+        );
+    }
+}
