@@ -22,7 +22,7 @@ mod tests;
 mod undetermined;
 mod warnings;
 
-pub use beyond::{BeyondGeometry, ExtendedModel, CONFOUNDED, PRIOR_HELD, PRIOR_RAD};
+pub use beyond::{BacklashCheck, BeyondGeometry, ExtendedModel, CONFOUNDED, PRIOR_HELD, PRIOR_RAD};
 pub use model::{chain_model, state_model};
 pub use report::{ChainReport, ChainResult, MonteCarloCheck, NoiseReport, ParameterRow};
 pub use undetermined::{
@@ -360,7 +360,15 @@ fn identify_geometry(
         _ => None,
     };
     let beyond = if opts.beyond_geometry.checks(found) {
-        beyond::check(&run, nominal, prior.as_ref())
+        beyond::check(
+            &run,
+            nominal,
+            prior.as_ref(),
+            matches!(
+                opts.beyond_geometry,
+                JointErrorFit::On | JointErrorFit::Keep
+            ),
+        )
     } else {
         None
     };

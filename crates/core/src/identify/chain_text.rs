@@ -175,6 +175,27 @@ fn render_beyond_geometry(s: &mut String, b: &super::chain::BeyondGeometry) {
                 .join(", ")
         );
     }
+    if let Some(k) = &b.backlash {
+        let gaps: Vec<String> = k
+            .gap_deg
+            .iter()
+            .enumerate()
+            .map(|(j, [g, s])| format!("J{} {g:.4}° ± {s:.4}°", j + 1))
+            .collect();
+        let _ = writeln!(
+            s,
+            "    backlash (each joint's approach direction from the poses' order): leave-one-out RMS {:.4} mm against {:.4} mm ({:+.0} %){}; gaps {}",
+            k.loo_rms_mm,
+            b.loo_rms_extended_mm,
+            100.0 * (k.loo_rms_mm / b.loo_rms_extended_mm - 1.0),
+            if k.predicts_better {
+                ": the robot shows it; the model does not carry backlash yet (the discrepancy term holds it)"
+            } else {
+                ": no gain worth the coefficients"
+            },
+            gaps.join(", ")
+        );
+    }
     if !b.undetermined.is_empty() {
         let _ = writeln!(
             s,

@@ -74,6 +74,70 @@ pub struct BeyondGeometry {
     /// (a correlation beyond ±[`CONFOUNDED`]: a harmonic of a joint that hardly moved against
     /// its offset, a first harmonic of q1 against the placement).
     pub undetermined: Vec<String>,
+    /// The backlash check, when asked for and the poses' order gives the joints both
+    /// directions.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub backlash: Option<BacklashCheck>,
+}
+
+/// The fit of [`check`] with a backlash per joint added ([`BacklashCheck`]); `None` when no
+/// joint arrived from both sides or the data cannot support it.
+fn backlash_check(
+    run: &Fitted,
+    fitted: &ExtendedModel,
+    all: &Inputs<'_>,
+    sigma: &[f64],
+    loo_extended: f64,
+) -> Option<BacklashCheck> {
+    let n = fitted.links.joints();
+    let dirs = approach_directions(&run.obs);
+    let both = (0..n).any(|j| dirs.iter().any(|d| d[j] > 0.0) && dirs.iter().any(|d| d[j] < 0.0));
+    let free: Vec<usize> = all
+        .free
+        .iter()
+        .copied()
+        .chain((0..n).map(|j| PER_JOINT * n + j))
+        .collect();
+    if !both || 3 * run.obs.len() < 2 * free.len() {
+        return None;
+    }
+    let sigma: Vec<f64> = sigma
+        .iter()
+        .copied()
+        .chain((0..n).map(|_| PRIOR_RAD))
+        .collect();
+    let x = Inputs {
+        free: &free,
+        sigma: &sigma,
+        dirs: Some(&dirs),
+        ..*all
+    };
+    let mut start = fitted.clone();
+    start.beta.extend(std::iter::repeat_n(0.0, n));
+    let steps: Vec<f64> = (0..free.len())
+        .map(|k| step(&run.state, &free, x.geo, k))
+        .collect();
+    let m = levenberg_marquardt(
+        start,
+        &steps,
+        |m, d| moved(m, &free, x.geo, d),
+        |m| residuals(&run.obs, m, &x),
+    );
+    let (loo, cov) = loo_rms(&run.obs, &m, &x)?;
+    let first = free.len() - n;
+    Some(BacklashCheck {
+        loo_rms_mm: loo,
+        predicts_better: loo
+            < (1.0 - crate::discrepancy::gp::required_gain(run.obs.len())) * loo_extended,
+        gap_deg: (0..n)
+            .map(|j| {
+                [
+                    m.beta[PER_JOINT * n + j].to_degrees(),
+                    cov[(first + j, first + j)].max(0.0).sqrt().to_degrees(),
+                ]
+            })
+            .collect(),
+    })
 }
 
 /// A coefficient whose posterior σ exceeds this share of its prior's is held by the prior.
@@ -208,6 +272,42 @@ struct Inputs<'a> {
     /// geometric solution: the torques move with the geometry by its relative change (~1e-3),
     /// a change of ~1e-7 rad in a deflection of 1e-4 rad, so the fit takes them once.
     terms: &'a [PointTerms],
+    /// Per observation, the direction each joint arrived from (−1, 0, +1), when the fit has a
+    /// backlash per joint (coefficients `PER_JOINT·n + j`: the gap, the joint standing half of
+    /// it from its commanded angle on the side it came from).
+    dirs: Option<&'a [Joints]>,
+}
+
+/// The direction each joint arrived from at each observation (−1, 0, +1), from their order
+/// (the first observation: 0).
+fn approach_directions(obs: &[Observation]) -> Vec<Joints> {
+    (0..obs.len())
+        .map(|k| {
+            Joints::from_fn(obs[k].q.len(), |j| match k {
+                0 => 0.0,
+                _ => {
+                    let d = obs[k].q[j] - obs[k - 1].q[j];
+                    if d.abs() < 1e-9 {
+                        0.0
+                    } else {
+                        d.signum()
+                    }
+                }
+            })
+        })
+        .collect()
+}
+
+/// What a backlash per joint adds, the approach directions taken from the poses' order
+/// (a diagnostic: the model does not carry backlash yet; the discrepancy term holds it).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BacklashCheck {
+    /// Leave-one-out RMS (3-D) with compliance, harmonics and backlash, mm.
+    pub loo_rms_mm: f64,
+    /// Whether it predicts better than compliance and harmonics alone (the same margin).
+    pub predicts_better: bool,
+    /// Per joint: the gap and its standard uncertainty, degrees.
+    pub gap_deg: Vec<[f64; 2]>,
 }
 
 /// Whitened residuals of `m` at `obs`, then the prior rows of the free inputs.
@@ -215,8 +315,13 @@ fn residuals(obs: &[Observation], m: &ExtendedModel, x: &Inputs<'_>) -> Vec<f64>
     let (free, geo, prior) = (x.free, x.geo, x.prior);
     let mut out = Vec::with_capacity(3 * obs.len() + free.len());
     let n = m.links.joints();
-    for (o, t) in obs.iter().zip(x.terms) {
-        let d = JointErrors::deflections_with(&m.beta, o.payload_kg, t, n);
+    for (k, (o, t)) in obs.iter().zip(x.terms).enumerate() {
+        let mut d = JointErrors::deflections_with(&m.beta, o.payload_kg, t, n);
+        if let Some(dirs) = x.dirs {
+            for j in 0..n {
+                d[j] += 0.5 * m.beta[PER_JOINT * n + j] * dirs[k][j];
+            }
+        }
         let p = m.state.predict(&Joints::from_fn(n, |i| o.q[i] + d[i]));
         let e = o.whiten * Vector3::new(p[0] - o.p[0], p[1] - o.p[1], p[2] - o.p[2]);
         out.extend_from_slice(&[e.x, e.y, e.z]);
@@ -236,7 +341,9 @@ fn residuals(obs: &[Observation], m: &ExtendedModel, x: &Inputs<'_>) -> Vec<f64>
 /// Finite-difference step of free input `k` (geometric inputs first, `geo` of them).
 fn step(state: &ChainState, free: &[usize], geo: usize, k: usize) -> f64 {
     if k >= geo {
-        if free[k].is_multiple_of(PER_JOINT) {
+        if free[k] >= PER_JOINT * state.layout().joints() {
+            1e-8
+        } else if free[k].is_multiple_of(PER_JOINT) {
             1e-9
         } else {
             1e-8
@@ -304,6 +411,7 @@ pub(super) fn check(
     run: &Fitted,
     nominal: &RobotModel,
     prior: Option<&Prior>,
+    with_backlash: bool,
 ) -> Option<ExtendedFit> {
     let n = run.state.layout().joints();
     let links = LinkMasses::of(nominal);
@@ -361,6 +469,7 @@ pub(super) fn check(
         prior,
         sigma: &sigma,
         terms: &terms,
+        dirs: None,
     };
     let (loo_geometric, _) = loo_rms(&run.obs, &geometric, &plain)?;
     let free: Vec<usize> = run
@@ -392,7 +501,13 @@ pub(super) fn check(
             .map(|k| cov[(geo + k, geo + k)].max(0.0).sqrt())
     };
     let deflections: Vec<Joints> = run.obs.iter().map(|o| fitted.deflections(&o.q)).collect();
+    let backlash = if with_backlash {
+        backlash_check(run, &fitted, &all, &sigma, loo_extended)
+    } else {
+        None
+    };
     let report = BeyondGeometry {
+        backlash,
         parameters: extras.len(),
         loo_rms_geometric_mm: loo_geometric,
         loo_rms_extended_mm: loo_extended,
