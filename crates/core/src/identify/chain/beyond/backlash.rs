@@ -1,0 +1,103 @@
+//! Backlash as a check of the fit beyond geometry (docs/METHOD.md §19.5): each joint stands half
+//! its gap from the commanded angle on the side it arrived from, the sides taken from the order
+//! of the poses. A diagnostic: the model does not carry backlash yet, and the discrepancy term
+//! holds its effect.
+
+use super::{
+    levenberg_marquardt, loo_rms, moved, residuals, step, ExtendedModel, Fitted, Inputs,
+    Observation, PER_JOINT, PRIOR_RAD,
+};
+use crate::kinematics::Joints;
+use serde::Serialize;
+
+/// What a backlash per joint adds, the approach directions taken from the poses' order
+/// (a diagnostic: the model does not carry backlash yet; the discrepancy term holds it).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BacklashCheck {
+    /// Leave-one-out RMS (3-D) with compliance, harmonics and backlash, mm.
+    pub loo_rms_mm: f64,
+    /// Whether it predicts better than compliance and harmonics alone (the same margin).
+    pub predicts_better: bool,
+    /// Per joint: the gap and its standard uncertainty, degrees.
+    pub gap_deg: Vec<[f64; 2]>,
+}
+
+/// The direction each joint arrived from at each observation (−1, 0, +1), from their order
+/// (the first observation: 0).
+fn approach_directions(obs: &[Observation]) -> Vec<Joints> {
+    (0..obs.len())
+        .map(|k| {
+            Joints::from_fn(obs[k].q.len(), |j| match k {
+                0 => 0.0,
+                _ => {
+                    let d = obs[k].q[j] - obs[k - 1].q[j];
+                    if d.abs() < 1e-9 {
+                        0.0
+                    } else {
+                        d.signum()
+                    }
+                }
+            })
+        })
+        .collect()
+}
+
+/// The fit of [`super::check`] with a backlash per joint added ([`BacklashCheck`]); `None` when no
+/// joint arrived from both sides or the data cannot support it.
+pub(super) fn backlash_check(
+    run: &Fitted,
+    fitted: &ExtendedModel,
+    all: &Inputs<'_>,
+    sigma: &[f64],
+    loo_extended: f64,
+) -> Option<BacklashCheck> {
+    let n = fitted.links.joints();
+    let dirs = approach_directions(&run.obs);
+    let both = (0..n).any(|j| dirs.iter().any(|d| d[j] > 0.0) && dirs.iter().any(|d| d[j] < 0.0));
+    let free: Vec<usize> = all
+        .free
+        .iter()
+        .copied()
+        .chain((0..n).map(|j| PER_JOINT * n + j))
+        .collect();
+    if !both || 3 * run.obs.len() < 2 * free.len() {
+        return None;
+    }
+    let sigma: Vec<f64> = sigma
+        .iter()
+        .copied()
+        .chain((0..n).map(|_| PRIOR_RAD))
+        .collect();
+    let x = Inputs {
+        free: &free,
+        sigma: &sigma,
+        dirs: Some(&dirs),
+        ..*all
+    };
+    let mut start = fitted.clone();
+    start.beta.extend(std::iter::repeat_n(0.0, n));
+    let steps: Vec<f64> = (0..free.len())
+        .map(|k| step(&run.state, &free, x.geo, k))
+        .collect();
+    let m = levenberg_marquardt(
+        start,
+        &steps,
+        |m, d| moved(m, &free, x.geo, d),
+        |m| residuals(&run.obs, m, &x),
+    );
+    let (loo, cov) = loo_rms(&run.obs, &m, &x)?;
+    let first = free.len() - n;
+    Some(BacklashCheck {
+        loo_rms_mm: loo,
+        predicts_better: loo
+            < (1.0 - crate::discrepancy::gp::required_gain(run.obs.len())) * loo_extended,
+        gap_deg: (0..n)
+            .map(|j| {
+                [
+                    m.beta[PER_JOINT * n + j].to_degrees(),
+                    cov[(first + j, first + j)].max(0.0).sqrt().to_degrees(),
+                ]
+            })
+            .collect(),
+    })
+}
