@@ -11,6 +11,7 @@
 
 mod beyond;
 mod covariance;
+mod joint_error_fit;
 mod lack_of_fit;
 mod model;
 mod monte_carlo;
@@ -23,6 +24,7 @@ mod undetermined;
 mod warnings;
 
 pub use beyond::{BacklashCheck, BeyondGeometry, ExtendedModel, CONFOUNDED, PRIOR_HELD, PRIOR_RAD};
+pub use joint_error_fit::JointErrorFit;
 pub use model::{chain_model, state_model};
 pub use report::{ChainReport, ChainResult, MonteCarloCheck, NoiseReport, ParameterRow};
 pub use undetermined::{
@@ -66,50 +68,6 @@ pub enum UncertaintyMethod {
         /// Number of synthetic data sets (K).
         draws: usize,
     },
-}
-
-/// When the identification fits joint errors beyond the geometry (compliance under gravity and
-/// gear harmonics, [`BeyondGeometry`]); each mode but [`JointErrorFit::Off`] keeps them in the
-/// model only when the cross-validated check says they predict held-out poses better, or always
-/// with [`JointErrorFit::Keep`].
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
-#[serde(rename_all = "snake_case")]
-pub enum JointErrorFit {
-    /// Geometry alone; no check.
-    Off,
-    /// The check runs when the geometric fit shows a lack of fit: a stated noise rejected by
-    /// the χ² test, or a noise that is not stated (the residuals then cannot tell, and the
-    /// cross-validation decides).
-    #[default]
-    Auto,
-    /// The check always runs.
-    On,
-    /// The check always runs and the model keeps the joint errors whatever it finds (for a
-    /// payload what-if on data that do not show the compliance: an undetermined compliance
-    /// keeps its prior σ).
-    Keep,
-}
-
-impl JointErrorFit {
-    /// The name in reports and on the command line.
-    pub fn as_str(self) -> &'static str {
-        match self {
-            JointErrorFit::Off => "off",
-            JointErrorFit::Auto => "auto",
-            JointErrorFit::On => "on",
-            JointErrorFit::Keep => "keep",
-        }
-    }
-
-    /// Whether the check runs for a geometric fit whose lack of fit test gave `found` (`None`:
-    /// the noise is not stated).
-    pub fn checks(self, found: Option<bool>) -> bool {
-        match self {
-            JointErrorFit::Off => false,
-            JointErrorFit::Auto => found != Some(false),
-            JointErrorFit::On | JointErrorFit::Keep => true,
-        }
-    }
 }
 
 /// Options of the whole-chain identification.
