@@ -126,7 +126,8 @@ crate::report_class!(PyIdentifyResult, {
 /// of a single run's residuals. `beyond_geometry` says when joint compliance and gear
 /// harmonics are fitted with the geometry (the command line's `--beyond-geometry`): None or "auto"
 /// (the default: when the geometric fit shows a lack of fit, kept when they predict left-out poses
-/// better), "on" or True (always checked), "keep" (always kept), "off" or False. `strict=True` raises a `ValueError` for the warnings. Returns an
+/// better), "on" or True (always checked), "keep" (always kept), "check" (checked and reported, never
+/// kept), "off" or False. `strict=True` raises a `ValueError` for the warnings. Returns an
 /// `IdentifyResult` whose `to_toml()` is the model file the command writes and whose
 /// `to_dict()` is its `--json` document.
 /// The `beyond_geometry` keyword: a bool or one of the command line's words.
@@ -140,16 +141,17 @@ fn joint_error_fit(v: &Bound<'_, PyAny>) -> PyResult<JointErrorFit> {
     }
     let word: String = v.extract().map_err(|_| {
         value_error(
-            "beyond_geometry: expected True, False or one of \"auto\", \"on\", \"keep\", \"off\"",
+            "beyond_geometry: expected True, False or one of \"auto\", \"on\", \"keep\", \"check\", \"off\"",
         )
     })?;
     match word.as_str() {
         "auto" => Ok(JointErrorFit::Auto),
         "on" => Ok(JointErrorFit::On),
         "keep" => Ok(JointErrorFit::Keep),
+        "check" => Ok(JointErrorFit::Check),
         "off" => Ok(JointErrorFit::Off),
         other => Err(value_error(format!(
-            "beyond_geometry: unknown mode '{other}' (expected \"auto\", \"on\", \"keep\" or \"off\")"
+            "beyond_geometry: unknown mode '{other}' (expected \"auto\", \"on\", \"keep\", \"check\" or \"off\")"
         ))),
     }
 }
@@ -274,5 +276,6 @@ fn setting_keyword(s: IdentifySetting) -> &'static str {
         IdentifySetting::McDraws => "mc_draws",
         IdentifySetting::Fit => "fit",
         IdentifySetting::Refine => "no_refine",
+        IdentifySetting::Memory => "memory_limit",
     }
 }

@@ -223,6 +223,11 @@ def test_identify_beyond_geometry_equals_cli(cli, tmp_path):
     assert "[joint_errors]" not in plain.to_toml()
     assert gpu_amcs.identify(poses, tracker_sigma=0.01, beyond_geometry=False).to_toml() == \
         plain.to_toml()
+    # "check" reports the check and keeps the geometry alone: the "off" model's geometry.
+    checked = gpu_amcs.identify(poses, tracker_sigma=0.01, beyond_geometry="check")
+    report = checked.to_dict()["identify"]["runs"][0]["chain"]["beyond_geometry"]
+    assert report["predicts_better"] and not report["kept"]
+    assert checked.to_toml() == plain.to_toml()
     with pytest.raises(ValueError, match="beyond_geometry"):
         gpu_amcs.identify(poses, tracker_sigma=0.01, beyond_geometry="sometimes")
     # The payload at the task: the command line's --payload-kg, refused for a geometric model.

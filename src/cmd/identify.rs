@@ -3,6 +3,7 @@
 
 use super::args::{load_model, MemoryArgs};
 use super::outputs::Outputs;
+use super::progress::Progress;
 use super::reports::stage_reports;
 use super::Run;
 use crate::cmd::reports::ReportFlags;
@@ -14,6 +15,7 @@ use gpu_amcs::identify::{
 };
 use gpu_amcs::kinematics::RobotModel;
 use gpu_amcs::presets::{preset, PRESETS};
+use gpu_amcs::progress::ProgressHook;
 use gpu_amcs::report::Report;
 use std::path::{Path, PathBuf};
 
@@ -47,6 +49,9 @@ pub enum BeyondArg {
     On,
     /// Always fitted and kept (for --payload-kg on data that do not show the compliance).
     Keep,
+    /// Always checked and reported; the model keeps the geometry alone (several runs get this
+    /// for on and keep: their mean model holds no joint errors).
+    Check,
 }
 
 /// `identify` options.
@@ -186,9 +191,20 @@ impl Run for IdentifyArgs {
             Some(_) => None,
             None => preset_hint(&a.sweeps, nominal, a.preset.is_none()),
         };
-        let job = a.job(nominal.clone());
+        let mut job = a.job(nominal.clone());
         a.check_memory(&job)?;
-        let outcome = match job.run() {
+        // Data from a pipe are sized by the job once read.
+        job.memory = Some(a.memory.budget()?);
+        // In per cent of the work: several runs report their steps as shares of the whole.
+        let bar = std::sync::Arc::new(Progress::new(a.reports.quiet, "identify", "%"));
+        let listener = bar.clone();
+        job.progress = ProgressHook::new(move |label: &str, done, total| {
+            listener.set_message(label);
+            listener.update(done.min(total) * 100 / total.max(1), 100);
+        });
+        let result = job.run();
+        bar.finish();
+        let outcome = match result {
             Ok(o) => o,
             Err(IdentifyJobError::Strict { warnings }) => {
                 for w in &warnings {
@@ -301,6 +317,7 @@ fn setting_flag(s: IdentifySetting) -> &'static str {
         IdentifySetting::McDraws => "--mc-draws",
         IdentifySetting::Fit => "--fit",
         IdentifySetting::Refine => "--no-refine",
+        IdentifySetting::Memory => "--memory-limit",
     }
 }
 
@@ -399,6 +416,7 @@ impl IdentifyArgs {
                 BeyondArg::Auto => JointErrorFit::Auto,
                 BeyondArg::On => JointErrorFit::On,
                 BeyondArg::Keep => JointErrorFit::Keep,
+                BeyondArg::Check => JointErrorFit::Check,
             },
             ..IdentifyJob::new(self.sweeps.clone(), nominal)
         }

@@ -438,3 +438,84 @@ fn the_command_line_reports_the_check() {
         "--payload-kg",
     );
 }
+
+/// Several runs give their mean model, which holds no joint errors: an explicit check (`on`,
+/// `keep`) runs and is reported per run, and no run's geometry is fitted beside joint errors
+/// the mean model would then lack. Before, each run's report said the model carried them
+/// ("every analysis draws them") and the mean geometry was that of the extended fits, while the
+/// model file held the geometry alone.
+#[test]
+fn several_runs_check_but_keep_the_geometry() {
+    let d = crate::common::tmpdir("beyond-geometry-runs");
+    let p = |f: &str| d.join(f).display().to_string();
+    let ok = crate::common::run_ok;
+    let mut rows = Vec::new();
+    for (run, seed) in [("a", "4"), ("b", "5")] {
+        let f = p(&format!("{run}.csv"));
+        ok(&[
+            "simulate",
+            "--poses",
+            "120",
+            "--seed",
+            seed,
+            "--robot-seed",
+            "9",
+            "--placement",
+            "base",
+            "--tracker-sigma",
+            "0.01",
+            "--compliance",
+            "1",
+            "--harmonics",
+            "1",
+            "-o",
+            &f,
+        ]);
+        let text = std::fs::read_to_string(&f).unwrap();
+        let mut lines = text.lines();
+        let header = lines.next().unwrap();
+        if rows.is_empty() {
+            rows.push(format!("run,{header}"));
+        }
+        rows.extend(lines.map(|l| format!("{run},{l}")));
+    }
+    std::fs::write(p("runs.csv"), rows.join("\n") + "\n").unwrap();
+    for mode in [
+        "--beyond-geometry=on",
+        "--beyond-geometry=keep",
+        "--beyond-geometry=check",
+    ] {
+        let text = ok(&[
+            "identify",
+            &p("runs.csv"),
+            "--tracker-sigma",
+            "0.01",
+            mode,
+            "-o",
+            &p("m.toml"),
+            "--json",
+            &p("m.json"),
+        ]);
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(p("m.json")).unwrap()).unwrap();
+        let runs = v["identify"]["runs"].as_array().unwrap();
+        assert_eq!(runs.len(), 2, "{mode}");
+        for r in runs {
+            let chain = &r["chain"];
+            assert_eq!(chain["joint_error_fit"], "check", "{mode}: {chain}");
+            let b = &chain["beyond_geometry"];
+            assert_eq!(b["predicts_better"], true, "{mode}: {b}");
+            assert_eq!(b["kept"], false, "{mode}: {b}");
+        }
+        assert!(
+            text.contains("identify one run to keep them"),
+            "{mode}: {text}"
+        );
+        assert!(
+            !text.contains("every analysis draws them"),
+            "{mode}: {text}"
+        );
+        let model = std::fs::read_to_string(p("m.toml")).unwrap();
+        assert!(!model.contains("[joint_errors]"), "{mode}");
+    }
+}

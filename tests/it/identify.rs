@@ -606,7 +606,9 @@ fn identify_prints_a_summary_by_default() {
     let args = ["identify", f.to_str().unwrap(), "-o", out.to_str().unwrap()];
     let (code, summary, e) = run_cli(&args);
     assert_eq!(code, 0, "{e}");
-    assert!(e.is_empty(), "no warnings expected: {e}");
+    // A loaded machine may make the run long enough to announce its estimate.
+    let other: Vec<&str> = e.lines().filter(|l| !l.contains(": estimated ~")).collect();
+    assert!(other.is_empty(), "no warnings expected: {e}");
     // Title, column heads, 6 joints, tool point, the whole-chain fit of the runs, what the file
     // holds, the file written.
     assert_eq!(summary.lines().count(), 12, "{summary}");

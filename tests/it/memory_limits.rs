@@ -152,6 +152,23 @@ fn identify_honours_the_limits() {
         "as given",
         "identify --memory-limit",
     );
+    // Piped data cannot be counted before they are read: they ran unsized (to 486 MiB past
+    // a limit of 300M, or an abort under ulimit -v); now sized once read, before any fit.
+    for (piped, label) in [
+        (format!("< {big} identify -q /dev/stdin"), "stdin"),
+        (format!("identify -q <(cat {big})"), "a pipe"),
+    ] {
+        let o = sh(
+            &out,
+            &format!("exec bash -c 'exec \"$BIN\" {piped} -o m.toml --memory-limit 300M'"),
+        );
+        refused(&out, &o, "--memory-limit", "as given", label);
+        assert!(
+            stderr(&o).contains("100002 lines"),
+            "{label}: {}",
+            stderr(&o)
+        );
+    }
     // Monte Carlo re-identifications too many to keep: 10^9 aborted (exit 134) collecting
     // their estimates once the fit was done.
     let mc = format!("identify -q {small} -o m.toml --uncertainty montecarlo");

@@ -53,6 +53,7 @@ pub mod number;
 pub mod plan;
 pub mod points;
 pub mod presets;
+pub mod progress;
 pub mod report;
 pub mod sampling;
 pub mod simulate;

@@ -169,7 +169,8 @@ fn every_field_of_every_options_struct_has_an_entry() {
         uncertainty,
         seed,
         compensate,
-        beyond_geometry
+        beyond_geometry,
+        progress
     });
     same_fields(&CHAIN_OPTIONS, &chain);
     let import = fields!(ImportOptions {

@@ -26,6 +26,7 @@
 
 mod held_out;
 mod inverse;
+mod predictive;
 
 pub use held_out::{held_out, HeldOut};
 use inverse::par_inverse;
@@ -532,20 +533,6 @@ impl GpFit {
         self.mean_of(&(&self.inverse * y), q)
     }
 
-    /// The predictive σ per coordinate of a new measurement at `q` (radians), mm:
-    /// `√(σ_f² − kᵀ K_y⁻¹ k + σ_w²)`.
-    pub fn predictive_sigma(&self, q: &[f64]) -> f64 {
-        let sf2 = self.signal_sigma * self.signal_sigma;
-        let x: Vec<&[f64]> = self
-            .training
-            .iter()
-            .map(|&t| self.configs[t].as_slice())
-            .collect();
-        let k = kernel_column(q, &x, &self.length_scales, sf2);
-        let explained = (k.transpose() * &self.inverse * &k)[(0, 0)];
-        predictive_sd(sf2, self.white_sigma * self.white_sigma, explained)
-    }
-
     /// Leave-one-out residuals of `values` (one vector per pose, the poses it was fitted on):
     /// for a training pose `[K_y⁻¹ V]_i / [K_y⁻¹]_ii`, for a pose outside the training set its
     /// value minus the posterior mean of `values` there.
@@ -562,21 +549,6 @@ impl GpFit {
         for (i, v) in out.iter_mut().enumerate() {
             if !in_training[i] {
                 *v = values[i] - self.mean_of(&a, &self.configs[i]);
-            }
-        }
-        out
-    }
-
-    /// The leave-one-out predictive σ per coordinate of every pose, mm: `1/√[K_y⁻¹]_ii` for a
-    /// training pose, the predictive σ there for one outside the training set.
-    pub fn loo_sigmas(&self) -> Vec<f64> {
-        let mut out = vec![f64::NAN; self.configs.len()];
-        for (r, &i) in self.training.iter().enumerate() {
-            out[i] = 1.0 / self.inverse[(r, r)].max(1e-300).sqrt();
-        }
-        for i in 0..out.len() {
-            if out[i].is_nan() {
-                out[i] = self.predictive_sigma(&self.configs[i]);
             }
         }
         out

@@ -16,6 +16,7 @@ mod lack_of_fit;
 mod model;
 mod monte_carlo;
 mod report;
+mod steps;
 #[cfg(test)]
 mod target_tests;
 #[cfg(test)]
@@ -89,6 +90,9 @@ pub struct ChainOptions {
     /// When joint compliance under gravity and gear harmonics are fitted with the geometry and
     /// kept ([`JointErrorFit`], [`BeyondGeometry`]).
     pub beyond_geometry: JointErrorFit,
+    /// Told each step as it starts (fit, identifiability and covariance, check beyond
+    /// geometry, lack of fit); none by default.
+    pub progress: crate::progress::ProgressHook,
 }
 
 impl Default for ChainOptions {
@@ -101,6 +105,7 @@ impl Default for ChainOptions {
             seed: 1,
             compensate: true,
             beyond_geometry: JointErrorFit::Auto,
+            progress: Default::default(),
         }
     }
 }
@@ -199,13 +204,14 @@ pub fn identify_chain(
     // The check (when it runs) comes before the compensation: when the joint errors are kept
     // the geometry is fitted again below, and the Gaussian process over the residuals, the
     // identification's most expensive step, is left to that fit.
-    let (first, extended) = identify_geometry(points, nominal, start, prior, opts)?;
-    let keep = |e: &beyond::ExtendedFit| {
-        e.report.predicts_better || opts.beyond_geometry == JointErrorFit::Keep
-    };
+    let mut steps = steps::Steps::new(&opts.progress, opts.beyond_geometry != JointErrorFit::Off);
+    let (first, extended) = identify_geometry(points, nominal, start, prior, opts, &mut steps)?;
+    let keep = |e: &beyond::ExtendedFit| opts.beyond_geometry.keeps(e.report.predicts_better);
     let Some(ext) = extended.filter(keep) else {
+        steps.finish();
         return Ok(first);
     };
+    steps.grow(steps::Steps::pass(false) as i64);
     let geometric_only = ChainOptions {
         beyond_geometry: JointErrorFit::Off,
         ..opts.clone()
@@ -224,7 +230,15 @@ pub fn identify_chain(
             }
         })
         .collect();
-    let (mut second, _) = identify_geometry(&corrected, nominal, start, prior, &geometric_only)?;
+    let (mut second, _) = identify_geometry(
+        &corrected,
+        nominal,
+        start,
+        prior,
+        &geometric_only,
+        &mut steps,
+    )?;
+    steps.finish();
     // The coefficients' covariance is in the units the observations were whitened with: the
     // noise the geometric fit estimated (then the data's noise is what the second fit
     // estimates), or the stated noise (then the data's noise is the stated one times the lack
@@ -273,8 +287,10 @@ fn identify_geometry(
     start: Option<ChainState>,
     prior: Option<NominalPrior>,
     opts: &ChainOptions,
+    steps: &mut steps::Steps,
 ) -> Result<(ChainResult, Option<beyond::ExtendedFit>), IdentifyError> {
     check_points(points, nominal, start)?;
+    steps.next("fitting the geometry");
     let (mut run, fixed_by_user) = Fitted::start(points, nominal, start, opts)?;
     check_pose_count(points, run.free.len())?;
     let nulls = run.fit_free();
@@ -296,6 +312,7 @@ fn identify_geometry(
     // The identifiability analysis and the lack of fit take the placement's rotation as small
     // rotations about the measurement frame's axes (the same figures however the tracker frame
     // is turned); the model keeps roll, pitch and yaw.
+    steps.next("identifiability and covariance");
     let (local, linearised) =
         linearised_covariances(&run.obs, &run.state, &run.free, prior.as_ref());
     let noise = noise_report(&run.obs, &run.state, &opts.noise, estimated_sigma, dof);
@@ -317,15 +334,18 @@ fn identify_geometry(
         (true, Some(p)) => Some(p < crate::discrepancy::SIGNIFICANCE),
         _ => None,
     };
-    let beyond = if opts.beyond_geometry.checks(found) {
+    let check_runs = opts.beyond_geometry.checks(found);
+    if check_runs {
+        steps.next("checking beyond geometry");
+    } else if opts.beyond_geometry != JointErrorFit::Off {
+        steps.grow(-1);
+    }
+    let beyond = if check_runs {
         beyond::check(
             &run,
             nominal,
             prior.as_ref(),
-            matches!(
-                opts.beyond_geometry,
-                JointErrorFit::On | JointErrorFit::Keep
-            ),
+            opts.beyond_geometry.explicit(),
         )
     } else {
         None
@@ -334,7 +354,12 @@ fn identify_geometry(
     // the self-check are left to that fit.
     let kept_beyond = beyond
         .as_ref()
-        .is_some_and(|b| b.report.predicts_better || opts.beyond_geometry == JointErrorFit::Keep);
+        .is_some_and(|b| opts.beyond_geometry.keeps(b.report.predicts_better));
+    steps.next(if opts.compensate && !kept_beyond {
+        "lack of fit and compensation"
+    } else {
+        "lack of fit"
+    });
     let lack = if kept_beyond {
         let plain = ChainOptions {
             compensate: false,

@@ -17,8 +17,8 @@
 
 use super::lm::levenberg_marquardt;
 use crate::kinematics::{
-    param_index, param_joint, position, transform, Block, FixedParam, InputSpace, Joints, Layout,
-    ParamKind, Params,
+    param_index, param_joint, position, position_with_trig, transform, twist_trig, Block,
+    FixedParam, InputSpace, Joints, Layout, ParamKind, Params,
 };
 use nalgebra::{DMatrix, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 
@@ -93,6 +93,35 @@ impl ChainState {
         let v = r * p + Vector3::new(self.base[0], self.base[1], self.base[2]);
         [v.x, v.y, v.z]
     }
+
+    /// [`Self::predict`] for many configurations: the placement's rotation and the twists'
+    /// sines and cosines worked out once (the same arithmetic, so the same bits).
+    pub fn predictor(&self) -> Predictor<'_> {
+        Predictor {
+            state: self,
+            rotation: self.rotation(),
+            trig: twist_trig(&self.params),
+        }
+    }
+}
+
+/// A [`ChainState`]'s predictions with what does not depend on the joint angles worked out once
+/// ([`ChainState::predictor`]).
+pub struct Predictor<'a> {
+    state: &'a ChainState,
+    rotation: Matrix3<f64>,
+    trig: crate::kinematics::TwistTrig,
+}
+
+impl Predictor<'_> {
+    /// [`ChainState::predict`] at joint angles `q` (radians).
+    #[inline]
+    pub fn predict(&self, q: &[f64]) -> [f64; 3] {
+        let s = self.state;
+        let p = Vector3::from(position_with_trig(&s.params, &self.trig, &s.tool, q));
+        let v = self.rotation * p + Vector3::new(s.base[0], s.base[1], s.base[2]);
+        [v.x, v.y, v.z]
+    }
 }
 
 /// One measured point: commanded angles, measured position and its noise whitening.
@@ -161,9 +190,10 @@ fn step(lay: Layout, i: usize) -> f64 {
 pub fn residuals(obs: &[Observation], s: &ChainState) -> Vec<f64> {
     let r = s.rotation();
     let t = Vector3::new(s.base[0], s.base[1], s.base[2]);
+    let trig = twist_trig(&s.params);
     let mut out = Vec::with_capacity(3 * obs.len());
     for o in obs {
-        let p = Vector3::from(position(&s.params, &s.tool, &o.q));
+        let p = Vector3::from(position_with_trig(&s.params, &trig, &s.tool, &o.q));
         let e = o.whiten * (r * p + t - Vector3::from(o.p));
         out.extend_from_slice(&[e.x, e.y, e.z]);
     }

@@ -58,6 +58,8 @@ pub enum IdentifySetting {
     Fit,
     /// [`IdentifyJob::refine`] (sweeps only).
     Refine,
+    /// [`IdentifyJob::memory`]: the data need more memory than it allows.
+    Memory,
 }
 
 /// Why an identification job gave no model.
@@ -119,6 +121,12 @@ pub struct IdentifyJob {
     /// When joint compliance and gear harmonics are fitted and kept
     /// ([`crate::identify::JointErrorFit`], [`crate::identify::chain::BeyondGeometry`]).
     pub beyond_geometry: JointErrorFit,
+    /// The memory the identification may use, checked against [`Self::memory_estimate`] once
+    /// the data are read and before any fit (data from a pipe cannot be sized before); none:
+    /// no check.
+    pub memory: Option<crate::memory::MemoryBudget>,
+    /// Told each step of the identification as it starts.
+    pub progress: crate::progress::ProgressHook,
 }
 
 /// What an [`IdentifyJob`] gives.
@@ -250,6 +258,8 @@ impl IdentifyJob {
             strict: false,
             compensate: true,
             beyond_geometry: JointErrorFit::Auto,
+            memory: None,
+            progress: Default::default(),
         }
     }
 
@@ -272,6 +282,8 @@ impl IdentifyJob {
         // Read once: a pipe (`/dev/stdin`) gives its bytes only once, for the data and their
         // checksum both.
         let (text, origin, bytes) = super::sweeps::open_input_keeping(&self.data, true)?;
+        self.progress.report("checking the data", 0, 1);
+        self.check_memory(&text, &origin)?;
         let data = parse_tracker_data(&text, &origin)?;
         check_tracker_data(&data, &self.nominal, &origin)?;
         let chain = self.chain_options(&data)?;
@@ -439,6 +451,44 @@ impl IdentifyJob {
         }
     }
 
+    /// Checks the [`Self::memory`] budget against the estimate for `text`'s lines: the fit and
+    /// lack of fit, then the Monte Carlo re-identifications when asked for.
+    fn check_memory(&self, text: &str, origin: &str) -> Result<(), IdentifyJobError> {
+        use crate::memory::Estimate;
+        let Some(budget) = &self.memory else {
+            return Ok(());
+        };
+        let rows = 1 + text.bytes().filter(|&b| b == b'\n').count() as u64;
+        let threads = rayon::current_num_threads() as u64;
+        let what = format!("identifying the {rows} lines of {origin}");
+        let mut checks = vec![(
+            IdentifySetting::Memory,
+            false,
+            Estimate::new(
+                what.clone(),
+                "identify a subset of the rows, or raise the memory limit",
+            ),
+        )];
+        if let UncertaintyMethod::MonteCarlo { draws } = self.uncertainty {
+            checks.push((
+                IdentifySetting::McDraws,
+                true,
+                Estimate::new(
+                    format!("{what} with {draws} Monte Carlo re-identifications"),
+                    "use fewer re-identifications (or the linearised uncertainty), or raise the memory limit",
+                ),
+            ));
+        }
+        for (setting, monte_carlo, e) in checks {
+            let e = self.memory_estimate(rows, text.len() as u64, threads, monte_carlo, e);
+            budget.check(&e).map_err(|e| IdentifyJobError::Setting {
+                setting,
+                message: e.to_string(),
+            })?;
+        }
+        Ok(())
+    }
+
     /// The options of the circle-point steps.
     fn options(&self) -> IdentifyOptions {
         IdentifyOptions {
@@ -512,6 +562,7 @@ impl IdentifyJob {
             seed: self.seed,
             compensate: self.compensate,
             beyond_geometry: self.beyond_geometry,
+            progress: self.progress.clone(),
         })
     }
 }

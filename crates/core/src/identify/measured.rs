@@ -25,6 +25,7 @@ use super::repeats::{fit_input, FitInput};
 use super::sweeps::{SweepData, SweepRun};
 use super::{mdh, IdentifyError, IdentifyWarning};
 use crate::kinematics::{param_index, Block, ParamKind, RobotModel};
+use crate::progress::ProgressHook;
 use nalgebra::{DMatrix, DVector, Matrix3, Rotation3, Vector3};
 
 /// An identification report for data without circle fits (poses): the whole-chain report and
@@ -67,14 +68,17 @@ pub fn identify_poses(
         return Err(IdentifyError::NoData("no poses to identify from".into()));
     }
     let chain = &per_run_options(chain, data.runs.len());
+    let count = data.runs.len();
     let fits = data
         .runs
         .iter()
-        .map(|r| {
+        .enumerate()
+        .map(|(k, r)| {
             let label = super::sweeps::run_label(r.run.as_deref());
             let input = fit_input(r, &chain.noise);
             let opts = ChainOptions {
                 noise: input.noise,
+                progress: run_progress(&chain.progress, k, count),
                 ..chain.clone()
             };
             let mut result =
@@ -340,9 +344,16 @@ pub fn identify_sweeps_chain(
         return Err(IdentifyError::NoData("no sweeps to identify from".into()));
     }
     let chain = &per_run_options(chain, data.runs.len());
+    let count = data.runs.len();
     data.runs
         .iter()
-        .map(|run| {
+        .enumerate()
+        .map(|(k, run)| {
+            let chain = &ChainOptions {
+                progress: run_progress(&chain.progress, k, count),
+                ..chain.clone()
+            };
+            chain.progress.report("circle fits", 0, 1);
             let placement = match chain.placement {
                 Placement::Identify => placement_from_axes(run, nominal, options.method)?,
                 Placement::Known => [0.0; 6],
@@ -388,15 +399,27 @@ pub fn identify_sweeps_chain(
         .collect()
 }
 
+/// The progress hook of run `k` (from 0) of `count`: the run's steps as a share of all runs'.
+fn run_progress(hook: &ProgressHook, k: usize, count: usize) -> ProgressHook {
+    if count > 1 {
+        hook.part(k as u64, count as u64, format!("run {}/{count}: ", k + 1))
+    } else {
+        hook.clone()
+    }
+}
+
 /// The whole-chain options of one of `runs` runs: several runs give their mean model, which no
-/// run's compensation describes, so they are fitted without one (and without joint errors
-/// unless asked for, when each run's report shows its check: the mean model of several runs
-/// carries the geometry's statistics alone).
+/// run's compensation or joint errors describe, so they are fitted without either; a check
+/// beyond geometry asked for still runs and is reported per run (the mean model of several
+/// runs carries the geometry's statistics alone, and a run's geometry fitted beside joint
+/// errors would not be the geometry that predicts best without them).
 fn per_run_options(chain: &ChainOptions, runs: usize) -> ChainOptions {
+    use super::JointErrorFit;
     ChainOptions {
         compensate: chain.compensate && runs == 1,
         beyond_geometry: match chain.beyond_geometry {
-            super::JointErrorFit::Auto if runs > 1 => super::JointErrorFit::Off,
+            JointErrorFit::Auto if runs > 1 => JointErrorFit::Off,
+            JointErrorFit::On | JointErrorFit::Keep if runs > 1 => JointErrorFit::Check,
             mode => mode,
         },
         ..chain.clone()

@@ -133,6 +133,38 @@ pub fn parameter_statistics(models: &[RobotModel]) -> Option<RobotModel> {
     })
 }
 
+/// What the runs' checks beyond geometry found, for the note of their mean model (which holds
+/// the geometry alone); `None` when no run was checked.
+fn checks_per_run(runs: &[Identification]) -> Option<String> {
+    let checks: Vec<_> = runs
+        .iter()
+        .filter_map(|i| i.report.chain.as_ref()?.beyond_geometry.as_ref())
+        .collect();
+    if checks.is_empty() {
+        return None;
+    }
+    let better = checks.iter().filter(|c| c.predicts_better).count();
+    let range = |f: fn(&&super::chain::BeyondGeometry) -> f64| {
+        let (lo, hi) = checks
+            .iter()
+            .map(f)
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            });
+        if hi - lo < 5e-5 {
+            format!("{lo:.4}")
+        } else {
+            format!("{lo:.4}–{hi:.4}")
+        }
+    };
+    Some(format!(
+        "; beyond geometry, checked per run: joint compliance and gear harmonics predict better in {better} of the {} runs checked (leave-one-out RMS {} mm against {} mm for the geometry alone), but the mean model of several runs holds the geometry alone: identify one run to keep them",
+        checks.len(),
+        range(|c| c.loo_rms_extended_mm),
+        range(|c| c.loo_rms_geometric_mm),
+    ))
+}
+
 /// The model file of an identification: one run's model with the nominal model's uncertainty
 /// (one run says nothing about the spread), or the mean of several runs with their run-to-run σ
 /// (or, with `covariance`, their full covariance). Its name says what it was identified from
@@ -209,6 +241,9 @@ pub fn identified_model(
                     many.len(),
                     d.robot_rms_mm()
                 ));
+            }
+            if let Some(check) = checks_per_run(many) {
+                note.push_str(&check);
             }
             // Placements identified per run: their mean (the tracker is taken not to move).
             let bases: Vec<_> = many.iter().filter_map(|i| i.model.base).collect();

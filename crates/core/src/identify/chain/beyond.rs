@@ -144,7 +144,7 @@ impl BeyondGeometry {
             self.loo_rms_geometric_mm,
             match (self.predicts_better, self.kept) {
                 (true, true) => "the robot shows errors of these kinds, and the model carries them (geometry fitted again to the corrected joint angles; every analysis draws them)",
-                (true, false) => "the robot shows errors of these kinds",
+                (true, false) => "the robot shows errors of these kinds, but the model carries the geometry alone (a check only; several runs' mean model holds no joint errors: identify one run to keep them)",
                 (false, true) => "no gain worth the coefficients, but the model carries them as asked (geometry fitted again to the corrected joint angles; every analysis draws them)",
                 _ => "no gain worth the coefficients; the model carries the geometry alone",
             }
@@ -227,6 +227,7 @@ fn residuals(obs: &[Observation], m: &ExtendedModel, x: &Inputs<'_>) -> Vec<f64>
     let (free, geo, prior) = (x.free, x.geo, x.prior);
     let mut out = Vec::with_capacity(3 * obs.len() + free.len());
     let n = m.links.joints();
+    let at = m.state.predictor();
     for (k, (o, t)) in obs.iter().zip(x.terms).enumerate() {
         let mut d = JointErrors::deflections_with(&m.beta, o.payload_kg, t, n);
         if let Some(dirs) = x.dirs {
@@ -234,7 +235,7 @@ fn residuals(obs: &[Observation], m: &ExtendedModel, x: &Inputs<'_>) -> Vec<f64>
                 d[j] += 0.5 * m.beta[PER_JOINT * n + j] * dirs[k][j];
             }
         }
-        let p = m.state.predict(&Joints::from_fn(n, |i| o.q[i] + d[i]));
+        let p = at.predict(&Joints::from_fn(n, |i| o.q[i] + d[i]));
         let e = o.whiten * Vector3::new(p[0] - o.p[0], p[1] - o.p[1], p[2] - o.p[2]);
         out.extend_from_slice(&[e.x, e.y, e.z]);
     }

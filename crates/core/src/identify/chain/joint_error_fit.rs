@@ -3,9 +3,10 @@
 use serde::Serialize;
 
 /// When the identification fits joint errors beyond the geometry (compliance under gravity and
-/// gear harmonics, [`super::BeyondGeometry`]); each mode but [`JointErrorFit::Off`] keeps them in the
-/// model only when the cross-validated check says they predict held-out poses better, or always
-/// with [`JointErrorFit::Keep`].
+/// gear harmonics, [`super::BeyondGeometry`]); [`JointErrorFit::Auto`] and [`JointErrorFit::On`]
+/// keep them in the model only when the cross-validated check says they predict held-out poses
+/// better, [`JointErrorFit::Keep`] always, [`JointErrorFit::Check`] and [`JointErrorFit::Off`]
+/// never.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 #[serde(rename_all = "snake_case")]
 pub enum JointErrorFit {
@@ -22,6 +23,9 @@ pub enum JointErrorFit {
     /// payload what-if on data that do not show the compliance: an undetermined compliance
     /// keeps its prior σ).
     Keep,
+    /// The check always runs and is reported, and the model keeps the geometry alone (what
+    /// several runs get when asked for the check: their mean model holds no joint errors).
+    Check,
 }
 
 impl JointErrorFit {
@@ -32,7 +36,25 @@ impl JointErrorFit {
             JointErrorFit::Auto => "auto",
             JointErrorFit::On => "on",
             JointErrorFit::Keep => "keep",
+            JointErrorFit::Check => "check",
         }
+    }
+
+    /// Whether the model keeps the joint errors whose check found that they `predict_better`.
+    pub fn keeps(self, predict_better: bool) -> bool {
+        match self {
+            JointErrorFit::Off | JointErrorFit::Check => false,
+            JointErrorFit::Auto | JointErrorFit::On => predict_better,
+            JointErrorFit::Keep => true,
+        }
+    }
+
+    /// Whether it was asked for explicitly (the check then also fits a backlash per joint).
+    pub fn explicit(self) -> bool {
+        matches!(
+            self,
+            JointErrorFit::On | JointErrorFit::Keep | JointErrorFit::Check
+        )
     }
 
     /// Whether the check runs for a geometric fit whose lack of fit test gave `found` (`None`:
@@ -41,7 +63,7 @@ impl JointErrorFit {
         match self {
             JointErrorFit::Off => false,
             JointErrorFit::Auto => found != Some(false),
-            JointErrorFit::On | JointErrorFit::Keep => true,
+            JointErrorFit::On | JointErrorFit::Keep | JointErrorFit::Check => true,
         }
     }
 }

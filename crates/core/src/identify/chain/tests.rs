@@ -94,3 +94,46 @@ fn frozen_wrist_is_named() {
         r.report.warnings
     );
 }
+
+/// The progress hook hears each step once, in order, counting up to a plan that ends where the
+/// work does: one pass of four steps by default (the check runs: the noise is not stated), two
+/// passes when the joint errors are kept.
+#[test]
+fn the_progress_hook_hears_every_step_in_order() {
+    use crate::progress::ProgressHook;
+    use std::sync::{Arc, Mutex};
+    let data = points(&truth(), 60, 0.01, 3);
+    let heard = |beyond_geometry: JointErrorFit| {
+        let log = Arc::new(Mutex::new(Vec::new()));
+        let sink = log.clone();
+        let opts = ChainOptions {
+            beyond_geometry,
+            compensate: false,
+            progress: ProgressHook::new(move |label: &str, done, total| {
+                sink.lock().unwrap().push((label.to_string(), done, total));
+            }),
+            ..ChainOptions::default()
+        };
+        identify_chain(&data, &tx60(), None, None, &opts).unwrap();
+        let steps = log.lock().unwrap().clone();
+        for (k, (label, done, total)) in steps.iter().enumerate() {
+            assert_eq!(*done, k as u64, "{steps:?}");
+            assert!(done < total || label == "done", "{steps:?}");
+        }
+        let (last, done, total) = steps.last().unwrap().clone();
+        assert_eq!((last.as_str(), done), ("done", total), "{steps:?}");
+        steps.into_iter().map(|s| s.0).collect::<Vec<_>>()
+    };
+    let pass = ["fitting the geometry", "identifiability and covariance"];
+    let mut one = pass.to_vec();
+    one.extend(["checking beyond geometry", "lack of fit", "done"]);
+    assert_eq!(heard(JointErrorFit::Auto), one);
+    let mut off = pass.to_vec();
+    off.extend(["lack of fit", "done"]);
+    assert_eq!(heard(JointErrorFit::Off), off);
+    let mut two = pass.to_vec();
+    two.extend(["checking beyond geometry", "lack of fit"]);
+    two.extend(pass);
+    two.extend(["lack of fit", "done"]);
+    assert_eq!(heard(JointErrorFit::Keep), two);
+}
