@@ -373,6 +373,8 @@ def identify(
     strict: bool = False,
     no_compensation: bool = False,
     beyond_geometry: bool | str | None = None,
+    columns: str | None = None,
+    delimiter: str | None = None,
 ) -> IdentifyResult: ...
 def validate(
     model: Model | _Path,

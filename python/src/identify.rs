@@ -109,27 +109,32 @@ crate::report_class!(PyIdentifyResult, {
     }
 });
 
-/// Identifies the MDH parameters, target and placement from laser-tracker data
-/// (`gpu-amcs identify`): `data` is the CSV, sweeps (joint,q1..qn,x,y,z) or poses
-/// (q1..qn,x,y,z, optionally sx,sy,sz; one q column per joint of the nominal model, q1..q6 for
-/// six joints), either optionally with a run column; degrees and mm, in
-/// any measurement frame. The nominal model giving the structure is `nominal` (a `Model`, or a
-/// model file or robot description path), else the preset `preset`. `base_known=True` takes the
-/// data as robot-base-frame data (no placement identified). `fix`: parameter names held at their
-/// nominal values (theta1…beta`n`, tool_x…, base_x…base_yaw). Noise: `tracker_sigma` (mm per
-/// coordinate) or `tracker_mpe` ([A, B] or [A, B, R]: µm, µm/m, µm) with `tracker_at` (mm;
-/// default the data frame's origin), else the data's sx,sy,sz or the residuals.
-/// `uncertainty`: "linearised" or "montecarlo" (`mc_draws` re-identifications from `seed`).
-/// Sweeps only: `fit` "commanded" or "point-cloud", `no_prior`, `no_refine` (the plain
-/// circle-point result; with `base_known=True`). With several runs `covariance=True` keeps the
-/// full sample covariance. `no_compensation=True` leaves out the Gaussian-process compensation
-/// of a single run's residuals. `beyond_geometry` says when joint compliance and gear
-/// harmonics are fitted with the geometry (the command line's `--beyond-geometry`): None or "auto"
-/// (the default: when the geometric fit shows a lack of fit, kept when they predict left-out poses
-/// better), "on" or True (always checked), "keep" (always kept), "check" (checked and reported, never
-/// kept), "off" or False. `strict=True` raises a `ValueError` for the warnings. Returns an
-/// `IdentifyResult` whose `to_toml()` is the model file the command writes and whose
-/// `to_dict()` is its `--json` document.
+/// The `columns` and `delimiter` keywords as a column map (a delimiter alone maps nothing).
+fn column_map(
+    columns: Option<&str>,
+    delimiter: Option<&str>,
+) -> PyResult<Option<gpu_amcs_core::identify::ColumnMap>> {
+    use gpu_amcs_core::identify::ColumnMap;
+    let delimiter = match delimiter {
+        None => None,
+        Some(d) if d.len() == 1 && d != "\"" && d != "\n" => Some(d.as_bytes()[0]),
+        Some(d) => {
+            return Err(value_error(format!(
+                "delimiter: '{d}' is not one ASCII character (e.g. ';' or '\\t')"
+            )))
+        }
+    };
+    let map = match columns {
+        Some(c) => ColumnMap::parse(c).map_err(|e| value_error(format!("columns: {e}")))?,
+        None if delimiter.is_some() => ColumnMap::none(),
+        None => return Ok(None),
+    };
+    Ok(Some(match delimiter {
+        Some(d) => map.with_delimiter(d),
+        None => map,
+    }))
+}
+
 /// The `beyond_geometry` keyword: a bool or one of the command line's words.
 fn joint_error_fit(v: &Bound<'_, PyAny>) -> PyResult<JointErrorFit> {
     if let Ok(b) = v.extract::<bool>() {
@@ -156,6 +161,29 @@ fn joint_error_fit(v: &Bound<'_, PyAny>) -> PyResult<JointErrorFit> {
     }
 }
 
+/// Identifies the MDH parameters, target and placement from laser-tracker data
+/// (`gpu-amcs identify`): `data` is the CSV, sweeps (joint,q1..qn,x,y,z) or poses
+/// (q1..qn,x,y,z, optionally sx,sy,sz; one q column per joint of the nominal model, q1..q6 for
+/// six joints), either optionally with a run column; degrees and mm, in
+/// any measurement frame. The nominal model giving the structure is `nominal` (a `Model`, or a
+/// model file or robot description path), else the preset `preset`. `base_known=True` takes the
+/// data as robot-base-frame data (no placement identified). `fix`: parameter names held at their
+/// nominal values (theta1…beta`n`, tool_x…, base_x…base_yaw). Noise: `tracker_sigma` (mm per
+/// coordinate) or `tracker_mpe` ([A, B] or [A, B, R]: µm, µm/m, µm) with `tracker_at` (mm;
+/// default the data frame's origin), else the data's sx,sy,sz or the residuals.
+/// `uncertainty`: "linearised" or "montecarlo" (`mc_draws` re-identifications from `seed`).
+/// Sweeps only: `fit` "commanded" or "point-cloud", `no_prior`, `no_refine` (the plain
+/// circle-point result; with `base_known=True`). With several runs `covariance=True` keeps the
+/// full sample covariance. `no_compensation=True` leaves out the Gaussian-process compensation
+/// of a single run's residuals. `beyond_geometry` says when joint compliance and gear
+/// harmonics are fitted with the geometry (the command line's `--beyond-geometry`): None or "auto"
+/// (the default: when the geometric fit shows a lack of fit, kept when they predict left-out poses
+/// better), "on" or True (always checked), "keep" (always kept), "check" (checked and reported, never
+/// kept), "off" or False. `strict=True` raises a `ValueError` for the warnings. Returns an
+/// `IdentifyResult` whose `to_toml()` is the model file the command writes and whose
+/// `to_dict()` is its `--json` document. `columns` maps a file as a tracker or robot log exported
+/// it (the command line's `--columns`: "ours=theirs[:unit],…", e.g. "q1=A1:rad,…,x=X:m"), and
+/// `delimiter` is its field delimiter (one character) when not a comma.
 #[pyfunction]
 // Plain literal defaults, so that help() and inspect.signature show them (PyO3 writes `...`
 // for any other expression); `preset` is the command line's default (spec::DEFAULT_PRESET, which
@@ -163,7 +191,8 @@ fn joint_error_fit(v: &Bound<'_, PyAny>) -> PyResult<JointErrorFit> {
 #[pyo3(signature = (data, *, nominal = None, preset = "tx60", base_known = false, fix = None,
     tracker_sigma = None, tracker_mpe = None, tracker_at = None, uncertainty = "linearised",
     mc_draws = 200, seed = 1, fit = "commanded", no_prior = false, no_refine = false,
-    covariance = false, strict = false, no_compensation = false, beyond_geometry = None))]
+    covariance = false, strict = false, no_compensation = false, beyond_geometry = None,
+    columns = None, delimiter = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify(
     py: Python<'_>,
@@ -185,7 +214,10 @@ pub fn identify(
     strict: bool,
     no_compensation: bool,
     beyond_geometry: Option<Bound<'_, PyAny>>,
+    columns: Option<String>,
+    delimiter: Option<String>,
 ) -> PyResult<PyIdentifyResult> {
+    let columns = column_map(columns.as_deref(), delimiter.as_deref())?;
     let beyond_geometry = match &beyond_geometry {
         None => JointErrorFit::Auto,
         Some(v) => joint_error_fit(v)?,
@@ -248,6 +280,7 @@ pub fn identify(
         strict,
         compensate: !no_compensation,
         beyond_geometry,
+        columns,
         ..IdentifyJob::new(data, nominal)
     };
     let outcome = py.detach(|| job.run()).map_err(|e| match e {
@@ -277,5 +310,6 @@ fn setting_keyword(s: IdentifySetting) -> &'static str {
         IdentifySetting::Fit => "fit",
         IdentifySetting::Refine => "no_refine",
         IdentifySetting::Memory => "memory_limit",
+        IdentifySetting::Columns => "columns",
     }
 }

@@ -486,3 +486,25 @@ def test_compensation_is_fitted_applied_and_can_be_left_out(cli, tmp_path):
     plain = gpu_amcs.identify(poses, no_compensation=True)
     assert "[discrepancy.compensation]" not in plain.to_toml()
     assert "[discrepancy.compensation]" in res.to_toml()
+
+
+def test_identify_columns_equals_cli(cli, tmp_path):
+    """columns= and delimiter=: the command line's --columns and --delimiter, the same model."""
+    own = tmp_path / "own.csv"
+    run_ok(cli, "simulate", "--poses", 60, "--seed", 4, "--tracker-sigma", 0.01, "-o", own)
+    lines = own.read_text().splitlines()
+    log = ["J1;J2;J3;J4;J5;J6;X;Y;Z"]
+    for line in lines[1:]:
+        v = [float(x) for x in line.split(",")]
+        log.append(";".join([repr(a) for a in v[:6]] + [repr(x / 1000.0) for x in v[6:]]))
+    data = tmp_path / "log.csv"
+    data.write_text("\n".join(log) + "\n")
+    cmap = ",".join([f"q{k}=J{k}" for k in range(1, 7)] + ["x=X:m", "y=Y:m", "z=Z:m"])
+    run_ok(cli, "identify", data, "--columns", cmap, "--delimiter", ";", "--tracker-sigma", 0.01,
+           "--out", tmp_path / "m.toml")
+    res = gpu_amcs.identify(data, columns=cmap, delimiter=";", tracker_sigma=0.01)
+    assert res.to_toml() == (tmp_path / "m.toml").read_text()
+    with pytest.raises(ValueError, match="columns: .*'K1'"):
+        gpu_amcs.identify(data, columns="q1=K1", delimiter=";")
+    with pytest.raises(ValueError, match="delimiter"):
+        gpu_amcs.identify(data, columns=cmap, delimiter=";;")

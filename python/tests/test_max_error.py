@@ -127,12 +127,18 @@ def test_max_error_nominal_reference(tx60, q):
     want = np.linalg.norm(fk_numpy(p, q) - ref, axis=-1).max(axis=1)
     got = tx60.max_error(p, q, reference="nominal", backend="cpu")
     np.testing.assert_allclose(got, want, atol=TOL_MM)
+    # An explicit nominal: the TX60's design with its upper arm 3 mm longer (the same robot, as
+    # a calibration sees it: flanges millimetres apart).
+    other = gpu_amcs.Model.from_toml(tx60.to_toml().replace("a = 290.0", "a = 293.0", 1))
+    ref_o = fk_numpy(inputs(other.params[None, :30], tx60.tool), q)[0]
+    want_o = np.linalg.norm(fk_numpy(p, q) - ref_o, axis=-1).max(axis=1)
+    got_o = tx60.max_error(p, q, reference="nominal", nominal=other, backend="cpu")
+    np.testing.assert_allclose(got_o, want_o, atol=TOL_MM)
+    assert got_o.min() > 1  # the longer arm is millimetres away
+    # Another robot as the nominal is refused, as the command line refuses it.
     qu = np.clip(q, ur.limits[:, 0], ur.limits[:, 1])
-    ref_u = fk_numpy(inputs(ur.params[None, :30], tx60.tool), qu)[0]
-    want_u = np.linalg.norm(fk_numpy(p, qu) - ref_u, axis=-1).max(axis=1)
-    got_u = tx60.max_error(p, qu, reference="nominal", nominal=ur, backend="cpu")
-    np.testing.assert_allclose(got_u, want_u, atol=TOL_MM)
-    assert got_u.min() > 10  # a different robot is centimetres away
+    with pytest.raises(ValueError, match="nominal: .*another robot"):
+        tx60.max_error(p, qu, reference="nominal", nominal=ur, backend="cpu")
 
 
 def test_columns_and_offsets_agree_with_full_rows(tx60, q):

@@ -407,6 +407,10 @@ impl BackendArgs {
 /// The default budget of this process, measured at its first use.
 static DEFAULT_BUDGET: std::sync::OnceLock<MemoryBudget> = std::sync::OnceLock::new();
 
+/// The room the kernel enforces for this process ([`memory::hard_room`]), measured at its
+/// first use.
+static HARD_ROOM: std::sync::OnceLock<Option<MemoryBudget>> = std::sync::OnceLock::new();
+
 impl MemoryArgs {
     /// The memory budget: `--memory-limit`, or a share of the available memory.
     pub fn budget(&self) -> Result<MemoryBudget> {
@@ -417,7 +421,8 @@ impl MemoryArgs {
             .transpose()
             .context("--memory-limit")?;
         Ok(match limit {
-            Some(_) => MemoryBudget::new(limit),
+            // The hard rooms measured once, as the default is.
+            Some(l) => MemoryBudget::given(l, *HARD_ROOM.get_or_init(memory::hard_room)),
             // Measured once: the address space left shrinks as worker threads reserve their
             // stacks and allocator arenas, and the decisions of one run (summary mode or not,
             // then the check before the run) must use the same limit.

@@ -75,6 +75,14 @@ pub struct IdentifyArgs {
     /// measurement frame.
     #[arg(value_name = "DATA.csv")]
     pub sweeps: PathBuf,
+    /// The data file's columns as a tracker or robot log exported them: ours=theirs[:unit],...
+    /// (e.g. q1=A1:rad,...,x=X:m,y=Y:m,z=Z:m); units mm, cm, m, in, um; deg, rad; kg, g, lb.
+    /// Unnamed columns keep their names.
+    #[arg(long, value_name = "MAP")]
+    pub columns: Option<String>,
+    /// The data file's field delimiter, one character (e.g. ';' or tab), when not a comma.
+    #[arg(long, value_name = "CHAR")]
+    pub delimiter: Option<String>,
     /// The data are in the robot's base frame (J1 along z): do not identify the placement.
     #[arg(long)]
     pub base_known: bool,
@@ -110,7 +118,7 @@ pub struct IdentifyArgs {
     /// Monte Carlo re-identifications of synthetic data drawn around the fit.
     #[arg(long, value_enum, default_value_t = UncertaintyArg::Linearised)]
     pub uncertainty: UncertaintyArg,
-    /// Number of Monte Carlo re-identifications for --uncertainty montecarlo.
+    /// Number of Monte Carlo re-identifications for --uncertainty montecarlo (10 to 10000).
     #[arg(long, default_value_t = 200, value_name = "K")]
     pub mc_draws: usize,
     /// Seed of the Monte Carlo re-identification.
@@ -192,6 +200,7 @@ impl Run for IdentifyArgs {
             None => preset_hint(&a.sweeps, nominal, a.preset.is_none()),
         };
         let mut job = a.job(nominal.clone());
+        job.columns = column_map(a.columns.as_deref(), a.delimiter.as_deref())?;
         a.check_memory(&job)?;
         // Data from a pipe are sized by the job once read.
         job.memory = Some(a.memory.budget()?);
@@ -318,6 +327,7 @@ fn setting_flag(s: IdentifySetting) -> &'static str {
         IdentifySetting::Fit => "--fit",
         IdentifySetting::Refine => "--no-refine",
         IdentifySetting::Memory => "--memory-limit",
+        IdentifySetting::Columns => "--columns",
     }
 }
 
@@ -332,16 +342,43 @@ fn data_size(path: &Path) -> Option<(u64, u64)> {
     }
     let mut f = std::fs::File::open(path).ok()?;
     let mut buf = vec![0u8; 1 << 16];
-    let mut lines = 1u64;
+    let (mut lines, mut last) = (0u64, b'\n');
     loop {
         match f.read(&mut buf) {
             Ok(0) => break,
-            Ok(k) => lines += buf[..k].iter().filter(|&&b| b == b'\n').count() as u64,
+            Ok(k) => {
+                lines += buf[..k].iter().filter(|&&b| b == b'\n').count() as u64;
+                last = buf[k - 1];
+            }
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => {}
             Err(_) => return None,
         }
     }
-    Some((meta.len(), lines))
+    // A last line without its newline counts too.
+    Some((meta.len(), lines + u64::from(last != b'\n')))
+}
+
+/// The column map of `--columns` and `--delimiter` (a delimiter alone maps nothing).
+pub fn column_map(
+    columns: Option<&str>,
+    delimiter: Option<&str>,
+) -> Result<Option<gpu_amcs::identify::ColumnMap>> {
+    use gpu_amcs::identify::ColumnMap;
+    let delimiter = match delimiter {
+        None => None,
+        Some("\\t" | "tab" | "\t") => Some(b'\t'),
+        Some(d) if d.len() == 1 && d != "\"" && d != "\n" => Some(d.as_bytes()[0]),
+        Some(d) => bail!("--delimiter: '{d}' is not one ASCII character (e.g. ';' or tab)"),
+    };
+    let map = match (columns, delimiter) {
+        (None, None) => return Ok(None),
+        (Some(c), _) => ColumnMap::parse(c).context("--columns")?,
+        (None, Some(_)) => ColumnMap::none(),
+    };
+    Ok(Some(match delimiter {
+        Some(d) => map.with_delimiter(d),
+        None => map,
+    }))
 }
 
 impl IdentifyArgs {

@@ -144,3 +144,36 @@ fn fixing_every_parameter_is_refused() {
     let o = identify(&base, &["--base-known", "--fix", &but_one]);
     assert!(o.status.success(), "{}", stderr(&o));
 }
+
+/// A tracker farther from the measured points than any tracker measures: at 1e200 mm the fit
+/// ran with σ beyond use and wrote a model with every parameter undetermined (exit 0); at 1e9
+/// the refusal blamed the poses and printed a 150-digit number. Too many Monte Carlo
+/// re-identifications ran silently for days (10^7: each is a whole fit). Both now refused,
+/// naming the flag, nothing written.
+#[test]
+fn a_tracker_out_of_range_and_endless_monte_carlo_are_refused() {
+    let d = tmpdir("identify-tracker-range");
+    let data = poses(&d, "random");
+    let out = data.with_extension("toml");
+    for at in ["1e200,0,0", "1e9,0,0", "0,-150000,0"] {
+        let o = identify(&data, &["--tracker-mpe", "15,6", "--tracker-at", at]);
+        assert_fails_naming(&o, "--tracker-at", at);
+        assert!(stderr(&o).contains("within 100 m"), "{at}: {}", stderr(&o));
+        assert!(stderr(&o).len() < 300, "{at}: {}", stderr(&o));
+        assert!(!out.exists(), "{at}");
+    }
+    let o = identify(
+        &data,
+        &["--uncertainty", "montecarlo", "--mc-draws", "10000000"],
+    );
+    assert_fails_naming(&o, "--mc-draws", "--mc-draws 10^7");
+    assert!(stderr(&o).contains("at most 10000"), "{}", stderr(&o));
+    assert!(!out.exists());
+    // A tracker where trackers stand still identifies.
+    let o = identify(
+        &data,
+        &["--tracker-mpe", "15,6", "--tracker-at", "2000,500,0"],
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(out.exists());
+}

@@ -124,3 +124,81 @@ fn iso9283_cycles_with_another_joint_count_are_refused() {
     ]);
     assert!(o.status.success(), "{}", crate::common::stderr(&o));
 }
+
+/// A nominal model of another robot with as many joints (a TX60 for a UR5e) ran and printed a
+/// w of 1126 mm, exit 0, where `validate` refused the same pair: now refused by every analysis
+/// with a nominal reference, naming `--nominal`; an identified model against its own nominal
+/// (flanges millimetres apart) still runs.
+#[test]
+fn a_nominal_model_of_another_robot_is_refused() {
+    let dir = tmpdir("nominal-other-robot");
+    let ur5e = preset_file(&dir, "ur5e", "ur5e.toml");
+    let tx60 = preset_file(&dir, "tx60", "tx60.toml");
+    let (u, t) = (ur5e.to_str().unwrap(), tx60.to_str().unwrap());
+    for cmd in [
+        &["mcs", "--draws", "2000"][..],
+        &["amcs"],
+        &["compare"],
+        &["sensitivity", "--draws", "64"],
+        &["tail", "--threshold", "1"],
+    ] {
+        let mut args = cmd.to_vec();
+        args.extend([
+            "--model",
+            u,
+            "--reference",
+            "nominal",
+            "--nominal",
+            t,
+            "--points",
+            "5",
+            "--backend",
+            "cpu",
+            "-q",
+        ]);
+        let o = run(&args);
+        let label = format!("{args:?}");
+        assert_fails_naming(&o, "--nominal", &label);
+        assert_fails_naming(&o, "another robot", &label);
+    }
+    let identified = dir.join("identified.toml");
+    let data = dir.join("poses.csv");
+    for args in [
+        &[
+            "simulate",
+            "--poses",
+            "60",
+            "--seed",
+            "2",
+            "-o",
+            data.to_str().unwrap(),
+        ][..],
+        &[
+            "identify",
+            data.to_str().unwrap(),
+            "-q",
+            "-o",
+            identified.to_str().unwrap(),
+        ],
+    ] {
+        let o = run(args);
+        assert!(o.status.success(), "{}", crate::common::stderr(&o));
+    }
+    let o = run(&[
+        "mcs",
+        "--draws",
+        "2000",
+        "--model",
+        identified.to_str().unwrap(),
+        "--reference",
+        "nominal",
+        "--nominal",
+        t,
+        "--points",
+        "5",
+        "--backend",
+        "cpu",
+        "-q",
+    ]);
+    assert!(o.status.success(), "{}", crate::common::stderr(&o));
+}

@@ -3,6 +3,7 @@
 //! feature (on by default).
 #![allow(clippy::needless_range_loop)]
 
+mod column_map;
 mod common;
 
 mod amcs_vs_mcs;

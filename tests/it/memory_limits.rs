@@ -63,6 +63,19 @@ fn plan_honours_the_limits() {
     let d = tmpdir("mem-plan");
     let o = under_ulimit(&d, 1_000_000, "plan -q --candidates 300000 -o p.csv");
     refused(&d, &o, "--candidates", "RLIMIT_AS", "plan under ulimit -v");
+    // A limit given above what the address space leaves is capped by it (it aborted, 134).
+    let o = under_ulimit(
+        &d,
+        1_000_000,
+        "plan -q --candidates 300000 --memory-limit 64G -o p.csv",
+    );
+    refused(
+        &d,
+        &o,
+        "--candidates",
+        "RLIMIT_AS",
+        "plan --memory-limit 64G under ulimit -v",
+    );
     let o = unlimited(&d, "plan -q --draws 10000000 --memory-limit 60M -o p.csv");
     refused(&d, &o, "--draws", "as given", "plan --memory-limit");
 }
@@ -85,6 +98,18 @@ fn validate_honours_the_limits_and_caps_its_draws() {
     );
     let o = under_ulimit(&out, 500_000, &format!("{iso} --draws 100000000"));
     refused(&out, &o, "--draws", "RLIMIT_AS", "validate under ulimit -v");
+    let o = under_ulimit(
+        &out,
+        500_000,
+        &format!("{iso} --draws 100000000 --memory-limit 64G"),
+    );
+    refused(
+        &out,
+        &o,
+        "--draws",
+        "RLIMIT_AS",
+        "validate --memory-limit 64G under ulimit -v",
+    );
     let o = unlimited(&out, &format!("{iso} --draws 10000000 --memory-limit 50M"));
     refused(&out, &o, "--draws", "as given", "validate --memory-limit");
     for (flags, flag) in [
@@ -112,6 +137,18 @@ fn study_points_honour_the_limits() {
         "study -q --quick --factors range --points 1000000 --mcs-draws 2000 -o st",
     );
     refused(&d, &o, "--points", "RLIMIT_AS", "study under ulimit -v");
+    let o = under_ulimit(
+        &d,
+        200_000,
+        "study -q --quick --factors range --points 1000000 --mcs-draws 2000 --memory-limit 64G -o st",
+    );
+    refused(
+        &d,
+        &o,
+        "--points",
+        "RLIMIT_AS",
+        "study --memory-limit 64G under ulimit -v",
+    );
     let o = unlimited(
         &d,
         "study -q --quick --factors range --points 100000 --mcs-draws 2000 --memory-limit 50M -o st",
@@ -141,6 +178,18 @@ fn identify_honours_the_limits() {
         "RLIMIT_AS",
         "identify under ulimit -v",
     );
+    let o = under_ulimit(
+        &out,
+        500_000,
+        &format!("identify -q {big} -o m.toml --memory-limit 4G"),
+    );
+    refused(
+        &out,
+        &o,
+        "--memory-limit",
+        "RLIMIT_AS",
+        "identify --memory-limit 4G under ulimit -v",
+    );
     let o = unlimited(
         &out,
         &format!("identify -q {big} -o m.toml --memory-limit 300M"),
@@ -164,7 +213,7 @@ fn identify_honours_the_limits() {
         );
         refused(&out, &o, "--memory-limit", "as given", label);
         assert!(
-            stderr(&o).contains("100002 lines"),
+            stderr(&o).contains("100001 lines"),
             "{label}: {}",
             stderr(&o)
         );
@@ -215,6 +264,18 @@ fn merge_of_large_map_shards_honours_the_limits() {
         "--memory-limit",
         "RLIMIT_AS",
         "merge under ulimit -v",
+    );
+    let o = under_ulimit(
+        &out,
+        200_000,
+        &format!("merge -q {shards} --json m.json --memory-limit 64G"),
+    );
+    refused(
+        &out,
+        &o,
+        "--memory-limit",
+        "RLIMIT_AS",
+        "merge --memory-limit 64G under ulimit -v",
     );
     let o = unlimited(
         &out,

@@ -77,9 +77,11 @@ impl fmt::Display for LimitSource {
             LimitSource::User => "as given",
             LimitSource::Available => "80 % of the available memory",
             LimitSource::AddressSpace => {
-                "80 % of the address space left under the process's limit, RLIMIT_AS (ulimit -v)"
+                "80 % of the address space left under the process's limit, RLIMIT_AS (ulimit -v), which also caps a larger limit given"
             }
-            LimitSource::Cgroup => "80 % of what the control group's memory.max leaves",
+            LimitSource::Cgroup => {
+                "80 % of what the control group's memory.max leaves, which also caps a larger limit given"
+            }
             LimitSource::Assumed => "assumed: the system does not report its available memory",
         })
     }
@@ -214,6 +216,13 @@ pub fn cgroup_room() -> Option<u64> {
     })
 }
 
+/// [`DEFAULT_FRACTION`] of the smaller of the rooms the kernel enforces: the address space
+/// left under `RLIMIT_AS` and the cgroup's `memory.max`; `None` when neither is set.
+pub fn hard_room() -> Option<MemoryBudget> {
+    let b = default_budget(None, address_space_left(), cgroup_room());
+    (b.source != LimitSource::Assumed).then_some(b)
+}
+
 /// The default budget from the three rooms (any may be unknown): [`DEFAULT_FRACTION`] of the
 /// smallest, or [`FALLBACK_BYTES`] when none is known.
 fn default_budget(
@@ -251,16 +260,27 @@ pub struct MemoryBudget {
 }
 
 impl MemoryBudget {
-    /// The user's limit when given, else [`DEFAULT_FRACTION`] of the smallest of the available
-    /// memory, the address space left under `RLIMIT_AS` and the cgroup's room (see the module
-    /// documentation).
+    /// The user's limit when given (capped by the hard limits, [`hard_room`]), else
+    /// [`DEFAULT_FRACTION`] of the smallest of the available memory, the address space left
+    /// under `RLIMIT_AS` and the cgroup's room (see the module documentation).
     pub fn new(user_limit: Option<u64>) -> Self {
         match user_limit {
-            Some(limit) => MemoryBudget {
+            Some(limit) => MemoryBudget::given(limit, hard_room()),
+            None => default_budget(available_bytes(), address_space_left(), cgroup_room()),
+        }
+    }
+
+    /// A limit the user gave, or the `hard` room ([`hard_room`]) where that is smaller: the
+    /// kernel aborts an allocation past `RLIMIT_AS` and kills a group past its `memory.max`
+    /// whatever limit was given. (The available memory does not cap it: the user may count on
+    /// swap or on memory being freed.)
+    pub fn given(limit: u64, hard: Option<MemoryBudget>) -> Self {
+        match hard {
+            Some(h) if h.limit < limit => h,
+            _ => MemoryBudget {
                 limit,
                 source: LimitSource::User,
             },
-            None => default_budget(available_bytes(), address_space_left(), cgroup_room()),
         }
     }
 
@@ -327,6 +347,19 @@ impl Estimate {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_given_limit_is_capped_by_the_hard_room() {
+        let hard = MemoryBudget {
+            limit: 400 << 20,
+            source: LimitSource::AddressSpace,
+        };
+        assert_eq!(MemoryBudget::given(4 << 30, Some(hard)), hard);
+        let small = MemoryBudget::given(100 << 20, Some(hard));
+        assert_eq!((small.limit, small.source), (100 << 20, LimitSource::User));
+        let free = MemoryBudget::given(4 << 30, None);
+        assert_eq!((free.limit, free.source), (4 << 30, LimitSource::User));
+    }
 
     #[test]
     fn sizes_parse() {

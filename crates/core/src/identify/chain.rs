@@ -204,14 +204,19 @@ pub fn identify_chain(
     // The check (when it runs) comes before the compensation: when the joint errors are kept
     // the geometry is fitted again below, and the Gaussian process over the residuals, the
     // identification's most expensive step, is left to that fit.
-    let mut steps = steps::Steps::new(&opts.progress, opts.beyond_geometry != JointErrorFit::Off);
+    let monte_carlo = matches!(opts.uncertainty, UncertaintyMethod::MonteCarlo { .. });
+    let mut steps = steps::Steps::new(
+        &opts.progress,
+        opts.beyond_geometry != JointErrorFit::Off,
+        monte_carlo,
+    );
     let (first, extended) = identify_geometry(points, nominal, start, prior, opts, &mut steps)?;
     let keep = |e: &beyond::ExtendedFit| opts.beyond_geometry.keeps(e.report.predicts_better);
     let Some(ext) = extended.filter(keep) else {
         steps.finish();
         return Ok(first);
     };
-    steps.grow(steps::Steps::pass(false) as i64);
+    steps.grow(steps::Steps::pass(false, monte_carlo) as i64);
     let geometric_only = ChainOptions {
         beyond_geometry: JointErrorFit::Off,
         ..opts.clone()
@@ -375,16 +380,22 @@ fn identify_geometry(
     let linearised = linearised * scale;
     let monte_carlo = match opts.uncertainty {
         UncertaintyMethod::Linearised => None,
-        UncertaintyMethod::MonteCarlo { draws } => Some(
-            monte_carlo_covariance(
-                &run.obs,
-                &run.state,
-                &run.free,
-                prior.as_ref(),
-                draws,
-                opts.seed,
-            ) * scale,
-        ),
+        UncertaintyMethod::MonteCarlo { draws } => {
+            let label = format!("{draws} Monte Carlo re-identifications");
+            steps.next(&label);
+            let tick = |k: u64, n: u64| steps.within(&label, k, n);
+            Some(
+                monte_carlo_covariance(
+                    &run.obs,
+                    &run.state,
+                    &run.free,
+                    prior.as_ref(),
+                    draws,
+                    opts.seed,
+                    &tick,
+                ) * scale,
+            )
+        }
     };
     let cov = FreeCovariance {
         linearised,

@@ -66,6 +66,7 @@ pub mod chain_fit;
 mod chain_outputs;
 mod chain_text;
 pub mod circle;
+mod columns;
 mod error;
 pub mod identifiability;
 mod job;
@@ -92,8 +93,11 @@ pub use chain::{
 };
 pub use chain_text::{frame_label, render_chain_report, render_chain_summary};
 pub use circle::{fit_circle, AxisPrior, CircleFit, CircleFitError, CircleFitMethod, MIN_ARC_DEG};
+pub use columns::{ColumnMap, ColumnMapError};
 pub use error::IdentifyError;
-pub use job::{IdentifyJob, IdentifyJobError, IdentifyOutcome, IdentifySetting, MIN_MC_DRAWS};
+pub use job::{
+    IdentifyJob, IdentifyJobError, IdentifyOutcome, IdentifySetting, MAX_MC_DRAWS, MIN_MC_DRAWS,
+};
 pub use lines::{common_normal, CommonNormal, Line, LineRelation};
 pub use mdh::PARALLEL_THRESHOLD_DEG;
 pub use measured::{identify_data, identify_poses, identify_sweeps_chain, placement_from_axes};

@@ -209,6 +209,39 @@ pub enum NoiseSettingError {
     /// Tracker position not three finite numbers.
     #[error("x, y, z must be three finite numbers of mm, got {0:?}")]
     Position(Vec<f64>),
+    /// Tracker position farther than [`MAX_TRACKER_RANGE_MM`] from a measured point.
+    #[error(
+        "the tracker at ({}) mm is {} m from the farthest measured point; a laser tracker measures within {} m (a position in metres, or a slip?)",
+        .at.iter().map(|v| fmt_plain(*v)).collect::<Vec<_>>().join(", "),
+        fmt_plain(.farthest_mm / 1e3),
+        fmt_plain(MAX_TRACKER_RANGE_MM / 1e3)
+    )]
+    Range {
+        /// The position given, mm.
+        at: Vec<f64>,
+        /// Its distance to the farthest measured point, mm.
+        farthest_mm: f64,
+    },
+}
+
+/// Farthest a tracker may stand from a measured point, mm: laser trackers measure within a
+/// radius of 80 m at most (Leica AT960: 160 m in diameter); 100 m leaves room.
+pub const MAX_TRACKER_RANGE_MM: f64 = 100_000.0;
+
+/// Every measured position of `data`, mm, in the data's frame.
+fn measured_positions(data: &super::TrackerData) -> Box<dyn Iterator<Item = [f64; 3]> + '_> {
+    match data {
+        super::TrackerData::Poses(p) => Box::new(
+            p.runs
+                .iter()
+                .flat_map(|r| r.points.iter().map(|q| q.position_mm)),
+        ),
+        super::TrackerData::Sweeps(d) => Box::new(d.runs.iter().flat_map(|r| {
+            r.sweeps
+                .iter()
+                .flat_map(|s| s.points.iter().map(|q| q.position_mm))
+        })),
+    }
 }
 
 /// Which noise setting a [`NoiseSettingError`] is about.
@@ -228,7 +261,7 @@ impl NoiseSettingError {
         match self {
             Self::Sigma(_) => NoiseSetting::Sigma,
             Self::Mpe(_) => NoiseSetting::Mpe,
-            Self::Position(_) => NoiseSetting::Position,
+            Self::Position(_) | Self::Range { .. } => NoiseSetting::Position,
         }
     }
 }
@@ -272,6 +305,17 @@ impl NoiseModel {
             Some(p) if p.len() == 3 && p.iter().all(|v| v.is_finite()) => [p[0], p[1], p[2]],
             Some(p) => return Err(NoiseSettingError::Position(p.to_vec())),
         };
+        // A tracker farther from a measured point than any tracker measures gives σ the fit
+        // cannot use (a position in metres, or a typing slip).
+        let farthest = measured_positions(data)
+            .map(|p| (p[0] - at[0]).hypot(p[1] - at[1]).hypot(p[2] - at[2]))
+            .fold(0.0, f64::max);
+        if farthest > MAX_TRACKER_RANGE_MM {
+            return Err(NoiseSettingError::Range {
+                at: at.to_vec(),
+                farthest_mm: farthest,
+            });
+        }
         Ok(NoiseModel::Tracker {
             constant_um: m[0],
             per_metre_um: m[1],

@@ -174,6 +174,16 @@ pub enum SpecErrorKind {
         /// Its joints.
         model_joints: usize,
     },
+    /// The nominal model's geometry is another robot's: its flanges lie far from the model's.
+    #[error("the nominal model {nominal} is another robot than the model {model}: their flanges are {gap_mm:.1} mm RMS apart over the joint ranges (calibration moves a flange by millimetres); the nominal model must be the robot's own nominal geometry")]
+    NominalOtherRobot {
+        /// Where the nominal model came from.
+        nominal: String,
+        /// Where the analysed model came from.
+        model: String,
+        /// RMS distance of the flange centres, mm.
+        gap_mm: f64,
+    },
     /// A payload for a model without joint compliance, or out of range.
     #[error("{0}")]
     Payload(String),

@@ -26,6 +26,7 @@ mod error;
 mod tests;
 
 mod model_source;
+mod nominal;
 
 pub use error::{SpecError, SpecErrorKind, SpecField};
 pub use model_source::{is_description, ModelSource};
@@ -463,7 +464,9 @@ impl ProblemSpec {
     /// Those of [`ModelSource::load`] for the nominal model, naming [`SpecField::Nominal`];
     /// [`SpecErrorKind::NoNominal`], naming [`SpecField::Nominal`], when the nominal model is not
     /// given and `model` is no preset; [`SpecErrorKind::NominalJoints`], naming
-    /// [`SpecField::Nominal`], when it has another number of joints than `model`.
+    /// [`SpecField::Nominal`], when it has another number of joints than `model`, and
+    /// [`SpecErrorKind::NominalOtherRobot`] when its flanges lie more than
+    /// [`crate::identify::validate::OTHER_ROBOT_MM`] RMS from `model`'s over the joint ranges.
     pub fn load_reference(&self, model: &RobotModel) -> Result<Reference, SpecError> {
         match &self.reference {
             ReferenceSource::Calibrated => Ok(Reference::Calibrated),
@@ -492,17 +495,12 @@ impl ProblemSpec {
                 let nominal = source
                     .load()
                     .map_err(|kind| SpecError::new(SpecField::Nominal, kind))?;
-                if nominal.joints() != model.joints() {
-                    return Err(SpecError::new(
-                        SpecField::Nominal,
-                        SpecErrorKind::NominalJoints {
-                            nominal: source.describe(),
-                            nominal_joints: nominal.joints(),
-                            model: self.model.describe(),
-                            model_joints: model.joints(),
-                        },
-                    ));
-                }
+                nominal::check_same_robot(
+                    &nominal,
+                    source.describe(),
+                    model,
+                    self.model.describe(),
+                )?;
                 Ok(Reference::Nominal(Box::new(nominal)))
             }
         }

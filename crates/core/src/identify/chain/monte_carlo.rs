@@ -7,7 +7,8 @@ use nalgebra::{DMatrix, Matrix3, Vector3};
 use rand::SeedableRng;
 
 /// The sample covariance (over `free`) of `draws` re-identifications of synthetic data: the fit's
-/// predictions plus noise drawn from each point's stated (or estimated) noise.
+/// predictions plus noise drawn from each point's stated (or estimated) noise. `tick(k, draws)`
+/// hears every hundredth of the draws done.
 pub(super) fn monte_carlo_covariance(
     obs: &[Observation],
     state: &ChainState,
@@ -15,8 +16,12 @@ pub(super) fn monte_carlo_covariance(
     prior: Option<&Prior>,
     draws: usize,
     seed: u64,
+    tick: &(dyn Fn(u64, u64) + Sync),
 ) -> DMatrix<f64> {
     use rayon::prelude::*;
+    use std::sync::atomic::{AtomicU64, Ordering};
+    let finished = AtomicU64::new(0);
+    let every = (draws as u64 / 100).max(1);
     let predicted: Vec<[f64; 3]> = obs.iter().map(|o| state.predict(&o.q)).collect();
     let inverses: Vec<Matrix3<f64>> = obs
         .iter()
@@ -48,6 +53,10 @@ pub(super) fn monte_carlo_covariance(
                 })
                 .collect();
             let s = fit(&synthetic, state, free, prior);
+            let k = finished.fetch_add(1, Ordering::Relaxed) + 1;
+            if k.is_multiple_of(every) {
+                tick(k, draws as u64);
+            }
             free.iter().map(|&i| s.get(i)).collect()
         })
         .collect();

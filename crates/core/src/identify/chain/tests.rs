@@ -117,7 +117,7 @@ fn the_progress_hook_hears_every_step_in_order() {
         identify_chain(&data, &tx60(), None, None, &opts).unwrap();
         let steps = log.lock().unwrap().clone();
         for (k, (label, done, total)) in steps.iter().enumerate() {
-            assert_eq!(*done, k as u64, "{steps:?}");
+            assert_eq!(*done, k as u64 * steps::UNITS, "{steps:?}");
             assert!(done < total || label == "done", "{steps:?}");
         }
         let (last, done, total) = steps.last().unwrap().clone();
@@ -136,4 +136,48 @@ fn the_progress_hook_hears_every_step_in_order() {
     two.extend(pass);
     two.extend(["lack of fit", "done"]);
     assert_eq!(heard(JointErrorFit::Keep), two);
+}
+
+/// The Monte Carlo re-identifications are a step of their own that reports its share done.
+#[test]
+fn monte_carlo_re_identifications_report_their_share() {
+    use crate::progress::ProgressHook;
+    use std::sync::{Arc, Mutex};
+    let data = points(&truth(), 60, 0.01, 4);
+    let log = Arc::new(Mutex::new(Vec::new()));
+    let sink = log.clone();
+    let opts = ChainOptions {
+        beyond_geometry: JointErrorFit::Off,
+        compensate: false,
+        uncertainty: UncertaintyMethod::MonteCarlo { draws: 40 },
+        progress: ProgressHook::new(move |label: &str, done, total| {
+            sink.lock().unwrap().push((label.to_string(), done, total));
+        }),
+        ..ChainOptions::default()
+    };
+    identify_chain(&data, &tx60(), None, None, &opts).unwrap();
+    let heard = log.lock().unwrap().clone();
+    let mut labels: Vec<&str> = heard.iter().map(|h| h.0.as_str()).collect();
+    labels.dedup();
+    let mc = "40 Monte Carlo re-identifications";
+    assert_eq!(
+        labels,
+        [
+            "fitting the geometry",
+            "identifiability and covariance",
+            "lack of fit",
+            mc,
+            "done"
+        ]
+    );
+    let u = steps::UNITS;
+    let ticks: Vec<u64> = heard.iter().filter(|h| h.0 == mc).map(|h| h.1).collect();
+    // The step's start and every hundredth of the draws (each one of 40), within the step.
+    assert_eq!(ticks.len(), 41, "{heard:?}");
+    assert!(
+        ticks.iter().all(|&d| (3 * u..=4 * u).contains(&d)),
+        "{heard:?}"
+    );
+    assert!(ticks.contains(&(4 * u)), "{heard:?}");
+    assert!(heard.iter().all(|h| h.2 == 4 * u), "{heard:?}");
 }
