@@ -252,3 +252,100 @@ fn nothing_points_outside_the_repository() {
         }
     }
 }
+
+/// The `sh` blocks of a page, each with the `text` block that follows it (empty if none).
+fn command_blocks(text: &str) -> Vec<(String, Vec<String>)> {
+    let mut out: Vec<(String, Vec<String>)> = Vec::new();
+    let mut lines = text.lines().peekable();
+    while let Some(line) = lines.next() {
+        let fence = line.trim();
+        if fence != "```sh" && fence != "```text" {
+            continue;
+        }
+        let mut body = Vec::new();
+        for l in lines.by_ref() {
+            if l.trim() == "```" {
+                break;
+            }
+            body.push(l.to_string());
+        }
+        if fence == "```sh" {
+            out.push((body.join("\n"), Vec::new()));
+        } else if let Some(last) = out.last_mut().filter(|b| b.1.is_empty()) {
+            last.1 = body;
+        }
+    }
+    out
+}
+
+/// Whether `got` is the line `want` with its numbers equal to within two units of the last
+/// digit `want` prints (machines may round a last digit differently).
+fn same_line(want: &str, got: &str) -> bool {
+    let (w, g): (Vec<&str>, Vec<&str>) = (
+        want.split_whitespace().collect(),
+        got.split_whitespace().collect(),
+    );
+    w.len() == g.len()
+        && w.iter().zip(&g).all(|(a, b)| {
+            let trim = |s: &str| {
+                s.trim_matches(|c: char| !(c.is_ascii_digit() || c == '-' || c == '.'))
+                    .to_string()
+            };
+            let (ta, tb) = (trim(a), trim(b));
+            match (ta.parse::<f64>(), tb.parse::<f64>()) {
+                _ if a == b => true,
+                (Ok(x), Ok(y)) => {
+                    let decimals = ta.split_once('.').map_or(0, |(_, d)| d.len()) as i32;
+                    (x - y).abs() <= 2.0 * 10f64.powi(-decimals) + 1e-12
+                        && a.replace(&ta, "") == b.replace(&tb, "")
+                }
+                _ => false,
+            }
+        })
+}
+
+#[test]
+fn the_line_comparison_allows_a_last_digit_only() {
+    assert!(same_line("R = 0.088000   [0.086260,", "R = 0.088001   [0.086260,"));
+    assert!(!same_line("R = 0.088000", "R = 0.088100"));
+    assert!(!same_line("rms 0.0163 mm", "rms 0.0163 m"));
+    assert!(!same_line("a b", "a b c"));
+}
+
+/// The start-to-finish chapter runs as printed: its commands in order in an empty folder, each
+/// printing the lines its page shows (in order; `…` leaves lines out).
+#[test]
+fn the_calibration_loop_runs_as_printed() {
+    let page = std::fs::read_to_string(root().join("docs/guide/calibration-loop.md")).unwrap();
+    let blocks = command_blocks(&page);
+    assert!(blocks.len() >= 6, "{} command blocks", blocks.len());
+    let dir = crate::common::tmpdir("calibration-loop");
+    let bin = std::path::PathBuf::from(crate::common::bin_path());
+    let path = format!(
+        "{}:{}",
+        bin.parent().unwrap().display(),
+        std::env::var("PATH").unwrap_or_default()
+    );
+    for (commands, expected) in blocks {
+        let o = std::process::Command::new("bash")
+            .arg("-ec")
+            .arg(&commands)
+            .env("PATH", &path)
+            .current_dir(&dir)
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&o.stdout).to_string();
+        assert!(
+            o.status.success(),
+            "{commands}\n{}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let mut got = stdout.lines();
+        for want in expected.iter().filter(|l| !l.trim().is_empty() && l.trim() != "…") {
+            assert!(
+                got.any(|g| same_line(want, g)),
+                "{commands}\nmissing (or out of order): {want}\nprinted:\n{stdout}"
+            );
+        }
+    }
+}
