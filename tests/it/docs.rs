@@ -306,7 +306,10 @@ fn same_line(want: &str, got: &str) -> bool {
 
 #[test]
 fn the_line_comparison_allows_a_last_digit_only() {
-    assert!(same_line("R = 0.088000   [0.086260,", "R = 0.088001   [0.086260,"));
+    assert!(same_line(
+        "R = 0.088000   [0.086260,",
+        "R = 0.088001   [0.086260,"
+    ));
     assert!(!same_line("R = 0.088000", "R = 0.088100"));
     assert!(!same_line("rms 0.0163 mm", "rms 0.0163 m"));
     assert!(!same_line("a b", "a b c"));
@@ -341,7 +344,10 @@ fn the_calibration_loop_runs_as_printed() {
             String::from_utf8_lossy(&o.stderr)
         );
         let mut got = stdout.lines();
-        for want in expected.iter().filter(|l| !l.trim().is_empty() && l.trim() != "…") {
+        for want in expected
+            .iter()
+            .filter(|l| !l.trim().is_empty() && l.trim() != "…")
+        {
             assert!(
                 got.any(|g| same_line(want, g)),
                 "{commands}\nmissing (or out of order): {want}\nprinted:\n{stdout}"
