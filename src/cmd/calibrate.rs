@@ -40,7 +40,8 @@ impl Run for CalibrateArgs {
             bail!("--accuracy-points must be at least 1");
         }
         let (mut exp, f) = a.factors.experiment()?;
-        a.nongeometric.apply(&mut exp, a.factors.robot_seed)?;
+        a.nongeometric
+            .apply(&mut exp, a.factors.robot_seed, false)?;
         // A sweep too short for its circle fit, named by the flags that set it (the fit itself
         // names only the run and the joint).
         let plan = exp.plan_for(&f);
@@ -49,19 +50,28 @@ impl Run for CalibrateArgs {
             gpu_amcs::identify::MIN_ARC_DEG,
         );
         let arc = |n: u64| n.saturating_sub(1) as f64 * f.step_deg;
+        // A count that saturated (a step of 1e-300°) is no short sweep: the memory check
+        // names it.
         if let Some((j, n)) = (1..=exp.nominal.joints())
             .map(|j| (j, plan.sweep_len(j)))
-            .find(|&(_, n)| n < min || arc(n) < min_arc)
+            .find(|&(_, n)| n < min || (n < u64::MAX && arc(n) < min_arc))
         {
+            // Numbers as a sentence writes them (1e-300, not 300 digits).
+            use gpu_amcs::number::fmt_plain;
             bail!(
-                "--range {} --step {}: joint {j}'s sweep would have {n} point(s) over {}°, and its circle fit needs at least {min} over {min_arc}°: give a wider --range or a smaller --step",
-                a.factors.range,
-                a.factors.step,
-                arc(n)
+                "--range {} --step {}: joint {j}'s sweep would have {n} point(s) over {}°, and its circle fit needs at least {min} over {}°: give a wider --range or a smaller --step",
+                fmt_plain(a.factors.range),
+                fmt_plain(a.factors.step),
+                fmt_plain(arc(n)),
+                fmt_plain(min_arc)
             );
         }
         a.memory.check(&a.factors.sweep_estimate(Estimate::new(
-            format!("{} calibration runs at a {}° step", f.runs, f.step_deg),
+            format!(
+                "{} calibration runs at a {}° step",
+                f.runs,
+                gpu_amcs::number::fmt_plain(f.step_deg)
+            ),
             "use fewer --runs or a larger --step, or raise --memory-limit",
         )))?;
         let cal = simulate::calibrate(&exp, &f, a.factors.seed)?;

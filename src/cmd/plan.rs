@@ -13,7 +13,9 @@ use gpu_amcs::plan::program::ProgramFormat;
 use gpu_amcs::plan::{
     self, KeepOut, Plan, PlanError, PlanField, PlanOptions, TrackerSite, Workcell,
 };
+use gpu_amcs::progress::ProgressHook;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 /// The library's default plan thresholds (`gpu_amcs::plan::DEFAULT_THRESHOLDS_MM`) as one
 /// `--threshold` value.
@@ -47,7 +49,8 @@ pub struct PlanArgs {
     )]
     pub tracker_sigma: f64,
     /// Where the tracker stands, mm, in the model's measurement frame (its base frame for a
-    /// model without `base`): candidates must face it and lie within its range.
+    /// model without `base`): candidates must face it and lie within its range, so it must
+    /// stand within --tracker-range of some pose of the target.
     #[arg(
         long,
         value_delimiter = ',',
@@ -55,7 +58,7 @@ pub struct PlanArgs {
         allow_hyphen_values = true
     )]
     pub tracker_at: Option<Vec<f64>>,
-    /// With --tracker-at: the tracker's range, mm.
+    /// With --tracker-at: the tracker's range, mm (at most 100000: 100 m).
     #[arg(
         long,
         default_value_t = 20_000.0,
@@ -121,7 +124,9 @@ pub struct PlanArgs {
     /// Let the arm's links pass through each other (no self-collision check).
     #[arg(long)]
     pub no_self_collision: bool,
-    /// Radius of every link's capsule, mm (default: 15 % of each link's length, 20 … 50 mm).
+    /// Radius of every link's capsule, mm (default: 15 % of each link's length, 20 … 50 mm; at
+    /// most half the arm's length between its base column and its last link, beyond which the
+    /// self-collision check would compare no two links).
     #[arg(long, value_name = "MM")]
     pub link_radius: Option<f64>,
     /// Write the design as a robot program to FILE: URScript (.script), RAPID (.mod) or KRL
@@ -204,10 +209,12 @@ impl Run for PlanArgs {
         let workcell = workcell(&a)?;
         // The library checks the tracker's site as one setting; each number is named here.
         if a.tracker_at.is_some() {
-            if !(a.tracker_range.is_finite() && a.tracker_range > 0.0) {
+            let max = plan::MAX_TRACKER_RANGE_MM;
+            if !(a.tracker_range.is_finite() && a.tracker_range > 0.0 && a.tracker_range <= max) {
                 bail!(
-                    "--tracker-range: {} is not a range > 0 (mm)",
-                    a.tracker_range
+                    "--tracker-range: {} is not a range in (0, {}] mm (a laser tracker measures from tens of metres at most)",
+                    gpu_amcs::number::fmt_plain(a.tracker_range),
+                    gpu_amcs::number::fmt_plain(max)
                 );
             }
             if !(a.max_incidence > 0.0 && a.max_incidence <= 90.0) {
@@ -254,6 +261,9 @@ impl Run for PlanArgs {
                 plan::workcell::check_task(&arm, &task, &workcell)
                     .map_err(|e| plan_error(e, a.iso9283))?;
             }
+            // The plan's steps, then the prediction's draws: each announces a long estimate.
+            let bar = Arc::new(Progress::new(a.reports.quiet, "plan", "steps"));
+            let listener = bar.clone();
             let opts = PlanOptions {
                 poses: a.poses,
                 candidates: a.candidates,
@@ -267,6 +277,10 @@ impl Run for PlanArgs {
                 target_mm: target,
                 seed: a.problem.seed,
                 workcell,
+                progress: ProgressHook::new(move |label: &str, done, total| {
+                    listener.set_message(label);
+                    listener.update(done, total);
+                }),
                 ..PlanOptions::default()
             };
             // The candidates' matrices and the prediction's draws, sized before either exists.
@@ -298,10 +312,11 @@ impl Run for PlanArgs {
                     ),
                 ),
             ))?;
-            let bar = Progress::new(a.reports.quiet, "plan", "steps");
-            bar.update(0, 2);
             let mut p = plan::plan(&model, &task, &opts).map_err(|e| plan_error(e, a.iso9283))?;
-            bar.update(1, 2);
+            // The engine's prediction, counted in draws under the same bar.
+            bar.restart(false);
+            bar.set_label("plan prediction".into());
+            bar.set_message("");
             let problem = plan::prediction_problem(&p, &task, a.problem.seed)
                 .map_err(|e| plan_error(e, a.iso9283))?;
             let rows = problem_rows(&a.problem, &problem);
@@ -311,11 +326,12 @@ impl Run for PlanArgs {
                     eprintln!("note: {n}");
                 }
             }
+            let draws_bar = bar.clone();
+            let hook = ProgressHook::new(move |_: &str, done, total| draws_bar.update(done, total));
             p.prediction = Some(
-                plan::predict(ev.as_mut(), a.draws, &a.threshold)
+                plan::predict_with_progress(ev.as_mut(), a.draws, &a.threshold, &hook)
                     .map_err(|e| plan_error(e, a.iso9283))?,
             );
-            bar.update(2, 2);
             bar.finish();
             Ok((p, rows))
         })?;
@@ -353,6 +369,10 @@ fn program_format(a: &PlanArgs) -> Result<Option<ProgramFormat>> {
 
 /// The workcell of --floor, --keep-out, --no-self-collision and --link-radius.
 fn workcell(a: &PlanArgs) -> Result<Workcell> {
+    if a.link_radius.is_some() && a.no_self_collision && a.floor.is_none() && a.keep_out.is_empty()
+    {
+        bail!("--link-radius: with --no-self-collision and neither --floor nor --keep-out no capsule is checked against anything; leave --link-radius out, or give --floor or --keep-out");
+    }
     if !a.keep_out.len().is_multiple_of(6) {
         bail!(
             "--keep-out: each box is six numbers x0,y0,z0,x1,y1,z1 (mm), got {} numbers",

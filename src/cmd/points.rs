@@ -21,7 +21,9 @@ pub struct PointsArgs {
     /// Instead: the five ISO 9283 test poses P1–P5 on the diagonal plane of the largest test
     /// cube in the working space (edges parallel to the base frame; P1 at the centre, P2–P5 at
     /// 10 % of the diagonal from the corners), one flange orientation for all (default: the
-    /// tool pointing down). The cube is printed to stderr.
+    /// tool pointing down, the flange below the wrist: rpy 180,0,0, or 0,0,0 for a model whose
+    /// last joint axis points into the wrist, as the KR 6 R700's). The cube is printed to
+    /// stderr.
     #[arg(long, conflicts_with_all = ["n", "points_seed", "box_center", "box_size"])]
     pub iso9283: bool,
     /// With --iso9283: the flange orientation of the poses, roll,pitch,yaw in degrees.
@@ -68,6 +70,7 @@ impl Run for PointsArgs {
         self.workspace.check()?;
         if self.iso9283 {
             let model = self.model.load()?;
+            let default_rpy = self.iso_rpy.is_none() && !self.position_only;
             let rpy = match (&self.iso_rpy, self.position_only) {
                 (_, true) => None,
                 (Some(r), _) => Some(three_values("--iso-rpy", "roll, pitch, yaw in degrees", r)?),
@@ -87,14 +90,30 @@ impl Run for PointsArgs {
                     Some(_) => "world frame (fk's: the model's base transform applied)",
                 },
                 match cube.rpy_deg {
-                    Some(r) => format!("flange rpy ({}, {}, {})°", r[0], r[1], r[2]),
+                    Some(r) => format!(
+                        "flange rpy ({}, {}, {})°{}",
+                        r[0],
+                        r[1],
+                        r[2],
+                        if default_rpy && r == [0.0; 3] {
+                            // The KR 6: rpy 0 is the tool down, which reads as up otherwise.
+                            " (the tool pointing down: this model's last joint axis, the z axis of its flange frame, points into the wrist, so it points up)"
+                        } else if default_rpy {
+                            " (the tool pointing down)"
+                        } else {
+                            ""
+                        }
+                    ),
                     None => "position only".into(),
                 }
             );
             for (k, p) in cube.poses_mm.iter().enumerate() {
                 eprintln!("  P{}  ({:.1}, {:.1}, {:.1}) mm", k + 1, p[0], p[1], p[2]);
             }
-            return outputs.write_or_print("--out", points::to_csv(&cube.poses_q_deg));
+            return outputs.write_or_print(
+                "--out",
+                points::to_csv_within(&cube.poses_q_deg, &model.limits_deg),
+            );
         }
         let n = self.n.unwrap_or(0);
         if n > points::MAX_POINTS {
@@ -110,6 +129,6 @@ impl Run for PointsArgs {
         let model = self.model.load()?;
         let bx = self.workspace.workspace(&model)?;
         let pts = points::generate(&model, n, &bx, self.points_seed)?;
-        outputs.write_or_print("--out", points::to_csv(&pts))
+        outputs.write_or_print("--out", points::to_csv_within(&pts, &model.limits_deg))
     }
 }

@@ -9,7 +9,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use gpu_amcs::memory::Estimate;
 use gpu_amcs::simulate::{
-    random_placement, simulate_poses_of, Experiment, NonGeometricSetting, NonGeometricSizes,
+    random_placement, simulate_poses_at, Experiment, NonGeometricSetting, NonGeometricSizes,
     TrackerNoise,
 };
 use std::path::PathBuf;
@@ -36,9 +36,17 @@ pub struct NonGeometricArgs {
     /// (0: none; 1: amplitudes of 0.002–0.01° drawn from --robot-seed, random phases).
     #[arg(long, default_value_t = 0.0, value_name = "S")]
     pub harmonics: f64,
-    /// Payload at the target, kg (0–1000), bending the compliant joints (needs --compliance).
-    #[arg(long, default_value_t = 0.0, value_name = "KG")]
-    pub payload_kg: f64,
+    /// Payload at the target, kg (0–1000), bending the compliant joints (needs --compliance);
+    /// with --poses a list carried in turn, pose k the k-th (poses at two payloads tell a
+    /// joint's compliance from a harmonic of the same shape); the file's payload_kg column
+    /// records each.
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "0",
+        value_name = "KG[,KG...]"
+    )]
+    pub payload_kg: Vec<f64>,
 }
 
 impl NonGeometricArgs {
@@ -51,12 +59,32 @@ impl NonGeometricArgs {
         NonGeometricSizes {
             compliance: self.compliance,
             harmonics: self.harmonics,
-            payload_kg: self.payload_kg,
+            payload_kg: self.payload_kg.first().copied().unwrap_or(0.0),
         }
     }
 
+    /// The payloads the poses carry in turn (one: every pose).
+    pub fn payloads(&self) -> &[f64] {
+        &self.payload_kg
+    }
+
     /// Gives `exp`'s true robot these errors, drawn from `robot_seed`; an error names the flag.
-    pub fn apply(&self, exp: &mut Experiment, robot_seed: u64) -> Result<()> {
+    /// Several payloads need `poses` (sweeps are measured at one).
+    pub fn apply(&self, exp: &mut Experiment, robot_seed: u64, poses: bool) -> Result<()> {
+        if self.payload_kg.len() > 1 && !poses {
+            bail!(
+                "--payload-kg: several payloads are carried pose by pose: they need --poses (sweeps are measured at one payload)"
+            );
+        }
+        // Every payload of the list within range (the robot is drawn with the first).
+        for &kg in self.payload_kg.iter().skip(1) {
+            NonGeometricSizes {
+                payload_kg: kg,
+                ..self.sizes()
+            }
+            .check()
+            .map_err(|e| anyhow::anyhow!("--payload-kg: {e}"))?;
+        }
         exp.set_nongeometric(&self.sizes(), robot_seed)
             .map_err(|e| {
                 let flag = match e.setting {
@@ -66,7 +94,7 @@ impl NonGeometricArgs {
                 };
                 anyhow::anyhow!("{flag}: {e}")
             })?;
-        if self.payload_kg > 0.0 && self.compliance == 0.0 {
+        if self.payload_kg.iter().any(|&kg| kg > 0.0) && self.compliance == 0.0 {
             bail!(
                 "--payload-kg: the payload acts only through the joints' compliance: give --compliance too"
             );
@@ -131,7 +159,8 @@ impl Run for SimulateArgs {
         outputs.file("--out", a.out.as_deref())?;
         outputs.file("--truth-out", a.truth_out.as_deref())?;
         let (mut exp, f) = a.factors.experiment()?;
-        a.nongeometric.apply(&mut exp, a.factors.robot_seed)?;
+        a.nongeometric
+            .apply(&mut exp, a.factors.robot_seed, a.poses.is_some())?;
         if let Some(t) = &a.target {
             let t = three_values("--target", "x, y, z in mm", t)?;
             if t.iter().any(|v| v.abs() > 1e5) {
@@ -206,10 +235,11 @@ impl Run for SimulateArgs {
                     xyz: [0.0; 3],
                     rpy: [0.0; 3],
                 });
-                let data = simulate_poses_of(
+                let data = simulate_poses_at(
                     &exp.truth,
                     exp.nongeometric.as_ref(),
                     &configs,
+                    a.nongeometric.payloads(),
                     &b,
                     &noise,
                     a.factors.seed,

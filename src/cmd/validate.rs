@@ -2,13 +2,16 @@
 
 use super::args::{load_model, MemoryArgs, BYTES_PER_DRAW, BYTES_PER_POINT};
 use super::outputs::Outputs;
+use super::progress::Progress;
 use super::reports::{write_reports, ReportFlags};
 use super::Run;
 use anyhow::{Context, Result};
 use clap::Args;
 use gpu_amcs::kinematics::RobotModel;
 use gpu_amcs::memory::Estimate;
+use gpu_amcs::progress::ProgressHook;
 use std::path::PathBuf;
+use std::sync::Arc;
 
 /// `validate` options.
 #[derive(Args, Debug, Clone)]
@@ -16,6 +19,14 @@ pub struct ValidateArgs {
     /// Measured positions: q1..qn,x,y,z (one column per joint of the model; degrees, mm).
     #[arg(value_name = "MEASURED.csv")]
     pub measured: PathBuf,
+    /// The measured file's columns as a tracker or robot log exported them, as for identify:
+    /// ours=theirs[:unit],... (e.g. q1=A1:rad,...,x=X:m); units mm, cm, m, in, um; deg, rad; kg,
+    /// g, lb.
+    #[arg(long, value_name = "MAP")]
+    pub columns: Option<String>,
+    /// The measured file's field delimiter, one character (e.g. ';' or tab), when not a comma.
+    #[arg(long, value_name = "CHAR")]
+    pub delimiter: Option<String>,
     /// Model to check (TOML).
     #[arg(long, value_name = "FILE")]
     pub model: PathBuf,
@@ -89,7 +100,21 @@ impl Run for ValidateArgs {
         let model_text = std::fs::read_to_string(&a.model).unwrap_or_default();
         let origin = a.model.display().to_string();
         let measured = a.measured.display().to_string();
-        let m = identify::read_measurements(&a.measured)?;
+        let m = match super::identify::column_map(a.columns.as_deref(), a.delimiter.as_deref())? {
+            None => identify::read_measurements(&a.measured)?,
+            Some(map) => {
+                let (text, origin) = identify::read_data_text(&a.measured)?;
+                let text = map.apply(&text, &origin).context("--columns")?;
+                identify::parse_measurements(text.as_bytes(), &origin)?
+            }
+        };
+        // As every analysis of a model file: parameters its data did not determine rest on
+        // their prior σ, and the figures that depend on them say so.
+        if let Some(note) =
+            identify::chain::not_identified_note(&identify::chain::not_identified(&model_text))
+        {
+            eprintln!("note: --model {origin}: {note}");
+        }
         let stated = a.frame.map(|f| match f {
             ValidateFrame::Measurement => identify::Placement::Identify,
             ValidateFrame::Base => identify::Placement::Known,
@@ -127,6 +152,16 @@ impl Run for ValidateArgs {
                     .context("--nominal")?,
             )),
         };
+        // The library names the line; the file is named here.
+        if let Some(row) = m.iter().find(|r| r.q_deg.len() != model.joints()) {
+            anyhow::bail!(
+                "{measured}: line {}: {} joint angles, the model {} has {} joints",
+                row.line,
+                row.q_deg.len(),
+                model.name,
+                model.joints()
+            );
+        }
         let report = v::run_validation(v::ValidateRequest {
             model: &model,
             model_text: &model_text,
@@ -209,13 +244,29 @@ fn iso9283(
                 .plus(&[poses, BYTES_PER_POINT])
                 .plus(&[a.draws.min(CERTIFICATE_CHUNK), poses, 2 * 8]),
             )?;
-            iso9283::certify(model, &figures, spec, frame, a.draws, 2025).map_err(|e| {
-                let file = match e {
-                    iso9283::CertifyError::NoUncertainty { .. } => &a.model,
-                    _ => &a.measured,
-                };
-                anyhow::anyhow!("--spec: {}: {e}", file.display())
-            })?
+            // The check's and the certificate's draws under one bar, which announces a long
+            // estimate.
+            let bar = Arc::new(Progress::new(
+                a.reports.quiet,
+                "ISO 9283 certificate",
+                "draws",
+            ));
+            let listener = bar.clone();
+            let hook = ProgressHook::new(move |label: &str, done, total| {
+                listener.set_message(label);
+                listener.update(done, total);
+            });
+            let c =
+                iso9283::certify_with_progress(model, &figures, spec, frame, a.draws, 2025, &hook)
+                    .map_err(|e| {
+                        let file = match e {
+                            iso9283::CertifyError::NoUncertainty { .. } => &a.model,
+                            _ => &a.measured,
+                        };
+                        anyhow::anyhow!("--spec: {}: {e}", file.display())
+                    });
+            bar.finish();
+            c?
         }),
         None => None,
     };

@@ -87,6 +87,25 @@ fn an_exported_log_identifies_like_the_data_file() {
         // optimum, far below 1e-6.
         assert!((u - v).abs() <= 1e-6, "{n}: {u} vs {v}");
     }
+    // validate reads such a file the same way: the same errors as on the data file.
+    let figures = |file: &str, extra: &[&str]| -> String {
+        let mut args = vec![
+            "validate",
+            "--model",
+            &own_toml as &str,
+            file,
+            "--check-draws",
+            "0",
+        ];
+        args.extend(extra);
+        run_ok(&args)
+    };
+    let own_figures = figures(&own_csv, &[]);
+    assert!(own_figures.contains("mean"), "{own_figures}");
+    assert_eq!(
+        figures(&log_csv, &["--columns", map, "--delimiter", ";"]),
+        own_figures
+    );
     // The model file records the file the user gave (its own checksum).
     let toml = std::fs::read_to_string(&log_toml).unwrap();
     assert!(toml.contains("log.csv"), "{toml}");

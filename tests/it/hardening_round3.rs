@@ -671,3 +671,406 @@ fn piped_pose_data_get_their_own_checksum() {
         recorded(&dir.join("piped.toml"))
     );
 }
+
+/// What a progress hook heard: `(label, done, total)` in order.
+type Heard = std::sync::Arc<std::sync::Mutex<Vec<(String, u64, u64)>>>;
+
+/// A hook that records what it hears.
+fn recording_hook() -> (gpu_amcs::progress::ProgressHook, Heard) {
+    let heard: Heard = Default::default();
+    let log = heard.clone();
+    let hook = gpu_amcs::progress::ProgressHook::new(move |label: &str, done, total| {
+        log.lock().unwrap().push((label.to_string(), done, total));
+    });
+    (hook, heard)
+}
+
+/// Asserts `heard` counts from the start to `total` and never back, with one total throughout.
+fn counts_up_to(heard: &Heard, total: u64, what: &str) {
+    let heard = heard.lock().unwrap();
+    assert!(!heard.is_empty(), "{what}: no progress reported");
+    assert!(heard.iter().all(|h| h.2 == total), "{what}: {heard:?}");
+    assert!(
+        heard.windows(2).all(|w| w[0].1 <= w[1].1),
+        "{what}: went back: {heard:?}"
+    );
+    assert!(heard[0].1 < total / 10, "{what}: {:?}", heard[0]);
+    assert_eq!(heard.last().unwrap().1, total, "{what}");
+}
+
+/// Round 4, item A: `plan --candidates 1000000` printed nothing for minutes and its bar counted
+/// two steps ("eta 0s"); `validate --iso9283 --spec 0.05 --draws 100000000` ran 25 s with no
+/// estimate. The plan now tells its steps, weighted by their work, from the candidates to the
+/// bound (and the prediction its draws); the certificate its check's and its own draws. The
+/// hook changes no result. (Timing-free: the announcement itself is tested on a plan of 200000
+/// candidates, far beyond 10 s.)
+#[test]
+fn plans_and_certificates_report_their_progress() {
+    use gpu_amcs::kinematics::Joints;
+    use gpu_amcs::plan::{plan, predict_with_progress, prediction_problem, PlanOptions};
+    let model = gpu_amcs::presets::preset("tx60").unwrap();
+    let task: Vec<Joints> = (0..5)
+        .map(|k| Joints::from_fn(6, |j| 10.0 * (k + j) as f64 - 20.0))
+        .collect();
+    let (hook, heard) = recording_hook();
+    let o = PlanOptions {
+        poses: 20,
+        candidates: 400,
+        search_draws: 100,
+        passes: 2,
+        swaps: 20,
+        random_designs: 5,
+        thresholds: vec![0.03],
+        ..PlanOptions::default()
+    };
+    let quiet = plan(&model, &task, &o).unwrap();
+    let heard_plan = plan(
+        &model,
+        &task,
+        &PlanOptions {
+            progress: hook,
+            ..o.clone()
+        },
+    )
+    .unwrap();
+    assert_eq!(
+        quiet.design_deg, heard_plan.design_deg,
+        "the hook changed the plan"
+    );
+    counts_up_to(&heard, gpu_amcs::plan::PLAN_STEPS, "plan");
+    let labels: Vec<String> = heard.lock().unwrap().iter().map(|h| h.0.clone()).collect();
+    for step in [
+        "drawing candidates",
+        "candidate Jacobians",
+        "greedy D-optimal design",
+        "exchange on q95",
+        "random designs",
+        "design bound",
+    ] {
+        assert!(labels.iter().any(|l| l == step), "no '{step}': {labels:?}");
+    }
+    // Real steps, not two: every pose of the greedy design, every bound iteration.
+    let distinct: std::collections::BTreeSet<u64> =
+        heard.lock().unwrap().iter().map(|h| h.1).collect();
+    assert!(distinct.len() > 50, "{distinct:?}");
+    // The prediction's draws.
+    let (hook, heard) = recording_hook();
+    let problem = prediction_problem(&quiet, &task, 1).unwrap();
+    let mut ev = gpu_amcs::engine::CpuEvaluator::new(problem);
+    predict_with_progress(&mut ev, 200_000, &[0.03], &hook).unwrap();
+    counts_up_to(&heard, 200_000, "prediction");
+    // The certificate: the check's draws, then its own, as one count.
+    let dir = tmpdir("r4-certificate-progress");
+    let (truth, identified) = identified_model(&dir);
+    let cycles = iso_cycles(&dir, None, &truth, 5);
+    let m = gpu_amcs::kinematics::RobotModel::from_file(&identified).unwrap();
+    let measured = gpu_amcs::identify::read_measurements(&cycles).unwrap();
+    let frame = gpu_amcs::identify::Placement::Known;
+    let figures = gpu_amcs::iso9283::pose_figures(&m, &measured, frame).unwrap();
+    let (hook, heard) = recording_hook();
+    let draws = 300_000;
+    let c = gpu_amcs::iso9283::certify_with_progress(&m, &figures, 0.05, frame, draws, 7, &hook)
+        .unwrap();
+    assert_eq!(
+        c,
+        gpu_amcs::iso9283::certify(&m, &figures, 0.05, frame, draws, 7).unwrap()
+    );
+    counts_up_to(
+        &heard,
+        gpu_amcs::iso9283::CHECK_DRAWS + draws,
+        "certificate",
+    );
+    let labels: Vec<String> = heard.lock().unwrap().iter().map(|h| h.0.clone()).collect();
+    assert!(
+        labels.iter().any(|l| l == "checking the cycles"),
+        "{labels:?}"
+    );
+    assert!(labels.iter().any(|l| l == "certificate"), "{labels:?}");
+}
+
+/// Round 4, item A (command line): a plan of 200000 candidates (minutes on two cores, the
+/// bound alone 200 passes over every candidate) says so on stderr within its first second, and
+/// ends without writing its design.
+#[test]
+fn a_long_plan_announces_its_estimate() {
+    use std::io::{BufRead, BufReader};
+    let dir = tmpdir("r4-plan-estimate");
+    let out = dir.join("design.csv");
+    let mut child = crate::common::bin()
+        .args([
+            "plan",
+            "--backend",
+            "cpu",
+            "--draws",
+            "1000",
+            "--candidates",
+            "200000",
+            "--out",
+            s(&out),
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut lines = BufReader::new(child.stderr.take().unwrap()).lines();
+    let line = lines.next().expect("no estimate line").unwrap();
+    let status = crate::common::signal(&mut child, "TERM");
+    assert!(line.starts_with("plan: estimated ~"), "{line}");
+    assert!(line.ends_with(" s for 1000 steps"), "{line}");
+    assert_eq!(status.code(), Some(143), "{status:?}");
+    assert_eq!(tree(&dir), Vec::<String>::new());
+}
+
+/// The model file of `preset` with its tool point replaced by `tool` (mm, flange frame).
+fn preset_with_tool(dir: &Path, preset: &str, tool: [f64; 3]) -> PathBuf {
+    let text = ok(&["model", "--preset", preset]);
+    let text: String = text
+        .lines()
+        .map(|l| {
+            if l.starts_with("tool = ") {
+                format!("tool = [{:?}, {:?}, {:?}]\n", tool[0], tool[1], tool[2])
+            } else {
+                format!("{l}\n")
+            }
+        })
+        .collect();
+    let path = dir.join(format!("{preset}-{}.toml", tool[2]));
+    std::fs::write(&path, text).unwrap();
+    path
+}
+
+/// The `d` of the last joint of a model file, mm.
+fn last_d(model: &Path) -> f64 {
+    let text = std::fs::read_to_string(model).unwrap();
+    let last = text.split("[[joint]]").last().unwrap();
+    last.lines()
+        .find_map(|l| l.strip_prefix("d = "))
+        .unwrap()
+        .trim()
+        .parse()
+        .unwrap()
+}
+
+/// Round 4, item B: `points --iso9283` of every preset writes poses `fk` reads back (the
+/// Panda's q4 sat on its limit, −176.00117550828628°, and was written −176.001176°, outside
+/// it: fk refused the file) with the tool pointing down: the flange straight below the foot of
+/// the last joint's axis (the point the chain reaches before the last joint's `d`), whichever
+/// way that axis points. The KR 6 R700's A6 axis points into the wrist, so its tool is down at
+/// rpy (0, 0, 0), its flange frame's z axis up, which the printed line now says.
+#[test]
+fn every_presets_iso9283_poses_read_back_with_the_tool_down() {
+    let dir = tmpdir("r4-iso-tool-down");
+    let list = ok(&["model", "--list"]);
+    let presets: Vec<&str> = list
+        .lines()
+        .filter_map(|l| l.split_whitespace().next())
+        .collect();
+    assert!(presets.len() >= 7, "{list}");
+    for preset in presets {
+        let poses = dir.join(format!("{preset}.csv"));
+        let o = run(&["points", "--iso9283", "--preset", preset, "-o", s(&poses)]);
+        assert!(o.status.success(), "{preset}: {}", stderr(&o));
+        let e = stderr(&o);
+        assert!(e.contains("the tool pointing down"), "{preset}: {e}");
+        let flange_model = preset_with_tool(&dir, preset, [0.0; 3]);
+        let d = last_d(&flange_model);
+        assert!(d.abs() > 10.0, "{preset}: d = {d}");
+        let foot_model = preset_with_tool(&dir, preset, [0.0, 0.0, -d]);
+        let flange = fk_positions(&["--model", s(&flange_model), "--points-file", s(&poses)]);
+        let foot = fk_positions(&["--model", s(&foot_model), "--points-file", s(&poses)]);
+        assert_eq!(flange.len(), 5, "{preset}");
+        for (k, (f, w)) in flange.iter().zip(&foot).enumerate() {
+            let down = [f[0] - w[0], f[1] - w[1], f[2] - w[2]];
+            assert!(
+                down[0].abs() < 1e-3 * d.abs()
+                    && down[1].abs() < 1e-3 * d.abs()
+                    && (down[2] + d.abs()).abs() < 1e-3 * d.abs(),
+                "{preset} P{}: flange − foot of the last axis = {down:?}, not {} mm down",
+                k + 1,
+                d.abs()
+            );
+        }
+        if preset == "kr6r700sixx" {
+            assert!(
+                e.contains("flange rpy (0, 0, 0)°") && e.contains("into the wrist"),
+                "{e}"
+            );
+        }
+    }
+}
+
+/// Round 4, items C and D: `plan --tracker-at 1e12,0,0` blamed --candidates ("only 0 of 300");
+/// `--link-radius` 500 … 1e200 gave the TX60 the design of no self-collision check at all (a
+/// radius above half the arm's length between its base column and its last link, 310 mm,
+/// joins every link to every other), and a radius that refused every draw blamed
+/// --candidates. Each is now one line naming its flag, exit 2, nothing written; 310 mm runs.
+#[test]
+fn plan_names_the_tracker_and_the_link_radius_it_cannot_use() {
+    let dir = tmpdir("r4-plan-tracker-radius");
+    let out = dir.join("design.csv");
+    let before = tree(&dir);
+    for (extra, flag, also) in [
+        (
+            vec!["--tracker-at", "1e12,0,0"],
+            "--tracker-at",
+            "1e12 mm from",
+        ),
+        (
+            vec!["--tracker-at", "30000,0,0"],
+            "--tracker-at",
+            "range (20000 mm)",
+        ),
+        (
+            vec!["--tracker-at", "3000,0,0", "--tracker-range", "1e30"],
+            "--tracker-range",
+            "100000",
+        ),
+        (
+            vec!["--link-radius", "500"],
+            "--link-radius",
+            "at most 310 mm",
+        ),
+        (vec!["--link-radius", "1e200"], "--link-radius", "1e200 mm"),
+        (
+            vec![
+                "--link-radius",
+                "1e200",
+                "--no-self-collision",
+                "--floor",
+                "-1000",
+            ],
+            "--link-radius",
+            "at most 310 mm",
+        ),
+        (
+            vec!["--link-radius", "100", "--no-self-collision"],
+            "--link-radius",
+            "--floor",
+        ),
+        (
+            vec!["--link-radius", "150"],
+            "--link-radius",
+            "into the arm itself",
+        ),
+    ] {
+        let mut args = vec![
+            "plan",
+            "--out",
+            s(&out),
+            "-q",
+            "--draws",
+            "1000",
+            "--candidates",
+            "300",
+        ];
+        args.extend(extra.iter().copied());
+        let o = run(&args);
+        let label = format!("{extra:?}");
+        assert_fails_naming(&o, flag, &label);
+        assert_fails_naming(&o, also, &label);
+        assert!(
+            !stderr(&o).contains("--candidates"),
+            "{label}: {}",
+            stderr(&o)
+        );
+        assert_eq!(tree(&dir), before, "{label} wrote a file");
+    }
+    ok(&[
+        "plan",
+        "--out",
+        s(&out),
+        "-q",
+        "--draws",
+        "1000",
+        "--candidates",
+        "300",
+        "--link-radius",
+        "310",
+    ]);
+    assert!(out.exists());
+}
+
+/// Round 4, item E: `validate` (plain, --iso9283 and with --spec) said nothing of a model file
+/// whose data did not determine some parameters, which every other analysis notes; now it
+/// gives the same note.
+#[test]
+fn validate_notes_a_model_that_was_not_fully_identified() {
+    let dir = tmpdir("r4-validate-note");
+    let (truth, model) = identified_model(&dir);
+    let cycles = iso_cycles(&dir, None, &truth, 5);
+    let text = std::fs::read_to_string(&model).unwrap();
+    assert!(text.contains("[provenance]\n") && !text.contains("not_identified"));
+    let partial = dir.join("partial.toml");
+    std::fs::write(
+        &partial,
+        text.replace(
+            "[provenance]\n",
+            "[provenance]\nnot_identified = [\"alpha3\", \"tool_x\"]\n",
+        ),
+    )
+    .unwrap();
+    let note = format!(
+        "note: --model {}: the model was not fully identified: the data did not determine 2 parameters (alpha3, tool_x)",
+        s(&partial)
+    );
+    let mcs = run(&[
+        "mcs",
+        "--model",
+        s(&partial),
+        "--draws",
+        "2000",
+        "--backend",
+        "cpu",
+        "-q",
+    ]);
+    assert!(stderr(&mcs).contains(&note), "mcs: {}", stderr(&mcs));
+    for extra in [
+        &[][..],
+        &["--iso9283"],
+        &["--iso9283", "--spec", "0.05", "--draws", "20000"],
+    ] {
+        let mut args = vec!["validate", "--model", s(&partial), s(&cycles)];
+        args.extend(extra);
+        let o = run(&args);
+        assert!(o.status.success(), "{extra:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains(&note), "{extra:?}: {}", stderr(&o));
+        // The fully identified model has no such note.
+        args[2] = s(&model);
+        let o = run(&args);
+        assert!(
+            !stderr(&o).contains("not fully identified"),
+            "{}",
+            stderr(&o)
+        );
+    }
+}
+
+/// Round 4, item F: `calibrate --range 1e-300` printed the range as a 300-digit number, and
+/// `--step 1e-300` a sweep of 18446744073709551615 points "over 1.845e-281°"; plain
+/// `validate`'s column-count error named no file.
+#[test]
+fn messages_write_numbers_plainly_and_name_the_data_file() {
+    let o = run(&["calibrate", "--range", "1e-300", "--runs", "2"]);
+    assert_fails_naming(&o, "--range 1e-300 --step 2", "--range 1e-300");
+    assert!(!stderr(&o).contains("0.000000000"), "{}", stderr(&o));
+    let o = run(&["calibrate", "--step", "1e-300", "--runs", "2"]);
+    assert_fails_naming(&o, "1e-300° step", "--step 1e-300");
+    assert!(
+        !stderr(&o).contains("18446744073709551615"),
+        "{}",
+        stderr(&o)
+    );
+    let dir = tmpdir("r4-validate-columns");
+    let data = dir.join("five-joints.csv");
+    std::fs::write(&data, "q1,q2,q3,q4,q5,x,y,z\n1,2,3,4,5,300,0,400\n").unwrap();
+    let model = dir.join("tx60.toml");
+    std::fs::write(&model, ok(&["model", "--preset", "tx60"])).unwrap();
+    for extra in [&[][..], &["--iso9283"]] {
+        let mut args = vec!["validate", "--model", s(&model), s(&data)];
+        args.extend(extra);
+        let o = run(&args);
+        for want in [s(&data), "line 2", "5 joint angles"] {
+            assert_fails_naming(&o, want, &format!("{extra:?}"));
+        }
+    }
+}

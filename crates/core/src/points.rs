@@ -321,10 +321,81 @@ pub fn to_csv<P: AsRef<[f64]>>(points: &[P]) -> String {
     s
 }
 
+/// [`to_csv`] for configurations within joint limits `limits_deg` (degrees, one pair per
+/// joint): a value whose six decimals would round past its limit (an inverse-kinematics
+/// solution on the limit, −176.00117550828628° written −176.001176°) is written rounded towards
+/// the inside instead, so that every configuration reads back within the limits.
+pub fn to_csv_within<P: AsRef<[f64]>>(points: &[P], limits_deg: &[(f64, f64)]) -> String {
+    let n = points.first().map_or(6, |q| q.as_ref().len());
+    let mut s = (1..=n)
+        .map(|j| format!("q{j}"))
+        .collect::<Vec<_>>()
+        .join(",");
+    s.push('\n');
+    for q in points {
+        let row: Vec<String> = q
+            .as_ref()
+            .iter()
+            .enumerate()
+            .map(|(j, &v)| match limits_deg.get(j) {
+                Some(&(lo, hi)) => six_decimals_within(v, lo, hi),
+                None => format!("{v:.6}"),
+            })
+            .collect();
+        s.push_str(&row.join(","));
+        s.push('\n');
+    }
+    s
+}
+
+/// `v` with six decimals, rounded towards the inside of `lo … hi` when `v` lies within them
+/// and the nearest six decimals do not (full precision if even that would not read back
+/// inside).
+fn six_decimals_within(v: f64, lo: f64, hi: f64) -> String {
+    let text = format!("{v:.6}");
+    let back: f64 = text.parse().unwrap_or(v);
+    let inward = if back < lo && v >= lo {
+        (v * 1e6).ceil() / 1e6
+    } else if back > hi && v <= hi {
+        (v * 1e6).floor() / 1e6
+    } else {
+        return text;
+    };
+    let text = format!("{inward:.6}");
+    match text.parse::<f64>() {
+        Ok(x) if (lo..=hi).contains(&x) => text,
+        _ => format!("{v}"),
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::kinematics::tx60;
+
+    #[test]
+    fn configurations_on_a_limit_are_written_within_it() {
+        let lo = -176.00117550828628;
+        let hi = 89.99999999;
+        let csv = to_csv_within(
+            &[[lo, hi, 12.3456789]],
+            &[(lo, 0.0), (0.0, hi), (-90.0, 90.0)],
+        );
+        let row: Vec<f64> = csv
+            .lines()
+            .nth(1)
+            .unwrap()
+            .split(',')
+            .map(|x| x.parse().unwrap())
+            .collect();
+        assert_eq!(
+            csv.lines().nth(1).unwrap(),
+            "-176.001175,89.999999,12.345679"
+        );
+        assert!(row[0] >= lo && row[1] <= hi);
+        // Plain to_csv rounds past the limit.
+        assert!(to_csv(&[[lo]]).contains("-176.001176"));
+    }
 
     #[test]
     fn generated_points_are_in_box_and_limits_and_seeded() {

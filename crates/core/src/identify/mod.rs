@@ -123,7 +123,10 @@ pub use statistics::{
     correlated_statistics, identified_model, parameter_statistics, sample_covariance,
     COVARIANCE_RIDGE,
 };
-pub use sweeps::{parse_sweeps, read_sweeps, write_sweeps, Sweep, SweepData, SweepPoint, SweepRun};
+pub use sweeps::{
+    open_input as read_data_text, parse_sweeps, read_sweeps, write_sweeps, Sweep, SweepData,
+    SweepPoint, SweepRun,
+};
 pub use validate::{
     accuracy, accuracy_in, parse_measurements, point_errors_in, read_measurements, validate,
     validate_in, write_measurements, AccuracyStats, Measurement, Validation, SAME_TOOL_MM,

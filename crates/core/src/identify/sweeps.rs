@@ -127,7 +127,12 @@ pub fn read_sweeps(path: &Path) -> Result<SweepData, IdentifyError> {
 /// Reads an input CSV file (bounded in size, line ends normalised so line numbers match an
 /// editor's: [`crate::input::read_csv_text`]); a directory or an unreadable path is an error
 /// naming it. Returns the text and the file's name for messages.
-pub(crate) fn open_input(path: &Path) -> Result<(String, String), IdentifyError> {
+///
+/// # Errors
+///
+/// An [`IdentifyError`] naming the file when it is a directory, cannot be read, is larger
+/// than a CSV may be or is not UTF-8 text.
+pub fn open_input(path: &Path) -> Result<(String, String), IdentifyError> {
     open_input_keeping(path, false).map(|(text, origin, _)| (text, origin))
 }
 

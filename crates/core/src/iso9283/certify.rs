@@ -3,10 +3,11 @@
 //! drawn from (a measured AP beyond every predicted error at its pose: positions in metres, in
 //! another frame, or of another robot).
 
-use super::{certificate, Certificate, CertificateError, PoseFigures};
+use super::{certificate_with_progress, Certificate, CertificateError, PoseFigures};
 use crate::engine::{CpuEvaluator, Evaluator, Problem, Reference};
 use crate::identify::Placement;
 use crate::kinematics::{Joints, RobotModel};
+use crate::progress::ProgressHook;
 
 /// Draws of the consistency check at most (the certificate's own draws when fewer).
 pub const CHECK_DRAWS: u64 = 100_000;
@@ -88,12 +89,25 @@ pub fn largest_predicted(
     draws: u64,
     seed: u64,
 ) -> Result<Vec<f64>, CertificateError> {
+    largest_with_progress(model, poses, frame, draws, seed, &ProgressHook::none())
+}
+
+/// [`largest_predicted`], telling `progress` the draws done (label `checking the cycles`).
+fn largest_with_progress(
+    model: &RobotModel,
+    poses: &[Joints],
+    frame: Placement,
+    draws: u64,
+    seed: u64,
+    progress: &ProgressHook,
+) -> Result<Vec<f64>, CertificateError> {
     let mut ev = CpuEvaluator::new(problem(model, poses, frame, seed)?);
     let m = poses.len();
     let mut largest = vec![0.0_f64; m];
     let (mut w, mut e) = (vec![0.0; CHUNK], vec![0.0; CHUNK * m]);
     let mut first = 0;
     while first < draws {
+        progress.report(CHECKING, first, draws);
         let n = (draws - first).min(CHUNK as u64) as usize;
         ev.evaluate(first, &mut w[..n], Some(&mut e[..n * m]))
             .map_err(|e| CertificateError(e.to_string()))?;
@@ -108,7 +122,7 @@ pub fn largest_predicted(
 }
 
 /// The certificate `Pr[AP_j ≤ spec]` of `model` at the poses of the measured `figures` (see
-/// [`certificate`]), given only when the measurements do not contradict the model: every
+/// [`super::certificate`]), given only when the measurements do not contradict the model: every
 /// pose's measured AP, less [`CHECK_STANDARD_ERRORS`] standard errors of its barycentre, must
 /// lie within the largest of the model's predicted errors there (over `min(draws,`
 /// [`CHECK_DRAWS`]`)` draws of `seed`).
@@ -126,6 +140,33 @@ pub fn certify(
     draws: u64,
     seed: u64,
 ) -> Result<Certificate, CertifyError> {
+    certify_with_progress(
+        model,
+        figures,
+        spec_mm,
+        frame,
+        draws,
+        seed,
+        &ProgressHook::none(),
+    )
+}
+
+/// [`certify`], telling `progress` the draws done of all it evaluates: the check's
+/// `min(draws, `[`CHECK_DRAWS`]`)` (label `checking the cycles`), then the certificate's
+/// `draws` (label `certificate`), one count from 0 to their sum.
+///
+/// # Errors
+///
+/// As [`certify`].
+pub fn certify_with_progress(
+    model: &RobotModel,
+    figures: &[PoseFigures],
+    spec_mm: f64,
+    frame: Placement,
+    draws: u64,
+    seed: u64,
+    progress: &ProgressHook,
+) -> Result<Certificate, CertifyError> {
     if model.no_uncertainty_note().is_some() {
         return Err(CertifyError::NoUncertainty {
             model: model.name.clone(),
@@ -133,7 +174,10 @@ pub fn certify(
     }
     let poses: Vec<Joints> = figures.iter().map(|f| f.q_deg).collect();
     let check = draws.clamp(1, CHECK_DRAWS);
-    let largest = largest_predicted(model, &poses, frame, check, seed)?;
+    let total = check.saturating_add(draws);
+    let hook = progress.clone();
+    let checking = ProgressHook::new(move |label: &str, done, _| hook.report(label, done, total));
+    let largest = largest_with_progress(model, &poses, frame, check, seed, &checking)?;
     for (f, &top) in figures.iter().zip(&largest) {
         let se = barycentre_standard_error(f);
         if f.ap_mm - CHECK_STANDARD_ERRORS * se > top {
@@ -148,8 +192,16 @@ pub fn certify(
             });
         }
     }
-    Ok(certificate(model, &poses, spec_mm, frame, draws, seed)?)
+    let hook = progress.clone();
+    let certifying =
+        ProgressHook::new(move |label: &str, done, _| hook.report(label, check + done, total));
+    let c = certificate_with_progress(model, &poses, spec_mm, frame, draws, seed, &certifying)?;
+    progress.report("done", total, total);
+    Ok(c)
 }
+
+/// The label of the consistency check's progress.
+const CHECKING: &str = "checking the cycles";
 
 /// " (the positions look like metres; they must be mm)" when the barycentre in mm, read as
 /// metres, lies within 1 % of the command's distance of the command; else empty.

@@ -24,8 +24,8 @@ mod certify;
 mod report;
 
 pub use certify::{
-    barycentre_standard_error, certify, largest_predicted, CertifyError, CHECK_DRAWS,
-    CHECK_STANDARD_ERRORS,
+    barycentre_standard_error, certify, certify_with_progress, largest_predicted, CertifyError,
+    CHECK_DRAWS, CHECK_STANDARD_ERRORS,
 };
 pub use report::PoseReport;
 
@@ -34,6 +34,7 @@ use crate::identify::validate::Measurement;
 use crate::identify::Placement;
 use crate::kinematics::{Joints, RobotModel};
 use crate::mc::{run_mcs, McsOptions, Reliability, RunSettings};
+use crate::progress::ProgressHook;
 
 /// Fewest cycles per pose (the standard asks for 30; two give a spread).
 pub const MIN_CYCLES: usize = 2;
@@ -262,6 +263,32 @@ pub fn certificate(
     draws: u64,
     seed: u64,
 ) -> Result<Certificate, CertificateError> {
+    certificate_with_progress(
+        model,
+        poses,
+        spec_mm,
+        frame,
+        draws,
+        seed,
+        &ProgressHook::none(),
+    )
+}
+
+/// [`certificate`], telling `progress` the draws done of `draws` chunk by chunk (label
+/// `certificate`).
+///
+/// # Errors
+///
+/// As [`certificate`].
+pub fn certificate_with_progress(
+    model: &RobotModel,
+    poses: &[Joints],
+    spec_mm: f64,
+    frame: Placement,
+    draws: u64,
+    seed: u64,
+    progress: &ProgressHook,
+) -> Result<Certificate, CertificateError> {
     let mut ev = CpuEvaluator::new(certify::problem(model, poses, frame, seed)?);
     let opts = McsOptions {
         draws,
@@ -272,7 +299,9 @@ pub fn certificate(
         },
         ..McsOptions::default()
     };
-    let r = run_mcs(&mut ev, &opts, None).map_err(|e| CertificateError(e.to_string()))?;
+    progress.report("certificate", 0, draws);
+    let tell = |done: u64, total: u64| progress.report("certificate", done, total);
+    let r = run_mcs(&mut ev, &opts, Some(&tell)).map_err(|e| CertificateError(e.to_string()))?;
     Ok(Certificate {
         spec_mm,
         draws,

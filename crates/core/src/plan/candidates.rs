@@ -2,9 +2,10 @@
 //! within the joint limits less a margin, away from singularities and, with a tracker, within its
 //! range and incidence.
 
-use super::{setting, PlanError, PlanField, PlanOptions};
+use super::{setting, PlanError, PlanField, PlanOptions, MAX_TRACKER_RANGE_MM};
 use crate::identify::chain_fit::{default_free, ChainState};
 use crate::kinematics::{transform, Joints, RobotModel};
+use crate::number::fmt_plain;
 use nalgebra::Vector3;
 use rand::{Rng, SeedableRng};
 use serde::Serialize;
@@ -14,8 +15,8 @@ use serde::Serialize;
 pub(super) fn check(model: &RobotModel, task: &[Joints], o: &PlanOptions) -> Result<(), PlanError> {
     check_settings(model, o)?;
     check_task(model, task)?;
-    check_tracker(o)?;
-    super::workcell::check(&o.workcell)?;
+    check_tracker(model, o)?;
+    super::workcell::check(model, &o.workcell)?;
     check_target(model, o)
 }
 
@@ -119,23 +120,59 @@ fn check_task(model: &RobotModel, task: &[Joints]) -> Result<(), PlanError> {
     Ok(())
 }
 
-/// The tracker, if any: a finite position, a positive range and an incidence in (0, 90]°.
-fn check_tracker(o: &PlanOptions) -> Result<(), PlanError> {
-    if let Some(t) = &o.tracker {
-        if !(t.position_mm.iter().all(|v| v.is_finite())
-            && t.range_mm.is_finite()
-            && t.range_mm > 0.0
-            && t.max_incidence_deg > 0.0
-            && t.max_incidence_deg <= 90.0)
-        {
-            return Err(setting(
-                PlanField::Tracker,
-                format!(
-                    "position {:?} must be finite, range {} mm positive and incidence {}° in (0, 90]",
-                    t.position_mm, t.range_mm, t.max_incidence_deg
-                ),
-            ));
-        }
+/// The tracker, if any: a finite position, a positive range of at most
+/// [`MAX_TRACKER_RANGE_MM`], an incidence in (0, 90]°, and no farther from the robot's base
+/// than its range and the farthest the target reaches from the base together (farther, no pose
+/// of the target is within its range).
+fn check_tracker(model: &RobotModel, o: &PlanOptions) -> Result<(), PlanError> {
+    let Some(t) = &o.tracker else {
+        return Ok(());
+    };
+    if !(t.position_mm.iter().all(|v| v.is_finite())
+        && t.range_mm.is_finite()
+        && t.range_mm > 0.0
+        && t.max_incidence_deg > 0.0
+        && t.max_incidence_deg <= 90.0)
+    {
+        return Err(setting(
+            PlanField::Tracker,
+            format!(
+                "position {:?} must be finite, range {} mm positive and incidence {}° in (0, 90]",
+                t.position_mm, t.range_mm, t.max_incidence_deg
+            ),
+        ));
+    }
+    if t.range_mm > MAX_TRACKER_RANGE_MM {
+        return Err(setting(
+            PlanField::Tracker,
+            format!(
+                "a range of {} mm is beyond what a laser tracker measures a robot from: at most {} mm",
+                fmt_plain(t.range_mm),
+                fmt_plain(MAX_TRACKER_RANGE_MM)
+            ),
+        ));
+    }
+    let origin = crate::identify::chain::nominal_state(model).base;
+    let d = (0..3)
+        .map(|k| (t.position_mm[k] - origin[k]).powi(2))
+        .sum::<f64>()
+        .sqrt();
+    let mut arm = model.clone();
+    arm.tool = o.target_mm;
+    let reach = crate::map::ik::reach_bound(&arm);
+    if d > t.range_mm + reach {
+        let p = t.position_mm.map(fmt_plain);
+        return Err(setting(
+            PlanField::Tracker,
+            format!(
+                "({}, {}, {}) mm is {} mm from the robot's base, farther than the tracker's range ({} mm) and the farthest the target reaches from the base ({reach:.0} mm) together: no pose can be measured from there",
+                p[0],
+                p[1],
+                p[2],
+                fmt_plain(d),
+                fmt_plain(t.range_mm)
+            ),
+        ));
     }
     Ok(())
 }
@@ -212,6 +249,7 @@ pub(super) fn candidates(
     s: &ChainState,
     limits: &[(f64, f64)],
     o: &PlanOptions,
+    steps: &super::steps::Steps,
 ) -> Result<(Vec<Joints>, usize, Rejected), PlanError> {
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(o.seed);
     let ranges = draw_ranges(limits, o.margin_deg);
@@ -240,11 +278,12 @@ pub(super) fn candidates(
     }
     let max_draws = 200 * o.candidates + 10_000;
     let mut out = Vec::with_capacity(o.candidates);
-    let mut drawn = 0;
+    let (mut drawn, mut unseen) = (0, 0);
     let cos_max = o
         .tracker
         .as_ref()
         .map(|t| t.max_incidence_deg.to_radians().cos());
+    let report_every = (o.candidates / 200).max(1);
     while out.len() < o.candidates && drawn < max_draws {
         drawn += 1;
         let q = Joints::from_fn(ranges.len(), |j| {
@@ -259,6 +298,7 @@ pub(super) fn candidates(
             let to = Vector3::from(t.position_mm) - p;
             let d = to.norm();
             if d > t.range_mm || facing.dot(&to) < cmax * d {
+                unseen += 1;
                 continue;
             }
         }
@@ -267,20 +307,52 @@ pub(super) fn candidates(
             Some(Clash::Floor { .. }) => rejected.floor += 1,
             Some(Clash::KeepOut { .. }) => rejected.keep_out += 1,
             Some(Clash::SelfCollision { .. }) => rejected.self_collision += 1,
-            None => out.push(q),
+            None => {
+                out.push(q);
+                if out.len() % report_every == 0 {
+                    steps.at(
+                        super::steps::Step::Candidates,
+                        out.len() as f64 / o.candidates as f64,
+                    );
+                }
+            }
         }
     }
     if out.len() < o.candidates {
+        // The setting that refused most of the draws, when one refused most of them; else the
+        // number asked for.
+        let field = [
+            (unseen, PlanField::Tracker),
+            (rejected.floor, PlanField::Floor),
+            (rejected.keep_out, PlanField::KeepOut),
+            (
+                rejected.self_collision,
+                if o.workcell.link_radius_mm.is_some() {
+                    PlanField::LinkRadius
+                } else {
+                    PlanField::Candidates
+                },
+            ),
+        ]
+        .into_iter()
+        .filter(|(n, _)| 2 * n > drawn)
+        .max_by_key(|(n, _)| *n)
+        .map_or(PlanField::Candidates, |(_, f)| f);
         return Err(setting(
-            PlanField::Candidates,
+            field,
             format!(
-                "only {} of {} configurations met the limits, the singularity bound{} after {drawn} draws ({} below the floor, {} in a keep-out box, {} into the arm itself)",
+                "only {} of {} configurations met the limits, the singularity bound{} after {drawn} draws ({}{} below the floor, {} in a keep-out box, {} into the arm itself)",
                 out.len(),
                 o.candidates,
                 if o.tracker.is_some() {
                     ", the tracker's range and incidence"
                 } else {
                     ""
+                },
+                if o.tracker.is_some() {
+                    format!("{unseen} out of the tracker's range or incidence, ")
+                } else {
+                    String::new()
                 },
                 rejected.floor,
                 rejected.keep_out,

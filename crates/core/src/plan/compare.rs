@@ -11,39 +11,60 @@ use rayon::prelude::*;
 
 /// Iterations of the multiplicative algorithm behind
 /// [`Plan::rms_bound_mm`](super::Plan::rms_bound_mm).
-const BOUND_ITERATIONS: usize = 200;
+pub(super) const BOUND_ITERATIONS: usize = 200;
 
 /// The medians of the figures of `o.random_designs` random designs of `o.poses` candidates each,
-/// drawn from `rng`.
-pub(super) fn random_median(g: &Geometry, o: &PlanOptions, rng: &mut ChaCha8Rng) -> DesignFigures {
-    let randoms: Vec<DesignFigures> = (0..o.random_designs)
-        .map(|_| {
-            let mut idx: Vec<usize> = (0..g.cand.len()).collect();
-            for i in 0..o.poses {
-                let k = rng.random_range(i..idx.len());
+/// drawn from `rng`; `tick` is told the share of the designs done.
+pub(super) fn random_median(
+    g: &Geometry,
+    o: &PlanOptions,
+    rng: &mut ChaCha8Rng,
+    tick: &dyn Fn(f64),
+) -> DesignFigures {
+    let total = o.random_designs.max(1) as f64;
+    let mut idx: Vec<usize> = (0..g.cand.len()).collect();
+    let designs: Vec<Vec<usize>> = (0..o.random_designs)
+        .map(|k| {
+            // A partial shuffle of the identity, undone after (the next design shuffles the
+            // identity again, as if drawn afresh).
+            let swaps: Vec<(usize, usize)> = (0..o.poses)
+                .map(|i| {
+                    let k = rng.random_range(i..idx.len());
+                    idx.swap(i, k);
+                    (i, k)
+                })
+                .collect();
+            let design = idx[..o.poses].to_vec();
+            for &(i, k) in swaps.iter().rev() {
                 idx.swap(i, k);
             }
-            idx.truncate(o.poses);
-            idx
+            tick(0.5 * k as f64 / total);
+            design
         })
-        .collect::<Vec<_>>()
-        .par_iter()
-        .map(|d| g.figures(d, o.sigma_mm))
         .collect();
+    let mut randoms = Vec::with_capacity(designs.len());
+    for (k, chunk) in designs.chunks(RANDOM_CHUNK).enumerate() {
+        randoms.par_extend(chunk.par_iter().map(|d| g.figures(d, o.sigma_mm)));
+        tick(0.5 + 0.5 * ((k + 1) * RANDOM_CHUNK) as f64 / total);
+    }
     median_figures(&randoms, o.thresholds.len())
 }
 
+/// Random designs judged at a time between two progress reports.
+const RANDOM_CHUNK: usize = 16;
+
 /// The approximate-design bound on the predicted RMS at the task points of every design of
 /// `o.poses` poses ([`Plan::rms_bound_mm`](super::Plan::rms_bound_mm)), mm.
-pub(super) fn rms_bound_mm(g: &Geometry, o: &PlanOptions) -> f64 {
-    g.mean_sq_bound(o.poses, BOUND_ITERATIONS).0.sqrt() * o.sigma_mm
+/// `tick` is told the share of the iterations done.
+pub(super) fn rms_bound_mm(g: &Geometry, o: &PlanOptions, tick: &dyn Fn(f64)) -> f64 {
+    g.mean_sq_bound(o.poses, BOUND_ITERATIONS, tick).0.sqrt() * o.sigma_mm
 }
 
 /// The curve: the figures of the prefixes of `design` in its own D-optimal order, from
 /// `o.curve_from` poses (at least a third of the inputs plus one) to `o.poses`.
 pub(super) fn curve(g: &Geometry, design: &[usize], o: &PlanOptions) -> Vec<CurvePoint> {
     let p = g.p();
-    let ordered = greedy(g, design, &[], design.len());
+    let ordered = greedy(g, design, &[], design.len(), &|_| {});
     let from = o.curve_from.clamp(p / 3 + 1, o.poses);
     (from..=o.poses)
         .into_par_iter()

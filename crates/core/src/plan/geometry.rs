@@ -38,7 +38,8 @@ pub(super) struct Geometry {
 impl Geometry {
     /// The geometry of the candidates `cands` and the task points `task` (degrees) on the free
     /// inputs `free` of the nominal chain `s`: each column scaled by its RMS over the
-    /// candidates, the search's and the figures' standard normals drawn from `rng`.
+    /// candidates, the search's and the figures' standard normals drawn from `rng`. `tick` is
+    /// told the share of the candidates' Jacobians done.
     pub(super) fn new(
         s: &ChainState,
         free: &[usize],
@@ -46,9 +47,17 @@ impl Geometry {
         task: &[Joints],
         o: &PlanOptions,
         rng: &mut ChaCha8Rng,
+        tick: &dyn Fn(f64),
     ) -> Geometry {
         let p = free.len();
-        let cj = jacobian(&observations(s, cands), s, free);
+        // Chunk by chunk (each candidate's rows are its own), to tell the progress.
+        let mut cj = DMatrix::<f64>::zeros(3 * cands.len(), p);
+        let chunk = cands.len().div_ceil(JACOBIAN_CHUNKS).max(1);
+        for (k, part) in cands.chunks(chunk).enumerate() {
+            cj.rows_mut(3 * k * chunk, 3 * part.len())
+                .copy_from(&jacobian(&observations(s, part), s, free));
+            tick(((k + 1) * chunk).min(cands.len()) as f64 / cands.len() as f64);
+        }
         let tj = jacobian(&observations(s, task), s, free);
         let scale: Vec<f64> = (0..p)
             .map(|c| {
@@ -164,7 +173,13 @@ impl Geometry {
     /// weights, hence of any exact design. The weights are improved by the multiplicative
     /// algorithm `w_i ← w_i·√(n·d_i/Φ)`; every iterate's bound is valid, the iterations only
     /// tighten it. Returns the bound and the criterion of the best weights found.
-    pub(super) fn mean_sq_bound(&self, n: usize, iterations: usize) -> (f64, f64) {
+    /// `tick` is told the share of the most iterations done.
+    pub(super) fn mean_sq_bound(
+        &self,
+        n: usize,
+        iterations: usize,
+        tick: &dyn Fn(f64),
+    ) -> (f64, f64) {
         let k = self.info.len();
         let p = self.p();
         let a = self
@@ -176,7 +191,8 @@ impl Geometry {
         let mut w = vec![nf / k as f64; k];
         let (mut bound, mut best) = (0.0f64, f64::INFINITY);
         let mut weighted = self.stacked.clone();
-        for _ in 0..iterations {
+        for it in 0..iterations {
+            tick(it as f64 / iterations as f64);
             // M = Σ w_i J_iᵀ J_i as one product of the stacked rows scaled by √w_i.
             for (i, wi) in w.iter().enumerate() {
                 let r = wi.sqrt();
@@ -297,6 +313,9 @@ impl Geometry {
         Ok(covariance)
     }
 }
+
+/// Chunks the candidates' Jacobians are computed in (for the progress).
+const JACOBIAN_CHUNKS: usize = 50;
 
 /// Power of the task points' expected squared errors in the screen.
 const SCREEN_POWER: i32 = 4;

@@ -33,12 +33,16 @@ mod prediction;
 pub mod program;
 mod report;
 mod search;
+mod steps;
 #[cfg(test)]
 mod tests;
 pub mod workcell;
 
-pub use prediction::{model_to_plan, predict, prediction_estimate, prediction_problem};
+pub use prediction::{
+    model_to_plan, predict, predict_with_progress, prediction_estimate, prediction_problem,
+};
 pub use report::render_text;
+pub use steps::PLAN_STEPS;
 pub use workcell::{KeepOut, Workcell};
 
 use crate::engine::{BackendInfo, EngineError, ProblemError};
@@ -49,13 +53,19 @@ use crate::mc::stats::Reliability;
 use geometry::Geometry;
 use rand::SeedableRng;
 use serde::Serialize;
+use steps::Step;
+
+/// The longest range a plan's tracker may have, mm (100 m): laser trackers measure a target
+/// from tens of metres at most, and a calibration's tracker stands a few metres from the robot.
+pub const MAX_TRACKER_RANGE_MM: f64 = 100_000.0;
 
 /// Where the laser tracker stands and what it can see.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct TrackerSite {
     /// Position in the measurement frame (the model's base frame for a model without `base`), mm.
     pub position_mm: [f64; 3],
-    /// Largest distance to a target, mm.
+    /// Largest distance to a target, mm (at most [`MAX_TRACKER_RANGE_MM`]); the tracker must
+    /// stand within this range of some pose the target can take.
     pub range_mm: f64,
     /// Largest angle between the target's facing direction (the flange z axis) and the line to
     /// the tracker, degrees.
@@ -99,6 +109,10 @@ pub struct PlanOptions {
     /// The floor, keep-out boxes and self-collision every candidate must respect
     /// ([`workcell`]).
     pub workcell: Workcell,
+    /// Told `(step, done, `[`PLAN_STEPS`]`)` as the plan goes: the steps are shares of its
+    /// work, weighted by what each does for these settings, and only ever grow (a listener's
+    /// remaining time holds throughout). Changes no result.
+    pub progress: crate::progress::ProgressHook,
 }
 
 /// Distance from the last joint's axis below which a model's tool is not taken as the plan's
@@ -142,6 +156,7 @@ impl Default for PlanOptions {
             target_mm: [30.0, -20.0, 80.0],
             seed: 1,
             workcell: Workcell::default(),
+            progress: crate::progress::ProgressHook::none(),
         }
     }
 }
@@ -423,22 +438,36 @@ pub fn plan(model: &RobotModel, task: &[Joints], o: &PlanOptions) -> Result<Plan
     let s = nominal_state(model);
     let lay = model.layout();
     let free = default_free(&model.fixed, true);
+    let steps = steps::Steps::new(o, free.len(), task.len());
+    steps.at(Step::Candidates, 0.0);
     let (limits, limits_note) = workcell::controller_limits(model);
-    let (cands, drawn, rejected) = candidates::candidates(model, &s, &limits, o)?;
+    let (cands, drawn, rejected) = candidates::candidates(model, &s, &limits, o, &steps)?;
+    steps.at(Step::Jacobians, 0.0);
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(o.seed ^ 0x005E_ED0F_C0DE);
-    let g = Geometry::new(&s, &free, &cands, task, o, &mut rng);
-    let (dopt, greedy_q95) = search::initial_design(&g, o.poses, &free, lay)?;
-    let (design, search) = search::exchange(&g, &dopt, greedy_q95, o, &mut rng);
+    let g = Geometry::new(&s, &free, &cands, task, o, &mut rng, &|f| {
+        steps.at(Step::Jacobians, f)
+    });
+    steps.at(Step::Greedy, 0.0);
+    let (dopt, greedy_q95) =
+        search::initial_design(&g, o.poses, &free, lay, &|f| steps.at(Step::Greedy, f))?;
+    steps.at(Step::Exchange, 0.0);
+    let (design, search) = search::exchange(&g, &dopt, greedy_q95, o, &mut rng, &|f| {
+        steps.at(Step::Exchange, f)
+    });
     // The comparison: the log-det design and random designs of the same size.
+    steps.at(Step::Random, 0.0);
     let planned = g.figures(&design, o.sigma_mm);
     let log_det_design = g.figures(&dopt, o.sigma_mm);
-    let random_median = compare::random_median(&g, o, &mut rng);
-    let rms_bound_mm = compare::rms_bound_mm(&g, o);
+    let random_median = compare::random_median(&g, o, &mut rng, &|f| steps.at(Step::Random, f));
+    steps.at(Step::Bound, 0.0);
+    let rms_bound_mm = compare::rms_bound_mm(&g, o, &|f| steps.at(Step::Bound, f));
+    steps.at(Step::Curve, 0.0);
     let curve = compare::curve(&g, &design, o);
     let covariance = g.covariance(&design, &free, lay.measured().len(), o.sigma_mm)?;
     let design_q: Vec<Joints> = design.iter().map(|&i| cands[i]).collect();
     let travel_unordered_deg = order::travel(&design_q);
     let (design_deg, travel_deg) = order::visiting_order(&design_q, &limits, o.margin_deg);
+    steps.finish();
     Ok(Plan {
         model_name: model.name.clone(),
         design_deg,

@@ -6,6 +6,7 @@ use super::{setting, Plan, PlanError, PlanField, Prediction};
 use crate::engine::{Evaluator, Problem, Reference};
 use crate::kinematics::Joints;
 use crate::mc::stats::Reliability;
+use crate::progress::ProgressHook;
 use rayon::prelude::*;
 
 /// Draws per evaluation call of the prediction.
@@ -33,6 +34,20 @@ pub fn predict(
     draws: usize,
     thresholds: &[f64],
 ) -> Result<Prediction, PlanError> {
+    predict_with_progress(ev, draws, thresholds, &ProgressHook::none())
+}
+
+/// [`predict`], telling `progress` the draws done of `draws` chunk by chunk.
+///
+/// # Errors
+///
+/// As [`predict`].
+pub fn predict_with_progress(
+    ev: &mut dyn Evaluator,
+    draws: usize,
+    thresholds: &[f64],
+    progress: &ProgressHook,
+) -> Result<Prediction, PlanError> {
     if draws < 100 {
         return Err(setting(
             PlanField::Search,
@@ -47,6 +62,7 @@ pub fn predict(
     let mut below = vec![0u64; m * thresholds.len()];
     let mut first = 0;
     while first < draws {
+        progress.report("draws", first as u64, draws as u64);
         let n = chunk.min(draws - first);
         ev.evaluate(
             first as u64,
@@ -62,6 +78,7 @@ pub fn predict(
         }
         first += n;
     }
+    progress.report("draws", draws as u64, draws as u64);
     w.par_sort_unstable_by(f64::total_cmp);
     let per_point = (0..m)
         .map(|j| {

@@ -11,11 +11,17 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 /// Swaps per design pose judged by q95 after the screen.
-const JUDGED: usize = 8;
+pub(super) const JUDGED: usize = 8;
 
 /// Greedy D-optimal order of `n` poses out of `pool` (indices into the geometry's candidates),
-/// starting from `start` (may be empty).
-pub(super) fn greedy(g: &Geometry, pool: &[usize], start: &[usize], n: usize) -> Vec<usize> {
+/// starting from `start` (may be empty); `tick` is told the share of the poses chosen.
+pub(super) fn greedy(
+    g: &Geometry,
+    pool: &[usize],
+    start: &[usize],
+    n: usize,
+    tick: &dyn Fn(f64),
+) -> Vec<usize> {
     let p = g.p();
     // A tiny ridge makes the empty design invertible; it is far below one pose's information.
     let mut m = DMatrix::<f64>::identity(p, p) * 1e-9;
@@ -52,12 +58,13 @@ pub(super) fn greedy(g: &Geometry, pool: &[usize], start: &[usize], n: usize) ->
         }
         used[c] = true;
         chosen.push(c);
+        tick(chosen.len() as f64 / n.max(1) as f64);
     }
     chosen
 }
 
 /// The search's first step: the greedy D-optimal design of `poses` poses out of every
-/// candidate, and its q95 (units of σ).
+/// candidate, and its q95 (units of σ); `tick` is told the share of the poses chosen.
 ///
 /// # Errors
 ///
@@ -68,10 +75,11 @@ pub(super) fn initial_design(
     poses: usize,
     free: &[usize],
     lay: Layout,
+    tick: &dyn Fn(f64),
 ) -> Result<(Vec<usize>, f64), PlanError> {
     let p = g.p();
     let all: Vec<usize> = (0..g.cand.len()).collect();
-    let dopt = greedy(g, &all, &[], poses);
+    let dopt = greedy(g, &all, &[], poses, tick);
     let m = g.information(&dopt);
     if dopt.len() < poses || Cholesky::new(m.clone()).is_none() {
         return Err(PlanError::NotIdentifiable(format!(
@@ -129,13 +137,15 @@ fn check_separated(m: &DMatrix<f64>, free: &[usize], lay: Layout) -> Result<(), 
 /// screened by the task points' expected squared errors (smooth, no Monte Carlo noise), the best
 /// few are judged by q95, and the best of those replaces the pose if q95 falls. Judging few swaps
 /// on the noisy figure keeps the search from choosing designs for their luck on the draws.
-/// Returns the design and how the search went.
+/// Returns the design and how the search went; `tick` is told the share of the most passes
+/// done (a search that ends early jumps to the end).
 pub(super) fn exchange(
     g: &Geometry,
     dopt: &[usize],
     greedy_q95: f64,
     o: &PlanOptions,
     rng: &mut ChaCha8Rng,
+    tick: &dyn Fn(f64),
 ) -> (Vec<usize>, SearchTrace) {
     let mut design = dopt.to_vec();
     let mut current = greedy_q95;
@@ -157,6 +167,10 @@ pub(super) fn exchange(
                     improved = true;
                 }
             }
+            tick(
+                ((passes - 1) * design.len() + pos + 1) as f64
+                    / (o.passes * design.len()).max(1) as f64,
+            );
         }
         if !improved {
             break;

@@ -53,7 +53,7 @@ fn the_design_bound_is_below_every_exact_design_and_near_the_best() {
     for seed in 1..=5 {
         let (k, n) = (8, 6);
         let g = toy(k, 4, 5, seed);
-        let (bound, best_weights) = g.mean_sq_bound(n, 2000);
+        let (bound, best_weights) = g.mean_sq_bound(n, 2000, &|_| {});
         // Brute force over every design of n poses, repeats allowed (1716 of them).
         let best_exact = multisets(k, n)
             .iter()

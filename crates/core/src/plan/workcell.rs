@@ -304,9 +304,26 @@ pub fn clash(
     None
 }
 
-/// Checks the workcell's own figures: a finite floor, boxes with finite corners (min ≤ max) and
-/// a positive finite radius.
-pub(super) fn check(w: &Workcell) -> Result<(), PlanError> {
+/// The largest link radius (mm) at which `model`'s self-collision check still compares two of
+/// its links: half the length of the arm between its base column and its last link (links
+/// 1 … n−2). Two links are compared only when the links between them are at least as long as
+/// their two radii; a larger radius joins every link to every other, and the check would
+/// compare none. 0 for an arm with no links between (every radius compares nothing).
+pub fn max_link_radius(model: &RobotModel) -> f64 {
+    let s = crate::identify::chain::nominal_state(model);
+    let q = vec![0.0; model.joints()];
+    let mut length = vec![0.0; model.joints() + 1];
+    for c in capsules(model, &s, &q, Some(1.0)) {
+        length[c.link] += (c.b - c.a).norm();
+    }
+    let n = model.joints();
+    0.5 * length[1..n.saturating_sub(1).max(1)].iter().sum::<f64>()
+}
+
+/// Checks the workcell's own figures for `model`: a finite floor, boxes with finite corners
+/// (min ≤ max) and a positive finite radius no larger than [`max_link_radius`] (with or
+/// without the self-collision check: no link of the arm is thicker).
+pub(super) fn check(model: &RobotModel, w: &Workcell) -> Result<(), PlanError> {
     if let Some(f) = w.floor_mm {
         if !f.is_finite() {
             return Err(setting(
@@ -335,7 +352,20 @@ pub(super) fn check(w: &Workcell) -> Result<(), PlanError> {
         if !(r.is_finite() && r > 0.0) {
             return Err(setting(
                 PlanField::LinkRadius,
-                format!("must be positive, got {r}"),
+                format!("must be positive, got {}", crate::number::fmt_plain(r)),
+            ));
+        }
+        let max = max_link_radius(model);
+        if max > 0.0 && r > max {
+            return Err(setting(
+                PlanField::LinkRadius,
+                format!(
+                    "{} mm is more than half the length of {} between its base column and its last link ({:.0} mm): no link of it is that thick, and the self-collision check, which compares two links only when the links between them are at least as long as their two radii, would compare none; at most {:.0} mm",
+                    crate::number::fmt_plain(r),
+                    model.name,
+                    2.0 * max,
+                    max.floor()
+                ),
             ));
         }
     }

@@ -79,13 +79,38 @@ pub fn simulate_poses_of(
     noise: &TrackerNoise,
     seed: u64,
 ) -> PoseData {
+    simulate_poses_at(truth, errors, configs, &[], placement, noise, seed)
+}
+
+/// [`simulate_poses_of`] with the robot carrying `payloads_kg` in turn, pose `k` the payload
+/// `payloads_kg[k % len]` (each pose's file row records it): poses at two payloads tell a
+/// joint's compliance from a harmonic of the same shape (docs/METHOD.md §19). Empty: the
+/// payload of `errors`, as [`simulate_poses_of`] (the same bits); a geometric robot (`errors`
+/// `None`) records the payloads, which move nothing.
+pub fn simulate_poses_at(
+    truth: &RobotModel,
+    errors: Option<&NonGeometric>,
+    configs: &[Joints],
+    payloads_kg: &[f64],
+    placement: &BaseTransform,
+    noise: &TrackerNoise,
+    seed: u64,
+) -> PoseData {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(NOISE_STREAM);
     let points = configs
         .iter()
         .enumerate()
         .map(|(k, q)| {
-            let p = true_position(truth, errors, &q.map(f64::to_radians));
+            let payload_kg = match payloads_kg {
+                [] => errors.map_or(0.0, |e| e.payload_kg),
+                list => list[k % list.len()],
+            };
+            let carrying = errors.map(|e| NonGeometric {
+                payload_kg,
+                ..e.clone()
+            });
+            let p = true_position(truth, carrying.as_ref(), &q.map(f64::to_radians));
             let p = placement.apply(p);
             let position_mm = match noise {
                 TrackerNoise::Tracker(t) => TrackerModel {
@@ -96,7 +121,7 @@ pub fn simulate_poses_of(
                 TrackerNoise::Isotropic(s) => super::add_tracker_noise(p, *s, &mut rng),
             };
             PosePoint {
-                payload_kg: errors.map_or(0.0, |e| e.payload_kg),
+                payload_kg,
                 q_deg: *q,
                 position_mm,
                 sigma_mm: None,
