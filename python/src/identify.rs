@@ -114,25 +114,14 @@ fn column_map(
     columns: Option<&str>,
     delimiter: Option<&str>,
 ) -> PyResult<Option<gpu_amcs_core::identify::ColumnMap>> {
-    use gpu_amcs_core::identify::ColumnMap;
-    let delimiter = match delimiter {
-        None => None,
-        Some(d) if d.len() == 1 && d != "\"" && d != "\n" => Some(d.as_bytes()[0]),
-        Some(d) => {
-            return Err(value_error(format!(
-                "delimiter: '{d}' is not one ASCII character (e.g. ';' or '\\t')"
-            )))
-        }
-    };
-    let map = match columns {
-        Some(c) => ColumnMap::parse(c).map_err(|e| value_error(format!("columns: {e}")))?,
-        None if delimiter.is_some() => ColumnMap::none(),
-        None => return Ok(None),
-    };
-    Ok(Some(match delimiter {
-        Some(d) => map.with_delimiter(d),
-        None => map,
-    }))
+    use gpu_amcs_core::identify::{ColumnMap, ColumnMapSetting};
+    ColumnMap::from_settings(columns, delimiter).map_err(|(setting, message)| {
+        let keyword = match setting {
+            ColumnMapSetting::Map => "columns",
+            ColumnMapSetting::Delimiter => "delimiter",
+        };
+        value_error(format!("{keyword}: {message}"))
+    })
 }
 
 /// The `beyond_geometry` keyword: a bool or one of the command line's words.

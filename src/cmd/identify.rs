@@ -363,22 +363,14 @@ pub fn column_map(
     columns: Option<&str>,
     delimiter: Option<&str>,
 ) -> Result<Option<gpu_amcs::identify::ColumnMap>> {
-    use gpu_amcs::identify::ColumnMap;
-    let delimiter = match delimiter {
-        None => None,
-        Some("\\t" | "tab" | "\t") => Some(b'\t'),
-        Some(d) if d.len() == 1 && d != "\"" && d != "\n" => Some(d.as_bytes()[0]),
-        Some(d) => bail!("--delimiter: '{d}' is not one ASCII character (e.g. ';' or tab)"),
-    };
-    let map = match (columns, delimiter) {
-        (None, None) => return Ok(None),
-        (Some(c), _) => ColumnMap::parse(c).context("--columns")?,
-        (None, Some(_)) => ColumnMap::none(),
-    };
-    Ok(Some(match delimiter {
-        Some(d) => map.with_delimiter(d),
-        None => map,
-    }))
+    use gpu_amcs::identify::{ColumnMap, ColumnMapSetting};
+    ColumnMap::from_settings(columns, delimiter).map_err(|(setting, message)| {
+        let flag = match setting {
+            ColumnMapSetting::Map => "--columns",
+            ColumnMapSetting::Delimiter => "--delimiter",
+        };
+        anyhow::anyhow!("{flag}: {message}")
+    })
 }
 
 impl IdentifyArgs {

@@ -307,18 +307,7 @@ pub fn read_csv(path: &std::path::Path, joints: usize) -> Result<Vec<Joints>, Po
 /// Writes configurations as CSV with header `q1..qn` (`n` = the configurations' length, 6 when
 /// there are none).
 pub fn to_csv<P: AsRef<[f64]>>(points: &[P]) -> String {
-    let n = points.first().map_or(6, |q| q.as_ref().len());
-    let mut s = (1..=n)
-        .map(|j| format!("q{j}"))
-        .collect::<Vec<_>>()
-        .join(",");
-    s.push('\n');
-    for q in points {
-        let row: Vec<String> = q.as_ref().iter().map(|v| format!("{v:.6}")).collect();
-        s.push_str(&row.join(","));
-        s.push('\n');
-    }
-    s
+    to_csv_within(points, &[])
 }
 
 /// [`to_csv`] for configurations within joint limits `limits_deg` (degrees, one pair per

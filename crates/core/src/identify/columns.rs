@@ -63,6 +63,15 @@ pub enum ColumnMapError {
     },
 }
 
+/// Which setting of [`ColumnMap::from_settings`] is at fault.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum ColumnMapSetting {
+    /// The map's text.
+    Map,
+    /// The delimiter.
+    Delimiter,
+}
+
 /// One entry: the data file's column, the file's column it comes from and the factor from the
 /// file's unit to the data file's.
 #[derive(Clone, Debug, PartialEq)]
@@ -203,6 +212,40 @@ impl ColumnMap {
             entries: Vec::new(),
             delimiter: b',',
         }
+    }
+
+    /// The map of a front end's two settings: the map's text and the delimiter's (one ASCII
+    /// character, or `tab` or `\t`); `None` when neither is given (a delimiter alone maps
+    /// nothing).
+    ///
+    /// # Errors
+    ///
+    /// [`ColumnMapSetting::Map`] with [`ColumnMap::parse`]'s error, or
+    /// [`ColumnMapSetting::Delimiter`] for a delimiter that is not one character.
+    pub fn from_settings(
+        map: Option<&str>,
+        delimiter: Option<&str>,
+    ) -> Result<Option<ColumnMap>, (ColumnMapSetting, String)> {
+        let delimiter = match delimiter {
+            None => None,
+            Some("\\t" | "tab" | "\t") => Some(b'\t'),
+            Some(d) if d.len() == 1 && d != "\"" && d != "\n" => Some(d.as_bytes()[0]),
+            Some(d) => {
+                return Err((
+                    ColumnMapSetting::Delimiter,
+                    format!("'{d}' is not one ASCII character (e.g. ';' or tab)"),
+                ))
+            }
+        };
+        let parsed = match map {
+            Some(m) => ColumnMap::parse(m).map_err(|e| (ColumnMapSetting::Map, e.to_string()))?,
+            None if delimiter.is_some() => ColumnMap::none(),
+            None => return Ok(None),
+        };
+        Ok(Some(match delimiter {
+            Some(d) => parsed.with_delimiter(d),
+            None => parsed,
+        }))
     }
 
     /// The same map for a file whose fields are delimited by `delimiter` (`;`, a tab, …).

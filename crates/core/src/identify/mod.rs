@@ -93,7 +93,7 @@ pub use chain::{
 };
 pub use chain_text::{frame_label, render_chain_report, render_chain_summary};
 pub use circle::{fit_circle, AxisPrior, CircleFit, CircleFitError, CircleFitMethod, MIN_ARC_DEG};
-pub use columns::{ColumnMap, ColumnMapError};
+pub use columns::{ColumnMap, ColumnMapError, ColumnMapSetting};
 pub use error::IdentifyError;
 pub use job::{
     IdentifyJob, IdentifyJobError, IdentifyOutcome, IdentifySetting, MAX_MC_DRAWS, MIN_MC_DRAWS,
