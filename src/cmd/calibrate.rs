@@ -1,6 +1,7 @@
 //! `calibrate`: repeated simulated calibrations → a model file with mean, σ and covariance.
 
 use super::outputs::Outputs;
+use super::progress::Progress;
 use super::Run;
 use crate::cmd::args::{FactorArgs, MemoryArgs};
 use anyhow::{bail, Result};
@@ -74,7 +75,15 @@ impl Run for CalibrateArgs {
             ),
             "use fewer --runs or a larger --step, or raise --memory-limit",
         )))?;
-        let cal = simulate::calibrate(&exp, &f, a.factors.seed)?;
+        // The bar on a terminal; the estimate on stderr when the runs take over 10 s.
+        let bar = std::sync::Arc::new(Progress::new(false, "calibrate", "runs"));
+        let listener = bar.clone();
+        let hook = gpu_amcs::progress::ProgressHook::new(move |_: &str, done, total| {
+            listener.update(done, total)
+        });
+        let cal = simulate::calibrate_with_progress(&exp, &f, a.factors.seed, &hook);
+        bar.finish();
+        let cal = cal?;
         let acc = simulate::accuracy_check(
             &exp,
             &cal.independent,

@@ -306,16 +306,37 @@ pub struct Calibration {
 /// # Ok::<(), SimulateError>(())
 /// ```
 pub fn calibrate(exp: &Experiment, f: &Factors, seed: u64) -> Result<Calibration, SimulateError> {
+    calibrate_with_progress(exp, f, seed, &crate::progress::ProgressHook::none())
+}
+
+/// [`calibrate`], telling `progress` each run identified (label `calibration runs`, the runs
+/// done of `f.runs`; the results do not depend on it).
+///
+/// # Errors
+///
+/// As [`calibrate`].
+pub fn calibrate_with_progress(
+    exp: &Experiment,
+    f: &Factors,
+    seed: u64,
+    progress: &crate::progress::ProgressHook,
+) -> Result<Calibration, SimulateError> {
+    use std::sync::atomic::{AtomicU64, Ordering};
     f.check()?;
     let t0 = std::time::Instant::now();
+    let finished = AtomicU64::new(0);
+    progress.report("calibration runs", 0, f.runs as u64);
     let runs: Vec<RobotModel> = (0..f.runs)
         .into_par_iter()
         .map(|r| {
             let mut rng = ChaCha8Rng::seed_from_u64(run_seed(seed, r as u64));
             let run = exp.sweep_run(f, Some((r + 1).to_string()), &mut rng);
-            identify_run(&run, &exp.nominal, &exp.identify)
+            let id = identify_run(&run, &exp.nominal, &exp.identify)
                 .map(|id| id.model)
-                .map_err(|cause| SimulateError::Identify { run: r + 1, cause })
+                .map_err(|cause| SimulateError::Identify { run: r + 1, cause });
+            let k = finished.fetch_add(1, Ordering::Relaxed) + 1;
+            progress.report("calibration runs", k, f.runs as u64);
+            id
         })
         .collect::<Vec<_>>()
         // In run order, so that the error reported is the first failing run's, whatever

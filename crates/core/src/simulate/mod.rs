@@ -28,7 +28,10 @@ pub mod sweep;
 pub mod tracker;
 
 pub use crate::identify::{write_measurements, write_sweeps};
-pub use calibrate::{accuracy_check, calibrate, run_seed, Calibration, Experiment, DESIGN_TOOL_MM};
+pub use calibrate::{
+    accuracy_check, calibrate, calibrate_with_progress, run_seed, Calibration, Experiment,
+    DESIGN_TOOL_MM,
+};
 pub use factors::{Factors, RobotErrorModel, SimulateError, SimulateSetting, SweepDirection};
 pub use nongeometric::{
     true_position, NonGeometric, NonGeometricError, NonGeometricSetting, NonGeometricSizes,
