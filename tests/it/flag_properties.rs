@@ -336,3 +336,34 @@ proptest! {
         check(&base, f.0, f.1, &v, "flag-properties-validate");
     }
 }
+
+/// Found by `plan_flag_values`: a tracker σ of 10 mm gave the planned model a joint σ beyond
+/// a model's 10° limit, refused as the model's fault without naming a flag. The planned
+/// model's uncertainty is the noise's doing: `--tracker-sigma` is named.
+#[test]
+fn a_tracker_sigma_too_large_for_the_planned_model_is_named() {
+    let d = tmpdir("plan-sigma-too-large");
+    let out = d.join("design.csv");
+    for sigma in ["10", "11", "500"] {
+        let o = run(&[
+            "plan",
+            "-q",
+            "--backend",
+            "cpu",
+            "--points",
+            "5",
+            "--poses",
+            "12",
+            "--candidates",
+            "150",
+            "--draws",
+            "2000",
+            "--tracker-sigma",
+            sigma,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert_fails_naming(&o, "--tracker-sigma", &format!("--tracker-sigma {sigma}"));
+        assert!(tree(&d).is_empty(), "{sigma}: left {:?}", tree(&d));
+    }
+}

@@ -121,10 +121,16 @@ pub fn model_to_plan(problem: &Problem) -> crate::kinematics::RobotModel {
 ///
 /// [`PlanError::Problem`] when the problem cannot be built.
 pub fn prediction_problem(plan: &Plan, task: &[Joints], seed: u64) -> Result<Problem, PlanError> {
-    Ok(Problem::new(
-        plan.model(),
-        task,
-        &Reference::Calibrated,
-        seed,
-    )?)
+    Problem::new(plan.model(), task, &Reference::Calibrated, seed).map_err(|e| match e {
+        // The design's covariance scales with σ²: a σ so large that the planned model's
+        // uncertainty is beyond what a model holds is the noise's fault, not the model's.
+        crate::engine::ProblemError::Model { field, message, .. } => PlanError::Setting {
+            field: super::PlanField::Sigma,
+            message: format!(
+                "{} mm gives the planned model an uncertainty beyond what a model holds ({field}: {message}): state a smaller σ, or plan more poses",
+                crate::number::fmt_plain(plan.sigma_mm)
+            ),
+        },
+        e => e.into(),
+    })
 }
