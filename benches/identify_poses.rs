@@ -27,6 +27,7 @@ fn data(truth: &RobotModel, n: usize, rng: &mut ChaCha8Rng) -> Vec<MeasuredPoint
                 .map(|v| v + 0.01 * gpu_amcs::sampling::standard_normal(rng)),
             sigma_mm: None,
             line: k as u64 + 2,
+            target: 0,
         })
         .collect()
 }

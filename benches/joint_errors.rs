@@ -47,6 +47,7 @@ fn points(data: &PoseData) -> Vec<MeasuredPoint> {
             sigma_mm: None,
             payload_kg: p.payload_kg,
             line: p.line,
+            target: 0,
         })
         .collect()
 }

@@ -360,10 +360,12 @@ pub fn measure(
             position_mm: truth.position(q).map(|v| v + sigma * normal(rng)),
             sigma_mm: None,
             line: i as u64 + 2,
+            target: 0,
         })
         .collect();
     PoseData {
         runs: vec![PoseRun { run: None, points }],
+        ..Default::default()
     }
 }
 

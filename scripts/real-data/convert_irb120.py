@@ -50,6 +50,9 @@ def main():
     ap.add_argument("-o", "--out", default="poses.csv")
     ap.add_argument("--reflector", type=int, choices=(1, 2, 3), default=1,
                     help="end reflector (SMR) written as x,y,z (default 1)")
+    ap.add_argument("--all-reflectors", action="store_true",
+                    help="write all three end reflectors, one row each per pose, with a target "
+                         "column (SMR1, SMR2, SMR3; SMR1 first: the model's tool)")
     a = ap.parse_args()
 
     d = {n: read_source(a.source, n) for n in NAMES}
@@ -67,6 +70,16 @@ def main():
         if any(math.dist(bases[k][i], means[k]) > limits[k] for k in range(3)):
             continue
         keep.append(i)
+    if a.all_reflectors:
+        with open(a.out, "w") as f:
+            f.write("q1,q2,q3,q4,q5,q6,x,y,z,target\n")
+            for i in keep:
+                q = d["measured_joints"][i]
+                for r in (1, 2, 3):
+                    xyz = d["measured_SMR_%d" % r][i]
+                    f.write(",".join(repr(v) for v in q + xyz) + ",SMR%d\n" % r)
+        print("%d of %d poses kept -> %s (3 reflectors each)" % (len(keep), n, a.out), file=sys.stderr)
+        return
     smr = d["measured_SMR_%d" % a.reflector]
     with open(a.out, "w") as f:
         f.write("q1,q2,q3,q4,q5,q6,x,y,z\n")

@@ -43,6 +43,7 @@ pub fn measured_points(
             position_mm: p.position_mm,
             sigma_mm: None,
             line: p.line,
+            target: 0,
         })
         .collect()
 }

@@ -1087,6 +1087,7 @@ fn tracker_poses(truth: &RobotModel, n: usize) -> Vec<gpu_amcs::identify::Measur
                 .map(|v| v + 0.02 * gpu_amcs::sampling::standard_normal(&mut rng)),
             sigma_mm: None,
             line: k as u64 + 2,
+            target: 0,
         })
         .collect()
 }

@@ -7,6 +7,7 @@ mod column_map;
 mod common;
 
 mod amcs_vs_mcs;
+mod base_references;
 mod beyond_geometry;
 mod blocks;
 mod cli;
@@ -34,6 +35,7 @@ mod map_shards;
 mod mc_known_answers;
 mod memory_limits;
 mod module_cycles;
+mod multi_target;
 mod payload_data;
 mod placement_analyses;
 mod plan;

@@ -52,6 +52,7 @@ fn measure(t: &ChainState, q: &[Joints], rng: &mut impl Rng) -> Vec<MeasuredPoin
                 position_mm: p.map(|v| v + SIGMA * standard_normal(rng)),
                 sigma_mm: None,
                 line: k as u64 + 2,
+                target: 0,
             }
         })
         .collect()

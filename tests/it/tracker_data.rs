@@ -80,6 +80,7 @@ fn measure(
                 position_mm: p.map(|v| v + sigma * gpu_amcs::sampling::standard_normal(rng)),
                 sigma_mm: None,
                 line: k as u64 + 2,
+                target: 0,
             }
         })
         .collect()

@@ -16,6 +16,8 @@ mod joint_error_fit;
 mod lack_of_fit;
 mod model;
 mod monte_carlo;
+#[cfg(test)]
+mod multi_target_tests;
 mod report;
 mod steps;
 #[cfg(test)]
@@ -36,7 +38,7 @@ pub use undetermined::{
 };
 
 use super::chain_fit::{
-    default_free, fit, initial_state, residuals, ChainState, Observation, Prior,
+    default_free, fit, initial_state, residuals, ChainState, Observation, OtherTargets, Prior,
 };
 use super::identifiability::{analyse, fix_null_directions, NullDirection};
 use super::noise::NoiseModel;
@@ -126,6 +128,8 @@ pub struct MeasuredPoint {
     pub payload_kg: f64,
     /// The line of the data file.
     pub line: u64,
+    /// Which target was measured (0: the model's tool; see [`ChainState::target`]).
+    pub target: u8,
 }
 
 /// The nominal model's values as a chain state (placement: its `base`, or the identity).
@@ -138,6 +142,7 @@ pub fn nominal_state(nominal: &RobotModel) -> ChainState {
         params: nominal.params,
         tool: nominal.tool,
         base,
+        others: OtherTargets::NONE,
     }
 }
 
@@ -180,6 +185,7 @@ pub fn observations(
                 p: p.position_mm,
                 whiten,
                 payload_kg: p.payload_kg,
+                target: p.target,
             })
         })
         .collect()
@@ -469,6 +475,13 @@ impl Fitted {
         if opts.placement == Placement::Known {
             state.base = [0.0; 6];
         }
+        // Several targets per pose: each other target's offset is a fit input of its own.
+        let state = super::chain_fit::with_other_targets(state, &obs);
+        let mut free = free;
+        free.extend(state.other_inputs());
+        // The other targets have no nominal: a direction the data leave free holds them at
+        // their first estimate.
+        nominal_s.others = state.others;
         let mut run = Fitted {
             space: lay.measured(),
             nominal: nominal_s,

@@ -10,10 +10,20 @@
 //! held at its nominal value and why); the identifiability analysis ([`super::identifiability`])
 //! finds any further combination the data leave free.
 //!
+//! Several targets measured at each pose (reflectors on one tool) share the chain and the
+//! placement; each has its own offset in the flange frame. The first is the model's tool
+//! ([`Block::Tool`]); the others ([`OtherTargets`]) are fit inputs after the space's, at
+//! positions `space.len() + 3(t − 1) + k` for target `t` (`t` = 1, 2, … counting the first as 0)
+//! and coordinate `k`: nuisance inputs of the fit that the model file does not keep.
+//!
 //! The fit minimises `Σ_k ‖W_k (B·P(θ, t, q_k) − p_k)‖² + Σ_i ((x_i − x̄_i)/σ_i)²` by
 //! Levenberg–Marquardt, with `W_k` the whitening matrix of point k's measurement noise and the
 //! optional second sum a prior towards the nominal geometry. A rigid alignment ([`initial_state`])
 //! of the nominal chain to the data gives the start, so the placement may be anything.
+
+mod targets;
+
+pub use targets::{OtherTargets, MAX_TARGETS};
 
 use super::lm::levenberg_marquardt;
 use crate::kinematics::{
@@ -25,11 +35,26 @@ use nalgebra::{DMatrix, Matrix3, Matrix6, Rotation3, Vector3, Vector6};
 /// The joint whose data move fit input `i` of `space` (1-based; the target counts as the last
 /// joint's, J6's of a six-axis arm), `None` for the placement.
 pub fn input_joint(space: InputSpace, i: usize) -> Option<usize> {
+    if i >= space.len() {
+        // another target's offset: seen through the last joint, as the tool
+        return Some(space.joints());
+    }
     match space.locate(i) {
         (Block::Joints, k) => Some(param_joint(k) + 1),
         (Block::Tool, _) => Some(space.joints()),
         (Block::Placement, _) => None,
     }
+}
+
+/// The name of fit input `i` of a chain whose space is `space`: the space's
+/// ([`InputSpace::name`]), `target2_x`, `target2_y`, … for the other targets' inputs past it
+/// (numbered from 2, the model's tool being target 1).
+pub fn fit_input_name(space: InputSpace, i: usize) -> String {
+    let n = space.len();
+    if i < n {
+        return space.name(i);
+    }
+    format!("target{}_{}", (i - n) / 3 + 2, ["x", "y", "z"][(i - n) % 3])
 }
 
 /// Values of all fit inputs.
@@ -41,6 +66,8 @@ pub struct ChainState {
     pub tool: [f64; 3],
     /// Placement: x, y, z (mm), roll, pitch, yaw (radians).
     pub base: [f64; 6],
+    /// The other targets measured at each pose, if any.
+    pub others: OtherTargets,
 }
 
 impl ChainState {
@@ -58,13 +85,40 @@ impl ChainState {
         self.layout().measured()
     }
 
-    /// Number of fit inputs (the length of [`Self::space`]).
+    /// Number of fit inputs: the length of [`Self::space`] and three per other target.
     pub fn n_inputs(&self) -> usize {
-        self.space().len()
+        self.space().len() + 3 * self.others.len()
+    }
+
+    /// Number of targets measured at each pose (1 without others).
+    pub fn targets(&self) -> usize {
+        1 + self.others.len()
+    }
+
+    /// Target `t`'s offset in the flange frame, mm (0: the model's tool).
+    ///
+    /// # Panics
+    ///
+    /// When `t >= self.targets()`.
+    pub fn target(&self, t: usize) -> [f64; 3] {
+        if t == 0 {
+            self.tool
+        } else {
+            self.others.offsets()[t - 1]
+        }
+    }
+
+    /// The other target and coordinate of fit input `i`, `None` for an input of the space.
+    fn other(&self, i: usize) -> Option<(usize, usize)> {
+        let n = self.space().len();
+        (i >= n).then(|| ((i - n) / 3, (i - n) % 3))
     }
 
     /// Input `i`.
     pub fn get(&self, i: usize) -> f64 {
+        if let Some((t, k)) = self.other(i) {
+            return self.others.offsets()[t][k];
+        }
         match self.space().locate(i) {
             (Block::Joints, k) => self.params[k],
             (Block::Tool, k) => self.tool[k],
@@ -74,11 +128,35 @@ impl ChainState {
 
     /// Sets input `i`.
     pub fn set(&mut self, i: usize, v: f64) {
+        if let Some((t, k)) = self.other(i) {
+            assert!(
+                t < self.others.len(),
+                "fit input {i} is past the last target"
+            );
+            self.others.offsets[t][k] = v;
+            return;
+        }
         match self.space().locate(i) {
             (Block::Joints, k) => self.params[k] = v,
             (Block::Tool, k) => self.tool[k] = v,
             (Block::Placement, k) => self.base[k] = v,
         }
+    }
+
+    /// The name of fit input `i` ([`fit_input_name`]).
+    pub fn input_name(&self, i: usize) -> String {
+        fit_input_name(self.space(), i)
+    }
+
+    /// Whether fit input `i` is an angle.
+    pub fn is_angle(&self, i: usize) -> bool {
+        self.other(i).is_none() && self.space().is_angle(i)
+    }
+
+    /// The fit inputs of the other targets' offsets.
+    pub fn other_inputs(&self) -> std::ops::Range<usize> {
+        let n = self.space().len();
+        n..n + 3 * self.others.len()
     }
 
     /// The placement's rotation `Rz(yaw)·Ry(pitch)·Rx(roll)`.
@@ -88,10 +166,20 @@ impl ChainState {
 
     /// The target's position in the measurement frame at joint angles `q` (radians).
     pub fn predict(&self, q: &[f64]) -> [f64; 3] {
+        self.predict_target(q, 0)
+    }
+
+    /// Target `t`'s position in the measurement frame at joint angles `q` (radians).
+    pub fn predict_target(&self, q: &[f64], t: usize) -> [f64; 3] {
         let r = self.rotation();
-        let p = Vector3::from(position(&self.params, &self.tool, q));
+        let p = Vector3::from(position(&self.params, &self.target(t), q));
         let v = r * p + Vector3::new(self.base[0], self.base[1], self.base[2]);
         [v.x, v.y, v.z]
+    }
+
+    /// Where observation `o`'s target is predicted (its angles, its target).
+    pub fn predict_observation(&self, o: &Observation) -> [f64; 3] {
+        self.predict_target(&o.q, o.target as usize)
     }
 
     /// [`Self::predict`] for many configurations: the placement's rotation and the twists'
@@ -117,8 +205,14 @@ impl Predictor<'_> {
     /// [`ChainState::predict`] at joint angles `q` (radians).
     #[inline]
     pub fn predict(&self, q: &[f64]) -> [f64; 3] {
+        self.predict_target(q, 0)
+    }
+
+    /// [`ChainState::predict_target`] at joint angles `q` (radians).
+    #[inline]
+    pub fn predict_target(&self, q: &[f64], t: usize) -> [f64; 3] {
         let s = self.state;
-        let p = Vector3::from(position_with_trig(&s.params, &self.trig, &s.tool, q));
+        let p = Vector3::from(position_with_trig(&s.params, &self.trig, &s.target(t), q));
         let v = self.rotation * p + Vector3::new(s.base[0], s.base[1], s.base[2]);
         [v.x, v.y, v.z]
     }
@@ -136,6 +230,9 @@ pub struct Observation {
     pub whiten: Matrix3<f64>,
     /// The payload during the measurement, kg (at the target; joint compliance bends under it).
     pub payload_kg: f64,
+    /// Which target was measured: 0 the model's tool, `t` the state's other target `t`
+    /// ([`ChainState::target`]).
+    pub target: u8,
 }
 
 /// The inputs position data can identify by default: the placement (when `base_free`), then per
@@ -177,9 +274,9 @@ pub fn default_free(fixed: &[FixedParam], base_free: bool) -> Vec<usize> {
     free
 }
 
-/// Finite-difference step of input `i` of a chain of layout `lay` for the Jacobian.
-fn step(lay: Layout, i: usize) -> f64 {
-    if lay.measured().is_angle(i) {
+/// Finite-difference step of fit input `i` of `s` for the Jacobian.
+fn step(s: &ChainState, i: usize) -> f64 {
+    if s.is_angle(i) {
         1e-8
     } else {
         1e-5
@@ -193,7 +290,12 @@ pub fn residuals(obs: &[Observation], s: &ChainState) -> Vec<f64> {
     let trig = twist_trig(&s.params);
     let mut out = Vec::with_capacity(3 * obs.len());
     for o in obs {
-        let p = Vector3::from(position_with_trig(&s.params, &trig, &s.tool, &o.q));
+        let p = Vector3::from(position_with_trig(
+            &s.params,
+            &trig,
+            &s.target(o.target as usize),
+            &o.q,
+        ));
         let e = o.whiten * (r * p + t - Vector3::from(o.p));
         out.extend_from_slice(&[e.x, e.y, e.z]);
     }
@@ -204,7 +306,7 @@ pub fn residuals(obs: &[Observation], s: &ChainState) -> Vec<f64> {
 pub fn position_residuals(obs: &[Observation], s: &ChainState) -> Vec<[f64; 3]> {
     obs.iter()
         .map(|o| {
-            let p = s.predict(&o.q);
+            let p = s.predict_observation(o);
             [p[0] - o.p[0], p[1] - o.p[1], p[2] - o.p[2]]
         })
         .collect()
@@ -213,12 +315,11 @@ pub fn position_residuals(obs: &[Observation], s: &ChainState) -> Vec<[f64; 3]> 
 /// Jacobian of the whitened residuals by central differences, one column per input of `free`.
 pub fn jacobian(obs: &[Observation], s: &ChainState, free: &[usize]) -> DMatrix<f64> {
     let m = 3 * obs.len();
-    let lay = s.layout();
     let cols: Vec<Vec<f64>> = {
         use rayon::prelude::*;
         free.par_iter()
             .map(|&i| {
-                let h = step(lay, i);
+                let h = step(s, i);
                 let mut a = *s;
                 a.set(i, s.get(i) + h);
                 let mut b = *s;
@@ -256,13 +357,13 @@ pub fn local_jacobian(obs: &[Observation], s: &ChainState, free: &[usize]) -> DM
         return j;
     }
     let r = s.rotation();
-    for (c, &i) in free.iter().enumerate() {
+    for (c, &i) in free.iter().enumerate().filter(|(_, &i)| i < space.len()) {
         let (Block::Placement, k @ 3..=5) = space.locate(i) else {
             continue;
         };
         let axis = Vector3::ith(k - 3, 1.0);
         for (n, o) in obs.iter().enumerate() {
-            let rp = r * Vector3::from(position(&s.params, &s.tool, &o.q));
+            let rp = r * Vector3::from(position(&s.params, &s.target(o.target as usize), &o.q));
             let d = o.whiten * axis.cross(&rp);
             for a in 0..3 {
                 j[(3 * n + a, c)] = d[a];
@@ -287,8 +388,15 @@ pub fn rpy_to_local(s: &ChainState) -> Matrix3<f64> {
 pub struct Prior {
     /// The values the prior pulls towards (the nominal geometry).
     pub centre: ChainState,
-    /// σ per fit input ([`ChainState::n_inputs`] of them), internal units; 0 = none.
+    /// σ per input of the space (the other targets' have none), internal units; 0 = none.
     pub sigma: Vec<f64>,
+}
+
+impl Prior {
+    /// σ of fit input `i` (0: no prior; the other targets' inputs never have one).
+    pub fn sigma_of(&self, i: usize) -> f64 {
+        self.sigma.get(i).copied().unwrap_or(0.0)
+    }
 }
 
 /// Minimises the whitened residuals (plus the prior's rows) over the inputs `free`, from `start`.
@@ -298,8 +406,7 @@ pub fn fit(
     free: &[usize],
     prior: Option<&Prior>,
 ) -> ChainState {
-    let lay = start.layout();
-    let steps: Vec<f64> = free.iter().map(|&i| step(lay, i)).collect();
+    let steps: Vec<f64> = free.iter().map(|&i| step(start, i)).collect();
     let apply = |s: &ChainState, d: &[f64]| -> ChainState {
         let mut n = *s;
         for (k, &i) in free.iter().enumerate() {
@@ -311,8 +418,9 @@ pub fn fit(
         let mut r = residuals(obs, s);
         if let Some(p) = prior {
             for &i in free {
-                if p.sigma[i] > 0.0 {
-                    r.push((s.get(i) - p.centre.get(i)) / p.sigma[i]);
+                let sd = p.sigma_of(i);
+                if sd > 0.0 {
+                    r.push((s.get(i) - p.centre.get(i)) / sd);
                 }
             }
         }
@@ -322,7 +430,7 @@ pub fn fit(
 }
 
 /// Kabsch: the rotation and translation that best map `from` onto `to` (least squares).
-fn kabsch(from: &[Vector3<f64>], to: &[Vector3<f64>]) -> (Matrix3<f64>, Vector3<f64>) {
+pub(crate) fn kabsch(from: &[Vector3<f64>], to: &[Vector3<f64>]) -> (Matrix3<f64>, Vector3<f64>) {
     let n = from.len().max(1) as f64;
     let ca = from.iter().sum::<Vector3<f64>>() / n;
     let cb = to.iter().sum::<Vector3<f64>>() / n;
@@ -346,10 +454,12 @@ fn kabsch(from: &[Vector3<f64>], to: &[Vector3<f64>]) -> (Matrix3<f64>, Vector3<
 /// the chain's predicted points onto the measured ones and a linear least-squares solve for the
 /// target and the placement's translation given its rotation (the positions are linear in both),
 /// ten rounds from the nominal parameters (`5n`, one joint angle per joint in every observation)
-/// and `tool`.
+/// and `tool`, on the observations of the first target; then each other target's offset
+/// ([`with_other_targets`]).
 pub fn initial_state(obs: &[Observation], params: &[f64], tool: &[f64; 3]) -> ChainState {
     let frames: Vec<([[f64; 4]; 4], Vector3<f64>)> = obs
         .iter()
+        .filter(|o| o.target == 0)
         .map(|o| (transform(params, &o.q), Vector3::from(o.p)))
         .collect();
     let mut tool = Vector3::from(*tool);
@@ -388,20 +498,59 @@ pub fn initial_state(obs: &[Observation], params: &[f64], tool: &[f64; 3]) -> Ch
         }
     }
     let (roll, pitch, yaw) = Rotation3::from_matrix_unchecked(rot).euler_angles();
-    ChainState {
+    let s = ChainState {
         params: Params::from_slice(params),
         tool: [tool.x, tool.y, tool.z],
         base: [trans.x, trans.y, trans.z, roll, pitch, yaw],
+        others: OtherTargets::NONE,
+    };
+    with_other_targets(s, obs)
+}
+
+/// `s` with one other target per target index above 0 that `obs` holds (up to the largest),
+/// each offset the linear least-squares solution given `s`'s parameters and placement
+/// (`B·(R_f(q) t + o_f(q)) = p`); an offset the data do not determine (one flange orientation)
+/// starts at the model's tool.
+pub fn with_other_targets(s: ChainState, obs: &[Observation]) -> ChainState {
+    let count = obs.iter().map(|o| o.target as usize).max().unwrap_or(0);
+    if count == 0 {
+        return ChainState {
+            others: OtherTargets::NONE,
+            ..s
+        };
+    }
+    let r = s.rotation();
+    let b = Vector3::new(s.base[0], s.base[1], s.base[2]);
+    let offsets: Vec<[f64; 3]> = (1..=count)
+        .map(|t| {
+            let mut ata = Matrix3::<f64>::zeros();
+            let mut atb = Vector3::<f64>::zeros();
+            for o in obs.iter().filter(|o| o.target as usize == t) {
+                let f = transform(&s.params, &o.q);
+                let a = r * flange_rotation(&f);
+                ata += a.transpose() * a;
+                atb += a.transpose() * (Vector3::from(o.p) - b - r * flange_origin(&f));
+            }
+            ata.cholesky()
+                .map(|c| c.solve(&atb))
+                .filter(|x| x.iter().all(|v| v.is_finite()))
+                .map_or(s.tool, |x| [x.x, x.y, x.z])
+        })
+        .collect();
+    ChainState {
+        others: OtherTargets::new(&offsets),
+        ..s
     }
 }
 
 /// The target (flange frame) that best fits base-frame data with the placement known and the
 /// parameters `params`: positions are linear in it (`R_f(q)·t + o_f(q) = p`). `None` when the
-/// data do not determine it (all points at one flange orientation).
+/// data do not determine it (all points at one flange orientation). Only the first target's
+/// observations count.
 pub fn initial_tool(obs: &[Observation], params: &[f64]) -> Option<[f64; 3]> {
     let mut ata = Matrix3::<f64>::zeros();
     let mut atb = Vector3::<f64>::zeros();
-    for o in obs {
+    for o in obs.iter().filter(|o| o.target == 0) {
         let t = transform(params, &o.q);
         let r = flange_rotation(&t);
         ata += r.transpose() * r;
@@ -420,76 +569,4 @@ fn flange_origin(t: &[[f64; 4]; 4]) -> Vector3<f64> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::kinematics::tx60;
-    use rand::{Rng, SeedableRng};
-
-    fn observations(truth: &ChainState, n: usize, seed: u64) -> Vec<Observation> {
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-        (0..n)
-            .map(|_| {
-                let q = Joints::from_fn(6, |_| rng.random_range(-2.0..2.0));
-                Observation {
-                    q,
-                    p: truth.predict(&q),
-                    whiten: Matrix3::identity(),
-                    payload_kg: 0.0,
-                }
-            })
-            .collect()
-    }
-
-    #[test]
-    fn input_joints() {
-        for n in 4..=7 {
-            let space = Layout::new(n).measured();
-            let tool = space.index(Block::Tool, 0).unwrap();
-            assert_eq!(input_joint(space, tool), Some(n));
-            assert_eq!(input_joint(space, 5 * n - 1), Some(n));
-            assert_eq!(input_joint(space, tool + 3), None);
-        }
-    }
-
-    #[test]
-    fn free_counts_follow_everett() {
-        let m = tx60();
-        assert_eq!(default_free(&m.fixed, true).len(), 27);
-        assert_eq!(default_free(&m.fixed, false).len(), 23);
-    }
-
-    /// Noise-free data in a placement 2.5 m away, turned 140° and tilted: the alignment start and
-    /// the fit recover every identifiable input.
-    #[test]
-    fn recovers_a_far_placement() {
-        let nominal = tx60();
-        let mut truth = ChainState {
-            params: nominal.params,
-            tool: [30.0, -20.0, 80.0],
-            base: [2500.0, -400.0, 300.0, 0.05, -0.08, 140f64.to_radians()],
-        };
-        let free = default_free(&nominal.fixed, true);
-        for (k, &i) in free.iter().enumerate() {
-            if i < Layout::SIX.n_params() {
-                let size = if Layout::SIX.measured().is_angle(i) {
-                    5e-4
-                } else {
-                    0.3
-                };
-                truth.set(i, truth.get(i) + size * if k % 2 == 0 { 1.0 } else { -0.7 });
-            }
-        }
-        let obs = observations(&truth, 40, 3);
-        let start = initial_state(&obs, &nominal.params, &[0.0; 3]);
-        let got = fit(&obs, &start, &free, None);
-        for &i in &free {
-            assert!(
-                (got.get(i) - truth.get(i)).abs() < 1e-6,
-                "{}: {} vs {}",
-                Layout::SIX.measured().name(i),
-                got.get(i),
-                truth.get(i)
-            );
-        }
-    }
-}
+mod tests;

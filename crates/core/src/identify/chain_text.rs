@@ -27,6 +27,10 @@ pub fn render_chain_summary(c: &ChainReport) -> String {
         "  residuals: rms {:.4} mm, max {:.4} mm",
         c.rms_residual_mm, c.max_residual_mm
     );
+    render_targets(&mut s, c);
+    if let Some(d) = &c.drift {
+        let _ = writeln!(s, "  {}", d.sentence());
+    }
     match (c.noise.sigma_mm, c.noise.p_value) {
         (Some(sig), _) => {
             let _ = writeln!(
@@ -148,6 +152,38 @@ pub fn render_chain_report(c: &ChainReport) -> String {
 
 /// The lack-of-fit lines: noise against what the model does not explain, the term, the
 /// leave-one-out self-check.
+/// Several targets per pose: which is the model's tool and where the others sit.
+fn render_targets(s: &mut String, c: &ChainReport) {
+    if c.targets.len() < 2 {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "  targets: {} measured at each pose, one chain and placement; '{}' is the model's tool (tool_x…z), the others' offsets are not kept in the model:",
+        c.targets.len(),
+        c.targets[0]
+    );
+    for (k, label) in c.targets.iter().enumerate().skip(1) {
+        let rows: Vec<&super::chain::ParameterRow> = ["x", "y", "z"]
+            .iter()
+            .filter_map(|a| {
+                let name = format!("target{}_{a}", k + 1);
+                c.parameters.iter().find(|p| p.name == name)
+            })
+            .collect();
+        let xyz: Vec<String> = rows
+            .iter()
+            .map(|p| format!("{:.4} ± {:.4}", p.value, p.sigma))
+            .collect();
+        let _ = writeln!(
+            s,
+            "    '{label}' (target{}): ({}) mm in the flange frame",
+            k + 1,
+            xyz.join(", ")
+        );
+    }
+}
+
 fn render_beyond_geometry(s: &mut String, b: &super::chain::BeyondGeometry) {
     let _ = writeln!(s, "  {}", b.sentence());
     let joints: Vec<String> = (0..b.harmonic_amplitudes_deg.len())

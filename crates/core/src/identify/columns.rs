@@ -106,7 +106,14 @@ fn kind(ours: &str) -> Option<Kind> {
         Some(Kind::Length)
     } else if ours == PAYLOAD_COLUMN {
         Some(Kind::Mass)
-    } else if ours == "run" || ours == "joint" {
+    } else if [
+        "run",
+        "joint",
+        super::poses::TARGET_COLUMN,
+        super::poses::MOUNT_COLUMN,
+    ]
+    .contains(&ours)
+    {
         Some(Kind::Label)
     } else {
         None
@@ -155,7 +162,7 @@ impl ColumnMap {
             let ours = ours.trim().to_ascii_lowercase();
             let Some(k) = kind(&ours) else {
                 return err(format!(
-                    "'{ours}' is not a data file's column (q1…q7, x, y, z, sx, sy, sz, run, joint, {PAYLOAD_COLUMN})"
+                    "'{ours}' is not a data file's column (q1…q7, x, y, z, sx, sy, sz, run, joint, target, mount, {PAYLOAD_COLUMN})"
                 ));
             };
             // A unit after the last ':' when it is one; else the whole is the name.

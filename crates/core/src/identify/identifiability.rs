@@ -19,7 +19,9 @@
 //! combination and the joint ranges the data actually cover.
 
 use super::chain::Placement;
-use super::chain_fit::{default_free, input_joint, local_jacobian, ChainState, Observation};
+use super::chain_fit::{
+    default_free, fit_input_name, input_joint, local_jacobian, ChainState, Observation,
+};
 use super::IdentifyError;
 use crate::kinematics::{Layout, RobotModel, MAX_JOINTS, MIN_JOINTS};
 use nalgebra::DMatrix;
@@ -209,7 +211,7 @@ pub fn combination(lay: Layout, v: &[f64], free: &[usize]) -> String {
     let mut s = String::new();
     for (n, (k, x)) in terms.iter().enumerate() {
         let c = sign * x / max;
-        let name = lay.measured().name(free[*k]);
+        let name = fit_input_name(lay.measured(), free[*k]);
         if n == 0 {
             s.push_str(&name);
         } else {
@@ -272,9 +274,9 @@ pub fn fix_null_directions(
         let svd = scaled_svd_grouped(&j, &placement_groups(state, free));
         if let Some(c) = svd.norms.iter().position(|&n| n == 0.0) {
             found.push(NullDirection {
-                combination: lay.measured().name(free[c]),
+                combination: fit_input_name(lay.measured(), free[c]),
                 relative_singular_value: 0.0,
-                fixed: lay.measured().name(free[c]),
+                fixed: fit_input_name(lay.measured(), free[c]),
             });
             state.set(free[c], nominal.get(free[c]));
             free.remove(c);
@@ -295,7 +297,7 @@ pub fn fix_null_directions(
         found.push(NullDirection {
             combination: combination(lay, &v, free),
             relative_singular_value: rel,
-            fixed: lay.measured().name(free[k]),
+            fixed: fit_input_name(lay.measured(), free[k]),
         });
         state.set(free[k], nominal.get(free[k]));
         free.remove(k);
@@ -346,8 +348,8 @@ pub fn analyse(
                 let rho = covariance[(a, b)] / d;
                 if rho.abs() > CORRELATION_LIMIT {
                     correlated.push(Correlation {
-                        a: lay.measured().name(free[a]),
-                        b: lay.measured().name(free[b]),
+                        a: fit_input_name(lay.measured(), free[a]),
+                        b: fit_input_name(lay.measured(), free[b]),
                         rho,
                     });
                 }

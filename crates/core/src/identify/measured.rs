@@ -14,7 +14,7 @@
 use super::chain::{
     chain_model, identify_chain, nominal_state, ChainOptions, ChainReport, MeasuredPoint, Placement,
 };
-use super::chain_fit::ChainState;
+use super::chain_fit::{ChainState, OtherTargets};
 use super::circle::CircleFitMethod;
 use super::identifiability::check_something_free;
 use super::lines::{common_normal, Line};
@@ -67,13 +67,15 @@ pub fn identify_poses(
     if data.runs.is_empty() {
         return Err(IdentifyError::NoData("no poses to identify from".into()));
     }
+    check_targets(data)?;
+    let (runs, drift) = super::drift::correct(data)?;
     let chain = &per_run_options(chain, data.runs.len());
     let count = data.runs.len();
-    let fits = data
-        .runs
+    let fits = runs
         .iter()
+        .zip(&drift)
         .enumerate()
-        .map(|(k, r)| {
+        .map(|(k, (r, drift))| {
             let label = super::sweeps::run_label(r.run.as_deref());
             let input = fit_input(r, &chain.noise);
             let opts = ChainOptions {
@@ -84,6 +86,8 @@ pub fn identify_poses(
             let mut result =
                 identify_chain(&input.points, nominal, None, options.nominal_prior, &opts)?;
             note_repeats(&mut result.report, &input);
+            result.report.targets = data.targets.clone();
+            result.report.drift = drift.clone();
             let model = chain_model(
                 nominal,
                 &result,
@@ -118,6 +122,28 @@ pub fn identify_poses(
             Identification { model, report }
         })
         .collect())
+}
+
+/// Refuses runs that leave out one of several targets: every run's fit estimates every
+/// target's offset, and the first target is the model's tool.
+///
+/// # Errors
+///
+/// [`IdentifyError::NoData`] naming the run and the target it lacks.
+fn check_targets(data: &PoseData) -> Result<(), IdentifyError> {
+    for r in &data.runs {
+        for (t, label) in data.targets.iter().enumerate() {
+            if !r.points.iter().any(|p| p.target as usize == t) {
+                return Err(IdentifyError::NoData(format!(
+                    "target '{label}' has no rows{}: with several targets every run must measure each ({}; the first, '{}', is the model's tool)",
+                    super::sweeps::run_label(r.run.as_deref()),
+                    data.targets.join(", "),
+                    data.targets[0]
+                )));
+            }
+        }
+    }
+    Ok(())
 }
 
 /// The report of a fit of repeated poses: where the noise came from, its test (an F test of the
@@ -252,6 +278,7 @@ fn sweep_points(run: &SweepRun) -> Vec<MeasuredPoint> {
             sigma_mm: None,
             payload_kg: 0.0,
             line: p.line,
+            target: 0,
         })
         .collect()
 }
@@ -366,6 +393,7 @@ pub fn identify_sweeps_chain(
                 params: circle.model.params,
                 tool: circle.model.tool,
                 base: placement,
+                others: OtherTargets::NONE,
             };
             if chain.placement == Placement::Identify {
                 let s = nominal_state(nominal);

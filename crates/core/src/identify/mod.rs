@@ -67,6 +67,7 @@ mod chain_outputs;
 mod chain_text;
 pub mod circle;
 mod columns;
+pub mod drift;
 mod error;
 pub mod identifiability;
 mod job;

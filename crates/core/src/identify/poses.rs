@@ -14,6 +14,7 @@
 //! [`check_tracker_data`] (which also checks that the data have the model's number of joints).
 //! Every error is one line naming the file, the line and the column.
 
+use super::chain_fit::MAX_TARGETS;
 use super::pose_units::{angle_unit, check_not_radians, split_unit};
 use super::sweeps::{
     column_indices, csv_error, csv_reader, joint_count, open_input, parse_number, parse_sweeps,
@@ -37,6 +38,12 @@ pub fn pose_columns(joints: usize) -> Vec<&'static str> {
 const FORMATS: &str = "joint,q1,…,qn,x,y,z (sweeps) or q1,…,qn,x,y,z [,sx,sy,sz] [,payload_kg] (poses), one q column per joint (4 to 7), each optionally with run";
 /// The optional per-point standard uncertainty columns.
 pub const SIGMA_COLUMNS: [&str; 3] = ["sx", "sy", "sz"];
+/// The optional column naming which of several targets on the tool a row measured.
+pub const TARGET_COLUMN: &str = "target";
+/// The optional column saying where a row's reflector is mounted: `tool` (moves with the arm;
+/// the default) or `base` (a reference fixed on the robot's base, to follow drift).
+pub const MOUNT_COLUMN: &str = "mount";
+
 /// The optional column of the payload during each measurement, kg (its centre of mass at the
 /// measured target): joint compliance bends the robot under it.
 pub const PAYLOAD_COLUMN: &str = "payload_kg";
@@ -57,6 +64,9 @@ pub struct PosePoint {
     pub payload_kg: f64,
     /// Line in the file.
     pub line: u64,
+    /// Which target was measured: the index of its `target` label in [`PoseData::targets`]
+    /// (0 without the column).
+    pub target: u8,
 }
 
 /// The poses of one run.
@@ -73,6 +83,29 @@ pub struct PoseRun {
 pub struct PoseData {
     /// The runs.
     pub runs: Vec<PoseRun>,
+    /// The labels of the `target` column in the order they first appear (empty without the
+    /// column): several targets measured at each pose, the first the model's tool.
+    pub targets: Vec<String>,
+    /// Reflectors fixed on the robot's base (`mount` = `base`), measured at the poses to
+    /// follow tracker or base drift ([`super::drift`]), in file order.
+    pub references: Vec<ReferenceRow>,
+    /// Their labels (the `target` column of those rows), in the order they first appear.
+    pub reference_labels: Vec<String>,
+}
+
+/// A base reference reflector measured at a pose (a row with `mount` = `base`).
+#[derive(Clone, Debug, PartialEq)]
+pub struct ReferenceRow {
+    /// The run it belongs to.
+    pub run: Option<String>,
+    /// The pose (commanded joint angles, degrees) it was measured at.
+    pub q_deg: Joints,
+    /// Measured position, mm, in the data's frame.
+    pub position_mm: [f64; 3],
+    /// Index into [`PoseData::reference_labels`].
+    pub reference: u8,
+    /// Line in the file.
+    pub line: u64,
 }
 
 /// Sweep or pose data, as [`read_tracker_data`] found it.
@@ -149,6 +182,17 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
             .position(|h| h.trim().eq_ignore_ascii_case(name))
     };
     let run_col = find("run");
+    let target_col = find(TARGET_COLUMN);
+    let mount_col = find(MOUNT_COLUMN);
+    if mount_col.is_some() && target_col.is_none() {
+        return Err(IdentifyError::MissingColumn {
+            origin: origin.to_string(),
+            column: TARGET_COLUMN,
+            expected: format!(
+                "a {TARGET_COLUMN} column naming each reflector beside the {MOUNT_COLUMN} column"
+            ),
+        });
+    }
     let payload_col = find(PAYLOAD_COLUMN);
     let present: Vec<bool> = SIGMA_COLUMNS.iter().map(|c| find(c).is_some()).collect();
     let sigma_cols = if present.iter().any(|&p| p) {
@@ -212,9 +256,35 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
                 m
             }
         };
+        let on_base = match mount_col.map(|c| rec.get(c).unwrap_or("").trim().to_ascii_lowercase()) {
+            None => false,
+            Some(m) if m.is_empty() || m == "tool" => false,
+            Some(m) if m == "base" => true,
+            Some(m) => {
+                return Err(IdentifyError::Csv {
+                    origin: origin.to_string(),
+                    line,
+                    message: format!(
+                        "column {MOUNT_COLUMN} = '{m}' is neither 'tool' (a reflector on the tool) nor 'base' (a reference fixed on the robot's base)"
+                    ),
+                })
+            }
+        };
+        let labels = if on_base {
+            &mut data.reference_labels
+        } else {
+            &mut data.targets
+        };
+        let target = match target_col {
+            None => 0,
+            Some(c) => target_index(labels, rec.get(c).unwrap_or(""), line, origin)?,
+        };
         let key = (
             run.clone(),
             v.iter()
+                .chain(std::iter::once(&f64::from(
+                    target + if on_base { 100 } else { 0 },
+                )))
                 .chain(std::iter::once(&payload_kg))
                 .map(|x| x.to_bits())
                 .collect(),
@@ -222,12 +292,23 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
         if let Some(first) = seen.insert(key, line) {
             copies.push((line, first));
         }
+        if on_base {
+            data.references.push(ReferenceRow {
+                run,
+                q_deg: Joints::from_slice(&v[..n]),
+                position_mm: [v[n], v[n + 1], v[n + 2]],
+                reference: target,
+                line,
+            });
+            continue;
+        }
         let point = PosePoint {
             q_deg: Joints::from_slice(&v[..n]),
             position_mm: [v[n], v[n + 1], v[n + 2]],
             sigma_mm,
             payload_kg,
             line,
+            target,
         };
         match data.runs.iter_mut().find(|r| r.run == run) {
             Some(r) => r.points.push(point),
@@ -254,6 +335,45 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
         }
     }
     Ok(data)
+}
+
+/// The index of target `label` in `targets` (appended when new).
+///
+/// # Errors
+///
+/// [`IdentifyError::Csv`] for an empty label or more than [`MAX_TARGETS`] targets.
+fn target_index(
+    targets: &mut Vec<String>,
+    label: &str,
+    line: u64,
+    origin: &str,
+) -> Result<u8, IdentifyError> {
+    let label = label.trim();
+    if label.is_empty() {
+        return Err(IdentifyError::Csv {
+            origin: origin.to_string(),
+            line,
+            message: format!(
+                "column {TARGET_COLUMN} is empty: name the target each row measured (e.g. SMR1)"
+            ),
+        });
+    }
+    if let Some(k) = targets.iter().position(|t| t == label) {
+        return Ok(k as u8);
+    }
+    if targets.len() == MAX_TARGETS {
+        return Err(IdentifyError::Csv {
+            origin: origin.to_string(),
+            line,
+            message: format!(
+                "column {TARGET_COLUMN} = '{label}' is a {}th target: a fit takes at most {MAX_TARGETS} targets per pose ({})",
+                MAX_TARGETS + 1,
+                targets.join(", ")
+            ),
+        });
+    }
+    targets.push(label.to_string());
+    Ok((targets.len() - 1) as u8)
 }
 
 /// Whether some pose of `data` was measured more than once with positions that differ.
@@ -457,147 +577,4 @@ pub fn write_poses<W: Write>(data: &PoseData, writer: W) -> Result<(), IdentifyE
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::kinematics::tx60;
-
-    const HEAD: &str = "run,q1,q2,q3,q4,q5,q6,x,y,z,sx,sy,sz\n";
-
-    #[test]
-    fn round_trip_with_runs_and_sigmas() {
-        let text = format!(
-            "{HEAD}a,0,1,2,3,4,5,100.5,200,300,0.01,0.01,0.02\nb,0,1,2,3,4,5,101,200,300,0.01,0.01,0.02\na,5,1,2,3,4,5,100,-20,300,0.01,0.01,0.02\n"
-        );
-        let d = parse_poses(text.as_bytes(), "t.csv").unwrap();
-        assert_eq!(d.runs.len(), 2);
-        assert_eq!(d.runs[0].points.len(), 2);
-        assert_eq!(d.runs[0].points[1].line, 4);
-        assert_eq!(d.runs[0].points[0].sigma_mm, Some([0.01, 0.01, 0.02]));
-        let mut out = Vec::new();
-        write_poses(&d, &mut out).unwrap();
-        let back = parse_poses(out.as_slice(), "o").unwrap();
-        type Row = (Joints, [f64; 3], Option<[f64; 3]>);
-        let strip = |d: &PoseData| -> Vec<(Option<String>, Vec<Row>)> {
-            d.runs
-                .iter()
-                .map(|r| {
-                    let pts = r
-                        .points
-                        .iter()
-                        .map(|p| (p.q_deg, p.position_mm, p.sigma_mm))
-                        .collect();
-                    (r.run.clone(), pts)
-                })
-                .collect()
-        };
-        assert_eq!(strip(&back), strip(&d));
-    }
-
-    #[test]
-    fn header_tells_the_formats_apart() {
-        let s = parse_tracker_data("joint,q1,q2,q3,q4,q5,q6,x,y,z\n1,0,0,0,0,0,0,1,2,3\n", "s")
-            .unwrap();
-        assert!(matches!(s, TrackerData::Sweeps(_)));
-        let p = parse_tracker_data("q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1,2,3\n", "p").unwrap();
-        assert!(matches!(p, TrackerData::Poses(_)));
-        let e = parse_tracker_data("a,b\n1,2\n", "bad.csv")
-            .unwrap_err()
-            .to_string();
-        assert!(
-            e.contains("bad.csv") && e.contains("sweeps") && e.contains("poses"),
-            "{e}"
-        );
-    }
-
-    /// Each bad input ends in one line naming the file, the line and what is wrong.
-    #[test]
-    fn bad_rows_name_their_line() {
-        let cases = [
-            (
-                "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1,2,3\n0,0,0,0,0,NaN,1,2,3\n",
-                "line 3",
-            ),
-            (
-                "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1,2,3\n0,0,0,0,0,0,1,2\n",
-                "line 3",
-            ),
-            (
-                "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1,2,3\n0,0,0,0,0,0,1,2,3\n",
-                "repeats line 2",
-            ),
-            (
-                "q1,q2,q3,q4,q5,q6,x,y,z,sx,sy\n0,0,0,0,0,0,1,2,3,1,1\n",
-                "'sz'",
-            ),
-            (
-                "q1,q2,q3,q4,q5,q6,x,y,z,sx,sy,sz\n0,0,0,0,0,0,1,2,3,1,0,1\n",
-                "sy = 0",
-            ),
-            ("q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,abc,1,2,3\n", "q6"),
-        ];
-        for (text, want) in cases {
-            let e = parse_tracker_data(text, "f.csv").unwrap_err().to_string();
-            assert!(
-                e.contains(want) && e.starts_with("f.csv") && !e.contains('\n'),
-                "{e}"
-            );
-        }
-    }
-
-    /// Repeated measurements of a pose are read as rows of one pose; an identical reading is
-    /// kept where other repeats differ (a coarse resolution), refused as a copy where none do.
-    #[test]
-    fn repeats_are_read_and_copies_refused_only_without_them() {
-        let text = "q1,q2,q3,q4,q5,q6,x,y,z\n0,1,2,3,4,5,100,200,300\n0,1,2,3,4,5,100.01,200,300\n0,1,2,3,4,5,100,200,300\n";
-        let d = parse_poses(text.as_bytes(), "f.csv").unwrap();
-        assert_eq!(
-            super::super::repeats::pose_groups(&d.runs[0]),
-            vec![vec![0, 1, 2]]
-        );
-        let copy = "q1,q2,q3,q4,q5,q6,x,y,z\n0,1,2,3,4,5,100,200,300\n9,1,2,3,4,5,100,200,300\n0,1,2,3,4,5,100,200,300\n";
-        let e = parse_poses(copy.as_bytes(), "f.csv")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("line 4") && e.contains("repeats line 2"), "{e}");
-    }
-
-    #[test]
-    fn seven_joint_poses_and_the_joint_count_check() {
-        let text = "q1,q2,q3,q4,q5,q6,q7,x,y,z\n0,1,2,3,4,5,6,1000,200,300\n";
-        let d = parse_tracker_data(text, "f.csv").unwrap();
-        let TrackerData::Poses(p) = &d else {
-            panic!("not poses")
-        };
-        assert_eq!(p.runs[0].points[0].q_deg.len(), 7);
-        let mut out = Vec::new();
-        write_poses(p, &mut out).unwrap();
-        assert_eq!(&parse_poses(out.as_slice(), "o").unwrap(), p);
-        let e = check_tracker_data(&d, &tx60(), "f.csv")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("line 2") && e.contains("7 joint angles"), "{e}");
-        let e = parse_tracker_data("q1,q2,q3,x,y,z\n0,0,0,1,2,3\n", "f.csv")
-            .unwrap_err()
-            .to_string();
-        assert!(e.contains("'q4'"), "{e}");
-    }
-
-    #[test]
-    fn limits_and_metres_are_checked() {
-        let m = tx60();
-        let d = parse_tracker_data(
-            "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1000,200,300\n0,0,0,0,400,0,1000,200,300\n",
-            "f.csv",
-        )
-        .unwrap();
-        let e = check_tracker_data(&d, &m, "f.csv").unwrap_err().to_string();
-        assert!(e.contains("line 3") && e.contains("q5"), "{e}");
-        let d = parse_tracker_data(
-            "q1,q2,q3,q4,q5,q6,x,y,z\n0,0,0,0,0,0,1.2,0.2,0.3\n10,0,0,0,0,0,1.1,0.4,0.3\n",
-            "f.csv",
-        )
-        .unwrap();
-        let e = check_tracker_data(&d, &m, "f.csv").unwrap_err().to_string();
-        assert!(e.contains("metres") && e.contains("line 2"), "{e}");
-    }
-}
+mod tests;

@@ -269,6 +269,7 @@ mod tests {
                     q_deg: q,
                     position_mm: std::array::from_fn(|k| p[k] + s * gaussian(&mut rng)),
                     line: i + 2,
+                    target: None,
                 }
             })
             .collect();

@@ -43,6 +43,9 @@ pub struct Provenance {
     /// Inputs the data did not determine in some run (held at nominal with their prior σ;
     /// written as `not_identified` only when there are some; files without it read as none).
     pub not_identified: Vec<String>,
+    /// The label of the model's target when the data named their targets (`target` column;
+    /// written only then): a validation compares that target's rows.
+    pub target: Option<String>,
 }
 
 /// SHA-256 (hex) of a model's geometry: its number of joints, the `5n` MDH parameters (mm,
@@ -116,6 +119,7 @@ impl Provenance {
                 }
                 all
             }),
+            target: first.targets.first().cloned(),
         })
     }
 
@@ -139,11 +143,17 @@ impl Provenance {
                 names.join(", ")
             )
         };
+        let target = self.target.as_deref().map_or(String::new(), |t| {
+            format!(
+                "# the data's target this model's tool is (its `target` column)\ntarget = {}\n",
+                q(t)
+            )
+        });
         format!(
             "\n# Where this model came from (read and ignored by the model reader)\n[provenance]\n\
              data_file = {}\ndata_sha256 = {}\npoints = {}\nruns = {}\nrms_residual_mm = {}\n\
              max_residual_mm = {}\nrank = {}\nparameters = {}\ncondition_number = {}\nnoise = {}\n\
-             frame = {}\nnominal_name = {}\nnominal_sha256 = {}\n{listed}nominal_model = {}\n",
+             frame = {}\nnominal_name = {}\nnominal_sha256 = {}\n{listed}{target}nominal_model = {}\n",
             q(&self.data_file),
             q(&self.data_sha256),
             self.points,
@@ -170,6 +180,19 @@ pub fn provenance_frame(model_file_text: &str) -> Option<Placement> {
         "robot base" => Some(Placement::Known),
         _ => None,
     }
+}
+
+/// The target label a model file's `[provenance]` records (`None` when the data named no
+/// targets, or the file has no `[provenance]`).
+pub fn provenance_target(model_file_text: &str) -> Option<String> {
+    let table: toml::Table = model_file_text.parse().ok()?;
+    Some(
+        table
+            .get("provenance")?
+            .get("target")?
+            .as_str()?
+            .to_string(),
+    )
 }
 
 /// The nominal model a model file's `[provenance]` records.
@@ -273,8 +296,11 @@ mod tests {
             nominal_sha256: geometry_sha256(&crate::presets::preset("ur5e").unwrap()),
             nominal_model: crate::presets::preset("ur5e").unwrap().to_toml(),
             not_identified: vec!["alpha4".into(), "tool_x".into()],
+            target: Some("SMR 1".into()),
         };
         let text = m.to_toml() + &p.to_toml();
+        assert_eq!(provenance_target(&text).as_deref(), Some("SMR 1"));
+        assert_eq!(provenance_target(&m.to_toml()), None);
         let back = crate::kinematics::RobotModel::from_toml(&text, "t").unwrap();
         assert_eq!(back, m);
         let table: toml::Table = text.parse().unwrap();

@@ -22,7 +22,7 @@ use std::collections::HashMap;
 /// Two-sided level at which a stated σ and the repeats' scatter are said to disagree.
 pub const DISAGREEMENT_LEVEL: f64 = 0.01;
 
-/// The rows of `run` grouped by identical joint angles and payload, in order of first
+/// The rows of `run` grouped by identical joint angles, payload and target, in order of first
 /// appearance (indices into `run.points`).
 pub fn pose_groups(run: &PoseRun) -> Vec<Vec<usize>> {
     let mut at: HashMap<Vec<u64>, usize> = HashMap::new();
@@ -32,7 +32,7 @@ pub fn pose_groups(run: &PoseRun) -> Vec<Vec<usize>> {
         let key: Vec<u64> = p
             .q_deg
             .iter()
-            .chain(std::iter::once(&p.payload_kg))
+            .chain([&p.payload_kg, &f64::from(p.target)])
             .map(|v| (v + 0.0).to_bits())
             .collect();
         match at.get(&key) {
@@ -165,6 +165,7 @@ fn rows(run: &PoseRun) -> Vec<MeasuredPoint> {
             sigma_mm: p.sigma_mm,
             payload_kg: p.payload_kg,
             line: p.line,
+            target: p.target,
         })
         .collect()
 }
@@ -225,6 +226,7 @@ pub fn fit_input(run: &PoseRun, noise: &NoiseModel) -> FitInput {
             sigma_mm: Some([0, 1, 2].map(|c| 1.0 / total[(c, c)].max(f64::MIN_POSITIVE).sqrt())),
             payload_kg: pts[0].payload_kg,
             line: pts[0].line,
+            target: pts[0].target,
         });
     }
     let ks: Vec<usize> = groups.iter().map(Vec::len).collect();
@@ -312,6 +314,7 @@ mod tests {
             position_mm: xyz,
             sigma_mm: None,
             line,
+            target: 0,
         }
     }
 

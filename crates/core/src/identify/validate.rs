@@ -49,6 +49,9 @@ pub struct Measurement {
     pub payload_kg: Option<f64>,
     /// Line in the CSV file (for generated data: the line it has when written).
     pub line: u64,
+    /// The `target` column's label, when the file has one (several targets on the tool: a
+    /// validation compares the model's own target's rows).
+    pub target: Option<String>,
 }
 
 /// Reads a measurement CSV file.
@@ -86,6 +89,9 @@ pub fn parse_measurements<R: Read>(
     let payload_col = header
         .iter()
         .position(|h| h.trim().eq_ignore_ascii_case(super::poses::PAYLOAD_COLUMN));
+    let target_col = header
+        .iter()
+        .position(|h| h.trim().eq_ignore_ascii_case(super::poses::TARGET_COLUMN));
     let mut out = Vec::new();
     for rec in rdr.records() {
         let rec = rec.map_err(|e| csv_error(e, origin))?;
@@ -119,6 +125,7 @@ pub fn parse_measurements<R: Read>(
             position_mm: [v[n], v[n + 1], v[n + 2]],
             payload_kg,
             line,
+            target: target_col.map(|c| rec.get(c).unwrap_or("").trim().to_string()),
         });
     }
     if out.is_empty() {
@@ -302,6 +309,8 @@ pub struct ValidationReport {
     pub nominal_source: Option<NominalSource>,
     /// The predictive check, when it was run.
     pub predictive: Option<super::predictive::PredictiveCheck>,
+    /// The target compared, when the measurements named targets.
+    pub target: Option<setup::TargetChoice>,
 }
 
 /// The frame of validated measurements, in words.
@@ -347,6 +356,12 @@ impl ValidationReport {
             FrameSource::Default => "the model file records none",
         };
         s.push_str(&format!("frame: {} — {source}\n", frame_words(self.frame)));
+        if let Some(t) = &self.target {
+            s.push_str(&format!(
+                "target: '{}' (the model's own; {} rows of other targets left out)\n",
+                t.label, t.left_out
+            ));
+        }
         if let Some(p) = &self.predictive {
             s.push_str(&p.render());
         }
@@ -377,6 +392,7 @@ impl ValidationReport {
                 Placement::Known => "robot base",
             },
             "frame_source": self.frame_source,
+            "target": self.target,
             "predictive_check": self.predictive,
         });
         let mut s = serde_json::to_string_pretty(&doc).unwrap_or_default();
@@ -500,12 +516,14 @@ mod tests {
                 q_deg: q,
                 position_mm: p,
                 line: 2,
+                target: None,
             },
             Measurement {
                 payload_kg: None,
                 q_deg: q,
                 position_mm: [p[0] + 3.0, p[1] + 4.0, p[2]],
                 line: 3,
+                target: None,
             },
         ];
         let mut buf = Vec::new();

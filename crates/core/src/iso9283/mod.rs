@@ -142,6 +142,7 @@ pub enum Iso9283Error {
 ///             q_deg: q,
 ///             position_mm: [c[0] + 0.1, c[1] + dy, c[2]],
 ///             line: cycles.len() as u64 + 2,
+///             target: None,
 ///         });
 ///     }
 /// }

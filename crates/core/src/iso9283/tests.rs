@@ -60,6 +60,7 @@ fn cycle(q: Joints, p: [f64; 3], line: u64) -> Measurement {
         q_deg: q,
         position_mm: p,
         line,
+        target: None,
     }
 }
 

@@ -340,6 +340,7 @@ fn observations(s: &ChainState, q_deg: &[Joints]) -> Vec<Observation> {
                 p: s.predict(&q),
                 whiten: Matrix3::identity(),
                 payload_kg: 0.0,
+                target: 0,
             }
         })
         .collect()

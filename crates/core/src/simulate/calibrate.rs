@@ -227,6 +227,7 @@ impl Experiment {
                         .tracker
                         .measure([p[0] + s[0], p[1] + s[1], p[2] + s[2]], rng),
                     line: k as u64 + 2,
+                    target: None,
                 }
             })
             .collect()

@@ -126,11 +126,13 @@ pub fn simulate_poses_at(
                 position_mm,
                 sigma_mm: None,
                 line: k as u64 + 2,
+                target: 0,
             }
         })
         .collect();
     PoseData {
         runs: vec![PoseRun { run: None, points }],
+        ..Default::default()
     }
 }
 

@@ -93,6 +93,7 @@ pub fn measure_positions(
                 rng,
             ),
             line: k as u64 + 2,
+            target: None,
         })
         .collect()
 }

@@ -102,7 +102,7 @@ fn undetermined(
 ) -> Vec<String> {
     let name = |k: usize| {
         if k < geo {
-            space.name(free[k])
+            crate::identify::chain_fit::fit_input_name(space, free[k])
         } else {
             JointErrors::coefficient_name(free[k])
         }
@@ -235,14 +235,14 @@ fn residuals(obs: &[Observation], m: &ExtendedModel, x: &Inputs<'_>) -> Vec<f64>
                 d[j] += 0.5 * m.beta[PER_JOINT * n + j] * dirs[k][j];
             }
         }
-        let p = at.predict(&Joints::from_fn(n, |i| o.q[i] + d[i]));
+        let p = at.predict_target(&Joints::from_fn(n, |i| o.q[i] + d[i]), o.target as usize);
         let e = o.whiten * Vector3::new(p[0] - o.p[0], p[1] - o.p[1], p[2] - o.p[2]);
         out.extend_from_slice(&[e.x, e.y, e.z]);
     }
     for (k, &i) in free.iter().enumerate() {
         if k < geo {
-            if let Some(p) = prior.filter(|p| p.sigma[i] > 0.0) {
-                out.push((m.state.get(i) - p.centre.get(i)) / p.sigma[i]);
+            if let Some(p) = prior.filter(|p| p.sigma_of(i) > 0.0) {
+                out.push((m.state.get(i) - p.centre.get(i)) / p.sigma_of(i));
             }
         } else {
             out.push(m.beta[i] / x.sigma[i]);
@@ -261,7 +261,7 @@ fn step(state: &ChainState, free: &[usize], geo: usize, k: usize) -> f64 {
         } else {
             1e-8
         }
-    } else if state.space().is_angle(free[k]) {
+    } else if state.is_angle(free[k]) {
         1e-8
     } else {
         1e-5
@@ -525,7 +525,12 @@ impl ExtendedFit {
             .map(|c| c.solve(&sgb.transpose()).transpose());
         let mut shift = vec![0.0; space.len() * p];
         if let Some(a) = &a {
-            for (k, &i) in self.free[..geo].iter().enumerate() {
+            // the other targets' offsets (past the fit's space) shift nothing the model keeps
+            for (k, &i) in self.free[..geo]
+                .iter()
+                .enumerate()
+                .filter(|(_, &i)| i < fit.len())
+            {
                 let (block, place) = fit.locate(i);
                 if let Some(r) = space.index(block, place) {
                     for (c, &(_, f)) in coeffs.iter().enumerate() {

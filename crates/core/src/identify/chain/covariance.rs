@@ -78,7 +78,7 @@ pub(super) fn linearised_covariances(
     let at: Vec<usize> = free
         .iter()
         .enumerate()
-        .filter(|(_, &i)| matches!(space.locate(i), (Block::Placement, 3..=5)))
+        .filter(|(_, &i)| i < space.len() && matches!(space.locate(i), (Block::Placement, 3..=5)))
         .map(|(c, _)| c)
         .collect();
     for (a, &ca) in at.iter().enumerate() {
@@ -95,8 +95,8 @@ pub(super) fn information(j: &DMatrix<f64>, free: &[usize], prior: Option<&Prior
     let mut a = j.transpose() * j;
     if let Some(p) = prior {
         for (k, &i) in free.iter().enumerate() {
-            if p.sigma[i] > 0.0 {
-                a[(k, k)] += 1.0 / (p.sigma[i] * p.sigma[i]);
+            if p.sigma_of(i) > 0.0 {
+                a[(k, k)] += 1.0 / (p.sigma_of(i) * p.sigma_of(i));
             }
         }
     }
@@ -113,8 +113,10 @@ pub(super) fn standard_deviations(c: &DMatrix<f64>, p: usize) -> Vec<f64> {
 /// all fit inputs, zero rows and columns for the inputs held fixed.
 pub(super) fn embed(chosen: &DMatrix<f64>, free: &[usize], nf: usize) -> Vec<f64> {
     let mut covariance = vec![0.0; nf * nf];
-    for (a_k, &ia) in free.iter().enumerate() {
-        for (b_k, &ib) in free.iter().enumerate() {
+    // Inputs at or past `nf` (the other targets' offsets) are left out: the kept block of a
+    // Gaussian's covariance is the covariance of its marginal.
+    for (a_k, &ia) in free.iter().enumerate().filter(|(_, &i)| i < nf) {
+        for (b_k, &ib) in free.iter().enumerate().filter(|(_, &i)| i < nf) {
             covariance[ia * nf + ib] = chosen[(a_k, b_k)];
         }
     }

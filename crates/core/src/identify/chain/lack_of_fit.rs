@@ -11,6 +11,10 @@ use nalgebra::{DMatrix, Matrix3};
 /// The lack of fit of `run` with `linearised` = `(JᵀWJ + prior)⁻¹` over its free inputs
 /// (whitened units; the placement's rotation as [`local_jacobian`] takes it) and the noise
 /// check `noise`; without `self_check`, no leave-one-out self-check (an intermediate fit).
+///
+/// With several targets measured at each pose only the model's own target (the first) enters:
+/// the discrepancy term and the compensation are the model target's, and a left-out
+/// measurement must not keep its twins at the same pose in the fit of the self-check.
 pub(super) fn lack_of_fit(
     run: &Fitted,
     linearised: &DMatrix<f64>,
@@ -25,6 +29,7 @@ pub(super) fn lack_of_fit(
         .iter()
         .zip(&plain)
         .enumerate()
+        .filter(|(_, (o, _))| o.target == 0)
         .map(|(i, (o, r))| {
             let ji = j.rows(3 * i, 3);
             let h = ji * linearised * ji.transpose();
@@ -36,7 +41,12 @@ pub(super) fn lack_of_fit(
             }
         })
         .collect();
-    let q_rad: Vec<Vec<f64>> = run.obs.iter().map(|o| o.q.to_vec()).collect();
+    let q_rad: Vec<Vec<f64>> = run
+        .obs
+        .iter()
+        .filter(|o| o.target == 0)
+        .map(|o| o.q.to_vec())
+        .collect();
     let configurations = Configurations {
         q_rad: &q_rad,
         to_base: run.state.rotation().transpose(),

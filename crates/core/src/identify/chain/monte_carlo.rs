@@ -22,7 +22,7 @@ pub(super) fn monte_carlo_covariance(
     use std::sync::atomic::{AtomicU64, Ordering};
     let finished = AtomicU64::new(0);
     let every = (draws as u64 / 100).max(1);
-    let predicted: Vec<[f64; 3]> = obs.iter().map(|o| state.predict(&o.q)).collect();
+    let predicted: Vec<[f64; 3]> = obs.iter().map(|o| state.predict_observation(o)).collect();
     let inverses: Vec<Matrix3<f64>> = obs
         .iter()
         .map(|o| o.whiten.try_inverse().unwrap_or_else(Matrix3::zeros))
@@ -45,10 +45,8 @@ pub(super) fn monte_carlo_covariance(
                     );
                     let e = winv * z;
                     Observation {
-                        q: o.q,
                         p: [p[0] + e.x, p[1] + e.y, p[2] + e.z],
-                        whiten: o.whiten,
-                        payload_kg: o.payload_kg,
+                        ..*o
                     }
                 })
                 .collect();

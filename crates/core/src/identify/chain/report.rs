@@ -78,7 +78,8 @@ pub struct ChainReport {
     pub residuals_mm: Vec<f64>,
     /// Line of each point in the data file.
     pub lines: Vec<u64>,
-    /// Every input: identified or fixed, with σ.
+    /// Every input: identified or fixed, with σ; with several targets per pose, the other
+    /// targets' offsets last (`target2_x`, …; the model file keeps only the first target).
     pub parameters: Vec<ParameterRow>,
     /// The noise and its check.
     pub noise: NoiseReport,
@@ -100,6 +101,13 @@ pub struct ChainReport {
     pub joint_error_fit: super::JointErrorFit,
     /// Problems found (one line each, with what to measure instead).
     pub warnings: Vec<String>,
+    /// The labels of the targets measured at each pose, when the data named them (the first is
+    /// the model's tool, the others' offsets are the `target2_…` rows of `parameters`).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub targets: Vec<String>,
+    /// What the base reference reflectors showed, when the data had some.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub drift: Option<crate::identify::drift::DriftReport>,
 }
 
 /// The result: values, covariance over all fit inputs ([`ChainState::space`]; internal units,
@@ -246,6 +254,8 @@ pub(super) fn build_report(
         beyond_geometry: None,
         joint_error_fit: opts.beyond_geometry,
         warnings,
+        targets: Vec::new(),
+        drift: None,
     }
 }
 
@@ -295,5 +305,26 @@ fn parameter_rows(
                 status,
             }
         })
+        // Several targets per pose: the other targets' offsets (flange frame), which the
+        // model file does not keep, after the model's inputs.
+        .chain(run.state.other_inputs().map(|i| {
+            ParameterRow {
+                name: run.state.input_name(i),
+                nominal: run.nominal.get(i),
+                value: run.state.get(i),
+                sigma: kept.sigma(i).unwrap_or(0.0),
+                sigma_monte_carlo: run
+                    .free
+                    .iter()
+                    .position(|&x| x == i)
+                    .and_then(|k| mc_sigma.map(|m| m[k])),
+                unit: "mm",
+                status: if run.free.contains(&i) {
+                    "identified".to_string()
+                } else {
+                    "not identifiable: first estimate".to_string()
+                },
+            }
+        }))
         .collect()
 }

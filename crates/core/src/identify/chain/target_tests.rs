@@ -11,6 +11,7 @@ fn target_on_the_j6_axis_is_flagged() {
         params: m.params,
         tool: [0.0, 0.0, 80.0],
         base: [2000.0, 0.0, 0.0, 0.0, 0.0, 1.0],
+        others: OtherTargets::NONE,
     };
     let mut rng = <rand_chacha::ChaCha8Rng as rand::SeedableRng>::seed_from_u64(4);
     use rand::Rng;
@@ -30,6 +31,7 @@ fn target_on_the_j6_axis_is_flagged() {
             sigma_mm: None,
             payload_kg: 0.0,
             line: k as u64,
+            target: 0,
         })
         .collect();
     let r = identify_chain(&pts, &m, None, None, &ChainOptions::default()).unwrap();

@@ -6,12 +6,13 @@ use rand::{Rng, SeedableRng};
 
 /// A TX60 with every free parameter off by tenths of a mm / hundredths of a degree, target
 /// (30, −20, 80) mm, placed 2.6 m from the tracker and turned.
-fn truth() -> ChainState {
+pub(super) fn truth() -> ChainState {
     let nominal = tx60();
     let mut t = ChainState {
         params: nominal.params,
         tool: [30.0, -20.0, 80.0],
         base: [2600.0, 500.0, -200.0, 0.03, -0.05, 2.3],
+        others: OtherTargets::NONE,
     };
     let six = crate::kinematics::Layout::SIX;
     for (k, i) in default_free(&nominal.fixed, true).into_iter().enumerate() {
@@ -44,6 +45,7 @@ fn points(t: &ChainState, n: usize, sigma: f64, seed: u64) -> Vec<MeasuredPoint>
                 sigma_mm: None,
                 payload_kg: 0.0,
                 line: k as u64 + 2,
+                target: 0,
             }
         })
         .collect()

@@ -57,7 +57,11 @@ pub(super) fn chain_warnings(
     let far: Vec<String> = rows
         .iter()
         .filter(|r| r.status == "identified")
-        .filter(|r| !r.name.starts_with("base_") && !r.name.starts_with("tool_"))
+        .filter(|r| {
+            !["base_", "tool_", "target"]
+                .iter()
+                .any(|p| r.name.starts_with(p))
+        })
         .filter(|r| {
             let limit = if r.unit == "deg" {
                 crate::identify::MAX_ANGLE_CHANGE_DEG

@@ -223,6 +223,7 @@ mod tests {
                     q_deg: q,
                     position_mm: b.apply(p),
                     line: i as u64 + 2,
+                    target: None,
                 }
             })
             .collect()
@@ -279,6 +280,7 @@ mod tests {
                     q_deg: q,
                     position_mm: b.apply(p),
                     line: i + 2,
+                    target: None,
                 }
             })
             .collect();

@@ -101,9 +101,108 @@ pub enum ValidateError {
         /// What the model's own placement would give, or that it has none.
         placement: String,
     },
+    /// The measurements name several targets and the model records none of them as its own.
+    #[error(
+        "{measured}: the rows measure {count} targets ({labels}) and {origin} records no target          as its tool (no `target` in its [provenance]: identified from data without a `target`          column); keep only the rows of the target the model was identified with"
+    )]
+    UnknownTarget {
+        /// The measurement file.
+        measured: String,
+        /// The model file.
+        origin: String,
+        /// Number of distinct targets.
+        count: usize,
+        /// Their labels, comma-separated.
+        labels: String,
+    },
+    /// The model's target is not among the measured ones.
+    #[error(
+        "{measured}: no row measures '{target}', the target {origin} was identified with (its          [provenance] records it); the rows measure {labels}"
+    )]
+    TargetNotMeasured {
+        /// The measurement file.
+        measured: String,
+        /// The model file.
+        origin: String,
+        /// The recorded target.
+        target: String,
+        /// The labels found, comma-separated.
+        labels: String,
+    },
     /// The measurements or models cannot be validated.
     #[error(transparent)]
     Identify(#[from] IdentifyError),
+}
+
+/// The target a validation compared when the measurements named several or the model records
+/// one.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct TargetChoice {
+    /// The label of the rows compared.
+    pub label: String,
+    /// Rows of other targets left out.
+    pub left_out: usize,
+}
+
+/// The rows of `measurements` a validation compares: those of the target the model file
+/// records (`recorded`), or all of them when the rows name no target or one. `origin` and
+/// `measured` name the model and measurement files.
+///
+/// # Errors
+///
+/// [`ValidateError::TargetNotMeasured`] when no row is the recorded target's,
+/// [`ValidateError::UnknownTarget`] when the rows name several targets and none is recorded.
+pub fn choose_target(
+    measurements: &[Measurement],
+    recorded: Option<&str>,
+    origin: &str,
+    measured: &str,
+) -> Result<(Vec<Measurement>, Option<TargetChoice>), ValidateError> {
+    let mut labels: Vec<&str> = Vec::new();
+    for m in measurements {
+        if let Some(l) = m.target.as_deref() {
+            if !labels.contains(&l) {
+                labels.push(l);
+            }
+        }
+    }
+    let all = || (measurements.to_vec(), None);
+    let choice = match (recorded, labels.len()) {
+        (_, 0) => return Ok(all()),
+        (None, 1) => labels[0],
+        (None, count) => {
+            return Err(ValidateError::UnknownTarget {
+                measured: measured.to_string(),
+                origin: origin.to_string(),
+                count,
+                labels: labels.join(", "),
+            })
+        }
+        (Some(t), _) => {
+            if !labels.contains(&t) {
+                return Err(ValidateError::TargetNotMeasured {
+                    measured: measured.to_string(),
+                    origin: origin.to_string(),
+                    target: t.to_string(),
+                    labels: labels.join(", "),
+                });
+            }
+            t
+        }
+    };
+    let kept: Vec<Measurement> = measurements
+        .iter()
+        .filter(|m| m.target.as_deref().is_none_or(|l| l == choice))
+        .cloned()
+        .collect();
+    let left_out = measurements.len() - kept.len();
+    Ok((
+        kept,
+        Some(TargetChoice {
+            label: choice.to_string(),
+            left_out,
+        }),
+    ))
 }
 
 /// Where the nominal model of a validation came from.
@@ -351,6 +450,17 @@ pub struct ValidateRequest<'a> {
 ///
 /// Those of the steps.
 pub fn run_validation(r: ValidateRequest<'_>) -> Result<super::ValidationReport, ValidateError> {
+    let recorded_target = crate::identify::provenance::provenance_target(r.model_text);
+    let (kept, target) = choose_target(
+        r.measurements,
+        recorded_target.as_deref(),
+        r.origin,
+        r.measured,
+    )?;
+    let r = ValidateRequest {
+        measurements: &kept,
+        ..r
+    };
     let recorded_frame = crate::identify::provenance_frame(r.model_text);
     let (frame, frame_source) = choose_frame(
         r.model,
@@ -396,5 +506,6 @@ pub fn run_validation(r: ValidateRequest<'_>) -> Result<super::ValidationReport,
         frame_source,
         nominal_source: nominal.map(|(_, s)| s),
         predictive,
+        target,
     })
 }
