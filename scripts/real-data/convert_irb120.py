@@ -53,6 +53,9 @@ def main():
     ap.add_argument("--all-reflectors", action="store_true",
                     help="write all three end reflectors, one row each per pose, with a target "
                          "column (SMR1, SMR2, SMR3; SMR1 first: the model's tool)")
+    ap.add_argument("--base-references", action="store_true",
+                    help="also write the three base reflectors of each pose (target BASE1..3, "
+                         "mount base): identify follows tracker drift with them")
     a = ap.parse_args()
 
     d = {n: read_source(a.source, n) for n in NAMES}
@@ -72,12 +75,16 @@ def main():
         keep.append(i)
     if a.all_reflectors:
         with open(a.out, "w") as f:
-            f.write("q1,q2,q3,q4,q5,q6,x,y,z,target\n")
+            f.write("q1,q2,q3,q4,q5,q6,x,y,z,target,mount\n")
             for i in keep:
                 q = d["measured_joints"][i]
                 for r in (1, 2, 3):
                     xyz = d["measured_SMR_%d" % r][i]
-                    f.write(",".join(repr(v) for v in q + xyz) + ",SMR%d\n" % r)
+                    f.write(",".join(repr(v) for v in q + xyz) + ",SMR%d,tool\n" % r)
+                if a.base_references:
+                    for r in (1, 2, 3):
+                        xyz = d["measured_base_%d" % r][i]
+                        f.write(",".join(repr(v) for v in q + xyz) + ",BASE%d,base\n" % r)
         print("%d of %d poses kept -> %s (3 reflectors each)" % (len(keep), n, a.out), file=sys.stderr)
         return
     smr = d["measured_SMR_%d" % a.reflector]

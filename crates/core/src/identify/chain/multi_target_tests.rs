@@ -161,3 +161,41 @@ fn several_targets_are_honest_and_sharper() {
     eprintln!("variance ratio three/one targets {ratio:.3}, mean z² {mean:.2}");
     assert!(ratio < 0.5, "{ratio}");
 }
+
+/// Coverage over 100 seeded experiments: the reported σ of every reflector's offset (the
+/// model's tool and the two others) covers the truth at the stated 95 % as often as it says.
+#[test]
+fn the_offsets_sigma_covers_the_truth() {
+    let t = truth();
+    let (mut inside, mut all) = (0usize, 0usize);
+    for seed in 0..100 {
+        let r = identify_chain(
+            &points(&t, 30, 3, 0.02, 1000 + seed),
+            &tx60(),
+            None,
+            None,
+            &options(),
+        )
+        .unwrap();
+        for row in &r.report.parameters {
+            let want = match row.name.as_str() {
+                n if n.starts_with("tool_") => t.tool,
+                n if n.starts_with("target2_") => t.others.offsets()[0],
+                n if n.starts_with("target3_") => t.others.offsets()[1],
+                _ => continue,
+            };
+            let axis = ["x", "y", "z"]
+                .iter()
+                .position(|a| row.name.ends_with(a))
+                .unwrap();
+            all += 1;
+            if (row.value - want[axis]).abs() < 1.96 * row.sigma {
+                inside += 1;
+            }
+        }
+    }
+    let coverage = inside as f64 / all as f64;
+    eprintln!("coverage of the offsets' 95 % intervals: {coverage:.3} over {all}");
+    assert_eq!(all, 900);
+    assert!((0.92..=0.98).contains(&coverage), "{coverage}");
+}
