@@ -304,6 +304,28 @@ def test_identify_poses_in_a_tracker_frame_equals_cli(cli, tmp_path):
         assert cli_error(cli, "identify", poses, *flags) == flag + py[len(keyword):]
 
 
+def test_identify_several_reflectors_equals_cli(cli, tmp_path):
+    """Several reflectors per pose (a target column) identified together: Python and the
+    command line give the same model and report; validate compares the model's own reflector."""
+    poses = tmp_path / "poses.csv"
+    run_ok(cli, "simulate", "--poses", 40, "--seed", 4, "--other-target", "-45,25,95",
+           "--other-target", "5,55,60", "-o", poses)
+    out = tmp_path / "m.toml"
+    doc_file = tmp_path / "id.json"
+    run_ok(cli, "identify", poses, "--out", out, "--json", doc_file)
+    res = gpu_amcs.identify(poses)
+    assert res.to_toml() == out.read_text()
+    assert 'target = "T1"' in res.to_toml()
+    assert res.to_dict() == json.loads(doc_file.read_text())
+    chain = res.to_dict()["identify"]["runs"][0]["chain"]
+    assert chain["targets"] == ["T1", "T2", "T3"]
+    names = [p["name"] for p in chain["parameters"]]
+    assert names[-6:] == ["target2_x", "target2_y", "target2_z", "target3_x", "target3_y",
+                          "target3_z"]
+    v = gpu_amcs.validate(out, poses, check_draws=0)
+    assert v.to_dict()["target"] == {"label": "T1", "left_out": 80}
+
+
 def test_identify_with_a_nominal_model(cli, tmp_path, sweeps):
     nominal = gpu_amcs.Model.preset("tx60")
     nf = tmp_path / "nominal.toml"

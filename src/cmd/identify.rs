@@ -71,8 +71,10 @@ pub enum BeyondArg {
 #[command(group(clap::ArgGroup::new("noise").args(["tracker_sigma", "tracker_mpe"])))]
 pub struct IdentifyArgs {
     /// Tracker data CSV, told apart by the header: sweeps (joint,q1..qn,x,y,z) or poses
-    /// (q1..qn,x,y,z, optionally sx,sy,sz; n = the model's joints); either may have a run column; degrees and mm, in any
-    /// measurement frame.
+    /// (q1..qn,x,y,z, optionally sx,sy,sz, payload_kg, and target (several reflectors per pose,
+    /// fitted together; the first is the model's tool) with mount = tool|base (reflectors on the
+    /// base follow tracker drift); n = the model's joints); either may have a run column;
+    /// degrees and mm, in any measurement frame.
     #[arg(value_name = "DATA.csv")]
     pub sweeps: PathBuf,
     /// The data file's columns as a tracker or robot log exported them: ours=theirs[:unit],...

@@ -141,6 +141,11 @@ pub struct SimulateArgs {
     /// replaced by --truth's).
     #[arg(long, value_delimiter = ',', value_name = "X,Y,Z")]
     pub target: Option<Vec<f64>>,
+    /// With --poses: a further reflector on the tool, flange frame, mm, measured at every pose
+    /// after the target (repeat the flag for more, up to 7): the file gets a target column
+    /// (T1 the target, T2, …), as trackers that measure several reflectors write it.
+    #[arg(long, value_delimiter = ',', value_name = "X,Y,Z", requires = "poses", action = clap::ArgAction::Append, num_args = 1, allow_hyphen_values = true)]
+    pub other_target: Vec<f64>,
     /// With --poses: plain tracker noise σ per coordinate, mm, instead of the AT960 model.
     #[arg(long, value_name = "MM", requires = "poses")]
     pub tracker_sigma: Option<f64>,
@@ -191,14 +196,16 @@ impl Run for SimulateArgs {
             Some(n) => {
                 // The configurations, the simulated poses and their CSV text are all kept
                 // until the output is written: sized before any of them is made.
+                let others = other_targets(&a.other_target)?;
                 let joints = exp.truth.joints() as u64;
-                let line = pose_line_bytes(joints);
+                // each further reflector is one more row of a pose
+                let line = pose_line_bytes(joints) * (1 + others.len() as u64);
                 a.memory.check(
                     &Estimate::new(
                         format!("{n} poses"),
                         "use fewer --poses, or raise --memory-limit",
                     )
-                    .plus(&[n as u64, POSE_BYTES + line]),
+                    .plus(&[n as u64, POSE_BYTES * (1 + others.len() as u64) + line]),
                 )?;
                 let configs = match &a.points_file {
                     Some(p) => {
@@ -254,10 +261,25 @@ impl Run for SimulateArgs {
                             configs.len()
                         )
                     })?;
+                let mut data = data;
+                gpu_amcs::simulate::add_other_targets(
+                    &mut data,
+                    &exp.truth,
+                    exp.nongeometric.as_ref(),
+                    &others,
+                    &b,
+                    &noise,
+                    a.factors.seed,
+                );
                 gpu_amcs::identify::write_poses(&data, &mut buf)?;
+                let each = if others.is_empty() {
+                    String::new()
+                } else {
+                    format!(" ({} reflectors each)", others.len() + 1)
+                };
                 (
                     String::from_utf8(buf).context("pose CSV")?,
-                    format!("{} poses", configs.len()),
+                    format!("{} poses{each}", configs.len()),
                 )
             }
             None => {
@@ -304,4 +326,30 @@ impl Run for SimulateArgs {
         }
         Ok(())
     }
+}
+
+/// The further reflectors of `--other-target` (three numbers each, at most seven, each within
+/// ±100 m like `--target`).
+fn other_targets(values: &[f64]) -> Result<Vec<[f64; 3]>> {
+    if !values.len().is_multiple_of(3) {
+        bail!(
+            "--other-target needs three numbers x,y,z (mm) per reflector, got {}",
+            values.len()
+        );
+    }
+    let others: Vec<[f64; 3]> = values
+        .chunks(3)
+        .map(|c| three_values("--other-target", "x, y, z in mm", c))
+        .collect::<Result<_>>()?;
+    let most = gpu_amcs::identify::chain_fit::MAX_TARGETS - 1;
+    if others.len() > most {
+        bail!(
+            "--other-target: {} reflectors besides the target; a fit takes at most {most}",
+            others.len()
+        );
+    }
+    if others.iter().flatten().any(|v| v.abs() > 1e5) {
+        bail!("--other-target: x, y, z must be within ±100 m");
+    }
+    Ok(others)
 }

@@ -263,3 +263,66 @@ fn bad_target_labels_are_refused() {
         "{e}"
     );
 }
+
+/// `simulate --other-target` writes the readings of further reflectors after each pose's row,
+/// labelled T1, T2, …; the target's own rows keep their bits, and identify takes the file.
+#[test]
+fn simulate_writes_several_reflectors() {
+    let dir = tmpdir("multi_target_simulate");
+    let (a, b) = (dir.join("a.csv"), dir.join("b.csv"));
+    run_ok(&[
+        "simulate",
+        "--poses",
+        "30",
+        "--seed",
+        "3",
+        "-o",
+        a.to_str().unwrap(),
+    ]);
+    let o = run(&[
+        "simulate",
+        "--poses",
+        "30",
+        "--seed",
+        "3",
+        "--other-target",
+        "-45,25,95",
+        "--other-target",
+        "5,55,60",
+        "-o",
+        b.to_str().unwrap(),
+    ]);
+    let said = stdout(&o) + &stderr(&o);
+    assert!(said.contains("30 poses (3 reflectors each)"), "{said}");
+    let plain = std::fs::read_to_string(&a).unwrap();
+    let three = std::fs::read_to_string(&b).unwrap();
+    let rows: Vec<&str> = three.lines().collect();
+    assert_eq!(rows[0], format!("{},target", plain.lines().next().unwrap()));
+    assert_eq!(rows.len(), 1 + 90);
+    for (k, l) in plain.lines().skip(1).enumerate() {
+        assert_eq!(rows[1 + 3 * k], format!("{l},T1"));
+        assert!(rows[2 + 3 * k].ends_with(",T2") && rows[3 + 3 * k].ends_with(",T3"));
+    }
+    let o = run(&["identify", b.to_str().unwrap()]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains("targets: 3 measured at each pose"),
+        "{}",
+        stdout(&o)
+    );
+    let o = run(&[
+        "simulate",
+        "--poses",
+        "3",
+        "--other-target",
+        "1,2",
+        "-o",
+        a.to_str().unwrap(),
+    ]);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        stderr(&o).contains("--other-target needs three numbers"),
+        "{}",
+        stderr(&o)
+    );
+}

@@ -552,6 +552,10 @@ pub fn write_poses<W: Write>(data: &PoseData, writer: W) -> Result<(), IdentifyE
     if with_payload {
         header.push(PAYLOAD_COLUMN);
     }
+    let with_target = !data.targets.is_empty();
+    if with_target {
+        header.push(TARGET_COLUMN);
+    }
     w.write_record(&header).map_err(io)?;
     for r in &data.runs {
         for p in &r.points {
@@ -566,6 +570,14 @@ pub fn write_poses<W: Write>(data: &PoseData, writer: W) -> Result<(), IdentifyE
             }
             if with_payload {
                 row.push(format!("{:?}", p.payload_kg));
+            }
+            if with_target {
+                row.push(
+                    data.targets
+                        .get(p.target as usize)
+                        .cloned()
+                        .unwrap_or_default(),
+                );
             }
             w.write_record(&row).map_err(io)?;
         }

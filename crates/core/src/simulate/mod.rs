@@ -37,8 +37,8 @@ pub use nongeometric::{
     true_position, NonGeometric, NonGeometricError, NonGeometricSetting, NonGeometricSizes,
 };
 pub use poses::{
-    random_placement, random_poses, simulate_poses, simulate_poses_at, simulate_poses_of,
-    tracker_in_base_frame, TrackerNoise,
+    add_other_targets, random_placement, random_poses, simulate_poses, simulate_poses_at,
+    simulate_poses_of, tracker_in_base_frame, TrackerNoise,
 };
 pub use robot::{measure_positions, perturbed_model, random_configurations, ParameterErrors};
 pub use sweep::{

@@ -25,6 +25,20 @@ pub enum TrackerNoise {
     Isotropic(f64),
 }
 
+impl TrackerNoise {
+    /// A reading of the true position `p` (mm, tracker frame, the tracker at its origin).
+    fn measure(&self, p: [f64; 3], rng: &mut ChaCha8Rng) -> [f64; 3] {
+        match self {
+            TrackerNoise::Tracker(t) => TrackerModel {
+                position_mm: [0.0; 3],
+                ..*t
+            }
+            .measure(p, rng),
+            TrackerNoise::Isotropic(s) => super::add_tracker_noise(p, *s, rng),
+        }
+    }
+}
+
 /// A seeded random placement of the robot base in a tracker's frame: 1.5–4 m from the tracker
 /// horizontally, any heading and yaw, roll and pitch within ±10°, height ±500 mm.
 pub fn random_placement(seed: u64) -> BaseTransform {
@@ -112,14 +126,7 @@ pub fn simulate_poses_at(
             });
             let p = true_position(truth, carrying.as_ref(), &q.map(f64::to_radians));
             let p = placement.apply(p);
-            let position_mm = match noise {
-                TrackerNoise::Tracker(t) => TrackerModel {
-                    position_mm: [0.0; 3],
-                    ..*t
-                }
-                .measure(p, &mut rng),
-                TrackerNoise::Isotropic(s) => super::add_tracker_noise(p, *s, &mut rng),
-            };
+            let position_mm = noise.measure(p, &mut rng);
             PosePoint {
                 payload_kg,
                 q_deg: *q,
@@ -134,6 +141,63 @@ pub fn simulate_poses_at(
         runs: vec![PoseRun { run: None, points }],
         ..Default::default()
     }
+}
+
+/// The ChaCha stream the noise of the other targets of [`add_other_targets`] is drawn from.
+pub const OTHER_TARGETS_STREAM: u64 = 0x006f_7468_6572;
+
+/// Adds to `data` (poses of `truth` as [`simulate_poses_at`] made them, seeded by `seed`) the
+/// readings of further reflectors on the tool at `others` (flange frame, mm) at each pose, as a
+/// tracker that measures several reflectors per pose records them: after each pose's row, one
+/// row per other reflector, every row labelled (`T1` the tool, `T2`, …), lines renumbered. The
+/// arm stands where it stood for the tool's reading (its joint errors bend it under the
+/// payload at the tool); their noise comes from stream [`OTHER_TARGETS_STREAM`], so the tool's
+/// rows keep their bits. Nothing changes for `others` empty.
+pub fn add_other_targets(
+    data: &mut PoseData,
+    truth: &RobotModel,
+    errors: Option<&NonGeometric>,
+    others: &[[f64; 3]],
+    placement: &BaseTransform,
+    noise: &TrackerNoise,
+    seed: u64,
+) {
+    if others.is_empty() {
+        return;
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    rng.set_stream(OTHER_TARGETS_STREAM);
+    let mut line = 2;
+    for run in &mut data.runs {
+        let mut rows = Vec::with_capacity(run.points.len() * (1 + others.len()));
+        for p in &run.points {
+            let q = p.q_deg.map(f64::to_radians);
+            let carrying = errors.map(|e| NonGeometric {
+                payload_kg: p.payload_kg,
+                ..e.clone()
+            });
+            let actual = match &carrying {
+                None => q,
+                Some(e) => e.actual_angles(truth, &q),
+            };
+            rows.push(PosePoint { line, ..p.clone() });
+            line += 1;
+            for (k, offset) in others.iter().enumerate() {
+                let x =
+                    placement.apply(crate::kinematics::position(&truth.params, offset, &actual));
+                let position_mm = noise.measure(x, &mut rng);
+                rows.push(PosePoint {
+                    position_mm,
+                    line,
+                    target: k as u8 + 1,
+                    ..p.clone()
+                });
+                line += 1;
+            }
+        }
+        run.points = rows;
+    }
+    data.targets = (1..=others.len() + 1).map(|k| format!("T{k}")).collect();
 }
 
 /// `n` configurations uniform within `model`'s joint limits, seeded (degrees, one angle per
