@@ -32,7 +32,7 @@ use rayon::prelude::*;
 
 mod joint_errors;
 mod placement;
-use joint_errors::{chain_lanes_offset, joint_offsets, term_lanes, tiny_sin_cos, TINY_LIMIT};
+use joint_errors::{chain_lanes_offset, joint_turns, term_lanes, Turns};
 use placement::PlacementLanes;
 
 /// Draws per vector block.
@@ -67,8 +67,9 @@ type Disc<'a> = Option<(&'a DiscrepancyDraws, &'a [u64; LANES])>;
 /// [`CpuEvaluator::term_lanes`]).
 type JeLanes = [[[f64; LANES]; 6]; MAX_JOINTS];
 
-/// The joint errors of a block of lanes: their factors and the test points' quantities.
-type Je<'a> = Option<(&'a JeLanes, &'a [PointTerms])>;
+/// The joint errors of a block of lanes: their factors, the test points' quantities and whether
+/// the payload's factor can be nonzero ([`crate::engine::JointErrorDraws::payload_term`]).
+type Je<'a> = Option<(&'a JeLanes, &'a [PointTerms], bool)>;
 
 /// Where the parameter offsets δ of a range of evaluations come from.
 #[derive(Clone, Copy)]
@@ -362,7 +363,7 @@ impl CpuEvaluator {
                 (Source::Draws(_) | Source::PickFreeze(..), Some(dd)) => Some((dd, &draws)),
                 _ => None,
             };
-            let je = term.map(|t| (&jel, t.terms.as_slice()));
+            let je = term.map(|t| (&jel, t.terms.as_slice(), t.payload_term()));
             match &place {
                 None => with_joints!(self.joints, &jl, |j| block_kernel(
                     j,
@@ -407,11 +408,13 @@ fn block_kernel_placed<const N: usize>(
 ) {
     let m = pts.len();
     let mut words = [[0u32; LANES]; 4];
+    let mut turns: Turns = [[[0.0; LANES]; 2]; MAX_JOINTS];
     for (pj, p) in pts.iter().enumerate() {
         let (x, y, z) = match je {
             None => chain_lanes(jl, tool, p),
-            Some((jel, terms)) => {
-                chain_lanes_offset(jl, tool, p, &joint_offsets::<N>(jel, &terms[pj]))
+            Some((jel, terms, payload)) => {
+                joint_turns::<N>(jel, &terms[pj], payload, &mut turns);
+                chain_lanes_offset(jl, tool, p, &turns)
             }
         };
         let mut e2 = [0.0; LANES];
@@ -444,17 +447,17 @@ fn chain_lanes<const N: usize>(
     tool: &[[f64; LANES]; 3],
     p: &PointPre,
 ) -> ([f64; LANES], [f64; LANES], [f64; LANES]) {
-    chain_lanes_turned::<N, false>(jl, tool, p, &[[0.0; LANES]; MAX_JOINTS])
+    chain_lanes_turned::<N, false>(jl, tool, p, &[[[0.0; LANES]; 2]; MAX_JOINTS])
 }
 
-/// The chain of [`chain_lanes`], each joint turned by `o` when `TURN` (compiled out otherwise,
-/// so the plain chain keeps its instructions and bits).
+/// The chain of [`chain_lanes`], each joint turned by `turns` (`[sin, cos]` of its offset per
+/// lane) when `TURN` (compiled out otherwise, so the plain chain keeps its instructions and bits).
 #[inline(always)]
 fn chain_lanes_turned<const N: usize, const TURN: bool>(
     jl: &[[[f64; LANES]; 8]; N],
     tool: &[[f64; LANES]; 3],
     p: &PointPre,
-    o: &[[f64; LANES]; MAX_JOINTS],
+    turns: &Turns,
 ) -> ([f64; LANES], [f64; LANES], [f64; LANES]) {
     let mut x = tool[0];
     let mut y = tool[1];
@@ -462,18 +465,7 @@ fn chain_lanes_turned<const N: usize, const TURN: bool>(
     for i in (0..N).rev() {
         let [ct, st, ca, sa, cb, sb, a, d] = &jl[i];
         let (cq, sq) = (p.cq[i], p.sq[i]);
-        let mut so = [0.0; LANES];
-        let mut co = [1.0; LANES];
-        if TURN {
-            for l in 0..LANES {
-                (so[l], co[l]) = tiny_sin_cos(o[i][l]);
-            }
-            for l in 0..LANES {
-                if o[i][l].abs() >= TINY_LIMIT {
-                    (so[l], co[l]) = o[i][l].sin_cos();
-                }
-            }
-        }
+        let [so, co] = &turns[i];
         for l in 0..LANES {
             // Ry(β)
             let x1 = cb[l] * x[l] + sb[l] * z[l];
@@ -509,11 +501,13 @@ fn block_kernel<const N: usize>(
 ) {
     let m = pts.len();
     let mut words = [[0u32; LANES]; 4];
+    let mut turns: Turns = [[[0.0; LANES]; 2]; MAX_JOINTS];
     for (pj, p) in pts.iter().enumerate() {
         let (x, y, z) = match je {
             None => chain_lanes(jl, tool, p),
-            Some((jel, terms)) => {
-                chain_lanes_offset(jl, tool, p, &joint_offsets::<N>(jel, &terms[pj]))
+            Some((jel, terms, payload)) => {
+                joint_turns::<N>(jel, &terms[pj], payload, &mut turns);
+                chain_lanes_offset(jl, tool, p, &turns)
             }
         };
         let mut e2 = [0.0; LANES];

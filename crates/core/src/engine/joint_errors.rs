@@ -100,12 +100,17 @@ pub struct JointErrorDraws {
     free: Vec<usize>,
     /// Lower Cholesky factor of the free coefficients' covariance, row-major.
     chol: Vec<f64>,
+    /// Per row of `chol`, its nonzero entries `(column, value)` in column order (the lanes skip
+    /// the zeros: adding `±0` to a sum that starts at `+0` changes no bit of it).
+    chol_nz: Vec<Vec<(usize, f64)>>,
     mass: f64,
     mass_sigma: f64,
     compliance: Joints,
     /// `(block, k, row of A)`: the geometric input `k` of `block` and its mean shift per unit of
     /// each free coefficient; rows that are all zero are left out.
     shift: Vec<(Block, usize, Vec<f64>)>,
+    /// Per row of `shift`, its nonzero entries `(coefficient, value)` in order (the lanes').
+    shift_nz: Vec<Vec<(usize, f64)>>,
     gen: Philox,
     /// Per coefficient, its place among the free ones.
     position: [Option<usize>; MAX_COEFFICIENTS],
@@ -143,15 +148,24 @@ impl JointErrorDraws {
             (0..p * p).map(|i| l[(i / p, i % p)]).collect()
         };
         let shift = shift_rows(e);
+        let nonzero = |row: &[f64]| -> Vec<(usize, f64)> {
+            (row.iter().copied().enumerate())
+                .filter(|&(_, v)| v != 0.0)
+                .collect()
+        };
+        let chol_nz = (0..p).map(|r| nonzero(&chol[r * p..=r * p + r])).collect();
+        let shift_nz = shift.iter().map(|(_, _, row)| nonzero(row)).collect();
         let n = model.joints();
         Ok(Some(JointErrorDraws {
             joints: n,
             free: e.free.clone(),
             chol,
+            chol_nz,
             mass: e.payload.mass_kg,
             mass_sigma: e.payload.sigma_kg,
             compliance: Joints::from_fn(n, |i| e.coefficients[COEFFICIENTS_PER_JOINT * i]),
             shift,
+            shift_nz,
             gen: Philox::new(seed),
             position: std::array::from_fn(|i| e.free.iter().position(|&f| f == i)),
             terms: points
@@ -159,6 +173,13 @@ impl JointErrorDraws {
                 .map(|q| e.point_terms(&model.params, q))
                 .collect(),
         }))
+    }
+
+    /// Whether the payload's lane factor `(k̄ + δk)(m̄ + δm) − k̄ m̄` can be nonzero: with no
+    /// payload (`m̄ = 0`) and no spread of it (`σ_m = 0`) it is `±0` in every draw, and the
+    /// lanes leave its term out of the offsets (the same bits).
+    pub fn payload_term(&self) -> bool {
+        self.mass != 0.0 || self.mass_sigma != 0.0
     }
 
     /// Number of normals a draw uses.
@@ -271,10 +292,9 @@ impl JointErrorDraws {
                 }
             }
         }
-        for r in 0..p {
-            let row = &self.chol[r * p..r * p + r + 1];
+        for (r, row) in self.chol_nz.iter().enumerate() {
             let mut acc = [0.0; L];
-            for (c, &v) in row.iter().enumerate() {
+            for &(c, v) in row {
                 for l in 0..L {
                     acc[l] += v * z[c][l];
                 }
@@ -294,9 +314,9 @@ impl JointErrorDraws {
         free: &[[f64; L]; MAX_COEFFICIENTS],
         mut f: impl FnMut(Block, usize, &[f64; L]),
     ) {
-        for (block, k, row) in &self.shift {
+        for ((block, k, _), row) in self.shift.iter().zip(&self.shift_nz) {
             let mut acc = [0.0; L];
-            for (c, &v) in row.iter().enumerate() {
+            for &(c, v) in row {
                 for l in 0..L {
                     acc[l] += v * free[c][l];
                 }

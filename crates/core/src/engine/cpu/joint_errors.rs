@@ -56,27 +56,74 @@ pub(super) fn term_lanes(
     }
 }
 
-/// The joint-angle offsets of `LANES` draws at a test point with quantities `t`
-/// ([`JointErrorDraws`]) from their lane factors `jel`, for the first `N` joints.
+/// The turns of the joints at a test point: per joint `[sin o, cos o][lane]` of its offset.
+pub(super) type Turns = [[[f64; LANES]; 2]; MAX_JOINTS];
+
+/// The joint-angle offsets of `LANES` draws at joint `i` of a test point with quantities `t`
+/// ([`JointErrorDraws`]) from their lane factors `f`: `f0 tl + f1 tu + f2 s1 + f3 c1 + f4 s2 +
+/// f5 c2`, summed in that order. Without a payload term (`payload` false) `f1` is an exact zero
+/// in every lane ([`JointErrorDraws::payload_term`]) and its term is left out: adding `±0`
+/// changes no bit of a nonzero sum, and an offset of `±0` turns by `(±0, 1)`, which leaves every
+/// nonzero `cos/sin` as it is.
 #[inline(always)]
-pub(super) fn joint_offsets<const N: usize>(
-    jel: &JeLanes,
-    t: &PointTerms,
-) -> [[f64; LANES]; MAX_JOINTS] {
-    let mut o = [[0.0; LANES]; MAX_JOINTS];
-    for (i, oi) in o.iter_mut().enumerate().take(N) {
-        let [tl, tu, s1, c1, s2, c2] = t[i];
-        let f = &jel[i];
+fn joint_offset(f: &[[f64; LANES]; 6], t: &[f64; 6], payload: bool) -> [f64; LANES] {
+    let [tl, tu, s1, c1, s2, c2] = *t;
+    let mut o = [0.0; LANES];
+    if payload {
         for l in 0..LANES {
-            oi[l] = f[0][l] * tl
+            o[l] = f[0][l] * tl
                 + f[1][l] * tu
                 + f[2][l] * s1
                 + f[3][l] * c1
                 + f[4][l] * s2
                 + f[5][l] * c2;
         }
+    } else {
+        for l in 0..LANES {
+            o[l] = f[0][l] * tl + f[2][l] * s1 + f[3][l] * c1 + f[4][l] * s2 + f[5][l] * c2;
+        }
     }
     o
+}
+
+/// The turns of the first `N` joints of `LANES` draws at a test point with quantities `t`, from
+/// their lane factors `jel`: `(sin o, cos o)` by [`tiny_sin_cos`] for |o| < [`TINY_LIMIT`],
+/// `sin_cos` beyond. All joints and lanes are checked at once and the rare large offsets fixed
+/// outside the hot path ([`large_turns`]), so the chain's loop holds no call.
+#[inline(always)]
+pub(super) fn joint_turns<const N: usize>(
+    jel: &JeLanes,
+    t: &PointTerms,
+    payload: bool,
+    out: &mut Turns,
+) {
+    let mut big = [0.0f64; LANES];
+    for i in 0..N {
+        let o = joint_offset(&jel[i], &t[i], payload);
+        for l in 0..LANES {
+            (out[i][0][l], out[i][1][l]) = tiny_sin_cos(o[l]);
+            let a = o[l].abs();
+            big[l] = if a > big[l] { a } else { big[l] };
+        }
+    }
+    if big.iter().any(|&a| a >= TINY_LIMIT) {
+        large_turns::<N>(jel, t, payload, out);
+    }
+}
+
+/// The lanes of [`joint_turns`] whose offset is at least [`TINY_LIMIT`]: `sin_cos` of the same
+/// offset (the same products and sums, so the same bits).
+#[cold]
+#[inline(never)]
+fn large_turns<const N: usize>(jel: &JeLanes, t: &PointTerms, payload: bool, out: &mut Turns) {
+    for i in 0..N {
+        let o = joint_offset(&jel[i], &t[i], payload);
+        for l in 0..LANES {
+            if o[l].abs() >= TINY_LIMIT {
+                (out[i][0][l], out[i][1][l]) = o[l].sin_cos();
+            }
+        }
+    }
 }
 
 /// Offsets below this (rad) turn a joint by the short series of [`tiny_sin_cos`]; larger ones
@@ -94,15 +141,14 @@ pub(super) fn tiny_sin_cos(d: f64) -> (f64, f64) {
     )
 }
 
-/// [`super::chain_lanes`] with each joint turned further by its lane's offset `o[i][l]` (rad): the
-/// joint errors' draws. The rotation by the offset uses the series of [`tiny_sin_cos`], exact
-/// for |o| < [`TINY_LIMIT`]; larger offsets take `sin_cos`.
+/// [`super::chain_lanes`] with each joint turned further by its lane's offset: the joint
+/// errors' draws, `turns` from [`joint_turns`].
 #[inline(always)]
 pub(super) fn chain_lanes_offset<const N: usize>(
     jl: &[[[f64; LANES]; 8]; N],
     tool: &[[f64; LANES]; 3],
     p: &PointPre,
-    o: &[[f64; LANES]; MAX_JOINTS],
+    turns: &Turns,
 ) -> ([f64; LANES], [f64; LANES], [f64; LANES]) {
-    super::chain_lanes_turned::<N, true>(jl, tool, p, o)
+    super::chain_lanes_turned::<N, true>(jl, tool, p, turns)
 }

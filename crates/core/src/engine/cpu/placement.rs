@@ -153,15 +153,17 @@ impl PlacementLanes {
         // sin and cos of roll, pitch and yaw per lane.
         let mut s = [[0.0; LANES]; 3];
         let mut c = [[0.0; LANES]; 3];
+        let mut big = [0.0f64; LANES];
         for k in 0..3 {
             for l in 0..LANES {
                 (s[k][l], c[k][l]) = shifted(self.trig[k], db[3 + k][l]);
+                let a = db[3 + k][l].abs();
+                big[l] = if a > big[l] { a } else { big[l] };
             }
-            for l in 0..LANES {
-                if db[3 + k][l].abs() >= SERIES_LIMIT {
-                    (s[k][l], c[k][l]) = shifted_exact(self.trig[k], db[3 + k][l]);
-                }
-            }
+        }
+        // One check for all lanes and angles; the rare large offsets are fixed out of line.
+        if big.iter().any(|&a| a >= SERIES_LIMIT) {
+            self.large_angles(db, &mut s, &mut c);
         }
         let rt = &self.r_mean_t;
         let mut out = [[[0.0; LANES]; 4]; 3];
@@ -184,6 +186,25 @@ impl PlacementLanes {
             }
         }
         out
+    }
+
+    /// The lanes of [`Self::transforms`] whose angle offset is at least `SERIES_LIMIT`:
+    /// `shifted_exact` (`sin_cos`).
+    #[cold]
+    #[inline(never)]
+    fn large_angles(
+        &self,
+        db: &[[f64; LANES]; 6],
+        s: &mut [[f64; LANES]; 3],
+        c: &mut [[f64; LANES]; 3],
+    ) {
+        for k in 0..3 {
+            for l in 0..LANES {
+                if db[3 + k][l].abs() >= SERIES_LIMIT {
+                    (s[k][l], c[k][l]) = shifted_exact(self.trig[k], db[3 + k][l]);
+                }
+            }
+        }
     }
 }
 
