@@ -120,6 +120,20 @@ impl Run for ValidateArgs {
             ValidateFrame::Base => identify::Placement::Known,
         });
         if a.iso9283 {
+            // Rows of several reflectors: the cycles are the model's own reflector's.
+            let (m, target) = v::choose_target(
+                &m,
+                v::provenance_target(&model_text).as_deref(),
+                &origin,
+                &measured,
+            )
+            .map_err(cli_error)?;
+            if let Some(t) = target.filter(|t| t.left_out > 0) {
+                eprintln!(
+                    "note: the cycles of '{}', the model's own reflector ({} rows of other reflectors left out)",
+                    t.label, t.left_out
+                );
+            }
             // A model with a placement and no recorded frame may be either frame's: refused
             // where the base frame does not fit. Without a placement, the base frame.
             let recorded = identify::provenance_frame(&model_text);

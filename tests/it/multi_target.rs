@@ -326,3 +326,49 @@ fn simulate_writes_several_reflectors() {
         stderr(&o)
     );
 }
+
+/// ISO 9283 cycles written with every reflector's rows: the figures are the model's own
+/// reflector's (mixed in, the others would put each pose's mean 100 mm off).
+#[test]
+fn iso9283_cycles_take_the_models_reflector() {
+    let dir = tmpdir("multi_target_iso");
+    let mut rng = ChaCha8Rng::seed_from_u64(14);
+    let t = truth(&mut rng);
+    let data = dir.join("poses.csv");
+    let fit_q = configs(&t, 40, &mut rng);
+    std::fs::write(&data, rows(&t, &fit_q, &TARGETS, &mut rng)).unwrap();
+    let model = dir.join("m.toml");
+    run_ok(&[
+        "identify",
+        data.to_str().unwrap(),
+        "-o",
+        model.to_str().unwrap(),
+    ]);
+    let poses = configs(&t, 5, &mut rng);
+    let cycles_q: Vec<Joints> = (0..10).flat_map(|_| poses.iter().copied()).collect();
+    let cycles = dir.join("cycles.csv");
+    std::fs::write(&cycles, rows(&t, &cycles_q, &TARGETS, &mut rng)).unwrap();
+    let json = dir.join("iso.json");
+    let o = run(&[
+        "validate",
+        "--model",
+        model.to_str().unwrap(),
+        cycles.to_str().unwrap(),
+        "--iso9283",
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("the cycles of 'SMR1', the model's own reflector (100 rows of other reflectors left out)"),
+        "{}",
+        stderr(&o)
+    );
+    let j: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let p = j["poses"].as_array().unwrap();
+    assert_eq!(p.len(), 5);
+    for pose in p {
+        assert!(pose["ap_mm"].as_f64().unwrap() < 0.05, "{pose}");
+    }
+}

@@ -17,11 +17,13 @@
 mod baseline;
 mod setup;
 
-pub use super::provenance::{geometry_sha256, provenance_table, recorded_nominal, RecordedNominal};
+pub use super::provenance::{
+    geometry_sha256, provenance_table, provenance_target, recorded_nominal, RecordedNominal,
+};
 pub use baseline::{register_nominal, Registration};
 pub use setup::{
-    choose_frame, choose_nominal, run_validation, FrameSource, NominalSource, ValidateError,
-    ValidateRequest, OTHER_FRAME_MM, OTHER_ROBOT_MM,
+    choose_frame, choose_nominal, choose_target, run_validation, FrameSource, NominalSource,
+    TargetChoice, ValidateError, ValidateRequest, OTHER_FRAME_MM, OTHER_ROBOT_MM,
 };
 
 use super::poses::pose_columns;
