@@ -4,7 +4,7 @@
 //! simulated robot with a known drift.
 
 use crate::common::{run, run_ok, stderr, stdout, tmpdir};
-use crate::multi_target::{configs, truth};
+use crate::multi_target::{configs, identify_to, truth, validate_json};
 use gpu_amcs::kinematics::{Joints, RobotModel};
 use nalgebra::{Rotation3, Vector3};
 use rand::SeedableRng;
@@ -217,4 +217,76 @@ fn incomplete_references_are_refused() {
     assert_eq!(o.status.code(), Some(2));
     let e = stderr(&o);
     assert!(e.contains("line 3") && e.contains("mount = 'floor'"), "{e}");
+}
+
+/// The model file records where its base references stood; measurements of a later session
+/// from another tracker station (50 mm and 0.6° away) are registered to the model's frame by
+/// the same references and validate within the noise; without their rows they would be 50 mm
+/// off, and the model without a record leaves them out and says so.
+#[test]
+fn another_tracker_station_is_registered_by_the_references() {
+    let dir = tmpdir("base_references_station");
+    let mut rng = ChaCha8Rng::seed_from_u64(24);
+    let t = truth(&mut rng);
+    let q = configs(&t, 40, &mut rng);
+    let data = dir.join("fit.csv");
+    std::fs::write(&data, rows(&t, &q, |_| ([0.0; 3], 0.0), true, &mut rng)).unwrap();
+    let model = dir.join("m.toml");
+    identify_to(&data, &model);
+    let text = std::fs::read_to_string(&model).unwrap();
+    assert!(
+        text.contains("reference_labels = [\"B1\", \"B2\", \"B3\"]"),
+        "{text}"
+    );
+    let later = dir.join("later.csv");
+    let hq = configs(&t, 20, &mut rng);
+    let moved = rows(&t, &hq, |_| ([50.0, -20.0, 10.0], 0.01), true, &mut rng);
+    std::fs::write(&later, &moved).unwrap();
+    let vj = dir.join("v.json");
+    let o = run(&[
+        "validate",
+        later.to_str().unwrap(),
+        "--model",
+        model.to_str().unwrap(),
+        "--json",
+        vj.to_str().unwrap(),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        stdout(&o).contains(
+            "registered to the model's frame by its base references (B1, B2, B3) at 20 poses"
+        ),
+        "{}",
+        stdout(&o)
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&vj).unwrap()).unwrap();
+    let rms = v["model"]["errors_mm"]["rms_mm"].as_f64().unwrap();
+    // noise √3·0.01 = 0.017 mm, plus the references' own noise in the recorded home and in
+    // this session's registration (σ/√5 over a 350 mm spread, ~1e-5 rad at a 1 m lever: about
+    // 0.01 mm each)
+    assert!(rms < 0.04, "registered RMS {rms}");
+    // The same rows without the references: the other station's frame, tens of mm off.
+    let tool_only: String = moved
+        .lines()
+        .filter(|l| !l.ends_with(",base"))
+        .map(|l| format!("{l}\n"))
+        .collect();
+    let bare = dir.join("bare.csv");
+    std::fs::write(&bare, tool_only).unwrap();
+    let bj = dir.join("b.json");
+    let b = validate_json(&bare, &model, &bj);
+    assert!(b["model"]["errors_mm"]["rms_mm"].as_f64().unwrap() > 10.0);
+    // A model identified without references cannot register them: left out, said so.
+    let plain = dir.join("plain.csv");
+    std::fs::write(&plain, rows(&t, &q, |_| ([0.0; 3], 0.0), false, &mut rng)).unwrap();
+    let m2 = dir.join("m2.toml");
+    identify_to(&plain, &m2);
+    let o = run_ok(&[
+        "validate",
+        later.to_str().unwrap(),
+        "--model",
+        m2.to_str().unwrap(),
+    ]);
+    assert!(o.contains("60 base reference rows left out"), "{o}");
 }

@@ -10,6 +10,7 @@ use gpu_amcs::simulate::{perturbed_model, random_configurations, ParameterErrors
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::fmt::Write;
+use std::path::Path;
 
 /// The reflectors in the flange frame, mm: the first is the model's tool.
 const TARGETS: [(&str, [f64; 3]); 3] = [
@@ -67,6 +68,29 @@ pub(crate) fn configs(t: &RobotModel, n: usize, rng: &mut ChaCha8Rng) -> Vec<Joi
         *l = (l.0 + 10.0, l.1 - 10.0);
     }
     random_configurations(&lim, n, rng)
+}
+
+/// `identify DATA -o MODEL`, which must succeed.
+pub(crate) fn identify_to(data: &Path, model: &Path) {
+    run_ok(&[
+        "identify",
+        data.to_str().unwrap(),
+        "-o",
+        model.to_str().unwrap(),
+    ]);
+}
+
+/// `validate DATA --model MODEL --json FILE` (must succeed): the JSON document.
+pub(crate) fn validate_json(data: &Path, model: &Path, json: &Path) -> serde_json::Value {
+    run_ok(&[
+        "validate",
+        data.to_str().unwrap(),
+        "--model",
+        model.to_str().unwrap(),
+        "--json",
+        json.to_str().unwrap(),
+    ]);
+    serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap()
 }
 
 /// Three reflectors at 40 poses: one chain, the first reflector the model's tool, each offset
@@ -135,16 +159,7 @@ fn several_reflectors_identify_one_chain() {
     let held_q = configs(&t, 30, &mut rng);
     std::fs::write(&held, rows(&t, &held_q, &TARGETS, &mut rng)).unwrap();
     let vj = dir.join("v.json");
-    run_ok(&[
-        "validate",
-        held.to_str().unwrap(),
-        "--model",
-        model.to_str().unwrap(),
-        "--json",
-        vj.to_str().unwrap(),
-    ]);
-    let v: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(&vj).unwrap()).unwrap();
+    let v = validate_json(&held, &model, &vj);
     assert_eq!(v["target"]["label"], "SMR1");
     assert_eq!(v["target"]["left_out"], 60);
     let rms = v["model"]["errors_mm"]["rms_mm"].as_f64().unwrap();
@@ -160,12 +175,7 @@ fn several_reflectors_identify_one_chain() {
     )
     .unwrap();
     let m1 = dir.join("m1.toml");
-    run_ok(&[
-        "identify",
-        single.to_str().unwrap(),
-        "-o",
-        m1.to_str().unwrap(),
-    ]);
+    identify_to(&single, &m1);
     let o = run(&[
         "validate",
         held.to_str().unwrap(),

@@ -51,6 +51,10 @@ pub struct DriftReport {
     pub corrected: bool,
     /// Rigid (three or more references) or translation only.
     pub rigid: bool,
+    /// Where the references stood in the frame the corrected data are in (one per label),
+    /// mm: the identification's first pose, which the model file records so that later
+    /// measurements with the same references are registered to it.
+    pub home_mm: Vec<[f64; 3]>,
 }
 
 impl DriftReport {
@@ -123,6 +127,22 @@ pub fn correct_run(
     refs: &[&ReferenceRow],
     labels: &[String],
 ) -> Result<(PoseRun, DriftReport), IdentifyError> {
+    correct_to(run, refs, labels, None)
+}
+
+/// [`correct_run`] towards a given `home` (one position per label, mm; the one a model file
+/// records): the tool rows are always moved, registering them with the frame the references
+/// stood at home in (a later session's tracker frame onto the identification's).
+///
+/// # Errors
+///
+/// Those of [`correct_run`].
+pub fn correct_to(
+    run: &PoseRun,
+    refs: &[&ReferenceRow],
+    labels: &[String],
+    home: Option<&[[f64; 3]]>,
+) -> Result<(PoseRun, DriftReport), IdentifyError> {
     let label = super::sweeps::run_label(run.run.as_deref());
     let groups = poses(run);
     let j_count = labels.len();
@@ -172,7 +192,8 @@ pub fn correct_run(
                 .collect()
         })
         .collect();
-    let home = smoothed[0].clone();
+    let given = home.map(|h| h.iter().map(|&p| Vector3::from(p)).collect::<Vec<_>>());
+    let home = given.clone().unwrap_or_else(|| smoothed[0].clone());
     let dist: Vec<f64> = smoothed
         .iter()
         .flat_map(|b| b.iter().zip(&home).map(|(x, h)| (x - h).norm()))
@@ -180,7 +201,8 @@ pub fn correct_run(
     let rms = (dist.iter().map(|d| d * d).sum::<f64>() / dist.len() as f64).sqrt();
     let max = dist.iter().copied().fold(0.0, f64::max);
     // 3-D noise of a smoothed reference: √3·s/√w
-    let corrected = rms > SIGNIFICANT * 3f64.sqrt() * noise / (WINDOW.min(e_count) as f64).sqrt();
+    let corrected = given.is_some()
+        || rms > SIGNIFICANT * 3f64.sqrt() * noise / (WINDOW.min(e_count) as f64).sqrt();
     let rigid_ok = j_count >= 3 && rigid(&home, &home).is_some();
     let mut out = run.clone();
     let mut max_correction: f64 = 0.0;
@@ -212,6 +234,7 @@ pub fn correct_run(
             max_correction_mm: max_correction,
             corrected,
             rigid: rigid_ok,
+            home_mm: home.iter().map(|h| [h.x, h.y, h.z]).collect(),
         },
     ))
 }

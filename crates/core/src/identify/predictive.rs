@@ -270,6 +270,7 @@ mod tests {
                     position_mm: std::array::from_fn(|k| p[k] + s * gaussian(&mut rng)),
                     line: i + 2,
                     target: None,
+                    on_base: false,
                 }
             })
             .collect();

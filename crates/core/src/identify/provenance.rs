@@ -46,6 +46,10 @@ pub struct Provenance {
     /// The label of the model's target when the data named their targets (`target` column;
     /// written only then): a validation compares that target's rows.
     pub target: Option<String>,
+    /// The base reference reflectors' labels and where they stood in the model's frame, mm,
+    /// when the data had some (written only then): a validation registers measurements with
+    /// the same references to that frame.
+    pub references: Vec<(String, [f64; 3])>,
 }
 
 /// SHA-256 (hex) of a model's geometry: its number of joints, the `5n` MDH parameters (mm,
@@ -120,6 +124,13 @@ impl Provenance {
                 all
             }),
             target: first.targets.first().cloned(),
+            references: first.drift.as_ref().map_or(Vec::new(), |d| {
+                d.references
+                    .iter()
+                    .cloned()
+                    .zip(d.home_mm.iter().copied())
+                    .collect()
+            }),
         })
     }
 
@@ -143,6 +154,21 @@ impl Provenance {
                 names.join(", ")
             )
         };
+        let references = if self.references.is_empty() {
+            String::new()
+        } else {
+            let labels: Vec<String> = self.references.iter().map(|(l, _)| q(l)).collect();
+            let home: Vec<String> = self
+                .references
+                .iter()
+                .map(|(_, p)| format!("[{}, {}, {}]", num(p[0]), num(p[1]), num(p[2])))
+                .collect();
+            format!(
+                "# base reference reflectors and where they stood in the model's frame, mm\nreference_labels = [{}]\nreference_home_mm = [{}]\n",
+                labels.join(", "),
+                home.join(", ")
+            )
+        };
         let target = self.target.as_deref().map_or(String::new(), |t| {
             format!(
                 "# the data's target this model's tool is (its `target` column)\ntarget = {}\n",
@@ -153,7 +179,7 @@ impl Provenance {
             "\n# Where this model came from (read and ignored by the model reader)\n[provenance]\n\
              data_file = {}\ndata_sha256 = {}\npoints = {}\nruns = {}\nrms_residual_mm = {}\n\
              max_residual_mm = {}\nrank = {}\nparameters = {}\ncondition_number = {}\nnoise = {}\n\
-             frame = {}\nnominal_name = {}\nnominal_sha256 = {}\n{listed}{target}nominal_model = {}\n",
+             frame = {}\nnominal_name = {}\nnominal_sha256 = {}\n{listed}{target}{references}nominal_model = {}\n",
             q(&self.data_file),
             q(&self.data_sha256),
             self.points,
@@ -193,6 +219,29 @@ pub fn provenance_target(model_file_text: &str) -> Option<String> {
             .as_str()?
             .to_string(),
     )
+}
+
+/// The base reference reflectors a model file's `[provenance]` records: labels and where they
+/// stood in the model's frame, mm (`None` when it records none or the record is malformed).
+pub fn provenance_references(model_file_text: &str) -> Option<Vec<(String, [f64; 3])>> {
+    let table: toml::Table = model_file_text.parse().ok()?;
+    let p = table.get("provenance")?;
+    let labels = p.get("reference_labels")?.as_array()?;
+    let home = p.get("reference_home_mm")?.as_array()?;
+    if labels.len() != home.len() || labels.is_empty() {
+        return None;
+    }
+    labels
+        .iter()
+        .zip(home)
+        .map(|(l, h)| {
+            let h = h.as_array()?;
+            let v: Vec<f64> = h.iter().filter_map(|x| x.as_float()).collect();
+            (v.len() == 3 && h.len() == 3 && v.iter().all(|x| x.is_finite()))
+                .then(|| (l.as_str().map(str::to_string), [v[0], v[1], v[2]]))
+                .and_then(|(l, p)| Some((l?, p)))
+        })
+        .collect()
 }
 
 /// The nominal model a model file's `[provenance]` records.
@@ -297,10 +346,16 @@ mod tests {
             nominal_model: crate::presets::preset("ur5e").unwrap().to_toml(),
             not_identified: vec!["alpha4".into(), "tool_x".into()],
             target: Some("SMR 1".into()),
+            references: vec![
+                ("B1".into(), [1.5, -2.0, 3.25]),
+                ("B2".into(), [4.0, 5.0, 6.0]),
+            ],
         };
         let text = m.to_toml() + &p.to_toml();
         assert_eq!(provenance_target(&text).as_deref(), Some("SMR 1"));
         assert_eq!(provenance_target(&m.to_toml()), None);
+        assert_eq!(provenance_references(&text), Some(p.references.clone()));
+        assert_eq!(provenance_references(&m.to_toml()), None);
         let back = crate::kinematics::RobotModel::from_toml(&text, "t").unwrap();
         assert_eq!(back, m);
         let table: toml::Table = text.parse().unwrap();

@@ -54,6 +54,9 @@ pub struct Measurement {
     /// The `target` column's label, when the file has one (several targets on the tool: a
     /// validation compares the model's own target's rows).
     pub target: Option<String>,
+    /// A reflector fixed on the robot's base (`mount` = `base`), not a measured position of the
+    /// tool: it registers the measurements with the tracker frame the model was identified in.
+    pub on_base: bool,
 }
 
 /// Reads a measurement CSV file.
@@ -94,6 +97,9 @@ pub fn parse_measurements<R: Read>(
     let target_col = header
         .iter()
         .position(|h| h.trim().eq_ignore_ascii_case(super::poses::TARGET_COLUMN));
+    let mount_col = header
+        .iter()
+        .position(|h| h.trim().eq_ignore_ascii_case(super::poses::MOUNT_COLUMN));
     let mut out = Vec::new();
     for rec in rdr.records() {
         let rec = rec.map_err(|e| csv_error(e, origin))?;
@@ -128,6 +134,8 @@ pub fn parse_measurements<R: Read>(
             payload_kg,
             line,
             target: target_col.map(|c| rec.get(c).unwrap_or("").trim().to_string()),
+            on_base: mount_col
+                .is_some_and(|c| rec.get(c).unwrap_or("").trim().eq_ignore_ascii_case("base")),
         });
     }
     if out.is_empty() {
@@ -313,6 +321,11 @@ pub struct ValidationReport {
     pub predictive: Option<super::predictive::PredictiveCheck>,
     /// The target compared, when the measurements named targets.
     pub target: Option<setup::TargetChoice>,
+    /// The registration of the measurements to the model's frame by base reference reflectors
+    /// (rows with `mount` = `base`), when the data and the model file have them.
+    pub registration: Option<super::drift::DriftReport>,
+    /// Base reference rows left out because the model file records no references.
+    pub references_left_out: usize,
 }
 
 /// The frame of validated measurements, in words.
@@ -358,6 +371,20 @@ impl ValidationReport {
             FrameSource::Default => "the model file records none",
         };
         s.push_str(&format!("frame: {} — {source}\n", frame_words(self.frame)));
+        if let Some(d) = &self.registration {
+            s.push_str(&format!(
+                "registered to the model's frame by its base references ({}) at {} poses: tool points moved by up to {:.4} mm\n",
+                d.references.join(", "),
+                d.poses,
+                d.max_correction_mm
+            ));
+        }
+        if self.references_left_out > 0 {
+            s.push_str(&format!(
+                "{} base reference rows left out: the model file records no references to register them with\n",
+                self.references_left_out
+            ));
+        }
         if let Some(t) = &self.target {
             s.push_str(&format!(
                 "target: '{}' (the model's own; {} rows of other targets left out)\n",
@@ -395,6 +422,8 @@ impl ValidationReport {
             },
             "frame_source": self.frame_source,
             "target": self.target,
+            "registration": self.registration,
+            "references_left_out": self.references_left_out,
             "predictive_check": self.predictive,
         });
         let mut s = serde_json::to_string_pretty(&doc).unwrap_or_default();
@@ -519,6 +548,7 @@ mod tests {
                 position_mm: p,
                 line: 2,
                 target: None,
+                on_base: false,
             },
             Measurement {
                 payload_kg: None,
@@ -526,6 +556,7 @@ mod tests {
                 position_mm: [p[0] + 3.0, p[1] + 4.0, p[2]],
                 line: 3,
                 target: None,
+                on_base: false,
             },
         ];
         let mut buf = Vec::new();

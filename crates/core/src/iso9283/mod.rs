@@ -143,6 +143,7 @@ pub enum Iso9283Error {
 ///             position_mm: [c[0] + 0.1, c[1] + dy, c[2]],
 ///             line: cycles.len() as u64 + 2,
 ///             target: None,
+///             on_base: false,
 ///         });
 ///     }
 /// }

@@ -61,6 +61,7 @@ fn cycle(q: Joints, p: [f64; 3], line: u64) -> Measurement {
         position_mm: p,
         line,
         target: None,
+        on_base: false,
     }
 }
 

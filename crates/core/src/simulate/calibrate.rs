@@ -228,6 +228,7 @@ impl Experiment {
                         .measure([p[0] + s[0], p[1] + s[1], p[2] + s[2]], rng),
                     line: k as u64 + 2,
                     target: None,
+                    on_base: false,
                 }
             })
             .collect()

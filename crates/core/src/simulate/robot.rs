@@ -94,6 +94,7 @@ pub fn measure_positions(
             ),
             line: k as u64 + 2,
             target: None,
+            on_base: false,
         })
         .collect()
 }

@@ -224,6 +224,7 @@ mod tests {
                     position_mm: b.apply(p),
                     line: i as u64 + 2,
                     target: None,
+                    on_base: false,
                 }
             })
             .collect()
@@ -281,6 +282,7 @@ mod tests {
                     position_mm: b.apply(p),
                     line: i + 2,
                     target: None,
+                    on_base: false,
                 }
             })
             .collect();

@@ -450,13 +450,19 @@ pub struct ValidateRequest<'a> {
 ///
 /// Those of the steps.
 pub fn run_validation(r: ValidateRequest<'_>) -> Result<super::ValidationReport, ValidateError> {
+    let (base, tool): (Vec<Measurement>, Vec<Measurement>) =
+        r.measurements.iter().cloned().partition(|m| m.on_base);
     let recorded_target = crate::identify::provenance::provenance_target(r.model_text);
-    let (kept, target) = choose_target(
-        r.measurements,
-        recorded_target.as_deref(),
-        r.origin,
-        r.measured,
-    )?;
+    let (kept, target) = choose_target(&tool, recorded_target.as_deref(), r.origin, r.measured)?;
+    let recorded = crate::identify::provenance::provenance_references(r.model_text);
+    let (kept, registration, references_left_out) = match (base.is_empty(), recorded) {
+        (true, _) => (kept, None, 0),
+        (false, None) => (kept, None, base.len()),
+        (false, Some(home)) => {
+            let (m, d) = register(&kept, &base, &home, r.measured)?;
+            (m, Some(d), 0)
+        }
+    };
     let r = ValidateRequest {
         measurements: &kept,
         ..r
@@ -507,5 +513,77 @@ pub fn run_validation(r: ValidateRequest<'_>) -> Result<super::ValidationReport,
         nominal_source: nominal.map(|(_, s)| s),
         predictive,
         target,
+        registration,
+        references_left_out,
     })
+}
+
+/// Moves the tool rows `tool` by the rigid motion that takes the base references `base` (rows
+/// with `mount` = `base`) of each pose to where the model file records them (`home`):
+/// measurements of another session, or another tracker station, in the model's frame.
+///
+/// # Errors
+///
+/// [`ValidateError::Identify`] for a reference the model file does not record, and the errors
+/// of [`crate::identify::drift::correct_to`] (a pose without a reading of each reference).
+fn register(
+    tool: &[Measurement],
+    base: &[Measurement],
+    home: &[(String, [f64; 3])],
+    measured: &str,
+) -> Result<(Vec<Measurement>, crate::identify::drift::DriftReport), ValidateError> {
+    use crate::identify::poses::{PosePoint, PoseRun, ReferenceRow};
+    let mut labels: Vec<String> = Vec::new();
+    let mut at: Vec<[f64; 3]> = Vec::new();
+    let mut refs: Vec<ReferenceRow> = Vec::with_capacity(base.len());
+    for b in base {
+        let label = b.target.clone().unwrap_or_default();
+        let Some((_, h)) = home.iter().find(|(l, _)| *l == label) else {
+            return Err(ValidateError::Identify(IdentifyError::NoData(format!(
+                "{measured}: line {}: base reference '{label}' is not one the model file records ({})",
+                b.line,
+                home.iter().map(|(l, _)| l.as_str()).collect::<Vec<_>>().join(", ")
+            ))));
+        };
+        let k = match labels.iter().position(|l| *l == label) {
+            Some(k) => k,
+            None => {
+                labels.push(label);
+                at.push(*h);
+                labels.len() - 1
+            }
+        };
+        refs.push(ReferenceRow {
+            run: None,
+            q_deg: b.q_deg,
+            position_mm: b.position_mm,
+            reference: k as u8,
+            line: b.line,
+        });
+    }
+    let run = PoseRun {
+        run: None,
+        points: tool
+            .iter()
+            .map(|m| PosePoint {
+                q_deg: m.q_deg,
+                position_mm: m.position_mm,
+                sigma_mm: None,
+                payload_kg: m.payload_kg.unwrap_or(0.0),
+                line: m.line,
+                target: 0,
+            })
+            .collect(),
+    };
+    let refs: Vec<&ReferenceRow> = refs.iter().collect();
+    let (moved, report) = crate::identify::drift::correct_to(&run, &refs, &labels, Some(&at))?;
+    let out = tool
+        .iter()
+        .zip(&moved.points)
+        .map(|(m, p)| Measurement {
+            position_mm: p.position_mm,
+            ..m.clone()
+        })
+        .collect();
+    Ok((out, report))
 }
