@@ -411,9 +411,10 @@ fn turned(o: JointOffsets, dth: f32, extra: f32) -> JointOffsets {
 fn point_errors(i: u32, d0: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u32, term_draws: array<vec2<u32>, 3>, with_term: bool) {
     // The joint errors move the geometric offsets and give the factors of each point's angle
     // offsets (counter draws and pick-freeze rows of a model that draws them).
+    // TERM_ON (host-written) removes this code from the kernels of models without them.
     var d = d0;
     var f: array<vec4<f32>, 2u * N_JOINTS>;
-    if (with_term) {
+    if (TERM_ON && with_term) {
         f = term_draw(term_draws, &d);
     }
     // Per joint: α' and β' as (cos', sin', cos' − cos, sin' − sin); θ as (sin h, cos h) with
@@ -437,7 +438,7 @@ fn point_errors(i: u32, d0: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u
         let base = pj * WORDS_PER_POINT;
         // Δ_{n+1}: the tool point's offset in the flange frame
         var dv = vec3<f32>(d[TOOL_AT], d[TOOL_AT + 1u], d[TOOL_AT + 2u]);
-        if (with_term) {
+        if (TERM_ON && with_term) {
             dv = chain_step_turned(dv, base, chain, f, pj);
         } else {
             dv = chain_step(dv, base, chain);

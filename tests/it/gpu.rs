@@ -201,8 +201,10 @@ fn parse_and_validate(name: &str, src: &str) -> naga::Module {
 #[test]
 fn shaders_validate_with_naga() {
     parse_and_validate("philox test", &gpu::philox_test_source());
-    let src = gpu::shader_source(6);
+    let src = gpu::shader_source(6, false);
     let module = parse_and_validate("evaluator", &src);
+    // The kernel of models with joint errors validates too.
+    parse_and_validate("evaluator with joint errors", &gpu::shader_source(6, true));
 
     // Every entry point exists with the Rust workgroup size.
     for entry in [
@@ -288,11 +290,11 @@ fn shaders_validate_with_naga() {
 
     // Every joint count composes a valid shader whose sizes are the Rust layout's; seven joints
     // use all the normals a draw has (eleven blocks: the 38 inputs and the placement's six).
-    for joints in MIN_JOINTS..=MAX_JOINTS {
+    for (joints, term) in (MIN_JOINTS..=MAX_JOINTS).flat_map(|j| [(j, false), (j, true)]) {
         let lay = Layout::new(joints);
         let module = parse_and_validate(
-            &format!("evaluator, {joints} joints"),
-            &gpu::shader_source(joints),
+            &format!("evaluator, {joints} joints, joint errors {term}"),
+            &gpu::shader_source(joints, term),
         );
         let constant = |name: &str| shader_constant(&module, name) as usize;
         assert_eq!(constant("N_JOINTS"), joints);

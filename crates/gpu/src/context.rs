@@ -31,13 +31,18 @@ pub fn devices_opened() -> usize {
 pub struct GpuContext {
     pub(super) gpu: Gpu,
     pub(super) layout: BindGroupLayout,
-    /// The pipelines per joint count: the six-joint ones compiled when the device opens, any
-    /// other count when a model with it first asks ([`GpuContext::kernels`]).
-    kernels: Mutex<Vec<(usize, Arc<Kernels>)>>,
+    /// The pipelines per joint count and joint-error switch: the six-joint ones without joint
+    /// errors compiled when the device opens, any other when a model first asks
+    /// ([`GpuContext::kernels`]).
+    kernels: Mutex<Vec<(KernelKey, Arc<Kernels>)>>,
     failed: AtomicBool,
 }
 
-/// The evaluator's three pipelines for one joint count (the shader is specialised by it).
+/// What a kernel is specialised by: the joint count and whether the model draws joint errors.
+type KernelKey = (usize, bool);
+
+/// The evaluator's three pipelines for one joint count and joint-error switch (the shader is
+/// specialised by them).
 pub struct Kernels {
     /// Entry point [`ENTRY_POINT`]: counter draws.
     pub(super) draws: ComputePipeline,
@@ -100,30 +105,36 @@ impl GpuContext {
         let gpu = Gpu::open(entry).map_err(gpu_err)?;
         DEVICES_OPENED.fetch_add(1, Ordering::SeqCst);
         let layout = gpu.layout(&LAYOUT);
-        let six = Arc::new(compile(&gpu, &layout, 6)?);
+        let six = Arc::new(compile(&gpu, &layout, 6, false)?);
         Ok(GpuContext {
             gpu,
             layout,
-            kernels: Mutex::new(vec![(6, six)]),
+            kernels: Mutex::new(vec![((6, false), six)]),
             failed: AtomicBool::new(false),
         })
     }
 
-    /// The pipelines for models of `joints` joints, compiled on first use.
+    /// The pipelines for models of `joints` joints that draw joint errors or not, compiled on
+    /// first use.
     ///
     /// # Errors
     ///
     /// [`EngineError::Gpu`] when the specialised shader does not compile.
-    pub(super) fn kernels(&self, joints: usize) -> Result<Arc<Kernels>, EngineError> {
+    pub(super) fn kernels(
+        &self,
+        joints: usize,
+        joint_errors: bool,
+    ) -> Result<Arc<Kernels>, EngineError> {
         let mut list = self
             .kernels
             .lock()
             .map_err(|_| gpu_err("the GPU pipeline cache was poisoned by a panic"))?;
-        if let Some((_, k)) = list.iter().find(|(n, _)| *n == joints) {
+        let key = (joints, joint_errors);
+        if let Some((_, k)) = list.iter().find(|(n, _)| *n == key) {
             return Ok(Arc::clone(k));
         }
-        let k = Arc::new(compile(&self.gpu, &self.layout, joints)?);
-        list.push((joints, Arc::clone(&k)));
+        let k = Arc::new(compile(&self.gpu, &self.layout, joints, joint_errors)?);
+        list.push((key, Arc::clone(&k)));
         Ok(k)
     }
 
@@ -155,11 +166,17 @@ impl GpuContext {
     }
 }
 
-/// Compiles the evaluator shader specialised for `joints` joints into its three pipelines.
-fn compile(gpu: &Gpu, layout: &BindGroupLayout, joints: usize) -> Result<Kernels, EngineError> {
+/// Compiles the evaluator shader specialised for `joints` joints, with or without joint errors,
+/// into its three pipelines.
+fn compile(
+    gpu: &Gpu,
+    layout: &BindGroupLayout,
+    joints: usize,
+    joint_errors: bool,
+) -> Result<Kernels, EngineError> {
     let mut p = gpu
         .pipelines(
-            &shader_source(joints),
+            &shader_source(joints, joint_errors),
             &[ENTRY_POINT, OFFSETS_ENTRY_POINT, PICK_FREEZE_ENTRY_POINT],
             layout,
         )

@@ -62,7 +62,7 @@ impl GpuEvaluator {
         let by_bytes = ctx.max_binding_words();
         // Rows of any model fit: the widest row has MAX_WITH_BASE entries.
         let chunk_o = chunk.min((by_bytes / gpu_amcs_core::kinematics::MAX_INPUTS).max(1));
-        let kernels = ctx.kernels(problem.model.joints())?;
+        let kernels = ctx.kernels(problem.model.joints(), problem.joint_errors.is_some())?;
         let problem_bufs = ProblemBuffers::new(gpu, problem);
         let timestamps = opts.timestamps && gpu.timestamps;
         let masks = gpu.storage("masks (unused)", 8);
@@ -112,7 +112,9 @@ impl GpuEvaluator {
             self.guard(|s| s.discard(f))?;
         }
         let m_old = self.problem.m;
-        let kernels = self.ctx.kernels(problem.model.joints())?;
+        let kernels = self
+            .ctx
+            .kernels(problem.model.joints(), problem.joint_errors.is_some())?;
         self.problem = ProblemBuffers::new(&self.ctx.gpu, problem);
         self.kernels = kernels;
         if self.problem.m != m_old {

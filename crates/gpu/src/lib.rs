@@ -110,15 +110,20 @@ pub mod binding {
 }
 
 /// The evaluator shader for an `joints`-joint model: [`PHILOX_WGSL`], the input space's
-/// constants ([`input_constants`]), [`MDH_WGSL`], then the chain written out joint by joint
-/// ([`unrolled_chain`]).
+/// constants ([`input_constants`]), `TERM_ON` (whether the model draws joint errors), [`MDH_WGSL`],
+/// then the chain written out joint by joint ([`unrolled_chain`]).
+///
+/// `TERM_ON` is a constant, not a uniform, so that a model without joint errors gets a kernel
+/// without their code: with it merely switched off at run time, the joint errors' dynamically
+/// indexed arrays (the shift of the geometric offsets, the per-joint factors) put the draw's
+/// offsets into local memory on NVIDIA's compiler for every model.
 ///
 /// # Panics
 ///
 /// When `joints` is not 4 to 7 (a model has been checked before).
-pub fn shader_source(joints: usize) -> String {
+pub fn shader_source(joints: usize, joint_errors: bool) -> String {
     format!(
-        "{PHILOX_WGSL}\n{}{MDH_WGSL}\n{}",
+        "{PHILOX_WGSL}\n{}const TERM_ON: bool = {joint_errors};\n{MDH_WGSL}\n{}",
         input_constants(joints),
         unrolled_chain(joints)
     )
