@@ -7,7 +7,9 @@
 //! 1. medians of `BENCH_REPS` runs (default 7) of the CPU evaluator on 10^6 counter draws × 50
 //!    points of a TX60 identified with `--beyond-geometry` (200 poses, 10 µm), with its joint
 //!    errors drawn and with them left out (same mean chain), in the measurement and the base
-//!    frame, interleaved in one process (issue target: at most 1.5×);
+//!    frame, interleaved in one process (issue target: at most 1.5×); built with the `gpu`
+//!    feature and an adapter present, the same on the GPU evaluator first (wall and device
+//!    time); `BENCH_ONLY=cost` stops after these rows;
 //! 2. the time of identifying 200 and 1000 poses with the check beyond geometry (issue target
 //!    for 1000: 1 s), medians of 3;
 //! 3. the payload what-if on `BENCH_ROBOTS` robots (default 30): calibrated without a payload,
@@ -35,6 +37,65 @@ const SIZES: NonGeometricSizes = NonGeometricSizes {
     harmonics: 1.0,
     payload_kg: 0.0,
 };
+
+/// The GPU evaluator's cost of the joint errors, when a hardware or software adapter is present:
+/// medians of `reps` interleaved runs of 10^6 counter draws × 50 points, wall time of the
+/// evaluation and the device time of its passes (timestamp queries, when the adapter has them).
+#[cfg(feature = "gpu")]
+fn gpu_rows(with: &Problem, without: &Problem, label: &str, reps: usize) {
+    use gpu_amcs::gpu::{self, GpuEvaluator, GpuOptions};
+    if gpu::adapters().is_empty() {
+        println!("GPU: no adapter found; GPU rows skipped");
+        return;
+    }
+    let opts = GpuOptions {
+        timestamps: true,
+        prefetch: false,
+        ..GpuOptions::default()
+    };
+    let (Ok(a), Ok(b)) = (
+        GpuEvaluator::new(with.clone(), &opts),
+        GpuEvaluator::new(without.clone(), &opts),
+    ) else {
+        println!("GPU: the evaluator did not open; GPU rows skipped");
+        return;
+    };
+    let adapter = a.info().adapter;
+    let mut evs = [a, b];
+    let mut w = vec![0.0; 1_000_000];
+    // One untimed run each: pipeline compilation and buffers.
+    for ev in &mut evs {
+        ev.evaluate(0, &mut w, None).unwrap();
+    }
+    let (mut wall, mut device) = ([Vec::new(), Vec::new()], [Vec::new(), Vec::new()]);
+    for _ in 0..reps {
+        for (k, ev) in evs.iter_mut().enumerate() {
+            let s = Instant::now();
+            ev.evaluate(0, &mut w, None).unwrap();
+            wall[k].push(s.elapsed().as_secs_f64());
+            if let Some(d) = ev.last_timings().device_s {
+                device[k].push(d);
+            }
+        }
+    }
+    let [ww, wo] = wall.map(median);
+    let dev = match device {
+        [a, b] if !a.is_empty() && !b.is_empty() => {
+            let (a, b) = (median(a), median(b));
+            format!(
+                ", device {:.2} ms vs {:.2} ms (ratio {:.2})",
+                1e3 * a,
+                1e3 * b,
+                a / b
+            )
+        }
+        _ => String::new(),
+    };
+    println!(
+        "GPU ({adapter}) mcs 10^6 × 50, {label:<17}  with the joint errors {ww:.4} s  without {wo:.4} s  ratio {:.2}{dev}",
+        ww / wo
+    );
+}
 
 /// The first run of `data` as the whole-chain fit takes it.
 fn points(data: &PoseData) -> Vec<MeasuredPoint> {
@@ -114,12 +175,17 @@ fn main() {
     ] {
         let mut without = pb.clone();
         without.joint_errors = None;
+        #[cfg(feature = "gpu")]
+        gpu_rows(&pb, &without, label, reps);
         let mut evs = [CpuEvaluator::new(pb), CpuEvaluator::new(without)];
         let [with, without] = interleaved_medians(&mut evs, reps);
         println!(
             "mcs 10^6 × 50, {label:<17}  with the joint errors {with:.3} s  without {without:.3} s  ratio {:.2}",
             with / without
         );
+    }
+    if std::env::var("BENCH_ONLY").is_ok_and(|v| v == "cost") {
+        return;
     }
     // 2. Cost of identifying them.
     for n in [200, 1000] {

@@ -3,7 +3,7 @@
 //! of `gpu-amcs identify poses.csv`; the noise is not stated, so the fit carries a discrepancy
 //! term).
 
-use gpu_amcs::engine::{CpuEvaluator, Evaluator};
+use gpu_amcs::engine::Evaluator;
 use gpu_amcs::identify::chain::ChainOptions;
 use gpu_amcs::identify::{identify_poses, IdentifyOptions};
 use gpu_amcs::kinematics::{tx60, BaseTransform, RobotModel};
@@ -38,7 +38,7 @@ pub fn identified() -> RobotModel {
 
 /// Medians of `reps` runs of 10^6 counter draws on each of the two evaluators, interleaved so
 /// that their ratio is measured under the same load.
-pub fn interleaved_medians(evs: &mut [CpuEvaluator; 2], reps: usize) -> [f64; 2] {
+pub fn interleaved_medians<E: Evaluator>(evs: &mut [E; 2], reps: usize) -> [f64; 2] {
     let mut w = vec![0.0; 1_000_000];
     let mut t = [Vec::new(), Vec::new()];
     for _ in 0..reps {

@@ -6,7 +6,7 @@
 //! without an application in a kernel leaves its errors at zero and fails here; a new block kind
 //! does not compile here until [`perturbed`] says what it means.
 
-use crate::common::have_adapter;
+use crate::common::{have_adapter, max_gap};
 use gpu_amcs::engine::{
     CpuEvaluator, Evaluator, PlacementEvaluator, PlacementSpread, Problem, Reference,
 };
@@ -73,13 +73,6 @@ fn step(space: InputSpace, i: usize) -> f64 {
     } else {
         0.05
     }
-}
-
-fn max_gap(a: &[f64], b: &[f64]) -> f64 {
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
 }
 
 #[test]

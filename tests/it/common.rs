@@ -230,3 +230,12 @@ pub fn check_svg_finite(text: &str, name: &str) {
         "{name}: non-finite number"
     );
 }
+
+/// The largest absolute difference of two equally long slices.
+pub fn max_gap(a: &[f64], b: &[f64]) -> f64 {
+    assert_eq!(a.len(), b.len());
+    a.iter()
+        .zip(b)
+        .map(|(x, y)| (x - y).abs())
+        .fold(0.0, f64::max)
+}

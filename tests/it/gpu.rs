@@ -13,7 +13,7 @@
 
 use crate::common;
 
-use common::have_adapter;
+use common::{have_adapter, max_gap};
 
 use gpu_amcs::engine::{
     deviation, BackendChoice, CpuEvaluator, EngineError, Evaluator, PickFreeze, Problem, Reference,
@@ -80,14 +80,6 @@ fn evaluate(ev: &mut dyn Evaluator, first: u64, n: usize) -> (Vec<f64>, Vec<f64>
     (w, e)
 }
 
-fn max_diff(a: &[f64], b: &[f64]) -> f64 {
-    assert_eq!(a.len(), b.len());
-    a.iter()
-        .zip(b)
-        .map(|(x, y)| (x - y).abs())
-        .fold(0.0, f64::max)
-}
-
 /// Mean, variance, skewness, kurtosis, as the library computes them.
 fn moments(x: &[f64]) -> [f64; 4] {
     Moments::of(x).as_array()
@@ -99,7 +91,7 @@ fn compare(problem: Problem, first: u64, n: usize, label: &str) -> (f64, f64) {
     let mut gpu = GpuEvaluator::new(problem, &GpuOptions::default()).expect("GPU evaluator");
     let (wc, ec) = evaluate(&mut cpu, first, n);
     let (wg, eg) = evaluate(&mut gpu, first, n);
-    let (dw, de) = (max_diff(&wc, &wg), max_diff(&ec, &eg));
+    let (dw, de) = (max_gap(&wc, &wg), max_gap(&ec, &eg));
     let (mc, mg) = (moments(&wc), moments(&wg));
     let rel = moment_differences(&mc, &mg);
     eprintln!(
@@ -547,7 +539,7 @@ fn moved_parameter_mean_moves_gpu_like_cpu() {
     let shift_cpu = c1.iter().zip(&c0).map(|(a, b)| a - b).collect::<Vec<_>>();
     let shift_gpu = g1.iter().zip(&g0).map(|(a, b)| a - b).collect::<Vec<_>>();
     let mean_shift = shift_cpu.iter().sum::<f64>() / n as f64;
-    let d = max_diff(&shift_cpu, &shift_gpu);
+    let d = max_gap(&shift_cpu, &shift_gpu);
     eprintln!(
         "moved mean: mean shift of w {mean_shift:.4} mm, max |shift_gpu − shift_cpu| = {d:.3e} mm"
     );
@@ -776,11 +768,11 @@ fn pick_freeze_rows_match_cpu() {
                 request.rows().div_ceil(999),
                 "{label}"
             );
-            let d = max_diff(&wc, &wg);
+            let d = max_gap(&wc, &wg);
             let (wa, _) = evaluate(&mut gpu, first, request.count);
             let (wb, _) = evaluate(&mut gpu, request.b_first, request.count);
             let n = request.count;
-            let d_ab = max_diff(&wg[..n], &wa).max(max_diff(&wg[n..2 * n], &wb));
+            let d_ab = max_gap(&wg[..n], &wa).max(max_gap(&wg[n..2 * n], &wb));
             eprintln!(
                 "{label}, {} matrices: GPU vs CPU {d:.3e} mm, GPU A/B vs GPU draws {d_ab:.3e} mm",
                 masks.len()
@@ -861,8 +853,8 @@ fn offsets_match_draws_and_cpu() {
         let (wg, eg) = evaluate(&mut gpu, first, n);
         let (wgo, ego) = evaluate_offsets(&mut gpu, &rows);
         assert_eq!(gpu.last_timings().chunks, n.div_ceil(999));
-        let d_draws = max_diff(&wg, &wgo).max(max_diff(&eg, &ego));
-        let d_cpu = max_diff(&wco, &wgo).max(max_diff(&eco, &ego));
+        let d_draws = max_gap(&wg, &wgo).max(max_gap(&eg, &ego));
+        let d_cpu = max_gap(&wco, &wgo).max(max_gap(&eco, &ego));
         eprintln!(
             "{label}: GPU offsets vs GPU draws {d_draws:.3e} mm, vs CPU offsets {d_cpu:.3e} mm"
         );
@@ -881,7 +873,7 @@ fn offsets_match_draws_and_cpu() {
         for (kind, r) in [("3× spread", &wide), ("pick-freeze", &mixed)] {
             let (wc, ec) = evaluate_offsets(&mut cpu, r);
             let (wg, eg) = evaluate_offsets(&mut gpu, r);
-            let d = max_diff(&wc, &wg).max(max_diff(&ec, &eg));
+            let d = max_gap(&wc, &wg).max(max_gap(&ec, &eg));
             eprintln!("{label}, {kind}: GPU vs CPU offsets {d:.3e} mm");
             assert!(d <= SAMPLE_TOL_MM, "{label}, {kind}: {d}");
         }
@@ -914,7 +906,7 @@ fn offsets_between_draw_batches() {
     ev.evaluate_offsets(&rows, &mut wo, None).expect("offsets");
     let mut wd = vec![0.0; 1000];
     plain.evaluate(5_000, &mut wd, None).expect("evaluate");
-    assert!(max_diff(&wo, &wd) <= SAMPLE_TOL_MM);
+    assert!(max_gap(&wo, &wd) <= SAMPLE_TOL_MM);
     ev.evaluate(1000, &mut w, None).expect("evaluate");
     assert_eq!(
         ev.last_timings().prefetch_hits,
@@ -1135,7 +1127,7 @@ fn gpu_draws_the_base_placement_as_the_cpu_does() {
     let n = 20_000;
     let (wc, ec) = evaluate(cpu.as_mut(), 0, n);
     let (wg, eg) = evaluate(&mut gpu, 0, n);
-    let (dw, de) = (max_diff(&wc, &wg), max_diff(&ec, &eg));
+    let (dw, de) = (max_gap(&wc, &wg), max_gap(&ec, &eg));
     let (mc, mg) = (moments(&wc), moments(&wg));
     eprintln!("placement drawn: max |Δw| = {dw:.3e} mm, max |Δe| = {de:.3e} mm, moments cpu {mc:.6?} gpu {mg:.6?}");
     assert!(dw <= SAMPLE_TOL_MM && de <= SAMPLE_TOL_MM, "{dw} {de}");
@@ -1151,7 +1143,7 @@ fn gpu_draws_the_base_placement_as_the_cpu_does() {
     let mut gpu_base = GpuEvaluator::new(base.clone(), &GpuOptions::default()).unwrap();
     let (wb, _) = evaluate(&mut gpu_base, 0, n);
     let (wbc, _) = evaluate(&mut CpuEvaluator::new(base), 0, n);
-    assert!(max_diff(&wb, &wbc) <= SAMPLE_TOL_MM);
+    assert!(max_gap(&wb, &wbc) <= SAMPLE_TOL_MM);
     assert!(moments(&wb)[0] < mg[0], "{} vs {}", moments(&wb)[0], mg[0]);
     // Explicit offsets carry the placement's six after the 33 inputs (what tail runs on), and
     // pick-freeze rows take any of the 39 normals from the second draw (what sensitivity runs
@@ -1166,13 +1158,9 @@ fn gpu_draws_the_base_placement_as_the_cpu_does() {
     let (mut oc, mut og) = (vec![0.0; rows], vec![0.0; rows]);
     cpu.evaluate_offsets(&offsets, &mut oc, None).unwrap();
     gpu.evaluate_offsets(&offsets, &mut og, None).unwrap();
-    assert!(
-        max_diff(&oc, &og) <= SAMPLE_TOL_MM,
-        "{}",
-        max_diff(&oc, &og)
-    );
+    assert!(max_gap(&oc, &og) <= SAMPLE_TOL_MM, "{}", max_gap(&oc, &og));
     // Row k of the offsets is draw 500 + k.
-    assert!(max_diff(&oc, &wc[500..500 + rows]) <= 1e-10);
+    assert!(max_gap(&oc, &wc[500..500 + rows]) <= 1e-10);
     let placement_bits = 0x3f_u64 << N_UNCERTAIN;
     let masks = [
         0,
@@ -1189,14 +1177,14 @@ fn gpu_draws_the_base_placement_as_the_cpu_does() {
     let (mut pc, mut pg) = (vec![0.0; request.rows()], vec![0.0; request.rows()]);
     cpu.evaluate_pick_freeze(&request, &mut pc).unwrap();
     gpu.evaluate_pick_freeze(&request, &mut pg).unwrap();
-    let d = max_diff(&pc, &pg);
+    let d = max_gap(&pc, &pg);
     eprintln!(
         "placement rows: offsets max |Δw| = {:.3e} mm, pick-freeze {d:.3e} mm",
-        max_diff(&oc, &og)
+        max_gap(&oc, &og)
     );
     assert!(d <= SAMPLE_TOL_MM, "{d}");
     // Mask 0 is the draws themselves.
-    assert!(max_diff(&pc[..1000], &wc[..1000]) <= 1e-10);
+    assert!(max_gap(&pc[..1000], &wc[..1000]) <= 1e-10);
 }
 
 /// The LBR iiwa 14 preset (seven joints) with a calibration-sized spread on every free
@@ -1290,7 +1278,7 @@ fn seven_joint_models_agree_on_gpu_and_cpu() {
     let (wc, _) = evaluate_offsets(&mut cpu, &rows);
     let (wd, _) = evaluate(&mut cpu, 500, 3_000);
     assert_eq!(wc, wd, "CPU offset rows are the draws, to the bit");
-    assert!(max_diff(&wg, &wc) <= SAMPLE_TOL_MM);
+    assert!(max_gap(&wg, &wc) <= SAMPLE_TOL_MM);
     // Pick-freeze rows over the seven-joint normals.
     let masks = [0, ALL_NORMALS, 1 << 33, (1 << 5) | (1 << 36)];
     let request = PickFreeze {
@@ -1301,10 +1289,10 @@ fn seven_joint_models_agree_on_gpu_and_cpu() {
     };
     let pg = evaluate_pick_freeze(&mut gpu, &request);
     let pc = evaluate_pick_freeze(&mut cpu, &request);
-    let dp = max_diff(&pg, &pc);
+    let dp = max_gap(&pg, &pc);
     eprintln!(
         "iiwa 14: offsets max |Δw| = {:.3e} mm, pick-freeze max |Δw| = {dp:.3e} mm",
-        max_diff(&wg, &wc)
+        max_gap(&wg, &wc)
     );
     assert!(dp <= SAMPLE_TOL_MM, "{dp}");
 
@@ -1334,7 +1322,7 @@ fn seven_joint_models_agree_on_gpu_and_cpu() {
     let n = 20_000;
     let (wc, ec) = evaluate(cpu.as_mut(), 0, n);
     let (wg, eg) = evaluate(&mut gpu, 0, n);
-    let (dw, de) = (max_diff(&wc, &wg), max_diff(&ec, &eg));
+    let (dw, de) = (max_gap(&wc, &wg), max_gap(&ec, &eg));
     eprintln!(
         "iiwa 14, placement drawn (44 inputs): max |Δw| = {dw:.3e} mm, max |Δe| = {de:.3e} mm"
     );
@@ -1472,7 +1460,7 @@ fn gpu_draws_the_discrepancy_term_as_the_cpu_does() {
         assert_moments_agree(label, &mc, &mg);
         // The GPU's kinematic errors are the CPU's too.
         let (wck, eck) = evaluate(&mut CpuEvaluator::new(plain), first, n);
-        assert!(max_diff(&wck, &wk) <= SAMPLE_TOL_MM && max_diff(&eck, &ek) <= SAMPLE_TOL_MM);
+        assert!(max_gap(&wck, &wk) <= SAMPLE_TOL_MM && max_gap(&eck, &ek) <= SAMPLE_TOL_MM);
 
         // Offset rows equal to the draws: the kinematic errors, no term, on both backends.
         let rows: Vec<f64> = match PlacementSpread::of(&pb).unwrap() {
@@ -1499,8 +1487,8 @@ fn gpu_draws_the_discrepancy_term_as_the_cpu_does() {
         let (wco, eco) = evaluate_offsets(&mut cpu, &rows);
         no_term(
             "offset rows",
-            max_diff(&wgo, &wk).max(max_diff(&ego, &ek)),
-            max_diff(&wgo, &wco).max(max_diff(&ego, &eco)),
+            max_gap(&wgo, &wk).max(max_gap(&ego, &ek)),
+            max_gap(&wgo, &wco).max(max_gap(&ego, &eco)),
         );
 
         // Pick-freeze rows carry the term, from draw b where the mask has DISCREPANCY_MASK
@@ -1523,13 +1511,13 @@ fn gpu_draws_the_discrepancy_term_as_the_cpu_does() {
             "{label}: mask 0 rows are the counter draws"
         );
         let scale = pc.iter().fold(0.0f64, |a, &b| a.max(b));
-        let d = max_diff(&pg, &pc);
+        let d = max_gap(&pg, &pc);
         eprintln!("{label}, pick-freeze rows with the term: GPU vs CPU {d:.3e} mm");
         assert!(
             d <= SAMPLE_TOL_MM + DISCREPANCY_REL_TOL * 2.0 * scale,
             "{label}: pick-freeze rows, GPU vs CPU {d}"
         );
-        let moved = max_diff(&pg[2 * n..], &wg);
+        let moved = max_gap(&pg[2 * n..], &wg);
         assert!(
             moved > 1e-4,
             "{label}: the term's bit changed nothing ({moved})"

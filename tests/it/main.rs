@@ -48,6 +48,7 @@ mod simulate_nongeometric;
 mod study;
 mod summary;
 mod tail;
+mod tail_joint_errors;
 mod tracker_cli;
 mod tracker_data;
 mod validate_nominal;

@@ -182,8 +182,8 @@ impl JointErrorDraws {
         self.mass != 0.0 || self.mass_sigma != 0.0
     }
 
-    /// Number of normals a draw uses.
-    fn normals(&self) -> usize {
+    /// Number of normals a draw uses: one per free coefficient, then the payload's.
+    pub fn normals(&self) -> usize {
         self.free.len() + 1
     }
 
@@ -234,6 +234,18 @@ impl JointErrorDraws {
                 *slot = v[c - 4 * blk];
             }
         }
+        self.draw_from_normals(&z[..self.normals()])
+    }
+
+    /// The term's draw from its [`Self::normals`] standard normals `z` (the free coefficients',
+    /// then the payload's): `δβ = L z`, `δm = σ_m z_p`. Counter draws take `z` from their
+    /// Philox blocks ([`Self::draw`]); the tail analysis moves them as coordinates of its
+    /// standard-normal space.
+    ///
+    /// # Panics
+    ///
+    /// When `z` holds fewer than [`Self::normals`] entries.
+    pub fn draw_from_normals(&self, z: &[f64]) -> TermDraw {
         let p = self.free.len();
         let mut d = TermDraw {
             beta: [0.0; MAX_COEFFICIENTS],

@@ -210,6 +210,12 @@ impl PlacementEvaluator {
         self.errors_of_draw(d, e, None, None)
     }
 
+    /// [`Self::errors_of`] with the joint errors' draw `term` (the exact point form the tail
+    /// analysis evaluates a model with joint errors by).
+    pub fn errors_with_joint_errors(&self, d: &[f64], term: &TermDraw, e: &mut [f64]) -> f64 {
+        self.errors_of_draw(d, e, None, Some(*term))
+    }
+
     /// [`Self::errors_of`], with the discrepancy term of counter draw `draw` and the joint
     /// errors' draw `term` when given.
     fn errors_of_draw(

@@ -10,10 +10,10 @@
 //! it was measured with; using the nominal model's own tool would add the tool offset (tens of
 //! mm) to every error.
 
-use super::joint_errors::JointErrorDraws;
+use super::joint_errors::{JointErrorDraws, TermDraw};
 use super::DiscrepancyDraws;
 use crate::discrepancy::DiscrepancyUse;
-use crate::kinematics::{position, Joints, RobotModel};
+use crate::kinematics::{position, Block, Joints, RobotModel};
 use crate::sampling::{ParamSampler, SamplerError};
 
 /// What the errors are measured against.
@@ -276,6 +276,47 @@ impl Problem {
     /// tests and spot checks).
     pub fn point_errors(&self, params: &[f64]) -> Vec<f64> {
         self.point_errors_at(params, &[0.0; 3])
+    }
+
+    /// `e_j` at every test point of the robot's inputs `mean + d` ([`crate::kinematics::InputSpace::robot`]
+    /// offsets: the parameters, then the tool) with the joint errors' draw `term`, straight
+    /// from [`position`] in f64: the geometric inputs moved by the draw's `A δβ`, each joint
+    /// turned further by its offset at each point. Returns their maximum `w`. The exact point
+    /// form of the base frame (the tail analysis evaluates a model with joint errors by it);
+    /// without joint errors only `d` acts.
+    pub fn errors_with_joint_errors(&self, d: &[f64], term: &TermDraw, e: &mut [f64]) -> f64 {
+        let space = self.model.layout().robot();
+        let mut moved = d.to_vec();
+        if let Some(t) = &self.joint_errors {
+            t.shift_each(term, |block, k, v| {
+                if let Some(i) = space.index(block, k) {
+                    moved[i] += v;
+                }
+            });
+        }
+        let at = |b: Block| space.range(b).map_or(0, |r| r.start);
+        let m = &self.model;
+        let params: Vec<f64> = (m.params.iter().enumerate())
+            .map(|(i, p)| p + moved[at(Block::Joints) + i])
+            .collect();
+        let tool: [f64; 3] = std::array::from_fn(|i| m.tool[i] + moved[at(Block::Tool) + i]);
+        let mut w = 0.0f64;
+        for (j, ((q, r), ej)) in (self.chain_points.iter().zip(&self.reference))
+            .zip(e.iter_mut())
+            .enumerate()
+        {
+            let q = match &self.joint_errors {
+                Some(t) => {
+                    let o = t.offsets(term, j);
+                    q.iter().zip(o.iter()).map(|(a, b)| a + b).collect()
+                }
+                None => *q,
+            };
+            let p = position(&params, &tool, &q);
+            *ej = ((p[0] - r[0]).powi(2) + (p[1] - r[1]).powi(2) + (p[2] - r[2]).powi(2)).sqrt();
+            w = w.max(*ej);
+        }
+        w
     }
 
     /// [`Self::point_errors`] with the tool point moved by `tool_offset` (mm, flange frame).

@@ -337,10 +337,14 @@ pub fn make_frame_evaluator(
         .as_ref()
         .and(problem.model.discrepancy.as_ref())
         .map(|d| d.describe());
+    let joint_errors = (problem.joint_errors.as_ref())
+        .and(problem.model.joint_errors.as_ref())
+        .map(|e| e.describe());
     let (ev, mut notes) = make_evaluator(backends, problem, backend, adapter)?;
     if let Some(t) = term {
         notes.push(format!("{t}: drawn at every test point"));
     }
+    notes.extend(joint_errors);
     if uncertain {
         notes.push(match frame {
             Frame::Base => format!(

@@ -119,6 +119,7 @@
 //! layout and the Box–Muller normals are those of the draw definition (`docs/METHOD.md §6`).
 
 mod crude;
+mod joint;
 mod mcmc;
 mod options;
 mod result;
@@ -198,11 +199,6 @@ pub fn run_tail(
     progress: Option<Progress>,
 ) -> Result<TailResult, TailError> {
     opts.check()?;
-    if problem.joint_errors.is_some() {
-        return Err(TailError::JointErrors {
-            model: problem.model.name.clone(),
-        });
-    }
     let start = std::time::Instant::now();
     let space = NormalSpace::new(problem)?;
     if space.width != eval.offset_width() {
@@ -213,7 +209,13 @@ pub fn run_tail(
         ))));
     }
     let sampler = &problem.sampler;
-    let backend = eval.info();
+    // A model with joint errors has its rows evaluated by the exact point form (joint.rs).
+    // Subset simulation evaluates the rows of a model with joint errors by the exact point
+    // form (joint.rs); crude Monte Carlo takes the evaluator's counter draws, which draw them.
+    let backend = match (&space.joint, opts.method) {
+        (Some(_), TailMethod::Subset) => joint::JointSpace::backend(),
+        _ => eval.info(),
+    };
     let mut m = Model {
         eval,
         space,

@@ -126,13 +126,6 @@ pub enum TailError {
     /// No parameter has a nonzero variance: `w` is a constant.
     #[error("the model has no uncertain parameter, so w is a constant and has no tail")]
     NoUncertainty,
-    /// The model draws joint errors (compliance, gear harmonics, payload), which the tail's
-    /// normal space does not hold yet.
-    #[error("the model {model} carries uncertain joint errors (compliance, gear harmonics, payload), which the tail analysis does not draw yet; the Monte Carlo analyses (mcs, amcs) do")]
-    JointErrors {
-        /// The model's name.
-        model: String,
-    },
     /// The evaluator failed.
     #[error(transparent)]
     Engine(#[from] EngineError),

@@ -1,6 +1,7 @@
 //! The standard-normal space of a run: the map `u ↦ δ = L u` to parameter offsets, and the
 //! evaluator with its generator and evaluation count ([`Model`]).
 
+use super::joint::JointSpace;
 use super::term::TermSpace;
 use super::TailError;
 use crate::engine::{Evaluator, PlacementSpread, Problem};
@@ -18,7 +19,10 @@ pub(super) struct NormalSpace {
     /// ([`crate::engine::Evaluator::offset_space`]: 33 for six joints, 39 when the placement is
     /// drawn).
     pub(super) width: usize,
-    /// The model's discrepancy term, whose normals follow the parameters' (`None`: not drawn).
+    /// The model's joint errors, whose normals follow the parameters' (`None`: it has none).
+    pub(super) joint: Option<JointSpace>,
+    /// The model's discrepancy term, whose normals follow the parameters' and the joint
+    /// errors' (`None`: not drawn).
     pub(super) term: Option<TermSpace>,
 }
 
@@ -32,6 +36,7 @@ impl NormalSpace {
                 factor: sp.chol,
                 diagonal: false,
                 width: sp.space.len(),
+                joint: None,
                 term: None,
             }
         } else if let Some((free, chol)) = problem.sampler.cholesky() {
@@ -40,6 +45,7 @@ impl NormalSpace {
                 factor: chol.to_vec(),
                 diagonal: false,
                 width: problem.sampler.n_inputs(),
+                joint: None,
                 term: None,
             }
         } else {
@@ -52,23 +58,27 @@ impl NormalSpace {
                 free,
                 diagonal: true,
                 width: problem.sampler.n_inputs(),
+                joint: None,
                 term: None,
             }
         };
         let mut space = space;
+        space.joint = JointSpace::new(problem)?;
         space.term = problem
             .discrepancy
             .clone()
             .map(|d| TermSpace::new(d, problem.points.len()));
-        if space.free.is_empty() && space.term.is_none() {
+        if space.free.is_empty() && space.joint.is_none() && space.term.is_none() {
             return Err(TailError::NoUncertainty);
         }
         Ok(space)
     }
 
-    /// Normals per state: the free parameters', then the term's.
+    /// Normals per state: the free parameters', then the joint errors', then the term's.
     pub(super) fn dim(&self) -> usize {
-        self.free.len() + self.term.as_ref().map_or(0, TermSpace::dim)
+        self.free.len()
+            + self.joint.as_ref().map_or(0, JointSpace::dim)
+            + self.term.as_ref().map_or(0, TermSpace::dim)
     }
 
     /// Writes the offsets of `u` (length [`Self::dim`]; the parameters' normals come first)
@@ -107,19 +117,28 @@ impl Model<'_> {
         let width = self.space.width;
         let m = self.eval.n_points();
         let params = self.space.free.len();
+        // The discrepancy term's normals follow the joint errors'.
+        let term_at = params + self.space.joint.as_ref().map_or(0, JointSpace::dim);
         for (uc, wc) in u.chunks(self.batch * d).zip(w.chunks_mut(self.batch)) {
             offsets.resize(wc.len() * width, 0.0);
             for (row, o) in uc.chunks(d).zip(offsets.chunks_mut(width)) {
                 self.space.offsets(row, o);
             }
-            match &self.space.term {
-                None => self.eval.evaluate_offsets(&offsets, wc, None)?,
-                Some(term) => {
+            match (&self.space.joint, &self.space.term) {
+                (None, None) => self.eval.evaluate_offsets(&offsets, wc, None)?,
+                (joint, term) => {
                     per_point.resize(wc.len() * m, 0.0);
-                    self.eval
-                        .evaluate_offsets(&offsets, wc, Some(&mut per_point))?;
+                    match joint {
+                        Some(j) => j.errors(&offsets, width, (uc, d, params), &mut per_point),
+                        None => self
+                            .eval
+                            .evaluate_offsets(&offsets, wc, Some(&mut per_point))?,
+                    }
                     for ((row, e), v) in uc.chunks(d).zip(per_point.chunks(m)).zip(wc.iter_mut()) {
-                        *v = term.max_error(e, &row[params..]);
+                        *v = match term {
+                            Some(t) => t.max_error(e, &row[term_at..]),
+                            None => e.iter().copied().fold(0.0, f64::max),
+                        };
                     }
                 }
             }
