@@ -103,10 +103,8 @@ const N_NORMALS: u32 = 4u * N_BLOCKS;
 const WORKGROUP_SIZE: u32 = 64u;
 // The Philox stream of the discrepancy term (engine::DISCREPANCY_STREAM).
 const DISCREPANCY_STREAM: u32 = 0xD15C0000u;
-// The joint errors' Philox stream (engine::JOINT_ERROR_STREAM) and their most normals: 5 per
-// joint and the payload.
+// The joint errors' Philox stream (engine::JOINT_ERROR_STREAM).
 const JOINT_ERROR_STREAM: u32 = 0x10E70000u;
-const TERM_NORMALS: u32 = 4u * ((5u * N_JOINTS + 4u) / 4u);
 // The discrepancy term's per-draw size factors (discrepancy::size::SIZE_DRAWS), indexed by 8 bits.
 const SIZE_DRAWS: u32 = 256u;
 
@@ -319,76 +317,12 @@ fn with_discrepancy(e: f32, wd: u32, k: u32, pj: u32, g: f32) -> f32 {
     return sqrt(dr * dr + 2.0 * e * r * one_plus_c);
 }
 
-// The joint errors of draw `draw` (docs/METHOD.md §19.2): δβ = L z from the normals of Philox
-// blocks (draw, b, JOINT_ERROR_STREAM), the payload's δm = σ_m z_p, the geometric offsets d
-// moved by A δβ, and per joint the factors (δk, (k̄ + δk)(m̄ + δm) − k̄ m̄, δa1, δb1) and
-// (δa2, δb2, 0, 0) of its per-point angle offsets.
-fn term_draw(draws: array<vec2<u32>, 3>, d: ptr<function, array<f32, N_PLACED>>) -> array<vec4<f32>, 2u * N_JOINTS> {
-    let p = cfg.term_free;
-    // Where the per-joint words and the groups of the normals start.
-    var at = p * p;
-    for (var r = 0u; r < cfg.term_rows; r++) {
-        at = at + p + 1u;
-    }
-    let joints_at = at;
-    let groups_at = joints_at + 6u * N_JOINTS + 2u;
-    // Normal n of group g (compliance, harmonics, payload: term[groups_at + n]) from draws[g]; a
-    // block is computed once per distinct draw.
-    let two = any(draws[1] != draws[0]);
-    let three = any(draws[2] != draws[0]) && any(draws[2] != draws[1]);
-    var z: array<f32, TERM_NORMALS>;
-    for (var b = 0u; b < (p + 4u) / 4u; b++) {
-        let v0 = normals_block(draws[0], b, JOINT_ERROR_STREAM, cfg.key);
-        var v1 = v0;
-        if (two) {
-            v1 = normals_block(draws[1], b, JOINT_ERROR_STREAM, cfg.key);
-        }
-        var v2 = select(v0, v1, all(draws[2] == draws[1]));
-        if (three) {
-            v2 = normals_block(draws[2], b, JOINT_ERROR_STREAM, cfg.key);
-        }
-        for (var t = 0u; t < 4u; t++) {
-            let n = 4u * b + t;
-            if (n <= p) {
-                let g = u32(term[groups_at + n]);
-                z[n] = select(select(v0[t], v1[t], g == 1u), v2[t], g == 2u);
-            }
-        }
-    }
-    var beta: array<f32, 5u * N_JOINTS>;
-    for (var r = 0u; r < p; r++) {
-        var acc = 0.0;
-        for (var c = 0u; c <= r; c++) {
-            acc = acc + term[r * p + c] * z[c];
-        }
-        beta[r] = acc;
-    }
-    at = p * p;
-    for (var r = 0u; r < cfg.term_rows; r++) {
-        let idx = u32(term[at]);
-        var acc = 0.0;
-        for (var c = 0u; c < p; c++) {
-            acc = acc + term[at + 1u + c] * beta[c];
-        }
-        (*d)[idx] = (*d)[idx] + acc;
-        at = at + p + 1u;
-    }
-    let mass = term[joints_at + 6u * N_JOINTS];
-    let dm = term[joints_at + 6u * N_JOINTS + 1u] * z[p];
-    var f: array<vec4<f32>, 2u * N_JOINTS>;
-    for (var j = 0u; j < N_JOINTS; j++) {
-        let q = joints_at + 6u * j;
-        var v: array<f32, 5>;
-        for (var c = 0u; c < 5u; c++) {
-            let pos = term[q + 1u + c];
-            v[c] = select(0.0, beta[u32(max(pos, 0.0))], pos >= 0.0);
-        }
-        let k = term[q];
-        f[2u * j] = vec4<f32>(v[0], (k + v[0]) * (mass + dm) - k * mass, v[1], v[2]);
-        f[2u * j + 1u] = vec4<f32>(v[3], v[4], 0.0, 0.0);
-    }
-    return f;
-}
+// The joint errors of a draw (docs/METHOD.md §19.2), `fn term_draw(draws, d)`, are written by
+// the host for each model (gpu-amcs-gpu term_code): δβ = L z from the normals of Philox blocks
+// (draws[g], b, JOINT_ERROR_STREAM) of each normal's group g (compliance, harmonics, payload),
+// the payload's δm = σ_m z_p, the geometric offsets d moved by A δβ, and per joint the factors
+// (δk, (k̄ + δk)(m̄ + δm) − k̄ m̄, δa1, δb1) and (δa2, δb2, 0, 0) of its per-point angle offsets,
+// with L and A as constants.
 
 // Joint j's angle offset at point pj from the draw's factors f: (f0, f1, δa1, δb1)·(τ_links,
 // τ_unit, sin q, cos q) + (δa2, δb2)·(sin 2q, cos 2q).

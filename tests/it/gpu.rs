@@ -193,10 +193,20 @@ fn parse_and_validate(name: &str, src: &str) -> naga::Module {
 #[test]
 fn shaders_validate_with_naga() {
     parse_and_validate("philox test", &gpu::philox_test_source());
-    let src = gpu::shader_source(6, false);
+    let src = gpu::shader_source(6, None);
     let module = parse_and_validate("evaluator", &src);
-    // The kernel of models with joint errors validates too.
-    parse_and_validate("evaluator with joint errors", &gpu::shader_source(6, true));
+    // The kernel of a model with joint errors (its per-draw code written by the host) validates
+    // too.
+    let je = crate::joint_errors::model_with_joint_errors(3.0);
+    let q: Vec<gpu_amcs::kinematics::Joints> =
+        vec![gpu_amcs::kinematics::Joints::from_fn(6, |i| 0.1 * i as f64)];
+    let packing = gpu_amcs::engine::JointErrorDraws::new(&je, &q, 1)
+        .unwrap()
+        .expect("drawn")
+        .packing();
+    let with = gpu::shader_source(6, Some(&packing));
+    assert!(with.contains("const TERM_ON: bool = true;") && with.contains("let b0 = "));
+    parse_and_validate("evaluator with joint errors", &with);
 
     // Every entry point exists with the Rust workgroup size.
     for entry in [
@@ -282,11 +292,11 @@ fn shaders_validate_with_naga() {
 
     // Every joint count composes a valid shader whose sizes are the Rust layout's; seven joints
     // use all the normals a draw has (eleven blocks: the 38 inputs and the placement's six).
-    for (joints, term) in (MIN_JOINTS..=MAX_JOINTS).flat_map(|j| [(j, false), (j, true)]) {
+    for joints in MIN_JOINTS..=MAX_JOINTS {
         let lay = Layout::new(joints);
         let module = parse_and_validate(
-            &format!("evaluator, {joints} joints, joint errors {term}"),
-            &gpu::shader_source(joints, term),
+            &format!("evaluator, {joints} joints"),
+            &gpu::shader_source(joints, None),
         );
         let constant = |name: &str| shader_constant(&module, name) as usize;
         assert_eq!(constant("N_JOINTS"), joints);

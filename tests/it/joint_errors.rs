@@ -11,7 +11,7 @@ use gpu_amcs::kinematics::{position, tx60, Block, InputSpace, JointErrors, Paylo
 /// A TX60 with compliance of a 60 kg-class arm, harmonics of a few thousandths of a degree, a
 /// 3 ± 0.5 kg payload and an uncertainty over every coefficient, correlated with a few
 /// geometric inputs.
-fn model_with_joint_errors(payload_kg: f64) -> RobotModel {
+pub(crate) fn model_with_joint_errors(payload_kg: f64) -> RobotModel {
     let mut m = tx60();
     let n = m.joints();
     let nc = COEFFICIENTS_PER_JOINT * n;

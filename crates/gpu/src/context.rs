@@ -10,10 +10,11 @@
 
 use super::device::{self, BindGroupLayout, BindingKind, ComputePipeline, Gpu};
 use super::{
-    binding, gpu_err, shader_source, ENTRY_POINT, OFFSETS_ENTRY_POINT, PICK_FREEZE_ENTRY_POINT,
+    binding, gpu_err, shader_with_term, ENTRY_POINT, OFFSETS_ENTRY_POINT, PICK_FREEZE_ENTRY_POINT,
     WORKGROUP,
 };
 use gpu_amcs_core::engine::EngineError;
+use gpu_amcs_core::engine::TermPacking;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Mutex};
 
@@ -38,8 +39,9 @@ pub struct GpuContext {
     failed: AtomicBool,
 }
 
-/// What a kernel is specialised by: the joint count and whether the model draws joint errors.
-type KernelKey = (usize, bool);
+/// What a kernel is specialised by: the joint count and the model's joint-error code
+/// ([`crate::term_draw_source`]; `None`: no joint errors).
+type KernelKey = (usize, Option<String>);
 
 /// The evaluator's three pipelines for one joint count and joint-error switch (the shader is
 /// specialised by them).
@@ -105,17 +107,17 @@ impl GpuContext {
         let gpu = Gpu::open(entry).map_err(gpu_err)?;
         DEVICES_OPENED.fetch_add(1, Ordering::SeqCst);
         let layout = gpu.layout(&LAYOUT);
-        let six = Arc::new(compile(&gpu, &layout, 6, false)?);
+        let six = Arc::new(compile(&gpu, &layout, 6, None)?);
         Ok(GpuContext {
             gpu,
             layout,
-            kernels: Mutex::new(vec![((6, false), six)]),
+            kernels: Mutex::new(vec![((6, None), six)]),
             failed: AtomicBool::new(false),
         })
     }
 
-    /// The pipelines for models of `joints` joints that draw joint errors or not, compiled on
-    /// first use.
+    /// The pipelines for models of `joints` joints with the joint errors of `joint_errors`
+    /// (`None`: none), compiled on first use.
     ///
     /// # Errors
     ///
@@ -123,17 +125,18 @@ impl GpuContext {
     pub(super) fn kernels(
         &self,
         joints: usize,
-        joint_errors: bool,
+        joint_errors: Option<&TermPacking>,
     ) -> Result<Arc<Kernels>, EngineError> {
+        let code = joint_errors.map(|t| crate::term_draw_source(joints, Some(t)));
         let mut list = self
             .kernels
             .lock()
             .map_err(|_| gpu_err("the GPU pipeline cache was poisoned by a panic"))?;
-        let key = (joints, joint_errors);
+        let key = (joints, code);
         if let Some((_, k)) = list.iter().find(|(n, _)| *n == key) {
             return Ok(Arc::clone(k));
         }
-        let k = Arc::new(compile(&self.gpu, &self.layout, joints, joint_errors)?);
+        let k = Arc::new(compile(&self.gpu, &self.layout, joints, key.1.as_deref())?);
         list.push((key, Arc::clone(&k)));
         Ok(k)
     }
@@ -166,17 +169,17 @@ impl GpuContext {
     }
 }
 
-/// Compiles the evaluator shader specialised for `joints` joints, with or without joint errors,
-/// into its three pipelines.
+/// Compiles the evaluator shader specialised for `joints` joints and a model's joint-error code
+/// (`None`: none) into its three pipelines.
 fn compile(
     gpu: &Gpu,
     layout: &BindGroupLayout,
     joints: usize,
-    joint_errors: bool,
+    term_code: Option<&str>,
 ) -> Result<Kernels, EngineError> {
     let mut p = gpu
         .pipelines(
-            &shader_source(joints, joint_errors),
+            &shader_with_term(joints, term_code),
             &[ENTRY_POINT, OFFSETS_ENTRY_POINT, PICK_FREEZE_ENTRY_POINT],
             layout,
         )

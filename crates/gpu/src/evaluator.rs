@@ -62,7 +62,8 @@ impl GpuEvaluator {
         let by_bytes = ctx.max_binding_words();
         // Rows of any model fit: the widest row has MAX_WITH_BASE entries.
         let chunk_o = chunk.min((by_bytes / gpu_amcs_core::kinematics::MAX_INPUTS).max(1));
-        let kernels = ctx.kernels(problem.model.joints(), problem.joint_errors.is_some())?;
+        let packing = problem.joint_errors.as_ref().map(|t| t.packing());
+        let kernels = ctx.kernels(problem.model.joints(), packing.as_ref())?;
         let problem_bufs = ProblemBuffers::new(gpu, problem);
         let timestamps = opts.timestamps && gpu.timestamps;
         let masks = gpu.storage("masks (unused)", 8);
@@ -112,9 +113,8 @@ impl GpuEvaluator {
             self.guard(|s| s.discard(f))?;
         }
         let m_old = self.problem.m;
-        let kernels = self
-            .ctx
-            .kernels(problem.model.joints(), problem.joint_errors.is_some())?;
+        let packing = problem.joint_errors.as_ref().map(|t| t.packing());
+        let kernels = self.ctx.kernels(problem.model.joints(), packing.as_ref())?;
         self.problem = ProblemBuffers::new(&self.ctx.gpu, problem);
         self.kernels = kernels;
         if self.problem.m != m_old {

@@ -48,6 +48,7 @@ mod context;
 mod device;
 mod evaluator;
 mod kat;
+mod term_code;
 
 pub use backend::{list_adapters, make_evaluator, WgpuBackends};
 pub use buffers::{ChunkUniform, ConfigUniform};
@@ -55,7 +56,8 @@ pub use context::{devices_opened, GpuContext};
 pub use evaluator::GpuEvaluator;
 pub use kat::{philox_on_gpu, PhiloxBlock};
 
-use gpu_amcs_core::engine::EngineError;
+use gpu_amcs_core::engine::{EngineError, TermPacking};
+pub use term_code::term_draw_source;
 
 /// WGSL: Philox4x32-10 and the Box–Muller transform.
 pub const PHILOX_WGSL: &str = include_str!("../../../shaders/philox.wgsl");
@@ -111,7 +113,8 @@ pub mod binding {
 
 /// The evaluator shader for an `joints`-joint model: [`PHILOX_WGSL`], the input space's
 /// constants ([`input_constants`]), `TERM_ON` (whether the model draws joint errors), [`MDH_WGSL`],
-/// then the chain written out joint by joint ([`unrolled_chain`]).
+/// then the chain written out joint by joint ([`unrolled_chain`]) and the joint errors' per-draw
+/// code of the model whose [`TermPacking`] is given ([`term_draw_source`]).
 ///
 /// `TERM_ON` is a constant, not a uniform, so that a model without joint errors gets a kernel
 /// without their code: with it merely switched off at run time, the joint errors' dynamically
@@ -121,10 +124,22 @@ pub mod binding {
 /// # Panics
 ///
 /// When `joints` is not 4 to 7 (a model has been checked before).
-pub fn shader_source(joints: usize, joint_errors: bool) -> String {
+pub fn shader_source(joints: usize, joint_errors: Option<&TermPacking>) -> String {
+    let code = joint_errors.map(|t| term_draw_source(joints, Some(t)));
+    shader_with_term(joints, code.as_deref())
+}
+
+/// [`shader_source`] with the joint errors' function already written ([`term_draw_source`];
+/// `None`: a model without joint errors).
+pub(crate) fn shader_with_term(joints: usize, term_code: Option<&str>) -> String {
+    let code = match term_code {
+        Some(c) => c.to_string(),
+        None => term_draw_source(joints, None),
+    };
     format!(
-        "{PHILOX_WGSL}\n{}const TERM_ON: bool = {joint_errors};\n{MDH_WGSL}\n{}",
+        "{PHILOX_WGSL}\n{}const TERM_ON: bool = {};\n{MDH_WGSL}\n{}{code}",
         input_constants(joints),
+        term_code.is_some(),
         unrolled_chain(joints)
     )
 }
