@@ -75,7 +75,7 @@ fn every_field_of_every_options_struct_has_an_entry() {
     use gpu_amcs::mc::tail::TailOptions;
     use gpu_amcs::mc::{AmcsOptions, McsOptions, RunSettings};
     use gpu_amcs::simulate::Factors;
-    use gpu_amcs::study::StudySettings;
+    use gpu_amcs::study::{JointErrorStudy, StudySettings};
     let run = fields!(RunSettings {
         coverage_probability,
         interval,
@@ -153,9 +153,12 @@ fn every_field_of_every_options_struct_has_an_entry() {
         accuracy_points,
         sensitivity_draws,
         backend,
-        adapter
+        adapter,
+        joint_errors
     });
     same_fields(&STUDY_SETTINGS, &study);
+    let joint_error_study = fields!(JointErrorStudy { sizes, poses, mode });
+    same_fields(&JOINT_ERROR_STUDY, &joint_error_study);
     let identify = fields!(IdentifyOptions {
         method,
         nominal_prior,
