@@ -61,6 +61,16 @@ pub struct StudyArgs {
     pub reports: ReportFlags,
     #[command(flatten)]
     pub memory: MemoryArgs,
+    /// Also calibrate the study's robot given joint compliance and gear harmonics of each size S
+    /// (0–10, both alike; 1: a 60 kg-class arm, as simulate --compliance S --harmonics S), at
+    /// the baseline from the circle-point sweeps and from random poses, each run identified with
+    /// the geometry alone and with joint errors (identify's auto): beyond.csv and beyond.md give
+    /// the accuracy before calibration, after the geometric one and with the full model.
+    #[arg(long, value_delimiter = ',', value_name = "S,...")]
+    pub joint_errors: Option<Vec<f64>>,
+    /// Poses per calibration run of the pose calibrations of --joint-errors.
+    #[arg(long, default_value_t = 200, value_name = "N")]
+    pub joint_error_poses: usize,
     /// The robot studied (its nominal model; the simulator perturbs it).
     #[command(flatten)]
     pub model: ModelArgs,
@@ -106,6 +116,10 @@ impl Run for StudyArgs {
         s.robot_seed = a.robot_seed;
         s.workspace = gpu_amcs::points::WorkspaceBox::for_robot(&model);
         s.calibration_seed = a.seed;
+        s.joint_errors = a.joint_errors.clone().map(|sizes| study::JointErrorStudy {
+            poses: a.joint_error_poses,
+            ..study::JointErrorStudy::new(sizes)
+        });
         let (backend, adapter) = a.backend.choice()?;
         s.backend = backend;
         s.adapter = adapter.map(str::to_owned);

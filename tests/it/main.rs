@@ -10,6 +10,7 @@ mod amcs_vs_mcs;
 mod base_references;
 mod beyond_geometry;
 mod blocks;
+mod calibrate_beyond;
 mod cli;
 mod docs;
 mod export_tracker;

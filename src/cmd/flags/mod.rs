@@ -176,6 +176,8 @@ pub fn simulate(s: SimulateSetting) -> Option<&'static str> {
         SimulateSetting::McsDraws => on(study, "mcs_draws", "--mcs-draws"),
         SimulateSetting::Tolerances => on(study, "deltas", "--deltas"),
         SimulateSetting::Factors => on(study, "factors", "--factors"),
+        SimulateSetting::JointErrors => on(&JOINT_ERROR_STUDY, "sizes", "--joint-errors"),
+        SimulateSetting::JointErrorPoses => on(&JOINT_ERROR_STUDY, "poses", "--joint-error-poses"),
     }
 }
 

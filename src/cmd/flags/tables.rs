@@ -253,6 +253,18 @@ pub const STUDY_SETTINGS: Table = Table {
         ),
         ("backend", Flags(&["--backend"])),
         ("adapter", Flags(&["--adapter"])),
+        ("joint_errors", Nested(&JOINT_ERROR_STUDY)),
+    ],
+};
+
+/// `study::JointErrorStudy` in `study`.
+pub const JOINT_ERROR_STUDY: Table = Table {
+    name: "study::JointErrorStudy",
+    commands: &["study"],
+    fields: &[
+        ("sizes", Flags(&["--joint-errors"])),
+        ("poses", Flags(&["--joint-error-poses"])),
+        ("mode", Fixed("identify's default (auto)")),
     ],
 };
 
@@ -319,4 +331,5 @@ pub const TABLES: &[&Table] = &[
     &FACTORS,
     &STUDY_BASELINE,
     &STUDY_SETTINGS,
+    &JOINT_ERROR_STUDY,
 ];

@@ -75,7 +75,7 @@ fn every_field_of_every_options_struct_has_an_entry() {
     use gpu_amcs::mc::tail::TailOptions;
     use gpu_amcs::mc::{AmcsOptions, McsOptions, RunSettings};
     use gpu_amcs::simulate::Factors;
-    use gpu_amcs::study::StudySettings;
+    use gpu_amcs::study::{JointErrorStudy, StudySettings};
     let run = fields!(RunSettings {
         coverage_probability,
         interval,
@@ -153,9 +153,12 @@ fn every_field_of_every_options_struct_has_an_entry() {
         accuracy_points,
         sensitivity_draws,
         backend,
-        adapter
+        adapter,
+        joint_errors
     });
     same_fields(&STUDY_SETTINGS, &study);
+    let joint_error_study = fields!(JointErrorStudy { sizes, poses, mode });
+    same_fields(&JOINT_ERROR_STUDY, &joint_error_study);
     let identify = fields!(IdentifyOptions {
         method,
         nominal_prior,
@@ -201,9 +204,11 @@ fn every_field_of_every_options_struct_has_an_entry() {
         &FACTORS,
         &keys(f).iter().map(String::as_str).collect::<Vec<_>>(),
     );
-    // `backend` is not serialised (it is how, not what, the study computes).
+    // `backend` is not serialised (it is how, not what, the study computes), and
+    // `joint_errors` only when set (a study without them writes the study.json it wrote before).
     let mut study_keys = keys(serde_json::to_value(StudySettings::default()).unwrap());
     study_keys.push("backend".into());
+    study_keys.push("joint_errors".into());
     same_fields(
         &STUDY_SETTINGS,
         &study_keys.iter().map(String::as_str).collect::<Vec<_>>(),

@@ -94,11 +94,15 @@ pub enum SimulateSetting {
     Tolerances,
     /// `StudySettings::factors`.
     Factors,
+    /// `JointErrorStudy::sizes` (the study's robots with joint errors).
+    JointErrors,
+    /// `JointErrorStudy::poses`.
+    JointErrorPoses,
 }
 
 impl SimulateSetting {
     /// Every setting.
-    pub const ALL: [SimulateSetting; 8] = [
+    pub const ALL: [SimulateSetting; 10] = [
         Self::Runs,
         Self::Range,
         Self::Step,
@@ -107,6 +111,8 @@ impl SimulateSetting {
         Self::McsDraws,
         Self::Tolerances,
         Self::Factors,
+        Self::JointErrors,
+        Self::JointErrorPoses,
     ];
 }
 
@@ -121,6 +127,8 @@ impl std::fmt::Display for SimulateSetting {
             Self::McsDraws => "MCS draws",
             Self::Tolerances => "tolerances",
             Self::Factors => "factors",
+            Self::JointErrors => "joint error sizes",
+            Self::JointErrorPoses => "poses per run",
         })
     }
 }

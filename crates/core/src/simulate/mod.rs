@@ -19,6 +19,7 @@
 
 pub mod calibrate;
 pub mod factors;
+pub mod full_model;
 #[cfg(test)]
 mod joint_counts;
 pub mod nongeometric;
@@ -33,6 +34,10 @@ pub use calibrate::{
     DESIGN_TOOL_MM,
 };
 pub use factors::{Factors, RobotErrorModel, SimulateError, SimulateSetting, SweepDirection};
+pub use full_model::{
+    accuracy_full, calibrate_full, mean_joint_errors, render_full_accuracy,
+    render_full_calibration, FullAccuracy, FullCalibration, FullRun, RunAccuracy, RunData,
+};
 pub use nongeometric::{
     true_position, NonGeometric, NonGeometricError, NonGeometricSetting, NonGeometricSizes,
 };

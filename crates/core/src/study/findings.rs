@@ -199,12 +199,19 @@ pub fn findings(s: &StudyResult) -> String {
             "Mean positioning error over {} random test points in the workspace box: {:.4} mm with the nominal model, \
              {:.4} mm after calibration ({:.1} % better). The paper: 0.6649 → 0.5411 mm (22.9 %). Our virtual robot has only \
              geometric errors, which the calibration removes; the paper's small gain points to non-geometric errors \
-             (compliance, thermal drift) that this simulator does not model.\n",
+             (compliance, thermal drift) that this study's robot does not carry (robots with joint compliance and gear \
+             harmonics: the study's joint error sizes; thermal drift is not simulated).\n",
             s.settings.accuracy_points,
             b.accuracy_before_mm,
             b.accuracy_after_mm,
             100.0 * (1.0 - b.accuracy_after_mm / b.accuracy_before_mm)
         );
+    }
+    if s.settings.joint_errors.is_some() {
+        t.push_str(&super::beyond::findings(
+            &s.beyond_geometry,
+            s.settings.accuracy_points,
+        ));
     }
     ranking_section(&mut t, &s.ranking);
     let _ = writeln!(t, "## Table 1 — R_c (MCS)\n\n{}", markdown(&table1_rows(s)));

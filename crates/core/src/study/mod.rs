@@ -32,6 +32,7 @@
 //! std::fs::remove_dir_all(&dir).unwrap();
 //! ```
 
+pub mod beyond;
 pub mod figures;
 pub mod findings;
 pub mod ranking;
@@ -40,6 +41,7 @@ pub mod runner;
 pub mod settings;
 pub mod tables;
 
+pub use beyond::{BeyondRow, JointErrorStudy};
 pub use runner::{run_study, run_study_on, LevelResult, StudyError, StudyResult};
 pub use settings::{Factor, StudySettings};
 

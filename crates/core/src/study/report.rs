@@ -20,6 +20,11 @@ const CSV: [&str; 5] = [
     "ranking.csv",
 ];
 
+/// The table of the robots with joint errors, when the study has them.
+const BEYOND_CSV: &str = "beyond.csv";
+/// Its Markdown.
+const BEYOND_MD: &str = "beyond.md";
+
 /// The other files, in the order [`Report::other`] writes them.
 const OTHER: [&str; 7] = [
     "STUDY.md",
@@ -35,10 +40,15 @@ impl StudyResult {
     /// The files of a study with `settings`, before it runs (the figures depend on the factors
     /// and tolerances).
     pub fn planned_layout(settings: &StudySettings) -> Layout {
-        Layout {
+        let mut layout = Layout {
             svg: figures::names(settings),
             ..Layout::new("study.json", &CSV, &[], &OTHER)
+        };
+        if settings.joint_errors.is_some() {
+            layout.csv.push(BEYOND_CSV.into());
+            layout.other.push(BEYOND_MD.into());
         }
+        layout
     }
 }
 
@@ -67,7 +77,15 @@ impl Report for StudyResult {
             csv(&accuracy_rows(self)),
             csv(&ranking::rows(&self.ranking)),
         ];
-        CSV.iter().map(|n| n.to_string()).zip(tables).collect()
+        let mut files: Vec<(String, String)> =
+            CSV.iter().map(|n| n.to_string()).zip(tables).collect();
+        if self.settings.joint_errors.is_some() {
+            files.push((
+                BEYOND_CSV.into(),
+                csv(&super::beyond::rows(&self.beyond_geometry)),
+            ));
+        }
+        files
     }
 
     fn svg(&self) -> Vec<(String, String)> {
@@ -88,7 +106,15 @@ impl Report for StudyResult {
                 paper_table2()
             ),
         ];
-        OTHER.iter().map(|n| n.to_string()).zip(texts).collect()
+        let mut files: Vec<(String, String)> =
+            OTHER.iter().map(|n| n.to_string()).zip(texts).collect();
+        if self.settings.joint_errors.is_some() {
+            files.push((
+                BEYOND_MD.into(),
+                markdown(&super::beyond::rows(&self.beyond_geometry)),
+            ));
+        }
+        files
     }
 
     fn page(&self, settings: &[(String, String)], files: &[(String, String)]) -> String {
@@ -162,8 +188,14 @@ fn study_page(
         ),
         ("Accuracy before and after calibration", accuracy_rows(s)),
     ];
+    let beyond = s.settings.joint_errors.is_some().then(|| {
+        (
+            "Robots with joint errors: before calibration, geometric calibration, full model",
+            super::beyond::rows(&s.beyond_geometry),
+        )
+    });
     page.heading("Tables");
-    for (caption, (h, rows)) in tables {
+    for (caption, (h, rows)) in tables.into_iter().chain(beyond) {
         let h: Vec<&str> = h.iter().map(String::as_str).collect();
         page.table(Table::new(caption, &h, rows));
     }

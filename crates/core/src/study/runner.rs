@@ -151,6 +151,9 @@ pub struct StudyResult {
     /// The parameters ranked by their Sobol indices at the baseline calibration, and what each
     /// factor's levels did to the top ones' σ.
     pub ranking: ParameterRanking,
+    /// The robots with joint errors ([`super::beyond`]), when the settings ask for them.
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub beyond_geometry: Vec<super::beyond::BeyondRow>,
     /// Total wall time, seconds.
     pub seconds: f64,
 }
@@ -219,7 +222,11 @@ pub fn run_study_on(
         f.check()?;
     }
     let per_level = 1 + settings.point_counts.len() as u64 * (2 + settings.deltas.len() as u64);
-    let total = levels.len() as u64 * per_level + 1;
+    let beyond_steps = settings
+        .joint_errors
+        .as_ref()
+        .map_or(0, |j| 2 * j.sizes.len() as u64);
+    let total = levels.len() as u64 * per_level + 1 + beyond_steps;
     let mut done = 0u64;
     let tick = |done: &mut u64, msg: &str| {
         if let Some(p) = progress {
@@ -342,6 +349,10 @@ pub fn run_study_on(
         None => calibrate(exp, &settings.baseline, settings.calibration_seed)?.independent,
     };
     let ranking = baseline_ranking(settings, backends, &baseline, &point_sets, &out)?;
+    let beyond_geometry = match &settings.joint_errors {
+        Some(js) => super::beyond::run(exp, settings, js, &mut |m: &str| tick(&mut done, m))?,
+        None => Vec::new(),
+    };
     if let Some(p) = progress {
         p(total, total, "done");
     }
@@ -351,6 +362,7 @@ pub fn run_study_on(
         notes,
         levels: out,
         ranking,
+        beyond_geometry,
         seconds: t0.elapsed().as_secs_f64(),
     })
 }

@@ -156,6 +156,10 @@ pub struct StudySettings {
     pub backend: BackendChoice,
     /// GPU adapter name filter.
     pub adapter: Option<String>,
+    /// Robots with joint errors calibrated at the baseline beside the factor study; none: the
+    /// study of geometric robots alone.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub joint_errors: Option<super::beyond::JointErrorStudy>,
 }
 
 impl Default for StudySettings {
@@ -179,6 +183,7 @@ impl Default for StudySettings {
             sensitivity_draws: 1 << 12,
             backend: BackendChoice::Auto,
             adapter: None,
+            joint_errors: None,
         }
     }
 }
@@ -242,6 +247,9 @@ impl StudySettings {
         }
         if self.factors.is_empty() {
             return bad(SimulateSetting::Factors, "needs at least one factor".into());
+        }
+        if let Some(js) = &self.joint_errors {
+            js.check()?;
         }
         Ok(())
     }

@@ -83,7 +83,7 @@ pub const PAPER_TABLE2: [(&str, [[f64; 6]; 3]); 5] = [
     ),
 ];
 
-fn f4(v: f64) -> String {
+pub(crate) fn f4(v: f64) -> String {
     format!("{v:.4}")
 }
 
