@@ -146,6 +146,7 @@ pub fn map(s: MapSetting) -> Option<&'static str> {
     let (spec, run) = (&MAP_SPEC, &MAP_RUN);
     match s {
         MapSetting::Cells => on(spec, "grid", "--cells"),
+        MapSetting::Plane => on(spec, "grid", "--plane"),
         MapSetting::PlanePosition => on(spec, "grid", "--at"),
         MapSetting::Workspace => {
             on(spec, "workspace", "--box-center").map(|_| "--box-center/--box-size")

@@ -45,8 +45,8 @@ impl MapSettings {
     ///
     /// # Errors
     ///
-    /// [`MapError::Setting`]: a plane without its position or the other way round
-    /// ([`MapSetting::PlanePosition`]), cell counts of the wrong number ([`MapSetting::Cells`]).
+    /// [`MapError::Setting`]: a plane without its position ([`MapSetting::PlanePosition`]) or
+    /// the other way round ([`MapSetting::Plane`]), cell counts of the wrong number ([`MapSetting::Cells`]).
     pub fn grid(&self) -> Result<Grid, MapError> {
         let counts = |default: Vec<usize>| self.cells.clone().unwrap_or(default);
         let wrong = |what: &str, got: usize| MapError::Setting {
@@ -68,8 +68,9 @@ impl MapSettings {
             }
             (None, Some(_)) => {
                 return Err(MapError::Setting {
-                    field: MapSetting::PlanePosition,
-                    message: "a position needs a plane (xy, xz or yz)".into(),
+                    field: MapSetting::Plane,
+                    message: "a position along a plane's normal needs the plane (xy, xz or yz)"
+                        .into(),
                 })
             }
             (None, None) => {
@@ -154,8 +155,9 @@ pub struct MapOutcome {
 /// use gpu_amcs_core::engine::{BackendChoice, CpuOnly};
 /// use gpu_amcs_core::job::MapJob;
 /// use gpu_amcs_core::map::Plane;
+/// use gpu_amcs_core::spec::ModelSource;
 ///
-/// let mut job = MapJob::new(Default::default());
+/// let mut job = MapJob::new(ModelSource::Preset("tx60".into()));
 /// job.grid.plane = Some(Plane::Xz);
 /// job.grid.at = Some(0.0);
 /// job.grid.cells = Some(vec![4, 4]);

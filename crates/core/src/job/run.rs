@@ -38,7 +38,7 @@ pub struct RunOutcome {
 ///     ..ProblemSpec::default()
 /// });
 /// job.options.tolerance = Tolerance::Delta(0.05);
-/// job.options.batch_size = 1000;
+/// job.options.batch_size = 2000;
 /// let outcome = job.run(&CpuOnly).unwrap();
 /// assert!(outcome.report.result.converged);
 /// assert_eq!(outcome.report.notes, Vec::<String>::new());

@@ -38,7 +38,7 @@ pub struct SensitivityOutcome {
 ///     ..ProblemSpec::default()
 /// });
 /// job.options.draws = 256;
-/// job.options.bootstrap = 20;
+/// job.options.bootstrap = 100;
 /// let outcome = job.run(&CpuOnly).unwrap();
 /// assert!(!outcome.result.w().inputs.is_empty());
 /// ```
