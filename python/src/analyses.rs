@@ -3,25 +3,18 @@
 //! `to_json()` are the document `--json` writes, `to_text()` the table it prints, `to_csv()` /
 //! `to_pandas()` the CSV `--csv` writes.
 //!
-//! Over 600 lines: three analyses with the same shape (keywords → options → driver → report); one file keeps them parallel.
+//! Each builds the library's job (`SensitivityJob`, `TailJob`, `MapJob`) from its keywords and
+//! wraps what it gives.
 
 use crate::arrays::numbers;
-use crate::errors::{arg_error, lib_error, value_error};
+use crate::errors::{job_error, sensitivity_error, tail_error, value_error};
 use crate::model::PyModel;
-use crate::problem::{check_estimate, keyword, problem_function, BYTES_PER_POINT};
-use gpu_amcs_core::engine::{Problem, Reference};
-use gpu_amcs_core::kinematics::Joints;
-use gpu_amcs_core::map::{
-    self, default_reference_deg, tool_down_rpy_deg, Evaluation, Grid, MapError, MapResult,
-    MapSetting, MapSpec, Plane, Timings,
-};
-use gpu_amcs_core::mc::sensitivity::{
-    run_sensitivity, SensitivityError, SensitivityOptions, SensitivityResult, SensitivitySetting,
-};
-use gpu_amcs_core::mc::tail::{
-    run_tail, TailError, TailMethod, TailOptions, TailResult, TailSetting,
-};
-use gpu_amcs_core::spec::{self, GeneratedPoints, ModelSource, DEFAULT_PRESET};
+use crate::problem::problem_function;
+use gpu_amcs_core::job::{MapJob, MapSettings, SensitivityJob, TailJob};
+use gpu_amcs_core::map::{MapResult, Plane};
+use gpu_amcs_core::mc::sensitivity::{SensitivityOptions, SensitivityResult};
+use gpu_amcs_core::mc::tail::{TailMethod, TailOptions, TailResult};
+use gpu_amcs_core::spec::{ModelSource, DEFAULT_PRESET};
 use pyo3::prelude::*;
 
 /// `json` parsed by Python's `json` module: a dict of plain values.
@@ -34,68 +27,6 @@ pub(crate) fn parse_json<'py>(py: Python<'py>, json: String) -> PyResult<Bound<'
 pub fn frame<'py>(py: Python<'py>, csv: String) -> PyResult<Bound<'py, PyAny>> {
     py.import("gpu_amcs._interop")?
         .call_method1("frame", (csv,))
-}
-
-/// A setting error `"field (keyword): message"`, as the command line's `"field (--flag): …"`.
-fn setting_error(field: impl std::fmt::Display, kw: Option<&str>, message: &str) -> PyErr {
-    match kw {
-        Some(k) => value_error(format!("{field} ({k}): {message}")),
-        None => value_error(format!("{field}: {message}")),
-    }
-}
-
-/// A sensitivity error with the keyword that sets its field.
-fn sensitivity_error(e: SensitivityError) -> PyErr {
-    match e {
-        SensitivityError::Setting { field, message } => {
-            let kw = match field {
-                SensitivitySetting::Draws => Some("draws"),
-                SensitivitySetting::Bootstrap => Some("bootstrap"),
-                SensitivitySetting::Thresholds => Some("thresholds"),
-                SensitivitySetting::Chunk => None,
-            };
-            setting_error(field, kw, &message)
-        }
-        other => lib_error(other),
-    }
-}
-
-/// A tail error with the keyword that sets its field.
-fn tail_error(e: TailError) -> PyErr {
-    match e {
-        TailError::Setting { field, message } => {
-            let kw = match field {
-                TailSetting::Thresholds => Some("threshold"),
-                TailSetting::TargetCov => Some("cov"),
-                TailSetting::MaxEvaluations => Some("max_evaluations"),
-                TailSetting::SamplesPerLevel => Some("samples_per_level"),
-                TailSetting::P0 => Some("p0"),
-                TailSetting::ProposalSpread | TailSetting::BatchSize => None,
-            };
-            setting_error(field, kw, &message)
-        }
-        other => lib_error(other),
-    }
-}
-
-/// A map error with the keyword that sets its field.
-fn map_error(e: MapError) -> PyErr {
-    match e {
-        MapError::Setting { field, message } => {
-            let kw = match field {
-                MapSetting::Cells => "cells",
-                MapSetting::PlanePosition => "at",
-                MapSetting::Workspace => "box_center/box_size",
-                MapSetting::Orientation => "orientation",
-                MapSetting::ReferenceConfiguration => "reference_q",
-                MapSetting::IkSeeds => "ik_seeds",
-                MapSetting::Thresholds => "thresholds",
-                MapSetting::Draws => "draws",
-            };
-            setting_error(field, Some(kw), &message)
-        }
-        other => lib_error(other),
-    }
 }
 
 /// Sobol indices of w (`gpu_amcs.sensitivity`).
@@ -161,34 +92,24 @@ problem_function! {
         bootstrap_seed: u64 = 1,
         thresholds: Option<Bound<'py, PyAny>> = None
     ) -> PySensitivityResult |py, problem| {
-        let opts = SensitivityOptions {
+        let options = SensitivityOptions {
             draws,
             bootstrap,
             bootstrap_seed,
             thresholds: numbers(thresholds.as_ref(), "thresholds", "mm")?.unwrap_or_default(),
             ..SensitivityOptions::default()
         };
-        opts.check().map_err(sensitivity_error)?;
+        options.check().map_err(sensitivity_error)?;
         let spec = problem.spec()?;
-        let budget = problem.budget()?;
-        let estimate = |m: u64| {
-            check_estimate(
-                &budget,
-                &opts
-                    .memory_estimate("use fewer draws")
-                    .plus(&[m, BYTES_PER_POINT]),
-            )
+        let job = SensitivityJob {
+            setup: spec.setup(problem.budget()?),
+            options,
         };
-        spec.check(&estimate)?;
-        let built = spec.build(&estimate)?;
-        let evaluators = spec.evaluators();
-        let (result, notes) = py.detach(|| -> PyResult<_> {
-            let (mut ev, notes) = evaluators.make(built.problem.clone())?;
-            let problem = evaluators.problem(built.problem);
-            let r = run_sensitivity(&problem, ev.as_mut(), &opts).map_err(sensitivity_error)?;
-            Ok((r, notes))
-        })?;
-        Ok(PySensitivityResult { result, notes })
+        let outcome = spec.run(py, || job.run(crate::backends()))?;
+        Ok(PySensitivityResult {
+            result: outcome.result,
+            notes: outcome.notes,
+        })
     }
 }
 
@@ -270,7 +191,7 @@ problem_function! {
                 )))
             }
         };
-        let opts = TailOptions {
+        let options = TailOptions {
             method,
             thresholds: numbers(threshold.as_ref(), "threshold", "mm")?.unwrap_or_default(),
             target_cov: cov,
@@ -279,27 +200,17 @@ problem_function! {
             p0,
             ..TailOptions::default()
         };
-        opts.check().map_err(tail_error)?;
+        options.check().map_err(tail_error)?;
         let spec = problem.spec()?;
-        let budget = problem.budget()?;
-        let estimate = |m: u64| {
-            check_estimate(
-                &budget,
-                &opts
-                    .memory_estimate("use fewer samples_per_level")
-                    .plus(&[m, BYTES_PER_POINT]),
-            )
+        let job = TailJob {
+            setup: spec.setup(problem.budget()?),
+            options,
         };
-        spec.check(&estimate)?;
-        let built = spec.build(&estimate)?;
-        let evaluators = spec.evaluators();
-        let (result, notes) = py.detach(|| -> PyResult<_> {
-            let (mut ev, notes) = evaluators.make(built.problem.clone())?;
-            let problem = evaluators.problem(built.problem);
-            let r = run_tail(ev.as_mut(), &problem, &opts, None).map_err(tail_error)?;
-            Ok((r, notes))
-        })?;
-        Ok(PyTailResult { result, notes })
+        let outcome = spec.run(py, || job.run(crate::backends()))?;
+        Ok(PyTailResult {
+            result: outcome.result,
+            notes: outcome.notes,
+        })
     }
 }
 
@@ -356,63 +267,6 @@ crate::report_class!(PyMapResult, text, {
     }
 });
 
-/// `v` as `N` numbers, or an error naming `name` and `what` they are.
-fn exactly<const N: usize>(v: &[f64], name: &str, what: &str) -> PyResult<[f64; N]> {
-    <[f64; N]>::try_from(v).map_err(|_| {
-        value_error(format!(
-            "{name} needs {N} numbers ({what}), got {}",
-            v.len()
-        ))
-    })
-}
-
-/// The map's grid from `plane`, `at` and `cells` (the command line's `--plane`, `--at`,
-/// `--cells`, with the same defaults).
-fn grid(plane: Option<&str>, at: Option<f64>, cells: Option<Vec<usize>>) -> PyResult<Grid> {
-    Ok(match (plane, at) {
-        (Some(p), Some(at)) => {
-            let plane = match p {
-                "xy" => Plane::Xy,
-                "xz" => Plane::Xz,
-                "yz" => Plane::Yz,
-                other => {
-                    return Err(value_error(format!(
-                        "plane: unknown plane '{other}' (expected \"xy\", \"xz\" or \"yz\")"
-                    )))
-                }
-            };
-            let cells = cells.unwrap_or_else(|| vec![50, 50]);
-            let [nx, ny] = <[usize; 2]>::try_from(cells.as_slice()).map_err(|_| {
-                value_error(format!(
-                    "cells needs two counts NX,NY for a plane, got {}",
-                    cells.len()
-                ))
-            })?;
-            Grid::Plane {
-                plane,
-                at,
-                cells: [nx, ny],
-            }
-        }
-        (Some(_), None) => {
-            return Err(value_error(
-                "plane needs at (the plane's position along its normal, mm)",
-            ))
-        }
-        (None, Some(_)) => return Err(value_error("at needs plane=\"xy\", \"xz\" or \"yz\"")),
-        (None, None) => {
-            let cells = cells.unwrap_or_else(|| vec![10, 10, 10]);
-            let c = <[usize; 3]>::try_from(cells.as_slice()).map_err(|_| {
-                value_error(format!(
-                    "cells needs three counts NX,NY,NZ for a 3-D grid (or give plane), got {}",
-                    cells.len()
-                ))
-            })?;
-            Grid::Volume { cells: c }
-        }
-    })
-}
-
 /// Workspace reliability map (`gpu-amcs map`): R_j, e_j and the Jacobian condition per cell of
 /// a plane slice (`plane` "xy"/"xz"/"yz" at `at` mm, `cells` NX,NY, default 50,50) or a 3-D
 /// grid (`cells` NX,NY,NZ, default 10,10,10) spanning the box `box_center`/`box_size` (mm; by
@@ -450,101 +304,49 @@ pub fn workspace_map<'py>(
     adapter: Option<String>,
     memory_limit: Option<Bound<'py, PyAny>>,
 ) -> PyResult<PyMapResult> {
-    let thresholds = numbers(thresholds.as_ref(), "thresholds", "mm")?
-        .unwrap_or_else(|| gpu_amcs_core::mc::DEFAULT_THRESHOLDS_MM.to_vec());
-    map::check_run(&thresholds, draws).map_err(map_error)?;
-    let source = match &model {
+    if orientation.is_some() && free_orientation {
+        return Err(value_error(
+            "orientation and free_orientation exclude each other: give one",
+        ));
+    }
+    let plane = plane
+        .map(|p| match p.as_str() {
+            "xy" => Ok(Plane::Xy),
+            "xz" => Ok(Plane::Xz),
+            "yz" => Ok(Plane::Yz),
+            other => Err(value_error(format!(
+                "plane: unknown plane '{other}' (expected \"xy\", \"xz\" or \"yz\")"
+            ))),
+        })
+        .transpose()?;
+    let mut job = MapJob::new(match &model {
         Some(m) => ModelSource::Model(Box::new(m.model.clone())),
         None => ModelSource::Preset(preset.unwrap_or_else(|| DEFAULT_PRESET.to_string())),
-    };
-    let model = source
-        .load()
-        .map_err(|e| arg_error(keyword(source.field()), e))?;
-    let grid = grid(plane.as_deref(), at, cells)?;
-    let orientation_rpy_deg = match (orientation, free_orientation) {
-        (Some(_), true) => {
-            return Err(value_error(
-                "orientation and free_orientation exclude each other: give one",
-            ))
-        }
-        (None, true) => None,
-        (Some(o), false) => Some(exactly::<3>(
-            &o,
-            "orientation",
-            "roll,pitch,yaw in degrees",
-        )?),
-        (None, false) => Some(tool_down_rpy_deg(&model)),
-    };
-    let reference_q_deg = match reference_q {
-        Some(q) => {
-            let n = model.joints();
-            if q.len() != n {
-                return Err(value_error(format!(
-                    "reference_q needs {n} numbers (q1..q{n} in degrees, one per joint of the \
-                     model), got {}",
-                    q.len()
-                )));
-            }
-            Joints::from_slice(&q)
-        }
-        None => default_reference_deg(&model),
-    };
-    let workspace = GeneratedPoints {
+    });
+    job.grid = MapSettings {
+        plane,
+        at,
+        cells,
+        orientation,
+        free_orientation,
+        reference_q,
+        ik_seeds,
         box_center,
         box_size,
-        ..GeneratedPoints::default()
-    }
-    .workspace(&model);
-    let mspec = MapSpec {
-        grid,
-        workspace,
-        orientation_rpy_deg,
-        reference_q_deg,
-        ik_seeds,
     };
-    mspec.check(&model).map_err(map_error)?;
-    let n = mspec.n_cells();
-    let needed = map::memory_estimate(n, n, draws, map::batch_size(n, draws));
-    let budget = crate::problem::memory_budget(memory_limit.as_ref())?;
-    check_estimate(&budget, &needed).map_err(|e| value_error(format!("draws, cells: {e}")))?;
-    let backend = crate::model::backend(&backend)?;
-    spec::backend_choice(backend, adapter.as_deref())
-        .map_err(|e| arg_error(keyword(e.field), e.kind))?;
-    let (result, notes) = py.detach(|| -> PyResult<_> {
-        let t0 = std::time::Instant::now();
-        let solutions = mspec.solve(&model).map_err(map_error)?;
-        let ik_seconds = t0.elapsed().as_secs_f64();
-        let points = map::test_points(&solutions);
-        let problem = Problem::new(model.clone(), &points, &Reference::Calibrated, seed)
-            .map_err(|e| arg_error("reached configurations", e))?;
-        let (mut ev, notes) =
-            spec::make_evaluator(crate::backends(), problem, backend, adapter.as_deref())
-                .map_err(|e| arg_error(keyword(e.field), e.kind))?;
-        let t1 = std::time::Instant::now();
-        let errors = map::evaluate_cells(
-            ev.as_mut(),
-            draws,
-            map::batch_size(points.len(), draws),
-            &thresholds,
-            None,
-        )
-        .map_err(map_error)?;
-        let timings = Timings {
-            ik_seconds,
-            eval_seconds: t1.elapsed().as_secs_f64(),
-        };
-        let eval = Evaluation::new(errors.cells, errors.w, &thresholds);
-        let result = MapResult::new(
-            &model.name,
-            &mspec,
-            seed,
-            solutions,
-            eval,
-            ev.info(),
-            timings,
-        )
-        .of_model(&model);
-        Ok((result, notes))
-    })?;
-    Ok(PyMapResult { result, notes })
+    job.draws = draws;
+    if let Some(t) = numbers(thresholds.as_ref(), "thresholds", "mm")? {
+        job.thresholds = t;
+    }
+    job.seed = seed;
+    job.backend = crate::model::backend(&backend)?;
+    job.adapter = adapter;
+    job.memory = crate::problem::memory_budget(memory_limit.as_ref())?;
+    let outcome = py
+        .detach(|| job.run(crate::backends()))
+        .map_err(job_error)?;
+    Ok(PyMapResult {
+        result: outcome.result,
+        notes: outcome.notes,
+    })
 }

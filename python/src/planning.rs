@@ -3,46 +3,13 @@
 //! report: `to_dict()` / `to_json()` are the document `--json` writes, `to_text()` the summary
 //! it prints, `design_csv()` the file `--out` writes.
 
-use crate::errors::value_error;
-use crate::problem::{check_estimate, problem_function, BYTES_PER_POINT};
-use gpu_amcs_core::kinematics::Joints;
-use gpu_amcs_core::memory::Estimate;
+use crate::errors::{plan_error, value_error};
+use crate::problem::problem_function;
+use gpu_amcs_core::job::{PlanJob, PlanTask};
 use gpu_amcs_core::plan::program::{robot_program, ProgramFormat};
-use gpu_amcs_core::plan::{
-    self as planner, KeepOut, Plan, PlanError, PlanField, PlanOptions, TrackerSite, Workcell,
-};
+use gpu_amcs_core::plan::{KeepOut, Plan, TrackerSite, Workcell};
 use gpu_amcs_core::report::Report;
 use pyo3::prelude::*;
-
-/// The keyword of a plan setting.
-fn keyword(f: PlanField) -> &'static str {
-    match f {
-        PlanField::Poses => "poses",
-        PlanField::Candidates => "candidates",
-        PlanField::Sigma => "tracker_sigma",
-        PlanField::Tracker => "tracker_at",
-        PlanField::Thresholds => "threshold",
-        PlanField::Search => "draws",
-        PlanField::TaskPoints => "q_deg",
-        PlanField::Target => "target",
-        PlanField::Floor => "floor",
-        PlanField::KeepOut => "keep_out",
-        PlanField::LinkRadius => "link_radius",
-        PlanField::Program => "program",
-    }
-}
-
-fn plan_error(e: PlanError) -> PyErr {
-    match e {
-        PlanError::Setting { field, message } => {
-            value_error(format!("{field} ({}): {message}", keyword(field)))
-        }
-        PlanError::NotIdentifiable(m) => value_error(format!(
-            "the candidates do not identify the model (target, candidates): {m}"
-        )),
-        other => value_error(other.to_string()),
-    }
-}
 
 /// A calibration plan (`gpu_amcs.plan`).
 #[pyclass(module = "gpu_amcs", name = "PlanResult", frozen)]
@@ -180,54 +147,25 @@ problem_function! {
         self_collision: bool = true,
         link_radius: Option<f64> = None
     ) -> PyPlan |py, problem| {
-        if !(100..=100_000_000).contains(&draws) {
-            return Err(value_error(format!("draws: must be 100 … 100000000, got {draws}")));
-        }
-        let tracker_at = triple(tracker_at, "tracker_at")?;
-        let target = triple(target, "target")?;
-        let workcell = workcell(floor, keep_out, self_collision, link_radius)?;
-        let thresholds = crate::arrays::numbers(threshold.as_ref(), "threshold", "mm")?
-            .unwrap_or_else(|| gpu_amcs_core::plan::DEFAULT_THRESHOLDS_MM.to_vec());
-        let seed = problem.seed;
         let spec = problem.spec()?;
-        let budget = problem.budget()?;
-        let estimate = |m: u64| {
-            check_estimate(
-                &budget,
-                &Estimate::new(format!("a calibration plan with {draws} draws"), "use fewer draws")
-                    .plus(&[draws as u64, 8])
-                    .plus(&[candidates as u64, 64 * 27 * 8])
-                    .plus(&[m, BYTES_PER_POINT]),
-            )
+        let job = PlanJob {
+            setup: spec.setup(problem.budget()?),
+            task: PlanTask::Points,
+            poses,
+            candidates,
+            sigma_mm: tracker_sigma,
+            tracker: triple(tracker_at, "tracker_at")?.map(|t| TrackerSite {
+                position_mm: t,
+                range_mm: tracker_range,
+                max_incidence_deg: max_incidence,
+            }),
+            thresholds: crate::arrays::numbers(threshold.as_ref(), "threshold", "mm")?
+                .unwrap_or_else(|| gpu_amcs_core::plan::DEFAULT_THRESHOLDS_MM.to_vec()),
+            target: triple(target, "target")?,
+            workcell: workcell(floor, keep_out, self_collision, link_radius)?,
+            draws,
         };
-        spec.check(&estimate)?;
-        let built = spec.build(&estimate)?;
-        let evaluators = spec.evaluators();
-        let (result, notes) = py.detach(|| -> PyResult<_> {
-            let model = planner::model_to_plan(&built.problem);
-            let task: Vec<Joints> =
-                built.problem.points.iter().map(|q| q.map(f64::to_degrees)).collect();
-            let opts = PlanOptions {
-                poses,
-                candidates,
-                sigma_mm: tracker_sigma,
-                tracker: tracker_at.map(|t| TrackerSite {
-                    position_mm: t,
-                    range_mm: tracker_range,
-                    max_incidence_deg: max_incidence,
-                }),
-                thresholds: thresholds.clone(),
-                target_mm: target.unwrap_or_else(|| PlanOptions::default_target(&model)),
-                seed,
-                workcell,
-                ..PlanOptions::default()
-            };
-            let mut p = planner::plan(&model, &task, &opts).map_err(plan_error)?;
-            let problem = planner::prediction_problem(&p, &task, seed).map_err(plan_error)?;
-            let (mut ev, notes) = evaluators.make(problem)?;
-            p.prediction = Some(planner::predict(ev.as_mut(), draws, &thresholds).map_err(plan_error)?);
-            Ok((p, notes))
-        })?;
-        Ok(PyPlan { plan: result, notes })
+        let outcome = spec.run(py, || job.run(crate::backends()))?;
+        Ok(PyPlan { plan: outcome.plan, notes: outcome.notes })
     }
 }

@@ -7,6 +7,7 @@ use crate::arrays;
 use crate::errors::{arg_error, value_error};
 use crate::model::{self, PyModel};
 use gpu_amcs_core::engine::{Evaluator, Frame, Problem};
+use gpu_amcs_core::job::{JobError, Setup};
 use gpu_amcs_core::memory::{Estimate, MemoryBudget};
 use gpu_amcs_core::spec::{
     self, BuiltProblem, GeneratedPoints, ModelSource, PointsSource, ProblemSpec, ReferenceSource,
@@ -14,10 +15,6 @@ use gpu_amcs_core::spec::{
 };
 use pyo3::prelude::*;
 use std::path::PathBuf;
-
-/// Bytes kept per test point: configuration in degrees and radians, reference position and
-/// bookkeeping, with room to spare (as the command line estimates).
-pub const BYTES_PER_POINT: u64 = 256;
 
 /// The Python keyword that sets each field of a [`ProblemSpec`] (the command line's flag,
 /// spelled as a keyword; given configurations are `q_deg`).
@@ -147,11 +144,30 @@ impl Spec {
         spec_error(e, self.nominal_from_preset)
     }
 
-    /// Checks what needs no file ([`ProblemSpec::check`]) and the memory of the generated or
-    /// given points by `estimate`.
-    pub fn check(&self, estimate: &dyn Fn(u64) -> PyResult<()>) -> PyResult<()> {
-        self.spec.check().map_err(|e| self.error(e))?;
-        estimate(self.spec.known_points().unwrap_or(0) as u64)
+    /// A job error as a `ValueError` naming the keyword (a spec field as [`Self::error`]).
+    pub fn job_error(&self, e: JobError) -> PyErr {
+        match e {
+            JobError::Spec(e) => self.error(e),
+            e => crate::errors::job_error(e),
+        }
+    }
+
+    /// Runs a job on this spec without the GIL: what it gives, or its error naming the keyword.
+    pub fn run<T: Send>(
+        &self,
+        py: Python<'_>,
+        job: impl FnOnce() -> Result<T, JobError> + Send,
+    ) -> PyResult<T> {
+        py.detach(job).map_err(|e| self.job_error(e))
+    }
+
+    /// The setup of a job on this spec within `memory`, heard by nobody.
+    pub fn setup(&self, memory: MemoryBudget) -> Setup {
+        Setup {
+            memory,
+            frame: self.frame,
+            ..Setup::new(self.spec.clone())
+        }
     }
 
     /// Builds the problem ([`ProblemSpec::build_problem`]) and checks the memory of its points
@@ -191,12 +207,6 @@ impl Evaluators {
             self.frame,
         )
         .map_err(|e| spec_error(e, false))
-    }
-
-    /// The problem an analysis in the spec's frame runs (the placement's spread left out in the
-    /// robot base frame), for the drivers that read the problem's distribution.
-    pub fn problem(&self, problem: Problem) -> Problem {
-        problem.in_frame(self.frame)
     }
 }
 
@@ -250,13 +260,7 @@ pub fn memory_budget(memory_limit: Option<&Bound<'_, PyAny>>) -> PyResult<Memory
 
 /// Checks that an estimate fits `budget`.
 pub fn check_estimate(budget: &MemoryBudget, e: &Estimate) -> PyResult<()> {
-    budget.check(e).map_err(|e| match e {
-        gpu_amcs_core::memory::MemoryError::TooLarge {
-            source_of_limit: gpu_amcs_core::memory::LimitSource::User,
-            ..
-        } => value_error(format!("memory_limit: {}", crate::errors::one_line(&e))),
-        e => crate::errors::lib_error(e),
-    })
+    budget.check(e).map_err(crate::errors::memory_error)
 }
 
 impl ProblemKw<'_> {

@@ -1,21 +1,16 @@
 //! `gpu_amcs.mcs` and `gpu_amcs.amcs`: the command line's runs with the same defaults, the same
-//! problem (model, generated or given test points, reference, seed), the same drivers and the
-//! same JSON report (`RunResult.to_dict()` is the document `--json` writes).
+//! problem (model, generated or given test points, reference, seed) and the same library job
+//! (`McsJob`, `AmcsJob`), so the same JSON report (`RunResult.to_dict()` is the document
+//! `--json` writes). An MCS run here keeps its values (`RunResult.values`): one that would not
+//! fit the memory is refused, never summarised.
 
 use crate::errors::{driver_error, value_error};
-use crate::problem::{check_estimate, problem_function, Evaluators, ProblemKw, BYTES_PER_POINT};
-use gpu_amcs_core::mc::{
-    self, AmcsOptions, IntervalKind, McResult, McsOptions, RunSettings, Tolerance,
-    DEFAULT_THRESHOLDS_MM,
-};
-use gpu_amcs_core::memory::Estimate;
+use crate::problem::problem_function;
+use gpu_amcs_core::job::{AmcsJob, McsJob, Shard, SummaryMode};
+use gpu_amcs_core::mc::{AmcsOptions, IntervalKind, RunSettings, Tolerance};
 use gpu_amcs_core::report::{Report, RunReport};
 use numpy::{IntoPyArray, PyArray1};
 use pyo3::prelude::*;
-
-/// Bytes kept per draw: its value, and as much again for the growth of the value vector (as
-/// the command line estimates).
-const BYTES_PER_DRAW: u64 = 16;
 
 /// The result of a run: `to_dict()` / `to_json()` give the command line's JSON document;
 /// `values` the w of every draw, ascending.
@@ -100,11 +95,11 @@ crate::report_class!(RunResult, text, {
 });
 
 /// The reporting keywords of `mcs` and `amcs` (`--coverage`, `--interval`, `--thresholds`,
-/// `--per-point`), checked.
+/// `--per-point`), the thresholds the library's default when not given.
 fn settings(
     coverage: f64,
     interval: &str,
-    thresholds: Vec<f64>,
+    thresholds: Option<&Bound<'_, PyAny>>,
     per_point: bool,
 ) -> PyResult<RunSettings> {
     let interval = match interval {
@@ -116,104 +111,13 @@ fn settings(
             )))
         }
     };
-    let settings = RunSettings {
+    Ok(RunSettings {
         coverage_probability: coverage,
         interval,
-        thresholds,
+        thresholds: crate::arrays::numbers(thresholds, "thresholds", "mm")?
+            .unwrap_or_else(|| RunSettings::default().thresholds),
         per_point,
-    };
-    settings.check().map_err(driver_error)?;
-    Ok(settings)
-}
-
-/// A built run: the problem and the evaluator's choice, ready to drive.
-struct Built {
-    problem: gpu_amcs_core::engine::Problem,
-    reference: String,
-    evaluators: Evaluators,
-    settings: RunSettings,
-}
-
-/// Builds the problem of `kw` ([`ProblemSpec`](gpu_amcs_core::spec::ProblemSpec)), checking
-/// the memory of `draws` draws evaluated `batch` at a time before any work and again once the
-/// points are known.
-fn build(
-    kw: &ProblemKw<'_>,
-    settings: RunSettings,
-    what: String,
-    (draws, batch): (u64, u64),
-    advice: &str,
-) -> PyResult<Built> {
-    let spec = kw.spec()?;
-    let per_point = settings.per_point;
-    let budget = kw.budget()?;
-    let estimate = |m: u64| {
-        let e = Estimate::new(what.clone(), advice)
-            .plus(&[draws, BYTES_PER_DRAW])
-            .plus(&[m, BYTES_PER_POINT])
-            .plus(&[batch, m, if per_point { 16 } else { 0 }]);
-        check_estimate(&budget, &e)
-    };
-    spec.check(&estimate)?;
-    let built = spec.build(&estimate)?;
-    Ok(Built {
-        problem: built.problem,
-        reference: built.reference,
-        evaluators: spec.evaluators(),
-        settings,
     })
-}
-
-impl Built {
-    /// Runs `drive` on the problem's evaluator without the GIL and assembles the report as the
-    /// command line does.
-    fn run(
-        self,
-        py: Python<'_>,
-        drive: impl FnOnce(
-                &mut dyn gpu_amcs_core::engine::Evaluator,
-                RunSettings,
-            ) -> Result<McResult, mc::McError>
-            + Send,
-    ) -> PyResult<RunResult> {
-        let (model, points, seed) = (
-            self.problem.model.name.clone(),
-            self.problem.n_points(),
-            self.problem.seed,
-        );
-        let settings = self.settings;
-        // The CLI's notes first: what the report says about the model (an uncertain tool).
-        let model_notes = gpu_amcs_core::report::model_notes(&self.problem.model);
-        let (evaluators, problem) = (self.evaluators, self.problem);
-        let (result, notes) = py.detach(|| -> PyResult<(McResult, Vec<String>)> {
-            let (mut ev, note) = evaluators.make(problem)?;
-            let result = drive(ev.as_mut(), settings).map_err(driver_error)?;
-            Ok((result, model_notes.into_iter().chain(note).collect()))
-        })?;
-        Ok(RunResult {
-            report: RunReport {
-                model,
-                points,
-                reference: self.reference,
-                seed,
-                notes,
-                result,
-            },
-        })
-    }
-}
-
-/// The `thresholds` of `mcs` and `amcs` (a number or a sequence, mm), the command line's
-/// default when not given.
-fn run_thresholds(v: Option<&Bound<'_, PyAny>>) -> PyResult<Vec<f64>> {
-    Ok(crate::arrays::numbers(v, "thresholds", "mm")?
-        .unwrap_or_else(|| DEFAULT_THRESHOLDS_MM.to_vec()))
-}
-
-/// Draws per evaluation chunk of an MCS run of `draws` draws (the command line's chunk, so the
-/// trace and the values are the same).
-fn mcs_chunk(draws: u64) -> u64 {
-    100_000.min(draws.max(1))
 }
 
 problem_function! {
@@ -231,24 +135,18 @@ problem_function! {
         thresholds: Option<Bound<'py, PyAny>> = None,
         per_point: bool = false
     ) -> RunResult |py, problem| {
-        let chunk = mcs_chunk(draws);
-        let thresholds = run_thresholds(thresholds.as_ref())?;
-        let settings = settings(coverage, &interval, thresholds, per_point)?;
-        let built = build(
-            &problem,
+        let settings = settings(coverage, &interval, thresholds.as_ref(), per_point)?;
+        settings.check().map_err(driver_error)?;
+        let spec = problem.spec()?;
+        let job = McsJob {
+            setup: spec.setup(problem.budget()?),
+            draws,
             settings,
-            format!("MCS with {draws} draws"),
-            (draws, chunk),
-            "use fewer draws (or amcs), fewer points or per_point=False",
-        )?;
-        built.run(py, move |ev, settings| {
-            let opts = McsOptions {
-                draws,
-                chunk,
-                settings,
-            };
-            mc::run_mcs(ev, &opts, None)
-        })
+            summary: SummaryMode::Never,
+            shard: Shard::WHOLE,
+        };
+        let report = spec.run(py, || job.run(crate::backends()))?.report;
+        Ok(RunResult { report })
     }
 }
 
@@ -268,7 +166,6 @@ problem_function! {
         thresholds: Option<Bound<'py, PyAny>> = None,
         per_point: bool = false
     ) -> RunResult |py, problem| {
-        let thresholds = run_thresholds(thresholds.as_ref())?;
         let tolerance = match (delta, ndig) {
             (Some(_), Some(_)) => {
                 return Err(value_error("delta and ndig exclude each other: give one"))
@@ -276,29 +173,19 @@ problem_function! {
             (_, Some(n)) => Tolerance::Ndig(n),
             (d, None) => Tolerance::Delta(d.unwrap_or(0.01)),
         };
-        let mut opts = AmcsOptions {
+        let options = AmcsOptions {
             tolerance,
             batch_size: batch,
             max_draws,
-            settings: RunSettings {
-                coverage_probability: coverage,
-                interval: IntervalKind::Shortest,
-                thresholds: thresholds.clone(),
-                per_point,
-            },
+            settings: settings(coverage, &interval, thresholds.as_ref(), per_point)?,
         };
-        opts.check().map_err(driver_error)?;
-        let settings = settings(coverage, &interval, thresholds, per_point)?;
-        let built = build(
-            &problem,
-            settings,
-            format!("AMCS with up to {max_draws} draws"),
-            (max_draws, batch),
-            "lower max_draws or batch, use fewer points or per_point=False",
-        )?;
-        built.run(py, move |ev, settings| {
-            opts.settings = settings;
-            mc::run_amcs(ev, &opts, None)
-        })
+        options.check().map_err(driver_error)?;
+        let spec = problem.spec()?;
+        let job = AmcsJob {
+            setup: spec.setup(problem.budget()?),
+            options,
+        };
+        let report = spec.run(py, || job.run(crate::backends()))?.report;
+        Ok(RunResult { report })
     }
 }

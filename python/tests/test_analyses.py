@@ -356,6 +356,11 @@ def test_identify_strict_refuses_implausible_results(cli, sweeps):
      dict(plane="xy", at=100, cells=[3, 3, 3])),
     (["map", "--orientation", "1,2"], gpu_amcs.map, dict(orientation=[1, 2])),
     (["map", "--reference-q", "1,2,3"], gpu_amcs.map, dict(reference_q=[1, 2, 3])),
+    # The grid, the prediction's draws and a run's draws, as the library's jobs check them.
+    (["map", "--plane", "xy"], gpu_amcs.map, dict(plane="xy")),
+    (["map", "--at", 100], gpu_amcs.map, dict(at=100)),
+    (["plan", "--draws", 50, "--out", "never.csv"], gpu_amcs.plan, dict(draws=50)),
+    (["mcs", "--draws", 10], gpu_amcs.mcs, dict(draws=10)),
     (["sensitivity", "--points", 0], gpu_amcs.sensitivity, dict(points=0)),
     (["tail", "--threshold", 0.2, "--preset", "tx90"], gpu_amcs.tail,
      dict(threshold=0.2, preset="tx90")),

@@ -225,7 +225,7 @@ def test_shapes_are_refused_naming_the_models_shape(iiwa, q):
     with pytest.raises(ValueError, match=re.escape("q_deg: expected a 2-D array of shape (m, 7)")):
         gpu_amcs.mcs(iiwa, q_deg=q[:, :6], draws=1000, backend="cpu")
     with pytest.raises(ValueError, match=re.escape(
-            "reference_q needs 7 numbers (q1..q7 in degrees, one per joint of the model), got 6")):
+            "(reference_q): needs 7 numbers (q1..q7 in degrees, one per joint of the model), got 6")):
         gpu_amcs.map(iiwa, reference_q=[0, 30, 0, -60, 0, 30], plane="xy", at=500,
                      cells=[2, 2], draws=100, backend="cpu")
     # The NumPy reference takes the joint count from the width of the rows.

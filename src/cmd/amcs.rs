@@ -1,12 +1,14 @@
 //! `amcs` (and the default run): adaptive Monte Carlo, GUM S1 §7.9.
 
-use super::analysis::{run_and_report, Plan};
-use super::flags::Driver;
+use super::analysis::{outputs, run_and_report};
+use super::flags::{job_error, Driver};
+use super::progress::Bars;
 use super::Run;
 use crate::cmd::args::{OutputArgs, ProblemArgs};
 use anyhow::Result;
 use clap::Args;
-use gpu_amcs::mc::{self, AmcsOptions, Tolerance};
+use gpu_amcs::job::AmcsJob;
+use gpu_amcs::mc::{AmcsOptions, Tolerance};
 
 /// AMCS options.
 #[derive(Args, Debug, Clone)]
@@ -51,19 +53,18 @@ impl AmcsArgs {
 
 impl Run for AmcsArgs {
     fn run(self) -> Result<()> {
-        let opts = self.options();
-        opts.check().map_err(|e| Driver::Run.error(e))?;
-        let plan = Plan {
-            label: "AMCS",
-            capped: true,
-            what: format!("AMCS with up to {} draws", self.max_draws),
-            draws: self.max_draws,
-            batch: self.batch,
-            advice: "lower --max-draws or --batch, use fewer --points or no --per-point, \
-                     or raise --memory-limit",
+        let options = self.options();
+        options.check().map_err(|e| Driver::Run.error(e))?;
+        self.problem.check()?;
+        let outputs = outputs(&self.problem, &self.output)?;
+        let bars = Bars::new(self.output.reports.quiet, |_| ("AMCS", "draws", true));
+        let job = AmcsJob {
+            setup: self.problem.setup(&bars)?,
+            options,
         };
-        let rep = run_and_report(&self.problem, &self.output, plan, Driver::Run, |ev, cb| {
-            mc::run_amcs(ev, &opts, Some(cb))
+        job.check().map_err(job_error)?;
+        let rep = run_and_report(&self.problem, &self.output, outputs, &bars, || {
+            job.run(gpu_amcs::backends())
         })?;
         if !rep.result.converged {
             eprintln!(

@@ -15,6 +15,7 @@ use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use gpu_amcs::engine::backend::BackendChoice;
 use gpu_amcs::engine::{Evaluator, Problem};
+use gpu_amcs::job::Setup;
 use gpu_amcs::kinematics::RobotModel;
 use gpu_amcs::mc::{IntervalKind, RunSettings};
 use gpu_amcs::memory::{self, Estimate, MemoryBudget};
@@ -126,11 +127,6 @@ impl From<FrameArg> for gpu_amcs::engine::Frame {
     }
 }
 
-/// The problem an analysis in `frame` runs ([`Problem::in_frame`]).
-pub fn frame_problem(problem: Problem, frame: FrameArg) -> Problem {
-    problem.in_frame(frame.into())
-}
-
 /// Model, test points, reference, seed and backend.
 #[derive(Args, Debug, Clone)]
 pub struct ProblemArgs {
@@ -236,9 +232,7 @@ pub struct OutputArgs {
     pub reports: ReportFlags,
 }
 
-/// Bytes kept per test point: the configuration in degrees and radians, the reference
-/// position and the problem's bookkeeping, with room to spare.
-pub const BYTES_PER_POINT: u64 = 256;
+pub use gpu_amcs::job::{BYTES_PER_DRAW, BYTES_PER_POINT};
 
 /// The library's default thresholds (`gpu_amcs::mc::DEFAULT_THRESHOLDS_MM`) as the one
 /// comma-separated value `--thresholds` takes, for the flags' defaults and help.
@@ -249,9 +243,6 @@ pub static DEFAULT_THRESHOLDS: std::sync::LazyLock<String> =
 pub fn comma_list(v: &[f64]) -> String {
     v.iter().map(f64::to_string).collect::<Vec<_>>().join(",")
 }
-
-/// Bytes kept per draw: its value, and as much again for the growth of the value vector.
-pub const BYTES_PER_DRAW: u64 = 16;
 
 impl From<BackendArg> for BackendChoice {
     fn from(b: BackendArg) -> Self {
@@ -375,23 +366,6 @@ impl BackendArgs {
         spec::backend_choice(self.backend.into(), self.adapter.as_deref()).map_err(spec_error)
     }
 
-    /// Builds the evaluator for targets in `frame` (drawing an uncertain placement in the
-    /// measurement frame); the notes say what was chosen and why.
-    pub fn frame_evaluator(
-        &self,
-        problem: Problem,
-        frame: FrameArg,
-    ) -> Result<(Box<dyn Evaluator>, Vec<String>)> {
-        spec::make_frame_evaluator(
-            gpu_amcs::backends(),
-            problem,
-            self.backend.into(),
-            self.adapter.as_deref(),
-            frame.into(),
-        )
-        .map_err(spec_error)
-    }
-
     /// Builds the evaluator; the notes say what was chosen and why.
     pub fn evaluator(&self, problem: Problem) -> Result<(Box<dyn Evaluator>, Vec<String>)> {
         spec::make_evaluator(
@@ -480,14 +454,6 @@ pub fn thread_pool(threads: Option<usize>) -> Result<rayon::ThreadPool> {
 /// Address space a pool thread reserves for its stack (Rust's default 2 MiB and a guard page).
 const THREAD_STACK_BYTES: u64 = (2 << 20) + (4 << 10);
 
-/// The problem a run analyses and a label of its reference.
-pub struct Built {
-    /// Model, points, reference and seed.
-    pub problem: Problem,
-    /// "calibrated model" or "nominal model (NAME)".
-    pub reference: String,
-}
-
 impl ProblemArgs {
     /// The library's description of the problem these flags give (the box's shape checked).
     pub fn spec(&self) -> Result<ProblemSpec> {
@@ -564,15 +530,23 @@ impl ProblemArgs {
         .collect()
     }
 
+    /// The job setup of these flags: the spec, the frame, the memory budget, and `bars` told
+    /// the progress and notices.
+    pub fn setup(&self, bars: &std::sync::Arc<super::progress::Bars>) -> Result<Setup> {
+        Ok(Setup {
+            problem: self.spec()?,
+            frame: self.frame.into(),
+            memory: self.memory.budget()?,
+            progress: bars.hook(self.model.model.as_deref()),
+        })
+    }
+
     /// Reads the model and points and builds the problem ([`ProblemSpec::build_problem`]).
-    pub fn build(&self) -> Result<Built> {
+    pub fn build(&self) -> Result<Problem> {
         self.check()?;
         let b = self.spec()?.build_problem().map_err(spec_error)?;
         print_model_notes(self.model.model.as_deref(), &b.notes);
-        Ok(Built {
-            problem: b.problem,
-            reference: b.reference,
-        })
+        Ok(b.problem)
     }
 }
 

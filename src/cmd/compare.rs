@@ -2,7 +2,6 @@
 
 use super::args::{thread_pool, BYTES_PER_DRAW};
 use super::flags::Driver;
-use super::mcs::chunk;
 use super::outputs::Outputs;
 use super::progress::Progress;
 use super::reports::{problem_rows, write_reports};
@@ -11,6 +10,7 @@ use crate::cmd::args::{DeltasArgs, ProblemArgs};
 use crate::cmd::reports::ReportFlags;
 use anyhow::Result;
 use clap::Args;
+use gpu_amcs::job::{Analysed, McsJob};
 use gpu_amcs::mc::{self, AmcsOptions, McsOptions, RunSettings, Tolerance};
 use gpu_amcs::memory::Estimate;
 use gpu_amcs::report::{self, Comparison};
@@ -92,15 +92,11 @@ impl Run for CompareArgs {
         a.problem.memory.check(&a.problem.points_estimate(e))?;
         let pool = thread_pool(a.problem.threads)?;
         let (c, rows) = pool.install(|| -> Result<(Comparison, Vec<(String, String)>)> {
-            let built = a.problem.build()?;
-            let (model, m, seed) = (
-                built.problem.model.name.clone(),
-                built.problem.n_points(),
-                built.problem.seed,
-            );
-            let rows = problem_rows(&a.problem, &built.problem);
-            let model_notes = report::model_notes(&built.problem.model);
-            let (mut ev, notes) = a.problem.backend.evaluator(built.problem)?;
+            let problem = a.problem.build()?;
+            let (model, m, seed) = (problem.model.name.clone(), problem.n_points(), problem.seed);
+            let rows = problem_rows(&a.problem, &Analysed::of(&problem));
+            let model_notes = report::model_notes(&problem.model);
+            let (mut ev, notes) = a.problem.backend.evaluator(problem)?;
             let notes = [model_notes, notes].concat();
             let bar = Progress::new(a.reports.quiet, "MCS", "draws");
             let cb = |done: u64, total: u64| bar.update(done, total);
@@ -108,7 +104,7 @@ impl Run for CompareArgs {
                 ev.as_mut(),
                 &McsOptions {
                     draws: a.draws,
-                    chunk: chunk(a.draws),
+                    chunk: McsJob::chunk(a.draws),
                     settings: base.clone(),
                 },
                 Some(&cb),

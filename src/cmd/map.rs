@@ -1,25 +1,20 @@
 //! `map`: a workspace reliability map over a plane slice or a 3-D grid (inverse kinematics per
-//! cell, one per-point evaluation of all reached cells).
+//! cell, one per-point evaluation of all reached cells; the library's `MapJob`), or one shard
+//! of the reached cells for `merge`.
 
 use super::args::thread_pool;
-use super::flags::map_error;
-use super::merge::Shard;
+use super::flags::{job_error, map_error};
+use super::merge::summary_shard;
 use super::outputs::Outputs;
-use super::progress::Progress;
+use super::progress::Bars;
 use super::reports::{model_source, threads_row, write_reports};
 use super::Run;
 use crate::cmd::args::{BackendArgs, BoxArgs, MemoryArgs, ModelArgs};
 use crate::cmd::reports::ReportFlags;
-use anyhow::{bail, Context, Result};
+use anyhow::Result;
 use clap::{Args, ValueEnum};
-use gpu_amcs::engine::{BackendInfo, Problem, Reference};
-use gpu_amcs::kinematics::RobotModel;
-use gpu_amcs::map::shard::MapShard;
-use gpu_amcs::map::{
-    self, default_reference_deg, tool_down_rpy_deg, CellErrors, CellIk, Evaluation, Grid,
-    MapResult, MapSpec, Plane, Timings,
-};
-use gpu_amcs::mc::summary::Provenance;
+use gpu_amcs::job::{MapJob, MapSettings};
+use gpu_amcs::map::{self, MapResult, Plane};
 use std::path::PathBuf;
 
 /// Plane of a slice.
@@ -135,162 +130,68 @@ pub struct MapArgs {
     pub summary_out: Option<PathBuf>,
 }
 
-/// `v` as `N` numbers, or an error naming `flag` and `what` they are.
-fn exactly<const N: usize>(v: &[f64], flag: &str, what: &str) -> Result<[f64; N]> {
-    <[f64; N]>::try_from(v)
-        .map_err(|_| anyhow::anyhow!("{flag} needs {N} numbers ({what}), got {}", v.len()))
-}
-
 impl MapArgs {
-    /// The map's specification from the flags (the model gives the default reference).
-    fn spec(&self, model: &gpu_amcs::kinematics::RobotModel) -> Result<MapSpec> {
-        let grid = match (self.plane, self.at) {
-            (Some(p), Some(at)) => {
-                let cells = self.cells.clone().unwrap_or_else(|| vec![50, 50]);
-                let [nx, ny] = <[usize; 2]>::try_from(cells.as_slice()).map_err(|_| {
-                    anyhow::anyhow!(
-                        "--cells needs two counts NX,NY for a plane, got {}",
-                        cells.len()
-                    )
-                })?;
-                Grid::Plane {
-                    plane: match p {
-                        PlaneArg::Xy => Plane::Xy,
-                        PlaneArg::Xz => Plane::Xz,
-                        PlaneArg::Yz => Plane::Yz,
-                    },
-                    at,
-                    cells: [nx, ny],
-                }
-            }
-            (Some(_), None) => {
-                bail!("--plane needs --at MM (the plane's position along its normal)")
-            }
-            (None, Some(_)) => bail!("--at needs --plane xy|xz|yz"),
-            (None, None) => {
-                let cells = self.cells.clone().unwrap_or_else(|| vec![10, 10, 10]);
-                let c = <[usize; 3]>::try_from(cells.as_slice()).map_err(|_| {
-                    anyhow::anyhow!(
-                        "--cells needs three counts NX,NY,NZ for a 3-D grid (or give --plane), got {}",
-                        cells.len()
-                    )
-                })?;
-                Grid::Volume { cells: c }
-            }
-        };
-        let orientation = match (&self.orientation, self.free_orientation) {
-            (_, true) => None,
-            (Some(o), false) => Some(exactly::<3>(
-                o,
-                "--orientation",
-                "roll,pitch,yaw in degrees",
-            )?),
-            (None, false) => Some(tool_down_rpy_deg(model)),
-        };
-        let reference_q_deg = match &self.reference_q {
-            Some(q) if q.len() == model.joints() => gpu_amcs::kinematics::Joints::from_slice(q),
-            Some(q) => anyhow::bail!(
-                "--reference-q needs {n} numbers (q1..q{n} in degrees, one per joint of the model), got {}",
-                q.len(),
-                n = model.joints()
-            ),
-            None => default_reference_deg(model),
-        };
-        Ok(MapSpec {
-            grid,
-            workspace: self.workspace.workspace(model)?,
-            orientation_rpy_deg: orientation,
-            reference_q_deg,
-            ik_seeds: self.ik_seeds,
+    /// The library's job of these flags, telling `bars`.
+    fn job(&self, bars: &std::sync::Arc<Bars>) -> Result<MapJob> {
+        let box_ = self.workspace.generated(0, 0)?;
+        Ok(MapJob {
+            model: self.model.source()?,
+            frame: self.frame.into(),
+            grid: MapSettings {
+                plane: self.plane.map(|p| match p {
+                    PlaneArg::Xy => Plane::Xy,
+                    PlaneArg::Xz => Plane::Xz,
+                    PlaneArg::Yz => Plane::Yz,
+                }),
+                at: self.at,
+                cells: self.cells.clone(),
+                orientation: self.orientation.clone(),
+                free_orientation: self.free_orientation,
+                reference_q: self.reference_q.clone(),
+                ik_seeds: self.ik_seeds,
+                box_center: box_.box_center,
+                box_size: box_.box_size,
+            },
+            draws: self.draws,
+            thresholds: self.thresholds.clone(),
+            seed: self.seed,
+            backend: self.backend.backend.into(),
+            adapter: self.backend.adapter.clone(),
+            memory: self.memory.budget()?,
+            reports: map::ReportKinds {
+                json: self.reports.json.is_some(),
+                csv: self.reports.csv.is_some(),
+                svg: self.reports.svg.is_some(),
+                html: self.reports.html.is_some(),
+            },
+            progress: bars.hook(self.model.model.as_deref()),
         })
     }
-}
-
-/// The fewest shards `n ≥ 2` of `cells` cells that each fit (`fits` of at most ⌈cells/n⌉
-/// evaluated cells), if any does.
-fn fewest_shards(cells: usize, fits: impl Fn(usize) -> bool) -> Option<usize> {
-    if cells < 2 || !fits(1) {
-        return None;
-    }
-    let (mut lo, mut hi) = (2, cells);
-    while lo < hi {
-        let mid = lo + (hi - lo) / 2;
-        if fits(cells.div_ceil(mid)) {
-            hi = mid;
-        } else {
-            lo = mid + 1;
-        }
-    }
-    Some(lo)
 }
 
 impl Run for MapArgs {
     fn run(self) -> Result<()> {
         let a = self;
-        map::check_run(&a.thresholds, a.draws).map_err(map_error)?;
-        let mut model = a.model.load()?;
-        if a.frame == crate::cmd::args::FrameArg::Base {
-            model = model.without_base_uncertainty();
-            model.base = None;
-        } else if model.base_uncertain() && !a.reports.quiet {
-            eprintln!(
-                "note: frame: measurement frame (base placement drawn: 6 more inputs); the grid is in that frame, --frame base maps the robot's own frame"
-            );
-        }
-        let spec = a.spec(&model)?;
-        spec.check(&model).map_err(map_error)?;
-        let (_, n, _) = spec.layout();
-        let shard = match &a.summary_out {
-            Some(_) => Some(Shard::from_flags_or_env(
-                a.shard.as_deref(),
-                a.shards,
-                |v| std::env::var(v).ok(),
-            )?),
-            None => None,
-        };
+        let shard = summary_shard(a.summary_out.is_some(), a.shard.as_deref(), a.shards)?;
+        let bars = Bars::new(a.reports.quiet, |label| match label {
+            "map IK" => ("map IK", "cells", false),
+            "map shard" => ("map shard", "draws", false),
+            _ => ("map", "draws", false),
+        });
+        let job = a.job(&bars)?;
         let mut outputs = Outputs::new(a.model.model.as_deref().map(|p| ("--model", p)));
         match &a.summary_out {
             Some(out) => outputs.file("--summary-out", Some(out))?,
-            None => a
-                .reports
-                .declare(&mut outputs, &MapResult::planned_layout(n[2]))?,
+            None => a.reports.declare(
+                &mut outputs,
+                &MapResult::planned_layout(job.layers().map_err(map_error)?),
+            )?,
         }
-        // A shard evaluates at most ⌈cells/N⌉ cells (its share of the reached ones).
-        let cells = spec.n_cells();
-        let evaluated = cells.div_ceil(shard.map_or(1, |s| s.n.min(cells as u64) as usize));
-        // A shard's file holds no per-cell reports; a run's reports are kept while written.
-        let kinds = map::ReportKinds {
-            json: a.reports.json.is_some(),
-            csv: a.reports.csv.is_some(),
-            svg: a.reports.svg.is_some(),
-            html: a.reports.html.is_some(),
-        };
-        let report_bytes = if a.summary_out.is_some() {
-            0
-        } else {
-            map::report_bytes_per_cell(a.thresholds.len(), kinds)
-        };
-        let estimate = |evaluated: usize, report_bytes: u64| {
-            let batch = map::batch_size(evaluated, a.draws);
-            map::memory_estimate_with_reports(cells, evaluated, a.draws, batch, report_bytes)
-        };
-        let budget = a.memory.budget()?;
-        let mut needed = estimate(evaluated, report_bytes);
-        if budget.check(&needed).is_err() && shard.is_none() {
-            // Shards write their summaries only (the merge writes the reports).
-            if let Some(k) = fewest_shards(cells, |e| budget.check(&estimate(e, 0)).is_ok()) {
-                needed.advice = format!(
-                    "split it into {k} or more shards (--shard K/{k} --summary-out FILE, then \
-                     gpu-amcs merge), or {}",
-                    needed.advice
-                );
-            }
-        }
-        budget.check(&needed).context("--draws, --cells")?;
-        a.backend.choice()?;
         let pool = thread_pool(a.threads)?;
         if let (Some(shard), Some(out)) = (shard, &a.summary_out) {
-            let s = pool.install(|| run_shard(&a, &model, &spec, shard))?;
+            let s = pool.install(|| job.run_shard(gpu_amcs::backends(), shard));
+            bars.finish();
+            let s = s.map_err(job_error)?;
             outputs.stage_file("--summary-out", s.to_json())?;
             outputs.commit()?;
             if !a.reports.quiet {
@@ -308,126 +209,13 @@ impl Run for MapArgs {
             }
             return Ok(());
         }
-        let result = pool.install(|| -> Result<MapResult> {
-            let run = solve_and_evaluate(&a, &model, &spec, Shard::WHOLE)?;
-            let eval = Evaluation::new(run.errors.cells, run.errors.w, &a.thresholds);
-            Ok(MapResult::new(
-                &model.name,
-                &spec,
-                a.seed,
-                run.solutions,
-                eval,
-                run.backend,
-                run.timings,
-            )
-            .of_model(&model))
-        })?;
+        let outcome = pool.install(|| job.run(gpu_amcs::backends()));
+        bars.finish();
+        let outcome = outcome.map_err(job_error)?;
         let rows = [
             ("model source".to_string(), model_source(&a.model)),
             threads_row(a.threads),
         ];
-        write_reports(outputs, &result, &a.reports, &rows)
+        write_reports(outputs, &outcome.result, &a.reports, &rows)
     }
-}
-
-/// What one process computes of a map: the inverse kinematics of the whole grid, then the
-/// evaluation of shard `shard` of the reached cells (all of them for [`Shard::WHOLE`]) at every
-/// draw.
-struct Evaluated {
-    /// Every cell's configuration, `None` where unreachable.
-    solutions: Vec<Option<CellIk>>,
-    /// The evaluated part of the reached cells.
-    range: (usize, usize),
-    /// Their statistics and w over them.
-    errors: CellErrors,
-    /// The evaluator.
-    backend: BackendInfo,
-    /// The two stages' wall-clock seconds.
-    timings: Timings,
-}
-
-fn solve_and_evaluate(
-    a: &MapArgs,
-    model: &RobotModel,
-    spec: &MapSpec,
-    shard: Shard,
-) -> Result<Evaluated> {
-    let t0 = std::time::Instant::now();
-    let ik_bar = Progress::new(a.reports.quiet, "map IK", "cells");
-    let solutions = spec
-        .solve_with_progress(model, Some(&|done, total| ik_bar.update(done, total)))
-        .map_err(map_error);
-    ik_bar.finish();
-    let solutions = solutions?;
-    let ik_seconds = t0.elapsed().as_secs_f64();
-    let points = map::test_points(&solutions);
-    let r = points.len() as u64;
-    if shard.n > r {
-        bail!(
-            "--shard: {} shards of the {r} reached cells leave some empty",
-            shard.n
-        );
-    }
-    let (first, end) = shard.range(r);
-    let (first, end) = (first as usize, end as usize);
-    let problem = Problem::new(
-        model.clone(),
-        &points[first..end],
-        &Reference::Calibrated,
-        a.seed,
-    )
-    .context("reached configurations")?;
-    let (mut ev, notes) = a.backend.evaluator(problem)?;
-    if !a.reports.quiet {
-        for n in &notes {
-            eprintln!("note: {n}");
-        }
-    }
-    let label = if shard == Shard::WHOLE {
-        "map"
-    } else {
-        "map shard"
-    };
-    let bar = Progress::new(a.reports.quiet, label, "draws");
-    let t1 = std::time::Instant::now();
-    let errors = map::evaluate_cells(
-        ev.as_mut(),
-        a.draws,
-        map::batch_size(end - first, a.draws),
-        &a.thresholds,
-        Some(&|done, total| bar.update(done, total)),
-    );
-    bar.finish();
-    Ok(Evaluated {
-        solutions,
-        range: (first, end),
-        errors: errors.map_err(map_error)?,
-        backend: ev.info(),
-        timings: Timings {
-            ik_seconds,
-            eval_seconds: t1.elapsed().as_secs_f64(),
-        },
-    })
-}
-
-/// Shard `shard` of the map, with the provenance of the problem of all its reached cells.
-fn run_shard(a: &MapArgs, model: &RobotModel, spec: &MapSpec, shard: Shard) -> Result<MapShard> {
-    let e = solve_and_evaluate(a, model, spec, shard)?;
-    let points = map::test_points(&e.solutions);
-    let reference = Reference::Calibrated;
-    let all = Problem::new(model.clone(), &points, &reference, a.seed)
-        .context("reached configurations")?;
-    let provenance = Provenance::new(&all, &reference.label(model), a.draws, 0, a.draws);
-    Ok(MapShard::new(
-        provenance,
-        [shard.k, shard.n],
-        spec,
-        &a.thresholds,
-        &e.solutions,
-        e.range,
-        e.errors,
-        e.backend,
-        e.timings,
-    )
-    .with_base_origin(model.base_origin_mm()))
 }

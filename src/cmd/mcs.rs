@@ -1,16 +1,16 @@
-//! `mcs`: classic Monte Carlo with a fixed number of draws. A run whose values would not fit
-//! the memory limit runs in summary mode (`super::merge::run_summary`): the values are
-//! summarised chunk by chunk, never all kept.
+//! `mcs`: classic Monte Carlo with a fixed number of draws (the library's `McsJob`). A run
+//! whose values would not fit the memory limit runs in summary mode: the values are summarised
+//! chunk by chunk, never all kept.
 
-use super::analysis::{run_and_report, Plan};
+use super::analysis::{outputs, run_and_report};
 use super::flags::Driver;
-use super::merge::{run_summary, Shard};
+use super::merge::summary_shard;
+use super::progress::Bars;
 use super::Run;
 use crate::cmd::args::{OutputArgs, ProblemArgs};
 use anyhow::Result;
 use clap::Args;
-use gpu_amcs::mc::{self, McsOptions};
-use gpu_amcs::memory::Bytes;
+use gpu_amcs::job::{McsJob, Shard, SummaryMode};
 use std::path::PathBuf;
 
 /// MCS options.
@@ -43,73 +43,35 @@ pub struct McsArgs {
     pub summary_out: Option<PathBuf>,
 }
 
-/// Draws per evaluation chunk of an MCS run of `draws` draws.
-pub fn chunk(draws: u64) -> u64 {
-    100_000.min(draws.max(1))
-}
-
 impl Run for McsArgs {
     fn run(self) -> Result<()> {
-        let chunk = chunk(self.draws);
-        if let Some(out) = &self.summary_out {
-            let shard = Shard::from_flags_or_env(self.shard.as_deref(), self.shards, |v| {
-                std::env::var(v).ok()
-            })?;
-            return run_summary(
-                &self.problem,
-                &self.output,
-                (self.draws, chunk),
-                shard,
-                Some(out),
-                Vec::new(),
-            );
-        }
-        let opts = McsOptions {
+        let settings = self.output.settings();
+        settings.check().map_err(|e| Driver::Run.error(e))?;
+        let shard = summary_shard(
+            self.summary_out.is_some(),
+            self.shard.as_deref(),
+            self.shards,
+        )?;
+        self.problem.check()?;
+        let mut outputs = outputs(&self.problem, &self.output)?;
+        outputs.file("--summary-out", self.summary_out.as_deref())?;
+        let bars = Bars::new(self.output.reports.quiet, |label| match label {
+            "MCS shard" => ("MCS shard", "draws", false),
+            "MCS (summary)" => ("MCS (summary)", "draws", false),
+            _ => ("MCS", "draws", false),
+        });
+        let job = McsJob {
+            setup: self.problem.setup(&bars)?,
             draws: self.draws,
-            chunk,
-            settings: self.output.settings(),
+            settings,
+            summary: match shard {
+                Some(_) => SummaryMode::Always,
+                None => SummaryMode::Auto,
+            },
+            shard: shard.unwrap_or(Shard::WHOLE),
         };
-        opts.settings.check().map_err(|e| Driver::Run.error(e))?;
-        let plan = Plan {
-            label: "MCS",
-            capped: false,
-            what: format!("MCS with {} draws", self.draws),
-            draws: self.draws,
-            batch: opts.chunk,
-            advice: "use fewer --draws (or AMCS), fewer --points or no --per-point, \
-                     or raise --memory-limit",
-        };
-        // Kept values that would not fit the limit: summary mode (with a points file the
-        // points are counted once read, by the summary's own estimate).
-        let generated = match self.problem.points_file {
-            Some(_) => 0,
-            None => self.problem.points as u64,
-        };
-        let budget = self.problem.memory.budget()?;
-        let values = plan.estimate(&self.output, generated);
-        if budget.check(&values).is_err() {
-            let needed = match values.bytes {
-                Some(b) => Bytes(b).to_string(),
-                None => "more than 2^64 bytes".to_string(),
-            };
-            let note = format!(
-                "summary mode: keeping the values of {} draws would need {needed}, more than \
-                 the memory limit of {} ({}); the draws were summarised chunk by chunk instead",
-                self.draws,
-                Bytes(budget.limit),
-                budget.source
-            );
-            return run_summary(
-                &self.problem,
-                &self.output,
-                (self.draws, chunk),
-                Shard::WHOLE,
-                None,
-                vec![note],
-            );
-        }
-        run_and_report(&self.problem, &self.output, plan, Driver::Run, |ev, cb| {
-            mc::run_mcs(ev, &opts, Some(cb))
+        run_and_report(&self.problem, &self.output, outputs, &bars, || {
+            job.run(gpu_amcs::backends())
         })?;
         Ok(())
     }

@@ -1,21 +1,18 @@
 //! `plan`: choose the poses to measure for a calibration and predict the reliability they give
-//! at the task points, before the tracker is switched on.
+//! at the task points, before the tracker is switched on (the library's `PlanJob`).
 
 use super::args::{thread_pool, three_values, ProblemArgs};
+use super::flags::job_error;
 use super::outputs::Outputs;
-use super::progress::Progress;
+use super::progress::Bars;
 use super::reports::{problem_rows, write_reports, ReportFlags};
 use super::Run;
 use anyhow::{bail, Result};
 use clap::Args;
-use gpu_amcs::memory::Estimate;
+use gpu_amcs::job::{JobError, PlanJob, PlanTask};
 use gpu_amcs::plan::program::ProgramFormat;
-use gpu_amcs::plan::{
-    self, KeepOut, Plan, PlanError, PlanField, PlanOptions, TrackerSite, Workcell,
-};
-use gpu_amcs::progress::ProgressHook;
+use gpu_amcs::plan::{self, KeepOut, Plan, PlanError, PlanField, TrackerSite, Workcell};
 use std::path::PathBuf;
-use std::sync::Arc;
 
 /// The library's default plan thresholds (`gpu_amcs::plan::DEFAULT_THRESHOLDS_MM`) as one
 /// `--threshold` value.
@@ -224,117 +221,49 @@ impl Run for PlanArgs {
                 );
             }
         }
-        if a.draws < 100 || a.draws > 100_000_000 {
-            bail!("--draws: must be 100 … 100000000, got {}", a.draws);
-        }
-        let pool = thread_pool(a.problem.threads)?;
-        let (plan, rows) = pool.install(|| -> Result<_> {
-            let built = a.problem.build()?;
-            let model = plan::model_to_plan(&built.problem);
-            let task: Vec<gpu_amcs::kinematics::Joints> = if a.iso9283 {
-                let rpy = gpu_amcs::map::tool_down_rpy_deg(&model);
-                let cube = gpu_amcs::iso9283::test_cube(&model, Some(rpy))
-                    .map_err(|e| anyhow::anyhow!("--iso9283: {}", e.0))?;
-                cube.poses_q_deg.to_vec()
+        let target = a
+            .target
+            .as_deref()
+            .map(|t| three_values("--target", "x, y, z in mm", t))
+            .transpose()?;
+        let tracker_at = a
+            .tracker_at
+            .as_deref()
+            .map(|t| three_values("--tracker-at", "x, y, z in mm", t))
+            .transpose()?;
+        // The plan's steps under one bar, then the prediction's draws under another.
+        let bars = Bars::new(a.reports.quiet, |label| match label {
+            "plan prediction" => ("plan prediction", "draws", false),
+            _ => ("plan", "steps", false),
+        });
+        let job = PlanJob {
+            setup: a.problem.setup(&bars)?,
+            task: if a.iso9283 {
+                PlanTask::Iso9283
             } else {
-                built
-                    .problem
-                    .points
-                    .iter()
-                    .map(|q| q.map(f64::to_degrees))
-                    .collect()
-            };
-            let target = match &a.target {
-                Some(t) => three_values("--target", "x, y, z in mm", t)?,
-                None => PlanOptions::default_target(&model),
-            };
-            let tracker_at = a
-                .tracker_at
-                .as_deref()
-                .map(|t| three_values("--tracker-at", "x, y, z in mm", t))
-                .transpose()?;
-            if a.iso9283 || a.problem.points_file.is_some() {
-                // A task the robot cannot reach above the floor and outside the boxes cannot
-                // be planned for; generated points are a stand-in and are not checked.
-                let mut arm = model.clone();
-                arm.tool = target;
-                plan::workcell::check_task(&arm, &task, &workcell)
-                    .map_err(|e| plan_error(e, a.iso9283))?;
-            }
-            // The plan's steps, then the prediction's draws: each announces a long estimate.
-            let bar = Arc::new(Progress::new(a.reports.quiet, "plan", "steps"));
-            let listener = bar.clone();
-            let opts = PlanOptions {
-                poses: a.poses,
-                candidates: a.candidates,
-                sigma_mm: a.tracker_sigma,
-                tracker: tracker_at.map(|t| TrackerSite {
-                    position_mm: t,
-                    range_mm: a.tracker_range,
-                    max_incidence_deg: a.max_incidence,
-                }),
-                thresholds: a.threshold.clone(),
-                target_mm: target,
-                seed: a.problem.seed,
-                workcell,
-                progress: ProgressHook::new(move |label: &str, done, total| {
-                    listener.set_message(label);
-                    listener.update(done, total);
-                }),
-                ..PlanOptions::default()
-            };
-            // The candidates' matrices and the prediction's draws, sized before either exists.
-            let what = format!(
-                "a plan from {} candidates at {} task points",
-                opts.candidates,
-                task.len()
-            );
-            let search = plan::plan_estimate(
-                &model,
-                task.len(),
-                &opts,
-                Estimate::new(
-                    what.clone(),
-                    "use fewer --candidates, or raise --memory-limit",
-                ),
-            );
-            a.problem.memory.check(&search)?;
-            a.problem.memory.check(&plan::prediction_estimate(
-                task.len(),
-                a.draws,
-                plan::plan_estimate(
-                    &model,
-                    task.len(),
-                    &opts,
-                    Estimate::new(
-                        format!("{what} and a prediction of {} draws", a.draws),
-                        "use fewer --draws, or raise --memory-limit",
-                    ),
-                ),
-            ))?;
-            let mut p = plan::plan(&model, &task, &opts).map_err(|e| plan_error(e, a.iso9283))?;
-            // The engine's prediction, counted in draws under the same bar.
-            bar.restart(false);
-            bar.set_label("plan prediction".into());
-            bar.set_message("");
-            let problem = plan::prediction_problem(&p, &task, a.problem.seed)
-                .map_err(|e| plan_error(e, a.iso9283))?;
-            let rows = problem_rows(&a.problem, &problem);
-            let (mut ev, notes) = a.problem.backend.evaluator(problem)?;
-            if !a.reports.quiet {
-                for n in &notes {
-                    eprintln!("note: {n}");
-                }
-            }
-            let draws_bar = bar.clone();
-            let hook = ProgressHook::new(move |_: &str, done, total| draws_bar.update(done, total));
-            p.prediction = Some(
-                plan::predict_with_progress(ev.as_mut(), a.draws, &a.threshold, &hook)
-                    .map_err(|e| plan_error(e, a.iso9283))?,
-            );
-            bar.finish();
-            Ok((p, rows))
-        })?;
+                PlanTask::Points
+            },
+            poses: a.poses,
+            candidates: a.candidates,
+            sigma_mm: a.tracker_sigma,
+            tracker: tracker_at.map(|t| TrackerSite {
+                position_mm: t,
+                range_mm: a.tracker_range,
+                max_incidence_deg: a.max_incidence,
+            }),
+            thresholds: a.threshold.clone(),
+            target,
+            workcell,
+            draws: a.draws,
+        };
+        let error = |e| job_plan_error(e, a.iso9283);
+        job.check().map_err(error)?;
+        let pool = thread_pool(a.problem.threads)?;
+        let outcome = pool.install(|| job.run(gpu_amcs::backends()));
+        bars.finish();
+        let outcome = outcome.map_err(error)?;
+        let rows = problem_rows(&a.problem, &outcome.analysed);
+        let plan = outcome.plan;
         outputs.stage_file("--out", plan.design_csv())?;
         if let (Some(path), Some(format)) = (&a.program, program_format) {
             let name = path
@@ -346,6 +275,14 @@ impl Run for PlanArgs {
             outputs.stage_file("--program", text)?;
         }
         write_reports(outputs, &plan, &a.reports, &rows)
+    }
+}
+
+/// A plan job's error: the plan's own with their flags, the rest as any job's.
+fn job_plan_error(e: JobError, iso9283: bool) -> anyhow::Error {
+    match e {
+        JobError::Plan(e) => plan_error(e, iso9283),
+        e => job_error(e),
     }
 }
 

@@ -109,3 +109,79 @@ impl Progress {
         self.bar.finish_and_clear();
     }
 }
+
+/// Where a job's progress under one label is drawn: the bar's label, its unit, whether its
+/// totals are a cap ([`Progress::capped`]).
+pub type Route = fn(&str) -> (&'static str, &'static str, bool);
+
+/// The bars of a job ([`gpu_amcs::progress::ProgressHook`]): each label the job reports goes to
+/// the bar its [`Route`] names (a new one when the bar changes; a label other than the bar's is
+/// its message), and its notices go to stderr: what loading the model chose (always, naming
+/// `--model`), notes and long estimates (unless quiet).
+pub struct Bars {
+    quiet: bool,
+    route: Route,
+    bar: Mutex<Option<(&'static str, Progress)>>,
+}
+
+impl Bars {
+    /// Bars hidden when `quiet`, routed by `route`.
+    pub fn new(quiet: bool, route: Route) -> std::sync::Arc<Bars> {
+        std::sync::Arc::new(Bars {
+            quiet,
+            route,
+            bar: Mutex::new(None),
+        })
+    }
+
+    /// The hook a job reports to; `model` is the `--model` file whose loading notes it tells.
+    pub fn hook(
+        self: &std::sync::Arc<Bars>,
+        model: Option<&std::path::Path>,
+    ) -> gpu_amcs::progress::ProgressHook {
+        use gpu_amcs::progress::{Notice, ProgressHook};
+        let (bars, quiet) = (self.clone(), self.quiet);
+        let model = model.map(|p| p.display().to_string());
+        ProgressHook::new(move |label: &str, done, total| bars.update(label, done, total))
+            .with_notices(move |n: Notice<'_>| match n {
+                Notice::Model(text) => {
+                    if let Some(m) = &model {
+                        eprintln!("note: --model {m}: {text}");
+                    }
+                }
+                Notice::Note(text) if !quiet => eprintln!("note: {text}"),
+                Notice::Estimate {
+                    label,
+                    seconds,
+                    what,
+                } if !quiet && seconds > ANNOUNCE_S => {
+                    eprintln!("{label}: estimated ~{seconds:.0} s for {what}");
+                }
+                _ => {}
+            })
+    }
+
+    /// `done` of `total` under `label`.
+    fn update(&self, label: &str, done: u64, total: u64) {
+        let (name, unit, capped) = (self.route)(label);
+        let mut bar = self.bar.lock().unwrap_or_else(|e| e.into_inner());
+        if bar.as_ref().map(|(n, _)| *n) != Some(name) {
+            if let Some((_, old)) = bar.take() {
+                old.finish();
+            }
+            let new = Progress::new(self.quiet, name, unit);
+            *bar = Some((name, if capped { new.capped() } else { new }));
+        }
+        if let Some((name, b)) = bar.as_ref() {
+            b.set_message(if label == *name { "" } else { label });
+            b.update(done, total);
+        }
+    }
+
+    /// Removes the bar.
+    pub fn finish(&self) {
+        if let Some((_, b)) = self.bar.lock().unwrap_or_else(|e| e.into_inner()).take() {
+            b.finish();
+        }
+    }
+}

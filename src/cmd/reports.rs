@@ -9,7 +9,7 @@ use super::args::ProblemArgs;
 use super::outputs::Outputs;
 use anyhow::{bail, Result};
 use clap::Args;
-use gpu_amcs::engine::Problem;
+use gpu_amcs::job::Analysed;
 use gpu_amcs::kinematics::Uncertainty;
 use gpu_amcs::points::WorkspaceBox;
 use gpu_amcs::report::{Layout, Report};
@@ -131,14 +131,14 @@ pub fn threads_row(threads: Option<usize>) -> (String, String) {
 }
 
 /// Where the model and the test points came from, the uncertain parameters and the threads.
-pub fn problem_rows(args: &ProblemArgs, problem: &Problem) -> Vec<(String, String)> {
+pub fn problem_rows(args: &ProblemArgs, problem: &Analysed) -> Vec<(String, String)> {
     let free = problem.model.free_inputs().len();
     let form = match problem.model.uncertainty {
         Uncertainty::Independent(_) => "independent normal",
         Uncertainty::Covariance(_) => "normal with full covariance",
     };
     let points = match &args.points_file {
-        Some(p) => format!("{} from {}", problem.n_points(), p.display()),
+        Some(p) => format!("{} from {}", problem.points, p.display()),
         None => {
             // The box the points were generated in: the flags where given, else the robot's
             // default (already checked when the problem was built).
@@ -154,7 +154,7 @@ pub fn problem_rows(args: &ProblemArgs, problem: &Problem) -> Vec<(String, Strin
             };
             format!(
                 "{} generated in the box centred at ({}) mm with edges ({}) mm, seed {}",
-                problem.n_points(),
+                problem.points,
                 v(&b.center),
                 v(&b.size),
                 args.points_seed

@@ -1,15 +1,19 @@
-//! `sensitivity`: first-order and total Sobol indices of w per parameter, joint and kind.
+//! `sensitivity`: first-order and total Sobol indices of w per parameter, joint and kind (the
+//! library's `SensitivityJob`), or one shard's model outputs for `merge`.
 
-use super::args::{frame_problem, thread_pool};
-use super::flags::sensitivity_error;
+use super::args::thread_pool;
+use super::flags::{job_error, sensitivity_error};
+use super::merge::summary_shard;
 use super::outputs::Outputs;
+use super::progress::Bars;
 use super::reports::{problem_rows, write_reports};
 use super::Run;
 use crate::cmd::args::ProblemArgs;
 use crate::cmd::reports::ReportFlags;
 use anyhow::Result;
 use clap::Args;
-use gpu_amcs::mc::sensitivity::{run_sensitivity, SensitivityOptions, SensitivityResult};
+use gpu_amcs::job::SensitivityJob;
+use gpu_amcs::mc::sensitivity::{SensitivityOptions, SensitivityResult};
 use std::path::PathBuf;
 
 /// `sensitivity` options.
@@ -56,81 +60,42 @@ pub struct SensitivityArgs {
 impl Run for SensitivityArgs {
     fn run(self) -> Result<()> {
         let a = self;
-        let opts = SensitivityOptions {
+        let options = SensitivityOptions {
             draws: a.draws,
             bootstrap: a.bootstrap,
             bootstrap_seed: a.bootstrap_seed,
             thresholds: a.thresholds.clone(),
             ..SensitivityOptions::default()
         };
-        opts.check().map_err(sensitivity_error)?;
+        options.check().map_err(sensitivity_error)?;
         a.problem.check()?;
         let mut outputs = Outputs::new(a.problem.inputs());
-        a.reports
-            .declare(&mut outputs, &SensitivityResult::planned_layout())?;
-        let estimate = a
-            .problem
-            .points_estimate(opts.memory_estimate("use fewer --draws, or raise --memory-limit"));
-        a.problem.memory.check(&estimate)?;
-        if let Some(out) = &a.summary_out {
-            return super::merge::run_sensitivity_shard(&a.problem, &opts, a.shard.as_deref(), out);
+        match &a.summary_out {
+            Some(out) => outputs.file("--summary-out", Some(out))?,
+            None => a
+                .reports
+                .declare(&mut outputs, &SensitivityResult::planned_layout())?,
         }
+        let bars = Bars::new(a.reports.quiet, |_| ("sensitivity", "draws", false));
+        let job = SensitivityJob {
+            setup: a.problem.setup(&bars)?,
+            options,
+        };
+        job.check().map_err(job_error)?;
+        let shard = summary_shard(a.summary_out.is_some(), a.shard.as_deref(), None)?;
         let pool = thread_pool(a.problem.threads)?;
-        let (result, rows) = pool.install(|| -> Result<_> {
-            let built = a.problem.build()?;
-            let rows = problem_rows(&a.problem, &built.problem);
-            let (mut ev, notes) = a
-                .problem
-                .backend
-                .frame_evaluator(built.problem.clone(), a.problem.frame)?;
-            let problem = frame_problem(built.problem, a.problem.frame);
-            if !a.reports.quiet {
-                for n in &notes {
-                    eprintln!("note: {n}");
-                }
-                if let Some(line) = announce(ev.as_mut(), &problem, &opts) {
-                    eprintln!("{line}");
-                }
-            }
-            Ok((
-                run_sensitivity(&problem, ev.as_mut(), &opts).map_err(sensitivity_error)?,
-                rows,
-            ))
-        })?;
-        write_reports(outputs, &result, &a.reports, &rows)
+        if let Some(shard) = shard {
+            let s = pool
+                .install(|| job.run_shard(gpu_amcs::backends(), shard))
+                .map_err(job_error)?;
+            outputs.stage_file("--summary-out", s.to_json())?;
+            outputs.commit()?;
+            return Ok(());
+        }
+        let outcome = pool
+            .install(|| job.run(gpu_amcs::backends()))
+            .map_err(job_error)?;
+        let rows = problem_rows(&a.problem, &outcome.analysed);
+        write_reports(outputs, &outcome.result, &a.reports, &rows)
     }
-}
-
-/// Rows timed for the up-front estimate of a sensitivity run.
-const PILOT_ROWS: usize = 2048;
-
-/// The "estimated ~N s" line of a run expected to take more than
-/// [`ANNOUNCE_S`](super::progress::ANNOUNCE_S): a pilot evaluation of [`PILOT_ROWS`] rows times
-/// the rows of the run (N base samples × (2 + free parameters + 8 groups) pick-freeze matrices),
-/// plus a quarter for the bootstrap analysis (its share at 2^20 in `benches/sensitivity.rs`).
-fn announce(
-    ev: &mut dyn gpu_amcs::engine::Evaluator,
-    problem: &gpu_amcs::engine::Problem,
-    opts: &SensitivityOptions,
-) -> Option<String> {
-    let offsets = vec![0.0; PILOT_ROWS * ev.offset_width()];
-    let mut w = vec![0.0; PILOT_ROWS];
-    let t = std::time::Instant::now();
-    ev.evaluate_offsets(&offsets, &mut w, None).ok()?;
-    let per_row = t.elapsed().as_secs_f64() / PILOT_ROWS as f64;
-    let free = problem
-        .model
-        .param_sigmas()
-        .iter()
-        .filter(|s| **s > 0.0)
-        .count();
-    let rows = opts.draws as f64 * (2 + free + 8) as f64;
-    let seconds = 1.25 * per_row * rows;
-    (seconds > super::progress::ANNOUNCE_S).then(|| {
-        format!(
-            "sensitivity: estimated ~{seconds:.0} s for N = {} base samples ({} pick-freeze matrices)",
-            opts.draws,
-            2 + free + 8
-        )
-    })
 }

@@ -1,16 +1,17 @@
 //! `tail`: the probability that w reaches a threshold, down to 1e-9, by subset simulation.
 
-use super::args::{frame_problem, thread_pool};
-use super::flags::tail_error;
+use super::args::thread_pool;
+use super::flags::{job_error, tail_error};
 use super::outputs::Outputs;
-use super::progress::Progress;
+use super::progress::Bars;
 use super::reports::{problem_rows, write_reports};
 use super::Run;
 use crate::cmd::args::ProblemArgs;
 use crate::cmd::reports::ReportFlags;
 use anyhow::Result;
 use clap::{Args, ValueEnum};
-use gpu_amcs::mc::tail::{run_tail, TailMethod, TailOptions, TailResult};
+use gpu_amcs::job::TailJob;
+use gpu_amcs::mc::tail::{TailMethod, TailOptions, TailResult};
 
 /// Estimator of the tail probability.
 #[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
@@ -53,7 +54,7 @@ pub struct TailArgs {
     pub method: MethodArg,
     /// Cap on evaluations of w; reaching it ends the run with the estimates so far, marked as
     /// not reaching the target.
-    #[arg(long, default_value_t = 5_000_000, value_name = "N")]
+    #[arg(long, default_value_t = gpu_amcs::job::DEFAULT_MAX_EVALUATIONS, value_name = "N")]
     pub max_evaluations: u64,
     /// Subset simulation: samples per level of the pilot run.
     #[arg(long, default_value_t = 1000, value_name = "N")]
@@ -73,7 +74,7 @@ pub struct TailArgs {
 impl Run for TailArgs {
     fn run(self) -> Result<()> {
         let a = self;
-        let opts = TailOptions {
+        let options = TailOptions {
             method: match a.method {
                 MethodArg::Subset => TailMethod::Subset,
                 MethodArg::Mc => TailMethod::MonteCarlo,
@@ -85,39 +86,22 @@ impl Run for TailArgs {
             p0: a.p0,
             ..TailOptions::default()
         };
-        opts.check().map_err(tail_error)?;
+        options.check().map_err(tail_error)?;
         a.problem.check()?;
         let mut outputs = Outputs::new(a.problem.inputs());
         a.reports
             .declare(&mut outputs, &TailResult::planned_layout())?;
-        a.problem.memory.check(&a.problem.points_estimate(
-            opts.memory_estimate("use fewer --samples-per-level, or raise --memory-limit"),
-        ))?;
+        let bars = Bars::new(a.reports.quiet, |_| ("tail", "evaluations", true));
+        let job = TailJob {
+            setup: a.problem.setup(&bars)?,
+            options,
+        };
+        job.check().map_err(job_error)?;
         let pool = thread_pool(a.problem.threads)?;
-        let (result, rows) = pool.install(|| -> Result<_> {
-            let built = a.problem.build()?;
-            let rows = problem_rows(&a.problem, &built.problem);
-            let (mut ev, notes) = a
-                .problem
-                .backend
-                .frame_evaluator(built.problem.clone(), a.problem.frame)?;
-            let problem = frame_problem(built.problem, a.problem.frame);
-            if !a.reports.quiet {
-                for n in &notes {
-                    eprintln!("note: {n}");
-                }
-            }
-            let bar = Progress::new(a.reports.quiet, "tail", "evaluations").capped();
-            let r = run_tail(
-                ev.as_mut(),
-                &problem,
-                &opts,
-                Some(&|done, total| bar.update(done, total)),
-            )
-            .map_err(tail_error);
-            bar.finish();
-            Ok((r?, rows))
-        })?;
-        write_reports(outputs, &result, &a.reports, &rows)
+        let outcome = pool.install(|| job.run(gpu_amcs::backends()));
+        bars.finish();
+        let outcome = outcome.map_err(job_error)?;
+        let rows = problem_rows(&a.problem, &outcome.analysed);
+        write_reports(outputs, &outcome.result, &a.reports, &rows)
     }
 }

@@ -44,6 +44,7 @@ pub mod identify;
 pub mod import;
 pub mod input;
 pub mod iso9283;
+pub mod job;
 pub mod kinematics;
 pub mod map;
 pub mod mc;

@@ -56,6 +56,41 @@ pub enum MemoryError {
     BadSize(String),
 }
 
+impl MemoryError {
+    /// The error with `advice` in place of the estimate's: a front end words what to change
+    /// with its own names for the settings (a flag, a keyword).
+    pub fn with_advice(self, advice: impl Into<String>) -> MemoryError {
+        match self {
+            MemoryError::TooLarge {
+                what,
+                needed,
+                limit,
+                source_of_limit,
+                ..
+            } => MemoryError::TooLarge {
+                what,
+                needed,
+                limit,
+                source_of_limit,
+                advice: advice.into(),
+            },
+            MemoryError::Overflow { what, .. } => MemoryError::Overflow {
+                what,
+                advice: advice.into(),
+            },
+            e @ MemoryError::BadSize(_) => e,
+        }
+    }
+
+    /// The estimate's advice (none for a size that is not one).
+    pub fn advice(&self) -> &str {
+        match self {
+            MemoryError::TooLarge { advice, .. } | MemoryError::Overflow { advice, .. } => advice,
+            MemoryError::BadSize(_) => "",
+        }
+    }
+}
+
 /// Where a [`MemoryBudget`]'s limit comes from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum LimitSource {

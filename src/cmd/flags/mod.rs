@@ -11,11 +11,13 @@
 //! has it), that every flag in the tables exists in clap's definition of their subcommands, and
 //! that every setting an error can name maps to a field of its tables.
 
+mod job;
 mod spec;
 mod tables;
 #[cfg(test)]
 mod tests;
 
+pub use job::job_error;
 pub use spec::{spec_error, spec_flag};
 pub use tables::*;
 
@@ -144,6 +146,7 @@ pub fn map(s: MapSetting) -> Option<&'static str> {
     let (spec, run) = (&MAP_SPEC, &MAP_RUN);
     match s {
         MapSetting::Cells => on(spec, "grid", "--cells"),
+        MapSetting::Plane => on(spec, "grid", "--plane"),
         MapSetting::PlanePosition => on(spec, "grid", "--at"),
         MapSetting::Workspace => {
             on(spec, "workspace", "--box-center").map(|_| "--box-center/--box-size")

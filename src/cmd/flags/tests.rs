@@ -296,6 +296,7 @@ fn the_flags_of_setting_errors_exist_and_agree_with_the_tables() {
     use MapSetting as M;
     let map_all = [
         M::Cells,
+        M::Plane,
         M::PlanePosition,
         M::Workspace,
         M::Orientation,

@@ -1,6 +1,6 @@
 //! Unit tests of the shard selection.
 
-use super::Shard;
+use super::{Shard, ShardFlags};
 
 fn shard(flag: Option<&str>, shards: Option<u64>, vars: &[(&str, &str)]) -> Result<Shard, String> {
     Shard::from_flags_or_env(flag, shards, |name| {

@@ -44,6 +44,8 @@ pub const MAX_CELLS: usize = 250_000;
 pub enum MapSetting {
     /// The cell counts.
     Cells,
+    /// The plane of a slice.
+    Plane,
     /// The coordinate of a plane slice along its normal.
     PlanePosition,
     /// The workspace box.
@@ -64,6 +66,7 @@ impl std::fmt::Display for MapSetting {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str(match self {
             MapSetting::Cells => "cell counts",
+            MapSetting::Plane => "plane",
             MapSetting::PlanePosition => "plane position",
             MapSetting::Workspace => "workspace box",
             MapSetting::Orientation => "tool orientation",
