@@ -3,7 +3,7 @@
 //! of the reached cells for `merge`.
 
 use super::args::thread_pool;
-use super::flags::{job_error, map_error};
+use super::flags::job_error;
 use super::merge::summary_shard;
 use super::outputs::Outputs;
 use super::progress::Bars;
@@ -182,9 +182,11 @@ impl Run for MapArgs {
         let mut outputs = Outputs::new(a.model.model.as_deref().map(|p| ("--model", p)));
         match &a.summary_out {
             Some(out) => outputs.file("--summary-out", Some(out))?,
+            // A grid that is no grid declares one layer: the run refuses it before any work,
+            // after what loading the model says.
             None => a.reports.declare(
                 &mut outputs,
-                &MapResult::planned_layout(job.layers().map_err(map_error)?),
+                &MapResult::planned_layout(job.layers().unwrap_or(1)),
             )?,
         }
         let pool = thread_pool(a.threads)?;
