@@ -294,6 +294,10 @@ pub const CHAIN_OPTIONS: Table = Table {
         ("seed", Flags(&["--seed"])),
         ("compensate", Flags(&["--no-compensation"])),
         ("beyond_geometry", Flags(&["--beyond-geometry"])),
+        (
+            "held_out",
+            Fixed("from the data: arcs of each sweep for sweeps, each point for poses"),
+        ),
         ("progress", Flags(&["--quiet"])),
     ],
 };

@@ -94,6 +94,8 @@ pub struct ChainOptions {
     /// When joint compliance under gravity and gear harmonics are fitted with the geometry and
     /// kept ([`JointErrorFit`], [`BeyondGeometry`]).
     pub beyond_geometry: JointErrorFit,
+    /// What the check beyond geometry leaves out at a time ([`HeldOut`]).
+    pub held_out: HeldOut,
     /// Told each step as it starts (fit, identifiability and covariance, check beyond
     /// geometry, lack of fit); none by default.
     pub progress: crate::progress::ProgressHook,
@@ -109,8 +111,62 @@ impl Default for ChainOptions {
             seed: 1,
             compensate: true,
             beyond_geometry: JointErrorFit::Auto,
+            held_out: HeldOut::Points,
             progress: Default::default(),
         }
+    }
+}
+
+/// What the cross-validated check beyond geometry leaves out at a time.
+///
+/// Each point alone tells how well a model predicts a new pose when the points are poses spread
+/// over the workspace. The points of a sweep are not: each lies between measured neighbours on
+/// the same circle, so a term that follows the sweep's own angle predicts it from them while it
+/// may predict a pose elsewhere worse. Leaving out an arc of each sweep at a time asks the model
+/// to extrapolate along the joint's turn instead.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub enum HeldOut {
+    /// One point at a time.
+    #[default]
+    Points,
+    /// Runs of consecutive points, by their lengths in the points' order (which must add up to
+    /// the number of points; otherwise each point alone).
+    Groups(Vec<usize>),
+}
+
+impl HeldOut {
+    /// The groups as ranges of point indices for `count` points; empty for one point at a time.
+    pub fn ranges(&self, count: usize) -> Vec<std::ops::Range<usize>> {
+        match self {
+            HeldOut::Groups(lengths) if lengths.iter().sum::<usize>() == count => {
+                let mut start = 0;
+                lengths
+                    .iter()
+                    .filter(|&&l| l > 0)
+                    .map(|&l| {
+                        start += l;
+                        start - l..start
+                    })
+                    .collect()
+            }
+            _ => Vec::new(),
+        }
+    }
+
+    /// Each sweep of `lengths` points cut into `arcs` arcs of consecutive points (as equal as
+    /// the count allows).
+    pub fn sweep_arcs(lengths: &[usize], arcs: usize) -> HeldOut {
+        let arcs = arcs.max(1);
+        HeldOut::Groups(
+            lengths
+                .iter()
+                .flat_map(|&l| {
+                    let k = arcs.min(l.max(1));
+                    (0..k).map(move |a| (a + 1) * l / k - a * l / k)
+                })
+                .filter(|&l| l > 0)
+                .collect(),
+        )
     }
 }
 
@@ -359,6 +415,7 @@ fn identify_geometry(
             nominal,
             prior.as_ref(),
             opts.beyond_geometry.explicit(),
+            &opts.held_out.ranges(run.obs.len()),
         )
     } else {
         None

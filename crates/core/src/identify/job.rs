@@ -594,6 +594,7 @@ impl IdentifyJob {
             seed: self.seed,
             compensate: self.compensate,
             beyond_geometry: self.beyond_geometry,
+            held_out: super::chain::HeldOut::Points,
             progress: self.progress.clone(),
         })
     }

@@ -90,7 +90,7 @@ pub mod validate;
 
 pub use crate::kinematics::{lines, mdh};
 pub use chain::{
-    ChainOptions, ChainReport, JointErrorFit, MeasuredPoint, Placement, UncertaintyMethod,
+    ChainOptions, ChainReport, HeldOut, JointErrorFit, MeasuredPoint, Placement, UncertaintyMethod,
 };
 pub use chain_text::{frame_label, render_chain_report, render_chain_summary};
 pub use circle::{fit_circle, AxisPrior, CircleFit, CircleFitError, CircleFitMethod, MIN_ARC_DEG};

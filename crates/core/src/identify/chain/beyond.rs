@@ -27,11 +27,13 @@ use crate::kinematics::gravity::{gravity_torques, LinkMasses};
 use crate::kinematics::joint_errors::PointTerms;
 use crate::kinematics::{InputSpace, JointErrors, Joints, Payload, RobotModel};
 mod backlash;
+mod held_out;
 
 use backlash::backlash_check;
 pub use backlash::BacklashCheck;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use serde::Serialize;
+use std::ops::Range;
 
 /// Coefficients per joint: `k, a1, b1, a2, b2`.
 const PER_JOINT: usize = 5;
@@ -50,6 +52,9 @@ const TORQUE_SHARE: f64 = 0.01;
 pub struct BeyondGeometry {
     /// Coefficients fitted beyond the geometry.
     pub parameters: usize,
+    /// What the leave-out RMS values leave out at a time: "each point", or the arcs of each
+    /// sweep ([`crate::identify::HeldOut`]).
+    pub left_out: String,
     /// Leave-one-out RMS (3-D) of the geometric model, mm.
     pub loo_rms_geometric_mm: f64,
     /// Leave-one-out RMS (3-D) with compliance and harmonics, mm.
@@ -138,8 +143,9 @@ impl BeyondGeometry {
     pub fn sentence(&self) -> String {
         let change = 100.0 * (self.loo_rms_extended_mm / self.loo_rms_geometric_mm - 1.0);
         format!(
-            "Beyond geometry: with joint compliance under gravity and gear harmonics ({} more coefficients) the leave-one-out RMS is {:.4} mm against {:.4} mm for the geometry alone ({change:+.0} %): {}.",
+            "Beyond geometry: with joint compliance under gravity and gear harmonics ({} more coefficients) the leave-one-out RMS ({} left out in turn) is {:.4} mm against {:.4} mm for the geometry alone ({change:+.0} %): {}.",
             self.parameters,
+            self.left_out,
             self.loo_rms_extended_mm,
             self.loo_rms_geometric_mm,
             match (self.predicts_better, self.kept) {
@@ -220,6 +226,9 @@ struct Inputs<'a> {
     /// backlash per joint (coefficients `PER_JOINT·n + j`: the gap, the joint standing half of
     /// it from its commanded angle on the side it came from).
     dirs: Option<&'a [Joints]>,
+    /// What the leave-out RMS leaves out at a time: runs of consecutive observations (an arc
+    /// of a sweep), or, when empty, each observation alone.
+    held_out: &'a [Range<usize>],
 }
 
 /// Whitened residuals of `m` at `obs`, then the prior rows of the free inputs.
@@ -304,6 +313,10 @@ fn loo_rms(obs: &[Observation], m: &ExtendedModel, x: &Inputs<'_>) -> Option<(f6
     let info = all.transpose() * &all;
     let cov = info.clone().try_inverse()?;
     let j = all.rows(0, rows);
+    if !x.held_out.is_empty() {
+        let rms = held_out::leave_group_out_rms(obs, &j, &cov, &r0, x.held_out)?;
+        return Some((rms, cov));
+    }
     let mut sum = 0.0;
     for (i, o) in obs.iter().enumerate() {
         let ji = j.rows(3 * i, 3);
@@ -325,6 +338,7 @@ pub(super) fn check(
     nominal: &RobotModel,
     prior: Option<&Prior>,
     with_backlash: bool,
+    held_out: &[Range<usize>],
 ) -> Option<ExtendedFit> {
     let n = run.state.layout().joints();
     let links = LinkMasses::of(nominal);
@@ -383,6 +397,7 @@ pub(super) fn check(
         sigma: &sigma,
         terms: &terms,
         dirs: None,
+        held_out,
     };
     let (loo_geometric, _) = loo_rms(&run.obs, &geometric, &plain)?;
     let free: Vec<usize> = run
@@ -422,6 +437,11 @@ pub(super) fn check(
     let report = BeyondGeometry {
         backlash,
         parameters: extras.len(),
+        left_out: if held_out.is_empty() {
+            "each point".into()
+        } else {
+            format!("each of {} runs of consecutive points", held_out.len())
+        },
         loo_rms_geometric_mm: loo_geometric,
         loo_rms_extended_mm: loo_extended,
         predicts_better: loo_extended
