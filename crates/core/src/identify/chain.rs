@@ -27,7 +27,9 @@ mod tests;
 mod undetermined;
 mod warnings;
 
-pub use beyond::{BacklashCheck, BeyondGeometry, ExtendedModel, CONFOUNDED, PRIOR_HELD, PRIOR_RAD};
+pub use beyond::{
+    BacklashCheck, BeyondGeometry, ExtendedModel, HeldOut, CONFOUNDED, PRIOR_HELD, PRIOR_RAD,
+};
 pub use joint_error_fit::JointErrorFit;
 pub use model::{chain_model, state_model};
 pub use report::{ChainReport, ChainResult, MonteCarloCheck, NoiseReport, ParameterRow};
@@ -114,59 +116,6 @@ impl Default for ChainOptions {
             held_out: HeldOut::Points,
             progress: Default::default(),
         }
-    }
-}
-
-/// What the cross-validated check beyond geometry leaves out at a time.
-///
-/// Each point alone tells how well a model predicts a new pose when the points are poses spread
-/// over the workspace. The points of a sweep are not: each lies between measured neighbours on
-/// the same circle, so a term that follows the sweep's own angle predicts it from them while it
-/// may predict a pose elsewhere worse. Leaving out an arc of each sweep at a time asks the model
-/// to extrapolate along the joint's turn instead.
-#[derive(Clone, Debug, Default, PartialEq, Eq)]
-pub enum HeldOut {
-    /// One point at a time.
-    #[default]
-    Points,
-    /// Runs of consecutive points, by their lengths in the points' order (which must add up to
-    /// the number of points; otherwise each point alone).
-    Groups(Vec<usize>),
-}
-
-impl HeldOut {
-    /// The groups as ranges of point indices for `count` points; empty for one point at a time.
-    pub fn ranges(&self, count: usize) -> Vec<std::ops::Range<usize>> {
-        match self {
-            HeldOut::Groups(lengths) if lengths.iter().sum::<usize>() == count => {
-                let mut start = 0;
-                lengths
-                    .iter()
-                    .filter(|&&l| l > 0)
-                    .map(|&l| {
-                        start += l;
-                        start - l..start
-                    })
-                    .collect()
-            }
-            _ => Vec::new(),
-        }
-    }
-
-    /// Each sweep of `lengths` points cut into `arcs` arcs of consecutive points (as equal as
-    /// the count allows).
-    pub fn sweep_arcs(lengths: &[usize], arcs: usize) -> HeldOut {
-        let arcs = arcs.max(1);
-        HeldOut::Groups(
-            lengths
-                .iter()
-                .flat_map(|&l| {
-                    let k = arcs.min(l.max(1));
-                    (0..k).map(move |a| (a + 1) * l / k - a * l / k)
-                })
-                .filter(|&l| l > 0)
-                .collect(),
-        )
     }
 }
 

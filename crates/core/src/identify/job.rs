@@ -29,8 +29,6 @@
 //! assert!((outcome.model.tool[2] - 80.0).abs() < 0.1);
 //! ```
 
-use std::path::PathBuf;
-
 use super::noise::NoiseSetting;
 use super::{
     check_tracker_data, grouped_warnings, identified_model, identify_data, model_file_text,
@@ -39,6 +37,7 @@ use super::{
     TrackerData, UncertaintyMethod,
 };
 use crate::kinematics::RobotModel;
+use std::path::PathBuf;
 
 /// Fewest Monte Carlo re-identifications that give a covariance.
 pub const MIN_MC_DRAWS: usize = 10;
@@ -594,8 +593,8 @@ impl IdentifyJob {
             seed: self.seed,
             compensate: self.compensate,
             beyond_geometry: self.beyond_geometry,
-            held_out: super::chain::HeldOut::Points,
             progress: self.progress.clone(),
+            ..ChainOptions::default()
         })
     }
 }

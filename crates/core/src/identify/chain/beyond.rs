@@ -31,6 +31,7 @@ mod held_out;
 
 use backlash::backlash_check;
 pub use backlash::BacklashCheck;
+pub use held_out::HeldOut;
 use nalgebra::{DMatrix, Matrix3, Vector3};
 use serde::Serialize;
 use std::ops::Range;
