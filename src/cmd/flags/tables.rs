@@ -294,6 +294,7 @@ pub const CHAIN_OPTIONS: Table = Table {
         ("seed", Flags(&["--seed"])),
         ("compensate", Flags(&["--no-compensation"])),
         ("beyond_geometry", Flags(&["--beyond-geometry"])),
+        ("harmonic_orders", Flags(&["--harmonic-orders"])),
         ("progress", Flags(&["--quiet"])),
     ],
 };

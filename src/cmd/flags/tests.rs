@@ -173,6 +173,7 @@ fn every_field_of_every_options_struct_has_an_entry() {
         seed,
         compensate,
         beyond_geometry,
+        harmonic_orders,
         progress
     });
     same_fields(&CHAIN_OPTIONS, &chain);

@@ -27,8 +27,11 @@ mod tests;
 mod undetermined;
 mod warnings;
 
-pub use beyond::{BacklashCheck, BeyondGeometry, ExtendedModel, CONFOUNDED, PRIOR_HELD, PRIOR_RAD};
-pub use joint_error_fit::JointErrorFit;
+pub use beyond::{
+    BacklashCheck, BeyondGeometry, ExtendedModel, Term, TermScore, TermSelection, CONFOUNDED,
+    PRIOR_HELD, PRIOR_RAD,
+};
+pub use joint_error_fit::{check_harmonic_orders, JointErrorFit, MAX_HARMONIC_ORDER};
 pub use model::{chain_model, state_model};
 pub use report::{ChainReport, ChainResult, MonteCarloCheck, NoiseReport, ParameterRow};
 pub use undetermined::{
@@ -94,6 +97,11 @@ pub struct ChainOptions {
     /// When joint compliance under gravity and gear harmonics are fitted with the geometry and
     /// kept ([`JointErrorFit`], [`BeyondGeometry`]).
     pub beyond_geometry: JointErrorFit,
+    /// Per joint, the gear harmonics fitted beyond geometry: orders 1 to this (0, 1 or 2; 0:
+    /// none), and the compliance of every joint whose torque varies. `None` (the default): the
+    /// data choose per joint the orders and whether the compliance is fitted, by the
+    /// leave-one-out RMS ([`TermSelection`]).
+    pub harmonic_orders: Option<Vec<u8>>,
     /// Told each step as it starts (fit, identifiability and covariance, check beyond
     /// geometry, lack of fit); none by default.
     pub progress: crate::progress::ProgressHook,
@@ -109,6 +117,7 @@ impl Default for ChainOptions {
             seed: 1,
             compensate: true,
             beyond_geometry: JointErrorFit::Auto,
+            harmonic_orders: None,
             progress: Default::default(),
         }
     }
@@ -303,6 +312,9 @@ fn identify_geometry(
     steps: &mut steps::Steps,
 ) -> Result<(ChainResult, Option<beyond::ExtendedFit>), IdentifyError> {
     check_points(points, nominal, start)?;
+    if let Some(o) = &opts.harmonic_orders {
+        check_harmonic_orders(o, nominal.joints()).map_err(IdentifyError::HarmonicOrders)?;
+    }
     steps.next("fitting the geometry");
     let (mut run, fixed_by_user) = Fitted::start(points, nominal, start, opts)?;
     check_pose_count(points, run.free.len())?;
@@ -359,6 +371,7 @@ fn identify_geometry(
             nominal,
             prior.as_ref(),
             opts.beyond_geometry.explicit(),
+            opts.harmonic_orders.as_deref(),
         )
     } else {
         None
