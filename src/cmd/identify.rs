@@ -148,7 +148,8 @@ pub struct IdentifyArgs {
     /// Per joint, the gear harmonics fitted beyond geometry: orders 1 to N (0, 1 or 2; 0 for
     /// none), one value per joint, e.g. 2,2,1,0,0,0; every joint whose gravity torque varies
     /// keeps its compliance. Default: the data choose per joint the orders and the compliance
-    /// (each term kept only when dropping it makes the leave-one-out RMS larger).
+    /// (backward elimination by Akaike's criterion: a term goes while dropping it lowers
+    /// χ² + 2·coefficients).
     #[arg(long, value_name = "N,N,...", value_delimiter = ',')]
     pub harmonic_orders: Option<Vec<u8>>,
     /// Write the identified model (TOML) to FILE.

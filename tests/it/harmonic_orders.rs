@@ -1,5 +1,5 @@
 //! Per joint, which joint-error terms the fit beyond geometry keeps (docs/METHOD.md §19): chosen
-//! by the data (a test at 1 % per term) or set (`ChainOptions::harmonic_orders`,
+//! by the data (Akaike's criterion per term) or set (`ChainOptions::harmonic_orders`,
 //! `identify --harmonic-orders`); a model whose joints lack some terms round-trips through its
 //! file and draws.
 
@@ -82,24 +82,27 @@ fn check(r: &ChainResult) -> &BeyondGeometry {
     r.report.beyond_geometry.as_ref().unwrap()
 }
 
-/// 24 TX60s whose harmonics are J1's first and J2's and J3's both (compliance on every joint):
-/// the selection keeps exactly those orders and J2's and J3's compliance on 22 of them (seed
-/// 111 keeps J5's orders 1–2 besides, seed 115 drops J3's compliance), and the held-out RMS is
-/// 1.21× a geometric robot's at the same poses (mean; 1.02–1.47×), against 1.44× with every
-/// term (the parameter count's √(53/27) = 1.40× and the leverage of new poses). The bound is
-/// the measured mean plus a tenth: the 24 ratios scatter by 0.12 (standard deviation), their
-/// mean by 0.025.
+/// 24 TX60s whose harmonics are J1's first and J2's and J3's both (compliance on every joint),
+/// identified with identify's defaults (200 poses, 10 µm): every one keeps those orders and
+/// J2's and J3's compliance; a term the robot lacks stays when its `χ²` exceeds `2d`, 14–16 % of
+/// the time, so about half of them keep spurious wrist harmonics besides (13 of 24 exact,
+/// measured; the at least 8 asserted is that less two binomial standard deviations, 2.4). The held-out RMS is 1.310× a geometric robot's at the same poses
+/// (mean; sd 0.166, 1.02–1.70×), against 1.423× with every term kept (the parameter count's
+/// √(53/27) = 1.40× and the leverage of new poses) and 1.243× with a test at 1 % (exact on 22,
+/// but worse on robots with every term: `identify_defaults_come_within_1_5x_of_a_geometric_robot`).
+/// The bound is the measured mean plus three standard errors (0.034), below every term's.
 #[test]
 fn the_selection_keeps_the_harmonics_a_robot_has_and_drops_the_rest() {
+    use crate::simulate_nongeometric::{geometric_robots, held_out, mean_sd, ROBOTS};
     use rayon::prelude::*;
-    let seeds: Vec<u64> = (100..124).collect();
+    let seeds: Vec<u64> = ROBOTS.collect();
     let out: Vec<(u64, Vec<u8>, Vec<bool>, f64)> = seeds
-        .par_iter()
-        .map(|&seed| {
-            let (_, geometric) = identified(seed, None, None);
+        .into_par_iter()
+        .zip(geometric_robots())
+        .map(|(seed, geometric)| {
             let e = errors(seed, &BENT, true);
-            let (r, partial) = identified(seed, e.as_ref(), None);
-            let s = &check(&r).selection;
+            let (partial, s) = held_out(e.as_ref(), seed, 200, JointErrorFit::Auto);
+            let s = s.expect("the lack of fit starts the fit beyond geometry");
             assert!(s.by_data);
             (
                 seed,
@@ -113,20 +116,25 @@ fn the_selection_keeps_the_harmonics_a_robot_has_and_drops_the_rest() {
         .iter()
         .filter(|o| o.1 == [1, 2, 2, 0, 0, 0] && o.2 == [false, true, true, false, false, false])
         .count();
-    let mean = out.iter().map(|o| o.3).sum::<f64>() / out.len() as f64;
+    let ratios: Vec<f64> = out.iter().map(|o| o.3).collect();
+    let (mean, sd) = mean_sd(&ratios);
     for o in &out {
         eprintln!(
             "seed {}: orders {:?}, compliance {:?}, held-out {:.2}× a geometric robot's",
             o.0, o.1, o.2, o.3
         );
     }
-    eprintln!("{exact} of {} exact; mean {mean:.3}×", out.len());
-    assert!(exact >= 22, "{exact} of {}", out.len());
-    // Every robot keeps what it has: J1's first harmonic, J2's and J3's orders 1–2.
+    eprintln!(
+        "{exact} of {} exact; mean {mean:.3}×, sd {sd:.3}",
+        out.len()
+    );
+    assert!(exact >= 8, "{exact} of {}", out.len());
+    // Every robot keeps what it has: J1's first harmonic, J2's and J3's orders 1–2 and
+    // compliance.
     assert!(out
         .iter()
-        .all(|o| o.1[0] >= 1 && o.1[1] == 2 && o.1[2] == 2));
-    assert!(mean < 1.35, "{mean}");
+        .all(|o| o.1[0] >= 1 && o.1[1] == 2 && o.1[2] == 2 && o.2[1] && o.2[2]));
+    assert!(mean < 1.31 + 3.0 * 0.034, "{mean}");
 }
 
 /// Orders set per joint fit those alone, with every joint's compliance whose torque varies,
@@ -197,7 +205,8 @@ fn diff(a: &[f64], b: &[f64]) -> f64 {
 /// adapter is present) before and after.
 #[test]
 fn a_model_with_dropped_harmonics_round_trips_and_draws() {
-    let seed = 101;
+    // A robot whose selection drops every wrist harmonic (robot 101 keeps J4's first).
+    let seed = 102;
     let e = errors(seed, &BENT, true);
     let truth = Experiment::tx60(seed).truth;
     let task: Vec<Vec<f64>> = random_poses(&truth, 20, 9)

@@ -99,8 +99,8 @@ pub struct ChainOptions {
     pub beyond_geometry: JointErrorFit,
     /// Per joint, the gear harmonics fitted beyond geometry: orders 1 to this (0, 1 or 2; 0:
     /// none), and the compliance of every joint whose torque varies. `None` (the default): the
-    /// data choose per joint the orders and whether the compliance is fitted, by the
-    /// leave-one-out RMS ([`TermSelection`]).
+    /// data choose per joint the orders and whether the compliance is fitted, by Akaike's
+    /// criterion ([`TermSelection`]).
     pub harmonic_orders: Option<Vec<u8>>,
     /// Told each step as it starts (fit, identifiability and covariance, check beyond
     /// geometry, lack of fit); none by default.

@@ -15,8 +15,8 @@
 //! (`σ_k = PRIOR_RAD / τ_rms,i`, which does not depend on the assumed masses' scale). Compliance is fitted only for joints whose torque varies over the poses
 //! (a vertical first axis carries none).
 //!
-//! Per joint the data then choose the terms ([`select`]: a compliance, the harmonic orders
-//! 1..m) unless the orders are set, and the model is fitted again with those alone.
+//! Per joint the data then choose the terms ([`select`], by Akaike's criterion: a compliance,
+//! the harmonic orders 1..m) unless the orders are set, and the model is fitted again with those alone.
 //!
 //! Both models are judged by their leave-one-out prediction error, `W⁻¹ (I − H_ii)⁻¹ W r_i` per
 //! point (exact for a linear model, the linearisation at the solution otherwise; `H_ii` the
