@@ -19,7 +19,7 @@
 //! predicted reliability (`Problem` + `CpuEvaluator`, measurement frame).
 
 use gpu_amcs::engine::{CpuEvaluator, Evaluator, Problem, Reference};
-use gpu_amcs::identify::chain::ChainOptions;
+use gpu_amcs::identify::chain::{ChainOptions, TermSelection};
 use gpu_amcs::identify::{
     identified_model, identify_data, IdentifyOptions, JointErrorFit, NoiseModel, PoseData,
     PosePoint, PoseRun, TrackerData,
@@ -379,6 +379,16 @@ pub fn identify(data: PoseData, sigma_mm: Option<f64>) -> RobotModel {
 
 /// [`identify`] with the joint errors fitted as `beyond` says (`--beyond-geometry`).
 pub fn identify_with(data: PoseData, sigma_mm: Option<f64>, beyond: JointErrorFit) -> RobotModel {
+    identify_selecting(data, sigma_mm, beyond).0
+}
+
+/// [`identify_with`], and which joint-error terms the fit beyond geometry kept (`None` when it
+/// did not run).
+pub fn identify_selecting(
+    data: PoseData,
+    sigma_mm: Option<f64>,
+    beyond: JointErrorFit,
+) -> (RobotModel, Option<TermSelection>) {
     let data = TrackerData::Poses(data);
     let nominal = tx60();
     let chain = ChainOptions {
@@ -388,9 +398,16 @@ pub fn identify_with(data: PoseData, sigma_mm: Option<f64>, beyond: JointErrorFi
     };
     let runs = identify_data(&data, &nominal, &IdentifyOptions::default(), &chain, false)
         .expect("the poses identify");
-    identified_model(&runs, &nominal, false, "honesty poses")
+    let selection = runs[0]
+        .report
+        .chain
+        .as_ref()
+        .and_then(|c| c.beyond_geometry.as_ref())
+        .map(|b| b.selection.clone());
+    let model = identified_model(&runs, &nominal, false, "honesty poses")
         .unwrap()
-        .0
+        .0;
+    (model, selection)
 }
 
 /// The errors `|p_true − p_model|` (mm) at `configs`, both in the tracker frame: the model's

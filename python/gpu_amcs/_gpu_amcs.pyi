@@ -373,6 +373,7 @@ def identify(
     strict: bool = False,
     no_compensation: bool = False,
     beyond_geometry: bool | str | None = None,
+    harmonic_orders: Sequence[int] | None = None,
     columns: str | None = None,
     delimiter: str | None = None,
 ) -> IdentifyResult: ...

@@ -168,7 +168,9 @@ fn joint_error_fit(v: &Bound<'_, PyAny>) -> PyResult<JointErrorFit> {
 /// harmonics are fitted with the geometry (the command line's `--beyond-geometry`): None or "auto"
 /// (the default: when the geometric fit shows a lack of fit, kept when they predict left-out poses
 /// better), "on" or True (always checked), "keep" (always kept), "check" (checked and reported, never
-/// kept), "off" or False. `strict=True` raises a `ValueError` for the warnings. Returns an
+/// kept), "off" or False. `harmonic_orders` (one per joint, 0, 1 or 2, e.g. [2, 2, 1, 0, 0, 0];
+/// the command line's `--harmonic-orders`) fits the gear harmonics of orders 1 to that per joint
+/// instead of letting the data choose them. `strict=True` raises a `ValueError` for the warnings. Returns an
 /// `IdentifyResult` whose `to_toml()` is the model file the command writes and whose
 /// `to_dict()` is its `--json` document. `columns` maps a file as a tracker or robot log exported
 /// it (the command line's `--columns`: "ours=theirs[:unit],…", e.g. "q1=A1:rad,…,x=X:m"), and
@@ -181,7 +183,7 @@ fn joint_error_fit(v: &Bound<'_, PyAny>) -> PyResult<JointErrorFit> {
     tracker_sigma = None, tracker_mpe = None, tracker_at = None, uncertainty = "linearised",
     mc_draws = 200, seed = 1, fit = "commanded", no_prior = false, no_refine = false,
     covariance = false, strict = false, no_compensation = false, beyond_geometry = None,
-    columns = None, delimiter = None))]
+    harmonic_orders = None, columns = None, delimiter = None))]
 #[allow(clippy::too_many_arguments)]
 pub fn identify(
     py: Python<'_>,
@@ -203,6 +205,7 @@ pub fn identify(
     strict: bool,
     no_compensation: bool,
     beyond_geometry: Option<Bound<'_, PyAny>>,
+    harmonic_orders: Option<Vec<u8>>,
     columns: Option<String>,
     delimiter: Option<String>,
 ) -> PyResult<PyIdentifyResult> {
@@ -269,6 +272,7 @@ pub fn identify(
         strict,
         compensate: !no_compensation,
         beyond_geometry,
+        harmonic_orders,
         columns,
         ..IdentifyJob::new(data, nominal)
     };
@@ -298,6 +302,7 @@ fn setting_keyword(s: IdentifySetting) -> &'static str {
         IdentifySetting::McDraws => "mc_draws",
         IdentifySetting::Fit => "fit",
         IdentifySetting::Refine => "no_refine",
+        IdentifySetting::HarmonicOrders => "harmonic_orders",
         IdentifySetting::Memory => "memory_limit",
         IdentifySetting::Columns => "columns",
     }

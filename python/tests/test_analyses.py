@@ -230,6 +230,16 @@ def test_identify_beyond_geometry_equals_cli(cli, tmp_path):
     assert checked.to_toml() == plain.to_toml()
     with pytest.raises(ValueError, match="beyond_geometry"):
         gpu_amcs.identify(poses, tracker_sigma=0.01, beyond_geometry="sometimes")
+    # Harmonic orders per joint: the command line's --harmonic-orders, the same document.
+    doc_file = tmp_path / "orders.json"
+    run_ok(cli, "identify", poses, "--tracker-sigma", 0.01, "--harmonic-orders", "2,2,1,0,0,0",
+           "--json", doc_file)
+    set_orders = gpu_amcs.identify(poses, tracker_sigma=0.01, harmonic_orders=[2, 2, 1, 0, 0, 0])
+    assert set_orders.to_dict() == json.loads(doc_file.read_text())
+    selection = set_orders.to_dict()["identify"]["runs"][0]["chain"]["beyond_geometry"]["selection"]
+    assert selection["harmonic_orders"] == [2, 2, 1, 0, 0, 0] and not selection["by_data"]
+    with pytest.raises(ValueError, match="harmonic_orders: J3: order 3"):
+        gpu_amcs.identify(poses, tracker_sigma=0.01, harmonic_orders=[2, 2, 3, 0, 0, 0])
     # The payload at the task: the command line's --payload-kg, refused for a geometric model.
     bent = gpu_amcs.Model.from_file(tmp_path / "m.toml")
     kw = dict(points=10, draws=20000, backend="cpu")

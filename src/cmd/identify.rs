@@ -145,6 +145,13 @@ pub struct IdentifyArgs {
         default_missing_value = "on"
     )]
     pub beyond_geometry: BeyondArg,
+    /// Per joint, the gear harmonics fitted beyond geometry: orders 1 to N (0, 1 or 2; 0 for
+    /// none), one value per joint, e.g. 2,2,1,0,0,0; every joint whose gravity torque varies
+    /// keeps its compliance. Default: the data choose per joint the orders and the compliance
+    /// (backward elimination by Akaike's criterion: a term goes while dropping it lowers
+    /// χ² + 2·coefficients).
+    #[arg(long, value_name = "N,N,...", value_delimiter = ',')]
+    pub harmonic_orders: Option<Vec<u8>>,
     /// Write the identified model (TOML) to FILE.
     #[arg(long, short, value_name = "FILE")]
     pub out: Option<PathBuf>,
@@ -330,6 +337,7 @@ fn setting_flag(s: IdentifySetting) -> &'static str {
         IdentifySetting::Refine => "--no-refine",
         IdentifySetting::Memory => "--memory-limit",
         IdentifySetting::Columns => "--columns",
+        IdentifySetting::HarmonicOrders => "--harmonic-orders",
     }
 }
 
@@ -449,6 +457,7 @@ impl IdentifyArgs {
                 BeyondArg::Keep => JointErrorFit::Keep,
                 BeyondArg::Check => JointErrorFit::Check,
             },
+            harmonic_orders: self.harmonic_orders.clone(),
             ..IdentifyJob::new(self.sweeps.clone(), nominal)
         }
     }

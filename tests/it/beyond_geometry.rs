@@ -111,10 +111,13 @@ fn noise_free_compliance_and_harmonics_are_reproduced() {
 
 /// 10 µm noise, 200 poses, four robots: the extended model's held-out RMS on a robot with
 /// compliance and harmonics against the geometric model's on a purely geometric robot (the same
-/// poses and noise). Its 26 more coefficients alone make √(53/27) = 1.40× from the parameters'
-/// count; their correlation with the geometry adds more: 1.41–1.75×, mean 1.59× (the issue asks
-/// for 1.5×). The geometric model on the bent robot is 23–33× off; on the geometric robot the
-/// check finds no gain.
+/// poses and noise): 1.75, 1.57, 1.42, 1.63× (mean 1.59×, with the terms chosen by Akaike's
+/// criterion the same as with every term fitted; a test at 1 % dropped seed 2025's J6 second
+/// harmonic, χ² 7.0, and left 2.07×). Four robots scatter: the issue's
+/// 1.5× is checked over 24 in `tests/it/simulate_nongeometric.rs`. The geometric model on the
+/// bent robot is 23–33× off; on the geometric robot the check finds no gain (the selection keeps
+/// 4–6 coefficients there, terms whose `χ²` passes `2d` by chance, and the leave-one-out RMS
+/// moves by 1 % or less).
 #[test]
 fn noisy_compliance_and_harmonics_come_close_to_a_geometric_robot() {
     let mut ratios = Vec::new();
@@ -153,7 +156,7 @@ fn noisy_compliance_and_harmonics_come_close_to_a_geometric_robot() {
     eprintln!(
         "extended on the bent robot / geometric on the geometric robot: {ratios:?}, mean {mean:.2}"
     );
-    assert!(mean < 1.8 && ratios.iter().all(|&r| r < 2.0), "{ratios:?}");
+    assert!(mean < 1.75 && ratios.iter().all(|&r| r < 2.0), "{ratios:?}");
 }
 
 /// The explicit check's report on pose `data` measured with 10 µm noise (stated).

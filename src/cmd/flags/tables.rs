@@ -298,6 +298,7 @@ pub const CHAIN_OPTIONS: Table = Table {
             "held_out",
             Fixed("from the data: arcs of each sweep for sweeps, each point for poses"),
         ),
+        ("harmonic_orders", Flags(&["--harmonic-orders"])),
         ("progress", Flags(&["--quiet"])),
     ],
 };

@@ -174,6 +174,7 @@ fn every_field_of_every_options_struct_has_an_entry() {
         compensate,
         beyond_geometry,
         held_out,
+        harmonic_orders,
         progress
     });
     same_fields(&CHAIN_OPTIONS, &chain);

@@ -28,9 +28,10 @@ mod undetermined;
 mod warnings;
 
 pub use beyond::{
-    BacklashCheck, BeyondGeometry, ExtendedModel, HeldOut, CONFOUNDED, PRIOR_HELD, PRIOR_RAD,
+    BacklashCheck, BeyondGeometry, ExtendedModel, HeldOut, Term, TermScore, TermSelection,
+    CONFOUNDED, PRIOR_HELD, PRIOR_RAD,
 };
-pub use joint_error_fit::JointErrorFit;
+pub use joint_error_fit::{check_harmonic_orders, JointErrorFit, MAX_HARMONIC_ORDER};
 pub use model::{chain_model, state_model};
 pub use report::{ChainReport, ChainResult, MonteCarloCheck, NoiseReport, ParameterRow};
 pub use undetermined::{
@@ -98,6 +99,11 @@ pub struct ChainOptions {
     pub beyond_geometry: JointErrorFit,
     /// What the check beyond geometry leaves out at a time ([`HeldOut`]).
     pub held_out: HeldOut,
+    /// Per joint, the gear harmonics fitted beyond geometry: orders 1 to this (0, 1 or 2; 0:
+    /// none), and the compliance of every joint whose torque varies. `None` (the default): the
+    /// data choose per joint the orders and whether the compliance is fitted, by Akaike's
+    /// criterion ([`TermSelection`]).
+    pub harmonic_orders: Option<Vec<u8>>,
     /// Told each step as it starts (fit, identifiability and covariance, check beyond
     /// geometry, lack of fit); none by default.
     pub progress: crate::progress::ProgressHook,
@@ -114,6 +120,7 @@ impl Default for ChainOptions {
             compensate: true,
             beyond_geometry: JointErrorFit::Auto,
             held_out: HeldOut::Points,
+            harmonic_orders: None,
             progress: Default::default(),
         }
     }
@@ -308,6 +315,9 @@ fn identify_geometry(
     steps: &mut steps::Steps,
 ) -> Result<(ChainResult, Option<beyond::ExtendedFit>), IdentifyError> {
     check_points(points, nominal, start)?;
+    if let Some(o) = &opts.harmonic_orders {
+        check_harmonic_orders(o, nominal.joints()).map_err(IdentifyError::HarmonicOrders)?;
+    }
     steps.next("fitting the geometry");
     let (mut run, fixed_by_user) = Fitted::start(points, nominal, start, opts)?;
     check_pose_count(points, run.free.len())?;
@@ -365,6 +375,7 @@ fn identify_geometry(
             prior.as_ref(),
             opts.beyond_geometry.explicit(),
             &opts.held_out.ranges(run.obs.len()),
+            opts.harmonic_orders.as_deref(),
         )
     } else {
         None

@@ -200,6 +200,7 @@ fn render_beyond_geometry(s: &mut String, b: &super::chain::BeyondGeometry) {
         })
         .collect();
     let _ = writeln!(s, "    {}", joints.join("; "));
+    let _ = writeln!(s, "    {}", b.selection.sentence());
     if b.calibration_payloads_kg.iter().any(|&m| m != 0.0) {
         let _ = writeln!(
             s,

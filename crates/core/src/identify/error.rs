@@ -107,6 +107,10 @@ pub enum IdentifyError {
     /// Nothing to evaluate.
     #[error("{0}")]
     NoData(String),
+    /// The harmonic orders per joint of [`super::chain::ChainOptions::harmonic_orders`] do not
+    /// fit the model; the message says why.
+    #[error("harmonic orders: {0}")]
+    HarmonicOrders(String),
 }
 
 impl From<GeometryError> for IdentifyError {

@@ -39,56 +39,15 @@ use super::{
 use crate::kinematics::RobotModel;
 use std::path::PathBuf;
 
+mod setting;
+pub use setting::{IdentifyJobError, IdentifySetting};
+
 /// Fewest Monte Carlo re-identifications that give a covariance.
 pub const MIN_MC_DRAWS: usize = 10;
 
 /// Most Monte Carlo re-identifications a job makes: each is a whole fit (200 of 60 poses take
 /// about 5 s on two cores), and 10⁴ already give each variance to 1.4 %.
 pub const MAX_MC_DRAWS: usize = 10_000;
-
-/// The settings of an [`IdentifyJob`] its errors name; a front end maps each to its own name.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum IdentifySetting {
-    /// [`IdentifyJob::tracker_sigma_mm`].
-    TrackerSigma,
-    /// [`IdentifyJob::tracker_mpe`].
-    TrackerMpe,
-    /// [`IdentifyJob::tracker_at_mm`].
-    TrackerAt,
-    /// The draws of [`UncertaintyMethod::MonteCarlo`].
-    McDraws,
-    /// [`IdentifyJob::method`] (sweeps only).
-    Fit,
-    /// [`IdentifyJob::refine`] (sweeps only).
-    Refine,
-    /// [`IdentifyJob::memory`]: the data need more memory than it allows.
-    Memory,
-    /// [`IdentifyJob::columns`]: the map does not fit the data file.
-    Columns,
-}
-
-/// Why an identification job gave no model.
-#[derive(Debug, thiserror::Error)]
-pub enum IdentifyJobError {
-    /// A setting cannot be used; the message says why (without naming the setting, which the
-    /// front end does).
-    #[error("{message}")]
-    Setting {
-        /// The setting at fault.
-        setting: IdentifySetting,
-        /// What is wrong.
-        message: String,
-    },
-    /// The job is strict and the results look implausible; no model.
-    #[error("{} implausible result(s): {}", warnings.len(), warnings.join("; "))]
-    Strict {
-        /// The warnings, one line per joint and kind of problem.
-        warnings: Vec<String>,
-    },
-    /// Reading, checking or fitting the data failed.
-    #[error(transparent)]
-    Identify(#[from] IdentifyError),
-}
 
 /// An identification from one tracker data file (sweeps or poses, any frame).
 #[derive(Clone, Debug)]
@@ -126,6 +85,10 @@ pub struct IdentifyJob {
     /// When joint compliance and gear harmonics are fitted and kept
     /// ([`crate::identify::JointErrorFit`], [`crate::identify::chain::BeyondGeometry`]).
     pub beyond_geometry: JointErrorFit,
+    /// Per joint, the gear harmonics fitted beyond geometry: orders 1 to this (0, 1 or 2), and
+    /// no selection of the terms; none (the default): the data choose them
+    /// ([`ChainOptions::harmonic_orders`]).
+    pub harmonic_orders: Option<Vec<u8>>,
     /// The memory the identification may use, checked against [`Self::memory_estimate`] once
     /// the data are read and before any fit (data from a pipe cannot be sized before); none:
     /// no check.
@@ -266,6 +229,7 @@ impl IdentifyJob {
             strict: false,
             compensate: true,
             beyond_geometry: JointErrorFit::Auto,
+            harmonic_orders: None,
             memory: None,
             progress: Default::default(),
             columns: None,
@@ -585,7 +549,17 @@ impl IdentifyJob {
                 });
             }
         }
+        if let Some(orders) = &self.harmonic_orders {
+            let joints = self.nominal.joints();
+            (self.beyond_geometry.check_orders(orders, joints)).map_err(|message| {
+                IdentifyJobError::Setting {
+                    setting: IdentifySetting::HarmonicOrders,
+                    message,
+                }
+            })?;
+        }
         Ok(ChainOptions {
+            harmonic_orders: self.harmonic_orders.clone(),
             placement: self.placement,
             fix: self.fix.clone(),
             noise,

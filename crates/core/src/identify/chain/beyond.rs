@@ -15,10 +15,12 @@
 //! (`σ_k = PRIOR_RAD / τ_rms,i`, which does not depend on the assumed masses' scale). Compliance is fitted only for joints whose torque varies over the poses
 //! (a vertical first axis carries none).
 //!
+//! Per joint the data then choose the terms ([`select`], by Akaike's criterion: a compliance,
+//! the harmonic orders 1..m) unless the orders are set, and the model is fitted again with those alone.
+//!
 //! Both models are judged by their leave-one-out prediction error, `W⁻¹ (I − H_ii)⁻¹ W r_i` per
 //! point (exact for a linear model, the linearisation at the solution otherwise; `H_ii` the
-//! point's leverage block): the RMS a new pose would show. The check reports both; the model
-//! file does not carry the extended model yet.
+//! point's leverage block): the RMS a new pose would show. The check reports both.
 
 use super::Fitted;
 use crate::identify::chain_fit::{ChainState, Observation, Prior};
@@ -28,13 +30,17 @@ use crate::kinematics::joint_errors::PointTerms;
 use crate::kinematics::{InputSpace, JointErrors, Joints, Payload, RobotModel};
 mod backlash;
 mod held_out;
+mod select;
+mod separated;
 
 use backlash::backlash_check;
 pub use backlash::BacklashCheck;
 pub use held_out::HeldOut;
-use nalgebra::{DMatrix, Matrix3, Vector3};
+use nalgebra::{DMatrix, Vector3};
+use select::loo_linear;
+pub use select::{Term, TermScore, TermSelection};
+use separated::undetermined;
 use serde::Serialize;
-use std::ops::Range;
 
 /// Coefficients per joint: `k, a1, b1, a2, b2`.
 const PER_JOINT: usize = 5;
@@ -84,6 +90,8 @@ pub struct BeyondGeometry {
     /// (a correlation beyond ±[`CONFOUNDED`]: a harmonic of a joint that hardly moved against
     /// its offset, a first harmonic of q1 against the placement).
     pub undetermined: Vec<String>,
+    /// Which terms the model has per joint, and the leave-one-out figures that chose them.
+    pub selection: TermSelection,
     /// The backlash check, when asked for and the poses' order gives the joints both
     /// directions.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -96,57 +104,17 @@ pub const PRIOR_HELD: f64 = 0.7;
 /// A coefficient correlated beyond this with another free input is not separated from it.
 pub const CONFOUNDED: f64 = 0.95;
 
-/// The coefficients among `free` (the first `geo` geometric inputs of `space`, then
-/// coefficients) that the posterior covariance `cov` shows undetermined ([`BeyondGeometry`]'s
-/// `undetermined`); `sigma` the coefficients' prior σ.
-fn undetermined(
-    free: &[usize],
-    geo: usize,
-    space: crate::kinematics::InputSpace,
-    cov: &DMatrix<f64>,
-    sigma: &[f64],
-) -> Vec<String> {
-    let name = |k: usize| {
-        if k < geo {
-            crate::identify::chain_fit::fit_input_name(space, free[k])
-        } else {
-            JointErrors::coefficient_name(free[k])
-        }
-    };
-    let sd = |k: usize| cov[(k, k)].max(0.0).sqrt();
-    (geo..free.len())
-        .filter_map(|k| {
-            let ratio = sd(k) / sigma[free[k]];
-            if ratio > PRIOR_HELD {
-                return Some(format!(
-                    "{}: held by its prior (σ {:.0} % of the prior's)",
-                    name(k),
-                    100.0 * ratio
-                ));
-            }
-            let (other, rho) = (0..free.len())
-                .filter(|&o| o != k && sd(o) > 0.0)
-                .map(|o| (o, cov[(k, o)] / (sd(k) * sd(o))))
-                .max_by(|a, b| a.1.abs().total_cmp(&b.1.abs()))?;
-            (rho.abs() > CONFOUNDED).then(|| {
-                format!(
-                    "{}: not separated from {} (correlation {rho:+.2})",
-                    name(k),
-                    name(other)
-                )
-            })
-        })
-        .collect()
-}
-
 impl BeyondGeometry {
     /// One paragraph for the report.
     pub fn sentence(&self) -> String {
         let change = 100.0 * (self.loo_rms_extended_mm / self.loo_rms_geometric_mm - 1.0);
+        let left_out = match self.left_out.as_str() {
+            "each point" => String::new(),
+            groups => format!(" ({groups} left out in turn)"),
+        };
         format!(
-            "Beyond geometry: with joint compliance under gravity and gear harmonics ({} more coefficients) the leave-one-out RMS ({} left out in turn) is {:.4} mm against {:.4} mm for the geometry alone ({change:+.0} %): {}.",
+            "Beyond geometry: with joint compliance under gravity and gear harmonics ({} more coefficients) the leave-one-out RMS{left_out} is {:.4} mm against {:.4} mm for the geometry alone ({change:+.0} %): {}.",
             self.parameters,
-            self.left_out,
             self.loo_rms_extended_mm,
             self.loo_rms_geometric_mm,
             match (self.predicts_better, self.kept) {
@@ -229,7 +197,7 @@ struct Inputs<'a> {
     dirs: Option<&'a [Joints]>,
     /// What the leave-out RMS leaves out at a time: runs of consecutive observations (an arc
     /// of a sweep), or, when empty, each observation alone.
-    held_out: &'a [Range<usize>],
+    held_out: &'a [std::ops::Range<usize>],
 }
 
 /// Whitened residuals of `m` at `obs`, then the prior rows of the free inputs.
@@ -291,12 +259,10 @@ fn moved(m: &ExtendedModel, free: &[usize], geo: usize, d: &[f64]) -> ExtendedMo
     n
 }
 
-/// The leave-one-out RMS (3-D, mm) of `m` fitted over the inputs `x` (prior rows as in
-/// [`residuals`]), and the covariance of the free inputs.
-fn loo_rms(obs: &[Observation], m: &ExtendedModel, x: &Inputs<'_>) -> Option<(f64, DMatrix<f64>)> {
+/// The Jacobian of [`residuals`] over the free inputs of `x` at `m`, and the residuals.
+fn jacobian(obs: &[Observation], m: &ExtendedModel, x: &Inputs<'_>) -> (DMatrix<f64>, Vec<f64>) {
     use rayon::prelude::*;
     let (free, geo) = (x.free, x.geo);
-    let rows = 3 * obs.len();
     let r0 = residuals(obs, m, x);
     let cols: Vec<Vec<f64>> = (0..free.len())
         .into_par_iter()
@@ -310,25 +276,41 @@ fn loo_rms(obs: &[Observation], m: &ExtendedModel, x: &Inputs<'_>) -> Option<(f6
             a.iter().zip(&b).map(|(x, y)| (x - y) / (2.0 * h)).collect()
         })
         .collect();
-    let all = DMatrix::from_fn(r0.len(), free.len(), |r, c| cols[c][r]);
-    let info = all.transpose() * &all;
-    let cov = info.clone().try_inverse()?;
-    let j = all.rows(0, rows);
+    (
+        DMatrix::from_fn(r0.len(), free.len(), |r, c| cols[c][r]),
+        r0,
+    )
+}
+
+/// The leave-one-out RMS (3-D, mm) of `m` fitted over the inputs `x` (prior rows as in
+/// [`residuals`]), and the covariance of the free inputs.
+fn loo_rms(obs: &[Observation], m: &ExtendedModel, x: &Inputs<'_>) -> Option<(f64, DMatrix<f64>)> {
+    let (jac, r0) = jacobian(obs, m, x);
     if !x.held_out.is_empty() {
+        let cov = (jac.transpose() * &jac).try_inverse()?;
+        let j = jac.rows(0, 3 * obs.len());
         let rms = held_out::leave_group_out_rms(obs, &j, &cov, &r0, x.held_out)?;
         return Some((rms, cov));
     }
-    let mut sum = 0.0;
-    for (i, o) in obs.iter().enumerate() {
-        let ji = j.rows(3 * i, 3);
-        let h: Matrix3<f64> =
-            Matrix3::from_fn(|a, b| (ji.row(a) * &cov * ji.row(b).transpose())[(0, 0)]);
-        let free_inv = (Matrix3::identity() - h).try_inverse()?;
-        let w_inv = o.whiten.try_inverse()?;
-        let z = Vector3::new(r0[3 * i], r0[3 * i + 1], r0[3 * i + 2]);
-        sum += (w_inv * free_inv * z).norm_squared();
-    }
-    Some(((sum / obs.len().max(1) as f64).sqrt(), cov))
+    loo_linear(obs, &jac, &r0)
+}
+
+/// The free inputs `geometric` followed by the coefficients `coefficients`.
+fn with_coefficients(geometric: &[usize], coefficients: &[usize]) -> Vec<usize> {
+    geometric.iter().chain(coefficients).copied().collect()
+}
+
+/// `start` fitted to `obs` by Levenberg–Marquardt over the free inputs of `x`.
+fn fit_over(obs: &[Observation], start: ExtendedModel, x: &Inputs<'_>) -> ExtendedModel {
+    let steps: Vec<f64> = (0..x.free.len())
+        .map(|k| step(&start.state, x.free, x.geo, k))
+        .collect();
+    levenberg_marquardt(
+        start,
+        &steps,
+        |m, d| moved(m, x.free, x.geo, d),
+        |m| residuals(obs, m, x),
+    )
 }
 
 /// Fits the extended model to `run`'s observations from its geometric solution and compares
@@ -339,7 +321,8 @@ pub(super) fn check(
     nominal: &RobotModel,
     prior: Option<&Prior>,
     with_backlash: bool,
-    held_out: &[Range<usize>],
+    held_out: &[std::ops::Range<usize>],
+    orders: Option<&[u8]>,
 ) -> Option<ExtendedFit> {
     let n = run.state.layout().joints();
     let links = LinkMasses::of(nominal);
@@ -368,9 +351,12 @@ pub(super) fn check(
         })
         .collect();
     let top = rms_tau.iter().copied().fold(0.0, f64::max);
+    // The candidates: compliance where the torque varies, the harmonics up to the orders set
+    // (both orders on every joint unless set).
     let extras: Vec<usize> = (0..PER_JOINT * n)
-        .filter(|&i| {
-            !i.is_multiple_of(PER_JOINT) || rms_tau[i / PER_JOINT] >= TORQUE_SHARE * top.max(1e-12)
+        .filter(|&i| match i % PER_JOINT {
+            0 => rms_tau[i / PER_JOINT] >= TORQUE_SHARE * top.max(1e-12),
+            k => orders.is_none_or(|o| usize::from(o[i / PER_JOINT]) >= k.div_ceil(2)),
         })
         .collect();
     if 3 * run.obs.len() < 2 * (run.free.len() + extras.len()) {
@@ -401,28 +387,56 @@ pub(super) fn check(
         held_out,
     };
     let (loo_geometric, _) = loo_rms(&run.obs, &geometric, &plain)?;
-    let free: Vec<usize> = run
-        .free
-        .iter()
-        .copied()
-        .chain(extras.iter().copied())
-        .collect();
+    let free = with_coefficients(&run.free, &extras);
     let all = Inputs {
         free: &free,
         ..plain
     };
-    let steps: Vec<f64> = (0..free.len())
-        .map(|k| step(&run.state, &free, geo, k))
-        .collect();
-    let fitted = levenberg_marquardt(
-        geometric,
-        &steps,
-        |m, d| moved(m, &free, geo, d),
-        |m| residuals(&run.obs, m, &all),
-    );
-    let (loo_extended, cov) = loo_rms(&run.obs, &fitted, &all)?;
-    // The coefficients' positions among the free inputs (after the geometry's, whose indices
-    // are of another space).
+    let fitted = fit_over(&run.obs, geometric, &all);
+    let (jac, r0) = jacobian(&run.obs, &fitted, &all);
+    let (loo_all, cov) = loo_linear(&run.obs, &jac, &r0)?;
+    // Per joint the terms the data need (unless the orders are set): the model keeps the fit
+    // with those alone, and the covariance of the fit with every candidate (docs/METHOD.md §19:
+    // a dropped coefficient stays at 0 with the spread the data left it, and the kept ones keep
+    // theirs, not the narrower one given that the dropped are exactly 0: the selection looked
+    // at these data, and the spread a model that holds the truth has is what stays honest).
+    let (fitted, selection, loo_extended, sel_free) = match orders {
+        Some(_) => (
+            fitted,
+            select::TermSelection::fixed(&extras, n, loo_all),
+            loo_all,
+            free.clone(),
+        ),
+        None => {
+            let lin = select::Linearised {
+                obs: &run.obs,
+                jac: &jac,
+                r: &r0,
+                geo,
+                extras: &extras,
+                beta: &fitted.beta,
+            };
+            let (kept, selection) = lin.select(n)?;
+            if kept.len() == extras.len() {
+                (fitted, selection, loo_all, free.clone())
+            } else {
+                let sel_free = with_coefficients(&run.free, &kept);
+                let x = Inputs {
+                    free: &sel_free,
+                    ..plain
+                };
+                let mut start = fitted.clone();
+                for &i in extras.iter().filter(|i| !kept.contains(i)) {
+                    start.beta[i] = 0.0;
+                }
+                let m = fit_over(&run.obs, start, &x);
+                let (loo, _) = loo_rms(&run.obs, &m, &x)?;
+                (m, selection, loo, sel_free)
+            }
+        }
+    };
+    // The coefficients' σ: of the fit with every candidate (what the model keeps), by their
+    // positions among its free inputs (after the geometry's, whose indices are of another space).
     let sigma_of = |i: usize| {
         free[geo..]
             .iter()
@@ -431,18 +445,19 @@ pub(super) fn check(
     };
     let deflections: Vec<Joints> = run.obs.iter().map(|o| fitted.deflections(&o.q)).collect();
     let backlash = if with_backlash {
-        backlash_check(run, &fitted, &all, &sigma, loo_extended)
+        let kept = Inputs {
+            free: &sel_free,
+            ..plain
+        };
+        backlash_check(run, &fitted, &kept, &sigma, loo_extended)
     } else {
         None
     };
     let report = BeyondGeometry {
         backlash,
-        parameters: extras.len(),
-        left_out: if held_out.is_empty() {
-            "each point".into()
-        } else {
-            format!("each of {} runs of consecutive points", held_out.len())
-        },
+        parameters: sel_free.len() - geo,
+        selection,
+        left_out: held_out::describe(held_out),
         loo_rms_geometric_mm: loo_geometric,
         loo_rms_extended_mm: loo_extended,
         predicts_better: loo_extended
@@ -486,14 +501,15 @@ pub(super) fn check(
     })
 }
 
-/// The extended fit of [`check`]: its report, model, and the covariance of its free inputs.
+/// The extended fit of [`check`]: its report, the model with the terms selected, and the
+/// covariance of the fit with every candidate term (a dropped coefficient at 0 keeps its spread).
 #[derive(Clone, Debug)]
 pub struct ExtendedFit {
     /// The comparison with the geometry alone.
     pub report: BeyondGeometry,
-    /// The geometry and the coefficients.
+    /// The geometry and the coefficients (0 where a term was dropped).
     pub model: ExtendedModel,
-    /// The free inputs: `geo` geometric ones (indices of the fit's input space), then
+    /// The free inputs of the fit with every candidate term: `geo` geometric ones (indices of the fit's input space), then
     /// coefficients (indices of `k, a1, b1, a2, b2` per joint).
     free: Vec<usize>,
     geo: usize,

@@ -57,6 +57,20 @@ impl JointErrorFit {
         )
     }
 
+    /// Checks harmonic orders per joint ([`super::ChainOptions::harmonic_orders`]) set with this
+    /// mode for a model of `joints` joints ([`check_harmonic_orders`]; with [`JointErrorFit::Off`]
+    /// they have no effect, which is an error too).
+    ///
+    /// # Errors
+    ///
+    /// What is wrong with them, in a sentence that does not name the setting.
+    pub fn check_orders(self, orders: &[u8], joints: usize) -> Result<(), String> {
+        if self == JointErrorFit::Off {
+            return Err("has no effect when no joint errors are fitted beyond geometry".into());
+        }
+        check_harmonic_orders(orders, joints)
+    }
+
     /// Whether the check runs for a geometric fit whose lack of fit test gave `found` (`None`:
     /// the noise is not stated).
     pub fn checks(self, found: Option<bool>) -> bool {
@@ -65,5 +79,33 @@ impl JointErrorFit {
             JointErrorFit::Auto => found != Some(false),
             JointErrorFit::On | JointErrorFit::Keep | JointErrorFit::Check => true,
         }
+    }
+}
+
+/// The highest order of the gear harmonics a model holds (`sin kq, cos kq`, k = 1, 2).
+pub const MAX_HARMONIC_ORDER: u8 = 2;
+
+/// Checks harmonic orders per joint ([`super::ChainOptions::harmonic_orders`]) for a model of
+/// `joints` joints: one per joint, each at most [`MAX_HARMONIC_ORDER`]; the error says what is
+/// wrong.
+///
+/// # Errors
+///
+/// Another count than `joints`, or an order above [`MAX_HARMONIC_ORDER`]: the message says
+/// which, without naming the setting.
+pub fn check_harmonic_orders(orders: &[u8], joints: usize) -> Result<(), String> {
+    if orders.len() != joints {
+        return Err(format!(
+            "needs one order per joint ({joints}), found {}",
+            orders.len()
+        ));
+    }
+    match orders.iter().position(|&o| o > MAX_HARMONIC_ORDER) {
+        Some(j) => Err(format!(
+            "J{}: order {} (the model holds the harmonics of orders 1 to {MAX_HARMONIC_ORDER}; 0 for none)",
+            j + 1,
+            orders[j]
+        )),
+        None => Ok(()),
     }
 }

@@ -3,10 +3,7 @@
 //! of the poses. A diagnostic: the model does not carry backlash yet, and the discrepancy term
 //! holds its effect.
 
-use super::{
-    levenberg_marquardt, loo_rms, moved, residuals, step, ExtendedModel, Fitted, Inputs,
-    Observation, PER_JOINT, PRIOR_RAD,
-};
+use super::{fit_over, loo_rms, ExtendedModel, Fitted, Inputs, Observation, PER_JOINT, PRIOR_RAD};
 use crate::kinematics::Joints;
 use serde::Serialize;
 
@@ -76,15 +73,7 @@ pub(super) fn backlash_check(
     };
     let mut start = fitted.clone();
     start.beta.extend(std::iter::repeat_n(0.0, n));
-    let steps: Vec<f64> = (0..free.len())
-        .map(|k| step(&run.state, &free, x.geo, k))
-        .collect();
-    let m = levenberg_marquardt(
-        start,
-        &steps,
-        |m, d| moved(m, &free, x.geo, d),
-        |m| residuals(&run.obs, m, &x),
-    );
+    let m = fit_over(&run.obs, start, &x);
     let (loo, cov) = loo_rms(&run.obs, &m, &x)?;
     let first = free.len() - n;
     Some(BacklashCheck {

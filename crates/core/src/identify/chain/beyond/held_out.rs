@@ -11,6 +11,15 @@ use super::Observation;
 use nalgebra::{DMatrix, DMatrixView, DVector, Matrix3, Vector3};
 use std::ops::Range;
 
+/// What `groups` leave out, in words: "each point" when empty.
+pub(super) fn describe(groups: &[Range<usize>]) -> String {
+    if groups.is_empty() {
+        "each point".into()
+    } else {
+        format!("each of {} runs of consecutive points", groups.len())
+    }
+}
+
 /// The RMS (3-D, per point, in the observations' units) of the residuals each group of
 /// `groups` (ranges of observation indices) would show when left out, from the whitened
 /// Jacobian rows `j` (3 per observation), the covariance `cov` of the free inputs and the
