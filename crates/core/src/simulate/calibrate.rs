@@ -370,6 +370,24 @@ pub fn calibrate_with_progress(
     })
 }
 
+/// The measurements of `n` random test configurations whose target lies in `bx`, on the true
+/// robot of `exp`, for `seed` (the same for every model checked with that seed).
+///
+/// # Errors
+///
+/// [`SimulateError::Other`] when no `n` test configurations can be generated in `bx`.
+pub(crate) fn test_measurements(
+    exp: &Experiment,
+    n: usize,
+    bx: &WorkspaceBox,
+    seed: u64,
+) -> Result<Vec<Measurement>, SimulateError> {
+    let configs = points::generate(&exp.nominal, n, bx, seed)
+        .map_err(|e| SimulateError::Other(format!("test points: {e}")))?;
+    let mut rng = ChaCha8Rng::seed_from_u64(splitmix(seed ^ 0xACC));
+    Ok(exp.measure(&configs, &mut rng))
+}
+
 /// Accuracy before and after calibration (the paper's 22.9 % experiment): `n` random test
 /// configurations whose target lies in `bx`, measured on the true robot, against the calibrated
 /// model and the nominal model.
@@ -385,10 +403,7 @@ pub fn accuracy_check(
     bx: &WorkspaceBox,
     seed: u64,
 ) -> Result<Validation, SimulateError> {
-    let configs = points::generate(&exp.nominal, n, bx, seed)
-        .map_err(|e| SimulateError::Other(format!("test points: {e}")))?;
-    let mut rng = ChaCha8Rng::seed_from_u64(splitmix(seed ^ 0xACC));
-    let m = exp.measure(&configs, &mut rng);
+    let m = test_measurements(exp, n, bx, seed)?;
     let mut nominal = exp.nominal.clone();
     nominal.name = format!("{} (nominal)", exp.nominal.name);
     validate(calibrated, &m, Some(&nominal)).map_err(|e| SimulateError::Other(e.to_string()))

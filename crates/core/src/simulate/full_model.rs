@@ -12,7 +12,7 @@
 //! drawn independently of the geometry (no `geometry_shift`: the runs' correlation between
 //! geometry and coefficients is not carried).
 
-use super::calibrate::{run_seed, splitmix, Calibration, Experiment};
+use super::calibrate::{run_seed, test_measurements, Calibration, Experiment};
 use super::factors::{Factors, SimulateError};
 use crate::identify::chain::BeyondGeometry;
 use crate::identify::{
@@ -21,7 +21,7 @@ use crate::identify::{
     TrackerData, COVARIANCE_RIDGE,
 };
 use crate::kinematics::{JointErrors, RobotModel};
-use crate::points::{self, WorkspaceBox};
+use crate::points::WorkspaceBox;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
@@ -417,10 +417,7 @@ pub fn accuracy_full(
     bx: &WorkspaceBox,
     seed: u64,
 ) -> Result<FullAccuracy, SimulateError> {
-    let configs = points::generate(&exp.nominal, n, bx, seed)
-        .map_err(|e| SimulateError::Other(format!("test points: {e}")))?;
-    let mut rng = ChaCha8Rng::seed_from_u64(splitmix(seed ^ 0xACC));
-    let m = exp.measure(&configs, &mut rng);
+    let m = test_measurements(exp, n, bx, seed)?;
     let other = |e: crate::identify::IdentifyError| SimulateError::Other(e.to_string());
     let errors = |model: &RobotModel| validate(model, &m, None).map(|v| v.model);
     let mean = validate(&cal.full.independent, &m, Some(&exp.nominal)).map_err(other)?;
