@@ -323,28 +323,15 @@ pub fn calibrate_with_progress(
     seed: u64,
     progress: &crate::progress::ProgressHook,
 ) -> Result<Calibration, SimulateError> {
-    use std::sync::atomic::{AtomicU64, Ordering};
     f.check()?;
     let t0 = std::time::Instant::now();
-    let finished = AtomicU64::new(0);
-    progress.report("calibration runs", 0, f.runs as u64);
-    let runs: Vec<RobotModel> = (0..f.runs)
-        .into_par_iter()
-        .map(|r| {
-            let mut rng = ChaCha8Rng::seed_from_u64(run_seed(seed, r as u64));
-            let run = exp.sweep_run(f, Some((r + 1).to_string()), &mut rng);
-            let id = identify_run(&run, &exp.nominal, &exp.identify)
-                .map(|id| id.model)
-                .map_err(|cause| SimulateError::Identify { run: r + 1, cause });
-            let k = finished.fetch_add(1, Ordering::Relaxed) + 1;
-            progress.report("calibration runs", k, f.runs as u64);
-            id
-        })
-        .collect::<Vec<_>>()
-        // In run order, so that the error reported is the first failing run's, whatever
-        // thread finished first.
-        .into_iter()
-        .collect::<Result<_, _>>()?;
+    let runs: Vec<RobotModel> = each_run(f.runs, progress, |r| {
+        let mut rng = ChaCha8Rng::seed_from_u64(run_seed(seed, r as u64));
+        let run = exp.sweep_run(f, Some((r + 1).to_string()), &mut rng);
+        identify_run(&run, &exp.nominal, &exp.identify)
+            .map(|id| id.model)
+            .map_err(|cause| SimulateError::Identify { run: r + 1, cause })
+    })?;
     let mut independent = parameter_statistics(&runs).ok_or_else(|| {
         SimulateError::Other("the runs identified models of different structure".into())
     })?;
@@ -368,6 +355,30 @@ pub fn calibrate_with_progress(
         correlated,
         seconds: t0.elapsed().as_secs_f64(),
     })
+}
+
+/// `run(r)` for the runs `r` in `0..runs`, in parallel, each reported to `progress` as it
+/// finishes ("calibration runs", k of `runs`); the results in run order, so that the error
+/// returned is the first failing run's, whatever thread finished first.
+pub(crate) fn each_run<T: Send>(
+    runs: usize,
+    progress: &crate::progress::ProgressHook,
+    run: impl Fn(usize) -> Result<T, SimulateError> + Sync,
+) -> Result<Vec<T>, SimulateError> {
+    use std::sync::atomic::{AtomicU64, Ordering};
+    let finished = AtomicU64::new(0);
+    progress.report("calibration runs", 0, runs as u64);
+    (0..runs)
+        .into_par_iter()
+        .map(|r| {
+            let out = run(r);
+            let k = finished.fetch_add(1, Ordering::Relaxed) + 1;
+            progress.report("calibration runs", k, runs as u64);
+            out
+        })
+        .collect::<Vec<_>>()
+        .into_iter()
+        .collect()
 }
 
 /// The measurements of `n` random test configurations whose target lies in `bx`, on the true

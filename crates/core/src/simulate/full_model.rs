@@ -12,7 +12,7 @@
 //! drawn independently of the geometry (no `geometry_shift`: the runs' correlation between
 //! geometry and coefficients is not carried).
 
-use super::calibrate::{run_seed, test_measurements, Calibration, Experiment};
+use super::calibrate::{each_run, run_seed, test_measurements, Calibration, Experiment};
 use super::factors::{Factors, SimulateError};
 use crate::identify::chain::BeyondGeometry;
 use crate::identify::{
@@ -174,41 +174,31 @@ pub fn calibrate_full(
     mode: JointErrorFit,
     progress: &crate::progress::ProgressHook,
 ) -> Result<FullCalibration, SimulateError> {
-    use std::sync::atomic::{AtomicU64, Ordering};
     f.check()?;
     let t0 = std::time::Instant::now();
-    let finished = AtomicU64::new(0);
-    progress.report("calibration runs", 0, f.runs as u64);
-    let fitted: Vec<(TrackerData, FullRun)> = (0..f.runs)
-        .into_par_iter()
-        .map(|r| {
-            let s = run_seed(seed, r as u64);
-            let mut rng = ChaCha8Rng::seed_from_u64(s);
-            let label = (r + 1).to_string();
-            let data = match what {
-                RunData::Sweeps => TrackerData::Sweeps(SweepData {
-                    runs: vec![exp.sweep_run(f, Some(label), &mut rng)],
-                }),
-                RunData::Poses(n) => TrackerData::Poses(pose_run(exp, n, label, &mut rng)),
-            };
-            let (geometric, _) = identify_one(exp, &data, JointErrorFit::Off, s, r + 1)?;
-            let (full, check) = identify_one(exp, &data, mode, s, r + 1)?;
-            let kept_by_mode = full.joint_errors.is_some();
-            let k = finished.fetch_add(1, Ordering::Relaxed) + 1;
-            progress.report("calibration runs", k, f.runs as u64);
-            Ok((
-                data,
-                FullRun {
-                    geometric,
-                    full,
-                    check,
-                    kept_by_mode,
-                },
-            ))
-        })
-        .collect::<Vec<_>>()
-        .into_iter()
-        .collect::<Result<_, SimulateError>>()?;
+    let fitted: Vec<(TrackerData, FullRun)> = each_run(f.runs, progress, |r| {
+        let s = run_seed(seed, r as u64);
+        let mut rng = ChaCha8Rng::seed_from_u64(s);
+        let label = (r + 1).to_string();
+        let data = match what {
+            RunData::Sweeps => TrackerData::Sweeps(SweepData {
+                runs: vec![exp.sweep_run(f, Some(label), &mut rng)],
+            }),
+            RunData::Poses(n) => TrackerData::Poses(pose_run(exp, n, label, &mut rng)),
+        };
+        let (geometric, _) = identify_one(exp, &data, JointErrorFit::Off, s, r + 1)?;
+        let (full, check) = identify_one(exp, &data, mode, s, r + 1)?;
+        let kept_by_mode = full.joint_errors.is_some();
+        Ok((
+            data,
+            FullRun {
+                geometric,
+                full,
+                check,
+                kept_by_mode,
+            },
+        ))
+    })?;
     let kept = fitted.iter().filter(|(_, r)| r.kept_by_mode).count();
     let carries = 2 * kept > f.runs;
     let runs: Vec<FullRun> = fitted
