@@ -86,6 +86,20 @@ const UR5E_LINKS: UrLinks = (
     ],
 );
 
+/// The UR10e's links as UR publishes them (the same UR page; restated, with each figure's
+/// source column, in the `physical_parameters.yaml` of UR's ROS 2 description, BSD-3-Clause).
+const UR10E_LINKS: UrLinks = (
+    [7.369, 13.051, 3.989, 2.1, 1.98, 0.615],
+    [
+        [0.021, 0.0, 0.027],
+        [0.38, 0.0, 0.158],
+        [0.24, 0.0, 0.068],
+        [0.0, 0.007, 0.018],
+        [0.0, 0.007, 0.018],
+        [0.0, 0.0, -0.026],
+    ],
+);
+
 fn converted(chain: &SourceChain) -> RobotModel {
     // The conversion of a built-in table cannot fail: the tests of every preset prove it.
     convert(chain, &chain.name)
@@ -115,14 +129,15 @@ pub fn ur5e() -> RobotModel {
 
 /// Universal Robots UR10e from UR's published standard DH parameters (same source as
 /// [`ur5e`]; m, rad): d = (0.1807, 0, 0, 0.17415, 0.11985, 0.11655),
-/// a = (0, −0.6127, −0.57155, 0, 0, 0), α as the UR5e; limits ±360°.
+/// a = (0, −0.6127, −0.57155, 0, 0, 0), α as the UR5e; limits ±360°. Link masses 7.369,
+/// 13.051, 3.989, 2.1, 1.98, 0.615 kg and centres of mass from the same table.
 pub fn ur10e() -> RobotModel {
     ur_dh(
         "Universal Robots UR10e",
         [0.1807, 0.0, 0.0, 0.17415, 0.11985, 0.11655],
         [0.0, -0.6127, -0.57155, 0.0, 0.0, 0.0],
         UR_ALPHA,
-        None,
+        Some(UR10E_LINKS),
     )
 }
 
@@ -445,6 +460,33 @@ mod tests {
             assert!(d < 1e-9, "{}: {p:?}", m.name);
             m.check().unwrap();
         }
+    }
+
+    /// The UR10e's gravity torques at q = 0 (the arm stretched out along −x) from its links,
+    /// against the lever arms worked out by hand from UR's DH table: joint 2's axis passes
+    /// through x = 0, joint 3's through x = a2 = −612.7 mm; the centres of mass lie at
+    /// x = a2 + 380 (upper arm), a2 + a3 + 240 (forearm) and a2 + a3 (the wrist links).
+    #[test]
+    fn ur10e_gravity_torques_follow_its_published_links() {
+        use crate::kinematics::gravity::{gravity_torques, LinkMasses, GRAVITY};
+        let m = ur10e();
+        let links = m.links.expect("the UR10e carries its links");
+        let q = m.joints_at(0.0);
+        let tau = gravity_torques(&m.params, &[0.0; 3], &LinkMasses::of(&m), 0.0, &q);
+        let (a2, a3) = (-0.6127, -0.57155);
+        let wrist = 2.1 + 1.98 + 0.615;
+        let j2 = 13.051 * (a2 + 0.38) + 3.989 * (a2 + a3 + 0.24) + wrist * (a2 + a3);
+        let j3 = 3.989 * (a3 + 0.24) + wrist * a3;
+        assert_eq!(&links.mass_kg[..], &UR10E_LINKS.0[..]);
+        assert!(tau[0].abs() < 1e-9, "J1 {}", tau[0]);
+        for (got, lever) in [(tau[1], j2), (tau[2], j3)] {
+            let want = GRAVITY * lever;
+            assert!(
+                (got.abs() - want.abs()).abs() < 1e-9 * want.abs(),
+                "{got} against {want} N m"
+            );
+        }
+        assert!(tau[1].abs() > 100.0, "J2 carries the arm: {}", tau[1]);
     }
 
     #[test]

@@ -144,7 +144,8 @@ pub struct CompensationReport {
     /// Why no process was fitted.
     pub not_fitted: Option<String>,
     /// How the held-out RMS was found: 5-fold cross-validation (hyperparameters refitted per
-    /// fold) or the closed-form leave-one-out.
+    /// fold) or the closed-form leave-one-out, each point alone or by runs of consecutive
+    /// points (the names in [`gp::held_out`]'s module).
     pub validation: &'static str,
 }
 
@@ -178,6 +179,9 @@ pub struct Configurations<'a> {
     pub q_rad: &'a [Vec<f64>],
     /// Rotation from the frame of the residuals (measurement) into the robot base frame.
     pub to_base: Matrix3<f64>,
+    /// Runs of consecutive points the compensation's check leaves out together (the arcs of
+    /// circle-point sweeps, [`gp::held_out`]); empty: each point alone.
+    pub groups: &'a [std::ops::Range<usize>],
 }
 
 /// `A^{-1/2}` of a symmetric positive definite 3 × 3 (identity when it is not).
@@ -447,7 +451,14 @@ fn compensate(
             return (report, None);
         }
     };
-    let held = match gp::held_out(&fit, c.q_rad, &residuals, &[standardised, left_out], seed) {
+    let held = match gp::held_out(
+        &fit,
+        c.q_rad,
+        &residuals,
+        &[standardised, left_out],
+        c.groups,
+        seed,
+    ) {
         Ok(h) => h,
         Err(e) => {
             report.not_fitted = Some(format!("cross-validation: {e}"));

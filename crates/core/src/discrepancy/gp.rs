@@ -28,7 +28,9 @@ mod held_out;
 mod inverse;
 mod predictive;
 
-pub use held_out::{held_out, HeldOut};
+pub use held_out::{
+    held_out, HeldOut, CROSS_VALIDATION, CROSS_VALIDATION_GROUPS, LEAVE_GROUP_OUT, LEAVE_ONE_OUT,
+};
 use inverse::par_inverse;
 use nalgebra::{DMatrix, Vector3};
 use rand::{Rng, SeedableRng};

@@ -3,7 +3,7 @@
 //! what the model does not explain, fits the compensation over the configurations, builds the
 //! model's discrepancy term and runs the leave-one-out self-check.
 
-use super::{ChainOptions, Fitted, NoiseReport};
+use super::{ChainOptions, Fitted, NoiseReport, Observation};
 use crate::discrepancy::{Configurations, FittedPoint, LackOfFit};
 use crate::identify::chain_fit::{local_jacobian, position_residuals};
 use nalgebra::{DMatrix, Matrix3};
@@ -47,9 +47,11 @@ pub(super) fn lack_of_fit(
         .filter(|o| o.target == 0)
         .map(|o| o.q.to_vec())
         .collect();
+    let groups = model_target_ranges(&run.obs, &opts.held_out.ranges(run.obs.len()));
     let configurations = Configurations {
         q_rad: &q_rad,
         to_base: run.state.rotation().transpose(),
+        groups: &groups,
     };
     LackOfFit::estimate_with(
         &points,
@@ -62,4 +64,24 @@ pub(super) fn lack_of_fit(
         opts.seed,
         self_check,
     )
+}
+
+/// `ranges` of observation indices as ranges of the model target's points (those with
+/// `target == 0`, numbered in order); ranges left without such a point are dropped.
+fn model_target_ranges(
+    obs: &[Observation],
+    ranges: &[std::ops::Range<usize>],
+) -> Vec<std::ops::Range<usize>> {
+    let mut before = Vec::with_capacity(obs.len() + 1);
+    let mut count = 0;
+    for o in obs {
+        before.push(count);
+        count += usize::from(o.target == 0);
+    }
+    before.push(count);
+    ranges
+        .iter()
+        .map(|r| before[r.start.min(obs.len())]..before[r.end.min(obs.len())])
+        .filter(|r| !r.is_empty())
+        .collect()
 }
