@@ -609,9 +609,13 @@ fn identify_prints_a_summary_by_default() {
     // A loaded machine may make the run long enough to announce its estimate.
     let other: Vec<&str> = e.lines().filter(|l| !l.contains(": estimated ~")).collect();
     assert!(other.is_empty(), "no warnings expected: {e}");
-    // Title, column heads, 6 joints, tool point, the whole-chain fit of the runs, what the file
-    // holds, the file written.
-    assert_eq!(summary.lines().count(), 12, "{summary}");
+    // Title, column heads, 6 joints, tool point, the whole-chain fit of the runs, what sweeps
+    // cannot show, what the file holds, the file written.
+    assert_eq!(summary.lines().count(), 13, "{summary}");
+    assert!(
+        summary.contains("Sweeps show what the model misses along them"),
+        "{summary}"
+    );
     assert!(summary.contains("Whole-chain fit of each run"), "{summary}");
     assert!(
         summary.contains("20 runs") && summary.contains("model.toml"),
