@@ -146,13 +146,14 @@ pub fn validate(
                 nominal,
                 check_draws,
                 seed,
+                term: false,
             })
         })
         .map_err(|e| {
             use gpu_amcs_core::identify::validate::ValidateError as E;
             match e {
                 E::UnknownFrame { .. } => value_error(format!("frame: {e}")),
-                E::Identify(e) => lib_error(e),
+                E::Identify(e) | E::Term(e) => lib_error(e),
                 e => value_error(format!("nominal: {e}")),
             }
         })?;

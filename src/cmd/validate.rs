@@ -64,6 +64,11 @@ pub struct ValidateArgs {
     /// Seed of the predictive check.
     #[arg(long, default_value_t = 2025, value_name = "SEED")]
     pub seed: u64,
+    /// Also write the model with its discrepancy term drawn from these poses' errors to FILE (at
+    /// least 10 poses, which the model was not identified from, spread where it will be used:
+    /// the term then holds what its own data could not show, e.g. a model from sweeps alone).
+    #[arg(long, value_name = "FILE", conflicts_with = "iso9283")]
+    pub term_out: Option<PathBuf>,
     /// With --iso9283: the report files (JSON, CSV, SVG, HTML).
     #[command(flatten)]
     pub reports: ReportFlags,
@@ -157,6 +162,7 @@ impl Run for ValidateArgs {
             );
         }
         outputs.file("--json", a.reports.json.as_deref())?;
+        outputs.file("--term-out", a.term_out.as_deref())?;
         // A bare --nominal is the model file's own nominal unless --preset names one.
         let nominal = match (&a.nominal, &a.preset) {
             (None, _) => None,
@@ -186,6 +192,7 @@ impl Run for ValidateArgs {
             nominal,
             check_draws: a.check_draws,
             seed: a.seed,
+            term: a.term_out.is_some(),
         })
         .map_err(|e| match e {
             // The library names the line; the file is named here.
@@ -195,6 +202,10 @@ impl Run for ValidateArgs {
             e => cli_error(e),
         })?;
         outputs.stage_file("--json", report.json())?;
+        if let Some(t) = &report.term {
+            let data = std::fs::read(&a.measured).unwrap_or_default();
+            outputs.stage_file("--term-out", t.file_text(&model_text, &measured, &data))?;
+        }
         outputs.commit()?;
         if !a.reports.quiet {
             crate::cmd::stdout::print(&report.text())?;
@@ -209,6 +220,7 @@ fn cli_error(e: gpu_amcs::identify::validate::ValidateError) -> anyhow::Error {
     match e {
         E::UnknownFrame { .. } => anyhow::anyhow!("{e} (--frame measurement or --frame base)"),
         E::Identify(e) => e.into(),
+        E::Term(_) => anyhow::anyhow!("--term-out: {e}"),
         e => anyhow::anyhow!("--nominal: {e}"),
     }
 }

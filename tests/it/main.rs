@@ -54,3 +54,4 @@ mod tail_joint_errors;
 mod tracker_cli;
 mod tracker_data;
 mod validate_nominal;
+mod validate_term;

@@ -205,6 +205,30 @@ impl Discrepancy {
         self.rms_mm() * g[(0.95 * g.len() as f64).ceil() as usize - 1]
     }
 
+    /// A term drawn from `norms` (mm; thinned by rank to [`MAX_SAMPLES`]) with the noise
+    /// `noise` of σ `noise_sigma_mm` per coordinate: the robot's share is the norms' mean square
+    /// beyond the stated noise's (1 when the noise is not stated), as a fit's term has it.
+    pub fn from_norms(
+        norms: &[f64],
+        noise: NoiseSource,
+        noise_sigma_mm: Option<f64>,
+        compensation: Option<Compensation>,
+    ) -> Discrepancy {
+        let ms = norms.iter().map(|r| r * r).sum::<f64>() / norms.len().max(1) as f64;
+        let robot_share = match (noise, noise_sigma_mm) {
+            (NoiseSource::Stated, Some(s)) if ms > 0.0 => (1.0 - 3.0 * s * s / ms).clamp(0.0, 1.0),
+            (NoiseSource::Stated, Some(_)) => 0.0,
+            _ => 1.0,
+        };
+        Discrepancy {
+            residual_norms: estimate::thin(norms),
+            robot_share,
+            noise,
+            noise_sigma_mm: noise_sigma_mm.filter(|_| noise == NoiseSource::Stated),
+            compensation,
+        }
+    }
+
     /// The term of several runs' mean model: every run's norms (thinned to [`MAX_SAMPLES`] by
     /// rank), the shares weighted by the runs' residual counts, the noise σ as the RMS of the
     /// runs' (stated only when every run stated it). `None` when no run has a term.

@@ -346,3 +346,19 @@ fn a_new_calibration_keeps_the_term_at_the_geometric_size() {
     assert!(planned.compensation.is_none());
     assert!((planned.residual_norms[19] - 20.0 * 0.4 / 0.3).abs() < 1e-12);
 }
+
+/// A term from given norms: the robot's share is what their mean square holds beyond the stated
+/// noise's (3σ² for a 3-D norm), 1 without a stated noise, 0 below it; norms sorted.
+#[test]
+fn a_term_from_norms_takes_the_stated_noise_out() {
+    let norms = [0.3, 0.1, 0.2, 0.2];
+    let ms = (0.09 + 0.01 + 0.04 + 0.04) / 4.0;
+    let t = Discrepancy::from_norms(&norms, NoiseSource::Stated, Some(0.05), None);
+    assert!((t.robot_share - (1.0 - 3.0 * 0.0025 / ms)).abs() < 1e-15);
+    assert_eq!(t.residual_norms, vec![0.1, 0.2, 0.2, 0.3]);
+    assert_eq!(t.noise_sigma_mm, Some(0.05));
+    let u = Discrepancy::from_norms(&norms, NoiseSource::Unknown, Some(0.05), None);
+    assert_eq!((u.robot_share, u.noise_sigma_mm), (1.0, None));
+    let quiet = Discrepancy::from_norms(&norms, NoiseSource::Stated, Some(1.0), None);
+    assert_eq!(quiet.robot_share, 0.0);
+}

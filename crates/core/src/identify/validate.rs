@@ -16,6 +16,7 @@
 
 mod baseline;
 mod setup;
+mod term;
 
 pub use super::provenance::{
     geometry_sha256, provenance_table, provenance_target, recorded_nominal, RecordedNominal,
@@ -25,6 +26,7 @@ pub use setup::{
     choose_frame, choose_nominal, choose_target, run_validation, FrameSource, NominalSource,
     TargetChoice, ValidateError, ValidateRequest, OTHER_FRAME_MM, OTHER_ROBOT_MM,
 };
+pub use term::{held_out_term, HeldOutTerm};
 
 use super::poses::pose_columns;
 use super::sweeps::{column_indices, csv_error, csv_reader, joint_count, open_input, parse_number};
@@ -326,6 +328,8 @@ pub struct ValidationReport {
     pub registration: Option<super::drift::DriftReport>,
     /// Base reference rows left out because the model file records no references.
     pub references_left_out: usize,
+    /// The model with its discrepancy term from these errors, when asked for.
+    pub term: Option<HeldOutTerm>,
 }
 
 /// The frame of validated measurements, in words.
@@ -394,6 +398,9 @@ impl ValidationReport {
         if let Some(p) = &self.predictive {
             s.push_str(&p.render());
         }
+        if let Some(t) = &self.term {
+            s.push_str(&t.sentence());
+        }
         s
     }
 
@@ -426,6 +433,12 @@ impl ValidationReport {
             "references_left_out": self.references_left_out,
             "predictive_check": self.predictive,
         });
+        let mut doc = doc;
+        if let Some(t) = &self.term {
+            doc["discrepancy_term"] = serde_json::json!({
+                "poses": t.poses, "rms_mm": t.rms_mm, "previous_rms_mm": t.previous_rms_mm,
+            });
+        }
         let mut s = serde_json::to_string_pretty(&doc).unwrap_or_default();
         s.push('\n');
         s

@@ -4,7 +4,7 @@
 //! recorded in the model file, or the robot base frame when that is plausible — never a silent
 //! switch to a frame the data are not in).
 
-use super::{point_errors_geometric, stats, Measurement};
+use super::{held_out_term, point_errors_geometric, stats, Measurement};
 use crate::identify::provenance::{geometry_sha256, RecordedNominal};
 use crate::identify::{IdentifyError, Placement};
 use crate::kinematics::{position, RobotModel};
@@ -132,6 +132,9 @@ pub enum ValidateError {
     /// The measurements or models cannot be validated.
     #[error(transparent)]
     Identify(#[from] IdentifyError),
+    /// No discrepancy term can be drawn from the measurements' errors.
+    #[error("the discrepancy term from these errors: {0}")]
+    Term(IdentifyError),
 }
 
 /// The target a validation compared when the measurements named several or the model records
@@ -440,6 +443,8 @@ pub struct ValidateRequest<'a> {
     pub check_draws: usize,
     /// Seed of the predictive check.
     pub seed: u64,
+    /// Also the model with its discrepancy term drawn from these errors ([`held_out_term`]).
+    pub term: bool,
 }
 
 /// Runs a validation as every front end does: [`choose_frame`], [`choose_nominal`],
@@ -506,7 +511,13 @@ pub fn run_validation(r: ValidateRequest<'_>) -> Result<super::ValidationReport,
     } else {
         None
     };
+    let term = r
+        .term
+        .then(|| held_out_term(r.model, r.measurements, frame))
+        .transpose()
+        .map_err(ValidateError::Term)?;
     Ok(super::ValidationReport {
+        term,
         validation,
         frame,
         frame_source,
