@@ -74,7 +74,7 @@ pub fn driver_error(e: McError) -> PyErr {
 }
 
 /// A setting error `"field (keyword): message"`, as the command line's `"field (--flag): …"`.
-fn setting_error(field: impl std::fmt::Display, kw: Option<&str>, message: &str) -> PyErr {
+pub fn setting_error(field: impl std::fmt::Display, kw: Option<&str>, message: &str) -> PyErr {
     match kw {
         Some(k) => value_error(format!("{field} ({k}): {message}")),
         None => value_error(format!("{field}: {message}")),
