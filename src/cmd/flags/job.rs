@@ -51,7 +51,8 @@ fn summary_error(e: SummaryError) -> anyhow::Error {
     }
 }
 
-/// A job error with the flags of the setting at fault (a plan's own errors: `plan.rs`).
+/// A job error with the flags of the setting at fault (a plan's own errors: `plan.rs`; a
+/// comparison's driver settings, with `compare`'s flags: `compare.rs`).
 pub fn job_error(e: JobError) -> anyhow::Error {
     match e {
         JobError::Spec(e) => spec_error(e),
