@@ -23,6 +23,9 @@ NumPy, OpenTURNS and SALib users:
   the command line's flags, with its defaults; ``.to_dict()`` / ``.to_json()`` are the document
   ``--json`` writes, ``.to_text()`` the table it prints, ``.to_csv()`` / ``.to_pandas()`` the
   CSV ``--csv`` writes (pandas needed for the DataFrame).
+* ``compare(...)`` -> ``CompareResult``: MCS against AMCS at each of ``deltas`` as ``gpu-amcs
+  compare`` runs them (``.amcs``: δ, draws and MRE % of each AMCS run; ``.to_markdown()`` the
+  file ``--markdown`` writes).
 * ``plan(...)`` -> ``PlanResult``: the poses to measure for a calibration (``.design``, n
   angles a pose; ``.design_csv()`` as ``gpu-amcs plan --out`` writes it) and the reliability
   they are predicted to give at the task points (``.reliability``, ``.to_dict()`` = the
@@ -46,6 +49,7 @@ Errors are ``ValueError`` with the command line's one-line message, naming the a
 from ._gpu_amcs import (  # noqa: F401
     N_PARAMS,
     N_UNCERTAIN,
+    CompareResult,
     IdentifyResult,
     MapResult,
     Model,
@@ -56,6 +60,7 @@ from ._gpu_amcs import (  # noqa: F401
     __version__,
     adapters,
     amcs,
+    compare,
     identify,
     map,  # noqa: A004 (gpu_amcs.map, the command line's `map`)
     mcs,
@@ -67,8 +72,8 @@ from ._gpu_amcs import (  # noqa: F401
     ValidationResult,
 )
 
-__all__ = ["Model", "RunResult", "SensitivityResult", "TailResult", "MapResult",
-           "IdentifyResult", "PlanResult", "adapters", "amcs", "mcs", "sensitivity", "tail",
+__all__ = ["Model", "RunResult", "CompareResult", "SensitivityResult", "TailResult", "MapResult",
+           "IdentifyResult", "PlanResult", "adapters", "amcs", "compare", "mcs", "sensitivity", "tail",
            "map", "plan",
            "identify", "validate", "ValidationResult", "presets", "N_PARAMS", "N_UNCERTAIN",
            "__version__"]

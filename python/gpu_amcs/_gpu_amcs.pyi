@@ -121,6 +121,17 @@ class RunResult(_Report):
     def to_text(self) -> str: ...
 
 @final
+class CompareResult(_Report):
+    def to_markdown(self) -> str: ...
+    @property
+    def mcs_draws(self) -> int: ...
+    @property
+    def amcs(self) -> list[tuple[float, int, float]]: ...
+    @property
+    def notes(self) -> list[str]: ...
+    def to_text(self) -> str: ...
+
+@final
 class SensitivityResult(_Report):
     @property
     def first_order(self) -> list[tuple[str, float]]: ...
@@ -244,6 +255,32 @@ def amcs(
     payload_sigma_kg: float = 0.0,
     payload_com: tuple[float, float, float] | None = None,
 ) -> RunResult: ...
+def compare(
+    model: Model | None = None,
+    *,
+    draws: int = 1000000,
+    deltas: _Thresholds | None = ...,
+    batch: int = 10000,
+    coverage: float = 0.95,
+    preset: str | None = None,
+    points: int = 50,
+    q_deg: ArrayLike | None = None,
+    points_file: _Path | None = None,
+    points_seed: int = 1,
+    box_center: _Triple | None = None,
+    box_size: _Triple | None = None,
+    seed: int = 2025,
+    reference: _Reference = "calibrated",
+    nominal: Model | None = None,
+    backend: _Backend = "auto",
+    adapter: str | None = None,
+    memory_limit: _MemoryLimit | None = None,
+    frame: _Frame = "measurement",
+    discrepancy: bool = True,
+    payload_kg: float | None = None,
+    payload_sigma_kg: float = 0.0,
+    payload_com: tuple[float, float, float] | None = None,
+) -> CompareResult: ...
 def sensitivity(
     model: Model | None = None,
     *,

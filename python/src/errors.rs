@@ -74,7 +74,7 @@ pub fn driver_error(e: McError) -> PyErr {
 }
 
 /// A setting error `"field (keyword): message"`, as the command line's `"field (--flag): …"`.
-fn setting_error(field: impl std::fmt::Display, kw: Option<&str>, message: &str) -> PyErr {
+pub fn setting_error(field: impl std::fmt::Display, kw: Option<&str>, message: &str) -> PyErr {
     match kw {
         Some(k) => value_error(format!("{field} ({k}): {message}")),
         None => value_error(format!("{field}: {message}")),
@@ -143,6 +143,8 @@ fn plan_keyword(f: PlanField) -> &'static str {
         PlanField::Candidates => "candidates",
         PlanField::Sigma => "tracker_sigma",
         PlanField::Tracker => "tracker_at",
+        PlanField::TrackerRange => "tracker_range",
+        PlanField::MaxIncidence => "max_incidence",
         PlanField::Thresholds => "threshold",
         PlanField::Search => "draws",
         PlanField::TaskPoints => "q_deg",
@@ -150,6 +152,7 @@ fn plan_keyword(f: PlanField) -> &'static str {
         PlanField::Floor => "floor",
         PlanField::KeepOut => "keep_out",
         PlanField::LinkRadius => "link_radius",
+        PlanField::SelfCollision => "self_collision",
         PlanField::Program => "program",
     }
 }
@@ -159,6 +162,18 @@ pub fn plan_error(e: PlanError) -> PyErr {
     match e {
         PlanError::Setting { field, message } => {
             value_error(format!("{field} ({}): {message}", plan_keyword(field)))
+        }
+        PlanError::Unused {
+            field,
+            needs,
+            message,
+        } => {
+            let needs: Vec<&str> = needs.into_iter().map(plan_keyword).collect();
+            value_error(format!(
+                "{field} ({}): {message} ({})",
+                plan_keyword(field),
+                needs.join(", ")
+            ))
         }
         PlanError::NotIdentifiable(m) => value_error(format!(
             "the candidates do not identify the model (target, candidates): {m}"
@@ -173,6 +188,7 @@ fn memory_advice(check: MemoryCheck, library: &str) -> String {
         MemoryCheck::Amcs => "lower max_draws or batch, use fewer points or per_point=False",
         MemoryCheck::Mcs => "use fewer draws (or amcs), fewer points or per_point=False",
         MemoryCheck::McsSummary => "use fewer points or per_point=False",
+        MemoryCheck::Compare => "use fewer draws or points",
         MemoryCheck::Sensitivity => "use fewer draws",
         MemoryCheck::Tail => "use fewer samples_per_level",
         MemoryCheck::Map { .. } => library,
@@ -210,6 +226,8 @@ pub fn job_error(e: JobError) -> PyErr {
             let kw = match setting {
                 JobSetting::Shard => "shard",
                 JobSetting::Task => "iso9283",
+                JobSetting::Reference => "reference",
+                JobSetting::Frame => "frame",
             };
             value_error(format!("{kw}: {message}"))
         }

@@ -7,6 +7,7 @@
 
 mod analyses;
 mod arrays;
+mod compare;
 mod errors;
 mod identify;
 mod model;
@@ -57,6 +58,8 @@ fn _gpu_amcs(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_class::<run::RunResult>()?;
     m.add_function(wrap_pyfunction!(run::mcs, m)?)?;
     m.add_function(wrap_pyfunction!(run::amcs, m)?)?;
+    m.add_class::<compare::PyComparison>()?;
+    m.add_function(wrap_pyfunction!(compare::compare, m)?)?;
     m.add_class::<analyses::PySensitivityResult>()?;
     m.add_class::<analyses::PyTailResult>()?;
     m.add_class::<analyses::PyMapResult>()?;

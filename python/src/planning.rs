@@ -94,10 +94,7 @@ fn workcell(
                     c.len()
                 )));
             }
-            Ok(KeepOut {
-                min_mm: [c[0].min(c[3]), c[1].min(c[4]), c[2].min(c[5])],
-                max_mm: [c[0].max(c[3]), c[1].max(c[4]), c[2].max(c[5])],
-            })
+            Ok(KeepOut::between([c[0], c[1], c[2], c[3], c[4], c[5]]))
         })
         .collect::<PyResult<Vec<_>>>()?;
     Ok(Workcell {

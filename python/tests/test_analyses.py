@@ -370,6 +370,14 @@ def test_identify_strict_refuses_implausible_results(cli, sweeps):
     (["map", "--plane", "xy"], gpu_amcs.map, dict(plane="xy")),
     (["map", "--at", 100], gpu_amcs.map, dict(at=100)),
     (["plan", "--draws", 50, "--out", "never.csv"], gpu_amcs.plan, dict(draws=50)),
+    # What a plan does not use, and its tracker's own figures, as the plan job refuses them.
+    (["plan", "--reference", "nominal", "--out", "never.csv"], gpu_amcs.plan,
+     dict(reference="nominal")),
+    (["plan", "--frame", "base", "--out", "never.csv"], gpu_amcs.plan, dict(frame="base")),
+    (["plan", "--tracker-at", "3000,0,500", "--tracker-range", 0, "--out", "never.csv"],
+     gpu_amcs.plan, dict(tracker_at=[3000, 0, 500], tracker_range=0)),
+    (["plan", "--tracker-at", "3000,0,500", "--max-incidence", 91, "--out", "never.csv"],
+     gpu_amcs.plan, dict(tracker_at=[3000, 0, 500], max_incidence=91)),
     (["mcs", "--draws", 10], gpu_amcs.mcs, dict(draws=10)),
     (["sensitivity", "--points", 0], gpu_amcs.sensitivity, dict(points=0)),
     (["tail", "--threshold", 0.2, "--preset", "tx90"], gpu_amcs.tail,
@@ -442,6 +450,24 @@ def test_plan_errors_name_the_keyword(cli):
         gpu_amcs.plan(points=5, poses=8, backend="cpu")
     with pytest.raises(ValueError, match=r"tracker_at"):
         gpu_amcs.plan(points=5, tracker_at=[1, 2], backend="cpu")
+
+
+def test_plan_refuses_a_link_radius_nothing_checks_as_the_cli(cli):
+    """A link radius without the self-collision check, a floor or a box: the plan job's
+    refusal, naming the keywords where the command line names the flags."""
+    msg = cli_error(cli, "plan", "--link-radius", 100, "--no-self-collision", "--out",
+                    "never.csv")
+    assert "--floor" in msg and "--keep-out" in msg
+    for flag, kw in [("--no-self-collision", "self_collision"), ("--link-radius", "link_radius"),
+                     ("--floor", "floor"), ("--keep-out", "keep_out")]:
+        msg = msg.replace(flag, kw)
+    with pytest.raises(ValueError) as e:
+        gpu_amcs.plan(points=5, link_radius=100, self_collision=False, backend="cpu")
+    assert str(e.value) == msg
+    # With a floor the radius is used.
+    res = gpu_amcs.plan(points=5, poses=12, candidates=300, draws=1000, link_radius=40,
+                        self_collision=False, floor=-400, backend="cpu")
+    assert len(res.design) == 12
 
 
 def test_plan_workcell_and_program_equal_cli(cli, tmp_path):

@@ -2,6 +2,7 @@
 arguments (timing fields aside), and the same one-line error messages."""
 
 import json
+import re
 
 import numpy as np
 import pytest
@@ -161,3 +162,39 @@ def test_runaway_draws_are_refused_before_any_work():
         gpu_amcs.mcs(draws=10**15, backend="cpu")
     with pytest.raises(ValueError, match=r"parameter draws"):
         gpu_amcs.Model.preset("tx60").draws(10**13)
+
+
+def masked_times(text):
+    """The comparison's table with its last column (the runs' wall-clock seconds) masked."""
+    return "\n".join(re.sub(r"[0-9.]+( \|)?$", r"<t>\1", line) if "MCS" in line else line
+                     for line in text.splitlines())
+
+
+def test_compare_equals_cli(cli, tmp_path):
+    """gpu_amcs.compare: the document, table and Markdown of `gpu-amcs compare` (the library's
+    CompareJob for both), and its setting errors with compare's keywords."""
+    out, md = tmp_path / "cli.json", tmp_path / "cli.md"
+    args = ["--points", 5, "--draws", 50000, "--deltas", "0.05,0.02", "--batch", 5000,
+            "--coverage", 0.9, "--backend", "cpu", "--seed", 7]
+    r = cli("compare", *args, "--json", out, "--markdown", md, "--quiet")
+    assert r.returncode == 0, r.stderr
+    res = gpu_amcs.compare(points=5, draws=50000, deltas=[0.05, 0.02], batch=5000, coverage=0.9,
+                           backend="cpu", seed=7)
+    doc = json.loads(out.read_text())
+    assert without_timing(res.to_dict()) == without_timing(doc)
+    assert masked_times(res.to_text()) == masked_times(r.stdout)
+    assert masked_times(res.to_markdown()) == masked_times(md.read_text())
+    assert res.mcs_draws == 50000
+    assert [d for d, _, _ in res.amcs] == [0.05, 0.02]
+    assert [n for _, n, _ in res.amcs] == [a[1]["draws"] for a in doc["amcs"]]
+    # One δ as a number; the defaults are the command line's.
+    one = gpu_amcs.compare(points=5, draws=50000, deltas=0.05, batch=5000, coverage=0.9,
+                           backend="cpu", seed=7)
+    assert one.amcs == res.amcs[:1]
+    for flags, kw in [(["--deltas=-1"], dict(deltas=-1)), (["--draws", 10], dict(draws=10)),
+                      (["--batch", 0], dict(batch=0))]:
+        want = cli_error(cli, "compare", "--points", 5, *flags)
+        with pytest.raises(ValueError) as e:
+            gpu_amcs.compare(points=5, **kw)
+        flag = flags[0].split("=")[0]
+        assert str(e.value) == want.replace(flag, flag[2:]), flags

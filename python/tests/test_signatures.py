@@ -11,10 +11,11 @@ import pytest
 import gpu_amcs
 from conftest import without_timing
 
-FUNCTIONS = [gpu_amcs.mcs, gpu_amcs.amcs, gpu_amcs.sensitivity, gpu_amcs.tail, gpu_amcs.map,
-             gpu_amcs.plan, gpu_amcs.identify, gpu_amcs.validate, gpu_amcs.adapters,
-             gpu_amcs.presets]
-CLASSES = [gpu_amcs.Model, gpu_amcs.RunResult, gpu_amcs.SensitivityResult, gpu_amcs.TailResult,
+FUNCTIONS = [gpu_amcs.mcs, gpu_amcs.amcs, gpu_amcs.compare, gpu_amcs.sensitivity, gpu_amcs.tail,
+             gpu_amcs.map, gpu_amcs.plan, gpu_amcs.identify, gpu_amcs.validate,
+             gpu_amcs.adapters, gpu_amcs.presets]
+CLASSES = [gpu_amcs.Model, gpu_amcs.RunResult, gpu_amcs.CompareResult, gpu_amcs.SensitivityResult,
+           gpu_amcs.TailResult,
            gpu_amcs.MapResult, gpu_amcs.PlanResult, gpu_amcs.IdentifyResult,
            gpu_amcs.ValidationResult]
 # The keywords every analysis on test points shares (the command line's problem flags).
@@ -49,8 +50,8 @@ def test_help_shows_real_defaults():
     assert sig.parameters["delta"].default is None  # 0.01 unless ndig is given
     assert sig.parameters["thresholds"].default == DEFAULT_THRESHOLDS
     for name, default in PROBLEM.items():
-        for f in (gpu_amcs.mcs, gpu_amcs.amcs, gpu_amcs.sensitivity, gpu_amcs.tail,
-                  gpu_amcs.plan):
+        for f in (gpu_amcs.mcs, gpu_amcs.amcs, gpu_amcs.compare, gpu_amcs.sensitivity,
+                  gpu_amcs.tail, gpu_amcs.plan):
             assert inspect.signature(f).parameters[name].default == default, (f, name)
     assert inspect.signature(gpu_amcs.mcs).parameters["draws"].default == 1_000_000
     assert inspect.signature(gpu_amcs.sensitivity).parameters["draws"].default == 8192
@@ -79,7 +80,7 @@ class NotAValue:
     """A value no keyword takes: a call with it fails before any work."""
 
 
-@pytest.mark.parametrize("f", FUNCTIONS[:8], ids=lambda f: f.__name__)
+@pytest.mark.parametrize("f", FUNCTIONS[:9], ids=lambda f: f.__name__)
 def test_every_keyword_shown_is_taken(f):
     """Each name the signature shows is a keyword the function takes (no drift between the
     text signature and the Rust one): an unknown keyword is a TypeError naming it."""

@@ -14,7 +14,6 @@ use super::reports::ReportFlags;
 use anyhow::{bail, Context, Result};
 use clap::{Args, ValueEnum};
 use gpu_amcs::engine::backend::BackendChoice;
-use gpu_amcs::engine::{Evaluator, Problem};
 use gpu_amcs::job::Setup;
 use gpu_amcs::kinematics::RobotModel;
 use gpu_amcs::mc::{IntervalKind, RunSettings};
@@ -365,17 +364,6 @@ impl BackendArgs {
     pub fn choice(&self) -> Result<(BackendChoice, Option<&str>)> {
         spec::backend_choice(self.backend.into(), self.adapter.as_deref()).map_err(spec_error)
     }
-
-    /// Builds the evaluator; the notes say what was chosen and why.
-    pub fn evaluator(&self, problem: Problem) -> Result<(Box<dyn Evaluator>, Vec<String>)> {
-        spec::make_evaluator(
-            gpu_amcs::backends(),
-            problem,
-            self.backend.into(),
-            self.adapter.as_deref(),
-        )
-        .map_err(spec_error)
-    }
 }
 
 /// The default budget of this process, measured at its first use.
@@ -509,15 +497,6 @@ impl ProblemArgs {
         check_threads(self.threads)
     }
 
-    /// Bytes for the test points (their number is known before reading a points file only
-    /// when they are generated; a points file is bounded by its size).
-    pub fn points_estimate(&self, e: Estimate) -> Estimate {
-        match self.points_file {
-            Some(_) => e,
-            None => e.plus(&[self.points as u64, BYTES_PER_POINT]),
-        }
-    }
-
     /// The files this problem reads, with their flags.
     pub fn inputs(&self) -> Vec<(&'static str, &Path)> {
         [
@@ -539,14 +518,6 @@ impl ProblemArgs {
             memory: self.memory.budget()?,
             progress: bars.hook(self.model.model.as_deref()),
         })
-    }
-
-    /// Reads the model and points and builds the problem ([`ProblemSpec::build_problem`]).
-    pub fn build(&self) -> Result<Problem> {
-        self.check()?;
-        let b = self.spec()?.build_problem().map_err(spec_error)?;
-        print_model_notes(self.model.model.as_deref(), &b.notes);
-        Ok(b.problem)
     }
 }
 

@@ -1,23 +1,19 @@
-//! `compare`: MCS against AMCS at several tolerances, the paper's Table 2 for one model.
+//! `compare`: MCS against AMCS at several tolerances, the paper's Table 2 for one model (the
+//! library's `CompareJob`).
 
-use super::args::{thread_pool, BYTES_PER_DRAW};
-use super::flags::Driver;
+use super::args::thread_pool;
+use super::flags::{job_error, Driver};
 use super::outputs::Outputs;
-use super::progress::Progress;
+use super::progress::Bars;
 use super::reports::{problem_rows, write_reports};
 use super::Run;
 use crate::cmd::args::{DeltasArgs, ProblemArgs};
 use crate::cmd::reports::ReportFlags;
 use anyhow::Result;
 use clap::Args;
-use gpu_amcs::job::{Analysed, McsJob};
-use gpu_amcs::mc::{self, AmcsOptions, McsOptions, RunSettings, Tolerance};
-use gpu_amcs::memory::Estimate;
+use gpu_amcs::job::{CompareJob, JobError};
 use gpu_amcs::report::{self, Comparison};
 use std::path::PathBuf;
-
-/// The draw cap of each AMCS run of the comparison.
-const AMCS_CAP: u64 = 100_000_000;
 
 /// Comparison options.
 #[derive(Args, Debug, Clone)]
@@ -60,76 +56,23 @@ impl Run for CompareArgs {
         a.reports
             .declare(&mut outputs, &Comparison::planned_layout())?;
         outputs.file("--markdown", a.markdown.as_deref())?;
-        let base = RunSettings {
-            coverage_probability: a.coverage,
-            ..RunSettings::default()
-        };
-        let amcs_opts: Vec<AmcsOptions> = a
-            .deltas
-            .deltas
-            .iter()
-            .map(|&d| AmcsOptions {
-                tolerance: Tolerance::Delta(d),
-                batch_size: a.batch,
-                max_draws: AMCS_CAP,
-                settings: base.clone(),
-            })
-            .collect();
-        for o in &amcs_opts {
-            o.check().map_err(|e| Driver::Compare.error(e))?;
-        }
         a.problem.check()?;
-        // The MCS values are kept while each AMCS run grows up to its cap.
-        let e = Estimate::new(
-            format!(
-                "MCS with {} draws and AMCS with up to {AMCS_CAP} draws",
-                a.draws
-            ),
-            "use fewer --draws or --points, or raise --memory-limit",
-        )
-        .plus(&[a.draws, BYTES_PER_DRAW])
-        .plus(&[AMCS_CAP, BYTES_PER_DRAW]);
-        a.problem.memory.check(&a.problem.points_estimate(e))?;
+        // MCS under one bar, then each AMCS run under its own ("AMCS δ=…"), its total the cap.
+        let bars = Bars::new(a.reports.quiet, |label| (label, "draws", label != "MCS"));
+        let job = CompareJob {
+            setup: a.problem.setup(&bars)?,
+            draws: a.draws,
+            deltas: a.deltas.deltas.clone(),
+            batch_size: a.batch,
+            coverage_probability: a.coverage,
+        };
+        job.check().map_err(compare_error)?;
         let pool = thread_pool(a.problem.threads)?;
-        let (c, rows) = pool.install(|| -> Result<(Comparison, Vec<(String, String)>)> {
-            let problem = a.problem.build()?;
-            let (model, m, seed) = (problem.model.name.clone(), problem.n_points(), problem.seed);
-            let rows = problem_rows(&a.problem, &Analysed::of(&problem));
-            let model_notes = report::model_notes(&problem.model);
-            let (mut ev, notes) = a.problem.backend.evaluator(problem)?;
-            let notes = [model_notes, notes].concat();
-            let bar = Progress::new(a.reports.quiet, "MCS", "draws");
-            let cb = |done: u64, total: u64| bar.update(done, total);
-            let mcs = mc::run_mcs(
-                ev.as_mut(),
-                &McsOptions {
-                    draws: a.draws,
-                    chunk: McsJob::chunk(a.draws),
-                    settings: base.clone(),
-                },
-                Some(&cb),
-            )
-            .map_err(|e| Driver::Compare.error(e))?;
-            let mut amcs = Vec::new();
-            for (d, o) in a.deltas.deltas.iter().zip(&amcs_opts) {
-                bar.set_label(format!("AMCS δ={d}"));
-                bar.restart(true);
-                let r = mc::run_amcs(ev.as_mut(), o, Some(&cb))
-                    .map_err(|e| Driver::Compare.error(e))?;
-                let mre = report::max_relative_error(&r, &mcs);
-                amcs.push((*d, r, mre));
-            }
-            bar.finish();
-            let c = Comparison {
-                model,
-                points: m,
-                seed,
-                mcs,
-                amcs,
-                notes,
-            };
-            Ok((c, rows))
-        })?;
+        let outcome = pool.install(|| job.run(gpu_amcs::backends()));
+        bars.finish();
+        let outcome = outcome.map_err(compare_error)?;
+        let rows = problem_rows(&a.problem, &outcome.analysed);
+        let c = outcome.comparison;
         outputs.stage_file("--markdown", report::markdown::render_comparison(&c))?;
         // -q silences the progress bar only: the table is the comparison's result.
         let print = ReportFlags {
@@ -137,5 +80,13 @@ impl Run for CompareArgs {
             ..a.reports.clone()
         };
         write_reports(outputs, &c, &print, &rows)
+    }
+}
+
+/// A comparison's error: the drivers' settings with `compare`'s flags, the rest as any job's.
+fn compare_error(e: JobError) -> anyhow::Error {
+    match e {
+        JobError::Run(e) => Driver::Compare.error(e),
+        e => job_error(e),
     }
 }

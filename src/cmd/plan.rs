@@ -147,6 +147,8 @@ fn flag(f: PlanField) -> &'static str {
         PlanField::Candidates => "--candidates",
         PlanField::Sigma => "--tracker-sigma",
         PlanField::Tracker => "--tracker-at",
+        PlanField::TrackerRange => "--tracker-range",
+        PlanField::MaxIncidence => "--max-incidence",
         PlanField::Thresholds => "--threshold",
         PlanField::Search => "--draws",
         PlanField::TaskPoints => "--points-file",
@@ -154,6 +156,7 @@ fn flag(f: PlanField) -> &'static str {
         PlanField::Floor => "--floor",
         PlanField::KeepOut => "--keep-out",
         PlanField::LinkRadius => "--link-radius",
+        PlanField::SelfCollision => "--no-self-collision",
         PlanField::Program => "--program",
     }
 }
@@ -169,6 +172,19 @@ fn plan_error(e: PlanError, iso9283: bool) -> anyhow::Error {
         PlanError::Setting { field, message } => {
             anyhow::anyhow!("{} ({}): {message}", field, flag(field))
         }
+        PlanError::Unused {
+            field,
+            needs,
+            message,
+        } => {
+            let needs: Vec<&str> = needs.into_iter().map(flag).collect();
+            anyhow::anyhow!(
+                "{} ({}): {message} ({})",
+                field,
+                flag(field),
+                needs.join(", ")
+            )
+        }
         PlanError::NotIdentifiable(m) => anyhow::anyhow!(
             "the candidates do not identify the model (--target, --candidates): {m}"
         ),
@@ -176,19 +192,11 @@ fn plan_error(e: PlanError, iso9283: bool) -> anyhow::Error {
     }
 }
 
-/// The problem flags `plan` has no use for: a plan predicts the planned calibration's error
-/// against its own model (not a nominal robot), in the measurement frame the calibration
-/// identifies the placement in.
-fn refuse_unused(p: &super::args::ProblemArgs) -> Result<()> {
-    use super::args::{FrameArg, ReferenceArg};
-    if p.reference != ReferenceArg::Calibrated {
-        bail!("--reference: plan predicts the planned calibration's error against its own model (--reference calibrated); a nominal reference does not apply");
-    }
-    if p.nominal.is_some() {
+/// `--nominal` without `--reference nominal` (which the job refuses, with `--frame base`): the
+/// spec has no place for a nominal model the reference does not use, so the job never sees it.
+fn refuse_nominal(p: &super::args::ProblemArgs) -> Result<()> {
+    if p.nominal.is_some() && p.reference == super::args::ReferenceArg::Calibrated {
         bail!("--nominal: plan predicts the planned calibration's error against its own model; the robot to plan for is --model or --preset");
-    }
-    if p.frame != FrameArg::Measurement {
-        bail!("--frame: plan predicts in the measurement frame, with the placement the calibration identifies (--frame measurement); --frame base does not apply");
     }
     Ok(())
 }
@@ -196,7 +204,7 @@ fn refuse_unused(p: &super::args::ProblemArgs) -> Result<()> {
 impl Run for PlanArgs {
     fn run(self) -> Result<()> {
         let a = self;
-        refuse_unused(&a.problem)?;
+        refuse_nominal(&a.problem)?;
         a.problem.check()?;
         let mut outputs = Outputs::new(a.problem.inputs());
         outputs.file("--out", Some(&a.out))?;
@@ -204,23 +212,6 @@ impl Run for PlanArgs {
         a.reports.declare(&mut outputs, &Plan::planned_layout())?;
         let program_format = program_format(&a)?;
         let workcell = workcell(&a)?;
-        // The library checks the tracker's site as one setting; each number is named here.
-        if a.tracker_at.is_some() {
-            let max = plan::MAX_TRACKER_RANGE_MM;
-            if !(a.tracker_range.is_finite() && a.tracker_range > 0.0 && a.tracker_range <= max) {
-                bail!(
-                    "--tracker-range: {} is not a range in (0, {}] mm (a laser tracker measures from tens of metres at most)",
-                    gpu_amcs::number::fmt_plain(a.tracker_range),
-                    gpu_amcs::number::fmt_plain(max)
-                );
-            }
-            if !(a.max_incidence > 0.0 && a.max_incidence <= 90.0) {
-                bail!(
-                    "--max-incidence: {} is not an angle in (0, 90] degrees",
-                    a.max_incidence
-                );
-            }
-        }
         let target = a
             .target
             .as_deref()
@@ -304,12 +295,9 @@ fn program_format(a: &PlanArgs) -> Result<Option<ProgramFormat>> {
     }
 }
 
-/// The workcell of --floor, --keep-out, --no-self-collision and --link-radius.
+/// The workcell of --floor, --keep-out (six numbers a box), --no-self-collision and
+/// --link-radius (its figures are the job's to check).
 fn workcell(a: &PlanArgs) -> Result<Workcell> {
-    if a.link_radius.is_some() && a.no_self_collision && a.floor.is_none() && a.keep_out.is_empty()
-    {
-        bail!("--link-radius: with --no-self-collision and neither --floor nor --keep-out no capsule is checked against anything; leave --link-radius out, or give --floor or --keep-out");
-    }
     if !a.keep_out.len().is_multiple_of(6) {
         bail!(
             "--keep-out: each box is six numbers x0,y0,z0,x1,y1,z1 (mm), got {} numbers",
@@ -321,10 +309,7 @@ fn workcell(a: &PlanArgs) -> Result<Workcell> {
         keep_out: a
             .keep_out
             .chunks(6)
-            .map(|c| KeepOut {
-                min_mm: [c[0].min(c[3]), c[1].min(c[4]), c[2].min(c[5])],
-                max_mm: [c[0].max(c[3]), c[1].max(c[4]), c[2].max(c[5])],
-            })
+            .map(|c| KeepOut::between([c[0], c[1], c[2], c[3], c[4], c[5]]))
             .collect(),
         self_collision: !a.no_self_collision,
         link_radius_mm: a.link_radius,

@@ -87,18 +87,6 @@ impl Progress {
         }
     }
 
-    /// Starts the clock and the estimate again, for the next run under the same bar.
-    pub fn restart(&self, capped: bool) {
-        *self.start.lock().unwrap_or_else(|e| e.into_inner()) = Instant::now();
-        self.capped.store(capped, Ordering::Relaxed);
-        self.announced.store(false, Ordering::Relaxed);
-    }
-
-    /// Sets the label.
-    pub fn set_label(&self, label: String) {
-        self.bar.set_prefix(label);
-    }
-
     /// Sets the message after the counts.
     pub fn set_message(&self, msg: &str) {
         self.bar.set_message(msg.to_string());
@@ -110,9 +98,9 @@ impl Progress {
     }
 }
 
-/// Where a job's progress under one label is drawn: the bar's label, its unit, whether its
-/// totals are a cap ([`Progress::capped`]).
-pub type Route = fn(&str) -> (&'static str, &'static str, bool);
+/// Where a job's progress under one label is drawn: the bar's label (a fixed one, or the job's
+/// label itself), its unit, whether its totals are a cap ([`Progress::capped`]).
+pub type Route = for<'a> fn(&'a str) -> (&'a str, &'static str, bool);
 
 /// The bars of a job ([`gpu_amcs::progress::ProgressHook`]): each label the job reports goes to
 /// the bar its [`Route`] names (a new one when the bar changes; a label other than the bar's is
@@ -121,7 +109,7 @@ pub type Route = fn(&str) -> (&'static str, &'static str, bool);
 pub struct Bars {
     quiet: bool,
     route: Route,
-    bar: Mutex<Option<(&'static str, Progress)>>,
+    bar: Mutex<Option<(String, Progress)>>,
 }
 
 impl Bars {
@@ -165,15 +153,15 @@ impl Bars {
     fn update(&self, label: &str, done: u64, total: u64) {
         let (name, unit, capped) = (self.route)(label);
         let mut bar = self.bar.lock().unwrap_or_else(|e| e.into_inner());
-        if bar.as_ref().map(|(n, _)| *n) != Some(name) {
+        if bar.as_ref().map(|(n, _)| n.as_str()) != Some(name) {
             if let Some((_, old)) = bar.take() {
                 old.finish();
             }
             let new = Progress::new(self.quiet, name, unit);
-            *bar = Some((name, if capped { new.capped() } else { new }));
+            *bar = Some((name.to_string(), if capped { new.capped() } else { new }));
         }
         if let Some((name, b)) = bar.as_ref() {
-            b.set_message(if label == *name { "" } else { label });
+            b.set_message(if label == name { "" } else { label });
             b.update(done, total);
         }
     }

@@ -11,6 +11,8 @@ pub fn job_flag(s: JobSetting) -> &'static str {
     match s {
         JobSetting::Shard => "--shard",
         JobSetting::Task => "--iso9283",
+        JobSetting::Reference => "--reference",
+        JobSetting::Frame => "--frame",
     }
 }
 
@@ -26,6 +28,7 @@ pub fn memory_advice(check: MemoryCheck, library: &str) -> String {
         MemoryCheck::McsSummary => {
             "use fewer --points or no --per-point, or raise --memory-limit".into()
         }
+        MemoryCheck::Compare => "use fewer --draws or --points, or raise --memory-limit".into(),
         MemoryCheck::Sensitivity => "use fewer --draws, or raise --memory-limit".into(),
         MemoryCheck::Tail => "use fewer --samples-per-level, or raise --memory-limit".into(),
         MemoryCheck::Map { shards: None } => library.into(),
@@ -48,7 +51,8 @@ fn summary_error(e: SummaryError) -> anyhow::Error {
     }
 }
 
-/// A job error with the flags of the setting at fault (a plan's own errors: `plan.rs`).
+/// A job error with the flags of the setting at fault (a plan's own errors: `plan.rs`; a
+/// comparison's driver settings, with `compare`'s flags: `compare.rs`).
 pub fn job_error(e: JobError) -> anyhow::Error {
     match e {
         JobError::Spec(e) => spec_error(e),

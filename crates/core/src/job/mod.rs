@@ -1,14 +1,15 @@
 //! One library call per analysis, as every front end runs it: the problem a user states and the
 //! analysis's options → the memory checked → the evaluator opened → the driver run with a
 //! progress hook → the report and its notes. The command line (`gpu-amcs amcs`, `mcs`,
-//! `sensitivity`, `tail`, `map`, `plan`) and Python (`gpu_amcs.amcs`, …) each fill one job and
-//! call `run`; neither builds the problem, picks the backend or a memory mode, or assembles a
-//! report itself. The identification's job is [`crate::identify::IdentifyJob`].
+//! `compare`, `sensitivity`, `tail`, `map`, `plan`) and Python (`gpu_amcs.amcs`, …) each fill
+//! one job and call `run`; neither builds the problem, picks the backend or a memory mode, or
+//! assembles a report itself. The identification's job is [`crate::identify::IdentifyJob`].
 //!
 //! | job | analysis | result |
 //! |---|---|---|
 //! | [`AmcsJob`] | adaptive Monte Carlo (the main job) | [`RunOutcome`] |
 //! | [`McsJob`] | Monte Carlo with a fixed number of draws, kept or summarised | [`RunOutcome`] |
+//! | [`CompareJob`] | MCS against AMCS at several tolerances (the paper's Table 2) | [`CompareOutcome`] |
 //! | [`SensitivityJob`] | Sobol indices of `w` (or one shard's outputs) | [`SensitivityOutcome`] |
 //! | [`TailJob`] | tail probabilities by subset simulation | [`TailOutcome`] |
 //! | [`MapJob`] | the workspace reliability map (or one shard's cells) | [`MapOutcome`] |
@@ -40,6 +41,7 @@
 //! assert!(outcome.report.result.draws >= 4000);
 //! ```
 
+mod compare;
 mod map;
 mod plan;
 mod run;
@@ -49,6 +51,7 @@ mod tail;
 #[cfg(test)]
 mod tests;
 
+pub use compare::{CompareJob, CompareOutcome, COMPARE_AMCS_CAP};
 pub use map::{MapJob, MapOutcome, MapSettings};
 pub use plan::{PlanJob, PlanOutcome, PlanTask, MAX_PREDICTION_DRAWS};
 pub use run::{summary_report, AmcsJob, McsJob, RunOutcome, SummaryMode};
@@ -76,6 +79,10 @@ pub enum JobSetting {
     Shard,
     /// A plan's task: the ISO 9283 test poses cannot be placed for the model.
     Task,
+    /// The reference: a plan predicts against its own model, never a nominal one.
+    Reference,
+    /// The frame of the targets: a plan predicts in the measurement frame.
+    Frame,
 }
 
 /// Which memory estimate refused a job: each names what to make smaller.
@@ -87,6 +94,8 @@ pub enum MemoryCheck {
     Mcs,
     /// An MCS run summarised chunk by chunk: the points, per-point output.
     McsSummary,
+    /// A comparison: the MCS draws (kept while the AMCS runs grow up to their cap), the points.
+    Compare,
     /// A sensitivity analysis: its base samples.
     Sensitivity,
     /// Tail probabilities: the samples per level.

@@ -2,14 +2,14 @@
 //! reliability they are predicted to give at the task points ([`crate::plan`]).
 
 use super::{Analysed, JobError, JobSetting, MemoryCheck, Setup};
-use crate::engine::Backends;
+use crate::engine::{Backends, Frame};
 use crate::kinematics::Joints;
 use crate::memory::Estimate;
 use crate::plan::{
     self, Plan, PlanError, PlanField, PlanOptions, TrackerSite, Workcell, DEFAULT_THRESHOLDS_MM,
 };
 use crate::progress::{Notice, ProgressHook};
-use crate::spec::{PointsSource, ProblemSpec};
+use crate::spec::{PointsSource, ProblemSpec, ReferenceSource};
 
 /// Most draws of a plan's prediction.
 pub const MAX_PREDICTION_DRAWS: usize = 100_000_000;
@@ -37,8 +37,9 @@ pub struct PlanOutcome {
 
 /// A calibration plan: `poses` of `candidates` configurations for the task, and the engine's
 /// prediction of the reliability the calibration gives there. The problem's frame and
-/// reference do not apply: a plan predicts the planned calibration's error against its own
-/// model, in the measurement frame the calibration identifies the placement in.
+/// reference do not apply, and other than the measurement frame and the calibrated reference
+/// they are refused: a plan predicts the planned calibration's error against its own model, in
+/// the measurement frame the calibration identifies the placement in.
 ///
 /// # Examples
 ///
@@ -118,12 +119,31 @@ impl PlanJob {
         }
     }
 
-    /// Checks the spec and the prediction's draws.
+    /// Checks what a plan does not use (a nominal reference, the base frame), the spec, the
+    /// prediction's draws, the tracker's site and the workcell's figures.
     ///
     /// # Errors
     ///
-    /// [`JobError::Spec`]; [`JobError::Plan`] ([`PlanField::Search`]) for draws out of range.
+    /// [`JobError::Setting`] ([`JobSetting::Reference`], [`JobSetting::Frame`]);
+    /// [`JobError::Spec`]; [`JobError::Plan`] ([`PlanField::Search`]) for draws out of range,
+    /// and the site's ([`TrackerSite::check`]) and the workcell's ([`Workcell::check`]).
     pub fn check(&self) -> Result<(), JobError> {
+        if let ReferenceSource::Nominal(_) = self.setup.problem.reference {
+            return Err(JobError::Setting {
+                setting: JobSetting::Reference,
+                message: "a plan predicts the planned calibration's error against its own model \
+                          (the calibrated reference); a nominal reference does not apply"
+                    .into(),
+            });
+        }
+        if self.setup.frame != Frame::Measurement {
+            return Err(JobError::Setting {
+                setting: JobSetting::Frame,
+                message: "a plan predicts in the measurement frame, with the placement the \
+                          calibration identifies; the base frame does not apply"
+                    .into(),
+            });
+        }
         self.setup.problem.check()?;
         if !(100..=MAX_PREDICTION_DRAWS).contains(&self.draws) {
             return Err(PlanError::Setting {
@@ -135,6 +155,10 @@ impl PlanJob {
             }
             .into());
         }
+        if let Some(t) = &self.tracker {
+            t.check()?;
+        }
+        self.workcell.check()?;
         Ok(())
     }
 

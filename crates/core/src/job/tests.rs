@@ -302,3 +302,156 @@ fn the_plan_job_plans_then_predicts_and_refuses_draws_out_of_range() {
         })
     ));
 }
+
+#[test]
+fn the_plan_job_refuses_what_a_plan_does_not_use_before_any_work() {
+    use crate::plan::{KeepOut, PlanError, TrackerSite};
+    use crate::spec::ReferenceSource;
+    let refused = |job: &PlanJob| match job.check() {
+        Err(JobError::Setting { setting, message }) => {
+            assert!(!message.contains("--"), "{message}");
+            Some(setting)
+        }
+        Err(e) => panic!("{e}"),
+        Ok(()) => None,
+    };
+    let ok = PlanJob::new(spec(5));
+    assert_eq!(refused(&ok), None);
+    let mut job = ok.clone();
+    job.setup.problem.reference = ReferenceSource::Nominal(None);
+    assert_eq!(refused(&job), Some(JobSetting::Reference));
+    let mut job = ok.clone();
+    job.setup.frame = Frame::Base;
+    assert_eq!(refused(&job), Some(JobSetting::Frame));
+    // The tracker's range and incidence, each named (the planner names them the same).
+    let field = |job: &PlanJob| match job.check() {
+        Err(JobError::Plan(PlanError::Setting { field, message })) => {
+            assert!(!message.contains("--"), "{message}");
+            field
+        }
+        other => panic!("{other:?}"),
+    };
+    let site = |range_mm, max_incidence_deg| TrackerSite {
+        position_mm: [3000.0, 0.0, 500.0],
+        range_mm,
+        max_incidence_deg,
+    };
+    let mut job = ok.clone();
+    for (range, incidence, want) in [
+        (0.0, 60.0, PlanField::TrackerRange),
+        (f64::NAN, 60.0, PlanField::TrackerRange),
+        (1e30, 60.0, PlanField::TrackerRange),
+        (20_000.0, 0.0, PlanField::MaxIncidence),
+        (20_000.0, 91.0, PlanField::MaxIncidence),
+    ] {
+        job.tracker = Some(site(range, incidence));
+        assert_eq!(field(&job), want, "{range} mm, {incidence}°");
+        let opts = PlanOptions {
+            tracker: job.tracker.clone(),
+            ..PlanOptions::default()
+        };
+        let model = crate::kinematics::tx60();
+        match crate::plan::plan(&model, &[[0.0; 6].into()], &opts) {
+            Err(PlanError::Setting { field, .. }) => assert_eq!(field, want),
+            other => panic!("{:?}", other.map(|p| p.design_deg)),
+        }
+    }
+    job.tracker = Some(site(100_000.0, 90.0));
+    assert_eq!(refused(&job), None);
+    // A link radius nothing checks: no self-collision check, no floor, no keep-out box.
+    let mut job = ok.clone();
+    job.workcell.link_radius_mm = Some(100.0);
+    job.workcell.self_collision = false;
+    match job.check() {
+        Err(JobError::Plan(PlanError::Unused { field, needs, .. })) => {
+            assert_eq!(field, PlanField::LinkRadius);
+            assert_eq!(
+                needs,
+                [
+                    PlanField::SelfCollision,
+                    PlanField::Floor,
+                    PlanField::KeepOut
+                ]
+            );
+        }
+        other => panic!("{other:?}"),
+    }
+    job.workcell.keep_out = vec![KeepOut::between([1.0, 2.0, 3.0, 0.0, 5.0, -1.0])];
+    assert_eq!(job.workcell.keep_out[0].min_mm, [0.0, 2.0, -1.0]);
+    assert_eq!(job.workcell.keep_out[0].max_mm, [1.0, 5.0, 3.0]);
+    assert_eq!(refused(&job), None);
+}
+
+#[test]
+fn the_compare_job_is_an_mcs_job_then_an_amcs_job_per_delta() {
+    let mut job = CompareJob::new(spec(4));
+    job.draws = 50_000;
+    job.deltas = vec![0.05, 0.02];
+    job.batch_size = 2000;
+    job.coverage_probability = 0.9;
+    let labels = Arc::new(Mutex::new(Vec::<String>::new()));
+    let seen = labels.clone();
+    job.setup.progress = crate::progress::ProgressHook::new(move |label: &str, _, _| {
+        let mut l = seen.lock().unwrap();
+        if l.last().map(String::as_str) != Some(label) {
+            l.push(label.to_string());
+        }
+    });
+    let c = job.run(&CpuOnly).unwrap().comparison;
+    assert_eq!(
+        *labels.lock().unwrap(),
+        ["MCS", "AMCS δ=0.05", "AMCS δ=0.02"]
+    );
+    // The MCS run is the MCS job's with the same seed, bit for bit.
+    let mut mcs = McsJob::new(spec(4));
+    mcs.draws = 50_000;
+    mcs.settings.coverage_probability = 0.9;
+    let alone = mcs.run(&CpuOnly).unwrap().report;
+    assert_eq!(c.mcs.sorted_values, alone.result.sorted_values);
+    assert_eq!(c.mcs.moments, alone.result.moments);
+    assert_eq!(
+        (c.model.as_str(), c.points, c.seed),
+        ("Staubli TX60", 4, alone.seed)
+    );
+    assert_eq!(c.notes, alone.notes);
+    // Each AMCS run is the AMCS job's at its δ, and its MRE is against the MCS run.
+    assert_eq!(c.amcs.len(), 2);
+    for (d, r, mre) in &c.amcs {
+        let mut amcs = AmcsJob::new(spec(4));
+        amcs.options.tolerance = crate::mc::Tolerance::Delta(*d);
+        amcs.options.batch_size = 2000;
+        amcs.options.max_draws = COMPARE_AMCS_CAP;
+        amcs.options.settings.coverage_probability = 0.9;
+        let alone = amcs.run(&CpuOnly).unwrap().report.result;
+        assert_eq!(r.sorted_values, alone.sorted_values, "δ = {d}");
+        assert_eq!(r.draws, alone.draws, "δ = {d}");
+        assert_eq!(*mre, crate::report::max_relative_error(&alone, &c.mcs));
+    }
+    // Its settings are refused before any work, the AMCS runs' first; its memory as a whole.
+    job.deltas = vec![0.05, -1.0];
+    job.draws = 10;
+    assert!(matches!(
+        job.run(&CpuOnly),
+        Err(JobError::Run(crate::mc::McError::Setting {
+            field: crate::mc::Setting::Tolerance,
+            ..
+        }))
+    ));
+    job.deltas = vec![0.05];
+    assert!(matches!(
+        job.check(),
+        Err(JobError::Run(crate::mc::McError::Setting {
+            field: crate::mc::Setting::Draws,
+            ..
+        }))
+    ));
+    job.draws = 50_000;
+    job.setup.memory = budget(1 << 20);
+    assert!(matches!(
+        job.run(&CpuOnly),
+        Err(JobError::Memory {
+            check: MemoryCheck::Compare,
+            ..
+        })
+    ));
+}

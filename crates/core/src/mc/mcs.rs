@@ -17,6 +17,32 @@ pub struct McsOptions {
     pub settings: RunSettings,
 }
 
+impl McsOptions {
+    /// Checks the settings: [`RunSettings::check`], at least 100/(1 − p) draws, a chunk of
+    /// at least one draw.
+    ///
+    /// # Errors
+    ///
+    /// [`McError::Setting`] naming the setting out of range.
+    pub fn check(&self) -> Result<(), McError> {
+        let min = min_draws(self.settings.coverage_probability);
+        self.settings.check()?;
+        if self.draws < min {
+            return Err(McError::Setting {
+                field: Setting::Draws,
+                message: format!("must be at least 100/(1 − p) = {min}, got {}", self.draws),
+            });
+        }
+        if self.chunk == 0 {
+            return Err(McError::Setting {
+                field: Setting::Chunk,
+                message: "must be positive".into(),
+            });
+        }
+        Ok(())
+    }
+}
+
 impl Default for McsOptions {
     fn default() -> Self {
         McsOptions {
@@ -67,20 +93,7 @@ pub fn run_mcs(
     opts: &McsOptions,
     progress: Option<Progress>,
 ) -> Result<McResult, McError> {
-    let min = min_draws(opts.settings.coverage_probability);
-    opts.settings.check()?;
-    if opts.draws < min {
-        return Err(McError::Setting {
-            field: Setting::Draws,
-            message: format!("must be at least 100/(1 − p) = {min}, got {}", opts.draws),
-        });
-    }
-    if opts.chunk == 0 {
-        return Err(McError::Setting {
-            field: Setting::Chunk,
-            message: "must be positive".into(),
-        });
-    }
+    opts.check()?;
     let mut acc = Accumulator::new(eval, opts.settings.clone(), opts.draws)?;
     let mut done = 0;
     while done < opts.draws {

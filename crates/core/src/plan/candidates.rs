@@ -2,7 +2,7 @@
 //! within the joint limits less a margin, away from singularities and, with a tracker, within its
 //! range and incidence.
 
-use super::{setting, PlanError, PlanField, PlanOptions, MAX_TRACKER_RANGE_MM};
+use super::{setting, PlanError, PlanField, PlanOptions, TrackerSite, MAX_TRACKER_RANGE_MM};
 use crate::identify::chain_fit::{default_free, ChainState};
 use crate::kinematics::{transform, Joints, RobotModel};
 use crate::number::fmt_plain;
@@ -120,38 +120,51 @@ fn check_task(model: &RobotModel, task: &[Joints]) -> Result<(), PlanError> {
     Ok(())
 }
 
-/// The tracker, if any: a finite position, a positive range of at most
-/// [`MAX_TRACKER_RANGE_MM`], an incidence in (0, 90]°, and no farther from the robot's base
-/// than its range and the farthest the target reaches from the base together (farther, no pose
-/// of the target is within its range).
+impl TrackerSite {
+    /// Checks the site's own figures: a finite position, a range in (0,
+    /// [`MAX_TRACKER_RANGE_MM`]] and an incidence in (0, 90]°.
+    ///
+    /// # Errors
+    ///
+    /// [`PlanError::Setting`] naming [`PlanField::Tracker`], [`PlanField::TrackerRange`] or
+    /// [`PlanField::MaxIncidence`].
+    pub fn check(&self) -> Result<(), PlanError> {
+        if !self.position_mm.iter().all(|v| v.is_finite()) {
+            return Err(setting(
+                PlanField::Tracker,
+                format!("{:?} must be finite", self.position_mm),
+            ));
+        }
+        let r = self.range_mm;
+        if !(r.is_finite() && r > 0.0 && r <= MAX_TRACKER_RANGE_MM) {
+            return Err(setting(
+                PlanField::TrackerRange,
+                format!(
+                    "{} is not a range in (0, {}] mm (a laser tracker measures from tens of metres at most)",
+                    fmt_plain(r),
+                    fmt_plain(MAX_TRACKER_RANGE_MM)
+                ),
+            ));
+        }
+        let a = self.max_incidence_deg;
+        if !(a > 0.0 && a <= 90.0) {
+            return Err(setting(
+                PlanField::MaxIncidence,
+                format!("{a} is not an angle in (0, 90] degrees"),
+            ));
+        }
+        Ok(())
+    }
+}
+
+/// The tracker, if any: its own figures ([`TrackerSite::check`]), and no farther from the
+/// robot's base than its range and the farthest the target reaches from the base together
+/// (farther, no pose of the target is within its range).
 fn check_tracker(model: &RobotModel, o: &PlanOptions) -> Result<(), PlanError> {
     let Some(t) = &o.tracker else {
         return Ok(());
     };
-    if !(t.position_mm.iter().all(|v| v.is_finite())
-        && t.range_mm.is_finite()
-        && t.range_mm > 0.0
-        && t.max_incidence_deg > 0.0
-        && t.max_incidence_deg <= 90.0)
-    {
-        return Err(setting(
-            PlanField::Tracker,
-            format!(
-                "position {:?} must be finite, range {} mm positive and incidence {}° in (0, 90]",
-                t.position_mm, t.range_mm, t.max_incidence_deg
-            ),
-        ));
-    }
-    if t.range_mm > MAX_TRACKER_RANGE_MM {
-        return Err(setting(
-            PlanField::Tracker,
-            format!(
-                "a range of {} mm is beyond what a laser tracker measures a robot from: at most {} mm",
-                fmt_plain(t.range_mm),
-                fmt_plain(MAX_TRACKER_RANGE_MM)
-            ),
-        ));
-    }
+    t.check()?;
     let origin = crate::identify::chain::nominal_state(model).base;
     let d = (0..3)
         .map(|k| (t.position_mm[k] - origin[k]).powi(2))

@@ -170,8 +170,12 @@ pub enum PlanField {
     Candidates,
     /// [`PlanOptions::sigma_mm`].
     Sigma,
-    /// [`PlanOptions::tracker`].
+    /// [`PlanOptions::tracker`]: its position (and the site as a whole).
     Tracker,
+    /// [`TrackerSite::range_mm`].
+    TrackerRange,
+    /// [`TrackerSite::max_incidence_deg`].
+    MaxIncidence,
     /// [`PlanOptions::thresholds`].
     Thresholds,
     /// The search settings (draws, passes, swaps, random designs, margin, condition).
@@ -186,6 +190,8 @@ pub enum PlanField {
     KeepOut,
     /// [`Workcell::link_radius_mm`].
     LinkRadius,
+    /// [`Workcell::self_collision`].
+    SelfCollision,
     /// A robot program of the design ([`program::robot_program`]).
     Program,
 }
@@ -197,6 +203,8 @@ impl std::fmt::Display for PlanField {
             PlanField::Candidates => "number of candidates",
             PlanField::Sigma => "tracker noise",
             PlanField::Tracker => "tracker position",
+            PlanField::TrackerRange => "tracker range",
+            PlanField::MaxIncidence => "maximum incidence",
             PlanField::Thresholds => "threshold",
             PlanField::Search => "search setting",
             PlanField::TaskPoints => "task points",
@@ -204,6 +212,7 @@ impl std::fmt::Display for PlanField {
             PlanField::Floor => "floor",
             PlanField::KeepOut => "keep-out box",
             PlanField::LinkRadius => "link radius",
+            PlanField::SelfCollision => "self-collision check",
             PlanField::Program => "robot program",
         })
     }
@@ -218,6 +227,17 @@ pub enum PlanError {
         /// Which setting.
         field: PlanField,
         /// What is wrong.
+        message: String,
+    },
+    /// A setting that, with the others as given, would change nothing: it takes effect only
+    /// with one of `needs` (a front end names them too).
+    #[error("{field}: {message}")]
+    Unused {
+        /// The setting that would change nothing.
+        field: PlanField,
+        /// The settings it would take effect with.
+        needs: Vec<PlanField>,
+        /// Why, and what to do.
         message: String,
     },
     /// The candidates do not determine the free inputs.

@@ -33,6 +33,16 @@ pub struct KeepOut {
     pub max_mm: [f64; 3],
 }
 
+impl KeepOut {
+    /// The box between two opposite corners `x0, y0, z0, x1, y1, z1` (mm), in any order.
+    pub fn between(c: [f64; 6]) -> KeepOut {
+        KeepOut {
+            min_mm: [c[0].min(c[3]), c[1].min(c[4]), c[2].min(c[5])],
+            max_mm: [c[0].max(c[3]), c[1].max(c[4]), c[2].max(c[5])],
+        }
+    }
+}
+
 /// Where the robot may be, in the measurement frame (z up).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Workcell {
@@ -320,41 +330,73 @@ pub fn max_link_radius(model: &RobotModel) -> f64 {
     0.5 * length[1..n.saturating_sub(1).max(1)].iter().sum::<f64>()
 }
 
-/// Checks the workcell's own figures for `model`: a finite floor, boxes with finite corners
-/// (min ≤ max) and a positive finite radius no larger than [`max_link_radius`] (with or
-/// without the self-collision check: no link of the arm is thicker).
-pub(super) fn check(model: &RobotModel, w: &Workcell) -> Result<(), PlanError> {
-    if let Some(f) = w.floor_mm {
-        if !f.is_finite() {
-            return Err(setting(
-                PlanField::Floor,
-                format!("must be finite, got {f}"),
-            ));
+impl Workcell {
+    /// Checks the workcell's own figures: a finite floor, boxes with finite corners (min ≤
+    /// max), a positive finite link radius, and a radius only where something checks the
+    /// capsules (the self-collision check, a floor or a keep-out box).
+    ///
+    /// # Errors
+    ///
+    /// [`PlanError::Setting`] naming [`PlanField::Floor`], [`PlanField::KeepOut`] or
+    /// [`PlanField::LinkRadius`]; [`PlanError::Unused`] for a radius nothing checks.
+    pub fn check(&self) -> Result<(), PlanError> {
+        if let Some(f) = self.floor_mm {
+            if !f.is_finite() {
+                return Err(setting(
+                    PlanField::Floor,
+                    format!("must be finite, got {f}"),
+                ));
+            }
         }
-    }
-    for (i, k) in w.keep_out.iter().enumerate() {
-        let ok = (0..3).all(|c| {
-            k.min_mm[c].is_finite() && k.max_mm[c].is_finite() && k.min_mm[c] <= k.max_mm[c]
-        });
-        if !ok {
-            return Err(setting(
-                PlanField::KeepOut,
-                format!(
-                    "box {} from {:?} to {:?} mm must have finite corners, the first not above the second",
-                    i + 1,
-                    k.min_mm,
-                    k.max_mm
-                ),
-            ));
+        for (i, k) in self.keep_out.iter().enumerate() {
+            let ok = (0..3).all(|c| {
+                k.min_mm[c].is_finite() && k.max_mm[c].is_finite() && k.min_mm[c] <= k.max_mm[c]
+            });
+            if !ok {
+                return Err(setting(
+                    PlanField::KeepOut,
+                    format!(
+                        "box {} from {:?} to {:?} mm must have finite corners, the first not above the second",
+                        i + 1,
+                        k.min_mm,
+                        k.max_mm
+                    ),
+                ));
+            }
         }
-    }
-    if let Some(r) = w.link_radius_mm {
+        let Some(r) = self.link_radius_mm else {
+            return Ok(());
+        };
+        if !self.self_collision && self.floor_mm.is_none() && self.keep_out.is_empty() {
+            return Err(PlanError::Unused {
+                field: PlanField::LinkRadius,
+                needs: vec![
+                    PlanField::SelfCollision,
+                    PlanField::Floor,
+                    PlanField::KeepOut,
+                ],
+                message: "with neither the self-collision check nor a floor nor a keep-out \
+                          box no capsule is checked against anything; leave the link radius \
+                          out, or give a floor or a keep-out box"
+                    .into(),
+            });
+        }
         if !(r.is_finite() && r > 0.0) {
             return Err(setting(
                 PlanField::LinkRadius,
                 format!("must be positive, got {}", crate::number::fmt_plain(r)),
             ));
         }
+        Ok(())
+    }
+}
+
+/// Checks the workcell's own figures ([`Workcell::check`]) and a link radius no larger than
+/// [`max_link_radius`] of `model` (with or without the self-collision check: no link of the arm
+/// is thicker).
+pub(super) fn check(model: &RobotModel, w: &Workcell) -> Result<(), PlanError> {
+    w.check()?;
+    if let Some(r) = w.link_radius_mm {
         let max = max_link_radius(model);
         if max > 0.0 && r > max {
             return Err(setting(
