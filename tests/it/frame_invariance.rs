@@ -124,3 +124,56 @@ fn turning_the_tracker_frame_changes_nothing() {
         );
     }
 }
+
+/// `compare` analyses in the frame it is given, as `mcs` does: its MCS moments equal `mcs`'s in
+/// each frame (they ignored `--frame base` before), and the two frames differ for a model with
+/// an identified placement.
+#[test]
+fn compare_draws_in_the_frame_it_is_given() {
+    use crate::common::{arg, run_ok, tmpdir};
+    let d = tmpdir("compare_frame");
+    let (poses, model) = (arg(&d, "poses.csv"), arg(&d, "model.toml"));
+    run_ok(&["simulate", "--poses", "40", "--seed", "3", "-o", &poses]);
+    run_ok(&["identify", &poses, "-o", &model]);
+    let moments = |json: &str, at: &[&str]| -> serde_json::Value {
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(json).unwrap()).unwrap();
+        at.iter().fold(v, |v, k| v[*k].clone())
+    };
+    let mut seen = Vec::new();
+    for frame in ["measurement", "base"] {
+        let (m, c) = (
+            arg(&d, &format!("mcs-{frame}.json")),
+            arg(&d, &format!("cmp-{frame}.json")),
+        );
+        let common = [
+            "--model",
+            &model,
+            "--points",
+            "5",
+            "--draws",
+            "20000",
+            "--backend",
+            "cpu",
+            "--frame",
+            frame,
+        ];
+        run_ok(&[&["mcs"][..], &common, &["--json", &m]].concat());
+        run_ok(
+            &[
+                &["compare", "--deltas", "0.05"][..],
+                &common,
+                &["--json", &c],
+            ]
+            .concat(),
+        );
+        let want = moments(&m, &["result", "moments"]);
+        assert!(want["mean"].as_f64().unwrap() > 0.0, "{want}");
+        assert_eq!(moments(&c, &["mcs", "moments"]), want, "{frame}");
+        seen.push(want);
+    }
+    assert_ne!(
+        seen[0], seen[1],
+        "the placement's spread is drawn in the measurement frame"
+    );
+}

@@ -25,8 +25,8 @@ pub struct CompareOutcome {
 /// capped at [`COMPARE_AMCS_CAP`] draws; each AMCS run's maximum relative error of the moments
 /// M1–M4 is against the MCS run's ([`report::max_relative_error`]). The runs use the same
 /// evaluator and the same draws (the stream of the problem's seed), as independent [`McsJob`]
-/// and [`AmcsJob`] runs would. The problem is analysed as built: the job's frame does not
-/// apply.
+/// and [`AmcsJob`] runs would, in the job's frame (the measurement frame draws a model's
+/// uncertain placement).
 ///
 /// [`McsJob`]: super::McsJob
 /// [`AmcsJob`]: super::AmcsJob
@@ -157,13 +157,7 @@ impl CompareJob {
         let analysed = Analysed::of(&built.problem);
         let seed = built.problem.seed;
         let model_notes = report::model_notes(&built.problem.model);
-        let spec = &self.setup.problem;
-        let (mut ev, notes) = crate::spec::make_evaluator(
-            backends,
-            built.problem,
-            spec.backend,
-            spec.adapter.as_deref(),
-        )?;
+        let (mut ev, notes) = self.setup.evaluator(backends, built.problem)?;
         let hook = &self.setup.progress;
         let mcs = mc::run_mcs(
             ev.as_mut(),
