@@ -5,7 +5,9 @@
 
 use crate::errors::{lib_error, value_error};
 use crate::model::PyModel;
-use gpu_amcs_core::identify::validate::{run_validation, ValidateRequest, ValidationReport};
+use gpu_amcs_core::identify::validate::{
+    provenance_table, run_validation, ValidateRequest, ValidationReport,
+};
 use gpu_amcs_core::identify::{read_measurements, Placement};
 use gpu_amcs_core::kinematics::RobotModel;
 use pyo3::prelude::*;
@@ -16,6 +18,8 @@ use std::path::PathBuf;
 #[pyclass(module = "gpu_amcs", name = "ValidationResult", frozen)]
 pub struct PyValidation {
     report: ValidationReport,
+    /// The model with its discrepancy term from these errors (`term=True`).
+    term_model: Option<PyModel>,
 }
 
 #[pymethods]
@@ -34,6 +38,13 @@ impl PyValidation {
     fn to_dict<'py>(&self, py: Python<'py>) -> PyResult<Bound<'py, PyAny>> {
         py.import("json")?
             .call_method1("loads", (self.report.json(),))
+    }
+
+    /// With `term=True`: the model with its discrepancy term drawn from these poses' errors (its
+    /// `to_toml()` is what `gpu-amcs validate --term-out` writes); else `None`.
+    #[getter]
+    fn term_model(&self) -> Option<PyModel> {
+        self.term_model.clone()
     }
 
     /// The frame of the measurements: "measurement" or "robot base".
@@ -93,9 +104,12 @@ fn model_arg(arg: &Bound<'_, PyAny>, what: &str) -> PyResult<(RobotModel, String
 /// another than the one recorded, is a `ValueError`. On measurement-frame data the nominal
 /// geometry gets its own best-fit placement (and target offset, where the data determine it).
 /// `check_draws` draws per pose of the predictive check (0 leaves it out), from `seed`.
+/// `term=True` also gives `term_model`: the model with its discrepancy term drawn from these
+/// poses' errors (at least 10 poses the model was not identified from, spread where it will be
+/// used), as `--term-out` writes it.
 #[pyfunction]
 #[pyo3(signature = (model, measured, *, nominal = None, preset = None, frame = None,
-    check_draws = 20_000, seed = 2025))]
+    check_draws = 20_000, seed = 2025, term = false))]
 #[allow(clippy::too_many_arguments)]
 pub fn validate(
     py: Python<'_>,
@@ -106,6 +120,7 @@ pub fn validate(
     frame: Option<String>,
     check_draws: usize,
     seed: u64,
+    term: bool,
 ) -> PyResult<PyValidation> {
     let (model, model_text, origin) = model_arg(&model, "model")?;
     let stated = match frame.as_deref() {
@@ -146,16 +161,26 @@ pub fn validate(
                 nominal,
                 check_draws,
                 seed,
-                term: false,
+                term,
             })
         })
         .map_err(|e| {
             use gpu_amcs_core::identify::validate::ValidateError as E;
             match e {
                 E::UnknownFrame { .. } => value_error(format!("frame: {e}")),
-                E::Identify(e) | E::Term(e) => lib_error(e),
+                E::Identify(e) => lib_error(e),
+                E::Term(_) => value_error(format!("term: {e}")),
                 e => value_error(format!("nominal: {e}")),
             }
         })?;
-    Ok(PyValidation { report })
+    let term_model = report.term.as_ref().map(|t| {
+        let data = std::fs::read(&measured).unwrap_or_default();
+        let text = t.file_text(&model_text, &measured, &data);
+        PyModel {
+            model: t.model.clone(),
+            preset: None,
+            provenance: provenance_table(&text),
+        }
+    });
+    Ok(PyValidation { report, term_model })
 }

@@ -109,3 +109,25 @@ def test_no_silent_change_of_frame(cli, ur5e, tmp_path):
     assert v.to_dict()["model"]["errors_mm"]["rms_mm"] < 0.1
     with pytest.raises(ValueError, match=r"^frame: unknown frame"):
         gpu_amcs.validate(bare, held, frame="tracker")
+
+
+def test_term_model_equals_cli(cli, ur5e, tmp_path):
+    """`term=True` gives the model `validate --term-out` writes, with its term drawn from the
+    held-out poses' errors; fewer than 10 poses are refused by both front ends."""
+    res, held = ur5e
+    f = tmp_path / "m.toml"
+    f.write_text(res.model.to_toml())
+    out = tmp_path / "t.toml"
+    r = run_ok(cli, "validate", "--model", f, held, "--check-draws", 0, "--term-out", out)
+    v = gpu_amcs.validate(f, held, check_draws=0, term=True)
+    assert r.stdout == v.to_text()
+    assert "discrepancy term from these 40 poses' errors" in r.stdout
+    assert v.term_model is not None and v.term_model.to_toml() == out.read_text()
+    assert "discrepancy_poses = 40" in out.read_text()
+    assert gpu_amcs.validate(f, held, check_draws=0).term_model is None
+    few = tmp_path / "few.csv"
+    few.write_text("".join(held.read_text().splitlines(keepends=True)[:6]))
+    with pytest.raises(ValueError, match=r"^term: .*at least 10 poses"):
+        gpu_amcs.validate(f, few, check_draws=0, term=True)
+    r = cli("validate", "--model", str(f), str(few), "--term-out", str(tmp_path / "n.toml"))
+    assert r.returncode == 2 and "--term-out:" in r.stderr
