@@ -99,9 +99,10 @@ pub fn render_identify_summary<'a>(
 /// random poses.
 const SWEEPS_SEE_ALONG_THEM: &str = "Sweeps show what the model misses along them, not what an \
      error repeated in every run (backlash, lost motion under gravity) does to poses elsewhere: \
-     before trusting the reliability there, measure some poses spread over the workspace and \
-     check the model against them (on a simulated TX60 at the paper's baseline its 95 % bound \
-     covered 57 % of such poses).\n";
+     before trusting the reliability there, measure some poses spread over the workspace, \
+     check the model against them and draw its discrepancy term from their errors (on a \
+     simulated TX60 at the paper's baseline its 95 % bound covered 57 % of such poses, 97.5 % \
+     with the term from 60 others).\n";
 
 /// The circle fit of each joint's sweep, a line per joint.
 fn write_fit_table(s: &mut String, report: &IdentifyReport) {
