@@ -164,11 +164,7 @@ impl GpFit {
             .collect();
         let sf2 = self.signal_sigma * self.signal_sigma;
         let sw2 = self.white_sigma * self.white_sigma;
-        let x: Vec<&[f64]> = self
-            .training
-            .iter()
-            .map(|&i| self.configs[i].as_slice())
-            .collect();
+        let x = self.training_configs();
         // Per unit: per pose, (what it leaves of each value set, its σ).
         let per_unit: Vec<Vec<LeftAt>> = units
             .par_iter()

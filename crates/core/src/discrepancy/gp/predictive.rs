@@ -14,16 +14,19 @@ use rayon::prelude::*;
 const BLOCK: usize = 128;
 
 impl GpFit {
+    /// The configurations of the training poses, in the order of `K_y⁻¹`'s rows.
+    pub(super) fn training_configs(&self) -> Vec<&[f64]> {
+        self.training
+            .iter()
+            .map(|&t| self.configs[t].as_slice())
+            .collect()
+    }
+
     /// The predictive σ per coordinate of a new measurement at `q` (radians), mm:
     /// `√(σ_f² − kᵀ K_y⁻¹ k + σ_w²)`.
     pub fn predictive_sigma(&self, q: &[f64]) -> f64 {
         let sf2 = self.signal_sigma * self.signal_sigma;
-        let x: Vec<&[f64]> = self
-            .training
-            .iter()
-            .map(|&t| self.configs[t].as_slice())
-            .collect();
-        let k = kernel_column(q, &x, &self.length_scales, sf2);
+        let k = kernel_column(q, &self.training_configs(), &self.length_scales, sf2);
         let explained = (k.transpose() * &self.inverse * &k)[(0, 0)];
         predictive_sd(sf2, self.white_sigma * self.white_sigma, explained)
     }
