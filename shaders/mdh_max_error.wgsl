@@ -103,6 +103,9 @@ const N_NORMALS: u32 = 4u * N_BLOCKS;
 const WORKGROUP_SIZE: u32 = 64u;
 // The Philox stream of the discrepancy term (engine::DISCREPANCY_STREAM).
 const DISCREPANCY_STREAM: u32 = 0xD15C0000u;
+// The backlash's Philox stream (engine::BACKLASH_STREAM): per draw the words (a, b) of block
+// (draw, 0, BACKLASH_STREAM); joint j's side at point pj is bit j of h(a ⊕ h(b + pj)).
+const BACKLASH_STREAM: u32 = 0xBAC10000u;
 // The joint errors' Philox stream (engine::JOINT_ERROR_STREAM).
 const JOINT_ERROR_STREAM: u32 = 0x10E70000u;
 // The discrepancy term's per-draw size factors (discrepancy::size::SIZE_DRAWS), indexed by 8 bits.
@@ -325,12 +328,18 @@ fn with_discrepancy(e: f32, wd: u32, k: u32, pj: u32, g: f32) -> f32 {
 // with L and A as constants.
 
 // Joint j's angle offset at point pj from the draw's factors f: (f0, f1, δa1, δb1)·(τ_links,
-// τ_unit, sin q, cos q) + (δa2, δb2)·(sin 2q, cos 2q).
-fn term_offset(f: array<vec4<f32>, 2u * N_JOINTS>, pj: u32, j: u32) -> f32 {
+// τ_unit, sin q, cos q) + (δa2, δb2)·(sin 2q, cos 2q); with backlash (BACKLASH_ON, host-written)
+// plus the joint's half gap f[2j + 1].z on the side bit j of the point's word wb gives.
+fn term_offset(f: array<vec4<f32>, 2u * N_JOINTS>, pj: u32, j: u32, wb: u32) -> f32 {
     let at = cfg.term_pts + 8u * (pj * N_JOINTS + j);
     let t0 = vec4<f32>(term[at], term[at + 1u], term[at + 2u], term[at + 3u]);
     let t1 = vec2<f32>(term[at + 4u], term[at + 5u]);
-    return dot(f[2u * j], t0) + dot(f[2u * j + 1u].xy, t1);
+    let o = dot(f[2u * j], t0) + dot(f[2u * j + 1u].xy, t1);
+    if (BACKLASH_ON) {
+        let h = f[2u * j + 1u].z;
+        return o + select(-h, h, ((wb >> j) & 1u) != 0u);
+    }
+    return o;
 }
 
 // The joint offsets o of a draw with joint j turned further by `extra` (θ offset dth + extra).
@@ -342,14 +351,19 @@ fn turned(o: JointOffsets, dth: f32, extra: f32) -> JointOffsets {
 // Errors of the parameter vector mean + d at every test point: e_out row i (if asked for) and
 // w_out[i] = max_j e_j. With disc_count > 0 (counter draws and pick-freeze rows) the
 // discrepancy term of draw `draw` is applied at every point.
-fn point_errors(i: u32, d0: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u32, term_draws: array<vec2<u32>, 3>, with_term: bool) {
+fn point_errors(i: u32, d0: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u32, term_draws: array<vec2<u32>, 4>, with_term: bool) {
     // The joint errors move the geometric offsets and give the factors of each point's angle
     // offsets (counter draws and pick-freeze rows of a model that draws them).
     // TERM_ON (host-written) removes this code from the kernels of models without them.
     var d = d0;
     var f: array<vec4<f32>, 2u * N_JOINTS>;
+    // The backlash's words of the draw (term_draws[3]: the draw its sides come from).
+    var sab = vec2<u32>(0u);
     if (TERM_ON && with_term) {
         f = term_draw(term_draws, &d);
+        if (BACKLASH_ON) {
+            sab = philox4x32_10(vec4<u32>(term_draws[3].x, term_draws[3].y, 0u, BACKLASH_STREAM), cfg.key).xy;
+        }
     }
     // Per joint: α' and β' as (cos', sin', cos' − cos, sin' − sin); θ as (sin h, cos h) with
     // h = δθ/2; and (δa, δd); and the mean (cos α, sin α, cos β, sin β). The host writes
@@ -373,7 +387,11 @@ fn point_errors(i: u32, d0: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u
         // Δ_{n+1}: the tool point's offset in the flange frame
         var dv = vec3<f32>(d[TOOL_AT], d[TOOL_AT + 1u], d[TOOL_AT + 2u]);
         if (TERM_ON && with_term) {
-            dv = chain_step_turned(dv, base, chain, f, pj);
+            var wb = 0u;
+            if (BACKLASH_ON) {
+                wb = hash32(sab.x ^ hash32(sab.y + pj));
+            }
+            dv = chain_step_turned(dv, base, chain, f, pj, wb);
         } else {
             dv = chain_step(dv, base, chain);
         }
@@ -409,7 +427,7 @@ fn max_point_error(@builtin(global_invocation_id) gid: vec3<u32>) {
         return;
     }
     let draw = draw_plus(chunk.first, i);
-    point_errors(i, draw_offsets(draw), draw, cfg.disc_count, array<vec2<u32>, 3>(draw, draw, draw), cfg.term_on != 0u);
+    point_errors(i, draw_offsets(draw), draw, cfg.disc_count, array<vec2<u32>, 4>(draw, draw, draw, draw), cfg.term_on != 0u);
 }
 
 // Explicit offsets: row i of offsets_in (chunk.first is unused).
@@ -429,7 +447,7 @@ fn max_point_error_offsets(@builtin(global_invocation_id) gid: vec3<u32>) {
         d[p] = offsets_in[i * width + p];
     }
     // No draw, no discrepancy term, no joint errors' spread.
-    point_errors(i, d, vec2<u32>(0u), 0u, array<vec2<u32>, 3>(), false);
+    point_errors(i, d, vec2<u32>(0u), 0u, array<vec2<u32>, 4>(), false);
 }
 
 // Pick-freeze rows: invocation i is row row0 + i of the request, row r of matrix s.
@@ -448,13 +466,14 @@ fn max_point_error_pick_freeze(@builtin(global_invocation_id) gid: vec3<u32>) {
     // The discrepancy term is one more Sobol input: from draw b where the mask has bit 63
     // (DISCREPANCY_MASK), else from a.
     let disc_draw = select(a, b, (masks[s].y & 0x80000000u) != 0u);
-    // So are the groups of the joint errors (compliance, harmonics, payload): from b where the
-    // mask has bit 60, 61, 62 (TermGroup::mask).
+    // So are the groups of the joint errors (compliance, harmonics, payload, backlash): from b
+    // where the mask has bit 60, 61, 62, 59 (TermGroup::mask).
     let my = masks[s].y;
-    let term_of = array<vec2<u32>, 3>(
+    let term_of = array<vec2<u32>, 4>(
         select(a, b, (my & 0x10000000u) != 0u),
         select(a, b, (my & 0x20000000u) != 0u),
         select(a, b, (my & 0x40000000u) != 0u),
+        select(a, b, (my & 0x08000000u) != 0u),
     );
     point_errors(i, spread_offsets(z), disc_draw, cfg.disc_count, term_of, cfg.term_on != 0u);
 }

@@ -75,6 +75,7 @@ pub(crate) fn model_with_joint_errors(payload_kg: f64) -> RobotModel {
         covariance,
         shift_space: space,
         shift,
+        backlash: None,
     });
     m
 }
@@ -264,7 +265,11 @@ fn the_joint_errors_are_three_groups_of_a_pick_freeze_design() {
     )
     .unwrap();
     let term = pb.joint_errors.as_ref().unwrap();
-    assert_eq!(term.groups(), TermGroup::ALL.to_vec(), "σ on all three");
+    assert_eq!(
+        term.groups(),
+        TermGroup::ALL[..3].to_vec(),
+        "σ on all three"
+    );
     let mut ev = CpuEvaluator::new(pb.clone());
     let count = 16;
     let masks = [
@@ -425,7 +430,6 @@ fn the_payload_what_if_covers_robots_that_carry_the_payload() {
 /// (placement drawn), and for pick-freeze rows that take the joint errors from the B draw.
 #[test]
 fn the_gpu_draws_joint_errors_as_the_cpu() {
-    use gpu_amcs::gpu::{GpuEvaluator, GpuOptions};
     use gpu_amcs::identify::chain::{chain_model, identify_chain, ChainOptions};
     use gpu_amcs::identify::NominalPrior;
     use gpu_amcs::simulate::{
@@ -482,28 +486,11 @@ fn the_gpu_draws_joint_errors_as_the_cpu() {
         let pb = Problem::new(model, &pts, &Reference::Calibrated, 99).unwrap();
         assert!(pb.joint_errors.is_some());
         let n = 20_000;
-        let m = pb.n_points();
-        let mut cpu = CpuEvaluator::new(pb.clone());
-        let mut gpu = GpuEvaluator::new(pb.clone(), &GpuOptions::default()).unwrap();
-        let (mut wc, mut ec, mut wg, mut eg) = (
-            vec![0.0; n],
-            vec![0.0; n * m],
-            vec![0.0; n],
-            vec![0.0; n * m],
-        );
-        cpu.evaluate(1000, &mut wc, Some(&mut ec)).unwrap();
-        gpu.evaluate(1000, &mut wg, Some(&mut eg)).unwrap();
-        let diff = |a: &[f64], b: &[f64]| {
-            a.iter()
-                .zip(b)
-                .map(|(x, y)| (x - y).abs())
-                .fold(0.0, f64::max)
-        };
-        let (dw, de) = (diff(&wc, &wg), diff(&ec, &eg));
+        let (mut cpu, mut gpu, wg, (dw, de)) = cpu_and_gpu(&pb, 1000, n);
+        let diff = crate::common::max_gap;
         let mean = |v: &[f64]| v.iter().sum::<f64>() / v.len() as f64;
         eprintln!(
-            "{label}: max |Δw| {dw:.2e} mm, max |Δe| {de:.2e} mm, mean w cpu {:.6} gpu {:.6}",
-            mean(&wc),
+            "{label}: max |Δw| {dw:.2e} mm, max |Δe| {de:.2e} mm, mean gpu w {:.6}",
             mean(&wg)
         );
         assert!(dw <= 1e-5 && de <= 1e-5, "{label}: {dw} {de}");
@@ -529,10 +516,50 @@ fn the_gpu_draws_joint_errors_as_the_cpu() {
             count: 3000,
             masks: &masks,
         };
-        let (mut pc, mut pg) = (vec![0.0; req.rows()], vec![0.0; req.rows()]);
-        cpu.evaluate_pick_freeze(&req, &mut pc).unwrap();
-        gpu.evaluate_pick_freeze(&req, &mut pg).unwrap();
-        let dp = diff(&pc, &pg);
+        let dp = pick_freeze_gap(&mut cpu, &mut gpu, &req);
         assert!(dp <= 1e-5, "{label}: pick-freeze {dp}");
     }
+}
+
+/// The CPU and GPU evaluators of `pb`, the GPU's `w` of `n` counter draws from `first`, and the
+/// largest differences of `w` and of the point errors between the two.
+pub(crate) fn cpu_and_gpu(
+    pb: &Problem,
+    first: u64,
+    n: usize,
+) -> (
+    CpuEvaluator,
+    gpu_amcs::gpu::GpuEvaluator,
+    Vec<f64>,
+    (f64, f64),
+) {
+    use gpu_amcs::gpu::{GpuEvaluator, GpuOptions};
+    let m = pb.n_points();
+    let mut cpu = CpuEvaluator::new(pb.clone());
+    let mut gpu = GpuEvaluator::new(pb.clone(), &GpuOptions::default()).unwrap();
+    let (mut wc, mut ec, mut wg, mut eg) = (
+        vec![0.0; n],
+        vec![0.0; n * m],
+        vec![0.0; n],
+        vec![0.0; n * m],
+    );
+    cpu.evaluate(first, &mut wc, Some(&mut ec)).unwrap();
+    gpu.evaluate(first, &mut wg, Some(&mut eg)).unwrap();
+    let gaps = (
+        crate::common::max_gap(&wc, &wg),
+        crate::common::max_gap(&ec, &eg),
+    );
+    (cpu, gpu, wg, gaps)
+}
+
+/// The largest difference between the CPU's and the GPU's rows of the pick-freeze request `req`.
+pub(crate) fn pick_freeze_gap(
+    cpu: &mut CpuEvaluator,
+    gpu: &mut gpu_amcs::gpu::GpuEvaluator,
+    req: &PickFreeze,
+) -> f64 {
+    let (mut pc, mut pg) = (vec![0.0; req.rows()], vec![0.0; req.rows()]);
+    cpu.evaluate_pick_freeze(req, &mut pc).unwrap();
+    gpu.evaluate_pick_freeze(req, &mut pg).unwrap();
+    crate::common::max_gap(&pc, &pg)
 }

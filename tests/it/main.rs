@@ -7,6 +7,7 @@ mod column_map;
 mod common;
 
 mod amcs_vs_mcs;
+mod backlash;
 mod base_references;
 mod beyond_geometry;
 mod blocks;

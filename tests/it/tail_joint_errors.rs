@@ -55,6 +55,7 @@ fn with_joint_errors(mut m: RobotModel, sigma_scale: f64) -> RobotModel {
         covariance,
         shift_space: space,
         shift,
+        backlash: None,
     });
     m
 }

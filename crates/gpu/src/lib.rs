@@ -186,8 +186,8 @@ pub fn unrolled_chain(joints: usize) -> String {
     for (head, offsets) in [
         ("chain_step(dv0: vec3<f32>, base: u32, c: Chain)", "c.o{j}"),
         (
-            "chain_step_turned(dv0: vec3<f32>, base: u32, c: Chain, f: array<vec4<f32>, 2u * N_JOINTS>, pj: u32)",
-            "turned(c.o{j}, c.h{j}, term_offset(f, pj, {j}u))",
+            "chain_step_turned(dv0: vec3<f32>, base: u32, c: Chain, f: array<vec4<f32>, 2u * N_JOINTS>, pj: u32, wb: u32)",
+            "turned(c.o{j}, c.h{j}, term_offset(f, pj, {j}u, wb))",
         ),
     ] {
         let _ = write!(s, "\nfn {head} -> vec3<f32> {{\n    var dv = dv0;\n");

@@ -32,7 +32,7 @@ use rayon::prelude::*;
 
 mod joint_errors;
 mod placement;
-use joint_errors::{chain_lanes_offset, joint_turns, term_lanes, Turns};
+use joint_errors::{chain_lanes_offset, joint_turns, term_lanes, Sides, Turns};
 use placement::PlacementLanes;
 
 /// Draws per vector block.
@@ -67,9 +67,10 @@ type Disc<'a> = Option<(&'a DiscrepancyDraws, &'a [u64; LANES])>;
 /// [`CpuEvaluator::term_lanes`]).
 type JeLanes = [[[f64; LANES]; 6]; MAX_JOINTS];
 
-/// The joint errors of a block of lanes: their factors, the test points' quantities and whether
-/// the payload's factor can be nonzero ([`crate::engine::JointErrorDraws::payload_term`]).
-type Je<'a> = Option<(&'a JeLanes, &'a [PointTerms], bool)>;
+/// The joint errors of a block of lanes: their factors, the test points' quantities, whether
+/// the payload's factor can be nonzero ([`crate::engine::JointErrorDraws::payload_term`]) and
+/// the backlash's sides.
+type Je<'a> = Option<(&'a JeLanes, &'a [PointTerms], bool, Sides<'a>)>;
 
 /// Where the parameter offsets δ of a range of evaluations come from.
 #[derive(Clone, Copy)]
@@ -313,6 +314,7 @@ impl CpuEvaluator {
             _ => self.problem.joint_errors.as_ref(),
         };
         let mut jel: JeLanes = [[[0.0; LANES]; 6]; MAX_JOINTS];
+        let mut sides = [[0u32; LANES]; 2];
         for (b, wb) in w.chunks_mut(LANES).enumerate() {
             src.skip(b * LANES)
                 .lanes(&self.problem.sampler, &mut d, &mut z);
@@ -329,6 +331,7 @@ impl CpuEvaluator {
                     &mut d,
                     db.as_mut(),
                     &mut jel,
+                    &mut sides,
                 );
             }
             self.fill_lanes(&d, &mut jl);
@@ -363,7 +366,10 @@ impl CpuEvaluator {
                 (Source::Draws(_) | Source::PickFreeze(..), Some(dd)) => Some((dd, &draws)),
                 _ => None,
             };
-            let je = term.map(|t| (&jel, t.terms.as_slice(), t.payload_term()));
+            let je = term.map(|t| {
+                let s = t.backlash.then_some((&sides, &t.half_gap));
+                (&jel, t.terms.as_slice(), t.payload_term(), s)
+            });
             match &place {
                 None => with_joints!(self.joints, &jl, |j| block_kernel(
                     j,
@@ -412,8 +418,8 @@ fn block_kernel_placed<const N: usize>(
     for (pj, p) in pts.iter().enumerate() {
         let (x, y, z) = match je {
             None => chain_lanes(jl, tool, p),
-            Some((jel, terms, payload)) => {
-                joint_turns::<N>(jel, &terms[pj], payload, &mut turns);
+            Some((jel, terms, payload, sides)) => {
+                joint_turns::<N>(jel, &terms[pj], payload, (sides, pj), &mut turns);
                 chain_lanes_offset(jl, tool, p, &turns)
             }
         };
@@ -505,8 +511,8 @@ fn block_kernel<const N: usize>(
     for (pj, p) in pts.iter().enumerate() {
         let (x, y, z) = match je {
             None => chain_lanes(jl, tool, p),
-            Some((jel, terms, payload)) => {
-                joint_turns::<N>(jel, &terms[pj], payload, &mut turns);
+            Some((jel, terms, payload, sides)) => {
+                joint_turns::<N>(jel, &terms[pj], payload, (sides, pj), &mut turns);
                 chain_lanes_offset(jl, tool, p, &turns)
             }
         };

@@ -21,7 +21,18 @@
 //! the input space: a pick-freeze row takes the normals of each of the three groups —
 //! compliance, gear harmonics, payload ([`TermGroup`]) — from its `b` draw when its mask has the
 //! group's bit ([`TermGroup::mask`]), else from `a` (sensitivity's groups of these names).
+//!
+//! # Backlash
+//!
+//! A model with backlash ([`crate::kinematics::Backlash`]) turns joint `i` at test point `j` of
+//! draw `k` further by `+h_i` or `−h_i`: bit `i` of the point's word `h(a ⊕ h(b + j))`
+//! ([`super::discrepancy::point_word`]) with `(a, b)` the first two words of the Philox block
+//! `(k mod 2³², k div 2³², 0, BACKLASH_STREAM)`. A pick-freeze row takes the words from its `b`
+//! draw when its mask has [`BACKLASH_MASK`] (sensitivity's group `backlash`). The tail analysis
+//! moves two more normals per state instead, the words `⌊Φ(z)·2³²⌋`
+//! ([`JointErrorDraws::draw_from_normals`]).
 
+use super::discrepancy::point_word;
 use super::ProblemError;
 use crate::kinematics::joint_errors::{
     JointErrors, PointTerms, COEFFICIENTS_PER_JOINT, MAX_COEFFICIENTS,
@@ -32,6 +43,13 @@ use crate::sampling::{box_muller, normals_block, philox4x32_10_lanes, Philox};
 /// The Philox stream of the joint errors' normals.
 pub const JOINT_ERROR_STREAM: u32 = 0x10E7_0000;
 
+/// The Philox stream of the backlash's sides (module docs).
+pub const BACKLASH_STREAM: u32 = 0xBAC1_0000;
+
+/// The pick-freeze mask bit that takes a row's backlash sides from its `b` draw (below the
+/// joint errors' groups, above every normal of a draw).
+pub const BACKLASH_MASK: u64 = 1 << 59;
+
 /// The groups of the joint errors' normals a Sobol design tells apart.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TermGroup {
@@ -41,19 +59,25 @@ pub enum TermGroup {
     Harmonics = 1,
     /// The payload's normal.
     Payload = 2,
+    /// The backlash's sides (no normals of their own: the words of a Philox block).
+    Backlash = 3,
 }
 
 impl TermGroup {
     /// Every group, in order.
-    pub const ALL: [TermGroup; 3] = [
+    pub const ALL: [TermGroup; 4] = [
         TermGroup::Compliance,
         TermGroup::Harmonics,
         TermGroup::Payload,
+        TermGroup::Backlash,
     ];
 
-    /// The group's pick-freeze mask bit: 60, 61, 62.
+    /// The group's pick-freeze mask bit: 60, 61, 62; the backlash's [`BACKLASH_MASK`] (59).
     pub const fn mask(self) -> u64 {
-        1 << (60 + self as u64)
+        match self {
+            TermGroup::Backlash => BACKLASH_MASK,
+            g => 1 << (60 + g as u64),
+        }
     }
 
     /// How sensitivity reports name the group.
@@ -62,6 +86,7 @@ impl TermGroup {
             TermGroup::Compliance => "joint compliance",
             TermGroup::Harmonics => "gear harmonics",
             TermGroup::Payload => "payload",
+            TermGroup::Backlash => "backlash",
         }
     }
 
@@ -71,12 +96,13 @@ impl TermGroup {
             TermGroup::Compliance => "joint_compliance",
             TermGroup::Harmonics => "gear_harmonics",
             TermGroup::Payload => "payload",
+            TermGroup::Backlash => "backlash",
         }
     }
 }
 
-/// The pick-freeze mask bits of all the joint errors' normals ([`TermGroup::mask`] of each).
-pub const JOINT_ERRORS_MASK: u64 = 0b111 << 60;
+/// The pick-freeze mask bits of all the joint errors' groups ([`TermGroup::mask`] of each).
+pub const JOINT_ERRORS_MASK: u64 = 0b1111 << 59;
 
 /// Most normals of a draw: every coefficient and the payload.
 const MAX_TERM_NORMALS: usize = MAX_COEFFICIENTS + 1;
@@ -91,6 +117,9 @@ pub struct TermDraw {
     pub free: [f64; MAX_COEFFICIENTS],
     /// `δm`, kg.
     pub mass: f64,
+    /// The backlash's words `(a, b)`: the sides at point `j` are the bits of `h(a ⊕ h(b + j))`
+    /// (module docs; unused without backlash).
+    pub sides: [u32; 2],
 }
 
 /// The joint errors as a run draws them (module docs).
@@ -116,6 +145,11 @@ pub struct JointErrorDraws {
     position: [Option<usize>; MAX_COEFFICIENTS],
     /// Per test point, the quantities the offsets are linear in.
     pub terms: Vec<PointTerms>,
+    /// Per joint the backlash's turn `h_j` (rad; [`crate::kinematics::Backlash::half_spread`]),
+    /// all zero without backlash.
+    pub half_gap: [f64; MAX_JOINTS],
+    /// Whether the model draws backlash sides (some `h_j > 0`).
+    pub backlash: bool,
 }
 
 impl JointErrorDraws {
@@ -156,7 +190,12 @@ impl JointErrorDraws {
         let chol_nz = (0..p).map(|r| nonzero(&chol[r * p..=r * p + r])).collect();
         let shift_nz = shift.iter().map(|(_, _, row)| nonzero(row)).collect();
         let n = model.joints();
+        let backlash = e.backlash.as_ref().filter(|b| b.acts());
         Ok(Some(JointErrorDraws {
+            half_gap: std::array::from_fn(|j| {
+                backlash.filter(|_| j < n).map_or(0.0, |b| b.half_spread(j))
+            }),
+            backlash: backlash.is_some(),
             joints: n,
             free: e.free.clone(),
             chol,
@@ -203,19 +242,32 @@ impl JointErrorDraws {
             .into_iter()
             .filter(|&g| match g {
                 TermGroup::Payload => self.mass_sigma > 0.0,
+                TermGroup::Backlash => self.backlash,
                 g => (0..self.free.len()).any(|c| self.group_of(c) == g),
             })
             .collect()
     }
 
+    /// Normals a state of the tail analysis gives the term: [`Self::normals`], then two for the
+    /// backlash's words when the model has backlash.
+    pub fn state_normals(&self) -> usize {
+        self.normals() + if self.backlash { 2 } else { 0 }
+    }
+
+    /// The backlash's words `(a, b)` of draw `k` (module docs).
+    pub fn side_words(&self, k: u64) -> [u32; 2] {
+        let [a, b, _, _] = self.gen.block(k, 0, BACKLASH_STREAM);
+        [a, b]
+    }
+
     /// The term's draw from the normals of counter draw `k`.
     pub fn draw(&self, k: u64) -> TermDraw {
-        self.draw_mixed([k; 3])
+        self.draw_mixed([k; 4])
     }
 
     /// The term's draw of a pick-freeze row: the normals of each [`TermGroup`] `g` from draw
-    /// `draws[g]`.
-    pub fn draw_mixed(&self, draws: [u64; 3]) -> TermDraw {
+    /// `draws[g]`, the backlash's sides from draw `draws[3]`.
+    pub fn draw_mixed(&self, draws: [u64; 4]) -> TermDraw {
         let mut z = [0.0; MAX_TERM_NORMALS];
         for blk in 0..self.normals().div_ceil(4) {
             let mut by_draw: [Option<(u64, [f64; 4])>; 3] = [None; 3];
@@ -234,23 +286,32 @@ impl JointErrorDraws {
                 *slot = v[c - 4 * blk];
             }
         }
-        self.draw_from_normals(&z[..self.normals()])
+        let mut d = self.draw_from_normals(&z[..self.normals()]);
+        d.sides = self.side_words(draws[3]);
+        d
     }
 
-    /// The term's draw from its [`Self::normals`] standard normals `z` (the free coefficients',
-    /// then the payload's): `δβ = L z`, `δm = σ_m z_p`. Counter draws take `z` from their
-    /// Philox blocks ([`Self::draw`]); the tail analysis moves them as coordinates of its
-    /// standard-normal space.
+    /// The term's draw from its standard normals `z` (the free coefficients', then the
+    /// payload's; then, when `z` holds [`Self::state_normals`] and the model has backlash, two
+    /// whose `⌊Φ(z)·2³²⌋` are the backlash's words): `δβ = L z`, `δm = σ_m z_p`. Counter draws
+    /// take `z` from their Philox blocks ([`Self::draw`]); the tail analysis moves them as
+    /// coordinates of its standard-normal space.
     ///
     /// # Panics
     ///
     /// When `z` holds fewer than [`Self::normals`] entries.
     pub fn draw_from_normals(&self, z: &[f64]) -> TermDraw {
         let p = self.free.len();
+        let word =
+            |v: f64| (crate::normal::normal_cdf(v) * 4_294_967_296.0).min(4_294_967_295.0) as u32;
         let mut d = TermDraw {
             beta: [0.0; MAX_COEFFICIENTS],
             free: [0.0; MAX_COEFFICIENTS],
             mass: self.mass_sigma * z[p],
+            sides: match z.get(p + 1..p + 3) {
+                Some(&[a, b]) if self.backlash => [word(a), word(b)],
+                _ => [0, 0],
+            },
         };
         for r in 0..p {
             let v: f64 = (0..=r).map(|c| self.chol[r * p + c] * z[c]).sum();
@@ -316,6 +377,15 @@ impl JointErrorDraws {
         for l in 0..L {
             mass[l] = self.mass_sigma * z[p][l];
         }
+    }
+
+    /// The backlash's words `(a, b)` ([`Self::side_words`]) of `L` lanes of draws `draws`.
+    #[inline(always)]
+    pub fn side_lanes<const L: usize>(&self, draws: &[u64; L]) -> [[u32; L]; 2] {
+        let lo: [u32; L] = std::array::from_fn(|l| draws[l] as u32);
+        let hi: [u32; L] = std::array::from_fn(|l| (draws[l] >> 32) as u32);
+        let w = philox4x32_10_lanes([lo, hi, [0; L], [BACKLASH_STREAM; L]], self.gen.key);
+        [w[0], w[1]]
     }
 
     /// The mean shift `A δβ` of `L` lanes of free-coefficient offsets `free`: `f(block, k, v)`
@@ -387,15 +457,32 @@ impl JointErrorDraws {
     }
 
     /// The joint-angle offsets (rad) of draw `d` at test point `point`, on top of the mean
-    /// deflections.
+    /// deflections: the coefficients' part, then the backlash's `±h_i` of the point's sides.
     pub fn offsets(&self, d: &TermDraw, point: usize) -> Joints {
         let f = self.factors(d);
         let t = &self.terms[point];
+        let w = point_word(d.sides[0], d.sides[1], point as u32);
         Joints::from_fn(self.joints, |i| {
             let b = &d.beta[COEFFICIENTS_PER_JOINT * i..COEFFICIENTS_PER_JOINT * (i + 1)];
             let [tl, tu, s1, c1, s2, c2] = t[i];
-            f[i][0] * tl + f[i][1] * tu + b[1] * s1 + b[2] * c1 + b[3] * s2 + b[4] * c2
+            let o = f[i][0] * tl + f[i][1] * tu + b[1] * s1 + b[2] * c1 + b[3] * s2 + b[4] * c2;
+            if self.backlash {
+                o + side(w, i, self.half_gap[i])
+            } else {
+                o
+            }
         })
+    }
+}
+
+/// The backlash's turn of joint `i` from a point's word `w`: `+h` where bit `i` is set, else
+/// `−h`.
+#[inline(always)]
+pub fn side(w: u32, i: usize, h: f64) -> f64 {
+    if (w >> i) & 1 != 0 {
+        h
+    } else {
+        -h
     }
 }
 
@@ -415,6 +502,8 @@ pub struct TermPacking {
     /// Per test point and joint two vec4: `(τ_links, τ_unit, sin q, cos q)`, `(sin 2q, cos 2q,
     /// 0, 0)`.
     pub points: Vec<[f32; 4]>,
+    /// Per joint the backlash's turn `h_j` (rad); empty without backlash.
+    pub half_gap: Vec<f32>,
 }
 
 impl JointErrorDraws {
@@ -461,6 +550,14 @@ impl JointErrorDraws {
             rows,
             words,
             points,
+            half_gap: if self.backlash {
+                self.half_gap[..self.joints]
+                    .iter()
+                    .map(|&h| h as f32)
+                    .collect()
+            } else {
+                Vec::new()
+            },
         }
     }
 }

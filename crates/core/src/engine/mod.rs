@@ -59,7 +59,8 @@ pub use backend::{cpu_evaluator, BackendChoice, Backends, CpuOnly};
 pub use cpu::CpuEvaluator;
 pub use discrepancy::{DiscrepancyDraws, DISCREPANCY_STREAM};
 pub use joint_errors::{
-    JointErrorDraws, TermGroup, TermPacking, JOINT_ERRORS_MASK, JOINT_ERROR_STREAM,
+    JointErrorDraws, TermGroup, TermPacking, BACKLASH_MASK, BACKLASH_STREAM, JOINT_ERRORS_MASK,
+    JOINT_ERROR_STREAM,
 };
 pub use pick_freeze::{PickFreeze, DISCREPANCY_MASK};
 pub use placement::{Frame, PlacementEvaluator, PlacementSpread};

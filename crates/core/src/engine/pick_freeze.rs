@@ -45,10 +45,11 @@ impl PickFreeze<'_> {
         }
     }
 
-    /// The draws row `row` takes its joint errors' normals from, per [`super::TermGroup`]: `b`
-    /// where its mask has the group's bit, else `a`.
+    /// The draws row `row` takes its joint errors' normals from, per [`super::TermGroup`], and
+    /// (last) its backlash's sides: `b` where its mask has the group's bit
+    /// ([`super::TermGroup::mask`], [`super::BACKLASH_MASK`]), else `a`.
     #[inline]
-    pub fn joint_error_draws(&self, row: usize) -> [u64; 3] {
+    pub fn joint_error_draws(&self, row: usize) -> [u64; 4] {
         let (a, b, mask) = self.row(row);
         super::TermGroup::ALL.map(|g| if mask & g.mask() != 0 { b } else { a })
     }
@@ -75,7 +76,7 @@ impl PickFreeze<'_> {
             })
         {
             return bad(format!(
-                "mask of matrix {s} is {m:#x}: a draw has {MAX_NORMALS} normals (bits 60–62 for the joint errors, bit 63 for the discrepancy term)"
+                "mask of matrix {s} is {m:#x}: a draw has {MAX_NORMALS} normals (bits 59–62 for the joint errors' groups, 63 for the discrepancy term)"
             ));
         }
         if self.count.checked_mul(self.masks.len()).is_none() {

@@ -3,7 +3,7 @@
 
 use super::file::fnum;
 use super::gravity::LinkMasses;
-use super::joint_errors::{JointErrors, Payload, COEFFICIENTS_PER_JOINT};
+use super::joint_errors::{Backlash, JointErrors, Payload, COEFFICIENTS_PER_JOINT};
 use super::{InputSpace, Joints};
 use serde::{Deserialize, Serialize};
 use std::fmt::Write as _;
@@ -33,6 +33,10 @@ pub(super) struct JointErrorsFile {
     covariance: Vec<Vec<f64>>,
     #[serde(default)]
     geometry_shift: Vec<Vec<f64>>,
+    #[serde(default)]
+    backlash_deg: Option<Vec<f64>>,
+    #[serde(default)]
+    backlash_sigma_deg: Option<Vec<f64>>,
 }
 
 fn three(v: &Option<Vec<f64>>, field: &str) -> Result<[f64; 3], (String, String)> {
@@ -163,7 +167,24 @@ impl JointErrorsFile {
                 },
             },
         };
+        let backlash = match (&self.backlash_deg, &self.backlash_sigma_deg) {
+            (None, None) => None,
+            (None, Some(_)) => {
+                return Err(bad(
+                    "backlash_sigma_deg",
+                    "needs backlash_deg, the gaps it is the uncertainty of".into(),
+                ))
+            }
+            (Some(g), s) => Some(Backlash {
+                gap_rad: g.iter().map(|v| v.to_radians()).collect(),
+                sigma_rad: match s {
+                    Some(s) => s.iter().map(|v| v.to_radians()).collect(),
+                    None => vec![0.0; g.len()],
+                },
+            }),
+        };
         let e = JointErrors {
+            backlash,
             coefficients,
             links: LinkMasses {
                 mass_kg: Joints::from_fn(joints, |j| self.link_mass_kg[j]),
@@ -232,6 +253,16 @@ pub(super) fn write_joint_errors(s: &mut String, e: &JointErrors) {
         fnum(t.sigma_kg),
         join(&mut t.com_mm.iter().copied())
     );
+    if let Some(b) = &e.backlash {
+        let _ = writeln!(
+            s,
+            "# Backlash: per joint the gap (deg) and its uncertainty; a joint stands half its gap from the\n\
+             # commanded angle on the side it arrived from, which the analyses draw at every point.\n\
+             backlash_deg = [{}]\nbacklash_sigma_deg = [{}]",
+            join(&mut b.gap_rad.iter().map(|v| v.to_degrees())),
+            join(&mut b.sigma_rad.iter().map(|v| v.to_degrees()))
+        );
+    }
     if e.free.is_empty() {
         return;
     }

@@ -23,6 +23,18 @@
 //! Σ_gβ Σ_ββ⁻¹`) on top of their own draw, whose covariance is then the geometry's given the
 //! coefficients (what a fit with the coefficients held reports). Together that is the joint
 //! distribution of the identification. The task payload has its own σ, independent of the rest.
+//!
+//! # Backlash
+//!
+//! A joint with backlash stands half its gap `b_j` from the commanded angle on the side it
+//! arrived from (docs/METHOD.md §19.5). Which side that is at a task point is a property of the
+//! robot program, not of the model, so the analyses draw it: at every test point of every draw
+//! each joint's side is a fair coin, and the joint turns by `±h_j` with `h_j = ½ √(b̄_j² + σ_j²)`
+//! ([`Backlash::half_spread`]). The mean deflection is unchanged (the sides cancel), and `h_j`
+//! matches the second moment of `½ (b̄_j + δb_j) s_j` with `δb_j ~ N(0, σ_j²)` exactly: the sign
+//! makes the offset uncorrelated with every other input whatever the gap's correlation with
+//! them, so drawing the gap itself would only change the offset's fourth moment (by a relative
+//! `σ⁴/b̄⁴`-sized amount).
 
 use super::gravity::{gravity_torques, LinkMasses};
 use super::{InputSpace, Joints, MAX_JOINTS};
@@ -78,6 +90,64 @@ pub struct JointErrors {
     /// `A`, row-major `shift_space.len() × free.len()`: the geometric inputs' mean shift per unit
     /// of each free coefficient (internal units); empty for none.
     pub shift: Vec<f64>,
+    /// The joints' backlash, when the model carries it (module docs).
+    pub backlash: Option<Backlash>,
+}
+
+/// Per joint a backlash gap with its standard uncertainty (module docs, docs/METHOD.md §19.5).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Backlash {
+    /// The gaps `b_j`, rad (a fit can give a small negative one: only its size acts).
+    pub gap_rad: Vec<f64>,
+    /// Their standard uncertainties, rad.
+    pub sigma_rad: Vec<f64>,
+}
+
+impl Backlash {
+    /// Largest gap a model file may hold (1°: more is a broken gear, not a calibration's input).
+    pub const LIMIT_RAD: f64 = std::f64::consts::PI / 180.0;
+
+    /// `h_j = ½ √(b̄_j² + σ_j²)`, rad: the turn a drawn side gives joint `j`.
+    pub fn half_spread(&self, j: usize) -> f64 {
+        0.5 * self.gap_rad[j].hypot(self.sigma_rad[j])
+    }
+
+    /// Whether some joint turns by a drawn side.
+    pub fn acts(&self) -> bool {
+        (0..self.gap_rad.len()).any(|j| self.half_spread(j) > 0.0)
+    }
+
+    /// Checks: one gap and σ per joint, finite, |gap| and σ at most [`Self::LIMIT_RAD`], σ ≥ 0.
+    ///
+    /// # Errors
+    ///
+    /// `(field, message)` naming the model file's field.
+    pub fn check(&self, joints: usize) -> Result<(), (String, String)> {
+        for (field, v, signed) in [
+            ("backlash_deg", &self.gap_rad, true),
+            ("backlash_sigma_deg", &self.sigma_rad, false),
+        ] {
+            let bad = |m: String| Err((format!("joint_errors.{field}"), m));
+            if v.len() != joints {
+                return bad(format!(
+                    "needs one value per joint ({joints}), found {}",
+                    v.len()
+                ));
+            }
+            if let Some(j) = v
+                .iter()
+                .position(|x| !x.is_finite() || x.abs() > Self::LIMIT_RAD || (!signed && *x < 0.0))
+            {
+                return bad(format!(
+                    "joint {}: {} deg is not a {}size of at most 1 deg",
+                    j + 1,
+                    v[j].to_degrees(),
+                    if signed { "" } else { "non-negative " }
+                ));
+            }
+        }
+        Ok(())
+    }
 }
 
 impl JointErrors {
@@ -154,8 +224,23 @@ impl JointErrors {
         } else {
             String::new()
         };
+        let backlash = match &self.backlash {
+            Some(b) if b.acts() => format!(
+                ", backlash of J{} drawn from either side at every point (half gaps {} deg)",
+                (0..b.gap_rad.len())
+                    .filter(|&j| b.half_spread(j) > 0.0)
+                    .map(|j| (j + 1).to_string())
+                    .collect::<Vec<_>>()
+                    .join(", J"),
+                (0..b.gap_rad.len())
+                    .map(|j| format!("{:.4}", b.half_spread(j).to_degrees()))
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            ),
+            _ => String::new(),
+        };
         format!(
-            "joint errors drawn: {} uncertain coefficients{which}, payload at the task {}{sigma} kg (during calibration {} kg)",
+            "joint errors drawn: {} uncertain coefficients{which}, payload at the task {}{sigma} kg (during calibration {} kg){backlash}",
             self.free.len(),
             p.mass_kg,
             self.calibration_payload.mass_kg
@@ -164,7 +249,9 @@ impl JointErrors {
 
     /// Whether a draw moves anything: some coefficient or the task payload has spread.
     pub fn drawn(&self) -> bool {
-        !self.free.is_empty() || self.payload.sigma_kg > 0.0
+        !self.free.is_empty()
+            || self.payload.sigma_kg > 0.0
+            || self.backlash.as_ref().is_some_and(Backlash::acts)
     }
 
     /// The quantities the joint errors at the commanded angles `q` (rad) are linear in, for the
@@ -325,6 +412,9 @@ impl JointErrors {
                     self.shift_space.len()
                 ),
             );
+        }
+        if let Some(b) = &self.backlash {
+            b.check(joints)?;
         }
         Ok(())
     }

@@ -51,6 +51,6 @@ pub use index::{
 pub use inputs::{
     Action, Block, InputSpace, InputSpaceError, Quantity, MAX_INPUTS, MAX_ROBOT_INPUTS,
 };
-pub use joint_errors::{JointErrors, Payload};
+pub use joint_errors::{Backlash, JointErrors, Payload};
 pub use model::{rpy_of, BaseTransform, Covariance, FixedParams, Limits, RobotModel, Uncertainty};
 pub use tx60::tx60;

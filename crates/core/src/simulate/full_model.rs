@@ -355,6 +355,7 @@ pub fn mean_joint_errors(
         covariance,
         shift_space: first.shift_space,
         shift: Vec::new(),
+        backlash: None,
     })
 }
 

@@ -3,15 +3,17 @@
 //! turn each joint of the chain further ([`chain_lanes_offset`]).
 
 use super::{CpuEvaluator, JeLanes, OffsetLanes, PointPre, Source, LANES};
-use crate::engine::joint_errors::JointErrorDraws;
+use crate::engine::discrepancy::point_word;
+use crate::engine::joint_errors::{side, JointErrorDraws};
 use crate::kinematics::joint_errors::{PointTerms, MAX_COEFFICIENTS};
 use crate::kinematics::{Block, InputSpace, MAX_JOINTS};
 
 /// The joint errors of the [`LANES`] evaluations of `src` (counter draws or pick-freeze
 /// rows): each lane's geometric offsets `d` (and placement offsets `db`) moved by `A δβ`, and
 /// the lane factors of its joint-angle offsets in `jel` (per joint `[f0, f1, δa1, δb1, δa2,
-/// δb2]`, [`JointErrorDraws::factors`]).
+/// δb2]`, [`JointErrorDraws::factors`]) and, with backlash, the words of its sides in `sides`.
 #[inline(always)]
+#[allow(clippy::too_many_arguments)]
 pub(super) fn term_lanes(
     ev: &CpuEvaluator,
     term: &JointErrorDraws,
@@ -20,13 +22,14 @@ pub(super) fn term_lanes(
     d: &mut OffsetLanes,
     mut db: Option<&mut [[f64; LANES]; 6]>,
     jel: &mut JeLanes,
+    sides: &mut [[u32; LANES]; 2],
 ) {
-    let mut draws = [[0u64; LANES]; 3];
+    let mut draws = [[0u64; LANES]; 4];
     for l in 0..LANES {
         let by_group = match src {
-            Source::Draws(k) => [k + l as u64; 3],
+            Source::Draws(k) => [k + l as u64; 4],
             Source::PickFreeze(pf, row) if row + l < pf.rows() => pf.joint_error_draws(row + l),
-            _ => [0; 3],
+            _ => [0; 4],
         };
         for (g, d) in by_group.into_iter().enumerate() {
             draws[g][l] = d;
@@ -34,7 +37,10 @@ pub(super) fn term_lanes(
     }
     let mut free = [[0.0; LANES]; MAX_COEFFICIENTS];
     let mut mass = [0.0; LANES];
-    term.draw_lanes(&draws, &mut free, &mut mass);
+    term.draw_lanes(&[draws[0], draws[1], draws[2]], &mut free, &mut mass);
+    if term.backlash {
+        *sides = term.side_lanes(&draws[3]);
+    }
     term.shift_lanes(&free, |block, k, v| match block {
         Block::Placement => {
             if let Some(db) = db.as_deref_mut() {
@@ -58,6 +64,37 @@ pub(super) fn term_lanes(
 
 /// The turns of the joints at a test point: per joint `[sin o, cos o][lane]` of its offset.
 pub(super) type Turns = [[[f64; LANES]; 2]; MAX_JOINTS];
+
+/// The backlash of a block of lanes, when the model has it: the lanes' words `(a, b)` and per
+/// joint its turn `h` ([`JointErrorDraws`]'s module docs).
+pub(super) type Sides<'a> = Option<(&'a [[u32; LANES]; 2], &'a [f64; MAX_JOINTS])>;
+
+/// The words of the lanes' sides at test point `pj` (zero without backlash).
+#[inline(always)]
+fn point_sides(sides: Sides, pj: usize) -> [u32; LANES] {
+    match sides {
+        Some((ab, _)) => std::array::from_fn(|l| point_word(ab[0][l], ab[1][l], pj as u32)),
+        None => [0; LANES],
+    }
+}
+
+/// [`joint_offset`] of joint `i` with the backlash's `±h_i` of the point's side words `w` added
+/// (when the model has backlash), as [`JointErrorDraws::offsets`] adds it.
+#[inline(always)]
+fn joint_offset_sided(
+    f: &[[f64; LANES]; 6],
+    t: &[f64; 6],
+    payload: bool,
+    (sides, w, i): (Sides, &[u32; LANES], usize),
+) -> [f64; LANES] {
+    let mut o = joint_offset(f, t, payload);
+    if let Some((_, h)) = sides {
+        for l in 0..LANES {
+            o[l] += side(w[l], i, h[i]);
+        }
+    }
+    o
+}
 
 /// The joint-angle offsets of `LANES` draws at joint `i` of a test point with quantities `t`
 /// ([`JointErrorDraws`]) from their lane factors `f`: `f0 tl + f1 tu + f2 s1 + f3 c1 + f4 s2 +
@@ -95,11 +132,13 @@ pub(super) fn joint_turns<const N: usize>(
     jel: &JeLanes,
     t: &PointTerms,
     payload: bool,
+    (sides, pj): (Sides, usize),
     out: &mut Turns,
 ) {
     let mut big = [0.0f64; LANES];
+    let w = point_sides(sides, pj);
     for i in 0..N {
-        let o = joint_offset(&jel[i], &t[i], payload);
+        let o = joint_offset_sided(&jel[i], &t[i], payload, (sides, &w, i));
         for l in 0..LANES {
             (out[i][0][l], out[i][1][l]) = tiny_sin_cos(o[l]);
             let a = o[l].abs();
@@ -107,7 +146,7 @@ pub(super) fn joint_turns<const N: usize>(
         }
     }
     if big.iter().any(|&a| a >= TINY_LIMIT) {
-        large_turns::<N>(jel, t, payload, out);
+        large_turns::<N>(jel, t, payload, (sides, &w), out);
     }
 }
 
@@ -115,9 +154,15 @@ pub(super) fn joint_turns<const N: usize>(
 /// offset (the same products and sums, so the same bits).
 #[cold]
 #[inline(never)]
-fn large_turns<const N: usize>(jel: &JeLanes, t: &PointTerms, payload: bool, out: &mut Turns) {
+fn large_turns<const N: usize>(
+    jel: &JeLanes,
+    t: &PointTerms,
+    payload: bool,
+    (sides, w): (Sides, &[u32; LANES]),
+    out: &mut Turns,
+) {
     for i in 0..N {
-        let o = joint_offset(&jel[i], &t[i], payload);
+        let o = joint_offset_sided(&jel[i], &t[i], payload, (sides, w, i));
         for l in 0..LANES {
             if o[l].abs() >= TINY_LIMIT {
                 (out[i][0][l], out[i][1][l]) = o[l].sin_cos();

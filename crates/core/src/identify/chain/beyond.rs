@@ -175,6 +175,7 @@ fn point_terms(params: &[f64], links: &LinkMasses, com_mm: &[f64; 3], q: &[f64])
         covariance: Vec::new(),
         shift_space: crate::kinematics::InputSpace::parameters(q.len()),
         shift: Vec::new(),
+        backlash: None,
     };
     e.point_terms(params, q)
 }
@@ -594,6 +595,7 @@ impl ExtendedFit {
             covariance,
             shift_space: space,
             shift: if a.is_some() { shift } else { Vec::new() },
+            backlash: None,
         }
     }
 }

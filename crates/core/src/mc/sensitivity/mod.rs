@@ -531,8 +531,8 @@ pub struct Design {
     #[serde(default, skip_serializing_if = "std::ops::Not::not")]
     pub discrepancy: bool,
     /// The groups of the model's joint errors drawn, inputs after the free ones
-    /// ([`TermGroup::input_name`]: `joint_compliance`, `gear_harmonics`, `payload`; written only
-    /// when there are some).
+    /// ([`TermGroup::input_name`]: `joint_compliance`, `gear_harmonics`, `payload`, `backlash`;
+    /// written only when there are some).
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub joint_errors: Vec<String>,
 }
@@ -587,7 +587,7 @@ impl Design {
                     .find(|g| g.input_name() == n)
                     .ok_or_else(|| {
                         SensitivityError::Design(format!(
-                            "unknown joint-error group '{n}' (known: joint_compliance, gear_harmonics, payload)"
+                            "unknown joint-error group '{n}' (known: joint_compliance, gear_harmonics, payload, backlash)"
                         ))
                     })
             })

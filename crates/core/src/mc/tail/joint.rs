@@ -3,7 +3,8 @@
 //!
 //! A draw of the joint errors is a linear map of its own standard normals
 //! ([`JointErrorDraws::draw_from_normals`]: `δβ = L z` for the free coefficients, `δm = σ_m z_p`
-//! for the payload), so they join the state as `p + 1` more coordinates after the parameters'
+//! for the payload; a model with backlash adds two whose `⌊Φ(z)·2³²⌋` are the words of its
+//! sides), so they join the state as `p + 1` (or `p + 3`) more coordinates after the parameters'
 //! and before the discrepancy term's, and subset simulation's chains move them like the others:
 //! a tail driven by a soft joint or a heavy payload is found as one driven by the geometry is.
 //!
@@ -48,9 +49,11 @@ impl JointSpace {
         Ok(Some(JointSpace { draws, rows }))
     }
 
-    /// Normals the joint errors add to a state: one per free coefficient and the payload's.
+    /// Normals the joint errors add to a state: one per free coefficient and the payload's, and
+    /// two for the backlash's sides when the model has backlash
+    /// ([`JointErrorDraws::state_normals`]).
     pub(super) fn dim(&self) -> usize {
-        self.draws.normals()
+        self.draws.state_normals()
     }
 
     /// What evaluates the rows, in the run's report.
