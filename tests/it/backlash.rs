@@ -27,14 +27,11 @@ fn with_backlash(mut m: RobotModel, gaps_deg: &[f64], sigma_deg: f64) -> RobotMo
     m
 }
 
+/// The joint-error tests' four points and one more near J1's far end.
 fn points() -> Vec<[f64; 6]> {
-    vec![
-        [0.0, 10.0, 80.0, 0.0, 30.0, 0.0],
-        [20.0, -40.0, 90.0, 10.0, 45.0, 5.0],
-        [-30.0, 60.0, 100.0, 0.0, -20.0, 90.0],
-        [100.0, 30.0, 40.0, -60.0, 70.0, -120.0],
-        [-120.0, -20.0, 120.0, 30.0, -60.0, 45.0],
-    ]
+    let mut p = crate::joint_errors::points();
+    p.push([-120.0, -20.0, 120.0, 30.0, -60.0, 45.0]);
+    p
 }
 
 /// A TX60 whose only uncertainty is the backlash of the joints with a gap in `gaps_deg`

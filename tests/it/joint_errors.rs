@@ -80,7 +80,7 @@ pub(crate) fn model_with_joint_errors(payload_kg: f64) -> RobotModel {
     m
 }
 
-fn points() -> Vec<[f64; 6]> {
+pub(crate) fn points() -> Vec<[f64; 6]> {
     vec![
         [0.0, 10.0, 80.0, 0.0, 30.0, 0.0],
         [20.0, -40.0, 90.0, 10.0, 45.0, 5.0],
