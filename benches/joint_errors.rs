@@ -9,7 +9,8 @@
 //!    errors drawn and with them left out (same mean chain), in the measurement and the base
 //!    frame, interleaved in one process (issue target: at most 1.5×); built with the `gpu`
 //!    feature and an adapter present, the same on the GPU evaluator first (wall and device
-//!    time); `BENCH_ONLY=cost` stops after these rows;
+//!    time); then the same with a backlash of the IRB 120's size added to the model (drawn
+//!    against left out with the joint errors); `BENCH_ONLY=cost` stops after these rows;
 //! 2. the time of identifying 200 and 1000 poses with the check beyond geometry (issue target
 //!    for 1000: 1 s), medians of 3;
 //! 3. the payload what-if on `BENCH_ROBOTS` robots (default 30): calibrated without a payload,
@@ -168,10 +169,25 @@ fn main() {
         "the fit keeps its joint errors"
     );
     let task = random_poses(&model, 50, 7);
+    // The same model with backlash of the IRB 120's size (docs/METHOD.md §19.5: gaps 0.061,
+    // 0.028, 0.018° on J1–J3, the wrist's within 2σ of 0).
+    let mut lash = model.clone();
+    if let Some(e) = lash.joint_errors.as_mut() {
+        e.backlash = Some(gpu_amcs::kinematics::Backlash {
+            gap_rad: [0.061, 0.028, 0.018, 0.004, 0.004, 0.004]
+                .iter()
+                .map(|g: &f64| g.to_radians())
+                .collect(),
+            sigma_rad: vec![0.003f64.to_radians(); 6],
+        });
+    }
     let measured = Problem::new(model, &task, &Reference::Calibrated, 1).unwrap();
+    let lashed = Problem::new(lash, &task, &Reference::Calibrated, 1).unwrap();
     for (label, pb) in [
         ("measurement frame", measured.clone()),
         ("base frame", measured.in_frame(Frame::Base)),
+        ("meas. + backlash", lashed.clone()),
+        ("base + backlash", lashed.in_frame(Frame::Base)),
     ] {
         let mut without = pb.clone();
         without.joint_errors = None;

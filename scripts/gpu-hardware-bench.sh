@@ -6,11 +6,12 @@
 # Build on a machine with Rust (same processor family), then copy the executables into one folder:
 #   cargo bench --no-run && cargo test --release --no-run
 #   mkdir -p .devbin && cp target/release/gpu-amcs .devbin/ \
-#     && cp target/release/deps/{gpu_throughput,throughput,it}-<hash> .devbin/   (drop the -<hash>)
+#     && cp target/release/deps/{gpu_throughput,throughput,joint_errors,it}-<hash> .devbin/   (drop the -<hash>)
 # and run `BIN=.devbin OUT=/tmp/gpu-figures bash scripts/gpu-hardware-bench.sh` where the GPU is.
 # Everything goes to $OUT/log.txt (and the terminal); the last lines are a summary table.
 # Optional: GPU_ONLY_STEPS="tests mcs9" runs only the steps named (tests evaluators mcs mcs9
-# mcs9cpu sensitivity20 analyses plan discrepancy jointerrors throughput; all by default);
+# mcs9cpu sensitivity20 analyses plan discrepancy jointerrors jointcost throughput; all by
+# default; jointcost needs the joint_errors bench executable in BIN);
 # GPU_BENCH_DEADLINE=seconds.
 set -u
 BIN=${BIN:-.devbin}
@@ -119,8 +120,9 @@ if want mcs9; then
     say "    $(json_brief "$JS/mcs9-gpu.json")"
 fi
 if want tests; then
-    # The GPU-against-CPU agreement tests, now on the real adapter (CI=true: no skipping).
-    CI=true step "tests: it gpu::" 240 "$BIN/it" gpu:: --test-threads 4
+    # The GPU-against-CPU agreement tests, now on the real adapter (CI=true: no skipping): the
+    # gpu:: module and every test named for the GPU (joint errors, backlash, sensitivity, tail).
+    CI=true step "tests: it gpu" 240 "$BIN/it" gpu --test-threads 4
 fi
 if want mcs9cpu; then
     step "mcs 1e9 cpu (summary mode)" 200 "$GPU_AMCS_BIN" mcs --points 50 --draws 1000000000 \
@@ -189,6 +191,10 @@ if want jointerrors; then
             done
         done
     done
+fi
+if want jointcost && [ -x "$BIN/joint_errors" ]; then
+    # The joint errors' and the backlash's cost in the evaluators, GPU rows first.
+    BENCH_ONLY=cost BENCH_REPS=7 step "bench joint_errors (cost)" 240 "$BIN/joint_errors"
 fi
 if want throughput; then
     BENCH_REPS=5 step "bench throughput" 240 "$BIN/throughput"

@@ -59,7 +59,7 @@ fn rms(v: &[f64]) -> f64 {
     (v.iter().map(|x| x * x).sum::<f64>() / v.len() as f64).sqrt()
 }
 
-const BENT: NonGeometricSizes = NonGeometricSizes {
+pub(crate) const BENT: NonGeometricSizes = NonGeometricSizes {
     compliance: 1.0,
     harmonics: 1.0,
     payload_kg: 0.0,

@@ -242,13 +242,22 @@ pub fn identify_chain(
         ..opts.clone()
     };
     // The joint errors predict new poses better: the geometry is fitted again to the angles the
-    // joints stood at (commanded plus the fitted deflections), so its covariance is the
-    // geometry's given the coefficients and the lack of fit is judged on what remains.
-    let corrected: Vec<MeasuredPoint> = points
-        .iter()
-        .map(|p| {
+    // joints stood at (commanded plus the fitted deflections, and half the gap on the side each
+    // joint arrived from when the backlash is kept), so its covariance is the geometry's given
+    // the coefficients and the lack of fit is judged on what remains.
+    let sides = ext.backlash.as_ref().map(|_| {
+        let q: Vec<Joints> = points.iter().map(|p| p.q_deg).collect();
+        beyond::approach_directions(&q)
+    });
+    let corrected: Vec<MeasuredPoint> = (points.iter().enumerate())
+        .map(|(k, p)| {
             let q = p.q_deg.map(f64::to_radians);
-            let d = ext.model.deflections_at(&q, p.payload_kg);
+            let mut d = ext.model.deflections_at(&q, p.payload_kg);
+            if let (Some(b), Some(s)) = (&ext.backlash, &sides) {
+                for j in 0..q.len() {
+                    d[j] += 0.5 * b.gap_rad[j] * s[k][j];
+                }
+            }
             MeasuredPoint {
                 q_deg: Joints::from_fn(q.len(), |i| (q[i] + d[i]).to_degrees()),
                 ..*p
@@ -282,6 +291,11 @@ pub fn identify_chain(
     errors.calibration_payload.com_mm = second.state.tool;
     errors.calibration_payload.mass_kg = most_common_payload(points);
     errors.payload = errors.calibration_payload;
+    // The gaps' σ in the data's noise, as the coefficients' covariance.
+    errors.backlash = ext.backlash.as_ref().map(|b| crate::kinematics::Backlash {
+        gap_rad: b.gap_rad.clone(),
+        sigma_rad: b.sigma_rad.iter().map(|s| s * scale.sqrt()).collect(),
+    });
     second.joint_errors = Some(errors);
     let mut beyond = ext.report.clone();
     beyond.kept = true;

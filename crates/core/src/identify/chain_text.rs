@@ -225,10 +225,10 @@ fn render_beyond_geometry(s: &mut String, b: &super::chain::BeyondGeometry) {
             k.loo_rms_mm,
             b.loo_rms_extended_mm,
             100.0 * (k.loo_rms_mm / b.loo_rms_extended_mm - 1.0),
-            if k.predicts_better {
-                ": the robot shows it; the model does not carry backlash yet (the discrepancy term holds it)"
-            } else {
-                ": no gain worth the coefficients"
+            match (k.predicts_better, b.kept) {
+                (true, true) => ": the robot shows it, and the model carries the gaps (the geometry fitted to the angles corrected by each pose's side; every analysis draws the side at each point)",
+                (true, false) => ": the robot shows it, but the model carries no joint errors (the discrepancy term holds it)",
+                _ => ": no gain worth the coefficients",
             },
             gaps.join(", ")
         );

@@ -1,14 +1,14 @@
-//! Backlash as a check of the fit beyond geometry (docs/METHOD.md §19.5): each joint stands half
-//! its gap from the commanded angle on the side it arrived from, the sides taken from the order
-//! of the poses. A diagnostic: the model does not carry backlash yet, and the discrepancy term
-//! holds its effect.
+//! Backlash in the fit beyond geometry (docs/METHOD.md §19.5): each joint stands half its gap
+//! from the commanded angle on the side it arrived from, the sides taken from the order of the
+//! poses. When the gaps predict new poses better, a model that keeps its joint errors keeps the
+//! gaps too ([`super::ExtendedFit::backlash`]): the geometry is fitted to the angles corrected by
+//! the known sides, and the analyses draw the side at each task point.
 
-use super::{fit_over, loo_rms, ExtendedModel, Fitted, Inputs, Observation, PER_JOINT, PRIOR_RAD};
+use super::{fit_over, loo_rms, ExtendedModel, Fitted, Inputs, PER_JOINT, PRIOR_RAD};
 use crate::kinematics::Joints;
 use serde::Serialize;
 
-/// What a backlash per joint adds, the approach directions taken from the poses' order
-/// (a diagnostic: the model does not carry backlash yet; the discrepancy term holds it).
+/// What a backlash per joint adds, the approach directions taken from the poses' order.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct BacklashCheck {
     /// Leave-one-out RMS (3-D) with compliance, harmonics and backlash, mm.
@@ -17,17 +17,20 @@ pub struct BacklashCheck {
     pub predicts_better: bool,
     /// Per joint: the gap and its standard uncertainty, degrees.
     pub gap_deg: Vec<[f64; 2]>,
+    /// The fit with the gaps (their coefficients after the joints' `PER_JOINT` each).
+    #[serde(skip)]
+    pub(super) model: ExtendedModel,
 }
 
-/// The direction each joint arrived from at each observation (−1, 0, +1), from their order
-/// (the first observation: 0).
-fn approach_directions(obs: &[Observation]) -> Vec<Joints> {
-    (0..obs.len())
+/// The direction each joint arrived from at each configuration of `q` (−1, 0, +1), from their
+/// order (the first: 0; any unit of angle).
+pub(crate) fn approach_directions(q: &[Joints]) -> Vec<Joints> {
+    (0..q.len())
         .map(|k| {
-            Joints::from_fn(obs[k].q.len(), |j| match k {
+            Joints::from_fn(q[k].len(), |j| match k {
                 0 => 0.0,
                 _ => {
-                    let d = obs[k].q[j] - obs[k - 1].q[j];
+                    let d = q[k][j] - q[k - 1][j];
                     if d.abs() < 1e-9 {
                         0.0
                     } else {
@@ -49,7 +52,8 @@ pub(super) fn backlash_check(
     loo_extended: f64,
 ) -> Option<BacklashCheck> {
     let n = fitted.links.joints();
-    let dirs = approach_directions(&run.obs);
+    let q: Vec<Joints> = run.obs.iter().map(|o| o.q).collect();
+    let dirs = approach_directions(&q);
     let both = (0..n).any(|j| dirs.iter().any(|d| d[j] > 0.0) && dirs.iter().any(|d| d[j] < 0.0));
     let free: Vec<usize> = all
         .free
@@ -88,5 +92,6 @@ pub(super) fn backlash_check(
                 ]
             })
             .collect(),
+        model: m,
     })
 }
