@@ -88,11 +88,11 @@ struct Chunk {
 @group(0) @binding(9) var<storage, read> masks: array<vec2<u32>>;
 // the discrepancy term's radii, mm (cfg.disc_count of them; one unused entry without a term)
 @group(0) @binding(10) var<storage, read> disc_radii: array<f32>;
-// The joint errors (crates/core/src/engine/joint_errors.rs, TermPacking): L (p × p), the shift
-// rows (input position, then p entries of A), per joint k̄ and the free positions of k, a1, b1,
-// a2, b2 (−1: none), the payload's mean and σ; from cfg.term_pts, 8 words per point and joint:
-// (τ_links, τ_unit, sin q, cos q), (sin 2q, cos 2q, 0, 0).
-@group(0) @binding(11) var<storage, read> term: array<f32>;
+// The joint errors' per-point quantities (crates/core/src/engine/joint_errors.rs, TermPacking's
+// points), two vec4 per point and joint: (τ_links, τ_unit, sin q, cos q), (sin 2q, cos 2q, 0, 0).
+// (Their L, A and factors are constants of the host-written term_draw; one unused vec4 without
+// joint errors.)
+@group(0) @binding(11) var<storage, read> term: array<vec4<f32>>;
 
 const WORDS_PER_POINT: u32 = 2u * N_JOINTS + 1u;
 // N_PARAMS, TOOL_AT, N_INPUTS, PLACEMENT_AT and N_PLACED come from the host (see the top).
@@ -331,9 +331,9 @@ fn with_discrepancy(e: f32, wd: u32, k: u32, pj: u32, g: f32) -> f32 {
 // τ_unit, sin q, cos q) + (δa2, δb2)·(sin 2q, cos 2q); with backlash (BACKLASH_ON, host-written)
 // plus the joint's half gap f[2j + 1].z on the side bit j of the point's word wb gives.
 fn term_offset(f: array<vec4<f32>, 2u * N_JOINTS>, pj: u32, j: u32, wb: u32) -> f32 {
-    let at = cfg.term_pts + 8u * (pj * N_JOINTS + j);
-    let t0 = vec4<f32>(term[at], term[at + 1u], term[at + 2u], term[at + 3u]);
-    let t1 = vec2<f32>(term[at + 4u], term[at + 5u]);
+    let at = 2u * (pj * N_JOINTS + j);
+    let t0 = term[at];
+    let t1 = term[at + 1u].xy;
     let o = dot(f[2u * j], t0) + dot(f[2u * j + 1u].xy, t1);
     if (BACKLASH_ON) {
         let h = f[2u * j + 1u].z;

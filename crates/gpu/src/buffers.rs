@@ -35,7 +35,7 @@ pub struct ConfigUniform {
     pub term_free: u32,
     /// Rows of their shift of the geometric inputs.
     pub term_rows: u32,
-    /// Where the per-point words start in `term` (f32 entries).
+    /// Where the per-point words start in `term` (f32 entries; 0: the buffer holds only them).
     pub term_pts: u32,
 }
 
@@ -110,14 +110,11 @@ impl ProblemBuffers {
         };
         let disc_radii = if disc.is_empty() { vec![0.0f32] } else { disc };
         let packing_term = problem.joint_errors.as_ref().map(|t| t.packing());
+        // Only the per-point quantities, as vec4 (two loads per point and joint, not six): the
+        // rest of the packing is written into the kernel's code (term_code).
         let (term, term_pts): (Vec<f32>, u32) = match &packing_term {
-            Some(t) => {
-                let at = t.words.len() as u32;
-                let mut v = t.words.clone();
-                v.extend(t.points.iter().flatten());
-                (v, at)
-            }
-            None => (vec![0.0], 0),
+            Some(t) => (t.points.iter().flatten().copied().collect(), 0),
+            None => (vec![0.0; 4], 0),
         };
         let cfg = ConfigUniform {
             key: problem.sampler.key(),

@@ -105,9 +105,9 @@ pub mod binding {
     /// point only (`disc_radii`: the radii, the size's 256 per-draw factors, then a compensated
     /// model's m per-point factors; one unused entry without a term).
     pub const DISC_RADII: u32 = 10;
-    /// The model's joint errors (Method §19.2): Cholesky factor, shift rows, per-joint
-    /// compliance and free positions, payload, then 8 f32 per test point and joint (`term`;
-    /// one unused entry without them).
+    /// The model's joint errors (Method §19.2): 8 f32 per test point and joint, read as two
+    /// vec4 (`term`; one unused vec4 without them; the rest of the joint errors is written into
+    /// the kernel's code).
     pub const TERM: u32 = 11;
 }
 
