@@ -10,9 +10,10 @@
 //!    frame, interleaved in one process (issue target: at most 1.5×); built with the `gpu`
 //!    feature and an adapter present, the same on the GPU evaluator first (wall and device
 //!    time); then the same with a backlash of the IRB 120's size added to the model (drawn
-//!    against left out with the joint errors); `BENCH_ONLY=cost` stops after these rows;
-//! 2. the time of identifying 200 and 1000 poses with the check beyond geometry (issue target
-//!    for 1000: 1 s), medians of 3;
+//!    against left out with the joint errors); `BENCH_ONLY=cost` stops after these rows,
+//!    `BENCH_ONLY=identify` runs only the next;
+//! 2. the time of identifying 200 and 1000 poses with identify's defaults and with the explicit
+//!    check beyond geometry (issue target for 1000: 1 s), medians of 3;
 //! 3. the payload what-if on `BENCH_ROBOTS` robots (default 30): calibrated without a payload,
 //!    then asked for w over 20 task poses with 5 kg at the tool; the PIT of each robot's true w
 //!    in the predicted distribution (4000 draws), with the payload modelled and, for
@@ -153,77 +154,17 @@ fn main() {
         "machine: {} threads; medians of {reps} runs",
         rayon::current_num_threads()
     );
+    let only = std::env::var("BENCH_ONLY").unwrap_or_default();
     // 1. Cost of drawing them.
-    let (_, _, _, pts) = robot(11, 200);
-    let r = identify_chain(
-        &pts,
-        &tx60(),
-        None,
-        Some(NominalPrior::default()),
-        &options(),
-    )
-    .unwrap();
-    let model = chain_model(&tx60(), &r, "identified".into());
-    assert!(
-        model.joint_errors.is_some(),
-        "the fit keeps its joint errors"
-    );
-    let task = random_poses(&model, 50, 7);
-    // The same model with backlash of the IRB 120's size (docs/METHOD.md §19.5: gaps 0.061,
-    // 0.028, 0.018° on J1–J3, the wrist's within 2σ of 0).
-    let mut lash = model.clone();
-    if let Some(e) = lash.joint_errors.as_mut() {
-        e.backlash = Some(gpu_amcs::kinematics::Backlash {
-            gap_rad: [0.061, 0.028, 0.018, 0.004, 0.004, 0.004]
-                .iter()
-                .map(|g: &f64| g.to_radians())
-                .collect(),
-            sigma_rad: vec![0.003f64.to_radians(); 6],
-        });
+    if only != "identify" {
+        draw_cost(reps);
     }
-    let measured = Problem::new(model, &task, &Reference::Calibrated, 1).unwrap();
-    let lashed = Problem::new(lash, &task, &Reference::Calibrated, 1).unwrap();
-    for (label, pb) in [
-        ("measurement frame", measured.clone()),
-        ("base frame", measured.in_frame(Frame::Base)),
-        ("meas. + backlash", lashed.clone()),
-        ("base + backlash", lashed.in_frame(Frame::Base)),
-    ] {
-        let mut without = pb.clone();
-        without.joint_errors = None;
-        #[cfg(feature = "gpu")]
-        gpu_rows(&pb, &without, label, reps);
-        let mut evs = [CpuEvaluator::new(pb), CpuEvaluator::new(without)];
-        let [with, without] = interleaved_medians(&mut evs, reps);
-        println!(
-            "mcs 10^6 × 50, {label:<17}  with the joint errors {with:.3} s  without {without:.3} s  ratio {:.2}",
-            with / without
-        );
-    }
-    if std::env::var("BENCH_ONLY").is_ok_and(|v| v == "cost") {
+    if only == "cost" {
         return;
     }
-    // 2. Cost of identifying them.
-    for n in [200, 1000] {
-        let (_, _, _, pts) = robot(12, n);
-        let t: Vec<f64> = (0..3)
-            .map(|_| {
-                let s = Instant::now();
-                identify_chain(
-                    &pts,
-                    &tx60(),
-                    None,
-                    Some(NominalPrior::default()),
-                    &options(),
-                )
-                .unwrap();
-                s.elapsed().as_secs_f64()
-            })
-            .collect();
-        println!(
-            "identify {n} poses with the check beyond geometry: {:.2} s",
-            median(t)
-        );
+    identify_cost();
+    if only == "identify" {
+        return;
     }
     // 3. The payload what-if against robots that carry the payload.
     let robots: u64 = std::env::var("BENCH_ROBOTS")
@@ -286,5 +227,78 @@ fn main() {
             share(&|u| u >= 0.99),
             share(&|u| u <= 0.1)
         );
+    }
+}
+
+/// 1. The cost of drawing the joint errors (and a backlash) in the evaluators.
+fn draw_cost(reps: usize) {
+    let (_, _, _, pts) = robot(11, 200);
+    let r = identify_chain(
+        &pts,
+        &tx60(),
+        None,
+        Some(NominalPrior::default()),
+        &options(),
+    )
+    .unwrap();
+    let model = chain_model(&tx60(), &r, "identified".into());
+    assert!(
+        model.joint_errors.is_some(),
+        "the fit keeps its joint errors"
+    );
+    let task = random_poses(&model, 50, 7);
+    // The same model with backlash of the IRB 120's size (docs/METHOD.md §19.5: gaps 0.061,
+    // 0.028, 0.018° on J1–J3, the wrist's within 2σ of 0).
+    let mut lash = model.clone();
+    if let Some(e) = lash.joint_errors.as_mut() {
+        e.backlash = Some(gpu_amcs::kinematics::Backlash {
+            gap_rad: [0.061, 0.028, 0.018, 0.004, 0.004, 0.004]
+                .iter()
+                .map(|g: &f64| g.to_radians())
+                .collect(),
+            sigma_rad: vec![0.003f64.to_radians(); 6],
+        });
+    }
+    let measured = Problem::new(model, &task, &Reference::Calibrated, 1).unwrap();
+    let lashed = Problem::new(lash, &task, &Reference::Calibrated, 1).unwrap();
+    for (label, pb) in [
+        ("measurement frame", measured.clone()),
+        ("base frame", measured.in_frame(Frame::Base)),
+        ("meas. + backlash", lashed.clone()),
+        ("base + backlash", lashed.in_frame(Frame::Base)),
+    ] {
+        let mut without = pb.clone();
+        without.joint_errors = None;
+        #[cfg(feature = "gpu")]
+        gpu_rows(&pb, &without, label, reps);
+        let mut evs = [CpuEvaluator::new(pb), CpuEvaluator::new(without)];
+        let [with, without] = interleaved_medians(&mut evs, reps);
+        println!(
+            "mcs 10^6 × 50, {label:<17}  with the joint errors {with:.3} s  without {without:.3} s  ratio {:.2}",
+            with / without
+        );
+    }
+}
+
+/// 2. The cost of identifying them.
+fn identify_cost() {
+    // 2. Cost of identifying them: identify's defaults (the check when the geometric fit shows
+    // a lack of fit) and the explicit check (which fits the backlash too).
+    for n in [200, 1000] {
+        let (_, _, _, pts) = robot(12, n);
+        for (label, opts) in [
+            ("identify's defaults", ChainOptions::default()),
+            ("the explicit check", options()),
+        ] {
+            let t: Vec<f64> = (0..3)
+                .map(|_| {
+                    let s = Instant::now();
+                    identify_chain(&pts, &tx60(), None, Some(NominalPrior::default()), &opts)
+                        .unwrap();
+                    s.elapsed().as_secs_f64()
+                })
+                .collect();
+            println!("identify {n} poses, {label}: {:.2} s", median(t));
+        }
     }
 }
