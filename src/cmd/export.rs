@@ -98,8 +98,15 @@ impl Run for ExportArgs {
                 })
                 .fold(0.0, f64::max)
                 .to_degrees();
+            let lash = match e.backlash.as_ref() {
+                Some(b) => format!(
+                    ", and its backlash (gaps up to {:.4}°: the geometry was fitted to the angles corrected by each pose's side)",
+                    b.gap_rad.iter().fold(0.0f64, |m, g| m.max(g.abs())).to_degrees()
+                ),
+                None => String::new(),
+            };
             eprintln!(
-                "note: the model carries joint errors beyond geometry (compliance, gear harmonics; identify kept them) that URDF and UR calibration files cannot hold: the exported geometry is the one fitted with them, and a controller given the file misses their deflections (gear harmonics up to {worst:.4}° per joint, plus the compliance under load); the model file keeps them"
+                "note: the model carries joint errors beyond geometry (compliance, gear harmonics; identify kept them) that URDF and UR calibration files cannot hold: the exported geometry is the one fitted with them, and a controller given the file misses their deflections (gear harmonics up to {worst:.4}° per joint, plus the compliance under load){lash}; the model file keeps them"
             );
         }
         // The link masses: URDF holds them (<inertial>), UR's calibration file does not.

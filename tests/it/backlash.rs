@@ -582,6 +582,17 @@ fn drawn_sides_are_honest_where_the_robot_has_backlash() {
     };
     let (on, pit_on) = check("on");
     let (auto, pit_auto) = check("auto");
+    // URDF cannot hold the gaps: the export says so, with the largest.
+    let o = crate::common::run(&[
+        "export",
+        "--model",
+        &arg(&d, "m-on.toml"),
+        "--urdf",
+        &arg(&d, "on.urdf"),
+    ]);
+    let err = crate::common::stderr(&o);
+    assert!(o.status.success(), "{err}");
+    assert!(err.contains("and its backlash (gaps up to 0.05"), "{err}");
     eprintln!("gaps drawn: {on} (PIT {pit_on}); held by the term: {auto} (PIT {pit_auto})");
     // 200 poses tell coverage to ±3.1 % at 2σ around 95 %.
     assert!((0.919..=0.985).contains(&on), "{on}");
