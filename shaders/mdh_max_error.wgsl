@@ -89,7 +89,8 @@ struct Chunk {
 // the discrepancy term's radii, mm (cfg.disc_count of them; one unused entry without a term)
 @group(0) @binding(10) var<storage, read> disc_radii: array<f32>;
 // The joint errors' per-point quantities (crates/core/src/engine/joint_errors.rs, TermPacking's
-// points), two vec4 per point and joint: (τ_links, τ_unit, sin q, cos q), (sin 2q, cos 2q, 0, 0).
+// points), two vec4 per point and joint: (τ_links, τ_unit, sin q, cos q), (sin 2q, cos 2q, k, s)
+// with k = 1 where the backlash's side s (±1) is known at the point.
 // (Their L, A and factors are constants of the host-written term_draw; one unused vec4 without
 // joint errors.)
 @group(0) @binding(11) var<storage, read> term: array<vec4<f32>>;
@@ -329,15 +330,18 @@ fn with_discrepancy(e: f32, wd: u32, k: u32, pj: u32, g: f32) -> f32 {
 
 // Joint j's angle offset at point pj from the draw's factors f: (f0, f1, δa1, δb1)·(τ_links,
 // τ_unit, sin q, cos q) + (δa2, δb2)·(sin 2q, cos 2q); with backlash (BACKLASH_ON, host-written)
-// plus the joint's half gap f[2j + 1].z on the side bit j of the point's word wb gives.
+// plus the joint's half gap f[2j + 1].z on the side known at the point (the second vec4's z, w)
+// or, where none is, on the side bit j of the point's word wb gives.
 fn term_offset(f: array<vec4<f32>, 2u * N_JOINTS>, pj: u32, j: u32, wb: u32) -> f32 {
     let at = 2u * (pj * N_JOINTS + j);
     let t0 = term[at];
-    let t1 = term[at + 1u].xy;
-    let o = dot(f[2u * j], t0) + dot(f[2u * j + 1u].xy, t1);
+    let t1 = term[at + 1u];
+    let o = dot(f[2u * j], t0) + dot(f[2u * j + 1u].xy, t1.xy);
     if (BACKLASH_ON) {
+        // The side known at this point (t1.z = 1: t1.w = ±1), else drawn.
         let h = f[2u * j + 1u].z;
-        return o + select(-h, h, ((wb >> j) & 1u) != 0u);
+        let drawn = select(-h, h, ((wb >> j) & 1u) != 0u);
+        return o + select(drawn, t1.w * h, t1.z != 0.0);
     }
     return o;
 }

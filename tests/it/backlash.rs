@@ -422,6 +422,24 @@ fn the_gpu_draws_the_backlash_as_the_cpu() {
     };
     let dp = crate::joint_errors::pick_freeze_gap(&mut cpu, &mut gpu, &req);
     assert!(dp <= 1e-5, "pick-freeze {dp}");
+    // Sides known at some points and joints.
+    let mut known = pb.clone();
+    let sides: Vec<gpu_amcs::kinematics::Joints> = (0..known.n_points())
+        .map(|j| {
+            gpu_amcs::kinematics::Joints::from_fn(6, |i| match (j + i) % 3 {
+                0 => 1.0,
+                1 => -1.0,
+                _ => 0.0,
+            })
+        })
+        .collect();
+    known.set_known_sides(&sides).unwrap();
+    let (_, _, wk, (dw, de)) = crate::joint_errors::cpu_and_gpu(&known, 500, 5000);
+    assert!(dw <= 1e-5 && de <= 1e-5, "known sides: {dw} {de}");
+    assert!(
+        diff(&wk, &wg[..5000]) > 1e-3,
+        "the known sides moved nothing"
+    );
 }
 
 /// Identification keeps the gaps when they predict better: a simulated TX60 with compliance,
@@ -593,9 +611,170 @@ fn drawn_sides_are_honest_where_the_robot_has_backlash() {
     let err = crate::common::stderr(&o);
     assert!(o.status.success(), "{err}");
     assert!(err.contains("and its backlash (gaps up to 0.05"), "{err}");
+    // Task points with the sides the program arrives from (s1..s6): the spread the sides gave
+    // goes, the mean stays near; a value that is no side, and sides for a model without
+    // backlash, are refused naming the file.
+    let q = "q1,q2,q3,q4,q5,q6";
+    let rows = ["0,10,80,0,30,0", "20,-40,90,10,45,5", "-30,60,100,0,-20,90"];
+    let (plain_pts, sided_pts, bad_pts) =
+        (arg(&d, "pts.csv"), arg(&d, "sided.csv"), arg(&d, "bad.csv"));
+    std::fs::write(&plain_pts, format!("{q}\n{}\n", rows.join("\n"))).unwrap();
+    let sided: Vec<String> = rows.iter().map(|r| format!("{r},1,-1,1,-1,1,-1")).collect();
+    std::fs::write(
+        &sided_pts,
+        format!("{q},s1,s2,s3,s4,s5,s6\n{}\n", sided.join("\n")),
+    )
+    .unwrap();
+    std::fs::write(&bad_pts, format!("{q},s2\n{},2\n", rows[0])).unwrap();
+    let u = |pts: &str| -> f64 {
+        let j = arg(&d, "u.json");
+        run_ok(&[
+            "mcs",
+            "--model",
+            &arg(&d, "m-on.toml"),
+            "--points-file",
+            pts,
+            "--draws",
+            "20000",
+            "--backend",
+            "cpu",
+            "-q",
+            "--no-discrepancy",
+            "--json",
+            &j,
+        ]);
+        let v: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&j).unwrap()).unwrap();
+        v["result"]["std_uncertainty"].as_f64().unwrap()
+    };
+    let (u_drawn, u_known) = (u(&plain_pts), u(&sided_pts));
+    eprintln!("w's standard uncertainty: sides drawn {u_drawn:.5} mm, known {u_known:.5} mm");
+    assert!(u_known < 0.5 * u_drawn, "{u_known} against {u_drawn}");
+    let o = crate::common::run(&[
+        "mcs",
+        "--model",
+        &arg(&d, "m-on.toml"),
+        "--points-file",
+        &bad_pts,
+        "--draws",
+        "100",
+    ]);
+    let err = crate::common::stderr(&o);
+    assert!(
+        !o.status.success() && err.contains("s2 = '2' is not a side") && err.contains("line 2"),
+        "{err}"
+    );
+    let o = crate::common::run(&[
+        "mcs",
+        "--model",
+        &arg(&d, "m-auto.toml"),
+        "--points-file",
+        &sided_pts,
+        "--draws",
+        "100",
+    ]);
+    let err = crate::common::stderr(&o);
+    assert!(!o.status.success() && err.contains("backlash"), "{err}");
     eprintln!("gaps drawn: {on} (PIT {pit_on}); held by the term: {auto} (PIT {pit_auto})");
     // 200 poses tell coverage to ±3.1 % at 2σ around 95 %.
     assert!((0.919..=0.985).contains(&on), "{on}");
     assert!((0.3..=0.6).contains(&pit_on), "{pit_on}");
     assert!(auto < on && pit_auto > pit_on + 0.15, "{auto} {pit_auto}");
+}
+
+/// Sides known at the test points (`Problem::set_known_sides`): a known side turns its joint by
+/// that side's `±h` in every draw, an unknown one keeps its draw. With J1's and J2's sides
+/// known everywhere, every draw's errors are forward kinematics of those sides; with J1's
+/// known and J2's not, J2 still takes either side half the time.
+#[test]
+fn known_sides_turn_their_joints_in_every_draw() {
+    let gaps = [0.08, 0.05, 0.0, 0.0, 0.0, 0.0];
+    let seed = 13;
+    let base = Problem::new(
+        only_backlash(&gaps),
+        &points(),
+        &Reference::Calibrated,
+        seed,
+    )
+    .unwrap();
+    let h: Vec<f64> = gaps.iter().map(|g| 0.5 * f64::to_radians(*g)).collect();
+    let m = base.n_points();
+    let error_of = |j: usize, s: &[f64]| -> f64 {
+        let q: Vec<f64> = (0..6)
+            .map(|i| base.chain_points[j][i] + s[i] * h[i])
+            .collect();
+        let p = position(&base.model.params, &base.model.tool, &q);
+        let r = base.reference[j];
+        ((p[0] - r[0]).powi(2) + (p[1] - r[1]).powi(2) + (p[2] - r[2]).powi(2)).sqrt()
+    };
+    let side_of = |j: usize, i: usize| if (j + i).is_multiple_of(2) { 1.0 } else { -1.0 };
+    let all: Vec<gpu_amcs::kinematics::Joints> = (0..m)
+        .map(|j| {
+            gpu_amcs::kinematics::Joints::from_fn(6, |i| if i < 2 { side_of(j, i) } else { 0.0 })
+        })
+        .collect();
+    let mut pb = base.clone();
+    pb.set_known_sides(&all).unwrap();
+    let n = 256;
+    let (mut w, mut e) = (vec![0.0; n], vec![0.0; n * m]);
+    CpuEvaluator::new(pb.clone())
+        .evaluate(7, &mut w, Some(&mut e))
+        .unwrap();
+    for k in 0..n {
+        for j in 0..m {
+            let want = error_of(j, &[side_of(j, 0), side_of(j, 1), 0.0, 0.0, 0.0, 0.0]);
+            assert!((e[k * m + j] - want).abs() <= 1e-9, "draw {k} point {j}");
+        }
+    }
+    // The point form agrees.
+    let t = pb.joint_errors.as_ref().unwrap();
+    let mut e1 = vec![0.0; m];
+    let d = vec![0.0; pb.sampler.space().len()];
+    pb.errors_with_joint_errors(&d, &t.draw(9), &mut e1);
+    assert!((e1[0] - e[0]).abs() <= 1e-9);
+    // J1 known, J2 drawn.
+    let j1: Vec<gpu_amcs::kinematics::Joints> = (0..m)
+        .map(|j| {
+            gpu_amcs::kinematics::Joints::from_fn(6, |i| if i == 0 { side_of(j, 0) } else { 0.0 })
+        })
+        .collect();
+    let mut pb1 = base.clone();
+    pb1.set_known_sides(&j1).unwrap();
+    let n = 2000;
+    let (mut w, mut e) = (vec![0.0; n], vec![0.0; n * m]);
+    CpuEvaluator::new(pb1)
+        .evaluate(7, &mut w, Some(&mut e))
+        .unwrap();
+    for j in 0..m {
+        let plus = error_of(j, &[side_of(j, 0), 1.0, 0.0, 0.0, 0.0, 0.0]);
+        let minus = error_of(j, &[side_of(j, 0), -1.0, 0.0, 0.0, 0.0, 0.0]);
+        let mut up = 0;
+        for k in 0..n {
+            let v = e[k * m + j];
+            let near = |x: f64| (v - x).abs() <= 1e-9;
+            assert!(near(plus) || near(minus), "point {j}: {v} is neither side");
+            up += usize::from(near(plus));
+        }
+        // binomial σ = √(2000·¼) ≈ 22: 5σ
+        assert!(up.abs_diff(n / 2) <= 112, "point {j}: {up} of {n}");
+    }
+    // Wrong shapes and values are refused; a model without backlash has none to turn.
+    let mut bad = all.clone();
+    bad[1][0] = 0.5;
+    assert!(base
+        .clone()
+        .set_known_sides(&bad)
+        .unwrap_err()
+        .to_string()
+        .contains("not −1, 0 or +1"));
+    assert!(base.clone().set_known_sides(&all[..2]).is_err());
+    let mut plain = Problem::new(
+        model_with_joint_errors(0.0),
+        &points(),
+        &Reference::Calibrated,
+        1,
+    )
+    .unwrap();
+    let err = plain.set_known_sides(&all).unwrap_err().to_string();
+    assert!(err.contains("joint_errors.backlash_deg"), "{err}");
 }

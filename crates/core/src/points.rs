@@ -304,6 +304,67 @@ pub fn read_csv(path: &std::path::Path, joints: usize) -> Result<Vec<Joints>, Po
     Ok(out)
 }
 
+/// The backlash sides a configurations file gives (docs/METHOD.md §19.5): optional columns
+/// `s1..sn`, per row the side each joint arrives from at that configuration, `1` (moving
+/// positive), `-1` or `0` (not known: the analyses draw it); a column left out is unknown at
+/// every row. `None` when the file has no such column. (The rows are those of [`read_csv`].)
+///
+/// # Errors
+///
+/// As [`read_csv`] for the file; [`PointsError::Csv`] naming the column and line for a value
+/// that is not −1, 0 or 1, and for a column `s{n+1}` the model has no joint for.
+pub fn read_sides(
+    path: &std::path::Path,
+    joints: usize,
+) -> Result<Option<Vec<Joints>>, PointsError> {
+    let p = path.display().to_string();
+    let err = |message: String| PointsError::Csv {
+        path: p.clone(),
+        message,
+    };
+    let text = crate::input::read_csv_text(path)?;
+    let mut rdr = csv::ReaderBuilder::new()
+        .trim(csv::Trim::All)
+        .from_reader(text.as_bytes());
+    let headers = rdr.headers().map_err(|e| err(e.to_string()))?.clone();
+    let cols: Vec<Option<usize>> = (1..=joints)
+        .map(|j| {
+            let name = format!("s{j}");
+            headers.iter().position(|h| h.eq_ignore_ascii_case(&name))
+        })
+        .collect();
+    let extra = format!("s{}", joints + 1);
+    if headers.iter().any(|h| h.eq_ignore_ascii_case(&extra)) {
+        return Err(err(format!(
+            "header has a column '{extra}', but the model has {joints} joints (sides s1..s{joints})"
+        )));
+    }
+    if cols.iter().all(Option::is_none) {
+        return Ok(None);
+    }
+    let mut out = Vec::new();
+    for rec in rdr.records() {
+        let rec = rec.map_err(|e| err(e.to_string()))?;
+        let line = rec.position().map_or(0, |p| p.line());
+        let mut s = Joints::filled(joints, 0.0);
+        for (j, c) in cols.iter().enumerate() {
+            let Some(c) = *c else { continue };
+            let v = rec.get(c).unwrap_or("");
+            s[j] = match v.parse::<f64>() {
+                Ok(x) if x == 1.0 || x == -1.0 || x == 0.0 => x,
+                _ => {
+                    return Err(err(format!(
+                        "line {line}: s{} = '{v}' is not a side (1: the joint arrives moving positive, -1: negative, 0: not known)",
+                        j + 1
+                    )))
+                }
+            };
+        }
+        out.push(s);
+    }
+    Ok(Some(out))
+}
+
 /// Writes configurations as CSV with header `q1..qn` (`n` = the configurations' length, 6 when
 /// there are none).
 pub fn to_csv<P: AsRef<[f64]>>(points: &[P]) -> String {

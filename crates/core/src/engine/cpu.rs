@@ -367,7 +367,7 @@ impl CpuEvaluator {
                 _ => None,
             };
             let je = term.map(|t| {
-                let s = t.backlash.then_some((&sides, &t.half_gap));
+                let s = t.backlash.then_some((&sides, &t.half_gap, t));
                 (&jel, t.terms.as_slice(), t.payload_term(), s)
             });
             match &place {

@@ -150,6 +150,10 @@ pub struct JointErrorDraws {
     pub half_gap: [f64; MAX_JOINTS],
     /// Whether the model draws backlash sides (some `h_j > 0`).
     pub backlash: bool,
+    /// Per test point the sides known in advance ([`Self::set_known_sides`]): `[mask, bits]`,
+    /// joint `i`'s side is bit `i` of `bits` where bit `i` of `mask` is set, drawn elsewhere;
+    /// empty when none is known.
+    pub known: Vec<[u32; 2]>,
 }
 
 impl JointErrorDraws {
@@ -196,6 +200,7 @@ impl JointErrorDraws {
                 backlash.filter(|_| j < n).map_or(0.0, |b| b.half_spread(j))
             }),
             backlash: backlash.is_some(),
+            known: Vec::new(),
             joints: n,
             free: e.free.clone(),
             chol,
@@ -246,6 +251,69 @@ impl JointErrorDraws {
                 g => (0..self.free.len()).any(|c| self.group_of(c) == g),
             })
             .collect()
+    }
+
+    /// Fixes the sides of the joints whose approach direction at each test point is known:
+    /// `sides[j][i]` is `+1` (joint `i` arrives at point `j` moving positive, so it stands
+    /// `+h_i` from the rest of the model), `−1`, or `0` (not known: drawn).
+    ///
+    /// # Errors
+    ///
+    /// A message when `sides` does not have one entry per test point and joint, an entry is not
+    /// −1, 0 or +1, or the model has no backlash to turn.
+    pub fn set_known_sides(&mut self, sides: &[Joints]) -> Result<(), String> {
+        if !self.backlash {
+            return Err("the model has no backlash: approach sides change nothing".into());
+        }
+        if sides.len() != self.terms.len() {
+            return Err(format!(
+                "{} rows of sides for {} test points",
+                sides.len(),
+                self.terms.len()
+            ));
+        }
+        let mut known = Vec::with_capacity(sides.len());
+        for (j, s) in sides.iter().enumerate() {
+            if s.len() != self.joints {
+                return Err(format!(
+                    "point {}: {} sides for {} joints",
+                    j + 1,
+                    s.len(),
+                    self.joints
+                ));
+            }
+            let (mut mask, mut bits) = (0u32, 0u32);
+            for (i, &v) in s.iter().enumerate() {
+                if v == 1.0 {
+                    mask |= 1 << i;
+                    bits |= 1 << i;
+                } else if v == -1.0 {
+                    mask |= 1 << i;
+                } else if v != 0.0 {
+                    return Err(format!(
+                        "point {}, joint {}: side {v} is not −1, 0 or +1",
+                        j + 1,
+                        i + 1
+                    ));
+                }
+            }
+            known.push([mask, bits]);
+        }
+        self.known = if known.iter().any(|k| k[0] != 0) {
+            known
+        } else {
+            Vec::new()
+        };
+        Ok(())
+    }
+
+    /// A point's side word `w` with the sides known at test point `point` put in.
+    #[inline(always)]
+    pub fn with_known(&self, w: u32, point: usize) -> u32 {
+        match self.known.get(point) {
+            Some(&[mask, bits]) => (w & !mask) | (bits & mask),
+            None => w,
+        }
     }
 
     /// Normals a state of the tail analysis gives the term: [`Self::normals`], then two for the
@@ -461,7 +529,7 @@ impl JointErrorDraws {
     pub fn offsets(&self, d: &TermDraw, point: usize) -> Joints {
         let f = self.factors(d);
         let t = &self.terms[point];
-        let w = point_word(d.sides[0], d.sides[1], point as u32);
+        let w = self.with_known(point_word(d.sides[0], d.sides[1], point as u32), point);
         Joints::from_fn(self.joints, |i| {
             let b = &d.beta[COEFFICIENTS_PER_JOINT * i..COEFFICIENTS_PER_JOINT * (i + 1)];
             let [tl, tu, s1, c1, s2, c2] = t[i];
@@ -500,7 +568,7 @@ pub struct TermPacking {
     /// payload's mean and σ (kg); then the [`TermGroup`] of each of the `p + 1` normals.
     pub words: Vec<f32>,
     /// Per test point and joint two vec4: `(τ_links, τ_unit, sin q, cos q)`, `(sin 2q, cos 2q,
-    /// 0, 0)`.
+    /// k, s)` with `k = 1` where the joint's backlash side is known there, `s` that side (±1).
     pub points: Vec<[f32; 4]>,
     /// Per joint the backlash's turn `h_j` (rad); empty without backlash.
     pub half_gap: Vec<f32>,
@@ -532,15 +600,16 @@ impl JointErrorDraws {
         // The group of each normal (TermGroup), the coefficients' then the payload's.
         words.extend((0..=p).map(|c| self.group_of(c) as u8 as f32));
         debug_assert!(p <= MAX_COEFFICIENTS);
-        let points = self
-            .terms
-            .iter()
-            .flat_map(|t| {
+        let points = (self.terms.iter().enumerate())
+            .flat_map(|(pj, t)| {
+                let [mask, bits] = self.known.get(pj).copied().unwrap_or([0, 0]);
                 (0..self.joints).flat_map(move |j| {
                     let [tl, tu, s1, c1, s2, c2] = t[j];
+                    let known = (mask >> j) & 1;
+                    let side = if (bits >> j) & 1 == 1 { 1.0 } else { -1.0 };
                     [
                         [tl as f32, tu as f32, s1 as f32, c1 as f32],
-                        [s2 as f32, c2 as f32, 0.0, 0.0],
+                        [s2 as f32, c2 as f32, known as f32, side],
                     ]
                 })
             })

@@ -80,6 +80,9 @@ pub enum ProblemError {
         /// Its joints.
         model_joints: usize,
     },
+    /// The test points' backlash sides do not fit them ([`Problem::set_known_sides`]).
+    #[error("approach sides: {0}")]
+    Sides(String),
     /// The parameter distribution is unusable.
     #[error(transparent)]
     Sampler(#[from] SamplerError),
@@ -317,6 +320,27 @@ impl Problem {
             w = w.max(*ej);
         }
         w
+    }
+
+    /// Fixes the backlash sides known at the test points (`sides[j][i]`: +1, −1, or 0 for
+    /// drawn; [`JointErrorDraws::set_known_sides`]).
+    ///
+    /// # Errors
+    ///
+    /// [`ProblemError::Model`] naming `joint_errors.backlash_deg` when the model draws no
+    /// backlash, [`ProblemError::Sides`] for a count or a value out of place.
+    pub fn set_known_sides(
+        &mut self,
+        sides: &[crate::kinematics::Joints],
+    ) -> Result<(), ProblemError> {
+        let Some(t) = self.joint_errors.as_mut().filter(|t| t.backlash) else {
+            return Err(ProblemError::Model {
+                model: self.model.name.clone(),
+                field: "joint_errors.backlash_deg".into(),
+                message: "is not there: the test points' approach sides change nothing without a backlash".into(),
+            });
+        };
+        t.set_known_sides(sides).map_err(ProblemError::Sides)
     }
 
     /// [`Self::point_errors`] with the tool point moved by `tool_offset` (mm, flange frame).

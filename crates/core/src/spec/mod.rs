@@ -549,6 +549,24 @@ impl ProblemSpec {
                 (_, false) => SpecError::new(model_field, e),
             }
         })?;
+        // A points file may give the backlash sides the robot arrives at them from.
+        let mut problem = problem;
+        if let PointsSource::File(f) = &self.points {
+            let file_err = |e: ProblemError| {
+                SpecError::new(
+                    SpecField::PointsFile,
+                    SpecErrorKind::PointsFile {
+                        path: f.clone(),
+                        source: e,
+                    },
+                )
+            };
+            if let Some(sides) = points::read_sides(f, problem.model.joints())
+                .map_err(|e| SpecError::new(SpecField::PointsFile, e))?
+            {
+                problem.set_known_sides(&sides).map_err(file_err)?;
+            }
+        }
         let mut notes = notes;
         let problem = if self.discrepancy {
             problem

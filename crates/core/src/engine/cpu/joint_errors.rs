@@ -65,15 +65,23 @@ pub(super) fn term_lanes(
 /// The turns of the joints at a test point: per joint `[sin o, cos o][lane]` of its offset.
 pub(super) type Turns = [[[f64; LANES]; 2]; MAX_JOINTS];
 
-/// The backlash of a block of lanes, when the model has it: the lanes' words `(a, b)` and per
-/// joint its turn `h` ([`JointErrorDraws`]'s module docs).
-pub(super) type Sides<'a> = Option<(&'a [[u32; LANES]; 2], &'a [f64; MAX_JOINTS])>;
+/// The backlash of a block of lanes, when the model has it: the lanes' words `(a, b)`, per
+/// joint its turn `h` ([`JointErrorDraws`]'s module docs) and the term (for the sides known at
+/// the points).
+pub(super) type Sides<'a> = Option<(
+    &'a [[u32; LANES]; 2],
+    &'a [f64; MAX_JOINTS],
+    &'a JointErrorDraws,
+)>;
 
-/// The words of the lanes' sides at test point `pj` (zero without backlash).
+/// The words of the lanes' sides at test point `pj` (zero without backlash), the sides known
+/// there put in.
 #[inline(always)]
 fn point_sides(sides: Sides, pj: usize) -> [u32; LANES] {
     match sides {
-        Some((ab, _)) => std::array::from_fn(|l| point_word(ab[0][l], ab[1][l], pj as u32)),
+        Some((ab, _, t)) => {
+            std::array::from_fn(|l| t.with_known(point_word(ab[0][l], ab[1][l], pj as u32), pj))
+        }
         None => [0; LANES],
     }
 }
@@ -88,7 +96,7 @@ fn joint_offset_sided(
     (sides, w, i): (Sides, &[u32; LANES], usize),
 ) -> [f64; LANES] {
     let mut o = joint_offset(f, t, payload);
-    if let Some((_, h)) = sides {
+    if let Some((_, h, _)) = sides {
         for l in 0..LANES {
             o[l] += side(w[l], i, h[i]);
         }
