@@ -245,25 +245,7 @@ pub fn identify_chain(
     // joints stood at (commanded plus the fitted deflections, and half the gap on the side each
     // joint arrived from when the backlash is kept), so its covariance is the geometry's given
     // the coefficients and the lack of fit is judged on what remains.
-    let sides = ext.backlash.as_ref().map(|_| {
-        let q: Vec<Joints> = points.iter().map(|p| p.q_deg).collect();
-        beyond::approach_directions(&q)
-    });
-    let corrected: Vec<MeasuredPoint> = (points.iter().enumerate())
-        .map(|(k, p)| {
-            let q = p.q_deg.map(f64::to_radians);
-            let mut d = ext.model.deflections_at(&q, p.payload_kg);
-            if let (Some(b), Some(s)) = (&ext.backlash, &sides) {
-                for j in 0..q.len() {
-                    d[j] += 0.5 * b.gap_rad[j] * s[k][j];
-                }
-            }
-            MeasuredPoint {
-                q_deg: Joints::from_fn(q.len(), |i| (q[i] + d[i]).to_degrees()),
-                ..*p
-            }
-        })
-        .collect();
+    let corrected = ext.corrected(points);
     let (mut second, _) = identify_geometry(
         &corrected,
         nominal,

@@ -27,6 +27,7 @@ mod tests;
 
 mod model_source;
 mod nominal;
+mod sides;
 
 pub use error::{SpecError, SpecErrorKind, SpecField};
 pub use model_source::{is_description, ModelSource};
@@ -552,20 +553,7 @@ impl ProblemSpec {
         // A points file may give the backlash sides the robot arrives at them from.
         let mut problem = problem;
         if let PointsSource::File(f) = &self.points {
-            let file_err = |e: ProblemError| {
-                SpecError::new(
-                    SpecField::PointsFile,
-                    SpecErrorKind::PointsFile {
-                        path: f.clone(),
-                        source: e,
-                    },
-                )
-            };
-            if let Some(sides) = points::read_sides(f, problem.model.joints())
-                .map_err(|e| SpecError::new(SpecField::PointsFile, e))?
-            {
-                problem.set_known_sides(&sides).map_err(file_err)?;
-            }
+            sides::apply_file_sides(&mut problem, f)?;
         }
         let mut notes = notes;
         let problem = if self.discrepancy {

@@ -27,9 +27,10 @@ use crate::identify::chain_fit::{ChainState, Observation, Prior};
 use crate::identify::lm::levenberg_marquardt;
 use crate::kinematics::gravity::{gravity_torques, LinkMasses};
 use crate::kinematics::joint_errors::PointTerms;
-use crate::kinematics::{Backlash, InputSpace, JointErrors, Joints, Payload, RobotModel};
+use crate::kinematics::{Backlash, JointErrors, Joints, Payload, RobotModel};
 mod backlash;
 mod held_out;
+mod kept_errors;
 mod select;
 mod separated;
 
@@ -494,23 +495,7 @@ pub(super) fn check(
             .collect(),
         undetermined: undetermined(&free, geo, run.space, &cov, &sigma),
     };
-    // Gaps that predict better ride with the model (used when it keeps its joint errors): the
-    // geometry and coefficients of the fit with them, the gaps and their σ. Only from poses
-    // checked one at a time: along a sweep's arc every point arrives from the same side, so
-    // there the gap is one more offset of the joint (on the paper's simulated sweeps a forced
-    // `keep` with the gaps so fitted still predicted test poses 1.15× worse than the geometry).
-    let (model, backlash) = match &report.backlash {
-        Some(b) if b.predicts_better && held_out.is_empty() => {
-            let mut m = b.model.clone();
-            m.beta.truncate(PER_JOINT * n);
-            let g = Backlash {
-                gap_rad: b.gap_deg.iter().map(|g| g[0].to_radians()).collect(),
-                sigma_rad: b.gap_deg.iter().map(|g| g[1].to_radians()).collect(),
-            };
-            (m, Some(g))
-        }
-        _ => (fitted, None),
-    };
+    let (model, backlash) = backlash::kept(report.backlash.as_ref(), held_out, fitted, n);
     Some(ExtendedFit {
         report,
         model,
@@ -538,86 +523,4 @@ pub struct ExtendedFit {
     /// The gaps, when the backlash check found that they predict better (with the noise the fit
     /// was whitened with); `model` is then the fit with them.
     pub backlash: Option<Backlash>,
-}
-
-impl ExtendedFit {
-    /// The joint errors a model keeps of this fit: the coefficients, their marginal covariance
-    /// times `scale` (the noise of the data the geometry is finally fitted to, over the one
-    /// this fit was whitened with), and the shift `A = Σ_gβ Σ_ββ⁻¹` of the inputs of `space`
-    /// (the model covariance's) per unit of each coefficient; `fit` is the space of the
-    /// geometric indices.
-    ///
-    /// A compliance the data did not determine (its joint's torque hardly varied over the
-    /// poses) is kept at 0 with the prior σ `prior_k` (rad/(N·m),
-    /// [`crate::kinematics::gravity::compliance_prior`]) and no correlation: a payload at the
-    /// task bends such a joint by an amount the calibration never saw.
-    pub fn joint_errors(
-        &self,
-        fit: InputSpace,
-        space: InputSpace,
-        scale: f64,
-        prior_k: f64,
-    ) -> JointErrors {
-        let geo = self.geo;
-        let fitted = self.free.len() - geo;
-        // The fitted coefficients, then the undetermined compliances, in coefficient order.
-        let mut coeffs: Vec<(usize, Option<usize>)> = self.free[geo..]
-            .iter()
-            .enumerate()
-            .map(|(k, &i)| (i, Some(k)))
-            .collect();
-        for i in (0..self.model.beta.len()).step_by(PER_JOINT) {
-            if !self.free[geo..].contains(&i) {
-                coeffs.push((i, None));
-            }
-        }
-        coeffs.sort_by_key(|c| c.0);
-        let p = coeffs.len();
-        let sbb = self
-            .covariance
-            .view((geo, geo), (fitted, fitted))
-            .into_owned();
-        let sgb = self.covariance.view((0, geo), (geo, fitted)).into_owned();
-        // A = Σ_gβ Σ_ββ⁻¹ = (Σ_ββ⁻¹ Σ_βg)ᵀ (Σ_ββ symmetric); a singular block leaves no shift.
-        let a = sbb
-            .clone()
-            .cholesky()
-            .map(|c| c.solve(&sgb.transpose()).transpose());
-        let mut shift = vec![0.0; space.len() * p];
-        if let Some(a) = &a {
-            // the other targets' offsets (past the fit's space) shift nothing the model keeps
-            for (k, &i) in self.free[..geo]
-                .iter()
-                .enumerate()
-                .filter(|(_, &i)| i < fit.len())
-            {
-                let (block, place) = fit.locate(i);
-                if let Some(r) = space.index(block, place) {
-                    for (c, &(_, f)) in coeffs.iter().enumerate() {
-                        if let Some(f) = f {
-                            shift[r * p + c] = a[(k, f)];
-                        }
-                    }
-                }
-            }
-        }
-        let covariance = (0..p * p)
-            .map(|e| match (coeffs[e / p].1, coeffs[e % p].1) {
-                (Some(a), Some(b)) => scale * sbb[(a, b)],
-                (None, None) if e / p == e % p => prior_k * prior_k,
-                _ => 0.0,
-            })
-            .collect();
-        JointErrors {
-            coefficients: self.model.beta.clone(),
-            links: self.model.links,
-            calibration_payload: Payload::NONE,
-            payload: Payload::NONE,
-            free: coeffs.iter().map(|c| c.0).collect(),
-            covariance,
-            shift_space: space,
-            shift: if a.is_some() { shift } else { Vec::new() },
-            backlash: None,
-        }
-    }
 }
