@@ -452,7 +452,7 @@ fn identification_keeps_the_gaps_that_predict_better() {
     use gpu_amcs::identify::chain::{identify_chain, ChainOptions};
     use gpu_amcs::identify::noise::NoiseModel;
     use gpu_amcs::identify::{JointErrorFit, NominalPrior};
-    use gpu_amcs::kinematics::{tx60, Joints};
+    use gpu_amcs::kinematics::tx60;
     use gpu_amcs::simulate::{
         random_placement, random_poses, simulate_poses_of, Experiment, NonGeometric, TrackerNoise,
     };
@@ -460,19 +460,7 @@ fn identification_keeps_the_gaps_that_predict_better() {
     let truth = Experiment::tx60(seed).truth;
     let errors = NonGeometric::draw(&truth, &crate::beyond_geometry::BENT, seed);
     let commanded = random_poses(&truth, 300, seed + 1);
-    // The angles the joints stand at: half the gap towards where they came from.
-    let actual: Vec<Joints> = (commanded.iter().enumerate())
-        .map(|(k, q)| {
-            Joints::from_fn(6, |j| {
-                let d = if k == 0 {
-                    0.0
-                } else {
-                    q[j] - commanded[k - 1][j]
-                };
-                q[j] + 0.5 * GAPS_DEG[j] * d.signum() * f64::from(d != 0.0)
-            })
-        })
-        .collect();
+    let actual = crate::beyond_geometry::standing_at(&commanded, &GAPS_DEG);
     let mut data = simulate_poses_of(
         &truth,
         errors.as_ref(),

@@ -222,21 +222,7 @@ fn the_check_finds_backlash_from_the_poses_order() {
     let gaps_deg = [0.05, 0.03, 0.02, 0.01, 0.02, 0.02];
     let run = |gaps: [f64; 6]| {
         let commanded = random_poses(&truth, 300, seed + 1);
-        // The angles the joints stand at: half the gap towards where they came from.
-        let actual: Vec<Joints> = commanded
-            .iter()
-            .enumerate()
-            .map(|(k, q)| {
-                Joints::from_fn(6, |j| {
-                    let d = if k == 0 {
-                        0.0
-                    } else {
-                        q[j] - commanded[k - 1][j]
-                    };
-                    q[j] + 0.5 * gaps[j] * d.signum() * f64::from(d != 0.0)
-                })
-            })
-            .collect();
+        let actual = standing_at(&commanded, &gaps);
         let mut data = simulate_poses_of(
             &truth,
             errors.as_ref(),
@@ -521,4 +507,22 @@ fn several_runs_check_but_keep_the_geometry() {
         let model = std::fs::read_to_string(p("m.toml")).unwrap();
         assert!(!model.contains("[joint_errors]"), "{mode}");
     }
+}
+
+/// The angles joints with backlash stand at when commanded to `commanded` in that order: half
+/// the gap (deg) towards where each came from (none at the first configuration and for a joint
+/// that did not move).
+pub(crate) fn standing_at(commanded: &[Joints], gaps_deg: &[f64]) -> Vec<Joints> {
+    (commanded.iter().enumerate())
+        .map(|(k, q)| {
+            Joints::from_fn(q.len(), |j| {
+                let d = if k == 0 {
+                    0.0
+                } else {
+                    q[j] - commanded[k - 1][j]
+                };
+                q[j] + 0.5 * gaps_deg[j] * d.signum() * f64::from(d != 0.0)
+            })
+        })
+        .collect()
 }
