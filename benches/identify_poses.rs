@@ -28,6 +28,7 @@ fn data(truth: &RobotModel, n: usize, rng: &mut ChaCha8Rng) -> Vec<MeasuredPoint
             sigma_mm: None,
             line: k as u64 + 2,
             target: 0,
+            sides: None,
         })
         .collect()
 }

@@ -111,6 +111,7 @@ fn points(data: &PoseData) -> Vec<MeasuredPoint> {
             payload_kg: p.payload_kg,
             line: p.line,
             target: 0,
+            sides: None,
         })
         .collect()
 }

@@ -361,6 +361,7 @@ pub fn measure(
             sigma_mm: None,
             line: i as u64 + 2,
             target: 0,
+            sides: None,
         })
         .collect();
     PoseData {

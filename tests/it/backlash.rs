@@ -15,7 +15,7 @@ use gpu_amcs::kinematics::{position, Block, Params, RobotModel, Uncertainty};
 use gpu_amcs::sampling::Philox;
 
 /// Gaps (deg) of a 60 kg-class arm's joints, larger at the base (the simulator's sizes).
-const GAPS_DEG: [f64; 6] = [0.05, 0.03, 0.02, 0.01, 0.02, 0.02];
+pub(crate) const GAPS_DEG: [f64; 6] = [0.05, 0.03, 0.02, 0.01, 0.02, 0.02];
 
 fn with_backlash(mut m: RobotModel, gaps_deg: &[f64], sigma_deg: f64) -> RobotModel {
     let n = m.joints();
@@ -28,7 +28,7 @@ fn with_backlash(mut m: RobotModel, gaps_deg: &[f64], sigma_deg: f64) -> RobotMo
 }
 
 /// The joint-error tests' four points and one more near J1's far end.
-fn points() -> Vec<[f64; 6]> {
+pub(crate) fn points() -> Vec<[f64; 6]> {
     let mut p = crate::joint_errors::points();
     p.push([-120.0, -20.0, 120.0, 30.0, -60.0, 45.0]);
     p
@@ -36,7 +36,7 @@ fn points() -> Vec<[f64; 6]> {
 
 /// A TX60 whose only uncertainty is the backlash of the joints with a gap in `gaps_deg`
 /// (geometry and tool exactly known, no coefficients with spread, no payload).
-fn only_backlash(gaps_deg: &[f64]) -> RobotModel {
+pub(crate) fn only_backlash(gaps_deg: &[f64]) -> RobotModel {
     let mut m = model_with_joint_errors(0.0);
     let n = m.joints();
     m.uncertainty = Uncertainty::Independent(Params::filled(5 * n, 0.0));
@@ -508,22 +508,13 @@ fn identification_keeps_the_gaps_that_predict_better() {
     );
 }
 
-/// The honesty of drawn sides, on a simulated TX60 whose joints have backlash (with compliance
-/// and harmonics): 500 poses in random order, each joint standing half its gap towards where it
-/// came from (the commanded angles written as the measured ones less that half gap), the first
-/// 300 identified, the last 200 checked by `validate`. With `--beyond-geometry` (the gaps kept,
-/// the sides drawn) the 95 % bound covers 95 % of the 200 (measured 95.0 %, PIT of the max
-/// 0.42); with the default (no backlash check: the discrepancy term holds it) it covers 91.5 %
-/// and the max lands above the 99th percentile in 20 % of the subsets.
-#[test]
-fn drawn_sides_are_honest_where_the_robot_has_backlash() {
-    use crate::common::{arg, run_ok, tmpdir};
-    let d = tmpdir("backlash_honesty");
-    let (raw, train, test) = (
-        arg(&d, "raw.csv"),
-        arg(&d, "train.csv"),
-        arg(&d, "test.csv"),
-    );
+/// 500 simulated poses of a TX60 with compliance and harmonics (10 µm) in random order, whose
+/// joints have the gaps [`GAPS_DEG`]: each joint stands half its gap towards where it came from
+/// (the commanded angles written as the measured ones less that half gap). Returns the header
+/// and per pose its CSV row and the sides (none at the first pose).
+pub(crate) fn simulated_backlash_poses(d: &std::path::Path) -> (String, Vec<(String, [f64; 6])>) {
+    use crate::common::{arg, run_ok};
+    let raw = arg(d, "raw.csv");
     run_ok(&[
         "simulate",
         "--poses",
@@ -543,23 +534,41 @@ fn drawn_sides_are_honest_where_the_robot_has_backlash() {
     ]);
     let text = std::fs::read_to_string(&raw).unwrap();
     let mut lines = text.lines();
-    let header = lines.next().unwrap();
+    let header = lines.next().unwrap().to_string();
     assert!(header.starts_with("q1,q2,q3,q4,q5,q6,"), "{header}");
     let mut prev: Option<Vec<f64>> = None;
-    let rows: Vec<String> = lines
+    let rows = lines
         .map(|l| {
             let mut f: Vec<String> = l.split(',').map(str::to_string).collect();
             let q: Vec<f64> = f[..6].iter().map(|v| v.parse().unwrap()).collect();
+            let mut sides = [0.0; 6];
             if let Some(p) = &prev {
                 for j in 0..6 {
-                    let s = (q[j] - p[j]).signum();
-                    f[j] = format!("{}", q[j] - 0.5 * GAPS_DEG[j] * s);
+                    sides[j] = (q[j] - p[j]).signum();
+                    f[j] = format!("{}", q[j] - 0.5 * GAPS_DEG[j] * sides[j]);
                 }
             }
             prev = Some(q);
-            f.join(",")
+            (f.join(","), sides)
         })
         .collect();
+    (header, rows)
+}
+
+/// The honesty of drawn sides, on a simulated TX60 whose joints have backlash (with compliance
+/// and harmonics): 500 poses in random order, each joint standing half its gap towards where it
+/// came from (the commanded angles written as the measured ones less that half gap), the first
+/// 300 identified, the last 200 checked by `validate`. With `--beyond-geometry` (the gaps kept,
+/// the sides drawn) the 95 % bound covers 95 % of the 200 (measured 95.0 %, PIT of the max
+/// 0.42); with the default (no backlash check: the discrepancy term holds it) it covers 91.5 %
+/// and the max lands above the 99th percentile in 20 % of the subsets.
+#[test]
+fn drawn_sides_are_honest_where_the_robot_has_backlash() {
+    use crate::common::{arg, run_ok, tmpdir};
+    let d = tmpdir("backlash_honesty");
+    let (train, test) = (arg(&d, "train.csv"), arg(&d, "test.csv"));
+    let (header, rows) = simulated_backlash_poses(&d);
+    let rows: Vec<String> = rows.into_iter().map(|(r, _)| r).collect();
     let write = |path: &str, r: &[String]| {
         std::fs::write(path, format!("{header}\n{}\n", r.join("\n"))).unwrap()
     };

@@ -44,6 +44,7 @@ pub fn measured_points(
             sigma_mm: None,
             line: p.line,
             target: 0,
+            sides: None,
         })
         .collect()
 }

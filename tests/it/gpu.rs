@@ -1092,6 +1092,7 @@ fn tracker_poses(truth: &RobotModel, n: usize) -> Vec<gpu_amcs::identify::Measur
             sigma_mm: None,
             line: k as u64 + 2,
             target: 0,
+            sides: None,
         })
         .collect()
 }

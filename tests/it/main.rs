@@ -8,6 +8,7 @@ mod common;
 
 mod amcs_vs_mcs;
 mod backlash;
+mod backlash_sides;
 mod base_references;
 mod beyond_geometry;
 mod blocks;

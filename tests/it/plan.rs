@@ -53,6 +53,7 @@ fn measure(t: &ChainState, q: &[Joints], rng: &mut impl Rng) -> Vec<MeasuredPoin
                 sigma_mm: None,
                 line: k as u64 + 2,
                 target: 0,
+                sides: None,
             }
         })
         .collect()

@@ -81,6 +81,7 @@ fn measure(
                 sigma_mm: None,
                 line: k as u64 + 2,
                 target: 0,
+                sides: None,
             }
         })
         .collect()

@@ -327,42 +327,72 @@ pub fn read_sides(
         .trim(csv::Trim::All)
         .from_reader(text.as_bytes());
     let headers = rdr.headers().map_err(|e| err(e.to_string()))?.clone();
-    let cols: Vec<Option<usize>> = (1..=joints)
-        .map(|j| {
-            let name = format!("s{j}");
-            headers.iter().position(|h| h.eq_ignore_ascii_case(&name))
-        })
-        .collect();
-    let extra = format!("s{}", joints + 1);
-    if headers.iter().any(|h| h.eq_ignore_ascii_case(&extra)) {
-        return Err(err(format!(
-            "header has a column '{extra}', but the model has {joints} joints (sides s1..s{joints})"
-        )));
-    }
-    if cols.iter().all(Option::is_none) {
+    let Some(cols) = side_columns(&headers, joints).map_err(err)? else {
         return Ok(None);
-    }
+    };
     let mut out = Vec::new();
     for rec in rdr.records() {
         let rec = rec.map_err(|e| err(e.to_string()))?;
         let line = rec.position().map_or(0, |p| p.line());
-        let mut s = Joints::filled(joints, 0.0);
-        for (j, c) in cols.iter().enumerate() {
-            let Some(c) = *c else { continue };
-            let v = rec.get(c).unwrap_or("");
-            s[j] = match v.parse::<f64>() {
-                Ok(x) if x == 1.0 || x == -1.0 || x == 0.0 => x,
-                _ => {
-                    return Err(err(format!(
-                        "line {line}: s{} = '{v}' is not a side (1: the joint arrives moving positive, -1: negative, 0: not known)",
-                        j + 1
-                    )))
-                }
-            };
-        }
-        out.push(s);
+        out.push(row_sides(&rec, &cols).map_err(|m| err(format!("line {line}: {m}")))?);
     }
     Ok(Some(out))
+}
+
+/// Where the side columns `s1..s{joints}` of a CSV header are (any case; `None` per column left
+/// out), or `None` when it has none (docs/METHOD.md §19.5: the side each joint arrives from).
+/// Shared by the points, pose and measurement files.
+///
+/// # Errors
+///
+/// A message naming a column `s{joints+1}`, which the model has no joint for.
+pub fn side_columns(
+    headers: &csv::StringRecord,
+    joints: usize,
+) -> Result<Option<Vec<Option<usize>>>, String> {
+    let cols: Vec<Option<usize>> = (1..=joints)
+        .map(|j| {
+            let name = format!("s{j}");
+            headers
+                .iter()
+                .position(|h| h.trim().eq_ignore_ascii_case(&name))
+        })
+        .collect();
+    let extra = format!("s{}", joints + 1);
+    if headers
+        .iter()
+        .any(|h| h.trim().eq_ignore_ascii_case(&extra))
+    {
+        return Err(format!(
+            "header has a column '{extra}', but the model has {joints} joints (sides s1..s{joints})"
+        ));
+    }
+    Ok(cols.iter().any(Option::is_some).then_some(cols))
+}
+
+/// The sides of one CSV row in the columns `cols` of [`side_columns`]: per joint `1` (it
+/// arrives moving positive), `-1`, or `0` (not known; also for a column left out).
+///
+/// # Errors
+///
+/// A message naming the column and value that is not −1, 0 or 1 (without the line, which the
+/// caller adds).
+pub fn row_sides(rec: &csv::StringRecord, cols: &[Option<usize>]) -> Result<Joints, String> {
+    let mut s = Joints::filled(cols.len(), 0.0);
+    for (j, c) in cols.iter().enumerate() {
+        let Some(c) = *c else { continue };
+        let v = rec.get(c).unwrap_or("").trim();
+        s[j] = match v.parse::<f64>() {
+            Ok(x) if x == 1.0 || x == -1.0 || x == 0.0 => x,
+            _ => {
+                return Err(format!(
+                    "s{} = '{v}' is not a side (1: the joint arrives moving positive, -1: negative, 0: not known)",
+                    j + 1
+                ))
+            }
+        };
+    }
+    Ok(s)
 }
 
 /// Writes configurations as CSV with header `q1..qn` (`n` = the configurations' length, 6 when

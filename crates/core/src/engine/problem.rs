@@ -343,6 +343,30 @@ impl Problem {
         t.set_known_sides(sides).map_err(ProblemError::Sides)
     }
 
+    /// [`Self::set_known_sides`] for a prediction that knows them: the calibrated reference
+    /// moved too, to where the model puts the target with each known side's turn
+    /// ([`RobotModel::side_turns`]), so that a draw's error is its distance from that
+    /// prediction (a validation against poses whose approach sides were recorded; docs/METHOD.md
+    /// §19.5). For a problem built with [`Reference::Calibrated`].
+    ///
+    /// # Errors
+    ///
+    /// As [`Self::set_known_sides`].
+    pub fn predict_known_sides(&mut self, sides: &[Joints]) -> Result<(), ProblemError> {
+        self.set_known_sides(sides)?;
+        let m = &self.model;
+        for ((r, q), s) in self.reference.iter_mut().zip(&self.points).zip(sides) {
+            let mut chain = m.calibrated_chain_angles(q);
+            if let Some(t) = m.side_turns(s) {
+                for (a, d) in chain.iter_mut().zip(t.iter()) {
+                    *a += d;
+                }
+            }
+            *r = position(&m.params, &m.tool, &chain);
+        }
+        Ok(())
+    }
+
     /// [`Self::point_errors`] with the tool point moved by `tool_offset` (mm, flange frame).
     pub fn point_errors_at(&self, params: &[f64], tool_offset: &[f64; 3]) -> Vec<f64> {
         let tool: [f64; 3] = std::array::from_fn(|k| self.model.tool[k] + tool_offset[k]);

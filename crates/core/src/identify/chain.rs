@@ -142,6 +142,9 @@ pub struct MeasuredPoint {
     pub line: u64,
     /// Which target was measured (0: the model's tool; see [`ChainState::target`]).
     pub target: u8,
+    /// The side each joint arrived from (1, −1, 0 not known), when the data say; `None`: the
+    /// backlash check takes it from the points' order.
+    pub sides: Option<Joints>,
 }
 
 /// The nominal model's values as a chain state (placement: its `base`, or the identity).
@@ -198,6 +201,7 @@ pub fn observations(
                 whiten,
                 payload_kg: p.payload_kg,
                 target: p.target,
+                sides: p.sides,
             })
         })
         .collect()

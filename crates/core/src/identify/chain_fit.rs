@@ -233,6 +233,8 @@ pub struct Observation {
     /// Which target was measured: 0 the model's tool, `t` the state's other target `t`
     /// ([`ChainState::target`]).
     pub target: u8,
+    /// The side each joint arrived from, when the data say ([`super::chain::MeasuredPoint::sides`]).
+    pub sides: Option<Joints>,
 }
 
 /// The inputs position data can identify by default: the placement (when `base_free`), then per

@@ -221,12 +221,17 @@ fn render_beyond_geometry(s: &mut String, b: &super::chain::BeyondGeometry) {
             .collect();
         let _ = writeln!(
             s,
-            "    backlash (each joint's approach direction from the poses' order): leave-one-out RMS {:.4} mm against {:.4} mm ({:+.0} %){}; gaps {}",
+            "    backlash (each joint's approach direction from {}): leave-one-out RMS {:.4} mm against {:.4} mm ({:+.0} %){}; gaps {}",
+            if k.sides_given {
+                "the data's s1..sn columns"
+            } else {
+                "the poses' order"
+            },
             k.loo_rms_mm,
             b.loo_rms_extended_mm,
             100.0 * (k.loo_rms_mm / b.loo_rms_extended_mm - 1.0),
             match (k.predicts_better, b.kept) {
-                (true, true) => ": the robot shows it, and the model carries the gaps (the geometry fitted to the angles corrected by each pose's side; every analysis draws the side at each point; honest where the backlash is of this kind, too narrow on the public IRB 120 data: check the model at held-out poses with validate)",
+                (true, true) => ": the robot shows it, and the model carries the gaps (the geometry fitted to the angles corrected by each pose's side; every analysis draws the side at each point unless a points file gives it; honest where the backlash is of this kind, too narrow on the public IRB 120 data where the sides are not known: check the model at held-out poses with validate, with their sides in s1..sn)",
                 (true, false) => ": the robot shows it, but the model carries no joint errors (the discrepancy term holds it)",
                 _ => ": no gain worth the coefficients",
             },

@@ -287,6 +287,7 @@ fn sweep_points(run: &SweepRun) -> Vec<MeasuredPoint> {
             payload_kg: 0.0,
             line: p.line,
             target: 0,
+            sides: None,
         })
         .collect()
 }

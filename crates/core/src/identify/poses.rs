@@ -6,8 +6,10 @@
 //! uncertainties `sx,sy,sz` (mm; all three or none). The angles are commanded
 //! joint angles in degrees (or radians, declared by naming every joint column `q1_rad`, …;
 //! `q1_deg`, … are degrees), `x,y,z` the measured target position in mm in any measurement
-//! frame. Rows of a run with the same joint angles are repeated measurements of one pose
-//! ([`super::repeats`]).
+//! frame. Rows of a run with the same joint angles (and sides) are repeated measurements of one
+//! pose ([`super::repeats`]). Optional columns `s1..sn` give the side each joint arrived from
+//! (1 moving positive, −1, 0 not known), which the backlash check then uses instead of the
+//! poses' order (docs/METHOD.md §19.5).
 //! [`read_tracker_data`] reads either this or a sweep file (a `joint` column); the checks that
 //! need the nominal model (joint limits, positions that look like metres, angles that look like
 //! radians) are made by
@@ -23,7 +25,7 @@ use super::sweeps::{
 use super::IdentifyError;
 use crate::kinematics::{Joints, RobotModel, MAX_JOINTS, MIN_JOINTS};
 use std::collections::HashMap;
-use std::io::{Read, Write};
+use std::io::Read;
 use std::path::Path;
 
 /// The columns a pose file of an `joints`-joint robot must have: `q1` to `q{joints}`, `x`, `y`,
@@ -35,7 +37,7 @@ pub fn pose_columns(joints: usize) -> Vec<&'static str> {
 }
 
 /// The accepted headers, for the error of a file that has neither.
-const FORMATS: &str = "joint,q1,…,qn,x,y,z (sweeps) or q1,…,qn,x,y,z [,sx,sy,sz] [,payload_kg] (poses), one q column per joint (4 to 7), each optionally with run";
+const FORMATS: &str = "joint,q1,…,qn,x,y,z (sweeps) or q1,…,qn,x,y,z [,sx,sy,sz] [,payload_kg] [,s1,…,sn] (poses), one q column per joint (4 to 7), each optionally with run";
 /// The optional per-point standard uncertainty columns.
 pub const SIGMA_COLUMNS: [&str; 3] = ["sx", "sy", "sz"];
 /// The optional column naming which of several targets on the tool a row measured.
@@ -67,6 +69,10 @@ pub struct PosePoint {
     /// Which target was measured: the index of its `target` label in [`PoseData::targets`]
     /// (0 without the column).
     pub target: u8,
+    /// The side each joint arrived from (the optional `s1..sn` columns: 1 moving positive, −1,
+    /// 0 not known; docs/METHOD.md §19.5); `None` without them: the backlash check takes the
+    /// sides from the poses' order.
+    pub sides: Option<Joints>,
 }
 
 /// The poses of one run.
@@ -194,6 +200,7 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
         });
     }
     let payload_col = find(PAYLOAD_COLUMN);
+    let side_cols = side_columns(&header, n, origin)?;
     let present: Vec<bool> = SIGMA_COLUMNS.iter().map(|c| find(c).is_some()).collect();
     let sigma_cols = if present.iter().any(|&p| p) {
         Some(column_indices(&header, &SIGMA_COLUMNS, origin)?)
@@ -302,6 +309,7 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
             });
             continue;
         }
+        let sides = row_sides(&rec, side_cols.as_deref(), origin, line)?;
         let point = PosePoint {
             q_deg: Joints::from_slice(&v[..n]),
             position_mm: [v[n], v[n + 1], v[n + 2]],
@@ -309,6 +317,7 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
             payload_kg,
             line,
             target,
+            sides,
         };
         match data.runs.iter_mut().find(|r| r.run == run) {
             Some(r) => r.points.push(point),
@@ -335,6 +344,44 @@ pub fn parse_poses<R: Read>(reader: R, origin: &str) -> Result<PoseData, Identif
         }
     }
     Ok(data)
+}
+
+/// Where a pose or measurement file's side columns `s1..sn` are
+/// ([`crate::points::side_columns`]), `None` without them.
+///
+/// # Errors
+///
+/// [`IdentifyError::Csv`] (line 1) for a column `s{n+1}`.
+pub(crate) fn side_columns(
+    header: &csv::StringRecord,
+    joints: usize,
+    origin: &str,
+) -> Result<Option<Vec<Option<usize>>>, IdentifyError> {
+    crate::points::side_columns(header, joints).map_err(|message| IdentifyError::Csv {
+        origin: origin.to_string(),
+        line: 1,
+        message,
+    })
+}
+
+/// The sides of a row in the columns `cols` of [`side_columns`] (`None` without them).
+///
+/// # Errors
+///
+/// [`IdentifyError::Csv`] naming the line and column of a value that is not −1, 0 or 1.
+pub(crate) fn row_sides(
+    rec: &csv::StringRecord,
+    cols: Option<&[Option<usize>]>,
+    origin: &str,
+    line: u64,
+) -> Result<Option<Joints>, IdentifyError> {
+    cols.map(|c| crate::points::row_sides(rec, c))
+        .transpose()
+        .map_err(|message| IdentifyError::Csv {
+            origin: origin.to_string(),
+            line,
+            message,
+        })
 }
 
 /// The index of target `label` in `targets` (appended when new).
@@ -508,85 +555,8 @@ pub fn check_tracker_data(
     Ok(())
 }
 
-/// Writes pose data in the format [`parse_poses`] reads: a `run` column when any run has a label,
-/// `sx,sy,sz` when every point has them, `payload_kg` when any point carried a payload. The `q` columns are those of the first pose's joints
-/// (six without poses).
-///
-/// # Errors
-///
-/// [`IdentifyError::Io`] when writing fails, or when the poses do not all have the same number
-/// of joint angles.
-pub fn write_poses<W: Write>(data: &PoseData, writer: W) -> Result<(), IdentifyError> {
-    let io = |e: csv::Error| IdentifyError::Io {
-        path: "<pose output>".into(),
-        cause: std::io::Error::other(e.to_string()),
-    };
-    let with_run = data.runs.iter().any(|r| r.run.is_some());
-    let with_sigma = data
-        .runs
-        .iter()
-        .all(|r| r.points.iter().all(|p| p.sigma_mm.is_some()));
-    let with_payload = data
-        .runs
-        .iter()
-        .any(|r| r.points.iter().any(|p| p.payload_kg != 0.0));
-    let mut points = data.runs.iter().flat_map(|r| &r.points);
-    let n = points.clone().next().map_or(6, |p| p.q_deg.len());
-    if points.any(|p| p.q_deg.len() != n) {
-        return Err(IdentifyError::Io {
-            path: "<pose output>".into(),
-            cause: std::io::Error::other(
-                "the poses do not all have the same number of joint angles",
-            ),
-        });
-    }
-    let mut w = csv::Writer::from_writer(writer);
-    let mut header: Vec<&str> = Vec::new();
-    if with_run {
-        header.push("run");
-    }
-    header.extend(pose_columns(n));
-    if with_sigma {
-        header.extend_from_slice(&SIGMA_COLUMNS);
-    }
-    if with_payload {
-        header.push(PAYLOAD_COLUMN);
-    }
-    let with_target = !data.targets.is_empty();
-    if with_target {
-        header.push(TARGET_COLUMN);
-    }
-    w.write_record(&header).map_err(io)?;
-    for r in &data.runs {
-        for p in &r.points {
-            let mut row: Vec<String> = Vec::with_capacity(n + 7);
-            if with_run {
-                row.push(r.run.clone().unwrap_or_default());
-            }
-            row.extend(p.q_deg.iter().map(|v| format!("{v:?}")));
-            row.extend(p.position_mm.iter().map(|v| format!("{v:?}")));
-            if let (true, Some(s)) = (with_sigma, p.sigma_mm) {
-                row.extend(s.iter().map(|v| format!("{v:?}")));
-            }
-            if with_payload {
-                row.push(format!("{:?}", p.payload_kg));
-            }
-            if with_target {
-                row.push(
-                    data.targets
-                        .get(p.target as usize)
-                        .cloned()
-                        .unwrap_or_default(),
-                );
-            }
-            w.write_record(&row).map_err(io)?;
-        }
-    }
-    w.flush().map_err(|cause| IdentifyError::Io {
-        path: "<pose output>".into(),
-        cause,
-    })
-}
+mod write;
+pub use write::write_poses;
 
 #[cfg(test)]
 mod tests;

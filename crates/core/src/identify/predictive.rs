@@ -15,7 +15,7 @@ use super::validate::{point_errors_in, Measurement};
 use super::{IdentifyError, Placement};
 use crate::discrepancy::DiscrepancyUse;
 use crate::engine::{CpuEvaluator, Evaluator, Frame, Problem, Reference};
-use crate::kinematics::RobotModel;
+use crate::kinematics::{Joints, RobotModel};
 use rand::SeedableRng;
 use serde::Serialize;
 
@@ -129,12 +129,26 @@ pub fn predictive_check(
                 .and_then(|kg| model.knowing_payload(kg))
                 .unwrap_or_else(|| model.clone());
             let q: Vec<_> = idx.iter().map(|&i| measurements[i].q_deg).collect();
-            let p = Problem::new(m, &q, &Reference::Calibrated, seed)
-                .map_err(|e| IdentifyError::NoData(format!("predictive check: {e}")))?
-                .in_frame(match frame {
-                    Placement::Identify => Frame::Measurement,
-                    Placement::Known => Frame::Base,
-                });
+            let fail = |e: crate::engine::ProblemError| {
+                IdentifyError::NoData(format!("predictive check: {e}"))
+            };
+            let mut p = Problem::new(m, &q, &Reference::Calibrated, seed).map_err(fail)?;
+            // Recorded approach sides fix a model's backlash at those poses, in the draws and
+            // in the prediction (as `point_errors_in` predicts them).
+            let sides: Vec<Joints> = (idx.iter())
+                .map(|&i| {
+                    (measurements[i].sides).unwrap_or_else(|| Joints::filled(q[0].len(), 0.0))
+                })
+                .collect();
+            if p.joint_errors.as_ref().is_some_and(|t| t.backlash)
+                && sides.iter().any(|s| s.iter().any(|&v| v != 0.0))
+            {
+                p.predict_known_sides(&sides).map_err(fail)?;
+            }
+            let p = p.in_frame(match frame {
+                Placement::Identify => Frame::Measurement,
+                Placement::Known => Frame::Base,
+            });
             Ok((p, idx))
         })
         .collect::<Result<_, IdentifyError>>()?;
@@ -271,6 +285,7 @@ mod tests {
                     line: i + 2,
                     target: None,
                     on_base: false,
+                    sides: None,
                 }
             })
             .collect();

@@ -22,7 +22,7 @@ use std::collections::HashMap;
 /// Two-sided level at which a stated σ and the repeats' scatter are said to disagree.
 pub const DISAGREEMENT_LEVEL: f64 = 0.01;
 
-/// The rows of `run` grouped by identical joint angles, payload and target, in order of first
+/// The rows of `run` grouped by identical joint angles, payload, target and sides, in order of first
 /// appearance (indices into `run.points`).
 pub fn pose_groups(run: &PoseRun) -> Vec<Vec<usize>> {
     let mut at: HashMap<Vec<u64>, usize> = HashMap::new();
@@ -33,6 +33,7 @@ pub fn pose_groups(run: &PoseRun) -> Vec<Vec<usize>> {
             .q_deg
             .iter()
             .chain([&p.payload_kg, &f64::from(p.target)])
+            .chain(p.sides.iter().flat_map(|s| s.iter()))
             .map(|v| (v + 0.0).to_bits())
             .collect();
         match at.get(&key) {
@@ -166,6 +167,7 @@ fn rows(run: &PoseRun) -> Vec<MeasuredPoint> {
             payload_kg: p.payload_kg,
             line: p.line,
             target: p.target,
+            sides: p.sides,
         })
         .collect()
 }
@@ -227,6 +229,7 @@ pub fn fit_input(run: &PoseRun, noise: &NoiseModel) -> FitInput {
             payload_kg: pts[0].payload_kg,
             line: pts[0].line,
             target: pts[0].target,
+            sides: pts[0].sides,
         });
     }
     let ks: Vec<usize> = groups.iter().map(Vec::len).collect();
@@ -315,6 +318,7 @@ mod tests {
             sigma_mm: None,
             line,
             target: 0,
+            sides: None,
         }
     }
 

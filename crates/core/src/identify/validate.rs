@@ -15,6 +15,7 @@
 //! ([`register_nominal`]), so that the improvement is the geometry's alone.
 
 mod baseline;
+mod measurements;
 mod setup;
 mod term;
 
@@ -22,169 +23,17 @@ pub use super::provenance::{
     geometry_sha256, provenance_table, provenance_target, recorded_nominal, RecordedNominal,
 };
 pub use baseline::{register_nominal, Registration};
+pub use measurements::{
+    measurement_columns, parse_measurements, read_measurements, write_measurements, Measurement,
+};
 pub use setup::{
     choose_frame, choose_nominal, choose_target, run_validation, FrameSource, NominalSource,
     TargetChoice, ValidateError, ValidateRequest, OTHER_FRAME_MM, OTHER_ROBOT_MM,
 };
 pub use term::{held_out_term, HeldOutTerm};
 
-use super::poses::pose_columns;
-use super::sweeps::{column_indices, csv_error, csv_reader, joint_count, open_input, parse_number};
 use super::{IdentifyError, Placement};
-use crate::kinematics::{position, Joints, RobotModel, MAX_JOINTS};
-use std::io::{Read, Write};
-use std::path::Path;
-
-/// The columns of a measurement file of an `joints`-joint robot: `q1` to `q{joints}`, `x`, `y`,
-/// `z` (the columns of a pose file).
-pub fn measurement_columns(joints: usize) -> Vec<&'static str> {
-    pose_columns(joints)
-}
-
-/// A measured position at commanded joint angles.
-#[derive(Clone, Debug, PartialEq)]
-pub struct Measurement {
-    /// Commanded joint angles, degrees, one per joint.
-    pub q_deg: Joints,
-    /// Measured target position, mm, base frame.
-    pub position_mm: [f64; 3],
-    /// The payload during the measurement, kg (the optional `payload_kg` column; `None`
-    /// without it: the model's task payload). A model with joint compliance is compared at it.
-    pub payload_kg: Option<f64>,
-    /// Line in the CSV file (for generated data: the line it has when written).
-    pub line: u64,
-    /// The `target` column's label, when the file has one (several targets on the tool: a
-    /// validation compares the model's own target's rows).
-    pub target: Option<String>,
-    /// A reflector fixed on the robot's base (`mount` = `base`), not a measured position of the
-    /// tool: it registers the measurements with the tracker frame the model was identified in.
-    pub on_base: bool,
-}
-
-/// Reads a measurement CSV file.
-///
-/// # Errors
-///
-/// [`IdentifyError::Io`] when `path` is a directory or cannot be read, [`IdentifyError::Read`] when
-/// the file is too large or not UTF-8; otherwise as [`parse_measurements`].
-pub fn read_measurements(path: &Path) -> Result<Vec<Measurement>, IdentifyError> {
-    let (text, origin) = open_input(path)?;
-    parse_measurements(text.as_bytes(), &origin)
-}
-
-/// Parses measurement CSV text; `origin` names the source in errors.
-///
-/// # Errors
-///
-/// [`IdentifyError::Csv`] for a malformed row (wrong number of fields, a field that is not a finite
-/// number), naming its line; [`IdentifyError::MissingColumn`] when the header lacks a required
-/// column (fewer than four `q` columns, or a gap in them); [`IdentifyError::Empty`] when there
-/// are no data rows.
-pub fn parse_measurements<R: Read>(
-    reader: R,
-    origin: &str,
-) -> Result<Vec<Measurement>, IdentifyError> {
-    let mut rdr = csv_reader(reader);
-    let header = rdr.headers().map_err(|e| csv_error(e, origin))?.clone();
-    let n = joint_count(
-        &header,
-        origin,
-        "q1,…,qn,x,y,z (one q column per joint, 4 to 7)",
-    )?;
-    let columns = measurement_columns(n);
-    let cols = column_indices(&header, &columns, origin)?;
-    let payload_col = header
-        .iter()
-        .position(|h| h.trim().eq_ignore_ascii_case(super::poses::PAYLOAD_COLUMN));
-    let target_col = header
-        .iter()
-        .position(|h| h.trim().eq_ignore_ascii_case(super::poses::TARGET_COLUMN));
-    let mount_col = header
-        .iter()
-        .position(|h| h.trim().eq_ignore_ascii_case(super::poses::MOUNT_COLUMN));
-    let mut out = Vec::new();
-    for rec in rdr.records() {
-        let rec = rec.map_err(|e| csv_error(e, origin))?;
-        let line = rec.position().map(|p| p.line()).unwrap_or(0);
-        let mut v = [0.0; MAX_JOINTS + 3];
-        let v = &mut v[..n + 3];
-        for (k, x) in v.iter_mut().enumerate() {
-            *x = parse_number(&rec, cols[k], columns[k], line, origin, "")?;
-        }
-        let payload_kg = match payload_col {
-            None => None,
-            Some(c) => {
-                let name = super::poses::PAYLOAD_COLUMN;
-                let m = parse_number(&rec, c, name, line, origin, "")?;
-                if !(0.0..=super::poses::MAX_PAYLOAD_KG).contains(&m) {
-                    return Err(IdentifyError::Csv {
-                        origin: origin.to_string(),
-                        line,
-                        message: format!(
-                            "column {name} = {} is not a payload: it must be within 0 … {} kg",
-                            crate::number::fmt_plain(m),
-                            super::poses::MAX_PAYLOAD_KG
-                        ),
-                    });
-                }
-                Some(m)
-            }
-        };
-        out.push(Measurement {
-            q_deg: Joints::from_slice(&v[..n]),
-            position_mm: [v[n], v[n + 1], v[n + 2]],
-            payload_kg,
-            line,
-            target: target_col.map(|c| rec.get(c).unwrap_or("").trim().to_string()),
-            on_base: mount_col
-                .is_some_and(|c| rec.get(c).unwrap_or("").trim().eq_ignore_ascii_case("base")),
-        });
-    }
-    if out.is_empty() {
-        return Err(IdentifyError::Empty {
-            origin: origin.to_string(),
-        });
-    }
-    Ok(out)
-}
-
-/// Writes measurements in the format [`parse_measurements`] reads; the `q` columns are those of
-/// the first measurement's joints (six without measurements).
-///
-/// # Errors
-///
-/// [`IdentifyError::Io`] when writing to `writer` fails, or when the measurements do not all have
-/// the same number of joint angles.
-pub fn write_measurements<W: Write>(m: &[Measurement], writer: W) -> Result<(), IdentifyError> {
-    let io = |e: csv::Error| IdentifyError::Io {
-        path: "<measurement output>".into(),
-        cause: std::io::Error::other(e.to_string()),
-    };
-    let n = m.first().map_or(6, |p| p.q_deg.len());
-    if m.iter().any(|p| p.q_deg.len() != n) {
-        return Err(IdentifyError::Io {
-            path: "<measurement output>".into(),
-            cause: std::io::Error::other(
-                "the measurements do not all have the same number of joint angles",
-            ),
-        });
-    }
-    let mut w = csv::Writer::from_writer(writer);
-    w.write_record(measurement_columns(n)).map_err(io)?;
-    for p in m {
-        let row: Vec<String> = p
-            .q_deg
-            .iter()
-            .chain(&p.position_mm)
-            .map(|v| format!("{v:?}"))
-            .collect();
-        w.write_record(&row).map_err(io)?;
-    }
-    w.flush().map_err(|cause| IdentifyError::Io {
-        path: "<measurement output>".into(),
-        cause,
-    })
-}
+use crate::kinematics::RobotModel;
 
 /// Positioning error statistics, mm.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -230,14 +79,9 @@ fn point_errors_with(
             let q = p.q_deg.map(f64::to_radians);
             let at = p.payload_kg.and_then(|kg| model.knowing_payload(kg));
             let model = at.as_ref().unwrap_or(model);
-            let x = match (frame, compensate) {
-                (Placement::Identify, true) => model.compensated_world_position(&q),
-                (Placement::Known, true) => model.compensated_position(&q),
-                (Placement::Identify, false) => model.world_position(&q),
-                (Placement::Known, false) => {
-                    position(&model.params, &model.tool, &model.chain_angles(&q))
-                }
-            };
+            let turns = p.sides.and_then(|s| model.side_turns(&s));
+            let world = frame == Placement::Identify;
+            let x = model.predicted_position(&q, turns.as_ref(), compensate, world);
             (0..3)
                 .map(|k| (x[k] - p.position_mm[k]).powi(2))
                 .sum::<f64>()
@@ -547,7 +391,7 @@ pub fn validate_in(
 mod tests {
     use super::*;
     use crate::identify::render_validation;
-    use crate::kinematics::tx60;
+    use crate::kinematics::{position, tx60, Joints};
 
     #[test]
     fn round_trip_and_stats() {
@@ -562,6 +406,7 @@ mod tests {
                 line: 2,
                 target: None,
                 on_base: false,
+                sides: None,
             },
             Measurement {
                 payload_kg: None,
@@ -570,6 +415,7 @@ mod tests {
                 line: 3,
                 target: None,
                 on_base: false,
+                sides: None,
             },
         ];
         let mut buf = Vec::new();

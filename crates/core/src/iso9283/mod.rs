@@ -144,6 +144,7 @@ pub enum Iso9283Error {
 ///             line: cycles.len() as u64 + 2,
 ///             target: None,
 ///             on_base: false,
+///             sides: None,
 ///         });
 ///     }
 /// }

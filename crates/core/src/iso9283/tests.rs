@@ -62,6 +62,7 @@ fn cycle(q: Joints, p: [f64; 3], line: u64) -> Measurement {
         line,
         target: None,
         on_base: false,
+        sides: None,
     }
 }
 

@@ -338,91 +338,11 @@ impl RobotModel {
         )]
     }
 
-    /// Tool-point position (mm) at joint angles `q` (radians) in the description's frame: the
-    /// MDH chain's [`super::position`] at the angles the joints stand at
-    /// ([`RobotModel::chain_angles`]: `q` itself for a geometric model), then the
-    /// [`RobotModel::base`] transform. No compensation.
-    pub fn world_position(&self, q: &[f64]) -> [f64; 3] {
-        let p = super::position(&self.params, &self.tool, &self.chain_angles(q));
-        match &self.base {
-            None => p,
-            Some(b) => b.apply(p),
-        }
-    }
-
     /// Whether the model carries a compensation ([`crate::discrepancy::Compensation`]).
     pub fn compensated(&self) -> bool {
         self.discrepancy
             .as_ref()
             .is_some_and(|d| d.compensation.is_some())
-    }
-
-    /// Tool-point position (mm) at `q` (radians) in the robot base frame with the compensation's
-    /// correction added (the MDH chain's position when the model has none): where the
-    /// calibrated robot is predicted to be (docs/METHOD.md §18.1).
-    pub fn compensated_position(&self, q: &[f64]) -> [f64; 3] {
-        let mut p = super::position(&self.params, &self.tool, &self.chain_angles(q));
-        if let Some(d) = &self.discrepancy {
-            let q_deg: Vec<f64> = q.iter().map(|v| v.to_degrees()).collect();
-            let c = d.correction_mm(&q_deg);
-            for k in 0..3 {
-                p[k] += c[k];
-            }
-        }
-        p
-    }
-
-    /// [`RobotModel::compensated_position`] in the description's frame (the
-    /// [`RobotModel::base`] transform applied), as [`RobotModel::world_position`].
-    pub fn compensated_world_position(&self, q: &[f64]) -> [f64; 3] {
-        let p = self.compensated_position(q);
-        match &self.base {
-            None => p,
-            Some(b) => b.apply(p),
-        }
-    }
-
-    /// The joint angles (rad) the model's chain stands at when commanded to `q` (rad): `q` plus
-    /// the mean deflections of its [`super::JointErrors`] (compliance at the task payload, gear
-    /// harmonics), `q` itself for a geometric model.
-    pub fn chain_angles(&self, q: &[f64]) -> super::Joints {
-        match &self.joint_errors {
-            Some(e) => e.actual_angles(&self.params, q),
-            None => q.iter().copied().collect(),
-        }
-    }
-
-    /// The model predicting with a known payload of `mass_kg` (its centre of mass kept, no
-    /// spread): the robot at that payload and the calibrated prediction at it too, as a
-    /// controller that is told the payload predicts (validation against poses measured with
-    /// it). `None` for a model without joint errors or already at that payload (the model
-    /// itself serves).
-    pub fn knowing_payload(&self, mass_kg: f64) -> Option<RobotModel> {
-        let e = self.joint_errors.as_ref()?;
-        if e.payload.mass_kg == mass_kg
-            && e.calibration_payload.mass_kg == mass_kg
-            && e.payload.sigma_kg == 0.0
-        {
-            return None;
-        }
-        let mut m = self.clone();
-        if let Some(e) = m.joint_errors.as_mut() {
-            e.payload.mass_kg = mass_kg;
-            e.payload.sigma_kg = 0.0;
-            e.calibration_payload.mass_kg = mass_kg;
-            e.calibration_payload.com_mm = e.payload.com_mm;
-        }
-        Some(m)
-    }
-
-    /// The joint angles (rad) at `q` (rad) of the model as calibrated: with the mean deflections
-    /// at the payload during calibration (what a controller given this model predicts without
-    /// knowing the task payload); `q` itself for a geometric model.
-    pub fn calibrated_chain_angles(&self, q: &[f64]) -> super::Joints {
-        match &self.joint_errors {
-            Some(e) => e.angles_with(&self.params, q, &e.calibration_payload),
-            None => q.iter().copied().collect(),
-        }
     }
 
     /// The tool point's standard deviations, mm ([`RobotModel::tool_sigma`]).
@@ -575,5 +495,6 @@ impl RobotModel {
     }
 }
 
+mod prediction;
 #[cfg(test)]
 mod tests;

@@ -341,6 +341,7 @@ fn observations(s: &ChainState, q_deg: &[Joints]) -> Vec<Observation> {
                 whiten: Matrix3::identity(),
                 payload_kg: 0.0,
                 target: 0,
+                sides: None,
             }
         })
         .collect()

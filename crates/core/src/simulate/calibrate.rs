@@ -229,6 +229,7 @@ impl Experiment {
                     line: k as u64 + 2,
                     target: None,
                     on_base: false,
+                    sides: None,
                 }
             })
             .collect()

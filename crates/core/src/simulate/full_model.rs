@@ -63,6 +63,7 @@ fn pose_run(exp: &Experiment, n: usize, label: String, rng: &mut ChaCha8Rng) -> 
             payload_kg,
             line: m.line,
             target: 0,
+            sides: None,
         })
         .collect();
     PoseData {

@@ -134,6 +134,7 @@ pub fn simulate_poses_at(
                 sigma_mm: None,
                 line: k as u64 + 2,
                 target: 0,
+                sides: None,
             }
         })
         .collect();

@@ -95,6 +95,7 @@ pub fn measure_positions(
             line: k as u64 + 2,
             target: None,
             on_base: false,
+            sides: None,
         })
         .collect()
 }

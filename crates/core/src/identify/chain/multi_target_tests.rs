@@ -34,6 +34,7 @@ fn points(t: &ChainState, n: usize, targets: usize, sigma: f64, seed: u64) -> Ve
                 payload_kg: 0.0,
                 line: (targets * k + target) as u64 + 2,
                 target: target as u8,
+                sides: None,
             });
         }
     }

@@ -32,6 +32,7 @@ fn target_on_the_j6_axis_is_flagged() {
             payload_kg: 0.0,
             line: k as u64,
             target: 0,
+            sides: None,
         })
         .collect();
     let r = identify_chain(&pts, &m, None, None, &ChainOptions::default()).unwrap();

@@ -46,6 +46,7 @@ fn points(t: &ChainState, n: usize, sigma: f64, seed: u64) -> Vec<MeasuredPoint>
                 payload_kg: 0.0,
                 line: k as u64 + 2,
                 target: 0,
+                sides: None,
             }
         })
         .collect()

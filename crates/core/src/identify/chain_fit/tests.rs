@@ -14,6 +14,7 @@ fn observations(truth: &ChainState, n: usize, seed: u64) -> Vec<Observation> {
                 whiten: Matrix3::identity(),
                 payload_kg: 0.0,
                 target: 0,
+                sides: None,
             }
         })
         .collect()

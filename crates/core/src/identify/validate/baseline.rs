@@ -225,6 +225,7 @@ mod tests {
                     line: i as u64 + 2,
                     target: None,
                     on_base: false,
+                    sides: None,
                 }
             })
             .collect()
@@ -283,6 +284,7 @@ mod tests {
                     line: i + 2,
                     target: None,
                     on_base: false,
+                    sides: None,
                 }
             })
             .collect();

@@ -583,6 +583,7 @@ fn register(
                 payload_kg: m.payload_kg.unwrap_or(0.0),
                 line: m.line,
                 target: 0,
+                sides: m.sides,
             })
             .collect(),
     };

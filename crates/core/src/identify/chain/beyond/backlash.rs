@@ -1,6 +1,6 @@
 //! Backlash in the fit beyond geometry (docs/METHOD.md §19.5): each joint stands half its gap
-//! from the commanded angle on the side it arrived from, the sides taken from the order of the
-//! poses. When the gaps predict new poses better, a model that keeps its joint errors keeps the
+//! from the commanded angle on the side it arrived from, the sides those the data give (a pose
+//! file's `s1..sn`) or else taken from the order of the poses. When the gaps predict new poses better, a model that keeps its joint errors keeps the
 //! gaps too ([`super::ExtendedFit::backlash`]): the geometry is fitted to the angles corrected by
 //! the known sides, and the analyses draw the side at each task point.
 
@@ -17,16 +17,23 @@ pub struct BacklashCheck {
     pub predicts_better: bool,
     /// Per joint: the gap and its standard uncertainty, degrees.
     pub gap_deg: Vec<[f64; 2]>,
+    /// Whether the sides are those the data give (a pose file's `s1..sn`) rather than taken
+    /// from the poses' order.
+    pub sides_given: bool,
     /// The fit with the gaps (their coefficients after the joints' `PER_JOINT` each).
     #[serde(skip)]
     pub(super) model: ExtendedModel,
 }
 
-/// The direction each joint arrived from at each configuration of `q` (−1, 0, +1), from their
-/// order (the first: 0; any unit of angle).
-pub(crate) fn approach_directions(q: &[Joints]) -> Vec<Joints> {
+/// The direction each joint arrived from at each configuration of `q` (−1, 0, +1): the one
+/// the data give (`given[k]`, a pose file's `s1..sn`), else from the configurations' order (the
+/// first: 0; any unit of angle).
+pub(crate) fn approach_directions(q: &[Joints], given: &[Option<Joints>]) -> Vec<Joints> {
     (0..q.len())
         .map(|k| {
+            if let Some(s) = given.get(k).copied().flatten() {
+                return s;
+            }
             Joints::from_fn(q[k].len(), |j| match k {
                 0 => 0.0,
                 _ => {
@@ -53,7 +60,8 @@ pub(super) fn backlash_check(
 ) -> Option<BacklashCheck> {
     let n = fitted.links.joints();
     let q: Vec<Joints> = run.obs.iter().map(|o| o.q).collect();
-    let dirs = approach_directions(&q);
+    let given: Vec<Option<Joints>> = run.obs.iter().map(|o| o.sides).collect();
+    let dirs = approach_directions(&q, &given);
     let both = (0..n).any(|j| dirs.iter().any(|d| d[j] > 0.0) && dirs.iter().any(|d| d[j] < 0.0));
     let free: Vec<usize> = all
         .free
@@ -92,6 +100,7 @@ pub(super) fn backlash_check(
                 ]
             })
             .collect(),
+        sides_given: given.iter().any(Option::is_some),
         model: m,
     })
 }

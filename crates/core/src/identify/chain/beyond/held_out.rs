@@ -145,6 +145,7 @@ mod tests {
                 whiten: Matrix3::identity() * scale[i],
                 payload_kg: 0.0,
                 target: 0,
+                sides: None,
             })
             .collect();
         let held = HeldOut::Groups(vec![1, 7, 4, 4, 3, 6, 5, 2, 8]);

@@ -90,12 +90,13 @@ impl ExtendedFit {
 
 impl ExtendedFit {
     /// `points` at the angles the joints stood at: commanded plus the fitted deflections, and
-    /// half the gap on the side each joint arrived from (the points' order) when the fit keeps
-    /// the backlash.
+    /// half the gap on the side each joint arrived from (the points' sides, else their order)
+    /// when the fit keeps the backlash.
     pub fn corrected(&self, points: &[MeasuredPoint]) -> Vec<MeasuredPoint> {
         let sides = self.backlash.as_ref().map(|_| {
             let q: Vec<Joints> = points.iter().map(|p| p.q_deg).collect();
-            super::approach_directions(&q)
+            let given: Vec<Option<Joints>> = points.iter().map(|p| p.sides).collect();
+            super::approach_directions(&q, &given)
         });
         (points.iter().enumerate())
             .map(|(k, p)| {
