@@ -373,6 +373,7 @@ def plan(
     keep_out: Sequence[Sequence[float]] = ...,
     self_collision: bool = True,
     link_radius: float | None = None,
+    approach: Literal["positive", "negative"] | None = None,
     preset: str | None = None,
     points: int = 50,
     q_deg: ArrayLike | None = None,

@@ -154,6 +154,7 @@ fn plan_keyword(f: PlanField) -> &'static str {
         PlanField::LinkRadius => "link_radius",
         PlanField::SelfCollision => "self_collision",
         PlanField::Program => "program",
+        PlanField::Approach => "approach",
     }
 }
 

@@ -7,7 +7,7 @@ use crate::errors::{plan_error, value_error};
 use crate::problem::problem_function;
 use gpu_amcs_core::job::{PlanJob, PlanTask};
 use gpu_amcs_core::plan::program::{robot_program, ProgramFormat};
-use gpu_amcs_core::plan::{KeepOut, Plan, TrackerSite, Workcell};
+use gpu_amcs_core::plan::{Approach, KeepOut, Plan, TrackerSite, Workcell};
 use gpu_amcs_core::report::Report;
 use pyo3::prelude::*;
 
@@ -126,9 +126,10 @@ problem_function! {
     /// with `draws` draws of the planned model at the task points (the problem's points).
     /// The workcell: `floor` (mm, z up in the measurement frame), `keep_out` (boxes of six
     /// numbers x0, y0, z0, x1, y1, z1 mm), `self_collision` and `link_radius` (mm), as the
-    /// command line's `--floor`, `--keep-out`, `--no-self-collision` and `--link-radius`.
-    /// Problem arguments as `mcs`. Returns a `PlanResult`.
-    text_signature = "(model=None, *, poses=30, tracker_sigma=0.01, tracker_at=None, tracker_range=20000.0, max_incidence=60.0, target=None, threshold=(0.02, 0.03, 0.05), candidates=2000, draws=100000, floor=None, keep_out=(), self_collision=True, link_radius=None, preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True, payload_kg=None, payload_sigma_kg=0.0, payload_com=None)";
+    /// command line's `--floor`, `--keep-out`, `--no-self-collision` and `--link-radius`;
+    /// `approach` ("positive" or "negative", `--approach`) the side every joint arrives at each
+    /// pose from. Problem arguments as `mcs`. Returns a `PlanResult`.
+    text_signature = "(model=None, *, poses=30, tracker_sigma=0.01, tracker_at=None, tracker_range=20000.0, max_incidence=60.0, target=None, threshold=(0.02, 0.03, 0.05), candidates=2000, draws=100000, floor=None, keep_out=(), self_collision=True, link_radius=None, approach=None, preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True, payload_kg=None, payload_sigma_kg=0.0, payload_com=None)";
     fn plan(
         poses: usize = 30,
         tracker_sigma: f64 = 0.01,
@@ -142,7 +143,8 @@ problem_function! {
         floor: Option<f64> = None,
         keep_out: Vec<Vec<f64>> = Vec::new(),
         self_collision: bool = true,
-        link_radius: Option<f64> = None
+        link_radius: Option<f64> = None,
+        approach: Option<String> = None
     ) -> PyPlan |py, problem| {
         let spec = problem.spec()?;
         let job = PlanJob {
@@ -161,6 +163,16 @@ problem_function! {
             target: triple(target, "target")?,
             workcell: workcell(floor, keep_out, self_collision, link_radius)?,
             draws,
+            approach: approach
+                .as_deref()
+                .map(|a| {
+                    Approach::from_name(a).ok_or_else(|| {
+                        value_error(format!(
+                            "approach: expected \"positive\" or \"negative\", got {a:?}"
+                        ))
+                    })
+                })
+                .transpose()?,
         };
         let outcome = spec.run(py, || job.run(crate::backends()))?;
         Ok(PyPlan { plan: outcome.plan, notes: outcome.notes })

@@ -491,6 +491,20 @@ def test_plan_workcell_and_program_equal_cli(cli, tmp_path):
         gpu_amcs.plan(preset="ur5e", points=6, keep_out=[[0, 0, 0, 1, 1]], backend="cpu")
     with pytest.raises(ValueError, match=r"language: expected urscript, rapid or krl"):
         res.program("gcode")
+    # approach: the command line's --approach, in the design's sides and the program's moves.
+    sided, prog2 = tmp_path / "sided.csv", tmp_path / "cal2.script"
+    run_ok(cli, "plan", "--preset", "ur5e", "--points", 6, "--poses", 14, "--candidates", 300,
+           "--draws", 2000, "--backend", "cpu", "--seed", 3, "--floor", -20,
+           "--keep-out", "300,-800,-20,900,-300,400", "--out", sided, "--program", prog2,
+           "--approach", "negative")
+    neg = gpu_amcs.plan(preset="ur5e", points=6, poses=14, candidates=300, draws=2000,
+                        backend="cpu", seed=3, floor=-20,
+                        keep_out=[[900, -300, 400, 300, -800, -20]], approach="negative")
+    assert neg.design_csv() == sided.read_text()
+    assert neg.program("urscript", name="cal2") == prog2.read_text()
+    assert sided.read_text().splitlines()[1].endswith(",-1,-1,-1,-1,-1,-1")
+    with pytest.raises(ValueError, match=r'approach: expected "positive" or "negative"'):
+        gpu_amcs.plan(preset="ur5e", points=6, approach="up", backend="cpu")
 
 
 def test_discrepancy_term_is_carried_and_can_be_left_out(cli, tmp_path):

@@ -136,6 +136,12 @@ pub struct PlanArgs {
     /// With --program: seconds to wait at each pose for the tracker's measurement.
     #[arg(long, default_value_t = 2.0, value_name = "S", requires = "program")]
     pub settle: f64,
+    /// Make every joint arrive at each pose moving in this direction (from an approach pose 2°
+    /// short of it on that side, which the candidates must reach too), so that gear backlash is
+    /// engaged the same way at every pose: the program gets the approach moves and --out the
+    /// sides s1..sn a pose file records.
+    #[arg(long, value_name = "SIDE", value_parser = ["positive", "negative"])]
+    pub approach: Option<String>,
     #[command(flatten)]
     pub reports: ReportFlags,
 }
@@ -158,6 +164,7 @@ fn flag(f: PlanField) -> &'static str {
         PlanField::LinkRadius => "--link-radius",
         PlanField::SelfCollision => "--no-self-collision",
         PlanField::Program => "--program",
+        PlanField::Approach => "--approach",
     }
 }
 
@@ -246,6 +253,7 @@ impl Run for PlanArgs {
             target,
             workcell,
             draws: a.draws,
+            approach: a.approach.as_deref().and_then(plan::Approach::from_name),
         };
         let error = |e| job_plan_error(e, a.iso9283);
         job.check().map_err(error)?;

@@ -16,6 +16,15 @@ fn preset(name: &str) -> RobotModel {
 
 /// A quick plan of `model` for a few task points with the workcell `w`.
 fn quick_plan(model: &RobotModel, w: Workcell) -> Plan {
+    quick_plan_approached(model, w, None)
+}
+
+/// [`quick_plan`] with every joint arriving at each pose from `approach`.
+fn quick_plan_approached(
+    model: &RobotModel,
+    w: Workcell,
+    approach: Option<gpu_amcs::plan::Approach>,
+) -> Plan {
     let o = PlanOptions {
         poses: 20,
         candidates: 300,
@@ -25,6 +34,7 @@ fn quick_plan(model: &RobotModel, w: Workcell) -> Plan {
         random_designs: 5,
         thresholds: vec![0.03],
         workcell: w,
+        approach,
         ..PlanOptions::default()
     };
     let mut m = model.clone();
@@ -319,5 +329,118 @@ fn robot_programs_parse_back_to_the_design() {
             !known,
             "{preset_name}:\n{text}"
         );
+    }
+}
+
+/// `--approach`: every joint arrives at each pose from the chosen side. The program moves to
+/// an approach pose 2° short of each design pose on that side (every joint), then to the pose,
+/// and waits once per pose; the design file gives the sides `s1..s6` a pose file records. (The
+/// candidates' approach poses are checked against the limits and the workcell when they are
+/// drawn; an approach pose outside a joint limit is refused naming the pose and joint.)
+#[test]
+fn an_approach_side_puts_an_approach_move_before_every_pose() {
+    let d = tmpdir("plan-approach");
+    for (preset_name, file, side, sign) in [
+        ("ur5e", "cal.script", "positive", 1.0),
+        ("irb2400", "cal.mod", "negative", -1.0),
+    ] {
+        let (sided, prog) = (d.join(format!("{preset_name}-sided.csv")), d.join(file));
+        let mut a = vec![
+            "plan",
+            "--preset",
+            preset_name,
+            "--points",
+            "5",
+            "--poses",
+            "12",
+            "--candidates",
+            "200",
+            "--draws",
+            "1000",
+            "-q",
+            "--approach",
+            side,
+        ];
+        a.extend(["--out", sided.to_str().unwrap()]);
+        a.extend(["--program", prog.to_str().unwrap()]);
+        let o = run(&a);
+        assert!(o.status.success(), "{preset_name}: {}", common::stderr(&o));
+        let sided_text = std::fs::read_to_string(&sided).unwrap();
+        let want: Vec<Vec<f64>> = (design(&sided_text).into_iter())
+            .map(|r| r[..6].to_vec())
+            .collect();
+        assert_eq!(want.len(), 12);
+        let mut lines = sided_text.lines();
+        assert!(lines.next().unwrap().ends_with(",s1,s2,s3,s4,s5,s6"));
+        let s = format!(",{sign}").repeat(6);
+        assert!(
+            lines.all(|l| l.ends_with(&s)),
+            "{preset_name}:\n{sided_text}"
+        );
+        let text = std::fs::read_to_string(&prog).unwrap();
+        let (moves, waits, tol): (Vec<Vec<f64>>, &str, f64) = if file.ends_with("script") {
+            (
+                text.lines()
+                    .filter_map(|l| numbers_after(l, "movej(", '[', ']'))
+                    .map(|r| r.iter().map(|v| v.to_degrees()).collect())
+                    .collect(),
+                "sleep(",
+                0.5e-8_f64.to_degrees() + 0.5e-6 + 1e-9,
+            )
+        } else {
+            (
+                text.lines()
+                    .filter_map(|l| numbers_after(l, "MoveAbsJ", '[', ']'))
+                    .collect(),
+                "WaitTime",
+                1e-9,
+            )
+        };
+        assert_eq!(moves.len(), 2 * want.len(), "{preset_name}:\n{text}");
+        assert_eq!(text.matches(waits).count(), want.len());
+        assert!(text.contains(&format!("every joint arrives at each pose moving {side}")));
+        for (k, w) in want.iter().enumerate() {
+            let (pre, at) = (&moves[2 * k], &moves[2 * k + 1]);
+            for j in 0..6 {
+                assert!(
+                    (at[j] - w[j]).abs() <= tol,
+                    "{preset_name} pose {k} q{}",
+                    j + 1
+                );
+                // The move from the approach pose turns every joint by +2° × the side.
+                let step = at[j] - pre[j];
+                assert!(
+                    (step - 2.0 * sign).abs() <= 2.0 * tol,
+                    "{preset_name} {k} {j}: {step}"
+                );
+            }
+        }
+    }
+    // A pose whose approach would start beyond a joint limit is refused, naming it.
+    let mut p = quick_plan(&preset("tx60"), Workcell::default());
+    let lo = p.limits_deg[1].0;
+    p.design_deg[3][1] = lo + 0.5;
+    let e = p
+        .approach_poses(gpu_amcs::plan::Approach::Positive)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("pose 4") && e.contains("joint 2"), "{e}");
+    assert!(p.approach_poses(gpu_amcs::plan::Approach::Negative).is_ok());
+    // With a floor, every approach pose of a plan made with the approach keeps above it too.
+    let mut mt = preset("ur5e");
+    let floor = 50.0;
+    let negative = Some(gpu_amcs::plan::Approach::Negative);
+    let w = Workcell {
+        floor_mm: Some(floor),
+        ..Workcell::default()
+    };
+    let p = quick_plan_approached(&mt, w, negative);
+    mt.tool = p.target_mm;
+    assert_eq!(p.approach, negative);
+    let pre = p
+        .approach_poses(gpu_amcs::plan::Approach::Negative)
+        .unwrap();
+    for (q, a) in p.design_deg.iter().zip(&pre) {
+        assert!(lowest(&mt, q) >= floor - 1e-9 && lowest(&mt, a) >= floor - 1e-9);
     }
 }

@@ -83,6 +83,9 @@ pub struct PlanJob {
     pub workcell: Workcell,
     /// Draws of the prediction, 100 to [`MAX_PREDICTION_DRAWS`].
     pub draws: usize,
+    /// The side every joint arrives at each pose from ([`PlanOptions::approach`]); none: from
+    /// the previous pose.
+    pub approach: Option<crate::plan::Approach>,
 }
 
 impl PlanJob {
@@ -100,6 +103,7 @@ impl PlanJob {
             target: None,
             workcell: Workcell::default(),
             draws: 100_000,
+            approach: None,
         }
     }
 
@@ -114,6 +118,7 @@ impl PlanJob {
             target_mm: target,
             seed: self.setup.problem.seed,
             workcell: self.workcell.clone(),
+            approach: self.approach,
             progress: self.setup.progress.clone(),
             ..PlanOptions::default()
         }

@@ -316,7 +316,18 @@ pub(super) fn candidates(
             }
         }
         use super::workcell::Clash;
-        match super::workcell::clash(model, s, &q.map(f64::to_radians), &o.workcell, true) {
+        // With an approach side the approach pose must be reachable too (limits, workcell).
+        let pre = o.approach.map(|a| super::approach::approach_pose(&q, a));
+        if let Some(p) = &pre {
+            let inside = (p.iter().zip(limits)).all(|(v, &(lo, hi))| (lo..=hi).contains(v));
+            if !inside {
+                continue;
+            }
+        }
+        let clash = |q: &Joints| {
+            super::workcell::clash(model, s, &q.map(f64::to_radians), &o.workcell, true)
+        };
+        match clash(&q).or_else(|| pre.as_ref().and_then(clash)) {
             Some(Clash::Floor { .. }) => rejected.floor += 1,
             Some(Clash::KeepOut { .. }) => rejected.keep_out += 1,
             Some(Clash::SelfCollision { .. }) => rejected.self_collision += 1,

@@ -25,6 +25,7 @@
 //! (greedy D-optimal and the exchange), `compare` (random designs, the bound, the curve),
 //! `order` (the visiting order) and `prediction` (the engine's Monte Carlo).
 
+mod approach;
 mod candidates;
 mod compare;
 mod geometry;
@@ -38,6 +39,7 @@ mod steps;
 mod tests;
 pub mod workcell;
 
+pub use approach::{Approach, APPROACH_STEP_DEG};
 pub use prediction::{
     model_to_plan, predict, predict_with_progress, prediction_estimate, prediction_problem,
 };
@@ -109,6 +111,10 @@ pub struct PlanOptions {
     /// The floor, keep-out boxes and self-collision every candidate must respect
     /// ([`workcell`]).
     pub workcell: Workcell,
+    /// The side every joint arrives at each pose from ([`Approach`]); a candidate's approach
+    /// pose must then keep within the limits and the workcell too. `None`: each joint arrives
+    /// from the previous pose of the visiting order.
+    pub approach: Option<Approach>,
     /// Told `(step, done, `[`PLAN_STEPS`]`)` as the plan goes: the steps are shares of its
     /// work, weighted by what each does for these settings, and only ever grow (a listener's
     /// remaining time holds throughout). Changes no result.
@@ -156,6 +162,7 @@ impl Default for PlanOptions {
             target_mm: [30.0, -20.0, 80.0],
             seed: 1,
             workcell: Workcell::default(),
+            approach: None,
             progress: crate::progress::ProgressHook::none(),
         }
     }
@@ -194,6 +201,8 @@ pub enum PlanField {
     SelfCollision,
     /// A robot program of the design ([`program::robot_program`]).
     Program,
+    /// The side every joint arrives at each pose from ([`Approach`]).
+    Approach,
 }
 
 impl std::fmt::Display for PlanField {
@@ -213,6 +222,7 @@ impl std::fmt::Display for PlanField {
             PlanField::KeepOut => "keep-out box",
             PlanField::LinkRadius => "link radius",
             PlanField::SelfCollision => "self-collision check",
+            PlanField::Approach => "approach side",
             PlanField::Program => "robot program",
         })
     }
@@ -339,6 +349,9 @@ pub struct Plan {
     pub limits_note: Option<String>,
     /// The floor, keep-out boxes and self-collision the candidates respected.
     pub workcell: Workcell,
+    /// The side every joint arrives at each pose from, if one was chosen
+    /// ([`PlanOptions::approach`]).
+    pub approach: Option<Approach>,
     /// Configurations refused for the workcell: below the floor, into a keep-out box, into
     /// the arm itself.
     pub rejected: candidates::Rejected,
@@ -496,6 +509,7 @@ pub fn plan(model: &RobotModel, task: &[Joints], o: &PlanOptions) -> Result<Plan
         limits_deg: limits,
         limits_note,
         workcell: o.workcell.clone(),
+        approach: o.approach,
         rejected,
         planned,
         log_det_design,

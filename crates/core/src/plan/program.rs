@@ -68,18 +68,22 @@ pub fn program_name(name: &str) -> String {
 }
 
 /// The plan's design as a program in `format`, named `name` ([`program_name`]), waiting
-/// `settle_s` seconds at each pose for the tracker.
+/// `settle_s` seconds at each pose for the tracker; for a plan with an approach side
+/// ([`Plan::approach`]), each pose reached from its approach pose ([`Plan::approach_poses`]) so
+/// that every joint arrives from that side.
 ///
 /// # Errors
 ///
 /// [`PlanError::Setting`] ([`PlanField::Program`]) for a model without six joints or a wait
-/// that is not a finite number of seconds ≥ 0.
+/// that is not a finite number of seconds ≥ 0; [`PlanField::Approach`] for an approach pose
+/// outside the limits or the workcell.
 pub fn robot_program(
     plan: &Plan,
     format: ProgramFormat,
     name: &str,
     settle_s: f64,
 ) -> Result<String, PlanError> {
+    let approach = plan.approach;
     let joints = plan.nominal.joints();
     if joints != PROGRAM_JOINTS {
         return Err(setting(
@@ -115,7 +119,17 @@ pub fn robot_program(
             plan.travel_deg
         ),
         angles,
+        match approach {
+            Some(a) => format!(
+                "every joint arrives at each pose moving {} (from {}° short of it), as the pose file's s1..s6 record",
+                a.name(),
+                super::APPROACH_STEP_DEG
+            ),
+            None => "each joint arrives at a pose from the previous one".to_string(),
+        },
     ];
+    let pre = approach.map(|a| plan.approach_poses(a)).transpose()?;
+    let before = |k: usize| pre.as_ref().map(|p| p[k]);
     let n = plan.design_deg.len();
     let mut s = String::new();
     match format {
@@ -125,8 +139,15 @@ pub fn robot_program(
             }
             let _ = writeln!(s, "def {name}():");
             for (k, q) in plan.design_deg.iter().enumerate() {
-                let r: Vec<String> = q.iter().map(|v| format!("{:.8}", v.to_radians())).collect();
-                let _ = writeln!(s, "  movej([{}], a=0.5, v=0.25)", r.join(", "));
+                let movej = |s: &mut String, q: &crate::kinematics::Joints| {
+                    let r: Vec<String> =
+                        q.iter().map(|v| format!("{:.8}", v.to_radians())).collect();
+                    let _ = writeln!(s, "  movej([{}], a=0.5, v=0.25)", r.join(", "));
+                };
+                if let Some(p) = before(k) {
+                    movej(&mut s, &p);
+                }
+                movej(&mut s, q);
                 let _ = writeln!(s, "  textmsg(\"measure pose {} of {n}\")", k + 1);
                 let _ = writeln!(s, "  sleep({settle_s})");
             }
@@ -140,12 +161,18 @@ pub fn robot_program(
             let _ = writeln!(s, "MODULE {name}");
             let _ = writeln!(s, "  PROC main()");
             for (k, q) in plan.design_deg.iter().enumerate() {
-                let r: Vec<String> = q.iter().map(|v| format!("{v:.6}")).collect();
-                let _ = writeln!(
-                    s,
-                    "    MoveAbsJ [[{}],[9E9,9E9,9E9,9E9,9E9,9E9]], v100, fine, tool0;",
-                    r.join(",")
-                );
+                let move_abs = |s: &mut String, q: &crate::kinematics::Joints| {
+                    let r: Vec<String> = q.iter().map(|v| format!("{v:.6}")).collect();
+                    let _ = writeln!(
+                        s,
+                        "    MoveAbsJ [[{}],[9E9,9E9,9E9,9E9,9E9,9E9]], v100, fine, tool0;",
+                        r.join(",")
+                    );
+                };
+                if let Some(p) = before(k) {
+                    move_abs(&mut s, &p);
+                }
+                move_abs(&mut s, q);
                 let _ = writeln!(s, "    ! measure pose {} of {n}", k + 1);
                 let _ = writeln!(s, "    WaitTime {settle_s};");
             }
@@ -162,12 +189,16 @@ pub fn robot_program(
                 let _ = writeln!(s, "$ACC_AXIS[{a}] = 10");
             }
             for (k, q) in plan.design_deg.iter().enumerate() {
-                let r: Vec<String> = q
-                    .iter()
-                    .enumerate()
-                    .map(|(j, v)| format!("A{} {v:.6}", j + 1))
-                    .collect();
-                let _ = writeln!(s, "PTP {{{}}}", r.join(", "));
+                let ptp = |s: &mut String, q: &crate::kinematics::Joints| {
+                    let r: Vec<String> = (q.iter().enumerate())
+                        .map(|(j, v)| format!("A{} {v:.6}", j + 1))
+                        .collect();
+                    let _ = writeln!(s, "PTP {{{}}}", r.join(", "));
+                };
+                if let Some(p) = before(k) {
+                    ptp(&mut s, &p);
+                }
+                ptp(&mut s, q);
                 let _ = writeln!(s, "; measure pose {} of {n}", k + 1);
                 let _ = writeln!(s, "WAIT SEC {settle_s}");
             }

@@ -28,12 +28,21 @@ impl Plan {
     }
 
     /// The design as CSV: `q1..qn` (one column per joint) in degrees, one pose a line, in
-    /// visiting order.
+    /// visiting order; for a plan with an approach side ([`Plan::approach`]) also the sides
+    /// `s1..sn` a pose file records (the measured positions added as `x,y,z` make it one).
     pub fn design_csv(&self) -> String {
-        let mut s = joint_names(self.nominal.joints()).join(",");
+        let n = self.nominal.joints();
+        let mut names = joint_names(n);
+        if self.approach.is_some() {
+            names.extend((1..=n).map(|j| format!("s{j}")));
+        }
+        let mut s = names.join(",");
         s.push('\n');
         for q in &self.design_deg {
-            let row: Vec<String> = q.iter().map(|v| format!("{v:.6}")).collect();
+            let mut row: Vec<String> = q.iter().map(|v| format!("{v:.6}")).collect();
+            if let Some(a) = self.approach {
+                row.extend(std::iter::repeat_n(format!("{}", a.sign()), n));
+            }
             let _ = writeln!(s, "{}", row.join(","));
         }
         s
