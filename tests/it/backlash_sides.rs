@@ -109,6 +109,39 @@ fn recorded_sides_survive_a_split_and_sharpen_validation() {
         )
     };
     let (rms_known, cov_known) = validate(&test_s, "v_s");
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(arg(&d, "v_s.json")).unwrap()).unwrap();
+    assert_eq!(v["recorded_sides"]["poses"], 100);
+    assert_eq!(v["recorded_sides"]["used"], true);
+    let o = run(&["validate", "--model", &model_s, &test_s]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains(
+            "approach sides recorded at 100 poses: the model's backlash predicted with them"
+        ),
+        "{text}"
+    );
+    // A model without backlash says the sides change nothing, and predicts as without them.
+    let geometric = arg(&d, "geometric.toml");
+    run_ok(&[
+        "identify",
+        &train_s,
+        "--beyond-geometry=off",
+        "-o",
+        &geometric,
+    ]);
+    let with = run(&["validate", "--model", &geometric, &test_s]);
+    let without = run(&["validate", "--model", &geometric, &test_o]);
+    let (with, without) = (
+        String::from_utf8_lossy(&with.stdout).to_string(),
+        String::from_utf8_lossy(&without.stdout).to_string(),
+    );
+    assert!(
+        with.contains("the model has no backlash, so they change nothing"),
+        "{with}"
+    );
+    let table = |t: &str| t.lines().take(3).collect::<Vec<_>>().join("\n");
+    assert_eq!(table(&with), table(&without));
     let (rms_drawn, cov_drawn) = validate(&test_o, "v_o");
     eprintln!(
         "held out: sides known RMS {rms_known:.4} mm, covered {cov_known}; drawn RMS {rms_drawn:.4} mm, covered {cov_drawn}"

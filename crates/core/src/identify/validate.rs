@@ -174,6 +174,46 @@ pub struct ValidationReport {
     pub references_left_out: usize,
     /// The model with its discrepancy term from these errors, when asked for.
     pub term: Option<HeldOutTerm>,
+    /// The approach sides the measurements record (`s1..sn`), when they record any.
+    pub sides: Option<RecordedSides>,
+}
+
+/// What a validation did with recorded approach sides (docs/METHOD.md §19.5).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct RecordedSides {
+    /// Measurements with at least one joint's side recorded (±1).
+    pub poses: usize,
+    /// Whether the model has a backlash they turn (then it predicts with them, and the
+    /// predictive check draws only the sides left at 0); otherwise they change nothing.
+    pub used: bool,
+}
+
+impl RecordedSides {
+    /// The sides of `measurements` as `model` uses them; `None` when none is recorded.
+    pub fn of(model: &RobotModel, measurements: &[Measurement]) -> Option<RecordedSides> {
+        let poses = (measurements.iter())
+            .filter(|m| m.sides.is_some_and(|s| s.iter().any(|&v| v != 0.0)))
+            .count();
+        let used = (model.joint_errors.as_ref())
+            .and_then(|e| e.backlash.as_ref())
+            .is_some_and(|b| b.acts());
+        (poses > 0).then_some(RecordedSides { poses, used })
+    }
+
+    /// One line for the terminal.
+    pub fn sentence(&self) -> String {
+        if self.used {
+            format!(
+                "approach sides recorded at {} poses: the model's backlash predicted with them (the predictive check draws only the sides not recorded)\n",
+                self.poses
+            )
+        } else {
+            format!(
+                "approach sides recorded at {} poses: the model has no backlash, so they change nothing (a model identified with the backlash check fits its gaps to them)\n",
+                self.poses
+            )
+        }
+    }
 }
 
 /// The frame of validated measurements, in words.
@@ -239,6 +279,9 @@ impl ValidationReport {
                 t.label, t.left_out
             ));
         }
+        if let Some(r) = &self.sides {
+            s.push_str(&r.sentence());
+        }
         if let Some(p) = &self.predictive {
             s.push_str(&p.render());
         }
@@ -276,6 +319,7 @@ impl ValidationReport {
             "registration": self.registration,
             "references_left_out": self.references_left_out,
             "predictive_check": self.predictive,
+            "recorded_sides": self.sides,
         });
         let mut doc = doc;
         if let Some(t) = &self.term {

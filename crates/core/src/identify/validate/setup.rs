@@ -516,7 +516,9 @@ pub fn run_validation(r: ValidateRequest<'_>) -> Result<super::ValidationReport,
         .then(|| held_out_term(r.model, r.measurements, frame))
         .transpose()
         .map_err(ValidateError::Term)?;
+    let sides = super::RecordedSides::of(r.model, r.measurements);
     Ok(super::ValidationReport {
+        sides,
         term,
         validation,
         frame,
