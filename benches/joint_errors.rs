@@ -38,6 +38,7 @@ const SIZES: NonGeometricSizes = NonGeometricSizes {
     compliance: 1.0,
     harmonics: 1.0,
     payload_kg: 0.0,
+    backlash: 0.0,
 };
 
 /// The GPU evaluator's cost of the joint errors, when a hardware or software adapter is present:

@@ -298,3 +298,188 @@ fn files_keep_their_sides() {
     .unwrap();
     assert!(plain.runs[0].points[0].sides.is_none());
 }
+
+/// The simulator's backlash (`simulate --backlash`, `simulate_poses_sided`): noise free, each
+/// pose is forward kinematics of the commanded angles plus the deflections plus half of each
+/// joint's gap on the side it arrived from, the sides from the poses' order (none at the first)
+/// or as given; the pose records them. Without backlash nothing changes, bit for bit.
+#[test]
+fn the_simulator_stands_each_joint_half_its_gap_on_its_side() {
+    use gpu_amcs::kinematics::{position, tx60, BaseTransform, Joints};
+    use gpu_amcs::simulate::{
+        random_poses, simulate_poses_at, simulate_poses_sided, NonGeometric, NonGeometricSizes,
+        TrackerNoise,
+    };
+    let truth = tx60();
+    let sizes = NonGeometricSizes {
+        compliance: 1.0,
+        harmonics: 1.0,
+        backlash: 2.0,
+        ..NonGeometricSizes::none()
+    };
+    let e = NonGeometric::draw(&truth, &sizes, 7).unwrap();
+    for j in 0..6 {
+        assert_eq!(e.backlash_deg[j], 2.0 * GAPS_DEG[j]);
+    }
+    let qs = random_poses(&truth, 40, 3);
+    let place = BaseTransform {
+        xyz: [0.0; 3],
+        rpy: [0.0; 3],
+    };
+    let exact = TrackerNoise::Isotropic(0.0);
+    let at = |q: &Joints, s: &[f64]| {
+        let mut a = e.actual_angles(&truth, &q.map(f64::to_radians));
+        for j in 0..6 {
+            a[j] += 0.5 * (2.0 * GAPS_DEG[j]).to_radians() * s[j];
+        }
+        position(&truth.params, &truth.tool, &a)
+    };
+    let from_order = simulate_poses_sided(&truth, Some(&e), &qs, None, &[], &place, &exact, 1);
+    let given: Vec<Joints> = (0..qs.len())
+        .map(|k| Joints::from_fn(6, |j| if (k + j) % 3 == 0 { -1.0 } else { 1.0 }))
+        .collect();
+    let fixed = simulate_poses_sided(&truth, Some(&e), &qs, Some(&given), &[], &place, &exact, 1);
+    for k in 0..qs.len() {
+        let s: Vec<f64> = (0..6)
+            .map(|j| match k {
+                0 => 0.0,
+                _ => (qs[k][j] - qs[k - 1][j]).signum(),
+            })
+            .collect();
+        let p = &from_order.runs[0].points[k];
+        assert_eq!(&*p.sides.unwrap(), &s[..]);
+        let want = at(&qs[k], &s);
+        let q = &fixed.runs[0].points[k];
+        let want_given = at(&qs[k], &given[k]);
+        for c in 0..3 {
+            assert!((p.position_mm[c] - want[c]).abs() < 1e-9, "pose {k}");
+            assert!((q.position_mm[c] - want_given[c]).abs() < 1e-9, "pose {k}");
+        }
+    }
+    // Without backlash: simulate_poses_at's bits, and no sides.
+    let rigid = NonGeometric {
+        backlash_deg: Joints::filled(6, 0.0),
+        ..e.clone()
+    };
+    let noisy = TrackerNoise::Isotropic(0.01);
+    let a = simulate_poses_sided(&truth, Some(&rigid), &qs, None, &[], &place, &noisy, 4);
+    let b = simulate_poses_at(&truth, Some(&rigid), &qs, &[], &place, &noisy, 4);
+    assert_eq!(a, b);
+    assert!(a.runs[0].points.iter().all(|p| p.sides.is_none()));
+}
+
+/// End to end: `simulate --backlash 1` writes the sides, identify recovers the gaps of J1–J3
+/// within 4σ; a plan with `--approach positive` measured by the simulator arrives from the
+/// positive side at every pose, and identification then finds no joint arriving from both
+/// sides (no backlash check: the gaps are offsets the zeros take up). A sweep simulation with
+/// backlash is refused naming the flag.
+#[test]
+fn simulated_backlash_from_the_command_line() {
+    let d = tmpdir("backlash_sim");
+    let poses = arg(&d, "poses.csv");
+    run_ok(&[
+        "simulate",
+        "--poses",
+        "300",
+        "--robot-seed",
+        "2025",
+        "--seed",
+        "5",
+        "--compliance",
+        "1",
+        "--harmonics",
+        "1",
+        "--backlash",
+        "1",
+        "--tracker-sigma",
+        "0.01",
+        "-o",
+        &poses,
+    ]);
+    let text = std::fs::read_to_string(&poses).unwrap();
+    assert!(text.lines().next().unwrap().ends_with(",s1,s2,s3,s4,s5,s6"));
+    let json = arg(&d, "m.json");
+    run_ok(&[
+        "identify",
+        &poses,
+        "--beyond-geometry=on",
+        "-o",
+        &arg(&d, "m.toml"),
+        "--json",
+        &json,
+    ]);
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&json).unwrap()).unwrap();
+    let g = &v["identify"]["runs"][0]["chain"]["beyond_geometry"]["backlash"]["gap_deg"];
+    for j in 0..3 {
+        let (gap, s) = (g[j][0].as_f64().unwrap(), g[j][1].as_f64().unwrap());
+        assert!(
+            (gap - GAPS_DEG[j]).abs() < 4.0 * s,
+            "J{}: {gap} ± {s}",
+            j + 1
+        );
+    }
+    // identify's default runs no backlash check, and says the data would allow one.
+    let o = run(&["identify", &poses, "-o", &arg(&d, "auto.toml")]);
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        text.contains("the data record the side each joint arrived from (s1..sn)"),
+        "{text}"
+    );
+    let (design, planned) = (arg(&d, "design.csv"), arg(&d, "planned.csv"));
+    run_ok(&[
+        "plan",
+        "--poses",
+        "12",
+        "--candidates",
+        "300",
+        "--draws",
+        "1000",
+        "--points",
+        "5",
+        "--approach",
+        "positive",
+        "--out",
+        &design,
+        "-q",
+    ]);
+    run_ok(&[
+        "simulate",
+        "--points-file",
+        &design,
+        "--poses",
+        "12",
+        "--backlash",
+        "1",
+        "--tracker-sigma",
+        "0.01",
+        "-o",
+        &planned,
+    ]);
+    let text = std::fs::read_to_string(&planned).unwrap();
+    assert!(
+        text.lines().skip(1).all(|l| l.ends_with(",1,1,1,1,1,1")),
+        "{text}"
+    );
+    let o = run(&[
+        "identify",
+        &planned,
+        "--beyond-geometry=on",
+        "-o",
+        &arg(&d, "p.toml"),
+    ]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!String::from_utf8_lossy(&o.stdout).contains("backlash ("));
+    let o = run(&["simulate", "--backlash", "1", "-o", &arg(&d, "sweeps.csv")]);
+    assert!(!o.status.success() && stderr(&o).contains("--backlash: simulated for pose data"));
+    let o = run(&[
+        "simulate",
+        "--poses",
+        "5",
+        "--backlash",
+        "11",
+        "-o",
+        &arg(&d, "x.csv"),
+    ]);
+    assert!(!o.status.success() && stderr(&o).contains("--backlash: 11 is not a scale in 0–10"));
+}

@@ -63,6 +63,7 @@ pub(crate) const BENT: NonGeometricSizes = NonGeometricSizes {
     compliance: 1.0,
     harmonics: 1.0,
     payload_kg: 0.0,
+    backlash: 0.0,
 };
 
 /// Noise-free data of a robot with compliance and harmonics: the extended model reproduces

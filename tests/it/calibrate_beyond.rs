@@ -30,6 +30,7 @@ fn calibrated_from(
         compliance: size,
         harmonics: size,
         payload_kg: 0.0,
+        backlash: 0.0,
     };
     exp.set_nongeometric(&sizes, robot_seed).unwrap();
     let f = Factors {

@@ -20,6 +20,7 @@ const BENT: NonGeometricSizes = NonGeometricSizes {
     compliance: 1.0,
     harmonics: 1.0,
     payload_kg: 0.0,
+    backlash: 0.0,
 };
 
 /// Robot `seed`'s errors at `sizes`, with the harmonics only where `partial` says: J1 its

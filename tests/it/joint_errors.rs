@@ -349,6 +349,7 @@ fn the_payload_what_if_covers_robots_that_carry_the_payload() {
         compliance: 1.0,
         harmonics: 1.0,
         payload_kg: 0.0,
+        backlash: 0.0,
     };
     let mut pits = Vec::new();
     let mut mean_w = Vec::new();
@@ -443,6 +444,7 @@ fn the_gpu_draws_joint_errors_as_the_cpu() {
         compliance: 1.0,
         harmonics: 1.0,
         payload_kg: 0.0,
+        backlash: 0.0,
     };
     let truth = Experiment::tx60(5).truth;
     let errors = NonGeometric::draw(&truth, &sizes, 5).unwrap();

@@ -17,6 +17,7 @@ const BENT: NonGeometricSizes = NonGeometricSizes {
     compliance: 1.0,
     harmonics: 1.0,
     payload_kg: 0.0,
+    backlash: 0.0,
 };
 
 /// Robot 2025 measured at 200 random poses with 10 µm noise, every other pose carrying

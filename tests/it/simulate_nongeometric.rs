@@ -38,6 +38,7 @@ fn library_robot(truth: &TrueRobot) -> (RobotModel, NonGeometric) {
             &LINK_MASS_KG,
         )),
         payload_kg: 0.0,
+        backlash_deg: gpu_amcs::kinematics::Joints::filled(6, 0.0),
     };
     (model, errors)
 }
@@ -150,6 +151,7 @@ fn size_zero_is_the_geometric_simulator() {
         compliance: 1.0,
         harmonics: 1.0,
         payload_kg: 2.0,
+        backlash: 0.0,
     };
     exp.set_nongeometric(&sizes, 5).unwrap();
     assert_ne!(format!("{before:?}"), format!("{:?}", exp.sweeps(&f, 3)));
@@ -286,6 +288,7 @@ fn geometric_calibration_leaves_most_of_the_nongeometric_error() {
         compliance: 1.0,
         harmonics: 1.0,
         payload_kg: 0.0,
+        backlash: 0.0,
     };
     let mut ratios = Vec::new();
     for seed in [2025u64, 7] {
@@ -322,6 +325,7 @@ fn identify_defaults_come_within_1_5x_of_a_geometric_robot() {
         compliance: 1.0,
         harmonics: 1.0,
         payload_kg: 0.0,
+        backlash: 0.0,
     };
     let geometric = geometric_robots();
     let seeds: Vec<u64> = ROBOTS.collect();

@@ -238,6 +238,12 @@ fn render_beyond_geometry(s: &mut String, b: &super::chain::BeyondGeometry) {
             gaps.join(", ")
         );
     }
+    if b.sides_unchecked {
+        let _ = writeln!(
+            s,
+            "    backlash: the data record the side each joint arrived from (s1..sn); the explicit check beyond geometry fits the gaps to them"
+        );
+    }
     if !b.undetermined.is_empty() {
         let _ = writeln!(
             s,

@@ -43,7 +43,7 @@ pub use nongeometric::{
 };
 pub use poses::{
     add_other_targets, random_placement, random_poses, simulate_poses, simulate_poses_at,
-    simulate_poses_of, tracker_in_base_frame, TrackerNoise,
+    simulate_poses_of, simulate_poses_sided, tracker_in_base_frame, TrackerNoise,
 };
 pub use robot::{measure_positions, perturbed_model, random_configurations, ParameterErrors};
 pub use sweep::{

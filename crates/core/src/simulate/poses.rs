@@ -110,8 +110,55 @@ pub fn simulate_poses_at(
     noise: &TrackerNoise,
     seed: u64,
 ) -> PoseData {
+    simulate_poses_sided(
+        truth,
+        errors,
+        configs,
+        None,
+        payloads_kg,
+        placement,
+        noise,
+        seed,
+    )
+}
+
+/// [`simulate_poses_at`] with, for a robot with backlash, the side each joint arrives at pose
+/// `k` from `sides[k]` (1 moving positive, −1, 0 no turn; a plan with an approach side gives
+/// them), or, without, from the configurations' order (the direction each joint moved from the
+/// previous pose; none at the first). Such a robot's joints stand half their gap beyond the
+/// commanded angles on that side, and each pose records its sides (`s1..sn`). Without backlash
+/// the sides change nothing and are not recorded: [`simulate_poses_at`], bit for bit.
+#[allow(clippy::too_many_arguments)]
+pub fn simulate_poses_sided(
+    truth: &RobotModel,
+    errors: Option<&NonGeometric>,
+    configs: &[Joints],
+    sides: Option<&[Joints]>,
+    payloads_kg: &[f64],
+    placement: &BaseTransform,
+    noise: &TrackerNoise,
+    seed: u64,
+) -> PoseData {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     rng.set_stream(NOISE_STREAM);
+    let backlash = errors.is_some_and(NonGeometric::has_backlash);
+    let side_of = |k: usize| -> Joints {
+        if let Some(s) = sides.and_then(|s| s.get(k)) {
+            return *s;
+        }
+        let q = &configs[k];
+        Joints::from_fn(q.len(), |j| match k {
+            0 => 0.0,
+            _ => {
+                let d = q[j] - configs[k - 1][j];
+                if d == 0.0 {
+                    0.0
+                } else {
+                    d.signum()
+                }
+            }
+        })
+    };
     let points = configs
         .iter()
         .enumerate()
@@ -124,7 +171,22 @@ pub fn simulate_poses_at(
                 payload_kg,
                 ..e.clone()
             });
-            let p = true_position(truth, carrying.as_ref(), &q.map(f64::to_radians));
+            let rad = q.map(f64::to_radians);
+            let (p, sides) = match carrying.as_ref().filter(|_| backlash) {
+                Some(e) => {
+                    let s = side_of(k);
+                    let turn = e.side_turns(&s);
+                    let mut at = e.actual_angles(truth, &rad);
+                    for (a, t) in at.iter_mut().zip(turn.iter()) {
+                        *a += t;
+                    }
+                    (
+                        crate::kinematics::position(&truth.params, &truth.tool, &at),
+                        Some(s),
+                    )
+                }
+                None => (true_position(truth, carrying.as_ref(), &rad), None),
+            };
             let p = placement.apply(p);
             let position_mm = noise.measure(p, &mut rng);
             PosePoint {
@@ -134,7 +196,7 @@ pub fn simulate_poses_at(
                 sigma_mm: None,
                 line: k as u64 + 2,
                 target: 0,
-                sides: None,
+                sides,
             }
         })
         .collect();
@@ -179,7 +241,16 @@ pub fn add_other_targets(
             });
             let actual = match &carrying {
                 None => q,
-                Some(e) => e.actual_angles(truth, &q),
+                Some(e) => {
+                    // The arm stands where it stood for the tool's reading, backlash included.
+                    let mut at = e.actual_angles(truth, &q);
+                    if let Some(s) = &p.sides {
+                        for (a, t) in at.iter_mut().zip(e.side_turns(s).iter()) {
+                            *a += t;
+                        }
+                    }
+                    at
+                }
             };
             rows.push(PosePoint { line, ..p.clone() });
             line += 1;

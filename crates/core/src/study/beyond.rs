@@ -73,6 +73,7 @@ fn sizes(s: f64) -> NonGeometricSizes {
         compliance: s,
         harmonics: s,
         payload_kg: 0.0,
+        backlash: 0.0,
     }
 }
 

@@ -98,6 +98,8 @@ pub struct BeyondGeometry {
     /// directions.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub backlash: Option<BacklashCheck>,
+    /// The data record approach sides (`s1..sn`) but the backlash check was not asked for.
+    pub sides_unchecked: bool,
 }
 
 /// A coefficient whose posterior σ exceeds this share of its prior's is held by the prior.
@@ -458,6 +460,7 @@ pub(super) fn check(
     };
     let report = BeyondGeometry {
         backlash,
+        sides_unchecked: !with_backlash && run.obs.iter().any(|o| o.sides.is_some()),
         parameters: sel_free.len() - geo,
         selection,
         left_out: held_out::describe(held_out),
