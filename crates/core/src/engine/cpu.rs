@@ -30,9 +30,11 @@ use crate::kinematics::{
 };
 use rayon::prelude::*;
 
+mod chain;
 mod joint_errors;
 mod placement;
-use joint_errors::{chain_lanes_offset, joint_turns, term_lanes, Sides, Turns};
+use chain::block_kernel;
+use joint_errors::{term_lanes, PointOffsets, Sides};
 use placement::PlacementLanes;
 
 /// Draws per vector block.
@@ -64,7 +66,7 @@ type Normals = [[f64; LANES]; crate::sampling::MAX_NORMALS];
 type Disc<'a> = Option<(&'a DiscrepancyDraws, &'a [u64; LANES])>;
 
 /// The joint errors' lane factors of a block (per joint `[f0, f1, δa1, δb1, δa2, δb2][lane]`,
-/// [`CpuEvaluator::term_lanes`]).
+/// [`joint_errors::term_lanes`]).
 type JeLanes = [[[f64; LANES]; 6]; MAX_JOINTS];
 
 /// The joint errors of a block of lanes: their factors, the test points' quantities, whether
@@ -315,6 +317,9 @@ impl CpuEvaluator {
         };
         let mut jel: JeLanes = [[[0.0; LANES]; 6]; MAX_JOINTS];
         let mut sides = [[0u32; LANES]; 2];
+        // The joint errors' offsets of a block at every point (`point_offsets`).
+        let mut offs: Vec<PointOffsets> =
+            vec![[[0.0; LANES]; MAX_JOINTS]; if term.is_some() { m } else { 0 }];
         for (b, wb) in w.chunks_mut(LANES).enumerate() {
             src.skip(b * LANES)
                 .lanes(&self.problem.sampler, &mut d, &mut z);
@@ -371,22 +376,21 @@ impl CpuEvaluator {
                 (&jel, t.terms.as_slice(), t.payload_term(), s)
             });
             match &place {
-                None => with_joints!(self.joints, &jl, |j| block_kernel(
+                None => with_joints!(self.joints, &jl, |j| block_kernel::<_, false>(
                     j,
                     &tl,
-                    &self.points,
+                    (&self.points, &[[[0.0; LANES]; 4]; 3]),
                     &mut w2,
                     el,
-                    (disc, je)
+                    (disc, je, &mut offs)
                 )),
-                Some(t) => with_joints!(self.joints, &jl, |j| block_kernel_placed(
+                Some(t) => with_joints!(self.joints, &jl, |j| block_kernel::<_, true>(
                     j,
                     &tl,
-                    &self.points,
-                    t,
+                    (&self.points, t),
                     &mut w2,
                     el,
-                    (disc, je)
+                    (disc, je, &mut offs)
                 )),
             }
             for (l, v) in wb.iter_mut().enumerate() {
@@ -395,141 +399,6 @@ impl CpuEvaluator {
             if let Some(e) = e.as_deref_mut() {
                 let n = wb.len();
                 e[b * LANES * m..(b * LANES + n) * m].copy_from_slice(&e_lanes[..n * m]);
-            }
-        }
-    }
-}
-
-/// [`block_kernel`] with each lane's end position moved by its placement offset `ΔB` (rows of
-/// `[ΔR | Δt]` per lane) before it is compared with the reference.
-#[inline(always)]
-fn block_kernel_placed<const N: usize>(
-    jl: &[[[f64; LANES]; 8]; N],
-    tool: &[[f64; LANES]; 3],
-    pts: &[PointPre],
-    t: &[[[f64; LANES]; 4]; 3],
-    w2: &mut [f64; LANES],
-    mut e: Option<&mut [f64]>,
-    (disc, je): (Disc, Je),
-) {
-    let m = pts.len();
-    let mut words = [[0u32; LANES]; 4];
-    let mut turns: Turns = [[[0.0; LANES]; 2]; MAX_JOINTS];
-    for (pj, p) in pts.iter().enumerate() {
-        let (x, y, z) = match je {
-            None => chain_lanes(jl, tool, p),
-            Some((jel, terms, payload, sides)) => {
-                joint_turns::<N>(jel, &terms[pj], payload, (sides, pj), &mut turns);
-                chain_lanes_offset(jl, tool, p, &turns)
-            }
-        };
-        let mut e2 = [0.0; LANES];
-        for l in 0..LANES {
-            let px = t[0][0][l] * x[l] + t[0][1][l] * y[l] + t[0][2][l] * z[l] + t[0][3][l];
-            let py = t[1][0][l] * x[l] + t[1][1][l] * y[l] + t[1][2][l] * z[l] + t[1][3][l];
-            let pz = t[2][0][l] * x[l] + t[2][1][l] * y[l] + t[2][2][l] * z[l] + t[2][3][l];
-            let (dx, dy, dz) = (px - p.r[0], py - p.r[1], pz - p.r[2]);
-            e2[l] = dx * dx + dy * dy + dz * dz;
-        }
-        if let Some((dd, draws)) = disc {
-            dd.apply_squared_lanes(&mut e2, draws, pj, &mut words);
-        }
-        for l in 0..LANES {
-            w2[l] = if e2[l] > w2[l] { e2[l] } else { w2[l] };
-        }
-        if let Some(e) = e.as_deref_mut() {
-            for l in 0..LANES {
-                e[l * m + pj] = e2[l].sqrt();
-            }
-        }
-    }
-}
-
-/// The end positions of `LANES` draws at point `p` (the chain from the tool to the base; one
-/// entry of `jl` per joint, `N` of them, so that the joint loop's bound is known when compiled).
-#[inline(always)]
-fn chain_lanes<const N: usize>(
-    jl: &[[[f64; LANES]; 8]; N],
-    tool: &[[f64; LANES]; 3],
-    p: &PointPre,
-) -> ([f64; LANES], [f64; LANES], [f64; LANES]) {
-    chain_lanes_turned::<N, false>(jl, tool, p, &[[[0.0; LANES]; 2]; MAX_JOINTS])
-}
-
-/// The chain of [`chain_lanes`], each joint turned by `turns` (`[sin, cos]` of its offset per
-/// lane) when `TURN` (compiled out otherwise, so the plain chain keeps its instructions and bits).
-#[inline(always)]
-fn chain_lanes_turned<const N: usize, const TURN: bool>(
-    jl: &[[[f64; LANES]; 8]; N],
-    tool: &[[f64; LANES]; 3],
-    p: &PointPre,
-    turns: &Turns,
-) -> ([f64; LANES], [f64; LANES], [f64; LANES]) {
-    let mut x = tool[0];
-    let mut y = tool[1];
-    let mut z = tool[2];
-    for i in (0..N).rev() {
-        let [ct, st, ca, sa, cb, sb, a, d] = &jl[i];
-        let (cq, sq) = (p.cq[i], p.sq[i]);
-        let [so, co] = &turns[i];
-        for l in 0..LANES {
-            // Ry(β)
-            let x1 = cb[l] * x[l] + sb[l] * z[l];
-            let z1 = cb[l] * z[l] - sb[l] * x[l];
-            // Rx(α), Tx(a), Tz(d)
-            let y2 = ca[l] * y[l] - sa[l] * z1;
-            let z2 = sa[l] * y[l] + ca[l] * z1 + d[l];
-            let x2 = x1 + a[l];
-            // Rz(θ+q), then turned by the offset
-            let mut c = ct[l] * cq - st[l] * sq;
-            let mut s = st[l] * cq + ct[l] * sq;
-            if TURN {
-                (c, s) = (c * co[l] - s * so[l], s * co[l] + c * so[l]);
-            }
-            x[l] = c * x2 - s * y2;
-            y[l] = s * x2 + c * y2;
-            z[l] = z2;
-        }
-    }
-    (x, y, z)
-}
-
-/// Squared maximum point error of `LANES` draws (and per-point errors, lane-major); `tool` is
-/// each lane's tool point in the flange frame.
-#[inline(always)]
-fn block_kernel<const N: usize>(
-    jl: &[[[f64; LANES]; 8]; N],
-    tool: &[[f64; LANES]; 3],
-    pts: &[PointPre],
-    w2: &mut [f64; LANES],
-    mut e: Option<&mut [f64]>,
-    (disc, je): (Disc, Je),
-) {
-    let m = pts.len();
-    let mut words = [[0u32; LANES]; 4];
-    let mut turns: Turns = [[[0.0; LANES]; 2]; MAX_JOINTS];
-    for (pj, p) in pts.iter().enumerate() {
-        let (x, y, z) = match je {
-            None => chain_lanes(jl, tool, p),
-            Some((jel, terms, payload, sides)) => {
-                joint_turns::<N>(jel, &terms[pj], payload, (sides, pj), &mut turns);
-                chain_lanes_offset(jl, tool, p, &turns)
-            }
-        };
-        let mut e2 = [0.0; LANES];
-        for l in 0..LANES {
-            let (dx, dy, dz) = (x[l] - p.r[0], y[l] - p.r[1], z[l] - p.r[2]);
-            e2[l] = dx * dx + dy * dy + dz * dz;
-        }
-        if let Some((dd, draws)) = disc {
-            dd.apply_squared_lanes(&mut e2, draws, pj, &mut words);
-        }
-        for l in 0..LANES {
-            w2[l] = if e2[l] > w2[l] { e2[l] } else { w2[l] };
-        }
-        if let Some(e) = e.as_deref_mut() {
-            for l in 0..LANES {
-                e[l * m + pj] = e2[l].sqrt();
             }
         }
     }

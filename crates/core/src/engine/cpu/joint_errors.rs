@@ -1,8 +1,8 @@
 //! The joint errors in the lanes (docs/METHOD.md §19.2): each lane's draw of the coefficients
 //! moves its geometric offsets and gives the factors of its per-point joint-angle offsets, which
-//! turn each joint of the chain further ([`chain_lanes_offset`]).
+//! turn each joint of the chain further (`super::chain`).
 
-use super::{CpuEvaluator, JeLanes, OffsetLanes, PointPre, Source, LANES};
+use super::{CpuEvaluator, JeLanes, OffsetLanes, Source, LANES};
 use crate::engine::discrepancy::point_word;
 use crate::engine::joint_errors::{side, JointErrorDraws};
 use crate::kinematics::joint_errors::{PointTerms, MAX_COEFFICIENTS};
@@ -131,49 +131,63 @@ fn joint_offset(f: &[[f64; LANES]; 6], t: &[f64; 6], payload: bool) -> [f64; LAN
     o
 }
 
-/// The turns of the first `N` joints of `LANES` draws at a test point with quantities `t`, from
-/// their lane factors `jel`: `(sin o, cos o)` by [`tiny_sin_cos`] for |o| < [`TINY_LIMIT`],
+/// The joint-angle offsets of a block of lanes at every test point: `[point][joint][lane]`.
+pub(super) type PointOffsets = [[f64; LANES]; MAX_JOINTS];
+
+/// The joint-angle offsets of `LANES` draws at every test point (quantities `terms`), from their
+/// lane factors `jel`, into `out[point]`: joint by joint, so that a joint's factors stay in
+/// registers while the points stream past ([`joint_offset_sided`] of each, the same products
+/// and sums, so the same bits as one point at a time).
+#[inline(always)]
+pub(super) fn point_offsets<const N: usize>(
+    jel: &JeLanes,
+    terms: &[PointTerms],
+    payload: bool,
+    sides: Sides,
+    out: &mut [PointOffsets],
+) {
+    let words: Vec<[u32; LANES]> = match sides {
+        Some(_) => (0..terms.len()).map(|pj| point_sides(sides, pj)).collect(),
+        None => Vec::new(),
+    };
+    const NONE: [u32; LANES] = [0; LANES];
+    for i in 0..N {
+        let f = &jel[i];
+        for (pj, (t, o)) in terms.iter().zip(out.iter_mut()).enumerate() {
+            let w = words.get(pj).unwrap_or(&NONE);
+            o[i] = joint_offset_sided(f, &t[i], payload, (sides, w, i));
+        }
+    }
+}
+
+/// The turns of the first `N` joints of `LANES` draws at a test point from their offsets `o`
+/// ([`point_offsets`]): `(sin o, cos o)` by [`tiny_sin_cos`] for |o| < [`TINY_LIMIT`],
 /// `sin_cos` beyond. All joints and lanes are checked at once and the rare large offsets fixed
 /// outside the hot path ([`large_turns`]), so the chain's loop holds no call.
 #[inline(always)]
-pub(super) fn joint_turns<const N: usize>(
-    jel: &JeLanes,
-    t: &PointTerms,
-    payload: bool,
-    (sides, pj): (Sides, usize),
-    out: &mut Turns,
-) {
+pub(super) fn joint_turns<const N: usize>(o: &PointOffsets, out: &mut Turns) {
     let mut big = [0.0f64; LANES];
-    let w = point_sides(sides, pj);
     for i in 0..N {
-        let o = joint_offset_sided(&jel[i], &t[i], payload, (sides, &w, i));
         for l in 0..LANES {
-            (out[i][0][l], out[i][1][l]) = tiny_sin_cos(o[l]);
-            let a = o[l].abs();
+            (out[i][0][l], out[i][1][l]) = tiny_sin_cos(o[i][l]);
+            let a = o[i][l].abs();
             big[l] = if a > big[l] { a } else { big[l] };
         }
     }
     if big.iter().any(|&a| a >= TINY_LIMIT) {
-        large_turns::<N>(jel, t, payload, (sides, &w), out);
+        large_turns::<N>(o, out);
     }
 }
 
 /// The lanes of [`joint_turns`] whose offset is at least [`TINY_LIMIT`]: `sin_cos` of the same
-/// offset (the same products and sums, so the same bits).
+/// offset.
 #[cold]
 #[inline(never)]
-fn large_turns<const N: usize>(
-    jel: &JeLanes,
-    t: &PointTerms,
-    payload: bool,
-    (sides, w): (Sides, &[u32; LANES]),
-    out: &mut Turns,
-) {
+fn large_turns<const N: usize>(o: &PointOffsets, out: &mut Turns) {
     for i in 0..N {
-        let o = joint_offset_sided(&jel[i], &t[i], payload, (sides, w, i));
         for l in 0..LANES {
-            if o[l].abs() >= TINY_LIMIT {
-                (out[i][0][l], out[i][1][l]) = o[l].sin_cos();
+            if o[i][l].abs() >= TINY_LIMIT {
+                (out[i][0][l], out[i][1][l]) = o[i][l].sin_cos();
             }
         }
     }
@@ -192,16 +206,4 @@ pub(super) fn tiny_sin_cos(d: f64) -> (f64, f64) {
         d * (1.0 - d2 * (1.0 / 6.0)),
         1.0 - d2 * (0.5 - d2 * (1.0 / 24.0)),
     )
-}
-
-/// [`super::chain_lanes`] with each joint turned further by its lane's offset: the joint
-/// errors' draws, `turns` from [`joint_turns`].
-#[inline(always)]
-pub(super) fn chain_lanes_offset<const N: usize>(
-    jl: &[[[f64; LANES]; 8]; N],
-    tool: &[[f64; LANES]; 3],
-    p: &PointPre,
-    turns: &Turns,
-) -> ([f64; LANES], [f64; LANES], [f64; LANES]) {
-    super::chain_lanes_turned::<N, true>(jl, tool, p, turns)
 }
