@@ -226,6 +226,7 @@ def mcs(
     payload_kg: float | None = None,
     payload_sigma_kg: float = 0.0,
     payload_com: tuple[float, float, float] | None = None,
+    sides: ArrayLike | None = None,
 ) -> RunResult: ...
 def amcs(
     model: Model | None = None,
@@ -256,6 +257,7 @@ def amcs(
     payload_kg: float | None = None,
     payload_sigma_kg: float = 0.0,
     payload_com: tuple[float, float, float] | None = None,
+    sides: ArrayLike | None = None,
 ) -> RunResult: ...
 def compare(
     model: Model | None = None,
@@ -282,6 +284,7 @@ def compare(
     payload_kg: float | None = None,
     payload_sigma_kg: float = 0.0,
     payload_com: tuple[float, float, float] | None = None,
+    sides: ArrayLike | None = None,
 ) -> CompareResult: ...
 def sensitivity(
     model: Model | None = None,
@@ -308,6 +311,7 @@ def sensitivity(
     payload_kg: float | None = None,
     payload_sigma_kg: float = 0.0,
     payload_com: tuple[float, float, float] | None = None,
+    sides: ArrayLike | None = None,
 ) -> SensitivityResult: ...
 def tail(
     model: Model | None = None,
@@ -336,6 +340,7 @@ def tail(
     payload_kg: float | None = None,
     payload_sigma_kg: float = 0.0,
     payload_com: tuple[float, float, float] | None = None,
+    sides: ArrayLike | None = None,
 ) -> TailResult: ...
 def map(
     model: Model | None = None,
@@ -392,6 +397,7 @@ def plan(
     payload_kg: float | None = None,
     payload_sigma_kg: float = 0.0,
     payload_com: tuple[float, float, float] | None = None,
+    sides: ArrayLike | None = None,
 ) -> PlanResult: ...
 def identify(
     data: _Path,

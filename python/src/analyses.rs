@@ -85,7 +85,7 @@ problem_function! {
     /// with `bootstrap` resamples (seed `bootstrap_seed`) for the 95 % intervals; `thresholds`
     /// (mm) adds the indices of the failure indicators 1[w ≥ l_c]. Problem arguments as `mcs`.
     /// Returns a `SensitivityResult`.
-    text_signature = "(model=None, *, draws=8192, bootstrap=300, bootstrap_seed=1, thresholds=(), preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True, payload_kg=None, payload_sigma_kg=0.0, payload_com=None)";
+    text_signature = "(model=None, *, draws=8192, bootstrap=300, bootstrap_seed=1, thresholds=(), preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True, payload_kg=None, payload_sigma_kg=0.0, payload_com=None, sides=None)";
     fn sensitivity(
         draws: usize = 1 << 13,
         bootstrap: usize = 300,
@@ -173,7 +173,7 @@ problem_function! {
     /// (`method="subset"`, `samples_per_level` per level, level probability `p0`) or crude
     /// Monte Carlo (`method="mc"`), to a coefficient of variation `cov`, at most
     /// `max_evaluations` evaluations of w. Problem arguments as `mcs`. Returns a `TailResult`.
-    text_signature = "(model=None, *, threshold=None, cov=0.1, method='subset', max_evaluations=5000000, samples_per_level=1000, p0=0.1, preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True, payload_kg=None, payload_sigma_kg=0.0, payload_com=None)";
+    text_signature = "(model=None, *, threshold=None, cov=0.1, method='subset', max_evaluations=5000000, samples_per_level=1000, p0=0.1, preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True, payload_kg=None, payload_sigma_kg=0.0, payload_com=None, sides=None)";
     fn tail(
         threshold: Option<Bound<'py, PyAny>> = None,
         cov: f64 = 0.1,

@@ -83,7 +83,7 @@ problem_function! {
     /// capped at 10⁸ draws, all at coverage probability `coverage`; each AMCS run's moments are
     /// measured against the MCS run's. Problem arguments as `mcs` (the frame does not apply,
     /// as on the command line). Returns a `CompareResult`.
-    text_signature = "(model=None, *, draws=1000000, deltas=(0.01, 0.02), batch=10000, coverage=0.95, preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True, payload_kg=None, payload_sigma_kg=0.0, payload_com=None)";
+    text_signature = "(model=None, *, draws=1000000, deltas=(0.01, 0.02), batch=10000, coverage=0.95, preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True, payload_kg=None, payload_sigma_kg=0.0, payload_com=None, sides=None)";
     fn compare(
         draws: u64 = 1_000_000,
         deltas: Option<Bound<'py, PyAny>> = None,

@@ -129,7 +129,7 @@ problem_function! {
     /// command line's `--floor`, `--keep-out`, `--no-self-collision` and `--link-radius`;
     /// `approach` ("positive" or "negative", `--approach`) the side every joint arrives at each
     /// pose from. Problem arguments as `mcs`. Returns a `PlanResult`.
-    text_signature = "(model=None, *, poses=30, tracker_sigma=0.01, tracker_at=None, tracker_range=20000.0, max_incidence=60.0, target=None, threshold=(0.02, 0.03, 0.05), candidates=2000, draws=100000, floor=None, keep_out=(), self_collision=True, link_radius=None, approach=None, preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True, payload_kg=None, payload_sigma_kg=0.0, payload_com=None)";
+    text_signature = "(model=None, *, poses=30, tracker_sigma=0.01, tracker_at=None, tracker_range=20000.0, max_incidence=60.0, target=None, threshold=(0.02, 0.03, 0.05), candidates=2000, draws=100000, floor=None, keep_out=(), self_collision=True, link_radius=None, approach=None, preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True, payload_kg=None, payload_sigma_kg=0.0, payload_com=None, sides=None)";
     fn plan(
         poses: usize = 30,
         tracker_sigma: f64 = 0.01,

@@ -35,6 +35,7 @@ pub fn keyword(field: SpecField) -> &'static str {
         SpecField::Adapter => "adapter",
         SpecField::Discrepancy => "discrepancy",
         SpecField::Payload => "payload_kg",
+        SpecField::Sides => "sides",
     }
 }
 
@@ -64,6 +65,9 @@ pub struct ProblemKw<'py> {
     pub payload_sigma_kg: f64,
     /// Its centre of mass in the flange frame, mm (`None`: the model's).
     pub payload_com: Option<[f64; 3]>,
+    /// The backlash sides at the configurations `q_deg` (m × n of 1, −1, 0; the command line's
+    /// points-file columns `s1..sn`).
+    pub sides: Option<Bound<'py, PyAny>>,
 }
 
 /// The reference from the keywords `reference` and `nominal`; without `nominal`, a nominal
@@ -121,6 +125,7 @@ pub fn given_points(
             adapter: None,
             discrepancy: true,
             payload: None,
+            sides: None,
         },
         nominal_from_preset,
         // Parameter rows carry the 5n + 3 inputs (no placement): the robot's own frame.
@@ -282,6 +287,12 @@ impl ProblemKw<'_> {
                     .unwrap_or_else(|| DEFAULT_PRESET.to_string()),
             ),
         };
+        if self.sides.is_some() && self.q_deg.is_none() {
+            return Err(value_error(
+                "sides: belong to the configurations q_deg (a points_file gives its own in s1..sn columns)",
+            ));
+        }
+        let mut sides = None;
         let points = match (&self.q_deg, &self.points_file) {
             (Some(_), Some(_)) => {
                 return Err(value_error(
@@ -297,6 +308,9 @@ impl ProblemKw<'_> {
                         .map_err(|e| arg_error(keyword(model.field()), e))?
                         .joints(),
                 };
+                if let Some(sd) = &self.sides {
+                    sides = Some(arrays::joint_rows(sd, "sides", joints)?.0);
+                }
                 PointsSource::Given(arrays::joint_rows(q, "q_deg", joints)?.0)
             }
             (None, Some(f)) => PointsSource::File(f.clone()),
@@ -336,6 +350,7 @@ impl ProblemKw<'_> {
                     }
                     None => None,
                 },
+                sides,
             },
             nominal_from_preset,
             frame: frame(&self.frame)?,
@@ -353,7 +368,7 @@ impl ProblemKw<'_> {
 /// the problem keywords: `preset=None, points=50, q_deg=None, points_file=None, points_seed=1,
 /// box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None,
 /// backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True,
-/// payload_kg=None, payload_sigma_kg=0.0, payload_com=None`.
+/// payload_kg=None, payload_sigma_kg=0.0, payload_com=None, sides=None`.
 /// `python/tests/test_signatures.py` checks the defaults and that every keyword shown is taken;
 /// `mypy.stubtest` (in `.ci/run`) that `gpu_amcs/_gpu_amcs.pyi` agrees.
 macro_rules! problem_function {
@@ -368,7 +383,7 @@ macro_rules! problem_function {
             reference = "calibrated".to_string(), nominal = None,
             backend = "auto".to_string(), adapter = None, memory_limit = None,
             frame = "measurement".to_string(), discrepancy = true, payload_kg = None,
-            payload_sigma_kg = 0.0, payload_com = None),
+            payload_sigma_kg = 0.0, payload_com = None, sides = None),
             text_signature = $sig)]
         #[allow(clippy::too_many_arguments)]
         pub fn $name<'py>(
@@ -393,6 +408,7 @@ macro_rules! problem_function {
             payload_kg: Option<f64>,
             payload_sigma_kg: f64,
             payload_com: Option<[f64; 3]>,
+            sides: Option<::pyo3::Bound<'py, ::pyo3::PyAny>>,
         ) -> ::pyo3::PyResult<$ret> {
             let $problem = $crate::problem::ProblemKw {
                 model,
@@ -414,6 +430,7 @@ macro_rules! problem_function {
                 payload_kg,
                 payload_sigma_kg,
                 payload_com,
+                sides,
             };
             $body
         }

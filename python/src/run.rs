@@ -127,7 +127,7 @@ problem_function! {
     /// generated with `points_seed` in the box `box_center`/`box_size` (mm; by default the
     /// robot's own box, scaled with its reach as the command line's). Returns a `RunResult`; errors are `ValueError` naming the
     /// argument. `thresholds`: the L of R(L) (mm; a number or a sequence; default 0.1 … 0.8).
-    text_signature = "(model=None, *, draws=1000000, coverage=0.95, interval='shortest', thresholds=(0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8), per_point=False, preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True, payload_kg=None, payload_sigma_kg=0.0, payload_com=None)";
+    text_signature = "(model=None, *, draws=1000000, coverage=0.95, interval='shortest', thresholds=(0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8), per_point=False, preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True, payload_kg=None, payload_sigma_kg=0.0, payload_com=None, sides=None)";
     fn mcs(
         draws: u64 = 1_000_000,
         coverage: f64 = 0.95,
@@ -155,7 +155,7 @@ problem_function! {
     /// twice the standard deviation of every batch estimate is within `delta` mm (default
     /// 0.01; or the tolerance from `ndig` significant digits), at most `max_draws`. Problem and
     /// reporting arguments as `mcs`.
-    text_signature = "(model=None, *, delta=None, ndig=None, batch=10000, max_draws=10000000, coverage=0.95, interval='shortest', thresholds=(0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8), per_point=False, preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True, payload_kg=None, payload_sigma_kg=0.0, payload_com=None)";
+    text_signature = "(model=None, *, delta=None, ndig=None, batch=10000, max_draws=10000000, coverage=0.95, interval='shortest', thresholds=(0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8), per_point=False, preset=None, points=50, q_deg=None, points_file=None, points_seed=1, box_center=None, box_size=None, seed=2025, reference='calibrated', nominal=None, backend='auto', adapter=None, memory_limit=None, frame='measurement', discrepancy=True, payload_kg=None, payload_sigma_kg=0.0, payload_com=None, sides=None)";
     fn amcs(
         delta: Option<f64> = None,
         ndig: Option<u32> = None,

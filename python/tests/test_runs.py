@@ -198,3 +198,44 @@ def test_compare_equals_cli(cli, tmp_path):
             gpu_amcs.compare(points=5, **kw)
         flag = flags[0].split("=")[0]
         assert str(e.value) == want.replace(flag, flag[2:]), flags
+
+
+BACKLASH_TABLE = """
+[joint_errors]
+compliance_urad_per_nm = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+harmonics_deg = [[0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0],
+                 [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0], [0.0, 0.0, 0.0, 0.0]]
+link_mass_kg = [10.0, 8.0, 5.0, 3.0, 1.0, 0.5]
+backlash_deg = [0.08, 0.05, 0.03, 0.02, 0.02, 0.02]
+backlash_sigma_deg = [0.0, 0.0, 0.0, 0.0, 0.0, 0.0]
+"""
+
+
+def test_sides_with_configurations_equal_points_file_columns(cli, tmp_path):
+    """sides= (m × n of 1, -1, 0) at q_deg: the same as a points file's s1..sn columns, from
+    Python and from the command line; misplaced sides name the keyword."""
+    m = gpu_amcs.Model.preset("tx60")
+    model_file = tmp_path / "lash.toml"
+    model_file.write_text(m.to_toml() + BACKLASH_TABLE)
+    lash = gpu_amcs.Model.from_file(model_file)
+    rng = np.random.default_rng(3)
+    q = rng.uniform(m.limits[:, 0] * 0.5, m.limits[:, 1] * 0.5, size=(7, 6)).round(3)
+    s = np.where(rng.uniform(size=(7, 6)) < 0.5, -1, 1)
+    s[2, :] = 0  # point 3: every side drawn
+    csv = tmp_path / "points.csv"
+    csv.write_text("q1,q2,q3,q4,q5,q6,s1,s2,s3,s4,s5,s6\n" + "\n".join(
+        ",".join(map(str, list(r) + list(map(int, t)))) for r, t in zip(q, s)) + "\n")
+    doc = cli_json(cli, tmp_path, "mcs", "--draws", 3000, "--points-file", csv, "--model",
+                   model_file, "--backend", "cpu")
+    by_array = gpu_amcs.mcs(lash, draws=3000, q_deg=q, sides=s, backend="cpu").to_dict()
+    by_file = gpu_amcs.mcs(lash, draws=3000, points_file=csv, backend="cpu").to_dict()
+    assert without_timing(by_array) == without_timing(doc)
+    assert without_timing(by_file) == without_timing(doc)
+    drawn = gpu_amcs.mcs(lash, draws=3000, q_deg=q, backend="cpu").to_dict()
+    assert without_timing(drawn)["result"] != without_timing(by_array)["result"]
+    with pytest.raises(ValueError, match=r"^sides: belong to the configurations q_deg"):
+        gpu_amcs.mcs(lash, sides=s, draws=100, backend="cpu")
+    with pytest.raises(ValueError, match=r"^sides: .*5 rows of sides for 7 test points"):
+        gpu_amcs.mcs(lash, q_deg=q, sides=s[:5], draws=100, backend="cpu")
+    with pytest.raises(ValueError, match=r"^sides: .*backlash_deg"):
+        gpu_amcs.mcs(m, q_deg=q, sides=s, draws=100, backend="cpu")

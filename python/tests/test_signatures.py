@@ -22,7 +22,8 @@ CLASSES = [gpu_amcs.Model, gpu_amcs.RunResult, gpu_amcs.CompareResult, gpu_amcs.
 PROBLEM = dict(preset=None, points=50, q_deg=None, points_file=None, points_seed=1,
                box_center=None, box_size=None, seed=2025, reference="calibrated", nominal=None,
                backend="auto", adapter=None, memory_limit=None, frame="measurement",
-               discrepancy=True, payload_kg=None, payload_sigma_kg=0.0, payload_com=None)
+               discrepancy=True, payload_kg=None, payload_sigma_kg=0.0, payload_com=None,
+               sides=None)
 DEFAULT_THRESHOLDS = (0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8)
 
 

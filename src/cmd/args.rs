@@ -484,6 +484,8 @@ impl ProblemArgs {
                     },
                 }),
             },
+            // Sides at given points come from the points file's s1..sn columns.
+            sides: None,
         })
     }
 

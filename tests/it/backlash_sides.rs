@@ -483,3 +483,99 @@ fn simulated_backlash_from_the_command_line() {
     ]);
     assert!(!o.status.success() && stderr(&o).contains("--backlash: 11 is not a scale in 0–10"));
 }
+
+/// Given configurations can carry their sides in the spec (the Python keyword `sides`, a job
+/// file's `sides`): the problem it builds fixes them as a points file's `s1..sn` would, and
+/// sides without given configurations, of another count, or for a model without backlash are
+/// refused naming the field.
+#[test]
+fn given_configurations_carry_their_sides_in_the_spec() {
+    use crate::backlash::{only_backlash, points};
+    use gpu_amcs::engine::{CpuEvaluator, Evaluator, Problem, Reference};
+    use gpu_amcs::kinematics::Joints;
+    use gpu_amcs::spec::{GeneratedPoints, ModelSource, PointsSource, ProblemSpec, SpecField};
+    let gaps = [0.08, 0.05, 0.03, 0.0, 0.0, 0.0];
+    let model = only_backlash(&gaps);
+    let pts = points();
+    let m = pts.len();
+    let known: Vec<Joints> = (0..m)
+        .map(|j| Joints::from_fn(6, |i| if (j + i) % 2 == 0 { 1.0 } else { -1.0 }))
+        .collect();
+    let given: Vec<Joints> = pts.iter().map(|q| Joints::from_fn(6, |i| q[i])).collect();
+    let spec = ProblemSpec {
+        model: ModelSource::Model(Box::new(model.clone())),
+        points: PointsSource::Given(given.clone()),
+        seed: 5,
+        sides: Some(known.clone()),
+        ..ProblemSpec::default()
+    };
+    let built = spec.build_problem().unwrap().problem;
+    let mut direct = Problem::new(model.clone(), &pts, &Reference::Calibrated, 5).unwrap();
+    direct.set_known_sides(&known).unwrap();
+    let n = 64;
+    let eval = |p: Problem| {
+        let (mut w, mut e) = (vec![0.0; n], vec![0.0; n * m]);
+        CpuEvaluator::new(p)
+            .evaluate(0, &mut w, Some(&mut e))
+            .unwrap();
+        e
+    };
+    let (a, b) = (eval(built), eval(direct));
+    assert_eq!(a, b, "the spec's sides are the problem's");
+    // Every side known: each point's error is the same in every draw (no spread), and not 0
+    // (the reference stays the calibrated chain's).
+    for j in 0..m {
+        assert!(a[j] > 1e-4, "point {j}: {}", a[j]);
+        assert!((0..n).all(|k| a[k * m + j] == a[j]), "point {j} spreads");
+    }
+    // Without the sides every draw draws them: the errors spread.
+    let free = ProblemSpec {
+        sides: None,
+        ..spec.clone()
+    };
+    let c = eval(free.build_problem().unwrap().problem);
+    assert!((0..m).any(|j| (0..n).any(|k| c[k * m + j] != c[j])));
+    let refused = |s: ProblemSpec, what: &str| {
+        let Err(e) = s.build_problem() else {
+            panic!("{what}: accepted")
+        };
+        assert_eq!(e.field, SpecField::Sides, "{what}: {e}");
+        e.to_string()
+    };
+    let msg = refused(
+        ProblemSpec {
+            points: PointsSource::Generate(GeneratedPoints {
+                count: m,
+                ..GeneratedPoints::default()
+            }),
+            ..spec.clone()
+        },
+        "generated points",
+    );
+    assert!(msg.contains("only given configurations"), "{msg}");
+    refused(
+        ProblemSpec {
+            sides: Some(known[..m - 1].to_vec()),
+            ..spec.clone()
+        },
+        "one row short",
+    );
+    let mut bad = known.clone();
+    bad[1] = Joints::from_fn(6, |_| 2.0);
+    refused(
+        ProblemSpec {
+            sides: Some(bad),
+            ..spec.clone()
+        },
+        "a side of 2",
+    );
+    let mut plain = model.clone();
+    plain.joint_errors = None;
+    refused(
+        ProblemSpec {
+            model: ModelSource::Model(Box::new(plain)),
+            ..spec
+        },
+        "a model without backlash",
+    );
+}

@@ -22,6 +22,8 @@ pub fn spec_flag(field: SpecField) -> &'static str {
         SpecField::Adapter => "--adapter",
         SpecField::Discrepancy => "--no-discrepancy",
         SpecField::Payload => "--payload-kg",
+        // The command line gives sides as a points file's s1..sn columns.
+        SpecField::Sides => "--points-file",
     }
 }
 

@@ -42,11 +42,13 @@ pub enum SpecField {
     Discrepancy,
     /// The payload at the task ([`ProblemSpec::payload`](super::ProblemSpec::payload)).
     Payload,
+    /// The backlash sides at given configurations ([`ProblemSpec::sides`](super::ProblemSpec::sides)).
+    Sides,
 }
 
 impl SpecField {
     /// Every field.
-    pub const ALL: [SpecField; 15] = [
+    pub const ALL: [SpecField; 16] = [
         SpecField::Model,
         SpecField::Preset,
         SpecField::Points,
@@ -62,6 +64,7 @@ impl SpecField {
         SpecField::Adapter,
         SpecField::Discrepancy,
         SpecField::Payload,
+        SpecField::Sides,
     ];
 
     /// The field's name in messages, e.g. `points_file`.
@@ -82,6 +85,7 @@ impl SpecField {
             SpecField::Adapter => "adapter",
             SpecField::Discrepancy => "discrepancy",
             SpecField::Payload => "payload",
+            SpecField::Sides => "sides",
         }
     }
 
@@ -104,6 +108,7 @@ impl SpecField {
             SpecField::Adapter => "adapter",
             SpecField::Discrepancy => "discrepancy",
             SpecField::Payload => "payload",
+            SpecField::Sides => "sides",
         }
     }
 

@@ -176,6 +176,11 @@ pub struct ProblemSpec {
     /// ([`crate::kinematics::JointErrors`]); `None` keeps the model's own (by default the one
     /// during its calibration).
     pub payload: Option<PayloadSpec>,
+    /// The backlash sides the robot arrives at given configurations from, one row per
+    /// configuration (`sides[j][i]`: `1` joint `i` moving positive, `-1`, `0` not known, drawn);
+    /// only with [`PointsSource::Given`] (a points file gives its own in `s1..sn` columns) and a
+    /// model with backlash ([`Problem::set_known_sides`]). `None`: every side drawn.
+    pub sides: Option<Vec<Joints>>,
 }
 
 /// A payload at the task: mass with its standard uncertainty, and optionally its centre of mass.
@@ -241,6 +246,7 @@ impl Default for ProblemSpec {
             adapter: None,
             discrepancy: true,
             payload: None,
+            sides: None,
         }
     }
 }
@@ -554,6 +560,9 @@ impl ProblemSpec {
         let mut problem = problem;
         if let PointsSource::File(f) = &self.points {
             sides::apply_file_sides(&mut problem, f)?;
+        }
+        if let Some(given) = &self.sides {
+            sides::apply_given_sides(&mut problem, &self.points, given)?;
         }
         let mut notes = notes;
         let problem = if self.discrepancy {

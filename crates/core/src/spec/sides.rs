@@ -1,8 +1,9 @@
-//! The backlash sides a points file gives its configurations (docs/METHOD.md §19.5): read
-//! with the points and fixed in the problem built from them.
+//! The backlash sides a points file or the spec gives the configurations (docs/METHOD.md
+//! §19.5): read with the points and fixed in the problem built from them.
 
-use super::{SpecError, SpecErrorKind, SpecField};
-use crate::engine::Problem;
+use super::{PointsSource, SpecError, SpecErrorKind, SpecField};
+use crate::engine::{Problem, ProblemError};
+use crate::kinematics::Joints;
 use crate::points;
 
 /// Fixes in `problem` the sides the points file `path` gives (its `s1..sn` columns), if any.
@@ -29,4 +30,36 @@ pub(super) fn apply_file_sides(
             },
         )
     })
+}
+
+/// Fixes in `problem` the sides `given` of the spec's given configurations `points`.
+///
+/// # Errors
+///
+/// Naming [`SpecField::Sides`]: sides with generated points or a points file (which gives its
+/// own in `s1..sn` columns), and the problem's refusal of them ([`Problem::set_known_sides`]: a
+/// count or a value out of place, a model without backlash).
+pub(super) fn apply_given_sides(
+    problem: &mut Problem,
+    points: &PointsSource,
+    given: &[Joints],
+) -> Result<(), SpecError> {
+    let refuse =
+        |message: &str| SpecError::new(SpecField::Sides, ProblemError::Sides(message.to_string()));
+    match points {
+        PointsSource::Given(_) => {}
+        PointsSource::File(_) => {
+            return Err(refuse(
+                "only given configurations carry them here (a points file gives its own in s1..sn columns)",
+            ))
+        }
+        PointsSource::Generate(_) => {
+            return Err(refuse(
+                "only given configurations carry them (generated points have none known)",
+            ))
+        }
+    }
+    problem
+        .set_known_sides(given)
+        .map_err(|e| SpecError::new(SpecField::Sides, e))
 }
