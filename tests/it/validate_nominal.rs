@@ -303,6 +303,19 @@ fn validate_writes_json() {
     assert_eq!(j["model"]["errors_mm"]["points"], 40);
     assert!(j["nominal"].is_null());
     assert!(j["predictive_check"]["parameters_only"].is_object(), "{j}");
+    // Every held-out pose against its prediction, with the line it has in the file.
+    let poses = j["predictive_check"]["poses"].as_array().expect("poses");
+    assert_eq!(poses.len(), 40);
+    let text = std::fs::read_to_string(&held).unwrap();
+    let rows: Vec<u64> = (text.lines().enumerate())
+        .filter(|(i, l)| *i > 0 && !l.trim().is_empty() && !l.starts_with('#'))
+        .map(|(i, _)| i as u64 + 1)
+        .collect();
+    for (p, line) in poses.iter().zip(&rows) {
+        assert_eq!(p["line"].as_u64(), Some(*line), "{p}");
+        let (e, b, u) = (p["error_mm"].as_f64(), p["bound_95_mm"].as_f64(), p["pit"].as_f64());
+        assert!(e.unwrap() >= 0.0 && b.unwrap() > 0.0 && (0.0..=1.0).contains(&u.unwrap()));
+    }
     let o = run(&[
         "validate",
         "--model",

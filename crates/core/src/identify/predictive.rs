@@ -22,6 +22,9 @@ use serde::Serialize;
 /// Per-point draws × points evaluated at most (memory: 8 bytes each, twice).
 const MAX_CELLS: usize = 20_000_000;
 
+/// Poses outside the bound the terminal paragraph names (the JSON has every pose).
+const SHOWN_OUTSIDE: usize = 8;
+
 /// The predictive figures of one kind of prediction.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Coverage {
@@ -35,6 +38,20 @@ pub struct Coverage {
     pub pit_max_at_least_090: f64,
     /// Fraction of subsets with PIT ≤ 0.1 (ideal 0.1).
     pub pit_max_at_most_010: f64,
+}
+
+/// One held-out pose against its predicted error distribution.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct PosePrediction {
+    /// The pose's line in the measurement file.
+    pub line: u64,
+    /// Its observed error, mm.
+    pub error_mm: f64,
+    /// The predicted 95 % bound of its error, mm.
+    pub bound_95_mm: f64,
+    /// The share of predicted errors at most the observed one (its PIT: honest predictions
+    /// give values spread evenly over 0–1; above 0.95 is outside the bound).
+    pub pit: f64,
 }
 
 /// The predictive check of a model against held-out measurements.
@@ -54,6 +71,9 @@ pub struct PredictiveCheck {
     pub with_term: Option<Coverage>,
     /// The parameters' uncertainty alone.
     pub parameters_only: Coverage,
+    /// Each pose against the prediction with the discrepancy term (the parameters' alone for a
+    /// model without one), in the order of the measurements.
+    pub poses: Vec<PosePrediction>,
 }
 
 impl PredictiveCheck {
@@ -84,6 +104,32 @@ impl PredictiveCheck {
             "  parameters' uncertainty alone: {}\n",
             line(&self.parameters_only)
         ));
+        let mut outside: Vec<&PosePrediction> = (self.poses.iter())
+            .filter(|p| p.error_mm > p.bound_95_mm)
+            .collect();
+        if !outside.is_empty() {
+            outside.sort_by(|a, b| b.pit.total_cmp(&a.pit).then(a.line.cmp(&b.line)));
+            let shown: Vec<String> = (outside.iter().take(SHOWN_OUTSIDE))
+                .map(|p| format!("{} ({:.3} > {:.3} mm)", p.line, p.error_mm, p.bound_95_mm))
+                .collect();
+            s.push_str(&format!(
+                "  outside the 95 % bound{}: {} of {} poses, at line{} {}{}\n",
+                if self.with_term.is_some() {
+                    " with the term"
+                } else {
+                    ""
+                },
+                outside.len(),
+                self.points,
+                if outside.len() == 1 { "" } else { "s" },
+                shown.join(", "),
+                if outside.len() > SHOWN_OUTSIDE {
+                    ", …"
+                } else {
+                    ""
+                }
+            ));
+        }
         s
     }
 }
@@ -157,7 +203,7 @@ pub fn predictive_check(
     let subsets = 1000;
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0x005E_ED0F_C0DE);
     let picks = crate::discrepancy::random_subsets(n, subset, subsets, &mut rng);
-    let coverage = |term: bool| -> Result<Coverage, IdentifyError> {
+    let coverage = |term: bool| -> Result<(Coverage, Vec<PosePrediction>), IdentifyError> {
         let mut e = vec![0.0; draws * n];
         for (p, idx) in &problems {
             let p = if term {
@@ -177,13 +223,26 @@ pub fn predictive_check(
                 }
             }
         }
-        Ok(figures(&e, draws, &observed, &picks))
+        let (c, per_pose) = figures(&e, draws, &observed, &picks);
+        let poses = (measurements.iter().zip(&observed).zip(per_pose))
+            .map(|((m, &error_mm), (bound_95_mm, pit))| PosePrediction {
+                line: m.line,
+                error_mm,
+                bound_95_mm,
+                pit,
+            })
+            .collect();
+        Ok((c, poses))
     };
     let with_term = match model.discrepancy {
         Some(_) => Some(coverage(true)?),
         None => None,
     };
-    let parameters_only = coverage(false)?;
+    let (parameters_only, alone) = coverage(false)?;
+    let (with_term, poses) = match with_term {
+        Some((c, p)) => (Some(c), p),
+        None => (None, alone),
+    };
     let rms_mm = (observed.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
     Ok(PredictiveCheck {
         points: n,
@@ -193,15 +252,22 @@ pub fn predictive_check(
         subsets,
         with_term,
         parameters_only,
+        poses,
     })
 }
 
 /// Coverage and PIT figures of per-point errors `e` (draw-major, `draws × n`) against the
-/// observed errors, over the subsets `picks`.
-fn figures(e: &[f64], draws: usize, observed: &[f64], picks: &[Vec<usize>]) -> Coverage {
+/// observed errors, over the subsets `picks`; and per point its 95 % bound and PIT.
+fn figures(
+    e: &[f64],
+    draws: usize,
+    observed: &[f64],
+    picks: &[Vec<usize>],
+) -> (Coverage, Vec<(f64, f64)>) {
     let n = observed.len();
     let mut inside = 0usize;
     let mut col = vec![0.0; draws];
+    let mut per_point = Vec::with_capacity(n);
     for j in 0..n {
         for k in 0..draws {
             col[k] = e[k * n + j];
@@ -209,6 +275,8 @@ fn figures(e: &[f64], draws: usize, observed: &[f64], picks: &[Vec<usize>]) -> C
         col.sort_by(f64::total_cmp);
         let q95 = col[((0.95 * draws as f64).ceil() as usize).clamp(1, draws) - 1];
         inside += usize::from(observed[j] <= q95);
+        let below = col.partition_point(|&v| v <= observed[j]);
+        per_point.push((q95, below as f64 / draws as f64));
     }
     let pits: Vec<f64> = picks
         .iter()
@@ -222,13 +290,14 @@ fn figures(e: &[f64], draws: usize, observed: &[f64], picks: &[Vec<usize>]) -> C
         .collect();
     let frac =
         |f: &dyn Fn(f64) -> bool| pits.iter().filter(|&&u| f(u)).count() as f64 / pits.len() as f64;
-    Coverage {
+    let c = Coverage {
         coverage_95: inside as f64 / n as f64,
         pit_max_mean: pits.iter().sum::<f64>() / pits.len() as f64,
         pit_max_at_least_099: frac(&|u| u >= 0.99),
         pit_max_at_least_090: frac(&|u| u >= 0.9),
         pit_max_at_most_010: frac(&|u| u <= 0.1),
-    }
+    };
+    (c, per_point)
 }
 
 #[cfg(test)]
@@ -299,6 +368,43 @@ mod tests {
             c.render()
         );
         assert!(c.render().contains("with the discrepancy term"));
+        // Each pose against the prediction with the term: in the measurements' order, its
+        // observed error, and inside its bound as often as the coverage says; the PITs of an
+        // honest prediction spread evenly (mean ½, a tenth below 0.1 within binomial error).
+        assert_eq!(c.poses.len(), measurements.len());
+        let observed = point_errors_in(&model, &measurements, Placement::Known);
+        for ((p, m), o) in c.poses.iter().zip(&measurements).zip(&observed) {
+            assert_eq!(p.line, m.line);
+            assert_eq!(p.error_mm, *o);
+            assert!(p.bound_95_mm > 0.0 && (0.0..=1.0).contains(&p.pit));
+            assert_eq!(
+                p.error_mm <= p.bound_95_mm,
+                p.pit < 0.95 || p.error_mm == p.bound_95_mm
+            );
+        }
+        let n = c.poses.len() as f64;
+        let inside = c
+            .poses
+            .iter()
+            .filter(|p| p.error_mm <= p.bound_95_mm)
+            .count() as f64;
+        assert_eq!(inside / n, with.coverage_95);
+        let mean_pit = c.poses.iter().map(|p| p.pit).sum::<f64>() / n;
+        let low = c.poses.iter().filter(|p| p.pit < 0.1).count() as f64 / n;
+        assert!((mean_pit - 0.5).abs() < 0.05, "mean PIT {mean_pit}");
+        assert!((low - 0.1).abs() < 0.06, "share below 0.1: {low}");
+        let outside = c
+            .poses
+            .iter()
+            .filter(|p| p.error_mm > p.bound_95_mm)
+            .count();
+        assert!(
+            c.render().contains(&format!(
+                "outside the 95 % bound with the term: {outside} of"
+            )),
+            "{}",
+            c.render()
+        );
         let err = predictive_check(&model, &measurements[..1], Placement::Known, 100, 1);
         assert!(err.unwrap_err().to_string().contains("at least 2"));
     }
