@@ -579,3 +579,68 @@ fn given_configurations_carry_their_sides_in_the_spec() {
         "a model without backlash",
     );
 }
+
+/// An analysis's note says what it does with the backlash's sides: given at every point, at
+/// some (counted over the joints with a gap), or drawn at every point with what drawing them
+/// showed on real data.
+#[test]
+fn the_note_says_whether_the_sides_are_given_or_drawn() {
+    use crate::backlash::{only_backlash, points};
+    use crate::common::stdout;
+    let d = tmpdir("backlash_sides_note");
+    let model = arg(&d, "lash.toml");
+    // Gaps on J1–J3: 3 joints × 5 points.
+    std::fs::write(
+        &model,
+        only_backlash(&[0.08, 0.05, 0.03, 0.0, 0.0, 0.0]).to_toml(),
+    )
+    .unwrap();
+    let pts = points();
+    let write = |name: &str, side: &dyn Fn(usize, usize) -> i32| {
+        let rows: Vec<String> = (pts.iter().enumerate())
+            .map(|(j, q)| {
+                let q: Vec<String> = q.iter().map(|v| v.to_string()).collect();
+                let s: Vec<String> = (0..6).map(|i| side(j, i).to_string()).collect();
+                format!("{},{}", q.join(","), s.join(","))
+            })
+            .collect();
+        let f = arg(&d, name);
+        std::fs::write(
+            &f,
+            format!("q1,q2,q3,q4,q5,q6,s1,s2,s3,s4,s5,s6\n{}\n", rows.join("\n")),
+        )
+        .unwrap();
+        f
+    };
+    let all = write("all.csv", &|_, _| 1);
+    let some = write("some.csv", &|j, i| if j == 0 && i == 1 { 0 } else { -1 });
+    let none = write("none.csv", &|_, _| 0);
+    let note = |file: &str| {
+        let o = run(&[
+            "mcs",
+            "--model",
+            &model,
+            "--points-file",
+            file,
+            "--draws",
+            "2000",
+            "--backend",
+            "cpu",
+        ]);
+        assert!(o.status.success(), "{}", stderr(&o));
+        let out = stdout(&o);
+        out.lines()
+            .find(|l| l.contains("joint errors drawn"))
+            .unwrap_or_else(|| panic!("no joint errors note: {out}"))
+            .to_string()
+    };
+    assert!(note(&all).ends_with("its sides given at every point"));
+    assert!(note(&some)
+        .ends_with("its sides given for 14 of the 15 (point, joint) pairs, the rest drawn"));
+    let drawn = note(&none);
+    assert!(
+        drawn.contains("its sides drawn at every point, as they are not known there"),
+        "{drawn}"
+    );
+    assert!(drawn.contains("91.8 %"), "{drawn}");
+}

@@ -313,7 +313,11 @@ fn validate_writes_json() {
         .collect();
     for (p, line) in poses.iter().zip(&rows) {
         assert_eq!(p["line"].as_u64(), Some(*line), "{p}");
-        let (e, b, u) = (p["error_mm"].as_f64(), p["bound_95_mm"].as_f64(), p["pit"].as_f64());
+        let (e, b, u) = (
+            p["error_mm"].as_f64(),
+            p["bound_95_mm"].as_f64(),
+            p["pit"].as_f64(),
+        );
         assert!(e.unwrap() >= 0.0 && b.unwrap() > 0.0 && (0.0..=1.0).contains(&u.unwrap()));
     }
     let o = run(&[

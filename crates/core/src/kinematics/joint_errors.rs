@@ -226,7 +226,7 @@ impl JointErrors {
         };
         let backlash = match &self.backlash {
             Some(b) if b.acts() => format!(
-                ", backlash of J{} drawn from either side at every point (half gaps {} deg)",
+                ", backlash of J{} (half gaps {} deg)",
                 (0..b.gap_rad.len())
                     .filter(|&j| b.half_spread(j) > 0.0)
                     .map(|j| (j + 1).to_string())

@@ -344,9 +344,10 @@ pub fn make_frame_evaluator(
         .as_ref()
         .and(problem.model.discrepancy.as_ref())
         .map(|d| d.describe());
-    let joint_errors = (problem.joint_errors.as_ref())
-        .and(problem.model.joint_errors.as_ref())
-        .map(|e| e.describe());
+    let joint_errors = match (&problem.joint_errors, &problem.model.joint_errors) {
+        (Some(t), Some(e)) => Some(e.describe() + &sides::note(t)),
+        _ => None,
+    };
     let (ev, mut notes) = make_evaluator(backends, problem, backend, adapter)?;
     if let Some(t) = term {
         notes.push(format!("{t}: drawn at every test point"));

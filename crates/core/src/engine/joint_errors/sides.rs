@@ -60,6 +60,18 @@ impl JointErrorDraws {
         Ok(())
     }
 
+    /// How many of the (test point, joint with a gap) pairs have a known side, of how many:
+    /// `(0, total)` when every side is drawn.
+    pub fn sides_known(&self) -> (usize, usize) {
+        let acting = (0..self.joints).filter(|&i| self.half_gap[i] > 0.0);
+        let acting: Vec<usize> = acting.collect();
+        let total = acting.len() * self.terms.len();
+        let known = (self.known.iter())
+            .map(|[mask, _]| acting.iter().filter(|&&i| (mask >> i) & 1 == 1).count())
+            .sum();
+        (known, total)
+    }
+
     /// A point's side word `w` with the sides known at test point `point` put in.
     #[inline(always)]
     pub fn with_known(&self, w: u32, point: usize) -> u32 {
