@@ -642,5 +642,8 @@ fn the_note_says_whether_the_sides_are_given_or_drawn() {
         drawn.contains("its sides drawn at every point, as they are not known there"),
         "{drawn}"
     );
-    assert!(drawn.contains("91.8 %"), "{drawn}");
+    assert!(
+        drawn.contains("91.8 %") && drawn.contains("94.9 %"),
+        "{drawn}"
+    );
 }
