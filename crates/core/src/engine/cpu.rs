@@ -34,7 +34,7 @@ mod chain;
 mod joint_errors;
 mod placement;
 use chain::block_kernel;
-use joint_errors::{term_lanes, PointOffsets, Sides};
+use joint_errors::{term_lanes, PointScratch, Sides};
 use placement::PlacementLanes;
 
 /// Draws per vector block.
@@ -318,8 +318,7 @@ impl CpuEvaluator {
         let mut jel: JeLanes = [[[0.0; LANES]; 6]; MAX_JOINTS];
         let mut sides = [[0u32; LANES]; 2];
         // The joint errors' offsets of a block at every point (`point_offsets`).
-        let mut offs: Vec<PointOffsets> =
-            vec![[[0.0; LANES]; MAX_JOINTS]; if term.is_some() { m } else { 0 }];
+        let mut offs = PointScratch::new(m, term);
         for (b, wb) in w.chunks_mut(LANES).enumerate() {
             src.skip(b * LANES)
                 .lanes(&self.problem.sampler, &mut d, &mut z);

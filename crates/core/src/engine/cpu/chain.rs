@@ -2,7 +2,7 @@
 //! joint errors' offsets when the model has them), its squared error against the point's
 //! reference and the block's maximum ([`block_kernel`]).
 
-use super::joint_errors::{joint_turns, point_offsets, PointOffsets, Turns};
+use super::joint_errors::{joint_turns, point_offsets, PointScratch, Turns};
 use super::{Disc, Je, PointPre, LANES};
 use crate::kinematics::MAX_JOINTS;
 
@@ -69,7 +69,7 @@ pub(super) fn block_kernel<const N: usize, const PLACED: bool>(
     (pts, t): (&[PointPre], &Placed),
     w2: &mut [f64; LANES],
     mut e: Option<&mut [f64]>,
-    (disc, je, offs): (Disc, Je, &mut [PointOffsets]),
+    (disc, je, offs): (Disc, Je, &mut PointScratch),
 ) {
     let m = pts.len();
     let mut words = [[0u32; LANES]; 4];
@@ -81,7 +81,7 @@ pub(super) fn block_kernel<const N: usize, const PLACED: bool>(
         let (mut x, mut y, mut z) = match je {
             None => chain_lanes(jl, tool, p),
             Some(_) => {
-                joint_turns::<N>(&offs[pj], &mut turns);
+                joint_turns::<N>(&offs.offsets[pj], &mut turns);
                 chain_lanes_turned::<N, true>(jl, tool, p, &turns)
             }
         };

@@ -131,12 +131,38 @@ fn joint_offset(f: &[[f64; LANES]; 6], t: &[f64; 6], payload: bool) -> [f64; LAN
     o
 }
 
-/// The joint-angle offsets of a block of lanes at every test point: `[point][joint][lane]`.
+/// The joint-angle offsets of a block of lanes at a test point: `[joint][lane]`.
 pub(super) type PointOffsets = [[f64; LANES]; MAX_JOINTS];
 
+/// A rayon task's room for [`point_offsets`], allocated once: each point's offsets and, with
+/// backlash, each point's side words.
+pub(super) struct PointScratch {
+    /// Per test point its offsets.
+    pub offsets: Vec<PointOffsets>,
+    /// Per test point the lanes' side words (empty without backlash).
+    words: Vec<[u32; LANES]>,
+}
+
+impl PointScratch {
+    /// Room for `points` test points of `term` (none without a term).
+    pub fn new(points: usize, term: Option<&JointErrorDraws>) -> PointScratch {
+        PointScratch {
+            offsets: vec![[[0.0; LANES]; MAX_JOINTS]; if term.is_some() { points } else { 0 }],
+            words: vec![
+                [0; LANES];
+                if term.is_some_and(|t| t.backlash) {
+                    points
+                } else {
+                    0
+                }
+            ],
+        }
+    }
+}
+
 /// The joint-angle offsets of `LANES` draws at every test point (quantities `terms`), from their
-/// lane factors `jel`, into `out[point]`: joint by joint, so that a joint's factors stay in
-/// registers while the points stream past ([`joint_offset_sided`] of each, the same products
+/// lane factors `jel`, into `out.offsets[point]`: joint by joint, so that a joint's factors stay
+/// in registers while the points stream past ([`joint_offset_sided`] of each, the same products
 /// and sums, so the same bits as one point at a time).
 #[inline(always)]
 pub(super) fn point_offsets<const N: usize>(
@@ -144,17 +170,18 @@ pub(super) fn point_offsets<const N: usize>(
     terms: &[PointTerms],
     payload: bool,
     sides: Sides,
-    out: &mut [PointOffsets],
+    out: &mut PointScratch,
 ) {
-    let words: Vec<[u32; LANES]> = match sides {
-        Some(_) => (0..terms.len()).map(|pj| point_sides(sides, pj)).collect(),
-        None => Vec::new(),
-    };
     const NONE: [u32; LANES] = [0; LANES];
+    if sides.is_some() {
+        for (pj, w) in out.words.iter_mut().enumerate() {
+            *w = point_sides(sides, pj);
+        }
+    }
     for i in 0..N {
         let f = &jel[i];
-        for (pj, (t, o)) in terms.iter().zip(out.iter_mut()).enumerate() {
-            let w = words.get(pj).unwrap_or(&NONE);
+        for (pj, (t, o)) in terms.iter().zip(out.offsets.iter_mut()).enumerate() {
+            let w = out.words.get(pj).unwrap_or(&NONE);
             o[i] = joint_offset_sided(f, &t[i], payload, (sides, w, i));
         }
     }
