@@ -259,6 +259,7 @@ fn draw_cost(reps: usize) {
                 .map(|g: &f64| g.to_radians())
                 .collect(),
             sigma_rad: vec![0.003f64.to_radians(); 6],
+            sides_unknown: None,
         });
     }
     let measured = Problem::new(model, &task, &Reference::Calibrated, 1).unwrap();

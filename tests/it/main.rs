@@ -9,6 +9,7 @@ mod common;
 mod amcs_vs_mcs;
 mod backlash;
 mod backlash_sides;
+mod backlash_unknown;
 mod base_references;
 mod beyond_geometry;
 mod blocks;

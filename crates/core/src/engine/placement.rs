@@ -60,6 +60,7 @@ impl Problem {
     /// the 33 × 33 block).
     pub fn without_placement(mut self) -> Problem {
         self.model = self.model.without_base_uncertainty();
+        self.sided = self.sided.map(|m| Box::new(m.without_base_uncertainty()));
         self
     }
 

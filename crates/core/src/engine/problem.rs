@@ -135,6 +135,15 @@ pub struct Problem {
     /// geometric model or one whose joint errors carry no uncertainty (their mean deflections
     /// are in [`Self::chain_points`] either way).
     pub joint_errors: Option<JointErrorDraws>,
+    /// The model as given, while [`Self::model`] is its prediction for backlash sides not known
+    /// ([`RobotModel::with_sides_unknown`]): until [`Self::set_known_sides`] gives every
+    /// point's sides. `None` for a model without a term for unknown sides.
+    pub sided: Option<Box<RobotModel>>,
+    /// The (test point, joint with a gap) pairs whose side was given, of how many, when sides
+    /// were given at some points but not all while [`Self::sided`] is kept: they are not used.
+    pub sides_unused: Option<(usize, usize)>,
+    /// How the discrepancy term is drawn; `None` when it is left out.
+    discrepancy_use: Option<DiscrepancyUse>,
 }
 
 impl Problem {
@@ -225,6 +234,11 @@ impl Problem {
             .iter()
             .map(|q| q.as_ref().iter().map(|v| v.to_radians()).collect())
             .collect();
+        // Sides are not known until given: a model with a term for that predicts without them.
+        let (model, sided) = match model.with_sides_unknown() {
+            Some(centre) => (centre, Some(Box::new(model))),
+            None => (model, None),
+        };
         let chain_points: Vec<Joints> = points.iter().map(|q| model.chain_angles(q)).collect();
         // The calibrated reference is where the calibrated model puts the target (with its
         // joint errors at the payload during calibration: a task payload that differs bends the
@@ -247,6 +261,9 @@ impl Problem {
         Ok(Problem {
             joint_errors,
             discrepancy,
+            sided,
+            sides_unused: None,
+            discrepancy_use: Some(DiscrepancyUse::Robot),
             model,
             points,
             chain_points,
@@ -260,6 +277,7 @@ impl Problem {
     /// (what the reliability was before the term; for comparisons and the self-checks).
     pub fn without_discrepancy(mut self) -> Problem {
         self.discrepancy = None;
+        self.discrepancy_use = None;
         self
     }
 
@@ -267,6 +285,7 @@ impl Problem {
     /// [`DiscrepancyUse::Robot`]); nothing changes for a model without one.
     pub fn with_discrepancy_use(mut self, usage: DiscrepancyUse) -> Problem {
         self.discrepancy = discrepancy_draws(&self.model, &self.points, usage, self.seed);
+        self.discrepancy_use = Some(usage);
         self
     }
 
@@ -323,7 +342,9 @@ impl Problem {
     }
 
     /// Fixes the backlash sides known at the test points (`sides[j][i]`: +1, −1, or 0 for
-    /// drawn; [`JointErrorDraws::set_known_sides`]).
+    /// drawn; [`JointErrorDraws::set_known_sides`]). A problem predicting for unknown sides
+    /// ([`Self::sided`]) turns to the model as given when `sides` give every point's, and
+    /// otherwise stays as it is, counting them in [`Self::sides_unused`].
     ///
     /// # Errors
     ///
@@ -333,6 +354,26 @@ impl Problem {
         &mut self,
         sides: &[crate::kinematics::Joints],
     ) -> Result<(), ProblemError> {
+        if let Some(sided) = self.sided.take() {
+            let mut t = JointErrorDraws::new(&sided, &self.points, self.seed)?;
+            if let Some(t) = t.as_mut().filter(|t| t.backlash) {
+                if let Err(e) = t.set_known_sides(sides) {
+                    self.sided = Some(sided);
+                    return Err(ProblemError::Sides(e));
+                }
+            }
+            if !sides.iter().all(|s| sided.sides_complete(s)) {
+                self.sides_unused = t.as_ref().map(|t| t.sides_known());
+                self.sided = Some(sided);
+                return Ok(());
+            }
+            self.joint_errors = t;
+            self.model = *sided;
+            self.sides_unused = None;
+            self.discrepancy = (self.discrepancy_use)
+                .and_then(|u| discrepancy_draws(&self.model, &self.points, u, self.seed));
+            return Ok(());
+        }
         let Some(t) = self.joint_errors.as_mut().filter(|t| t.backlash) else {
             return Err(ProblemError::Model {
                 model: self.model.name.clone(),

@@ -234,7 +234,8 @@ pub fn identify_chain(
         opts.beyond_geometry != JointErrorFit::Off,
         monte_carlo,
     );
-    let (first, extended) = identify_geometry(points, nominal, start, prior, opts, &mut steps)?;
+    let (first, extended, _) =
+        identify_geometry(points, nominal, start, prior, opts, None, &mut steps)?;
     let keep = |e: &beyond::ExtendedFit| opts.beyond_geometry.keeps(e.report.predicts_better);
     let Some(ext) = extended.filter(keep) else {
         steps.finish();
@@ -249,13 +250,18 @@ pub fn identify_chain(
     // joints stood at (commanded plus the fitted deflections, and half the gap on the side each
     // joint arrived from when the backlash is kept), so its covariance is the geometry's given
     // the coefficients and the lack of fit is judged on what remains.
-    let corrected = ext.corrected(points);
-    let (mut second, _) = identify_geometry(
+    // With the backlash kept, the prediction that does not know the sides (no half gap turned)
+    // gets a discrepancy term of its own from its residuals at the second fit's geometry: it
+    // holds the hysteresis, and serves test points whose sides are not given (METHOD §19.5).
+    let corrected = ext.corrected(points, true);
+    let centred = ext.backlash.as_ref().map(|_| ext.corrected(points, false));
+    let (mut second, _, sides_unknown) = identify_geometry(
         &corrected,
         nominal,
         start,
         prior,
         &geometric_only,
+        centred.as_deref(),
         &mut steps,
     )?;
     steps.finish();
@@ -275,12 +281,13 @@ pub fn identify_chain(
     // payload during calibration is the one most poses were measured with (the calibrated
     // prediction a controller makes is at that payload).
     errors.calibration_payload.com_mm = second.state.tool;
-    errors.calibration_payload.mass_kg = most_common_payload(points);
+    errors.calibration_payload.mass_kg = beyond::most_common_payload(points);
     errors.payload = errors.calibration_payload;
     // The gaps' σ in the data's noise, as the coefficients' covariance.
     errors.backlash = ext.backlash.as_ref().map(|b| crate::kinematics::Backlash {
         gap_rad: b.gap_rad.clone(),
         sigma_rad: b.sigma_rad.iter().map(|s| s * scale.sqrt()).collect(),
+        sides_unknown: sides_unknown.clone(),
     });
     second.joint_errors = Some(errors);
     let mut beyond = ext.report.clone();
@@ -290,30 +297,18 @@ pub fn identify_chain(
     Ok(second)
 }
 
-/// The payload (kg) most of `points` were measured with (the smallest of those tied).
-fn most_common_payload(points: &[MeasuredPoint]) -> f64 {
-    let mut counts: Vec<(f64, usize)> = Vec::new();
-    for p in points {
-        match counts.iter_mut().find(|(m, _)| *m == p.payload_kg) {
-            Some((_, c)) => *c += 1,
-            None => counts.push((p.payload_kg, 1)),
-        }
-    }
-    counts
-        .into_iter()
-        .max_by(|a, b| a.1.cmp(&b.1).then(b.0.total_cmp(&a.0)))
-        .map_or(0.0, |(m, _)| m)
-}
-
-/// The geometric identification of [`identify_chain`], and the extended fit when asked for.
+/// The geometric identification of [`identify_chain`], the extended fit when asked for, and
+/// the discrepancy term of the fitted geometry at `centred` (the points moved to other angles,
+/// pose for pose) when given.
 fn identify_geometry(
     points: &[MeasuredPoint],
     nominal: &RobotModel,
     start: Option<ChainState>,
     prior: Option<NominalPrior>,
     opts: &ChainOptions,
+    centred: Option<&[MeasuredPoint]>,
     steps: &mut steps::Steps,
-) -> Result<(ChainResult, Option<beyond::ExtendedFit>), IdentifyError> {
+) -> Result<GeometryFit, IdentifyError> {
     check_points(points, nominal, start)?;
     if let Some(o) = &opts.harmonic_orders {
         check_harmonic_orders(o, nominal.joints()).map_err(IdentifyError::HarmonicOrders)?;
@@ -429,6 +424,13 @@ fn identify_geometry(
     let kept = report::Kept::new(&run, &held, nominal, &cov, prior.as_ref());
     let covariance = embed(&kept.matrix, &kept.inputs, run.space.len());
     let discrepancy = lack.term.clone();
+    let centred_term = match centred {
+        Some(c) => {
+            let obs = observations(c, &opts.noise)?;
+            lack_of_fit::term_at(&run, &local, &obs, opts.noise.is_stated(), opts.seed)
+        }
+        None => None,
+    };
     let checks = report::Checks {
         noise,
         identifiability,
@@ -446,8 +448,16 @@ fn identify_geometry(
             joint_errors: None,
         },
         beyond,
+        centred_term,
     ))
 }
+
+/// What [`identify_geometry`] returns.
+type GeometryFit = (
+    ChainResult,
+    Option<beyond::ExtendedFit>,
+    Option<crate::discrepancy::Discrepancy>,
+);
 
 /// One run's fit as it goes: the observations (whitened by the noise), the nominal and the
 /// current state, and the inputs still free.

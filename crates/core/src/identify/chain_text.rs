@@ -231,7 +231,7 @@ fn render_beyond_geometry(s: &mut String, b: &super::chain::BeyondGeometry) {
             b.loo_rms_extended_mm,
             100.0 * (k.loo_rms_mm / b.loo_rms_extended_mm - 1.0),
             match (k.predicts_better, b.kept) {
-                (true, true) => ": the robot shows it, and the model carries the gaps (the geometry fitted to the angles corrected by each pose's side; every analysis draws the side at each point unless a points file gives it; honest where the backlash is of this kind, too narrow on the public IRB 120 data where the sides are not known: check the model at held-out poses with validate, with their sides in s1..sn)",
+                (true, true) => ": the robot shows it, and the model carries the gaps (the geometry fitted to the angles corrected by each pose's side) and a second discrepancy term, of the prediction that does not know the sides (each joint at the centre of its gap): an analysis whose points give every side (s1..sn) turns each joint by its side, one that does not uses that term, which holds the hysteresis",
                 (true, false) => ": the robot shows it, but the model carries no joint errors (the discrepancy term holds it)",
                 _ => ": no gain worth the coefficients",
             },

@@ -158,11 +158,19 @@ pub fn predictive_check(
     // Poses measured with a payload (a `payload_kg` column) are predicted with it, as their
     // observed errors are: one problem per payload, each drawing the same parameter draws
     // (keyed by the draw's index), its columns put back in the poses' order.
-    let mut groups: Vec<(Option<f64>, Vec<usize>)> = Vec::new();
+    // A model with a term for unknown sides predicts the poses whose sides are not all recorded
+    // with it, the others with their sides: one group each.
+    let centre = model.with_sides_unknown().is_some();
+    // (the payload it is predicted at, whether at the centre) and the poses
+    let mut groups: Vec<(GroupKey, Vec<usize>)> = Vec::new();
     for (i, m) in measurements.iter().enumerate() {
-        let key = m
+        let payload = m
             .payload_kg
             .filter(|&kg| model.knowing_payload(kg).is_some());
+        let key = (
+            payload,
+            centre && !m.sides.is_some_and(|s| model.sides_complete(&s)),
+        );
         match groups.iter_mut().find(|(k, _)| *k == key) {
             Some((_, v)) => v.push(i),
             None => groups.push((key, vec![i])),
@@ -170,7 +178,7 @@ pub fn predictive_check(
     }
     let problems: Vec<(Problem, Vec<usize>)> = groups
         .into_iter()
-        .map(|(kg, idx)| {
+        .map(|((kg, _), idx)| {
             let m = kg
                 .and_then(|kg| model.knowing_payload(kg))
                 .unwrap_or_else(|| model.clone());
@@ -186,7 +194,7 @@ pub fn predictive_check(
                     (measurements[i].sides).unwrap_or_else(|| Joints::filled(q[0].len(), 0.0))
                 })
                 .collect();
-            if p.joint_errors.as_ref().is_some_and(|t| t.backlash)
+            if (p.sided.is_some() || p.joint_errors.as_ref().is_some_and(|t| t.backlash))
                 && sides.iter().any(|s| s.iter().any(|&v| v != 0.0))
             {
                 p.predict_known_sides(&sides).map_err(fail)?;
@@ -234,9 +242,9 @@ pub fn predictive_check(
             .collect();
         Ok((c, poses))
     };
-    let with_term = match model.discrepancy {
-        Some(_) => Some(coverage(true)?),
-        None => None,
+    let with_term = match model.discrepancy.is_some() || centre {
+        true => Some(coverage(true)?),
+        false => None,
     };
     let (parameters_only, alone) = coverage(false)?;
     let (with_term, poses) = match with_term {
@@ -255,6 +263,10 @@ pub fn predictive_check(
         poses,
     })
 }
+
+/// A group of the predictive check's poses: the payload they are predicted at (`None`: the
+/// model's), and whether at the centre of the backlash's gaps (their sides not all recorded).
+type GroupKey = (Option<f64>, bool);
 
 /// Coverage and PIT figures of per-point errors `e` (draw-major, `draws × n`) against the
 /// observed errors, over the subsets `picks`; and per point its 95 % bound and PIT.

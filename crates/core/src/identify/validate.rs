@@ -74,9 +74,16 @@ fn point_errors_with(
     frame: Placement,
     compensate: bool,
 ) -> Vec<f64> {
+    // A pose whose sides are not all recorded is predicted as the model predicts without
+    // them, when it has a term for that (RobotModel::with_sides_unknown).
+    let centre = model.with_sides_unknown();
     m.iter()
         .map(|p| {
             let q = p.q_deg.map(f64::to_radians);
+            let model = match &centre {
+                Some(c) if !p.sides.is_some_and(|s| model.sides_complete(&s)) => c,
+                _ => model,
+            };
             let at = p.payload_kg.and_then(|kg| model.knowing_payload(kg));
             let model = at.as_ref().unwrap_or(model);
             let turns = p.sides.and_then(|s| model.side_turns(&s));

@@ -484,7 +484,7 @@ impl RobotModel {
             let _ = writeln!(s, "]");
         }
         if let Some(d) = &self.discrepancy {
-            super::file_discrepancy::write_discrepancy(&mut s, d);
+            super::file_discrepancy::write_discrepancy(&mut s, d, "discrepancy");
         }
         if let Some(l) = &self.links {
             super::file_links::write_links(&mut s, l);

@@ -4,8 +4,12 @@
 use super::file::fnum;
 use std::fmt::Write as _;
 
-/// The `[discrepancy]` section of a model file.
-pub(super) fn write_discrepancy(s: &mut String, d: &crate::discrepancy::Discrepancy) {
+/// The `[discrepancy]` section of a model file, or the same term as the table `section`.
+pub(super) fn write_discrepancy(
+    s: &mut String,
+    d: &crate::discrepancy::Discrepancy,
+    section: &str,
+) {
     let _ = writeln!(
         s,
         "\n# What the geometric model does not explain (docs/METHOD.md §18): every analysis draws,\n\
@@ -16,7 +20,7 @@ pub(super) fn write_discrepancy(s: &mut String, d: &crate::discrepancy::Discrepa
     );
     let _ = writeln!(
         s,
-        "[discrepancy]\nrobot_share = {}\nnoise = \"{}\"",
+        "[{section}]\nrobot_share = {}\nnoise = \"{}\"",
         fnum(d.robot_share),
         d.noise.as_str()
     );
@@ -30,13 +34,13 @@ pub(super) fn write_discrepancy(s: &mut String, d: &crate::discrepancy::Discrepa
     }
     let _ = writeln!(s, "]");
     if let Some(c) = &d.compensation {
-        write_compensation(s, c);
+        write_compensation(s, c, section);
     }
 }
 
 /// The `[discrepancy.compensation]` table: a Gaussian process's mean, added to every predicted
 /// position.
-fn write_compensation(s: &mut String, c: &crate::discrepancy::Compensation) {
+fn write_compensation(s: &mut String, c: &crate::discrepancy::Compensation, section: &str) {
     let join = |v: &[f64]| v.iter().map(|x| fnum(*x)).collect::<Vec<_>>().join(", ");
     let _ = writeln!(
         s,
@@ -48,7 +52,7 @@ fn write_compensation(s: &mut String, c: &crate::discrepancy::Compensation) {
     );
     let _ = writeln!(
         s,
-        "[discrepancy.compensation]\nlength_scales_deg = [{}]\nsignal_sigma_mm = {}\nwhite_sigma_mm = {}\nloo_rms_geometric_mm = {}\nloo_rms_compensated_mm = {}\nloo_sigma_mm = {}",
+        "[{section}.compensation]\nlength_scales_deg = [{}]\nsignal_sigma_mm = {}\nwhite_sigma_mm = {}\nloo_rms_geometric_mm = {}\nloo_rms_compensated_mm = {}\nloo_sigma_mm = {}",
         join(&c.length_scales_deg),
         fnum(c.signal_sigma_mm),
         fnum(c.white_sigma_mm),

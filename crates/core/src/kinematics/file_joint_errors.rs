@@ -37,6 +37,30 @@ pub(super) struct JointErrorsFile {
     backlash_deg: Option<Vec<f64>>,
     #[serde(default)]
     backlash_sigma_deg: Option<Vec<f64>>,
+    #[serde(default)]
+    backlash_sides_unknown: Option<crate::discrepancy::Discrepancy>,
+}
+
+/// The backlash's term for unknown sides, checked as the model's own `[discrepancy]`, its
+/// fields named under `joint_errors.backlash_sides_unknown`.
+fn checked_term(
+    d: crate::discrepancy::Discrepancy,
+    joints: usize,
+) -> Result<crate::discrepancy::Discrepancy, (String, String)> {
+    let rename = |field: &str| {
+        let f = field.strip_prefix("discrepancy.").unwrap_or(field);
+        format!("joint_errors.backlash_sides_unknown.{f}")
+    };
+    let d = d.checked().map_err(|e| match e {
+        crate::discrepancy::DiscrepancyError::Invalid { field, message } => {
+            (rename(&field), message)
+        }
+    })?;
+    if let Some(c) = &d.compensation {
+        c.check(joints)
+            .map_err(|(field, message)| (rename(&field), message))?;
+    }
+    Ok(d)
 }
 
 fn three(v: &Option<Vec<f64>>, field: &str) -> Result<[f64; 3], (String, String)> {
@@ -167,6 +191,16 @@ impl JointErrorsFile {
                 },
             },
         };
+        let sides_unknown = match self.backlash_sides_unknown {
+            None => None,
+            Some(_) if self.backlash_deg.is_none() => {
+                return Err(bad(
+                    "backlash_sides_unknown",
+                    "needs backlash_deg: it is the term of a model with backlash whose sides are not known".into(),
+                ))
+            }
+            Some(d) => Some(checked_term(d, joints)?),
+        };
         let backlash = match (&self.backlash_deg, &self.backlash_sigma_deg) {
             (None, None) => None,
             (None, Some(_)) => {
@@ -181,6 +215,7 @@ impl JointErrorsFile {
                     Some(s) => s.iter().map(|v| v.to_radians()).collect(),
                     None => vec![0.0; g.len()],
                 },
+                sides_unknown,
             }),
         };
         let e = JointErrors {
@@ -204,6 +239,19 @@ impl JointErrorsFile {
 
 /// Writes `e` as the `[joint_errors]` section.
 pub(super) fn write_joint_errors(s: &mut String, e: &JointErrors) {
+    write_keys(s, e);
+    if let Some(d) = e.backlash.as_ref().and_then(|b| b.sides_unknown.as_ref()) {
+        let _ = writeln!(
+            s,
+            "\n# The discrepancy term of the prediction that does not know the sides (no half gap turned),\n\
+             # from its residuals on the calibration data: used where a test point's sides are not all given."
+        );
+        super::file_discrepancy::write_discrepancy(s, d, "joint_errors.backlash_sides_unknown");
+    }
+}
+
+/// The section's own keys (the sub-table of the backlash's term follows them).
+fn write_keys(s: &mut String, e: &JointErrors) {
     let n = e.joints();
     let join = |v: &mut dyn Iterator<Item = f64>| v.map(fnum).collect::<Vec<_>>().join(", ");
     let _ = writeln!(

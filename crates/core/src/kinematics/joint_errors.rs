@@ -101,6 +101,12 @@ pub struct Backlash {
     pub gap_rad: Vec<f64>,
     /// Their standard uncertainties, rad.
     pub sigma_rad: Vec<f64>,
+    /// The discrepancy term of the prediction that does not know the sides (each joint at its
+    /// commanded angle plus the mean deflections, no ±½ gap), fitted to that prediction's
+    /// residuals on the calibration data, which hold the hysteresis: used instead of drawing
+    /// the sides at test points whose sides are not all known (docs/METHOD.md §19.5); `None`
+    /// for a model that draws them there.
+    pub sides_unknown: Option<crate::discrepancy::Discrepancy>,
 }
 
 impl Backlash {

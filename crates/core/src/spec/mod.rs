@@ -345,7 +345,8 @@ pub fn make_frame_evaluator(
         .and(problem.model.discrepancy.as_ref())
         .map(|d| d.describe());
     let joint_errors = match (&problem.joint_errors, &problem.model.joint_errors) {
-        (Some(t), Some(e)) => Some(e.describe() + &sides::note(t)),
+        (Some(_), Some(e)) => Some(e.describe() + &sides::note(&problem)),
+        (None, Some(e)) if problem.sided.is_some() => Some(e.describe() + &sides::note(&problem)),
         _ => None,
     };
     let (ev, mut notes) = make_evaluator(backends, problem, backend, adapter)?;

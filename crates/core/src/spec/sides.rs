@@ -2,7 +2,7 @@
 //! §19.5): read with the points and fixed in the problem built from them.
 
 use super::{PointsSource, SpecError, SpecErrorKind, SpecField};
-use crate::engine::{JointErrorDraws, Problem, ProblemError};
+use crate::engine::{Problem, ProblemError};
 use crate::kinematics::Joints;
 use crate::points;
 
@@ -67,16 +67,29 @@ pub(super) fn apply_given_sides(
 /// What an analysis's note says of the backlash's sides at its test points: given at every
 /// point, at some, or drawn at every point, with what drawing them showed on real data (docs/
 /// METHOD.md §19.5). Empty for a model without backlash.
-pub(super) fn note(t: &JointErrorDraws) -> String {
-    if !t.backlash {
-        return String::new();
+pub(super) fn note(problem: &Problem) -> String {
+    if problem.sided.is_some() {
+        let instead = "each joint is taken at the centre of its gap, and the model's term for \
+                       unknown sides (fitted to that prediction's residuals on the calibration \
+                       data, which hold the hysteresis) is drawn instead of the sides";
+        return match problem.sides_unused {
+            Some((k, n)) if k > 0 => format!(
+                ", its backlash's sides given for {k} of the {n} (point, joint) pairs, not at \
+                 every point: {instead} (give every point's sides to use them)"
+            ),
+            _ => format!(", its backlash's sides not known at the test points: {instead}"),
+        };
     }
+    let Some(t) = problem.joint_errors.as_ref().filter(|t| t.backlash) else {
+        return String::new();
+    };
     match t.sides_known() {
         (k, n) if k == n => ", its sides given at every point".into(),
-        (0, _) => ", its sides drawn at every point, as they are not known there (on the public \
-                   IRB 120 a 95 % bound with drawn sides covered 91.8 % of held-out poses, one \
-                   from a model without backlash (identification's default) 94.9 %: give the \
-                   sides where the robot program fixes them, s1..sn, or use that model)"
+        (0, _) => ", its sides drawn at every point, as they are not known there and the model \
+                   has no term for unknown sides (on the public IRB 120 a 95 % bound with drawn \
+                   sides covered 91.8 % of held-out poses, the same model with the term for \
+                   unknown sides that identification keeps with a backlash 95.9 %: identify \
+                   again, or give the sides where the robot program fixes them, s1..sn)"
             .into(),
         (k, n) => {
             format!(", its sides given for {k} of the {n} (point, joint) pairs, the rest drawn")

@@ -31,6 +31,7 @@ use crate::kinematics::{Backlash, JointErrors, Joints, Payload, RobotModel};
 mod backlash;
 mod held_out;
 mod kept_errors;
+pub(crate) use kept_errors::most_common_payload;
 mod select;
 mod separated;
 

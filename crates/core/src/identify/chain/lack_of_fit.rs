@@ -22,25 +22,7 @@ pub(super) fn lack_of_fit(
     opts: &ChainOptions,
     self_check: bool,
 ) -> LackOfFit {
-    let j = local_jacobian(&run.obs, &run.state, &run.free);
-    let plain = position_residuals(&run.obs, &run.state);
-    let points: Vec<FittedPoint> = run
-        .obs
-        .iter()
-        .zip(&plain)
-        .enumerate()
-        .filter(|(_, (o, _))| o.target == 0)
-        .map(|(i, (o, r))| {
-            let ji = j.rows(3 * i, 3);
-            let h = ji * linearised * ji.transpose();
-            FittedPoint {
-                // measured minus predicted (the compensation adds its mean to the prediction)
-                residual_mm: [-r[0], -r[1], -r[2]],
-                whiten: o.whiten,
-                leverage: Matrix3::from_fn(|a, b| 0.5 * (h[(a, b)] + h[(b, a)])),
-            }
-        })
-        .collect();
+    let points = fitted_points(run, &run.obs, linearised);
     let q_rad: Vec<Vec<f64>> = run
         .obs
         .iter()
@@ -64,6 +46,40 @@ pub(super) fn lack_of_fit(
         opts.seed,
         self_check,
     )
+}
+
+/// The model target's points of `obs` (observations of `run`'s poses, one for one, perhaps at
+/// other angles) at `run`'s state: residual, `run`'s whitening and leverage.
+fn fitted_points(run: &Fitted, obs: &[Observation], linearised: &DMatrix<f64>) -> Vec<FittedPoint> {
+    let j = local_jacobian(&run.obs, &run.state, &run.free);
+    let plain = position_residuals(obs, &run.state);
+    (run.obs.iter().zip(&plain).enumerate())
+        .filter(|(_, (o, _))| o.target == 0)
+        .map(|(i, (o, r))| {
+            let ji = j.rows(3 * i, 3);
+            let h = ji * linearised * ji.transpose();
+            FittedPoint {
+                // measured minus predicted (the compensation adds its mean to the prediction)
+                residual_mm: [-r[0], -r[1], -r[2]],
+                whiten: o.whiten,
+                leverage: Matrix3::from_fn(|a, b| 0.5 * (h[(a, b)] + h[(b, a)])),
+            }
+        })
+        .collect()
+}
+
+/// The discrepancy term of `run`'s fitted state at `obs`: its poses, one for one, at other
+/// angles (the prediction that does not know the backlash's sides), with `run`'s whitening and
+/// leverage, no compensation; the noise `stated` or not. `None` with too few points for a term.
+pub(super) fn term_at(
+    run: &Fitted,
+    linearised: &DMatrix<f64>,
+    obs: &[Observation],
+    stated: bool,
+    seed: u64,
+) -> Option<crate::discrepancy::Discrepancy> {
+    let points = fitted_points(run, obs, linearised);
+    LackOfFit::estimate_with(&points, None, stated, None, seed, false).term
 }
 
 /// `ranges` of observation indices as ranges of the model target's points (those with

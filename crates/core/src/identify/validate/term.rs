@@ -85,14 +85,27 @@ pub fn held_out_term(
             "at least {MIN_RESIDUALS} poses are needed, got {n}"
         )));
     }
+    // A model with a term for unknown sides predicts the poses whose sides are not all
+    // recorded at the centre (point_errors_in): their errors renew that term, the others the
+    // model's own.
+    let has_centre = model.with_sides_unknown().is_some();
+    let at_centre: Vec<bool> = (measurements.iter())
+        .map(|m| has_centre && !m.sides.is_some_and(|s| model.sides_complete(&s)))
+        .collect();
     let mut norms = point_errors_in(model, measurements, frame);
     let old = model.discrepancy.as_ref();
     let compensation = old.and_then(|d| d.compensation.clone());
     if let Some(c) = &compensation {
         // The compensation is a function of the commanded angles (as the prediction adds it).
         let q: Vec<Vec<f64>> = measurements.iter().map(|m| m.q_deg.to_vec()).collect();
-        for (r, s) in norms.iter_mut().zip(c.predictive_sigmas(&q)) {
-            *r *= c.loo_sigma_mm / s.max(1e-300);
+        for ((r, s), centre) in norms
+            .iter_mut()
+            .zip(c.predictive_sigmas(&q))
+            .zip(&at_centre)
+        {
+            if !centre {
+                *r *= c.loo_sigma_mm / s.max(1e-300);
+            }
         }
     }
     if let Some(i) = norms.iter().position(|r| !r.is_finite()) {
@@ -105,12 +118,45 @@ pub fn held_out_term(
     let (noise, sigma) = old.map_or((NoiseSource::Unknown, None), |d| {
         (d.noise, d.noise_sigma_mm)
     });
+    let part = |centre: bool| -> Vec<f64> {
+        (norms.iter().zip(&at_centre))
+            .filter(|(_, &c)| c == centre)
+            .map(|(r, _)| *r)
+            .collect()
+    };
+    let (sided, centred) = (part(false), part(true));
+    for (v, which) in [
+        (&sided, "with every side recorded"),
+        (
+            &centred,
+            "without every side recorded (predicted at the centre of the backlash's gaps)",
+        ),
+    ] {
+        if !v.is_empty() && v.len() < MIN_RESIDUALS {
+            return Err(IdentifyError::NoData(format!(
+                "{} poses {which}: at least {MIN_RESIDUALS} are needed for their term",
+                v.len()
+            )));
+        }
+    }
     let mut out = model.clone();
-    out.discrepancy = Some(Discrepancy::from_norms(&norms, noise, sigma, compensation));
+    let mut previous = old.map(|d| rms(&d.residual_norms));
+    if !sided.is_empty() {
+        out.discrepancy = Some(Discrepancy::from_norms(&sided, noise, sigma, compensation));
+    }
+    let backlash = out.joint_errors.as_mut().and_then(|e| e.backlash.as_mut());
+    if let Some(b) = backlash.filter(|_| !centred.is_empty()) {
+        let was = b.sides_unknown.as_ref();
+        if sided.is_empty() {
+            previous = was.map(|d| rms(&d.residual_norms));
+        }
+        let (noise, sigma) = was.map_or((noise, sigma), |d| (d.noise, d.noise_sigma_mm));
+        b.sides_unknown = Some(Discrepancy::from_norms(&centred, noise, sigma, None));
+    }
     Ok(HeldOutTerm {
         model: out,
         poses: n,
         rms_mm: rms(&norms),
-        previous_rms_mm: old.map(|d| rms(&d.residual_norms)),
+        previous_rms_mm: previous,
     })
 }

@@ -74,6 +74,34 @@ impl RobotModel {
         t.iter().any(|&v| v != 0.0).then_some(t)
     }
 
+    /// Whether `sides` (per joint 1, −1, or 0: not known) give the side of every joint with a
+    /// backlash gap; true for a model without backlash.
+    pub fn sides_complete(&self, sides: &[f64]) -> bool {
+        match self.joint_errors.as_ref().and_then(|e| e.backlash.as_ref()) {
+            None => true,
+            Some(b) => {
+                sides.len() == self.joints()
+                    && (0..sides.len()).all(|j| b.half_spread(j) == 0.0 || sides[j] != 0.0)
+            }
+        }
+    }
+
+    /// The model as it predicts where the backlash's sides are not known, when it has a term
+    /// for that ([`crate::kinematics::Backlash::sides_unknown`]): each joint at the centre of
+    /// its gap (the backlash left out, nothing drawn for it) and that term as its discrepancy,
+    /// which holds the hysteresis the calibration data showed (docs/METHOD.md §19.5). `None`
+    /// for a model without such a term or whose gaps are all zero.
+    pub fn with_sides_unknown(&self) -> Option<RobotModel> {
+        let b = self.joint_errors.as_ref()?.backlash.as_ref()?;
+        let term = b.sides_unknown.clone().filter(|_| b.acts())?;
+        let mut m = self.clone();
+        m.discrepancy = Some(term);
+        if let Some(e) = m.joint_errors.as_mut() {
+            e.backlash = None;
+        }
+        Some(m)
+    }
+
     /// The joint angles (rad) the model's chain stands at when commanded to `q` (rad): `q` plus
     /// the mean deflections of its [`crate::kinematics::JointErrors`] (compliance at the task
     /// payload, gear harmonics), `q` itself for a geometric model.

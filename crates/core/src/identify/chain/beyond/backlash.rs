@@ -124,6 +124,7 @@ pub(super) fn kept(
             let g = Backlash {
                 gap_rad: b.gap_deg.iter().map(|g| g[0].to_radians()).collect(),
                 sigma_rad: b.gap_deg.iter().map(|g| g[1].to_radians()).collect(),
+                sides_unknown: None,
             };
             (m, Some(g))
         }

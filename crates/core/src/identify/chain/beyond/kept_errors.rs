@@ -91,9 +91,10 @@ impl ExtendedFit {
 impl ExtendedFit {
     /// `points` at the angles the joints stood at: commanded plus the fitted deflections, and
     /// half the gap on the side each joint arrived from (the points' sides, else their order)
-    /// when the fit keeps the backlash.
-    pub fn corrected(&self, points: &[MeasuredPoint]) -> Vec<MeasuredPoint> {
-        let sides = self.backlash.as_ref().map(|_| {
+    /// when the fit keeps the backlash and `sides` (without: the prediction that does not know
+    /// them, each joint at the centre of its gap).
+    pub fn corrected(&self, points: &[MeasuredPoint], sides: bool) -> Vec<MeasuredPoint> {
+        let sides = self.backlash.as_ref().filter(|_| sides).map(|_| {
             let q: Vec<Joints> = points.iter().map(|p| p.q_deg).collect();
             let given: Vec<Option<Joints>> = points.iter().map(|p| p.sides).collect();
             super::approach_directions(&q, &given)
@@ -114,4 +115,19 @@ impl ExtendedFit {
             })
             .collect()
     }
+}
+
+/// The payload (kg) most of `points` were measured with (the smallest of those tied).
+pub(crate) fn most_common_payload(points: &[MeasuredPoint]) -> f64 {
+    let mut counts: Vec<(f64, usize)> = Vec::new();
+    for p in points {
+        match counts.iter_mut().find(|(m, _)| *m == p.payload_kg) {
+            Some((_, c)) => *c += 1,
+            None => counts.push((p.payload_kg, 1)),
+        }
+    }
+    counts
+        .into_iter()
+        .max_by(|a, b| a.1.cmp(&b.1).then(b.0.total_cmp(&a.0)))
+        .map_or(0.0, |(m, _)| m)
 }
