@@ -66,6 +66,11 @@ impl Run for CalibrateArgs {
         if a.accuracy_points == 0 {
             bail!("--accuracy-points must be at least 1");
         }
+        if a.nongeometric.backlash != 0.0 {
+            bail!(
+                "--backlash: calibrate's runs do not simulate it (its pose runs measure every joint at the commanded angle plus compliance and harmonics); simulate --poses N --backlash S writes pose data with it, for identify"
+            );
+        }
         let (mut exp, f) = a.factors.experiment()?;
         a.nongeometric
             .apply(&mut exp, a.factors.robot_seed, false)?;

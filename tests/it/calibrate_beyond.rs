@@ -144,6 +144,20 @@ fn calibrate_says_what_its_mean_model_carries() {
     let text = run_ok(&["calibrate", "--runs", "2", "--accuracy-points", "10"]);
     assert!(!text.contains("Beyond geometry"), "{text}");
     assert!(text.contains("improvement"), "{text}");
+
+    // Backlash is refused, for poses as for sweeps, naming what does simulate it (before, pose
+    // runs were told it was for pose data).
+    for data in [&["--poses", "60"][..], &[][..]] {
+        let args = [&["calibrate", "--runs", "2", "--backlash", "1"][..], data].concat();
+        let o = crate::common::run(&args);
+        let err = crate::common::stderr(&o);
+        assert!(!o.status.success(), "{args:?}");
+        assert!(
+            err.contains("--backlash: calibrate's runs do not simulate it")
+                && err.contains("simulate --poses N --backlash S"),
+            "{err}"
+        );
+    }
 }
 
 /// The study's robots with joint errors: beyond.csv has a row per size and kind of data whose
