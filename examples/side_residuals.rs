@@ -8,9 +8,10 @@
 //! `HELD_OUT.csv` holds measured poses with their recorded sides (as `scripts/real-data/
 //! coverage.sh` with `SIDES_FROM_ORDER=1` writes them). It prints, for the held-out poses,
 //!
-//! 1. the share inside the predicted 95 % bound with the sides drawn and with the recorded sides
-//!    (4000 draws each, the discrepancy term drawn as `validate` draws it), and which poses each
-//!    misses;
+//! 1. the share inside the predicted 95 % bound with the sides drawn (the model without its term
+//!    for unknown sides) and with the recorded sides (4000 draws each, the discrepancy term drawn
+//!    as `validate` draws it), and which poses each misses; for a model with that term also the
+//!    share at the centre of the gaps with it;
 //! 2. for every missed pose the residual left after the recorded sides (`r`), the side
 //!    displacement (`b`) and the part of each of J1–J3's side displacement along `r`;
 //! 3. for each file, the residual after the recorded sides split into its component along J1's
@@ -44,35 +45,51 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             m
         })
         .collect();
+    // The sides drawn: the model without its term for unknown sides (with it, a pose without
+    // sides is predicted at the centre of the gaps and that term drawn).
+    let mut drawing = model.clone();
+    let centre_term = (drawing.joint_errors.as_mut())
+        .and_then(|e| e.backlash.as_mut())
+        .and_then(|b| b.sides_unknown.take())
+        .is_some();
     let (obs, obs_sided) = (
-        point_errors_in(&model, &bare, Placement::Identify),
+        point_errors_in(&drawing, &bare, Placement::Identify),
         point_errors_in(&model, &test, Placement::Identify),
     );
     let sides: Vec<Joints> = test.iter().map(|m| m.sides.unwrap()).collect();
     let q: Vec<Joints> = test.iter().map(|m| m.q_deg).collect();
-    let bound = |known: bool| -> Result<Vec<f64>, Box<dyn std::error::Error>> {
-        let mut p = Problem::new(model.clone(), &q, &Reference::Calibrated, 7)?;
-        if known {
-            p.predict_known_sides(&sides)?;
-        }
-        let p = (p.in_frame(Frame::Measurement)).with_discrepancy_use(DiscrepancyUse::Measured);
-        let (mut w, mut e) = (vec![0.0; DRAWS], vec![0.0; DRAWS * n]);
-        CpuEvaluator::new(p).evaluate(0, &mut w, Some(&mut e))?;
-        Ok((0..n)
-            .map(|j| {
-                let mut c: Vec<f64> = (0..DRAWS).map(|k| e[k * n + j]).collect();
-                c.sort_by(f64::total_cmp);
-                c[(0.95 * DRAWS as f64).ceil() as usize - 1]
-            })
-            .collect())
-    };
-    let (drawn, known) = (bound(false)?, bound(true)?);
+    let bound_of =
+        |model: &RobotModel, known: bool| -> Result<Vec<f64>, Box<dyn std::error::Error>> {
+            let mut p = Problem::new(model.clone(), &q, &Reference::Calibrated, 7)?;
+            if known {
+                p.predict_known_sides(&sides)?;
+            }
+            let p = (p.in_frame(Frame::Measurement)).with_discrepancy_use(DiscrepancyUse::Measured);
+            let (mut w, mut e) = (vec![0.0; DRAWS], vec![0.0; DRAWS * n]);
+            CpuEvaluator::new(p).evaluate(0, &mut w, Some(&mut e))?;
+            Ok((0..n)
+                .map(|j| {
+                    let mut c: Vec<f64> = (0..DRAWS).map(|k| e[k * n + j]).collect();
+                    c.sort_by(f64::total_cmp);
+                    c[(0.95 * DRAWS as f64).ceil() as usize - 1]
+                })
+                .collect())
+        };
+    let (drawn, known) = (bound_of(&drawing, false)?, bound_of(&model, true)?);
     let inside = |o: &[f64], b: &[f64]| o.iter().zip(b).filter(|(o, b)| o <= b).count();
     println!(
         "95 % bound covers {}/{n} held-out poses with the sides drawn, {}/{n} with the recorded sides",
         inside(&obs, &drawn),
         inside(&obs_sided, &known)
     );
+    if centre_term {
+        let obs_centre = point_errors_in(&model, &bare, Placement::Identify);
+        let centre = bound_of(&model, false)?;
+        println!(
+            "  and {}/{n} at the centre of the gaps with the model's term for unknown sides",
+            inside(&obs_centre, &centre)
+        );
+    }
     println!("poses missed (r: residual after the recorded sides; b: their displacement; along r: each joint's part of b along r):");
     for j in (0..n).filter(|&j| obs[j] > drawn[j] || obs_sided[j] > known[j]) {
         let m = &test[j];
