@@ -260,31 +260,27 @@ impl PyModel {
     /// model without a term.
     #[getter]
     fn discrepancy<'py>(&self, py: Python<'py>) -> PyResult<Option<Bound<'py, PyDict>>> {
-        let Some(d) = &self.model.discrepancy else {
-            return Ok(None);
-        };
-        let out = PyDict::new(py);
-        out.set_item("residual_norms", d.residual_norms.clone())?;
-        out.set_item("robot_share", d.robot_share)?;
-        out.set_item("noise", d.noise.as_str())?;
-        out.set_item("noise_sigma_mm", d.noise_sigma_mm)?;
-        out.set_item("robot_rms_mm", d.robot_rms_mm())?;
-        out.set_item("drawn", d.drawn())?;
-        let compensation = match &d.compensation {
-            None => None,
-            Some(c) => {
-                let g = PyDict::new(py);
-                g.set_item("length_scales_deg", c.length_scales_deg.clone())?;
-                g.set_item("signal_sigma_mm", c.signal_sigma_mm)?;
-                g.set_item("white_sigma_mm", c.white_sigma_mm)?;
-                g.set_item("loo_rms_geometric_mm", c.loo_rms_geometric_mm)?;
-                g.set_item("loo_rms_compensated_mm", c.loo_rms_compensated_mm)?;
-                g.set_item("poses", c.configurations_deg.len())?;
-                Some(g)
-            }
-        };
-        out.set_item("compensation", compensation)?;
-        Ok(Some(out))
+        self.model
+            .discrepancy
+            .as_ref()
+            .map(|d| term_dict(py, d))
+            .transpose()
+    }
+
+    /// The term of a model with backlash for test points whose sides are not all given (fitted
+    /// to the residuals of the prediction at the centre of the gaps; an analysis without every
+    /// point's sides draws it in place of `discrepancy` and draws no sides), as a dict like
+    /// `discrepancy`'s; `None` for a model without backlash or without that term.
+    #[getter]
+    fn discrepancy_sides_unknown<'py>(
+        &self,
+        py: Python<'py>,
+    ) -> PyResult<Option<Bound<'py, PyDict>>> {
+        let e = self.model.joint_errors.as_ref();
+        e.and_then(|e| e.backlash.as_ref())
+            .and_then(|b| b.sides_unknown.as_ref())
+            .map(|d| term_dict(py, d))
+            .transpose()
     }
 
     /// Indices (of the `5n + 3` inputs) with nonzero spread: the ones a sampler varies; the
@@ -523,4 +519,33 @@ impl PyModel {
             self.model.robot_inputs().len()
         )
     }
+}
+
+/// A discrepancy term as the `discrepancy` getters give it.
+fn term_dict<'py>(
+    py: Python<'py>,
+    d: &gpu_amcs_core::discrepancy::Discrepancy,
+) -> PyResult<Bound<'py, PyDict>> {
+    let out = PyDict::new(py);
+    out.set_item("residual_norms", d.residual_norms.clone())?;
+    out.set_item("robot_share", d.robot_share)?;
+    out.set_item("noise", d.noise.as_str())?;
+    out.set_item("noise_sigma_mm", d.noise_sigma_mm)?;
+    out.set_item("robot_rms_mm", d.robot_rms_mm())?;
+    out.set_item("drawn", d.drawn())?;
+    let compensation = match &d.compensation {
+        None => None,
+        Some(c) => {
+            let g = PyDict::new(py);
+            g.set_item("length_scales_deg", c.length_scales_deg.clone())?;
+            g.set_item("signal_sigma_mm", c.signal_sigma_mm)?;
+            g.set_item("white_sigma_mm", c.white_sigma_mm)?;
+            g.set_item("loo_rms_geometric_mm", c.loo_rms_geometric_mm)?;
+            g.set_item("loo_rms_compensated_mm", c.loo_rms_compensated_mm)?;
+            g.set_item("poses", c.configurations_deg.len())?;
+            Some(g)
+        }
+    };
+    out.set_item("compensation", compensation)?;
+    Ok(out)
 }

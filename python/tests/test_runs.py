@@ -239,3 +239,44 @@ def test_sides_with_configurations_equal_points_file_columns(cli, tmp_path):
         gpu_amcs.mcs(lash, q_deg=q, sides=s[:5], draws=100, backend="cpu")
     with pytest.raises(ValueError, match=r"^sides: .*backlash_deg"):
         gpu_amcs.mcs(m, q_deg=q, sides=s, draws=100, backend="cpu")
+
+
+def test_term_for_unknown_sides_stands_in_until_every_side_is_given(tmp_path):
+    """A model with backlash and a term for unknown sides: the getter gives the term; an
+    analysis without every point's sides predicts at the centre of the gaps and draws it (the
+    note says so); with every side given it is the analysis of the model without the term."""
+    m = gpu_amcs.Model.preset("tx60")
+    term = ("\n[joint_errors.backlash_sides_unknown]\nrobot_share = 1.0\nnoise = \"unknown\"\n"
+            "residual_norms = [0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0]\n")
+    plain_file, term_file = tmp_path / "lash.toml", tmp_path / "lash_u.toml"
+    plain_file.write_text(m.to_toml() + BACKLASH_TABLE)
+    term_file.write_text(m.to_toml() + BACKLASH_TABLE + term)
+    plain, with_term = gpu_amcs.Model.from_file(plain_file), gpu_amcs.Model.from_file(term_file)
+    d = with_term.discrepancy_sides_unknown
+    assert d is not None and np.allclose(d["residual_norms"], np.arange(1, 11) / 10), d
+    assert d["compensation"] is None and d["drawn"]
+    assert plain.discrepancy_sides_unknown is None and m.discrepancy_sides_unknown is None
+    rng = np.random.default_rng(5)
+    q = rng.uniform(m.limits[:, 0] * 0.5, m.limits[:, 1] * 0.5, size=(6, 6)).round(3)
+    s = np.where(rng.uniform(size=(6, 6)) < 0.5, -1, 1)
+
+    def run(model, **kw):
+        return gpu_amcs.mcs(model, draws=3000, q_deg=q, backend="cpu", **kw)
+
+    def note(r):
+        return next(n for n in r.notes if "joint errors drawn" in n)
+
+    centre = run(with_term)
+    assert "sides not known at the test points: each joint is taken at the centre" in \
+        note(centre), centre.notes
+    assert any("model discrepancy drawn" in n for n in centre.notes), centre.notes
+    given, given_plain = run(with_term, sides=s), run(plain, sides=s)
+    assert note(given).endswith("its sides given at every point"), given.notes
+    assert given.to_dict()["result"]["moments"] == given_plain.to_dict()["result"]["moments"]
+    assert centre.estimate > given.estimate + 0.01
+    some = s.copy()
+    some[4, 2] = 0
+    partial = run(with_term, sides=some)
+    assert "sides given for 35 of the 36 (point, joint) pairs, not at every point" in \
+        note(partial), partial.notes
+    assert partial.to_dict()["result"]["moments"] == centre.to_dict()["result"]["moments"]
