@@ -292,6 +292,14 @@ pub fn identify_chain(
     second.joint_errors = Some(errors);
     let mut beyond = ext.report.clone();
     beyond.kept = true;
+    let rms = |d: &crate::discrepancy::Discrepancy| d.rms_mm();
+    if let (Some(k), Some(s), Some(c)) = (&mut beyond.backlash, &second.discrepancy, &sides_unknown)
+    {
+        k.residual_rms_mm = Some(beyond::ResidualRms {
+            sided: rms(s),
+            centre: rms(c),
+        });
+    }
     second.report.beyond_geometry = Some(beyond);
     second.extended = Some(ext.model);
     Ok(second)

@@ -231,9 +231,12 @@ fn render_beyond_geometry(s: &mut String, b: &super::chain::BeyondGeometry) {
             b.loo_rms_extended_mm,
             100.0 * (k.loo_rms_mm / b.loo_rms_extended_mm - 1.0),
             match (k.predicts_better, b.kept) {
-                (true, true) => ": the robot shows it, and the model carries the gaps (the geometry fitted to the angles corrected by each pose's side) and a second discrepancy term, of the prediction that does not know the sides (each joint at the centre of its gap): an analysis whose points give every side (s1..sn) turns each joint by its side, one that does not uses that term, which holds the hysteresis",
-                (true, false) => ": the robot shows it, but the model carries no joint errors (the discrepancy term holds it)",
-                _ => ": no gain worth the coefficients",
+                (true, true) => ": the robot shows it, and the model carries the gaps (the geometry fitted to the angles corrected by each pose's side) and a second discrepancy term, of the prediction that does not know the sides (each joint at the centre of its gap): an analysis whose points give every side (s1..sn) turns each joint by its side, one that does not uses that term, which holds the hysteresis".to_string() + &match k.residual_rms_mm {
+                    Some(r) => format!(" (residual RMS {:.4} mm at the centre against {:.4} mm with the sides)", r.centre, r.sided),
+                    None => String::new(),
+                },
+                (true, false) => ": the robot shows it, but the model carries no joint errors (the discrepancy term holds it)".to_string(),
+                _ => ": no gain worth the coefficients".to_string(),
             },
             gaps.join(", ")
         );

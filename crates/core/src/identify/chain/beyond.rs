@@ -37,7 +37,7 @@ mod separated;
 
 pub(crate) use backlash::approach_directions;
 use backlash::backlash_check;
-pub use backlash::BacklashCheck;
+pub use backlash::{BacklashCheck, ResidualRms};
 pub use held_out::HeldOut;
 use nalgebra::{DMatrix, Vector3};
 use select::loo_linear;

@@ -20,6 +20,10 @@ pub struct BacklashCheck {
     /// Whether the sides are those the data give (a pose file's `s1..sn`) rather than taken
     /// from the poses' order.
     pub sides_given: bool,
+    /// When the model keeps the gaps: the RMS of its residuals with each pose's side turned
+    /// and at the centre of the gaps (the norms of its two discrepancy terms), mm.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub residual_rms_mm: Option<ResidualRms>,
     /// The fit with the gaps (their coefficients after the joints' `PER_JOINT` each).
     #[serde(skip)]
     pub(super) model: ExtendedModel,
@@ -101,8 +105,18 @@ pub(super) fn backlash_check(
             })
             .collect(),
         sides_given: given.iter().any(Option::is_some),
+        residual_rms_mm: None,
         model: m,
     })
+}
+
+/// The RMS of a kept backlash's two discrepancy terms' norms, mm ([`BacklashCheck`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct ResidualRms {
+    /// Each pose's side turned (the model's own term).
+    pub sided: f64,
+    /// At the centre of the gaps (the term for unknown sides).
+    pub centre: f64,
 }
 
 /// The model and gaps a fit keeps of `check` (used when it keeps its joint errors): gaps that
