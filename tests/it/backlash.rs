@@ -615,6 +615,12 @@ fn a_model_with_backlash_is_honest_whether_the_sides_are_known_or_not() {
     assert!(b.expect("the gaps are kept").sides_unknown.take().is_some());
     std::fs::write(arg(&d, "m-drawn.toml"), m.to_toml()).unwrap();
     let (on, pit_on) = validate(&arg(&d, "m-drawn.toml"), "drawn");
+    let at_centre = |tag: &str| {
+        let text = std::fs::read_to_string(arg(&d, &format!("v-{tag}.json"))).unwrap();
+        let v: serde_json::Value = serde_json::from_str(&text).unwrap();
+        v["predictive_check"]["at_centre"].as_u64().unwrap()
+    };
+    assert_eq!((at_centre("on"), at_centre("drawn")), (200, 0));
     let (auto, pit_auto) = check("auto");
     // URDF cannot hold the gaps: the export says so, with the largest.
     let o = crate::common::run(&[

@@ -297,3 +297,47 @@ fn held_out_errors_renew_the_term_their_poses_are_predicted_with() {
         .to_string();
     assert!(err.contains("3 poses without every side recorded"), "{err}");
 }
+
+/// `validate` says which poses it predicts at the centre: a measurement file whose first pose has
+/// no sides and the others every side, against a model with the term (one pose at the centre)
+/// and without it (the sides drawn there).
+#[test]
+fn validate_says_which_poses_it_predicts_at_the_centre() {
+    use crate::common::{arg, run_ok, tmpdir};
+    let d = tmpdir("backlash_unknown_validate");
+    let (with_term, without) = (arg(&d, "u.toml"), arg(&d, "p.toml"));
+    std::fs::write(&with_term, model(true).to_toml()).unwrap();
+    std::fs::write(&without, model(false).to_toml()).unwrap();
+    let m = model(true);
+    let rows: Vec<String> = (0..12)
+        .map(|k| {
+            let q: Vec<f64> = (0..6)
+                .map(|i| 2.0 * k as f64 - 10.0 + 4.0 * i as f64)
+                .collect();
+            let qr: Vec<f64> = q.iter().map(|v| v.to_radians()).collect();
+            let p = m.predicted_position(&qr, None, true, false);
+            let s = if k == 0 {
+                "0,0,0,0,0,0"
+            } else {
+                "1,-1,1,-1,1,-1"
+            };
+            let q: Vec<String> = q.iter().map(|v| v.to_string()).collect();
+            format!("{},{},{},{},{s}", q.join(","), p[0], p[1], p[2])
+        })
+        .collect();
+    let file = arg(&d, "meas.csv");
+    let head = "q1,q2,q3,q4,q5,q6,x,y,z,s1,s2,s3,s4,s5,s6";
+    std::fs::write(&file, format!("{head}\n{}\n", rows.join("\n"))).unwrap();
+    let text = run_ok(&["validate", "--model", &with_term, &file, "--frame", "base"]);
+    assert!(
+        text.contains("approach sides recorded at 11 poses, every side at 11: those predicted with them, the others at the centre")
+            && text.contains("1 of the 12 poses without every backlash side recorded: predicted at the centre"),
+        "{text}"
+    );
+    let text = run_ok(&["validate", "--model", &without, &file, "--frame", "base"]);
+    assert!(
+        text.contains("the predictive check draws only the sides not recorded")
+            && !text.contains("predicted at the centre"),
+        "{text}"
+    );
+}

@@ -74,6 +74,9 @@ pub struct PredictiveCheck {
     /// Each pose against the prediction with the discrepancy term (the parameters' alone for a
     /// model without one), in the order of the measurements.
     pub poses: Vec<PosePrediction>,
+    /// Poses predicted at the centre of the backlash's gaps with the model's term for unknown
+    /// sides (their sides not all recorded); 0 for a model without that term.
+    pub at_centre: usize,
 }
 
 impl PredictiveCheck {
@@ -104,6 +107,12 @@ impl PredictiveCheck {
             "  parameters' uncertainty alone: {}\n",
             line(&self.parameters_only)
         ));
+        if self.at_centre > 0 {
+            s.push_str(&format!(
+                "  {} of the {} poses without every backlash side recorded: predicted at the centre of the gaps, with the model's term for unknown sides\n",
+                self.at_centre, self.points
+            ));
+        }
         let mut outside: Vec<&PosePrediction> = (self.poses.iter())
             .filter(|p| p.error_mm > p.bound_95_mm)
             .collect();
@@ -176,6 +185,10 @@ pub fn predictive_check(
             None => groups.push((key, vec![i])),
         }
     }
+    let at_centre = (groups.iter())
+        .filter(|((_, c), _)| *c)
+        .map(|(_, idx)| idx.len())
+        .sum();
     let problems: Vec<(Problem, Vec<usize>)> = groups
         .into_iter()
         .map(|((kg, _), idx)| {
@@ -253,6 +266,7 @@ pub fn predictive_check(
     };
     let rms_mm = (observed.iter().map(|v| v * v).sum::<f64>() / n as f64).sqrt();
     Ok(PredictiveCheck {
+        at_centre,
         points: n,
         rms_mm,
         draws,

@@ -193,6 +193,11 @@ pub struct RecordedSides {
     /// Whether the model has a backlash they turn (then it predicts with them, and the
     /// predictive check draws only the sides left at 0); otherwise they change nothing.
     pub used: bool,
+    /// For a model with a term for unknown sides ([`RobotModel::with_sides_unknown`]): the
+    /// measurements with every side recorded (predicted with them; the others at the centre of
+    /// the gaps with that term, nothing drawn). `None` for another model.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub complete: Option<usize>,
 }
 
 impl RecordedSides {
@@ -204,12 +209,26 @@ impl RecordedSides {
         let used = (model.joint_errors.as_ref())
             .and_then(|e| e.backlash.as_ref())
             .is_some_and(|b| b.acts());
-        (poses > 0).then_some(RecordedSides { poses, used })
+        let complete = model.with_sides_unknown().map(|_| {
+            (measurements.iter())
+                .filter(|m| m.sides.is_some_and(|s| model.sides_complete(&s)))
+                .count()
+        });
+        (poses > 0).then_some(RecordedSides {
+            poses,
+            used,
+            complete,
+        })
     }
 
     /// One line for the terminal.
     pub fn sentence(&self) -> String {
-        if self.used {
+        if let (true, Some(k)) = (self.used, self.complete) {
+            format!(
+                "approach sides recorded at {} poses, every side at {k}: those predicted with them, the others at the centre of the backlash's gaps with the model's term for unknown sides\n",
+                self.poses
+            )
+        } else if self.used {
             format!(
                 "approach sides recorded at {} poses: the model's backlash predicted with them (the predictive check draws only the sides not recorded)\n",
                 self.poses
