@@ -124,11 +124,12 @@ fn recorded_sides_survive_a_split_and_sharpen_validation() {
         serde_json::from_str(&std::fs::read_to_string(arg(&d, "v_s.json")).unwrap()).unwrap();
     assert_eq!(v["recorded_sides"]["poses"], 100);
     assert_eq!(v["recorded_sides"]["used"], true);
+    assert_eq!(v["recorded_sides"]["complete"], 100);
     let o = run(&["validate", "--model", &model_s, &test_s]);
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(
         text.contains(
-            "approach sides recorded at 100 poses: the model's backlash predicted with them"
+            "approach sides recorded at 100 poses, every side at 100: those predicted with them"
         ),
         "{text}"
     );
