@@ -169,7 +169,7 @@ pub fn predictive_check(
     // (keyed by the draw's index), its columns put back in the poses' order.
     // A model with a term for unknown sides predicts the poses whose sides are not all recorded
     // with it, the others with their sides: one group each.
-    let centre = model.with_sides_unknown().is_some();
+    let centre = model.sides_unknown_term().is_some();
     // (the payload it is predicted at, whether at the centre) and the poses
     let mut groups: Vec<(GroupKey, Vec<usize>)> = Vec::new();
     for (i, m) in measurements.iter().enumerate() {

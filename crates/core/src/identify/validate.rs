@@ -209,7 +209,7 @@ impl RecordedSides {
         let used = (model.joint_errors.as_ref())
             .and_then(|e| e.backlash.as_ref())
             .is_some_and(|b| b.acts());
-        let complete = model.with_sides_unknown().map(|_| {
+        let complete = model.sides_unknown_term().map(|_| {
             (measurements.iter())
                 .filter(|m| m.sides.is_some_and(|s| model.sides_complete(&s)))
                 .count()

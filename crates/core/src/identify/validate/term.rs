@@ -88,7 +88,7 @@ pub fn held_out_term(
     // A model with a term for unknown sides predicts the poses whose sides are not all
     // recorded at the centre (point_errors_in): their errors renew that term, the others the
     // model's own.
-    let has_centre = model.with_sides_unknown().is_some();
+    let has_centre = model.sides_unknown_term().is_some();
     let at_centre: Vec<bool> = (measurements.iter())
         .map(|m| has_centre && !m.sides.is_some_and(|s| model.sides_complete(&s)))
         .collect();

@@ -86,14 +86,20 @@ impl RobotModel {
         }
     }
 
+    /// The term of [`Self::with_sides_unknown`]: the backlash's term for unknown sides when some
+    /// joint has a gap; `None` otherwise.
+    pub fn sides_unknown_term(&self) -> Option<&crate::discrepancy::Discrepancy> {
+        let b = self.joint_errors.as_ref()?.backlash.as_ref()?;
+        b.sides_unknown.as_ref().filter(|_| b.acts())
+    }
+
     /// The model as it predicts where the backlash's sides are not known, when it has a term
     /// for that ([`crate::kinematics::Backlash::sides_unknown`]): each joint at the centre of
     /// its gap (the backlash left out, nothing drawn for it) and that term as its discrepancy,
     /// which holds the hysteresis the calibration data showed (docs/METHOD.md §19.5). `None`
     /// for a model without such a term or whose gaps are all zero.
     pub fn with_sides_unknown(&self) -> Option<RobotModel> {
-        let b = self.joint_errors.as_ref()?.backlash.as_ref()?;
-        let term = b.sides_unknown.clone().filter(|_| b.acts())?;
+        let term = self.sides_unknown_term()?.clone();
         let mut m = self.clone();
         m.discrepancy = Some(term);
         if let Some(e) = m.joint_errors.as_mut() {
