@@ -355,13 +355,25 @@ impl Problem {
         sides: &[crate::kinematics::Joints],
     ) -> Result<(), ProblemError> {
         if let Some(sided) = self.sided.take() {
-            let mut t = JointErrorDraws::new(&sided, &self.points, self.seed)?;
-            if let Some(t) = t.as_mut().filter(|t| t.backlash) {
-                if let Err(e) = t.set_known_sides(sides) {
+            // The sides checked as the model as given draws them; the problem is left as it
+            // was unless every point's are given.
+            let checked =
+                JointErrorDraws::new(&sided, &self.points, self.seed).and_then(|mut t| {
+                    match t.as_mut().filter(|t| t.backlash) {
+                        Some(d) => d
+                            .set_known_sides(sides)
+                            .map(|_| t)
+                            .map_err(ProblemError::Sides),
+                        None => Ok(t),
+                    }
+                });
+            let t = match checked {
+                Ok(t) => t,
+                Err(e) => {
                     self.sided = Some(sided);
-                    return Err(ProblemError::Sides(e));
+                    return Err(e);
                 }
-            }
+            };
             if !sides.iter().all(|s| sided.sides_complete(s)) {
                 self.sides_unused = t.as_ref().map(|t| t.sides_known());
                 self.sided = Some(sided);
