@@ -37,8 +37,9 @@ pub struct CalibrateArgs {
     /// identify does; the same sweeps identified with the geometry alone give the geometric
     /// calibration beside it, both evaluated at the test points). Default: auto when the
     /// simulated robot carries joint errors (--compliance, --harmonics), else off (the paper's
-    /// geometric calibration). A bare --beyond-geometry means on. The mean model carries the
-    /// joint errors when most runs keep them.
+    /// geometric calibration), on when it carries backlash (--backlash with --poses: only the
+    /// explicit check fits the gaps). A bare --beyond-geometry means on. The mean model carries
+    /// the joint errors when most runs keep them, and the mean gaps when every run keeps some.
     #[arg(
         long,
         value_enum,
@@ -66,14 +67,19 @@ impl Run for CalibrateArgs {
         if a.accuracy_points == 0 {
             bail!("--accuracy-points must be at least 1");
         }
-        if a.nongeometric.backlash != 0.0 {
+        if a.nongeometric.backlash != 0.0 && a.poses.is_none() {
             bail!(
-                "--backlash: calibrate's runs do not simulate it (its pose runs measure every joint at the commanded angle plus compliance and harmonics); simulate --poses N --backlash S writes pose data with it, for identify"
+                "--backlash: simulated in pose runs (--poses N): along a sweep's arc every point arrives from the same side, so its gap is one more offset of the joint"
+            );
+        }
+        if a.nongeometric.payload_kg.len() > 1 {
+            bail!(
+                "--payload-kg: each calibration run carries one payload; give one (simulate --poses N --payload-kg A,B writes pose data at several, for identify)"
             );
         }
         let (mut exp, f) = a.factors.experiment()?;
         a.nongeometric
-            .apply(&mut exp, a.factors.robot_seed, false)?;
+            .apply(&mut exp, a.factors.robot_seed, a.poses.is_some())?;
         if let Some(n) = a.poses.filter(|n| !(1..=MAX_POSES).contains(n)) {
             bail!("--poses: {n} poses per run; give 1 to {MAX_POSES}");
         }
@@ -116,7 +122,10 @@ impl Run for CalibrateArgs {
         let hook = gpu_amcs::progress::ProgressHook::new(move |_: &str, done, total| {
             listener.update(done, total)
         });
+        let lash = a.nongeometric.backlash != 0.0;
         let mode = match a.beyond_geometry {
+            // Auto checks no gaps: a robot with backlash gets the explicit check.
+            None if lash => Some(JointErrorFit::On),
             None if exp.nongeometric.is_some() => Some(JointErrorFit::Auto),
             None | Some(BeyondArg::Off) => None,
             Some(BeyondArg::Auto) => Some(JointErrorFit::Auto),

@@ -656,7 +656,7 @@ fn the_note_says_whether_the_sides_are_given_or_drawn() {
         "{drawn}"
     );
     assert!(
-        drawn.contains("91.8 %") && drawn.contains("95.9 %"),
+        drawn.contains("91.8 %") && drawn.contains("95.4 %"),
         "{drawn}"
     );
 }

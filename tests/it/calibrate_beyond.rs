@@ -145,19 +145,117 @@ fn calibrate_says_what_its_mean_model_carries() {
     assert!(!text.contains("Beyond geometry"), "{text}");
     assert!(text.contains("improvement"), "{text}");
 
-    // Backlash is refused, for poses as for sweeps, naming what does simulate it (before, pose
-    // runs were told it was for pose data).
-    for data in [&["--poses", "60"][..], &[][..]] {
-        let args = [&["calibrate", "--runs", "2", "--backlash", "1"][..], data].concat();
+    // Backlash: simulated in pose runs (the explicit check by default, which fits the gaps);
+    // sweeps refuse it, and so do several payloads (a run carries one).
+    let args = [
+        "calibrate",
+        "--runs",
+        "2",
+        "--poses",
+        "150",
+        "--backlash",
+        "1",
+        "--accuracy-points",
+        "20",
+        "-o",
+        &m,
+    ];
+    let text = run_ok(&args);
+    assert!(text.contains("Beyond geometry (on"), "{text}");
+    assert!(
+        text.contains("Backlash (each joint's side from the order of the run's poses")
+            && text.contains("kept in 2 of the 2 runs; the mean model carries the runs' mean gaps"),
+        "{text}"
+    );
+    let back =
+        gpu_amcs::kinematics::RobotModel::from_toml(&std::fs::read_to_string(&m).unwrap(), "m")
+            .unwrap();
+    let lash = back.joint_errors.and_then(|e| e.backlash).unwrap();
+    // J1's gap is 0.05°: found to a few thousandths of a degree.
+    assert!(
+        (lash.gap_rad[0].to_degrees() - 0.05).abs() < 0.005,
+        "{lash:?}"
+    );
+    for (args, want) in [
+        (
+            &["--backlash", "1"][..],
+            "--backlash: simulated in pose runs (--poses N)",
+        ),
+        (
+            &["--poses", "60", "--compliance", "1", "--payload-kg", "0,5"][..],
+            "--payload-kg: each calibration run carries one payload",
+        ),
+    ] {
+        let args = [&["calibrate", "--runs", "2"][..], args].concat();
         let o = crate::common::run(&args);
         let err = crate::common::stderr(&o);
         assert!(!o.status.success(), "{args:?}");
-        assert!(
-            err.contains("--backlash: calibrate's runs do not simulate it")
-                && err.contains("simulate --poses N --backlash S"),
-            "{err}"
-        );
+        assert!(err.contains(want), "{err}");
     }
+}
+
+/// A robot with backlash calibrated from poses (each run's sides from its poses' order): every
+/// run keeps the gaps, the mean model carries gaps near the true ones, within the σ it states,
+/// and the full model at test poses (predicted with their recorded sides) removes what the
+/// geometric calibration leaves. Sweeps of such a robot are refused: they cannot show a gap.
+#[test]
+fn calibrate_simulates_backlash_in_pose_runs() {
+    let mut exp = Experiment::tx60(2);
+    let sizes = NonGeometricSizes {
+        compliance: 1.0,
+        harmonics: 1.0,
+        payload_kg: 0.0,
+        backlash: 1.0,
+    };
+    exp.set_nongeometric(&sizes, 2).unwrap();
+    let truth = exp.nongeometric.as_ref().unwrap().backlash_deg;
+    let f = Factors {
+        runs: 3,
+        ..Factors::default()
+    };
+    let hook = ProgressHook::none();
+    let cal = calibrate_full(&exp, &f, 1, RunData::Poses(200), JointErrorFit::On, &hook).unwrap();
+    assert!(cal.runs.iter().all(|r| r
+        .full
+        .joint_errors
+        .as_ref()
+        .is_some_and(|e| e.backlash.is_some())));
+    for model in [&cal.full.independent, &cal.full.correlated] {
+        let lash = model
+            .joint_errors
+            .as_ref()
+            .unwrap()
+            .backlash
+            .as_ref()
+            .unwrap();
+        assert!(lash.sides_unknown.is_none());
+        for j in 0..6 {
+            let (g, s) = (lash.gap_rad[j].to_degrees(), lash.sigma_rad[j].to_degrees());
+            eprintln!("J{}: {g:.4} ± {s:.4}° (true {:.4}°)", j + 1, truth[j]);
+            assert!((g - truth[j]).abs() <= 3.0 * s, "J{}: {g} ± {s}", j + 1);
+        }
+    }
+    let acc = accuracy_full(&exp, &cal, 50, &WorkspaceBox::default(), 7).unwrap();
+    let (g, full) = (acc.mean.geometric.mean_mm, acc.mean.full.mean_mm);
+    eprintln!("geometric {g:.4}, full {full:.4} mm");
+    assert!(full <= 0.25 * g, "full {full} against geometric {g}");
+    let text = gpu_amcs::simulate::render_full_calibration(&cal);
+    assert!(
+        text.contains("kept in 3 of the 3 runs; the mean model carries"),
+        "{text}"
+    );
+    let err = calibrate_full(&exp, &f, 1, RunData::Sweeps, JointErrorFit::On, &hook).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("backlash is simulated in pose runs only"),
+        "{err}"
+    );
+    let err = gpu_amcs::simulate::calibrate(&exp, &f, 1).unwrap_err();
+    assert!(
+        err.to_string()
+            .contains("backlash is simulated in pose runs only"),
+        "{err}"
+    );
 }
 
 /// The study's robots with joint errors: beyond.csv has a row per size and kind of data whose

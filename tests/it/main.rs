@@ -8,6 +8,7 @@ mod common;
 
 mod amcs_vs_mcs;
 mod backlash;
+mod backlash_gaps;
 mod backlash_sides;
 mod backlash_unknown;
 mod base_references;

@@ -27,6 +27,7 @@ mod tests;
 mod undetermined;
 mod warnings;
 
+pub(crate) use beyond::approach_directions;
 pub use beyond::{
     BacklashCheck, BeyondGeometry, ExtendedModel, HeldOut, Term, TermScore, TermSelection,
     CONFOUNDED, PRIOR_HELD, PRIOR_RAD,
@@ -236,7 +237,7 @@ pub fn identify_chain(
     );
     let (first, extended, _) =
         identify_geometry(points, nominal, start, prior, opts, None, &mut steps)?;
-    let keep = |e: &beyond::ExtendedFit| opts.beyond_geometry.keeps(e.report.predicts_better);
+    let keep = |e: &beyond::ExtendedFit| opts.beyond_geometry.keeps(e.report.worth_keeping());
     let Some(ext) = extended.filter(keep) else {
         steps.finish();
         return Ok(first);
@@ -292,6 +293,16 @@ pub fn identify_chain(
     second.joint_errors = Some(errors);
     let mut beyond = ext.report.clone();
     beyond.kept = true;
+    // The report's gaps with the σ the model file holds (in the data's noise, not the check's).
+    let kept_gaps = second
+        .joint_errors
+        .as_ref()
+        .and_then(|e| e.backlash.as_ref());
+    if let (Some(k), Some(b)) = (&mut beyond.backlash, kept_gaps) {
+        for (g, s) in k.gap_deg.iter_mut().zip(&b.sigma_rad) {
+            g[1] = s.to_degrees();
+        }
+    }
     let rms = |d: &crate::discrepancy::Discrepancy| d.rms_mm();
     if let (Some(k), Some(s), Some(c)) = (&mut beyond.backlash, &second.discrepancy, &sides_unknown)
     {
@@ -387,7 +398,7 @@ fn identify_geometry(
     // the self-check are left to that fit.
     let kept_beyond = beyond
         .as_ref()
-        .is_some_and(|b| opts.beyond_geometry.keeps(b.report.predicts_better));
+        .is_some_and(|b| opts.beyond_geometry.keeps(b.report.worth_keeping()));
     steps.next(if opts.compensate && !kept_beyond {
         "lack of fit and compensation"
     } else {

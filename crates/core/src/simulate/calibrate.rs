@@ -207,18 +207,53 @@ impl Experiment {
         data
     }
 
+    /// Whether the robot can be calibrated from sweeps: not with backlash, which the sweeps do
+    /// not simulate (along an arc every point arrives from the same side, so the gap is one
+    /// more offset of the joint; pose runs simulate it).
+    ///
+    /// # Errors
+    ///
+    /// [`SimulateError::Other`] for a robot with backlash.
+    pub fn check_sweeps(&self) -> Result<(), SimulateError> {
+        if self
+            .nongeometric
+            .as_ref()
+            .is_some_and(NonGeometric::has_backlash)
+        {
+            return Err(SimulateError::Other(
+                "backlash is simulated in pose runs only: along a sweep's arc every point arrives from the same side, so its gap is one more offset of the joint".into(),
+            ));
+        }
+        Ok(())
+    }
+
     /// Positions of `truth` at `configs` (degrees, one angle per joint) as the tracker measures
     /// them (static poses: repeatability scatter and tracker noise), lines numbered as written.
+    /// A robot with backlash ([`NonGeometric::has_backlash`]) visits them in their order: each
+    /// joint arrives from the side it moved from the configuration before (none at the first),
+    /// stands half its gap beyond the commanded angle on that side, and each measurement records
+    /// its sides, as `simulate_poses_sided` records them (without backlash: none, and the same
+    /// bits as before backlash existed).
     pub fn measure(&self, configs: &[Joints], rng: &mut ChaCha8Rng) -> Vec<Measurement> {
+        let lash = self.nongeometric.as_ref().filter(|e| e.has_backlash());
+        let q: Vec<Joints> = configs.to_vec();
+        let sides = lash.map(|_| crate::identify::chain::approach_directions(&q, &[]));
         configs
             .iter()
             .enumerate()
             .map(|(k, q)| {
-                let p = true_position(
-                    &self.truth,
-                    self.nongeometric.as_ref(),
-                    &q.map(f64::to_radians),
-                );
+                let rad = q.map(f64::to_radians);
+                let sides = sides.as_ref().map(|s| s[k]);
+                let p = match (lash, &sides) {
+                    (Some(e), Some(s)) => {
+                        let mut at = e.actual_angles(&self.truth, &rad);
+                        for (a, t) in at.iter_mut().zip(e.side_turns(s).iter()) {
+                            *a += t;
+                        }
+                        crate::kinematics::position(&self.truth.params, &self.truth.tool, &at)
+                    }
+                    _ => true_position(&self.truth, self.nongeometric.as_ref(), &rad),
+                };
                 let s = self.robot.point_scatter_mm(0.0, rng);
                 Measurement {
                     payload_kg: None,
@@ -229,7 +264,7 @@ impl Experiment {
                     line: k as u64 + 2,
                     target: None,
                     on_base: false,
-                    sides: None,
+                    sides,
                 }
             })
             .collect()
@@ -325,6 +360,7 @@ pub fn calibrate_with_progress(
     progress: &crate::progress::ProgressHook,
 ) -> Result<Calibration, SimulateError> {
     f.check()?;
+    exp.check_sweeps()?;
     let t0 = std::time::Instant::now();
     let runs: Vec<RobotModel> = each_run(f.runs, progress, |r| {
         let mut rng = ChaCha8Rng::seed_from_u64(run_seed(seed, r as u64));

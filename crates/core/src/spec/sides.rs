@@ -88,7 +88,7 @@ pub(super) fn note(problem: &Problem) -> String {
         (0, _) => ", its sides drawn at every point, as they are not known there and the model \
                    has no term for unknown sides (on the public IRB 120 a 95 % bound with drawn \
                    sides covered 91.8 % of held-out poses, the same model with the term for \
-                   unknown sides that identification keeps with a backlash 95.9 %: identify \
+                   unknown sides that identification keeps with a backlash 95.4 %: identify \
                    again, or give the sides where the robot program fixes them, s1..sn)"
             .into(),
         (k, n) => {

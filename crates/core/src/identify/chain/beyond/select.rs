@@ -100,6 +100,9 @@ pub struct TermSelection {
     pub harmonic_orders: Vec<u8>,
     /// Per joint: whether the compliance is fitted.
     pub compliance: Vec<bool>,
+    /// Whether the terms were judged in a fit that also held a backlash gap per joint (the
+    /// backlash checked on poses); the figures below are then of fits with the gaps.
+    pub with_gaps: bool,
     /// Leave-one-out RMS (3-D) with every term that was a candidate, mm.
     pub loo_rms_all_mm: f64,
     /// The terms dropped, in the order they went, each with its `χ²` against the terms left
@@ -117,6 +120,7 @@ impl TermSelection {
         let (orders, compliance) = kept_terms(extras, joints);
         TermSelection {
             by_data: false,
+            with_gaps: false,
             harmonic_orders: orders,
             compliance,
             loo_rms_all_mm: loo_rms_mm,
@@ -161,7 +165,12 @@ impl TermSelection {
                 .join(", ")
         };
         format!(
-            "terms chosen by Akaike's criterion (a term goes while dropping it lowers χ² + 2·coefficients; leave-one-out RMS with all {:.4} mm): {}; dropped {}; kept {}",
+            "terms chosen by Akaike's criterion (a term goes while dropping it lowers χ² + 2·coefficients{}; leave-one-out RMS with all {:.4} mm): {}; dropped {}; kept {}",
+            if self.with_gaps {
+                ", judged with the backlash gaps in the fit"
+            } else {
+                ""
+            },
             self.loo_rms_all_mm,
             per_joint.join("; "),
             if self.dropped.is_empty() {
@@ -332,6 +341,7 @@ impl Linearised<'_> {
             extras,
             TermSelection {
                 by_data: true,
+                with_gaps: false,
                 harmonic_orders: orders,
                 compliance,
                 loo_rms_all_mm: all,
