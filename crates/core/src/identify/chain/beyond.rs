@@ -39,7 +39,7 @@ pub(crate) use backlash::approach_directions;
 use backlash::backlash_check;
 pub use backlash::{BacklashCheck, ResidualRms};
 pub use held_out::HeldOut;
-use nalgebra::{DMatrix, Vector3};
+use nalgebra::{DMatrix, DVector, Vector3};
 use select::loo_linear;
 pub use select::{Term, TermScore, TermSelection};
 use separated::undetermined;
@@ -422,6 +422,7 @@ pub(super) fn check(
     // a dropped coefficient stays at 0 with the spread the data left it, and the kept ones keep
     // theirs, not the narrower one given that the dropped are exactly 0: the selection looked
     // at these data, and the spread a model that holds the truth has is what stays honest).
+    let mut gap_fit = None;
     let (fitted, selection, loo_extended, sel_free) = match orders {
         Some(_) => (
             fitted,
@@ -451,12 +452,14 @@ pub(super) fn check(
             let with_gaps = gapped
                 .as_ref()
                 .and_then(|g| select_with_gaps(run, &fitted, &all, &extras, g));
-            let by_gaps = with_gaps.is_some();
             let (kept, mut selection) = match with_gaps {
-                Some(k) => k,
+                Some((kept, selection, fit)) => {
+                    gap_fit = Some(fit);
+                    (kept, selection)
+                }
                 None => lin.select(n)?,
             };
-            selection.with_gaps = by_gaps;
+            selection.with_gaps = gap_fit.is_some();
             if kept.len() == extras.len() {
                 (fitted, selection, loo_all, free.clone())
             } else {
@@ -489,7 +492,14 @@ pub(super) fn check(
             free: &sel_free,
             ..plain
         };
-        backlash_check(run, &fitted, &kept, &sigma, (loo_geometric, loo_extended))
+        backlash_check(
+            run,
+            &fitted,
+            &kept,
+            &sigma,
+            (loo_geometric, loo_extended),
+            gap_fit.as_ref(),
+        )
     } else {
         None
     };
@@ -545,14 +555,15 @@ pub(super) fn check(
 }
 
 /// The terms the data need ([`select`]) judged in the fit with every candidate `extras` of
-/// `all` and the gaps `gaps`, the gaps always kept; `None` when that fit cannot be evaluated.
+/// `all` and the gaps `gaps`, the gaps always kept, and that fit; `None` when it cannot be
+/// evaluated.
 fn select_with_gaps(
     run: &Fitted,
     fitted: &ExtendedModel,
     all: &Inputs<'_>,
     extras: &[usize],
     gaps: &backlash::Gaps,
-) -> Option<(Vec<usize>, select::TermSelection)> {
+) -> Option<(Vec<usize>, select::TermSelection, backlash::GapFit)> {
     let geo = all.geo;
     let n = gaps.indices.len();
     let free: Vec<usize> = all.free[..geo]
@@ -562,17 +573,31 @@ fn select_with_gaps(
         .copied()
         .collect();
     let x = gaps.inputs(all, &free);
-    let m = fit_over(&run.obs, gaps.start(fitted), &x);
-    let (jac, r0) = jacobian(&run.obs, &m, &x);
-    select::Linearised {
+    // One Gauss–Newton step from `fitted` (converged without the gaps) with the gaps at zero:
+    // the coefficients and gaps turn the joints by 1e-4–1e-3 rad, so the model is linear in
+    // them to Δ²·L ≈ 4e-4 mm, and the step is the fit to that; the residuals at it follow
+    // linearly, as the selection takes them anyway.
+    let start = gaps.start(fitted);
+    let (jac, r0) = jacobian(&run.obs, &start, &x);
+    let r0 = DVector::from_column_slice(&r0);
+    let jt = jac.transpose();
+    let delta = (&jt * &jac).cholesky()?.solve(&(&jt * &r0));
+    let step: Vec<f64> = delta.iter().map(|v| -v).collect();
+    let m = moved(&start, &free, geo, &step);
+    let r = r0 - &jac * &delta;
+    let (kept, selection) = select::Linearised {
         obs: &run.obs,
         jac: &jac,
-        r: &r0,
+        r: r.as_slice(),
         geo: geo + n,
         extras,
         beta: &m.beta,
     }
-    .select(n)
+    .select(n)?;
+    let rows = 3 * run.obs.len();
+    let dof = rows.saturating_sub(free.len()).max(1) as f64;
+    let noise = (r.rows(0, rows).norm_squared() / dof).sqrt();
+    Some((kept, selection, backlash::GapFit { model: m, noise }))
 }
 
 /// The extended fit of [`check`]: its report, the model with the terms selected, and the

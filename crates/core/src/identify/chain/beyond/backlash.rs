@@ -114,28 +114,54 @@ impl Gaps {
     }
 }
 
-/// The fit of [`super::check`] with a backlash per joint added ([`BacklashCheck`]); `None` when no
-/// joint arrived from both sides or the data cannot support it.
+/// A fit with every candidate term and the gaps (the one the terms were chosen in): its model
+/// and its noise in the units its observations are whitened in ([`noise_scale`]).
+pub(super) struct GapFit {
+    /// The geometry, every candidate's coefficient and the gaps.
+    pub model: ExtendedModel,
+    /// Its noise, whitened units.
+    pub noise: f64,
+}
+
+/// The fit of [`super::check`] with a backlash per joint added ([`BacklashCheck`]), from the fit
+/// the terms were chosen in (`prefit`: its dropped terms set to zero) when there is one; `None`
+/// when no joint arrived from both sides or the data cannot support it.
 pub(super) fn backlash_check(
     run: &Fitted,
     fitted: &ExtendedModel,
     all: &Inputs<'_>,
     sigma: &[f64],
     (loo_geometric, loo_extended): (f64, f64),
+    prefit: Option<&GapFit>,
 ) -> Option<BacklashCheck> {
     let n = fitted.links.joints();
     let gaps = Gaps::of(run, n, all.free.len(), sigma)?;
     let free: Vec<usize> = all.free.iter().chain(&gaps.indices).copied().collect();
     let given = run.obs.iter().any(|o| o.sides.is_some());
     let x = gaps.inputs(all, &free);
-    let m = fit_over(&run.obs, gaps.start(fitted), &x);
     // The observations are whitened with the geometric fit's noise, which holds the lack of fit
     // the joint errors and the gaps explain: against it the priors hold weakly seen gaps (a
     // wrist joint's) towards zero, by more than their σ (simulated TX60s: 78 % of the gaps
-    // within 1.96σ, all short). Refitted with the observations whitened at this fit's own
-    // noise `s` (in those units) when that is smaller, the priors weigh what they were meant
-    // to; the σ go back to the first units (÷ s), which the caller scales to the data's noise.
-    let s = noise_scale(&run.obs, &m, &x);
+    // within 1.96σ, all short). Fitted with the observations whitened at the fit's own noise
+    // `s` (in those units; of the fit the terms were chosen in, else of this one) when that is
+    // smaller, the priors weigh what they were meant to; the σ go back to the first units
+    // (÷ s), which the caller scales to the data's noise.
+    let (m, s) = match prefit {
+        Some(p) => {
+            let mut m = p.model.clone();
+            for (i, b) in m.beta.iter_mut().enumerate().take(PER_JOINT * n) {
+                if !all.free[all.geo..].contains(&i) {
+                    *b = 0.0;
+                }
+            }
+            (m, p.noise)
+        }
+        None => {
+            let m = fit_over(&run.obs, gaps.start(fitted), &x);
+            let s = noise_scale(&run.obs, &m, &x);
+            (m, s)
+        }
+    };
     let rescaled: Vec<Observation>;
     let (obs, m, s) = if s > 0.0 && s < 1.0 {
         rescaled = run
@@ -148,6 +174,8 @@ pub(super) fn backlash_check(
             .collect();
         let m = fit_over(&rescaled, m, &x);
         (&rescaled[..], m, s)
+    } else if prefit.is_some() {
+        (&run.obs[..], fit_over(&run.obs, m, &x), 1.0)
     } else {
         (&run.obs[..], m, 1.0)
     };
@@ -175,7 +203,7 @@ pub(super) fn backlash_check(
 /// The fit's noise in the units its observations are whitened in: `√(Σ r² / (3N − p))` of
 /// their whitened residuals (the priors' rows left out), `p` the free inputs; 0 without degrees
 /// of freedom.
-fn noise_scale(obs: &[Observation], m: &ExtendedModel, x: &Inputs<'_>) -> f64 {
+pub(super) fn noise_scale(obs: &[Observation], m: &ExtendedModel, x: &Inputs<'_>) -> f64 {
     let r = residuals(obs, m, x);
     let dof = (3 * obs.len()).saturating_sub(x.free.len());
     if dof == 0 {

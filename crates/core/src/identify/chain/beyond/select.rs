@@ -302,34 +302,45 @@ impl Linearised<'_> {
                     let d = (0..kept.len())
                         .filter(|&k| kept[k] && term_of(k) == (j, t))
                         .count();
-                    let (r, loo) = self.score(&without)?;
+                    // The residual sum of squares decides; the leave-one-out RMS, which only
+                    // the report shows, is computed below for the terms it lists (the same
+                    // figures, at a fraction of the cost).
+                    let r = self.solve(&without)?.0.norm_squared();
                     scores.push((
                         r,
+                        without,
                         TermScore {
                             joint: j + 1,
                             term: t,
                             chi2: (r - rss) / s2,
                             aic_change: (r - rss) / s2 - 2.0 * d as f64,
-                            loo_rms_mm: loo,
+                            loo_rms_mm: f64::NAN,
                         },
                     ));
                 }
             }
             let best = scores
                 .iter()
-                .min_by(|a, b| a.1.aic_change.total_cmp(&b.1.aic_change))
-                .copied();
+                .enumerate()
+                .min_by(|a, b| a.1 .2.aic_change.total_cmp(&b.1 .2.aic_change))
+                .map(|(k, _)| k);
             match best {
-                Some((r, b)) if b.aic_change < 0.0 => {
-                    for (k, keep) in kept.iter_mut().enumerate() {
-                        if term_of(k) == (b.joint - 1, b.term) {
-                            *keep = false;
-                        }
-                    }
+                Some(k) if scores[k].2.aic_change < 0.0 => {
+                    let (r, without, mut b) = scores.swap_remove(k);
+                    b.loo_rms_mm = self.score(&without)?.1;
+                    kept = without;
                     rss = r;
                     dropped.push(b);
                 }
-                _ => break scores.into_iter().map(|s| s.1).collect(),
+                _ => {
+                    break scores
+                        .into_iter()
+                        .map(|(_, without, mut b)| {
+                            b.loo_rms_mm = self.score(&without)?.1;
+                            Some(b)
+                        })
+                        .collect::<Option<Vec<_>>>()?
+                }
             }
         };
         let extras: Vec<usize> = (0..kept.len())
