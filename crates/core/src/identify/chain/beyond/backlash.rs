@@ -121,6 +121,19 @@ pub(super) struct GapFit {
     pub model: ExtendedModel,
     /// Its noise, whitened units.
     pub noise: f64,
+    /// The covariance of its free inputs (the geometry's, the gaps', then every candidate's),
+    /// whitened units.
+    pub covariance: nalgebra::DMatrix<f64>,
+}
+
+impl GapFit {
+    /// [`Self::covariance`] without the gaps' rows and columns: the geometry's `geo` inputs,
+    /// then the `extras` candidates', as the fit without the gaps orders them.
+    pub(super) fn without_gaps(&self, geo: usize, extras: usize) -> nalgebra::DMatrix<f64> {
+        let n = self.covariance.nrows() - geo - extras;
+        let keep: Vec<usize> = (0..geo).chain(geo + n..geo + n + extras).collect();
+        self.covariance.select_rows(&keep).select_columns(&keep)
+    }
 }
 
 /// The fit of [`super::check`] with a backlash per joint added ([`BacklashCheck`]), from the fit
