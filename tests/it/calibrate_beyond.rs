@@ -176,6 +176,13 @@ fn calibrate_says_what_its_mean_model_carries() {
         (lash.gap_rad[0].to_degrees() - 0.05).abs() < 0.005,
         "{lash:?}"
     );
+    let mut auto = args.to_vec();
+    auto.push("--beyond-geometry=auto");
+    let text = run_ok(&auto);
+    assert!(
+        text.contains("record the side each joint arrived from, but the auto mode checks no gaps"),
+        "{text}"
+    );
     for (args, want) in [
         (
             &["--backlash", "1"][..],

@@ -555,6 +555,12 @@ pub fn render_full_calibration(cal: &FullCalibration) -> String {
 fn push_backlash(s: &mut String, cal: &FullCalibration, checks: &[&BeyondGeometry]) {
     let lash: Vec<_> = checks.iter().filter_map(|c| c.backlash.as_ref()).collect();
     if lash.is_empty() {
+        if checks.iter().any(|c| c.sides_unchecked) {
+            s.push_str(&format!(
+                "Backlash: the runs' poses record the side each joint arrived from, but the {} mode checks no gaps (the explicit check fits them), so no model carries them.\n",
+                cal.mode.as_str()
+            ));
+        }
         return;
     }
     let kept = cal
