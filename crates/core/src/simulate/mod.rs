@@ -20,6 +20,7 @@
 pub mod calibrate;
 pub mod factors;
 pub mod full_model;
+mod full_report;
 #[cfg(test)]
 mod joint_counts;
 pub mod nongeometric;

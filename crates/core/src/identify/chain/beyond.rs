@@ -39,7 +39,7 @@ pub(crate) use backlash::approach_directions;
 use backlash::backlash_check;
 pub use backlash::{BacklashCheck, ResidualRms};
 pub use held_out::HeldOut;
-use nalgebra::{DMatrix, DVector, Vector3};
+use nalgebra::{DMatrix, Vector3};
 use select::loo_linear;
 pub use select::{Term, TermScore, TermSelection};
 use separated::undetermined;
@@ -451,7 +451,7 @@ pub(super) fn check(
             };
             let with_gaps = gapped
                 .as_ref()
-                .and_then(|g| select_with_gaps(run, &fitted, &all, &extras, g));
+                .and_then(|g| g.select(run, &fitted, &all, &extras));
             let (kept, mut selection) = match with_gaps {
                 Some((kept, selection, fit)) => {
                     gap_fit = Some(fit);
@@ -562,73 +562,6 @@ pub(super) fn check(
         covariance: cov,
         backlash,
     })
-}
-
-/// The terms the data need ([`select`]) judged in the fit with every candidate `extras` of
-/// `all` and the gaps `gaps`, the gaps always kept, and that fit; `None` when it cannot be
-/// evaluated.
-fn select_with_gaps(
-    run: &Fitted,
-    fitted: &ExtendedModel,
-    all: &Inputs<'_>,
-    extras: &[usize],
-    gaps: &backlash::Gaps,
-) -> Option<(Vec<usize>, select::TermSelection, backlash::GapFit)> {
-    let geo = all.geo;
-    let n = gaps.indices.len();
-    let free: Vec<usize> = all.free[..geo]
-        .iter()
-        .chain(&gaps.indices)
-        .chain(extras)
-        .copied()
-        .collect();
-    let x = gaps.inputs(all, &free);
-    // One Gauss–Newton step from `fitted` (converged without the gaps) with the gaps at zero:
-    // the coefficients and gaps turn the joints by 1e-4–1e-3 rad, so the model is linear in
-    // them to Δ²·L ≈ 4e-4 mm, and the step is the fit to that; the residuals at it follow
-    // linearly, as the selection takes them anyway.
-    let start = gaps.start(fitted);
-    let (jac, r0) = jacobian(&run.obs, &start, &x);
-    let r0 = DVector::from_column_slice(&r0);
-    let jt = jac.transpose();
-    let normal = (&jt * &jac).cholesky()?;
-    let delta = normal.solve(&(&jt * &r0));
-    let step: Vec<f64> = delta.iter().map(|v| -v).collect();
-    let m = moved(&start, &free, geo, &step);
-    let r = r0 - &jac * &delta;
-    let (kept, selection) = select::Linearised {
-        obs: &run.obs,
-        jac: &jac,
-        r: r.as_slice(),
-        geo: geo + n,
-        extras,
-        beta: &m.beta,
-    }
-    .select(n)?;
-    let rows = 3 * run.obs.len();
-    let dof = rows.saturating_sub(free.len()).max(1) as f64;
-    let noise = (r.rows(0, rows).norm_squared() / dof).sqrt();
-    // The covariance with the observations whitened at this fit's own noise when smaller (as
-    // the backlash fit is fitted), back in the first units (÷ s²): in the first units the
-    // priors weigh more against the data than they do at the data's noise, and a weakly seen
-    // coefficient's σ comes out too small.
-    let covariance = if noise > 0.0 && noise < 1.0 {
-        let obs = jac.rows(0, rows);
-        let prior = jac.rows(rows, jac.nrows() - rows);
-        let info = obs.transpose() * obs / (noise * noise) + prior.transpose() * prior;
-        info.cholesky()?.inverse() / (noise * noise)
-    } else {
-        normal.inverse()
-    };
-    Some((
-        kept,
-        selection,
-        backlash::GapFit {
-            model: m,
-            noise,
-            covariance,
-        },
-    ))
 }
 
 /// The extended fit of [`check`]: its report, the model with the terms selected, and the

@@ -4,9 +4,14 @@
 //! gaps too ([`super::ExtendedFit::backlash`]): the geometry is fitted to the angles corrected by
 //! the known sides, and the analyses draw the side at each task point.
 
-use super::{fit_over, loo_rms, residuals, ExtendedModel, Fitted, Inputs, PER_JOINT, PRIOR_RAD};
+use super::select::{Linearised, TermSelection};
+use super::{
+    fit_over, jacobian, loo_rms, moved, residuals, ExtendedModel, Fitted, Inputs, PER_JOINT,
+    PRIOR_RAD,
+};
 use crate::identify::chain_fit::Observation;
 use crate::kinematics::{Backlash, Joints};
+use nalgebra::DVector;
 use serde::Serialize;
 
 /// What a backlash per joint adds, the approach directions taken from the poses' order.
@@ -93,6 +98,74 @@ impl Gaps {
                 .chain((0..n).map(|_| PRIOR_RAD))
                 .collect(),
         })
+    }
+
+    /// The terms the data need ([`super::select`]) judged in the fit with every candidate
+    /// `extras` of `all` and these gaps, the gaps always kept, and that fit; `None` when it
+    /// cannot be evaluated.
+    pub(super) fn select(
+        &self,
+        run: &Fitted,
+        fitted: &ExtendedModel,
+        all: &Inputs<'_>,
+        extras: &[usize],
+    ) -> Option<(Vec<usize>, TermSelection, GapFit)> {
+        let gaps = self;
+        let geo = all.geo;
+        let n = gaps.indices.len();
+        let free: Vec<usize> = all.free[..geo]
+            .iter()
+            .chain(&gaps.indices)
+            .chain(extras)
+            .copied()
+            .collect();
+        let x = gaps.inputs(all, &free);
+        // One Gauss–Newton step from `fitted` (converged without the gaps) with the gaps at zero:
+        // the coefficients and gaps turn the joints by 1e-4–1e-3 rad, so the model is linear in
+        // them to Δ²·L ≈ 4e-4 mm, and the step is the fit to that; the residuals at it follow
+        // linearly, as the selection takes them anyway.
+        let start = gaps.start(fitted);
+        let (jac, r0) = jacobian(&run.obs, &start, &x);
+        let r0 = DVector::from_column_slice(&r0);
+        let jt = jac.transpose();
+        let normal = (&jt * &jac).cholesky()?;
+        let delta = normal.solve(&(&jt * &r0));
+        let step: Vec<f64> = delta.iter().map(|v| -v).collect();
+        let m = moved(&start, &free, geo, &step);
+        let r = r0 - &jac * &delta;
+        let (kept, selection) = Linearised {
+            obs: &run.obs,
+            jac: &jac,
+            r: r.as_slice(),
+            geo: geo + n,
+            extras,
+            beta: &m.beta,
+        }
+        .select(n)?;
+        let rows = 3 * run.obs.len();
+        let dof = rows.saturating_sub(free.len()).max(1) as f64;
+        let noise = (r.rows(0, rows).norm_squared() / dof).sqrt();
+        // The covariance with the observations whitened at this fit's own noise when smaller (as
+        // the backlash fit is fitted), back in the first units (÷ s²): in the first units the
+        // priors weigh more against the data than they do at the data's noise, and a weakly seen
+        // coefficient's σ comes out too small.
+        let covariance = if noise > 0.0 && noise < 1.0 {
+            let obs = jac.rows(0, rows);
+            let prior = jac.rows(rows, jac.nrows() - rows);
+            let info = obs.transpose() * obs / (noise * noise) + prior.transpose() * prior;
+            info.cholesky()?.inverse() / (noise * noise)
+        } else {
+            normal.inverse()
+        };
+        Some((
+            kept,
+            selection,
+            GapFit {
+                model: m,
+                noise,
+                covariance,
+            },
+        ))
     }
 
     /// The inputs of `all` with the free inputs `free` (the gaps' indices among them) and the
