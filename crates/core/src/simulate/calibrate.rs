@@ -236,8 +236,7 @@ impl Experiment {
     /// bits as before backlash existed).
     pub fn measure(&self, configs: &[Joints], rng: &mut ChaCha8Rng) -> Vec<Measurement> {
         let lash = self.nongeometric.as_ref().filter(|e| e.has_backlash());
-        let q: Vec<Joints> = configs.to_vec();
-        let sides = lash.map(|_| crate::identify::chain::approach_directions(&q, &[]));
+        let sides = lash.map(|_| crate::identify::chain::approach_directions(configs, &[]));
         configs
             .iter()
             .enumerate()
@@ -246,10 +245,7 @@ impl Experiment {
                 let sides = sides.as_ref().map(|s| s[k]);
                 let p = match (lash, &sides) {
                     (Some(e), Some(s)) => {
-                        let mut at = e.actual_angles(&self.truth, &rad);
-                        for (a, t) in at.iter_mut().zip(e.side_turns(s).iter()) {
-                            *a += t;
-                        }
+                        let at = e.sided_angles(&self.truth, &rad, s);
                         crate::kinematics::position(&self.truth.params, &self.truth.tool, &at)
                     }
                     _ => true_position(&self.truth, self.nongeometric.as_ref(), &rad),

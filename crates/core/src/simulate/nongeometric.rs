@@ -235,6 +235,17 @@ impl NonGeometric {
         })
     }
 
+    /// The angles the joints really stand at when commanded to `q` (rad) and arriving from
+    /// `sides` ([`Self::side_turns`]): [`Self::actual_angles`] with each joint's half gap added
+    /// on its side.
+    pub fn sided_angles(&self, model: &RobotModel, q: &[f64], sides: &[f64]) -> Joints {
+        let mut at = self.actual_angles(model, q);
+        for (a, t) in at.iter_mut().zip(self.side_turns(sides).iter()) {
+            *a += t;
+        }
+        at
+    }
+
     /// Whether the robot's gears have backlash.
     pub fn has_backlash(&self) -> bool {
         self.backlash_deg.iter().any(|&g| g > 0.0)

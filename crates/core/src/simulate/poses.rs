@@ -175,11 +175,7 @@ pub fn simulate_poses_sided(
             let (p, sides) = match carrying.as_ref().filter(|_| backlash) {
                 Some(e) => {
                     let s = side_of(k);
-                    let turn = e.side_turns(&s);
-                    let mut at = e.actual_angles(truth, &rad);
-                    for (a, t) in at.iter_mut().zip(turn.iter()) {
-                        *a += t;
-                    }
+                    let at = e.sided_angles(truth, &rad, &s);
                     (
                         crate::kinematics::position(&truth.params, &truth.tool, &at),
                         Some(s),
@@ -243,13 +239,10 @@ pub fn add_other_targets(
                 None => q,
                 Some(e) => {
                     // The arm stands where it stood for the tool's reading, backlash included.
-                    let mut at = e.actual_angles(truth, &q);
-                    if let Some(s) = &p.sides {
-                        for (a, t) in at.iter_mut().zip(e.side_turns(s).iter()) {
-                            *a += t;
-                        }
+                    match &p.sides {
+                        Some(s) => e.sided_angles(truth, &q, s),
+                        None => e.actual_angles(truth, &q),
                     }
-                    at
                 }
             };
             rows.push(PosePoint { line, ..p.clone() });
