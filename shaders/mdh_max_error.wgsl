@@ -55,6 +55,13 @@ struct Config {
     term_free: u32,
     term_rows: u32,
     term_pts: u32,
+    // where a second term's radii start in disc_radii (0: none; engine::SecondTerm): its
+    // disc_second_count radii, its SIZE_DRAWS factors, then per point 1.0 where the point draws
+    // it (the per-point factors after the first term's then hold each point's own)
+    disc_second: u32,
+    disc_second_count: u32,
+    pad0: u32,
+    pad1: u32,
 }
 
 struct Chunk {
@@ -309,13 +316,26 @@ fn placement_step(dv: vec3<f32>, x0: vec3<f32>, d: array<f32, N_PLACED>) -> vec3
 // disc_radii[K + SIZE_DRAWS + pj] for a compensated model) times g, cosine
 // c = ((wd mod 2¹⁶) + ½)·2⁻¹⁵ − 1, and √(e² + r² + 2erc) formed as √((e − r)² + 2er(1 + c)):
 // both terms are non-negative and 1 + c is exact in f32, so no cancellation.
-fn with_discrepancy(e: f32, wd: u32, k: u32, pj: u32, g: f32) -> f32 {
-    var r = disc_radii[((wd >> 16u) * k) >> 16u];
+fn with_discrepancy(e: f32, wd: u32, k: u32, pj: u32, g: f32, g2: f32) -> f32 {
+    // The term point pj draws: the first (radii from 0, k of them, factor g) or, where the
+    // model has a second term and marks the point, the second (factor g2).
+    var at = 0u;
+    var count = k;
+    var size = g;
+    if (cfg.disc_second != 0u) {
+        let k2 = cfg.disc_second_count;
+        if (disc_radii[cfg.disc_second + k2 + SIZE_DRAWS + pj] != 0.0) {
+            at = cfg.disc_second;
+            count = k2;
+            size = g2;
+        }
+    }
+    var r = disc_radii[at + (((wd >> 16u) * count) >> 16u)];
     if (cfg.disc_scaled != 0u) {
         // a compensated model: the point's predictive σ over the term's reference
         r = r * disc_radii[k + SIZE_DRAWS + pj];
     }
-    r = r * g;
+    r = r * size;
     let one_plus_c = (f32(wd & 0xFFFFu) + 0.5) * (1.0 / 32768.0);
     let dr = e - r;
     return sqrt(dr * dr + 2.0 * e * r * one_plus_c);
@@ -381,10 +401,14 @@ fn point_errors(i: u32, d0: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u
     // factor is disc_radii[K + (c ≫ 24)] (after the K radii, SIZE_DRAWS of them).
     var dab = vec2<u32>(0u);
     var g = 0.0;
+    var g2 = 0.0;
     if (disc_count != 0u) {
         let words = philox4x32_10(vec4<u32>(draw.x, draw.y, 0u, DISCREPANCY_STREAM), cfg.key);
         dab = words.xy;
         g = disc_radii[disc_count + (words.z >> 24u)];
+        if (cfg.disc_second != 0u) {
+            g2 = disc_radii[cfg.disc_second + cfg.disc_second_count + (words.z >> 24u)];
+        }
     }
     for (var pj = 0u; pj < m; pj++) {
         let base = pj * WORDS_PER_POINT;
@@ -413,7 +437,7 @@ fn point_errors(i: u32, d0: array<f32, N_PLACED>, draw: vec2<u32>, disc_count: u
         let ez = dv.z + o.z;
         var e = sqrt(ex * ex + ey * ey + ez * ez);
         if (disc_count != 0u) {
-            e = with_discrepancy(e, hash32(dab.x ^ hash32(dab.y + pj)), disc_count, pj, g);
+            e = with_discrepancy(e, hash32(dab.x ^ hash32(dab.y + pj)), disc_count, pj, g, g2);
         }
         if (chunk.want_e != 0u) {
             e_out[i * m + pj] = e;

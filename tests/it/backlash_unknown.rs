@@ -94,14 +94,24 @@ fn a_problem_uses_the_term_until_every_side_is_given() {
             sided(frame, measured);
         }
     }
-    // One side missing: the centre stays, the given ones are counted.
+    // One side missing at point 2: that point stands at the centre with the term for unknown
+    // sides, the others take theirs (mixed_sides_are_the_two_problems_point_by_point); one
+    // missing at every point: the centre stays everywhere, the given sides counted.
     let mut some = sides(-1.0);
     some[2][0] = 0.0;
     let mut q = new(model(true));
     q.set_known_sides(&some).unwrap();
+    assert!(q.sided.is_none());
+    assert_eq!(q.sides_unused, Some((5, 6)));
+    let mut none = sides(-1.0);
+    for s in none.iter_mut() {
+        s[1] = 0.0;
+    }
+    let mut q = new(model(true));
+    q.set_known_sides(&none).unwrap();
     assert!(q.sided.is_some());
     let n = 6 * pts.len();
-    assert_eq!(q.sides_unused, Some((n - 1, n)));
+    assert_eq!(q.sides_unused, Some((n - pts.len(), n)));
     assert_eq!(run(&q), run(&p));
     // A value that is no side, or a row too few: refused, the problem as it was.
     let mut bad = sides(1.0);
@@ -112,6 +122,79 @@ fn a_problem_uses_the_term_until_every_side_is_given() {
         assert!(matches!(err, ProblemError::Sides(_)), "{err}");
         assert!(r.sided.is_some());
         assert_eq!(run(&r), run(&p));
+    }
+}
+
+/// Sides given at some points but not all: each point whose sides are all given is drawn as
+/// the problem with every side given draws it (the model's own term, its joints turned to the
+/// sides), each other one as the centre's problem draws it (no side, the term for unknown
+/// sides): draw for draw and bit for bit on the CPU, in both frames, with the predictions at
+/// the sided points moved to the sides; the GPU within its f32 bound (docs/METHOD.md §7).
+#[test]
+fn mixed_sides_are_the_two_problems_point_by_point() {
+    let pts = points();
+    let m = pts.len();
+    // A term for unknown sides of another shape than the model's own, so that its size's
+    // factors differ too, not only its radii.
+    let mut skewed = model(true);
+    let b = skewed
+        .joint_errors
+        .as_mut()
+        .and_then(|e| e.backlash.as_mut());
+    b.unwrap().sides_unknown = Some(Discrepancy {
+        residual_norms: (1..=30).map(|i| 0.002 * (i * i) as f64).collect(),
+        ..term(1.0)
+    });
+    let factors = |d: &Discrepancy| d.draw_factors(gpu_amcs::discrepancy::DiscrepancyUse::Robot);
+    assert_ne!(
+        factors(skewed.sides_unknown_term().unwrap()),
+        factors(skewed.discrepancy.as_ref().unwrap())
+    );
+    let new = |frame: Frame| {
+        Problem::new(skewed.clone(), &pts, &Reference::Calibrated, 7)
+            .unwrap()
+            .in_frame(frame)
+    };
+    let given: Vec<Joints> = (0..m)
+        .map(|j| Joints::from_fn(6, |i| if (i + j) % 2 == 0 { 1.0 } else { -1.0 }))
+        .collect();
+    // Points 1 and 3 lose a side: they stand at the centre.
+    let mut some = given.clone();
+    some[1][4] = 0.0;
+    some[3][0] = 0.0;
+    for frame in [Frame::Measurement, Frame::Base] {
+        let centre = new(frame);
+        let mut sided = new(frame);
+        sided.predict_known_sides(&given).unwrap();
+        let mut mixed = new(frame);
+        mixed.predict_known_sides(&some).unwrap();
+        assert_eq!(mixed.centre(), &[false, true, false, true, false][..m]);
+        for j in 0..m {
+            let from = if j == 1 || j == 3 { &centre } else { &sided };
+            assert_eq!(mixed.reference[j], from.reference[j], "{frame:?} point {j}");
+        }
+        let ((wx, ex), (_, es), (_, ec)) = (run(&mixed), run(&sided), run(&centre));
+        for k in 0..64 {
+            let row = &ex[k * m..(k + 1) * m];
+            for j in 0..m {
+                let want = if j == 1 || j == 3 {
+                    ec[k * m + j]
+                } else {
+                    es[k * m + j]
+                };
+                assert_eq!(row[j], want, "{frame:?} draw {k} point {j}");
+            }
+            assert_eq!(wx[k], row.iter().copied().fold(0.0, f64::max));
+        }
+        // The two problems differ at those points: the comparison sees which one is drawn.
+        assert!((0..64).any(|k| es[k * m + 1] != ec[k * m + 1]));
+        if frame == Frame::Base && crate::common::have_adapter("mixed_sides (GPU)") {
+            let (_, _, _, (dw, de)) = crate::joint_errors::cpu_and_gpu(&mixed, 500, 4000);
+            assert!(
+                dw <= 1e-5 && de <= 1e-5,
+                "mixed sides on the GPU: {dw} {de}"
+            );
+        }
     }
 }
 

@@ -37,6 +37,14 @@ pub struct ConfigUniform {
     pub term_rows: u32,
     /// Where the per-point words start in `term` (f32 entries; 0: the buffer holds only them).
     pub term_pts: u32,
+    /// Where a second discrepancy term starts in `disc_radii` (0: none;
+    /// `gpu_amcs_core::engine::SecondTerm`): its radii, its factors, then per point 1.0 where the
+    /// point draws it.
+    pub disc_second: u32,
+    /// Radii of the second term.
+    pub disc_second_count: u32,
+    /// Padding to the WGSL struct's size.
+    pub pad: [u32; 2],
 }
 
 /// The per-chunk uniform (`chunk` in the shader).
@@ -94,19 +102,40 @@ impl ProblemBuffers {
         // cannot be empty, so a problem without one uploads a single unused zero.
         // The size's per-draw factors follow the radii (SIZE_DRAWS of them), then a compensated
         // model's per-point factors (m of them).
-        let (disc, disc_count, disc_scaled): (Vec<f32>, u32, u32) = match &problem.discrepancy {
+        // A second term (drawn at the points it marks) follows: its radii, its factors and a
+        // 1.0 per point that draws it (0.0 elsewhere).
+        let (disc, disc_count, disc_scaled, disc_second, disc_second_count): (
+            Vec<f32>,
+            u32,
+            u32,
+            u32,
+            u32,
+        ) = match &problem.discrepancy {
             Some(d) => {
                 debug_assert_eq!(d.key(), problem.sampler.key(), "one key for both streams");
                 let radii = d.radii().iter().map(|&r| r as f32);
                 let factors = d.factors().iter().map(|&g| g as f32);
                 let scales = d.scales().iter().map(|&s| s as f32);
+                let mut words: Vec<f32> = radii.chain(factors).chain(scales).collect();
+                let (at, count) = match d.second() {
+                    Some(t) => {
+                        let at = words.len() as u32;
+                        words.extend(t.radii.iter().map(|&r| r as f32));
+                        words.extend(t.factors.iter().map(|&g| g as f32));
+                        words.extend(t.at.iter().map(|&a| if a { 1.0f32 } else { 0.0 }));
+                        (at, t.radii.len() as u32)
+                    }
+                    None => (0, 0),
+                };
                 (
-                    radii.chain(factors).chain(scales).collect(),
+                    words,
                     d.radii().len() as u32,
                     u32::from(!d.scales().is_empty()),
+                    at,
+                    count,
                 )
             }
-            None => (Vec::new(), 0, 0),
+            None => (Vec::new(), 0, 0, 0, 0),
         };
         let disc_radii = if disc.is_empty() { vec![0.0f32] } else { disc };
         let packing_term = problem.joint_errors.as_ref().map(|t| t.packing());
@@ -124,6 +153,9 @@ impl ProblemBuffers {
             block_mask: packing.block_mask,
             disc_count,
             disc_scaled,
+            disc_second,
+            disc_second_count,
+            pad: [0; 2],
             term_on: u32::from(packing_term.is_some()),
             term_free: packing_term.as_ref().map_or(0, |t| t.free),
             term_rows: packing_term.as_ref().map_or(0, |t| t.rows),

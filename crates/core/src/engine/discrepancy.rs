@@ -49,9 +49,26 @@ pub struct DiscrepancyDraws {
     /// Per draw, one of these factors of every radius (the term's size, [`SIZE_DRAWS`] of them).
     /// (A fixed-size array: the 8-bit index needs no bounds check in the lanes.)
     factors: Box<[f64; SIZE_DRAWS]>,
-    /// Per test point, the factor the radius is drawn with (empty: 1 everywhere).
+    /// Per test point, the factor the radius is drawn with (empty: 1 everywhere); with a
+    /// [`SecondTerm`], each point's factor in the term it draws.
     scales: Vec<f64>,
     key: [u32; 2],
+    /// A second term drawn at some of the points instead of this one ([`Self::with_second`]).
+    second: Option<Box<SecondTerm>>,
+}
+
+/// A term a run draws at some test points instead of the first (a model with backlash whose
+/// sides are known at some points: there its own term, at the others the term for unknown
+/// sides; docs/METHOD.md §19.5). The same words and the same draw's factor word pick its radius
+/// and size factor.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SecondTerm {
+    /// Its radii, mm (1 to [`MAX_SAMPLES`]).
+    pub radii: Vec<f64>,
+    /// Its per-draw factors of the radii ([`SIZE_DRAWS`]).
+    pub factors: Vec<f64>,
+    /// Per test point, whether the point draws this term.
+    pub at: Vec<bool>,
 }
 
 impl DiscrepancyDraws {
@@ -81,6 +98,41 @@ impl DiscrepancyDraws {
             factors,
             scales: Vec::new(),
             key: Philox::new(seed).key,
+            second: None,
+        }
+    }
+
+    /// The draws with `second` drawn at the points it marks instead of this term (per-point
+    /// factors, [`Self::with_scales`], then hold each point's factor in its own term).
+    ///
+    /// # Panics
+    ///
+    /// As [`Self::new`] for the second term's radii and factors.
+    pub fn with_second(mut self, second: SecondTerm) -> DiscrepancyDraws {
+        assert!(
+            !second.radii.is_empty() && second.radii.len() <= MAX_SAMPLES,
+            "1 to {MAX_SAMPLES} radii"
+        );
+        assert!(
+            second.factors.len() == SIZE_DRAWS
+                && second.factors.iter().all(|g| g.is_finite() && *g >= 0.0),
+            "{SIZE_DRAWS} finite non-negative factors"
+        );
+        self.second = Some(Box::new(second));
+        self
+    }
+
+    /// The second term and the points that draw it, when there is one.
+    pub fn second(&self) -> Option<&SecondTerm> {
+        self.second.as_deref()
+    }
+
+    /// The radii and the factor of draw word `c` of the term point `point` draws.
+    #[inline(always)]
+    fn term_at(&self, point: usize, c: u32) -> (&[f64], f64) {
+        match &self.second {
+            Some(t) if t.at[point] => (&t.radii, t.factors[(c >> 24) as usize]),
+            _ => (&self.radii, self.factor(c)),
         }
     }
 
@@ -99,7 +151,8 @@ impl DiscrepancyDraws {
         self
     }
 
-    /// The per-point factors (empty: 1 at every point).
+    /// The per-point factors (empty: 1 at every point; with a second term, each point's in the
+    /// term it draws).
     pub fn scales(&self) -> &[f64] {
         &self.scales
     }
@@ -135,10 +188,10 @@ impl DiscrepancyDraws {
         self.key
     }
 
-    /// Index into the radii from a word's high half: `⌊(w ≫ 16)·K / 2¹⁶⌋`.
+    /// Index into `k` radii from a word's high half: `⌊(w ≫ 16)·K / 2¹⁶⌋`.
     #[inline(always)]
-    pub fn index(&self, w: u32) -> usize {
-        (((w >> 16) * self.radii.len() as u32) >> 16) as usize
+    pub fn index(w: u32, k: usize) -> usize {
+        (((w >> 16) * k as u32) >> 16) as usize
     }
 
     /// The word of `draw` at `point`, and the draw's factor word.
@@ -178,7 +231,8 @@ impl DiscrepancyDraws {
             std::array::from_fn(|l| point_word(words[0][l], words[1][l], point as u32));
         let s = self.scale(point);
         for l in 0..L {
-            let r = self.radii[self.index(w[l])] * s * self.factor(words[2][l]);
+            let (radii, g) = self.term_at(point, words[2][l]);
+            let r = radii[Self::index(w[l], radii.len())] * s * g;
             let c = cosine(w[l]);
             let e = e2[l].sqrt();
             let v = e2[l] + r * r + 2.0 * e * r * c;
@@ -189,8 +243,9 @@ impl DiscrepancyDraws {
     /// The radius (mm) and direction cosine of `draw` at `point`.
     pub fn draw_pair(&self, draw: u64, point: usize) -> (f64, f64) {
         let (w, c) = self.word(draw, point);
+        let (radii, g) = self.term_at(point, c);
         (
-            self.radii[self.index(w)] * self.scale(point) * self.factor(c),
+            radii[Self::index(w, radii.len())] * self.scale(point) * g,
             cosine(w),
         )
     }
@@ -275,9 +330,49 @@ mod tests {
     #[test]
     fn the_index_rule_covers_every_radius_and_stays_in_range() {
         for k in [1usize, 2, 3, 1000, MAX_SAMPLES] {
-            let d = DiscrepancyDraws::new(vec![0.0; k], vec![1.0; SIZE_DRAWS], 1);
-            assert_eq!(d.index(0), 0);
-            assert_eq!(d.index(u32::MAX), k - 1);
+            assert_eq!(DiscrepancyDraws::index(0, k), 0);
+            assert_eq!(DiscrepancyDraws::index(u32::MAX, k), k - 1);
+        }
+    }
+
+    #[test]
+    fn a_second_term_is_drawn_at_its_points_only() {
+        // First term: radius 1, factor 1; second: radii 10 and 20, factor 3 (so 30 or 60) at
+        // points 1 and 3. At e = 0 the error is the radius times the factor.
+        let d =
+            DiscrepancyDraws::new(vec![1.0], vec![1.0; SIZE_DRAWS], 11).with_second(SecondTerm {
+                radii: vec![10.0, 20.0],
+                factors: vec![3.0; SIZE_DRAWS],
+                at: vec![false, true, false, true],
+            });
+        let mut seen = [0usize; 2];
+        for k in 0..2000u64 {
+            for point in 0..4 {
+                let r = d.apply(0.0, k, point);
+                if point % 2 == 0 {
+                    assert_eq!(r, 1.0);
+                } else {
+                    assert!(r == 30.0 || r == 60.0, "{r}");
+                    seen[usize::from(r == 60.0)] += 1;
+                }
+            }
+        }
+        // both radii, about equally often (4000 draws: binomial σ ≈ 32)
+        assert!((seen[0] as f64 - 2000.0).abs() < 5.0 * 32.0, "{seen:?}");
+        // The lanes give the point form's bits, the second term included.
+        let draws: [u64; 8] = std::array::from_fn(|l| 99 + 7 * l as u64);
+        let mut words = [[0u32; 8]; 4];
+        for point in 0..4 {
+            let e: [f64; 8] = std::array::from_fn(|l| 0.5 + l as f64);
+            let mut e2 = e.map(|v| v * v);
+            d.apply_squared_lanes(&mut e2, &draws, point, &mut words);
+            for l in 0..8 {
+                let scalar = d.apply(e[l], draws[l], point);
+                assert!(
+                    (e2[l].sqrt() - scalar).abs() <= 1e-14 * scalar,
+                    "{point} {l}"
+                );
+            }
         }
     }
 }

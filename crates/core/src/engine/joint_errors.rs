@@ -157,6 +157,10 @@ pub struct JointErrorDraws {
     /// joint `i`'s side is bit `i` of `bits` where bit `i` of `mask` is set, drawn elsewhere;
     /// empty when none is known.
     pub known: Vec<[u32; 2]>,
+    /// Per test point whether every joint stands at the centre of its gap there (no side
+    /// drawn or known: the point is predicted as the model without its backlash predicts,
+    /// [`Self::set_centre`]); empty when none is.
+    pub centre: Vec<bool>,
 }
 
 impl JointErrorDraws {
@@ -204,6 +208,7 @@ impl JointErrorDraws {
             }),
             backlash: backlash.is_some(),
             known: Vec::new(),
+            centre: Vec::new(),
             joints: n,
             free: e.free.clone(),
             chol,
@@ -453,7 +458,7 @@ impl JointErrorDraws {
             let b = &d.beta[COEFFICIENTS_PER_JOINT * i..COEFFICIENTS_PER_JOINT * (i + 1)];
             let [tl, tu, s1, c1, s2, c2] = t[i];
             let o = f[i][0] * tl + f[i][1] * tu + b[1] * s1 + b[2] * c1 + b[3] * s2 + b[4] * c2;
-            if self.backlash {
+            if self.backlash && !self.at_centre(point) {
                 o + side(w, i, self.half_gap[i])
             } else {
                 o
@@ -476,7 +481,8 @@ pub struct TermPacking {
     /// payload's mean and σ (kg); then the [`TermGroup`] of each of the `p + 1` normals.
     pub words: Vec<f32>,
     /// Per test point and joint two vec4: `(τ_links, τ_unit, sin q, cos q)`, `(sin 2q, cos 2q,
-    /// k, s)` with `k = 1` where the joint's backlash side is known there, `s` that side (±1).
+    /// k, s)` with `k = 1` where the joint's backlash side is known there, `s` that side (±1),
+    /// or 0 at a point at the centre of the gaps ([`JointErrorDraws::set_centre`]).
     pub points: Vec<[f32; 4]>,
     /// Per joint the backlash's turn `h_j` (rad); empty without backlash.
     pub half_gap: Vec<f32>,
@@ -511,10 +517,16 @@ impl JointErrorDraws {
         let points = (self.terms.iter().enumerate())
             .flat_map(|(pj, t)| {
                 let [mask, bits] = self.known.get(pj).copied().unwrap_or([0, 0]);
+                // A point at the centre: every side "known" as 0, so no joint turns.
+                let centre = self.at_centre(pj);
                 (0..self.joints).flat_map(move |j| {
                     let [tl, tu, s1, c1, s2, c2] = t[j];
-                    let known = (mask >> j) & 1;
-                    let side = if (bits >> j) & 1 == 1 { 1.0 } else { -1.0 };
+                    let known = if centre { 1 } else { (mask >> j) & 1 };
+                    let side = match (centre, (bits >> j) & 1 == 1) {
+                        (true, _) => 0.0,
+                        (false, true) => 1.0,
+                        (false, false) => -1.0,
+                    };
                     [
                         [tl as f32, tu as f32, s1 as f32, c1 as f32],
                         [s2 as f32, c2 as f32, known as f32, side],

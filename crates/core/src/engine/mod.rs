@@ -57,7 +57,7 @@ mod problem;
 
 pub use backend::{cpu_evaluator, BackendChoice, Backends, CpuOnly};
 pub use cpu::CpuEvaluator;
-pub use discrepancy::{DiscrepancyDraws, DISCREPANCY_STREAM};
+pub use discrepancy::{DiscrepancyDraws, SecondTerm, DISCREPANCY_STREAM};
 pub use joint_errors::{
     JointErrorDraws, TermGroup, TermPacking, BACKLASH_MASK, BACKLASH_STREAM, JOINT_ERRORS_MASK,
     JOINT_ERROR_STREAM,

@@ -11,8 +11,9 @@
 //! mm) to every error.
 
 use super::joint_errors::{JointErrorDraws, TermDraw};
-use super::DiscrepancyDraws;
-use crate::discrepancy::DiscrepancyUse;
+use super::{DiscrepancyDraws, SecondTerm};
+use crate::discrepancy::size::SIZE_DRAWS;
+use crate::discrepancy::{Discrepancy, DiscrepancyUse};
 use crate::kinematics::{position, Block, Joints, RobotModel};
 use crate::sampling::{ParamSampler, SamplerError};
 
@@ -92,6 +93,9 @@ pub enum ProblemError {
 /// robot when every draw of the term's size is measurement noise ([`Discrepancy::drawn`]).
 /// Each draw scales the radii by its draw of the size ([`Discrepancy::draw_factors`]); a
 /// compensated model's term is drawn at each of `points` (radians) with its predictive σ there.
+/// Where `centre` marks points at the centre of the backlash's gaps (a model with a term for
+/// unknown sides, sides known at the other points), those draw the term for unknown sides
+/// instead ([`SecondTerm`]), the others the model's own term (none: nothing there).
 ///
 /// [`Discrepancy::drawn`]: crate::discrepancy::Discrepancy::drawn
 /// [`Discrepancy::draw_factors`]: crate::discrepancy::Discrepancy::draw_factors
@@ -100,15 +104,54 @@ fn discrepancy_draws(
     points: &[Joints],
     usage: DiscrepancyUse,
     seed: u64,
+    centre: &[bool],
 ) -> Option<DiscrepancyDraws> {
-    model
-        .discrepancy
-        .as_ref()
-        .filter(|d| usage == DiscrepancyUse::Measured || d.drawn())
-        .map(|d| {
+    let drawn = |d: &&Discrepancy| usage == DiscrepancyUse::Measured || d.drawn();
+    let own = model.discrepancy.as_ref().filter(drawn);
+    if !centre.iter().any(|&c| c) {
+        return own.map(|d| {
             DiscrepancyDraws::new(d.radii().to_vec(), d.draw_factors(usage), seed)
                 .with_scales(d.point_scales(points))
-        })
+        });
+    }
+    let unknown = model.sides_unknown_term().filter(drawn);
+    if own.is_none() && unknown.is_none() {
+        return None;
+    }
+    // A missing term draws radius 0: the error stays the chain's.
+    let table = |d: Option<&Discrepancy>| match d {
+        Some(d) => (
+            d.radii().to_vec(),
+            d.draw_factors(usage),
+            d.point_scales(points),
+        ),
+        None => (vec![0.0], vec![0.0; SIZE_DRAWS], Vec::new()),
+    };
+    let (radii, factors, own_scales) = table(own);
+    let (second_radii, second_factors, second_scales) = table(unknown);
+    let scales = if own_scales.is_empty() && second_scales.is_empty() {
+        Vec::new()
+    } else {
+        let at = |s: &[f64], j: usize| s.get(j).copied().unwrap_or(1.0);
+        (0..points.len())
+            .map(|j| {
+                if centre[j] {
+                    at(&second_scales, j)
+                } else {
+                    at(&own_scales, j)
+                }
+            })
+            .collect()
+    };
+    Some(
+        DiscrepancyDraws::new(radii, factors, seed)
+            .with_scales(scales)
+            .with_second(SecondTerm {
+                radii: second_radii,
+                factors: second_factors,
+                at: centre.to_vec(),
+            }),
+    )
 }
 
 /// Model + test points + reference + seed.
@@ -139,8 +182,9 @@ pub struct Problem {
     /// ([`RobotModel::with_sides_unknown`]): until [`Self::set_known_sides`] gives every
     /// point's sides. `None` for a model without a term for unknown sides.
     pub sided: Option<Box<RobotModel>>,
-    /// The (test point, joint with a gap) pairs whose side was given, of how many, when sides
-    /// were given at some points but not all while [`Self::sided`] is kept: they are not used.
+    /// The (test point, joint with a gap) pairs whose side was given, of how many, at the points
+    /// whose sides are not all given, for a model with a term for unknown sides: they are not
+    /// used (those points stand at the centre of the gaps, [`JointErrorDraws::set_centre`]).
     pub sides_unused: Option<(usize, usize)>,
     /// How the discrepancy term is drawn; `None` when it is left out.
     discrepancy_use: Option<DiscrepancyUse>,
@@ -256,7 +300,7 @@ impl Problem {
             })
             .collect();
         let sampler = ParamSampler::new(&model, seed)?;
-        let discrepancy = discrepancy_draws(&model, &points, DiscrepancyUse::Robot, seed);
+        let discrepancy = discrepancy_draws(&model, &points, DiscrepancyUse::Robot, seed, &[]);
         let joint_errors = JointErrorDraws::new(&model, &points, seed)?;
         Ok(Problem {
             joint_errors,
@@ -284,9 +328,18 @@ impl Problem {
     /// The problem drawing the model's discrepancy term for `usage` (the default is
     /// [`DiscrepancyUse::Robot`]); nothing changes for a model without one.
     pub fn with_discrepancy_use(mut self, usage: DiscrepancyUse) -> Problem {
-        self.discrepancy = discrepancy_draws(&self.model, &self.points, usage, self.seed);
+        self.discrepancy =
+            discrepancy_draws(&self.model, &self.points, usage, self.seed, self.centre());
         self.discrepancy_use = Some(usage);
         self
+    }
+
+    /// Per test point whether it stands at the centre of the backlash's gaps while the sides
+    /// are known at other points ([`JointErrorDraws::set_centre`]); empty when none does.
+    pub fn centre(&self) -> &[bool] {
+        self.joint_errors
+            .as_ref()
+            .map_or(&[], |t| t.centre.as_slice())
     }
 
     /// Number of test points m.
@@ -343,8 +396,10 @@ impl Problem {
 
     /// Fixes the backlash sides known at the test points (`sides[j][i]`: +1, −1, or 0 for
     /// drawn; [`JointErrorDraws::set_known_sides`]). A problem predicting for unknown sides
-    /// ([`Self::sided`]) turns to the model as given when `sides` give every point's, and
-    /// otherwise stays as it is, counting them in [`Self::sides_unused`].
+    /// ([`Self::sided`]) turns to the model as given when `sides` give every side of some
+    /// point: the points whose sides are not all given stand at the centre of the gaps and draw
+    /// the term for unknown sides there ([`JointErrorDraws::set_centre`], counted in
+    /// [`Self::sides_unused`]); when no point's are all given it stays as it is.
     ///
     /// # Errors
     ///
@@ -374,16 +429,36 @@ impl Problem {
                     return Err(e);
                 }
             };
-            if !sides.iter().all(|s| sided.sides_complete(s)) {
+            let complete: Vec<bool> = sides.iter().map(|s| sided.sides_complete(s)).collect();
+            let (Some(mut t), true) = (t.clone(), complete.iter().any(|&c| c)) else {
                 self.sides_unused = t.as_ref().map(|t| t.sides_known());
                 self.sided = Some(sided);
                 return Ok(());
+            };
+            // The points whose sides are not all given stand at the centre of the gaps and
+            // draw the term for unknown sides; the sides given there are not used.
+            if !complete.iter().all(|&c| c) {
+                let partial = (sides.iter().zip(&complete))
+                    .filter(|(_, &c)| !c)
+                    .map(|(s, _)| {
+                        (0..s.len())
+                            .filter(|&i| t.half_gap[i] > 0.0 && s[i] != 0.0)
+                            .count()
+                    })
+                    .sum();
+                let pairs = (0..sided.joints()).filter(|&i| t.half_gap[i] > 0.0).count()
+                    * complete.iter().filter(|&&c| !c).count();
+                t.set_centre(complete.iter().map(|c| !c).collect())
+                    .map_err(ProblemError::Sides)?;
+                self.sides_unused = Some((partial, pairs));
+            } else {
+                self.sides_unused = None;
             }
-            self.joint_errors = t;
+            self.joint_errors = Some(t);
             self.model = *sided;
-            self.sides_unused = None;
-            self.discrepancy = (self.discrepancy_use)
-                .and_then(|u| discrepancy_draws(&self.model, &self.points, u, self.seed));
+            self.discrepancy = (self.discrepancy_use).and_then(|u| {
+                discrepancy_draws(&self.model, &self.points, u, self.seed, self.centre())
+            });
             return Ok(());
         }
         let Some(t) = self.joint_errors.as_mut().filter(|t| t.backlash) else {
@@ -408,9 +483,15 @@ impl Problem {
     pub fn predict_known_sides(&mut self, sides: &[Joints]) -> Result<(), ProblemError> {
         self.set_known_sides(sides)?;
         let m = &self.model;
-        for ((r, q), s) in self.reference.iter_mut().zip(&self.points).zip(sides) {
+        // Points at the centre of the gaps are predicted there, whatever sides they gave.
+        let centre = self.joint_errors.as_ref().map_or(&[][..], |t| &t.centre);
+        for (j, ((r, q), s)) in (self.reference.iter_mut().zip(&self.points).zip(sides)).enumerate()
+        {
             let mut chain = m.calibrated_chain_angles(q);
-            if let Some(t) = m.side_turns(s) {
+            if let Some(t) = m
+                .side_turns(s)
+                .filter(|_| !centre.get(j).copied().unwrap_or(false))
+            {
                 for (a, d) in chain.iter_mut().zip(t.iter()) {
                     *a += d;
                 }

@@ -349,9 +349,14 @@ pub fn make_frame_evaluator(
         (None, Some(e)) if problem.sided.is_some() => Some(e.describe() + &sides::note(&problem)),
         _ => None,
     };
+    let mixed = problem.centre().iter().any(|&c| c);
     let (ev, mut notes) = make_evaluator(backends, problem, backend, adapter)?;
     if let Some(t) = term {
-        notes.push(format!("{t}: drawn at every test point"));
+        notes.push(if mixed {
+            format!("{t}: drawn at the test points whose backlash sides are given")
+        } else {
+            format!("{t}: drawn at every test point")
+        });
     }
     notes.extend(joint_errors);
     if uncertain {

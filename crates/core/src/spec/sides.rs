@@ -74,8 +74,8 @@ pub(super) fn note(problem: &Problem) -> String {
                        data, which hold the hysteresis) is drawn instead of the sides";
         return match problem.sides_unused {
             Some((k, n)) if k > 0 => format!(
-                ", its backlash's sides given for {k} of the {n} (point, joint) pairs, not at \
-                 every point: {instead} (give every point's sides to use them)"
+                ", its backlash's sides given for {k} of the {n} (point, joint) pairs, every \
+                 side at no point: {instead} (give every side of a point to use them there)"
             ),
             _ => format!(", its backlash's sides not known at the test points: {instead}"),
         };
@@ -83,6 +83,21 @@ pub(super) fn note(problem: &Problem) -> String {
     let Some(t) = problem.joint_errors.as_ref().filter(|t| t.backlash) else {
         return String::new();
     };
+    let centred = t.centre.iter().filter(|&&c| c).count();
+    if centred > 0 {
+        let m = t.centre.len();
+        let unused = match problem.sides_unused {
+            Some((k, _)) if k > 0 => format!(" ({k} sides given at those points are not used)"),
+            _ => String::new(),
+        };
+        return format!(
+            ", its backlash's sides given in full at {} of the {m} test points and used there; \
+             at the other {centred} each joint is taken at the centre of its gap and the \
+             model's term for unknown sides (fitted to that prediction's residuals on the \
+             calibration data) is drawn instead of the sides{unused}",
+            m - centred
+        );
+    }
     match t.sides_known() {
         (k, n) if k == n => ", its sides given at every point".into(),
         (0, _) => ", its sides drawn at every point, as they are not known there and the model \

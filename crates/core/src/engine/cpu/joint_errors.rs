@@ -178,11 +178,18 @@ pub(super) fn point_offsets<const N: usize>(
             *w = point_sides(sides, pj);
         }
     }
+    // Points at the centre of the gaps take no side ([`JointErrorDraws::set_centre`]).
+    let centre = sides.map_or(&[][..], |(_, _, t)| t.centre.as_slice());
     for i in 0..N {
         let f = &jel[i];
         for (pj, (t, o)) in terms.iter().zip(out.offsets.iter_mut()).enumerate() {
             let w = out.words.get(pj).unwrap_or(&NONE);
-            o[i] = joint_offset_sided(f, &t[i], payload, (sides, w, i));
+            let s = if centre.get(pj).copied().unwrap_or(false) {
+                None
+            } else {
+                sides
+            };
+            o[i] = joint_offset_sided(f, &t[i], payload, (s, w, i));
         }
     }
 }

@@ -60,6 +60,40 @@ impl JointErrorDraws {
         Ok(())
     }
 
+    /// Puts the test points that `centre` marks at the centre of every gap: no side is drawn
+    /// or known there, the joints stand where the model without its backlash puts them (a
+    /// model with a term for unknown sides predicts so where a point's sides are not all
+    /// known, docs/METHOD.md §19.5). An empty `centre` or one that marks no point clears it.
+    ///
+    /// # Errors
+    ///
+    /// A message when `centre` is neither empty nor one entry per test point, or the model has
+    /// no backlash.
+    pub fn set_centre(&mut self, centre: Vec<bool>) -> Result<(), String> {
+        if !self.backlash {
+            return Err("the model has no backlash: no joint has a gap to stand in".into());
+        }
+        if !centre.is_empty() && centre.len() != self.terms.len() {
+            return Err(format!(
+                "{} centre marks for {} test points",
+                centre.len(),
+                self.terms.len()
+            ));
+        }
+        self.centre = if centre.iter().any(|&c| c) {
+            centre
+        } else {
+            Vec::new()
+        };
+        Ok(())
+    }
+
+    /// Whether test point `point` stands at the centre of the gaps ([`Self::set_centre`]).
+    #[inline(always)]
+    pub fn at_centre(&self, point: usize) -> bool {
+        self.centre.get(point).copied().unwrap_or(false)
+    }
+
     /// How many of the (test point, joint with a gap) pairs have a known side, of how many:
     /// `(0, total)` when every side is drawn.
     pub fn sides_known(&self) -> (usize, usize) {
