@@ -127,6 +127,15 @@ impl DiscrepancyDraws {
         self.second.as_deref()
     }
 
+    /// The radii (mm) and the per-draw factors of the term test point `point` draws (the first
+    /// term's, or the second's where it marks the point).
+    pub fn term_of(&self, point: usize) -> (&[f64], &[f64]) {
+        match &self.second {
+            Some(t) if t.at[point] => (&t.radii, &t.factors),
+            _ => (&self.radii, &self.factors[..]),
+        }
+    }
+
     /// The radii and the factor of draw word `c` of the term point `point` draws.
     #[inline(always)]
     fn term_at(&self, point: usize, c: u32) -> (&[f64], f64) {

@@ -10,6 +10,9 @@
 //! g = factors[⌊p_g·256⌋],   r_j = radii[⌊p_rj·K⌋]·scale_j·g,   c_j = 2 p_cj − 1
 //! ```
 //!
+//! (with the radii and factors of the term point j draws, where a second term is drawn at some
+//! points: [`crate::engine::SecondTerm`]),
+//!
 //! has the engine's distribution exactly (up to `Φ`'s error, below 1.2e-7 absolute, against
 //! index steps of at least 1/65536). Subset simulation then works on `d + 2m + 1` normals: the
 //! parameters' `d`, then the m radius normals, the m cosine normals and the size normal. Its
@@ -42,16 +45,17 @@ impl TermSpace {
     /// term of the normals `u` ([`Self::dim`] of them) applied.
     pub(super) fn max_error(&self, e: &[f64], u: &[f64]) -> f64 {
         let m = self.points;
-        let radii = self.draws.radii();
-        let factors = self.draws.factors();
         let pick = |table: &[f64], z: f64| {
             table[((normal_cdf(z) * table.len() as f64) as usize).min(table.len() - 1)]
         };
-        let g = pick(factors, u[2 * m]);
         let scales = self.draws.scales();
         e.iter()
             .enumerate()
             .map(|(j, &ej)| {
+                // The term the point draws (a second one at some points: engine::SecondTerm),
+                // its size from the draw's one size normal as the engine's one word.
+                let (radii, factors) = self.draws.term_of(j);
+                let g = pick(factors, u[2 * m]);
                 let s = if scales.is_empty() { 1.0 } else { scales[j] };
                 let r = pick(radii, u[j]) * s * g;
                 let c = 2.0 * normal_cdf(u[m + j]) - 1.0;
@@ -107,5 +111,29 @@ mod tests {
             assert!((share(x) - p).abs() < 0.011, "{x}: {} vs {p}", share(x));
         }
         assert!((cross / n as f64).abs() < 0.1, "{}", cross / n as f64);
+    }
+
+    /// A second term drawn at some points: there the radius and the size come from its
+    /// tables, elsewhere from the first's (at e = 0 the error is r·g).
+    #[test]
+    fn a_point_of_a_second_term_draws_from_its_tables() {
+        use crate::engine::SecondTerm;
+        let term = |first: f64| {
+            let d = DiscrepancyDraws::new(vec![first], vec![1.0; SIZE_DRAWS], 1).with_second(
+                SecondTerm {
+                    radii: vec![10.0, 20.0],
+                    factors: vec![2.0; SIZE_DRAWS],
+                    at: vec![false, true],
+                },
+            );
+            TermSpace::new(d, 2)
+        };
+        for (u1, want) in [(-1.0, 20.0), (1.0, 40.0)] {
+            // point 1's radius normal u1, the rest 0
+            let u = [0.0, u1, 0.0, 0.0, 0.0];
+            assert_eq!(term(1.0).max_error(&[0.0, 0.0], &u), want);
+            // point 0 draws the first term's radius (100, factor 1)
+            assert_eq!(term(100.0).max_error(&[0.0, 0.0], &u), 100.0);
+        }
     }
 }
