@@ -168,30 +168,30 @@ pub fn predictive_check(
     // observed errors are: one problem per payload, each drawing the same parameter draws
     // (keyed by the draw's index), its columns put back in the poses' order.
     // A model with a term for unknown sides predicts the poses whose sides are not all recorded
-    // with it, the others with their sides: one group each.
+    // at the centre of the gaps with that term, the others with their sides: the problem puts
+    // each point so (`Problem::set_known_sides`).
     let centre = model.sides_unknown_term().is_some();
-    // (the payload it is predicted at, whether at the centre) and the poses
-    let mut groups: Vec<(GroupKey, Vec<usize>)> = Vec::new();
+    // the payload each group is predicted at, and its poses
+    let mut groups: Vec<(Option<f64>, Vec<usize>)> = Vec::new();
     for (i, m) in measurements.iter().enumerate() {
         let payload = m
             .payload_kg
             .filter(|&kg| model.knowing_payload(kg).is_some());
-        let key = (
-            payload,
-            centre && !m.sides.is_some_and(|s| model.sides_complete(&s)),
-        );
-        match groups.iter_mut().find(|(k, _)| *k == key) {
+        match groups.iter_mut().find(|(k, _)| *k == payload) {
             Some((_, v)) => v.push(i),
-            None => groups.push((key, vec![i])),
+            None => groups.push((payload, vec![i])),
         }
     }
-    let at_centre = (groups.iter())
-        .filter(|((_, c), _)| *c)
-        .map(|(_, idx)| idx.len())
-        .sum();
+    let at_centre = if centre {
+        (measurements.iter())
+            .filter(|m| !m.sides.is_some_and(|s| model.sides_complete(&s)))
+            .count()
+    } else {
+        0
+    };
     let problems: Vec<(Problem, Vec<usize>)> = groups
         .into_iter()
-        .map(|((kg, _), idx)| {
+        .map(|(kg, idx)| {
             let m = kg
                 .and_then(|kg| model.knowing_payload(kg))
                 .unwrap_or_else(|| model.clone());
@@ -277,10 +277,6 @@ pub fn predictive_check(
         poses,
     })
 }
-
-/// A group of the predictive check's poses: the payload they are predicted at (`None`: the
-/// model's), and whether at the centre of the backlash's gaps (their sides not all recorded).
-type GroupKey = (Option<f64>, bool);
 
 /// Coverage and PIT figures of per-point errors `e` (draw-major, `draws × n`) against the
 /// observed errors, over the subsets `picks`; and per point its 95 % bound and PIT.
