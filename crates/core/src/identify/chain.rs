@@ -236,7 +236,7 @@ pub fn identify_chain(
         monte_carlo,
     );
     let (first, extended, _) =
-        identify_geometry(points, nominal, start, prior, opts, None, &mut steps)?;
+        identify_geometry(points, nominal, start, prior, opts, (None, 0), &mut steps)?;
     let keep = |e: &beyond::ExtendedFit| opts.beyond_geometry.keeps(e.report.worth_keeping());
     let Some(ext) = extended.filter(keep) else {
         steps.finish();
@@ -262,7 +262,7 @@ pub fn identify_chain(
         start,
         prior,
         &geometric_only,
-        centred.as_deref(),
+        (centred.as_deref(), ext.fitted_beyond_geometry()),
         &mut steps,
     )?;
     steps.finish();
@@ -318,14 +318,15 @@ pub fn identify_chain(
 
 /// The geometric identification of [`identify_chain`], the extended fit when asked for, and
 /// the discrepancy term of the fitted geometry at `centred` (the points moved to other angles,
-/// pose for pose) when given.
+/// pose for pose) when given; `extra` inputs beyond the geometry were fitted to the data before
+/// (their leverage enters the lack of fit, [`lack_of_fit::lack_of_fit`]).
 fn identify_geometry(
     points: &[MeasuredPoint],
     nominal: &RobotModel,
     start: Option<ChainState>,
     prior: Option<NominalPrior>,
     opts: &ChainOptions,
-    centred: Option<&[MeasuredPoint]>,
+    (centred, extra): (Option<&[MeasuredPoint]>, usize),
     steps: &mut steps::Steps,
 ) -> Result<GeometryFit, IdentifyError> {
     check_points(points, nominal, start)?;
@@ -409,9 +410,9 @@ fn identify_geometry(
             compensate: false,
             ..opts.clone()
         };
-        lack_of_fit::lack_of_fit(&run, &local, &noise, &plain, false)
+        lack_of_fit::lack_of_fit(&run, &local, &noise, &plain, false, extra)
     } else {
-        lack_of_fit::lack_of_fit(&run, &local, &noise, opts, true)
+        lack_of_fit::lack_of_fit(&run, &local, &noise, opts, true, extra)
     };
     // A stated noise the residuals reject: the lack of fit acts on the parameters as noise of
     // that size would, so the covariance is scaled by the residuals' mean square over the noise's.

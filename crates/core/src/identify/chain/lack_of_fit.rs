@@ -11,6 +11,9 @@ use nalgebra::{DMatrix, Matrix3};
 /// The lack of fit of `run` with `linearised` = `(JᵀWJ + prior)⁻¹` over its free inputs
 /// (whitened units; the placement's rotation as [`local_jacobian`] takes it) and the noise
 /// check `noise`; without `self_check`, no leave-one-out self-check (an intermediate fit).
+/// `extra` inputs fitted to the same data before `run` (the joint errors' coefficients and
+/// gaps the angles were corrected by) shrink the residuals too: their leverage, spread evenly
+/// over the observations (`extra / 3n` on each whitened coordinate), is added to each point's.
 ///
 /// With several targets measured at each pose only the model's own target (the first) enters:
 /// the discrepancy term and the compensation are the model target's, and a left-out
@@ -21,8 +24,15 @@ pub(super) fn lack_of_fit(
     noise: &NoiseReport,
     opts: &ChainOptions,
     self_check: bool,
+    extra: usize,
 ) -> LackOfFit {
-    let points = fitted_points(run, &run.obs, linearised);
+    let mut points = fitted_points(run, &run.obs, linearised);
+    if extra > 0 {
+        let each = extra as f64 / (3 * run.obs.len()) as f64;
+        for p in &mut points {
+            p.leverage += Matrix3::identity() * each;
+        }
+    }
     let q_rad: Vec<Vec<f64>> = run
         .obs
         .iter()

@@ -7,6 +7,13 @@ use crate::identify::chain::MeasuredPoint;
 use crate::kinematics::{InputSpace, JointErrors, Joints, Payload};
 
 impl ExtendedFit {
+    /// How many inputs beyond the geometry this fit took from the data: its fitted
+    /// coefficients and, when kept, its gaps. A geometry fitted again to the angles they
+    /// correct sees its residuals shrunk by these too (docs/METHOD.md §19.1).
+    pub fn fitted_beyond_geometry(&self) -> usize {
+        (self.free.len() - self.geo) + self.backlash.as_ref().map_or(0, |b| b.gap_rad.len())
+    }
+
     /// The joint errors a model keeps of this fit: the coefficients, their marginal covariance
     /// times `scale` (the noise of the data the geometry is finally fitted to, over the one
     /// this fit was whitened with), and the shift `A = Σ_gβ Σ_ββ⁻¹` of the inputs of `space`
