@@ -14,6 +14,10 @@ use crate::common::{arg, run_ok, tmpdir};
 fn identified_gaps_lie_within_their_stated_sigma() {
     let d = tmpdir("backlash-gaps");
     let mut z = Vec::new();
+    // Per robot the standardised residuals' mean square over the plain residuals', and what
+    // the leverage of the geometry alone and of the geometry with the coefficients and gaps
+    // make of it (N / (N − p)).
+    let mut inflation = Vec::new();
     for r in 1..=8u64 {
         let (data, json) = (
             arg(&d, &format!("p{r}.csv")),
@@ -44,6 +48,15 @@ fn identified_gaps_lie_within_their_stated_sigma() {
             .as_array()
             .unwrap()
             .clone();
+        let chain = &v["identify"]["runs"][0]["chain"];
+        let f = |x: &serde_json::Value| x.as_f64().unwrap();
+        let ratio =
+            (f(&chain["lack_of_fit"]["residual_rms_mm"]) / f(&chain["rms_residual_mm"])).powi(2);
+        let n = f(&chain["identifiability"]["equations"]);
+        // the robot's free inputs and the placement's six
+        let geo = f(&chain["identifiability"]["parameters"]) + 6.0;
+        let extra = f(&chain["beyond_geometry"]["parameters"]) + gaps.len() as f64;
+        inflation.push((ratio, n / (n - geo), n / (n - geo - extra)));
         for (j, g) in gaps.iter().enumerate() {
             let (g, s) = (g[0].as_f64().unwrap(), g[1].as_f64().unwrap());
             assert!(s > 0.0 && s.is_finite(), "robot {r}, J{}: σ {s}", j + 1);
@@ -59,4 +72,17 @@ fn identified_gaps_lie_within_their_stated_sigma() {
     assert_eq!(z.len(), 48);
     assert!(inside >= 42, "{inside} of 48 within 1.96σ");
     assert!(rms <= 1.35, "RMS z {rms}");
+    // The model's discrepancy term is standardised with the leverage of everything fitted to
+    // the data, the coefficients and gaps too (docs/METHOD.md §19.1): the residuals' inflation
+    // sits near N / (N − p_geo − p_extra) (robot 3: 1.108 against 1.121), well above the
+    // geometry's own (1.058; the term 2 % too small before).
+    let mean = |k: usize| {
+        inflation.iter().map(|t| [t.0, t.1, t.2][k]).sum::<f64>() / inflation.len() as f64
+    };
+    let (got, geometry, all) = (mean(0), mean(1), mean(2));
+    eprintln!("residual inflation {got:.4}: the geometry's leverage {geometry:.4}, all {all:.4}");
+    assert!(
+        got > 0.5 * (geometry + all) && got < all + (all - geometry),
+        "{got} against {geometry} (geometry) and {all} (all)"
+    );
 }
