@@ -73,9 +73,9 @@ fn identified_gaps_lie_within_their_stated_sigma() {
     assert!(inside >= 42, "{inside} of 48 within 1.96σ");
     assert!(rms <= 1.35, "RMS z {rms}");
     // The model's discrepancy term is standardised with the leverage of everything fitted to
-    // the data, the coefficients and gaps too (docs/METHOD.md §19.1): the residuals' inflation
-    // sits near N / (N − p_geo − p_extra) (robot 3: 1.108 against 1.121), well above the
-    // geometry's own (1.058; the term 2 % too small before).
+    // the data, the coefficients and gaps too (docs/METHOD.md §19.1): the residuals' mean
+    // inflation sits near N / (N − p_geo − p_extra) (1.108 against 1.119 over these robots),
+    // well above the geometry's own (1.058); with the geometry's leverage alone it was 1.046.
     let mean = |k: usize| {
         inflation.iter().map(|t| [t.0, t.1, t.2][k]).sum::<f64>() / inflation.len() as f64
     };
