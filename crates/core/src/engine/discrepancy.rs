@@ -239,8 +239,10 @@ impl DiscrepancyDraws {
         let w: [u32; L] =
             std::array::from_fn(|l| point_word(words[0][l], words[1][l], point as u32));
         let s = self.scale(point);
+        // The point's term, chosen once for all lanes.
+        let (radii, factors) = self.term_of(point);
         for l in 0..L {
-            let (radii, g) = self.term_at(point, words[2][l]);
+            let g = factors[(words[2][l] >> 24) as usize];
             let r = radii[Self::index(w[l], radii.len())] * s * g;
             let c = cosine(w[l]);
             let e = e2[l].sqrt();
