@@ -53,8 +53,9 @@ pub struct DiscrepancyDraws {
     /// [`SecondTerm`], each point's factor in the term it draws.
     scales: Vec<f64>,
     key: [u32; 2],
-    /// A second term drawn at some of the points instead of this one ([`Self::with_second`]).
-    second: Option<Box<SecondTerm>>,
+    /// A second term drawn at some of the points instead of this one ([`Self::with_second`]),
+    /// with its factors as a fixed-size array (as `factors`).
+    second: Option<Box<(SecondTerm, [f64; SIZE_DRAWS])>>,
 }
 
 /// A term a run draws at some test points instead of the first (a model with backlash whose
@@ -118,31 +119,31 @@ impl DiscrepancyDraws {
                 && second.factors.iter().all(|g| g.is_finite() && *g >= 0.0),
             "{SIZE_DRAWS} finite non-negative factors"
         );
-        self.second = Some(Box::new(second));
+        let factors: [f64; SIZE_DRAWS] = second.factors[..].try_into().expect("checked length");
+        self.second = Some(Box::new((second, factors)));
         self
     }
 
     /// The second term and the points that draw it, when there is one.
     pub fn second(&self) -> Option<&SecondTerm> {
-        self.second.as_deref()
+        self.second.as_deref().map(|(t, _)| t)
     }
 
     /// The radii (mm) and the per-draw factors of the term test point `point` draws (the first
     /// term's, or the second's where it marks the point).
-    pub fn term_of(&self, point: usize) -> (&[f64], &[f64]) {
-        match &self.second {
-            Some(t) if t.at[point] => (&t.radii, &t.factors),
-            _ => (&self.radii, &self.factors[..]),
+    #[inline(always)]
+    pub fn term_of(&self, point: usize) -> (&[f64], &[f64; SIZE_DRAWS]) {
+        match self.second.as_deref() {
+            Some((t, factors)) if t.at[point] => (&t.radii, factors),
+            _ => (&self.radii, &self.factors),
         }
     }
 
     /// The radii and the factor of draw word `c` of the term point `point` draws.
     #[inline(always)]
     fn term_at(&self, point: usize, c: u32) -> (&[f64], f64) {
-        match &self.second {
-            Some(t) if t.at[point] => (&t.radii, t.factors[(c >> 24) as usize]),
-            _ => (&self.radii, self.factor(c)),
-        }
+        let (radii, factors) = self.term_of(point);
+        (radii, factors[(c >> 24) as usize])
     }
 
     /// The draws with a factor per test point (a compensated model's predictive σ at each point
