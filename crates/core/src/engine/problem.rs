@@ -430,10 +430,14 @@ impl Problem {
                 }
             };
             let complete: Vec<bool> = sides.iter().map(|s| sided.sides_complete(s)).collect();
-            let (Some(mut t), true) = (t.clone(), complete.iter().any(|&c| c)) else {
-                self.sides_unused = t.as_ref().map(|t| t.sides_known());
-                self.sided = Some(sided);
-                return Ok(());
+            // No point with every side given (or nothing drawn): the centre stays everywhere.
+            let mut t = match t {
+                Some(t) if complete.iter().any(|&c| c) => t,
+                t => {
+                    self.sides_unused = t.as_ref().map(|t| t.sides_known());
+                    self.sided = Some(sided);
+                    return Ok(());
+                }
             };
             // The points whose sides are not all given stand at the centre of the gaps and
             // draw the term for unknown sides; the sides given there are not used.
