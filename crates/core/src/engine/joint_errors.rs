@@ -130,19 +130,18 @@ pub struct TermDraw {
 pub struct JointErrorDraws {
     joints: usize,
     free: Vec<usize>,
-    /// Lower Cholesky factor of the free coefficients' covariance, row-major.
+    /// Lower Cholesky factor of the free coefficients' covariance, row-major (zero above the
+    /// diagonal).
     chol: Vec<f64>,
-    /// Per row of `chol`, its nonzero entries `(column, value)` in column order (the lanes skip
-    /// the zeros: adding `±0` to a sum that starts at `+0` changes no bit of it).
-    chol_nz: Vec<Vec<(usize, f64)>>,
     mass: f64,
     mass_sigma: f64,
     compliance: Joints,
     /// `(block, k, row of A)`: the geometric input `k` of `block` and its mean shift per unit of
     /// each free coefficient; rows that are all zero are left out.
     shift: Vec<(Block, usize, Vec<f64>)>,
-    /// Per row of `shift`, its nonzero entries `(coefficient, value)` in order (the lanes').
-    shift_nz: Vec<Vec<(usize, f64)>>,
+    /// The rows of `shift` one after the other (row-major, a column per free coefficient):
+    /// the lanes' `A`.
+    shift_matrix: Vec<f64>,
     gen: Philox,
     /// Per coefficient, its place among the free ones.
     position: [Option<usize>; MAX_COEFFICIENTS],
@@ -193,13 +192,7 @@ impl JointErrorDraws {
             (0..p * p).map(|i| l[(i / p, i % p)]).collect()
         };
         let shift = shift_rows(e);
-        let nonzero = |row: &[f64]| -> Vec<(usize, f64)> {
-            (row.iter().copied().enumerate())
-                .filter(|&(_, v)| v != 0.0)
-                .collect()
-        };
-        let chol_nz = (0..p).map(|r| nonzero(&chol[r * p..=r * p + r])).collect();
-        let shift_nz = shift.iter().map(|(_, _, row)| nonzero(row)).collect();
+        let shift_matrix = shift.iter().flat_map(|(_, _, row)| row.clone()).collect();
         let n = model.joints();
         let backlash = e.backlash.as_ref().filter(|b| b.acts());
         Ok(Some(JointErrorDraws {
@@ -212,12 +205,11 @@ impl JointErrorDraws {
             joints: n,
             free: e.free.clone(),
             chol,
-            chol_nz,
             mass: e.payload.mass_kg,
             mass_sigma: e.payload.sigma_kg,
             compliance: Joints::from_fn(n, |i| e.coefficients[COEFFICIENTS_PER_JOINT * i]),
             shift,
-            shift_nz,
+            shift_matrix,
             gen: Philox::new(seed),
             position: std::array::from_fn(|i| e.free.iter().position(|&f| f == i)),
             terms: points
@@ -366,15 +358,7 @@ impl JointErrorDraws {
                 }
             }
         }
-        for (r, row) in self.chol_nz.iter().enumerate() {
-            let mut acc = [0.0; L];
-            for &(c, v) in row {
-                for l in 0..L {
-                    acc[l] += v * z[c][l];
-                }
-            }
-            free[r] = acc;
-        }
+        crate::sampling::rows_times_lanes(&self.chol, p, true, &z[..p], |r, acc| free[r] = *acc);
         for l in 0..L {
             mass[l] = self.mass_sigma * z[p][l];
         }
@@ -388,15 +372,11 @@ impl JointErrorDraws {
         free: &[[f64; L]; MAX_COEFFICIENTS],
         mut f: impl FnMut(Block, usize, &[f64; L]),
     ) {
-        for ((block, k, _), row) in self.shift.iter().zip(&self.shift_nz) {
-            let mut acc = [0.0; L];
-            for &(c, v) in row {
-                for l in 0..L {
-                    acc[l] += v * free[c][l];
-                }
-            }
-            f(*block, *k, &acc);
-        }
+        let p = self.free.len();
+        crate::sampling::rows_times_lanes(&self.shift_matrix, p, false, &free[..p], |r, acc| {
+            let (block, k, _) = &self.shift[r];
+            f(*block, *k, acc);
+        });
     }
 
     /// The lane factors of joint `i` (`[f0, f1, δa1, δb1, δa2, δb2]`, [`Self::factors`]) from

@@ -304,16 +304,13 @@ impl ParamSampler {
             Form::Correlated { free, slots, chol } => {
                 *out = [[0.0; L]; MAX_ROBOT_INPUTS];
                 let n = free.len();
-                for a in 0..n {
-                    let mut acc = [0.0; L];
-                    for (b, &sb) in slots.iter().enumerate().take(a + 1) {
-                        let lab = chol[a * n + b];
-                        for l in 0..L {
-                            acc[l] += lab * z[sb][l];
-                        }
-                    }
-                    out[free[a]] = acc;
+                let mut x = [[0.0; L]; MAX_NORMALS];
+                for (xb, &sb) in x.iter_mut().zip(slots) {
+                    *xb = z[sb];
                 }
+                super::matvec::rows_times_lanes(chol, n, true, &x[..n], |a, acc| {
+                    out[free[a]] = *acc;
+                });
             }
         }
     }

@@ -8,6 +8,7 @@
 
 mod distribution;
 mod gauss;
+mod matvec;
 mod normal;
 mod philox;
 
@@ -16,6 +17,7 @@ pub use distribution::{
     PARAM_STREAM,
 };
 pub use gauss::standard_normal;
+pub(crate) use matvec::rows_times_lanes;
 pub use normal::{box_muller, normals_block, uniform_open};
 pub(crate) use philox::philox4x32_10_lanes;
 pub use philox::{philox4x32_10, Philox};
