@@ -442,19 +442,10 @@ impl Problem {
             // The points whose sides are not all given stand at the centre of the gaps and
             // draw the term for unknown sides; the sides given there are not used.
             if !complete.iter().all(|&c| c) {
-                let partial = (sides.iter().zip(&complete))
-                    .filter(|(_, &c)| !c)
-                    .map(|(s, _)| {
-                        (0..s.len())
-                            .filter(|&i| t.half_gap[i] > 0.0 && s[i] != 0.0)
-                            .count()
-                    })
-                    .sum();
-                let pairs = (0..sided.joints()).filter(|&i| t.half_gap[i] > 0.0).count()
-                    * complete.iter().filter(|&&c| !c).count();
+                let unused = t.sides_known_where(|j| !complete[j]);
                 t.set_centre(complete.iter().map(|c| !c).collect())
                     .map_err(ProblemError::Sides)?;
-                self.sides_unused = Some((partial, pairs));
+                self.sides_unused = Some(unused);
             } else {
                 self.sides_unused = None;
             }

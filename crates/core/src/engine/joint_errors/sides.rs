@@ -97,13 +97,22 @@ impl JointErrorDraws {
     /// How many of the (test point, joint with a gap) pairs have a known side, of how many:
     /// `(0, total)` when every side is drawn.
     pub fn sides_known(&self) -> (usize, usize) {
-        let acting = (0..self.joints).filter(|&i| self.half_gap[i] > 0.0);
-        let acting: Vec<usize> = acting.collect();
-        let total = acting.len() * self.terms.len();
-        let known = (self.known.iter())
-            .map(|[mask, _]| acting.iter().filter(|&&i| (mask >> i) & 1 == 1).count())
+        self.sides_known_where(|_| true)
+    }
+
+    /// [`Self::sides_known`] over the test points `at` accepts only.
+    pub fn sides_known_where(&self, at: impl Fn(usize) -> bool) -> (usize, usize) {
+        let acting = (0..self.joints).filter(|&i| self.half_gap[i] > 0.0).count();
+        let points = (0..self.terms.len()).filter(|&j| at(j)).count();
+        let known = (self.known.iter().enumerate())
+            .filter(|&(j, _)| at(j))
+            .map(|(_, [mask, _])| {
+                (0..self.joints)
+                    .filter(|&i| self.half_gap[i] > 0.0 && (mask >> i) & 1 == 1)
+                    .count()
+            })
             .sum();
-        (known, total)
+        (known, acting * points)
     }
 
     /// A point's side word `w` with the sides known at test point `point` put in.
