@@ -7,11 +7,12 @@ use crate::identify::chain::MeasuredPoint;
 use crate::kinematics::{InputSpace, JointErrors, Joints, Payload};
 
 impl ExtendedFit {
-    /// How many inputs beyond the geometry this fit took from the data: its fitted
-    /// coefficients and, when kept, its gaps. A geometry fitted again to the angles they
-    /// correct sees its residuals shrunk by these too (docs/METHOD.md §19.1).
+    /// How many inputs beyond the geometry this fit took from the data: the coefficients of
+    /// the terms it kept ([`super::BeyondGeometry::parameters`]) and, when kept, its gaps. A
+    /// geometry fitted again to the angles they correct sees its residuals shrunk by these too
+    /// (docs/METHOD.md §19.1); the candidates a selection dropped stay at 0 and shrink nothing.
     pub fn fitted_beyond_geometry(&self) -> usize {
-        (self.free.len() - self.geo) + self.backlash.as_ref().map_or(0, |b| b.gap_rad.len())
+        self.report.parameters + self.backlash.as_ref().map_or(0, |b| b.gap_rad.len())
     }
 
     /// The joint errors a model keeps of this fit: the coefficients, their marginal covariance
