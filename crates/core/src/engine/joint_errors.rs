@@ -136,11 +136,11 @@ pub struct JointErrorDraws {
     mass: f64,
     mass_sigma: f64,
     compliance: Joints,
-    /// `(block, k, row of A)`: the geometric input `k` of `block` and its mean shift per unit of
-    /// each free coefficient; rows that are all zero are left out.
-    shift: Vec<(Block, usize, Vec<f64>)>,
-    /// The rows of `shift` one after the other (row-major, a column per free coefficient):
-    /// the lanes' `A`.
+    /// Per row of `shift_matrix`, the geometric input it shifts: input `k` of `block`; inputs
+    /// whose row is all zero are left out.
+    shift: Vec<(Block, usize)>,
+    /// `A`: per input of `shift` its mean shift per unit of each free coefficient (row-major, a
+    /// column per free coefficient).
     shift_matrix: Vec<f64>,
     gen: Philox,
     /// Per coefficient, its place among the free ones.
@@ -191,8 +191,7 @@ impl JointErrorDraws {
                 .l();
             (0..p * p).map(|i| l[(i / p, i % p)]).collect()
         };
-        let shift = shift_rows(e);
-        let shift_matrix = shift.iter().flat_map(|(_, _, row)| row.clone()).collect();
+        let (shift, shift_matrix) = shift_rows(e);
         let n = model.joints();
         let backlash = e.backlash.as_ref().filter(|b| b.acts());
         Ok(Some(JointErrorDraws {
@@ -374,8 +373,8 @@ impl JointErrorDraws {
     ) {
         let p = self.free.len();
         crate::sampling::rows_times_lanes(&self.shift_matrix, p, false, &free[..p], |r, acc| {
-            let (block, k, _) = &self.shift[r];
-            f(*block, *k, acc);
+            let (block, k) = self.shift[r];
+            f(block, k, acc);
         });
     }
 
@@ -411,9 +410,13 @@ impl JointErrorDraws {
     #[inline]
     pub fn shift_each(&self, d: &TermDraw, mut f: impl FnMut(Block, usize, f64)) {
         let p = self.free.len();
-        for (block, k, row) in &self.shift {
+        for (&(block, k), row) in self
+            .shift
+            .iter()
+            .zip(self.shift_matrix.chunks_exact(p.max(1)))
+        {
             let v: f64 = (0..p).map(|c| row[c] * d.free[c]).sum();
-            f(*block, *k, v);
+            f(block, k, v);
         }
     }
 
@@ -475,8 +478,12 @@ impl JointErrorDraws {
         let measured = crate::kinematics::InputSpace::measured(self.joints);
         let mut words: Vec<f32> = self.chol.iter().map(|&v| v as f32).collect();
         let mut rows = 0;
-        for (block, k, row) in &self.shift {
-            if let Some(i) = measured.index(*block, *k) {
+        for (&(block, k), row) in self
+            .shift
+            .iter()
+            .zip(self.shift_matrix.chunks_exact(p.max(1)))
+        {
+            if let Some(i) = measured.index(block, k) {
                 words.push(i as f32);
                 words.extend(row.iter().map(|&v| v as f32));
                 rows += 1;
@@ -532,16 +539,18 @@ impl JointErrorDraws {
 }
 
 /// The nonzero rows of `e`'s shift, by block and place.
-fn shift_rows(e: &JointErrors) -> Vec<(Block, usize, Vec<f64>)> {
+fn shift_rows(e: &JointErrors) -> (Vec<(Block, usize)>, Vec<f64>) {
     let p = e.free.len();
+    let (mut inputs, mut matrix) = (Vec::new(), Vec::new());
     if e.shift.is_empty() || p == 0 {
-        return Vec::new();
+        return (inputs, matrix);
     }
-    (0..e.shift_space.len())
-        .filter_map(|r| {
-            let row = e.shift[r * p..(r + 1) * p].to_vec();
-            let (b, k) = e.shift_space.locate(r);
-            row.iter().any(|&v| v != 0.0).then_some((b, k, row))
-        })
-        .collect()
+    for r in 0..e.shift_space.len() {
+        let row = &e.shift[r * p..(r + 1) * p];
+        if row.iter().any(|&v| v != 0.0) {
+            inputs.push(e.shift_space.locate(r));
+            matrix.extend_from_slice(row);
+        }
+    }
+    (inputs, matrix)
 }
